@@ -1,0 +1,1 @@
+"""Analysis of thermocue trial logs (filled by issue 5)."""

@@ -1,0 +1,1 @@
+"""Protocols, schedules, sessions, the thermal display and responders."""

@@ -1,0 +1,11 @@
+"""`thermocue run` (placeholder until its issue lands; the owner replaces this module)."""
+from __future__ import annotations
+
+
+def register(sub) -> None:
+    p = sub.add_parser("run", help="(not yet implemented)")
+    p.set_defaults(func=_run)
+
+
+def _run(ns) -> int:
+    raise SystemExit("thermocue run: not implemented yet")

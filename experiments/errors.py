@@ -1,0 +1,59 @@
+"""The exception hierarchy of :mod:`experiments` (one module, kept small).
+
+``UserInputError`` and its subclasses mean the user gave something wrong (a
+file, a field, an option): the command line prints their message in one line
+and exits with status 2. ``DisplayError`` and its subclasses are device faults:
+the session engine puts the display in a safe state, marks the trial and goes on
+or stops cleanly.
+"""
+from __future__ import annotations
+
+__all__ = [
+    "UserInputError",
+    "ProtocolError",
+    "SessionError",
+    "DisplayError",
+    "DisplayTimeout",
+    "DisplayRefused",
+    "SafetyLimitError",
+    "FrameError",
+]
+
+
+class UserInputError(ValueError):
+    """Bad input from the user; the message names the file and the field."""
+
+
+class ProtocolError(UserInputError):
+    """A malformed experiment protocol file."""
+
+
+class SessionError(UserInputError):
+    """A session directory that cannot be run or resumed as asked."""
+
+
+class DisplayError(IOError):
+    """The thermal display failed (I/O, refusal, fault reported by the device)."""
+
+
+class DisplayTimeout(DisplayError):
+    """The display did not answer in time."""
+
+
+class DisplayRefused(DisplayError):
+    """The display answered a command with an error code."""
+
+    def __init__(self, message: str, code: int | None = None):
+        super().__init__(message)
+        self.code = code
+
+
+class SafetyLimitError(DisplayError, UserInputError):
+    """A setpoint or profile outside the protocol's safe range or rate limit.
+
+    Raised by the host *before* anything is sent.
+    """
+
+
+class FrameError(DisplayError):
+    """A frame on the serial line could not be decoded (bad CRC, length, syntax)."""

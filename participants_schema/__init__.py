@@ -1,0 +1,1 @@
+"""Participant records: schema, validation, group assignment (filled by issue 4)."""

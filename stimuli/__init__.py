@@ -1,0 +1,1 @@
+"""Thermal model of a fingertip touching a material (filled by issue 2)."""
