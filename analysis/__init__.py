@@ -1,1 +1,28 @@
-"""Analysis of thermocue trial logs (filled by issue 5)."""
+"""Analysis of thermocue trial logs: the names an analyst calls.
+
+>>> from analysis import analyze
+>>> result = analyze("data", "out")          # doctest: +SKIP
+>>> result.proportions, result.contrasts    # doctest: +SKIP
+
+``analysis`` depends on nothing of ``experiments``' runtime: it reads the
+session folders (``trials.csv``, ``events.jsonl``, ``session.json``) itself.
+"""
+from .errors import LogError, LogWarning, ModelWarning
+from .load import TrialLog, load_trials
+from .proportions import cell_proportions, cluster_bootstrap, participant_summary, wilson_interval
+from .confusion import confusion_matrices, confusion_matrix
+from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
+from .figures import plot_confusion, plot_figure9
+from .report import AnalysisResult, analyze
+from .power import PowerResult, power_curve
+
+__all__ = [
+    "analyze", "AnalysisResult",
+    "load_trials", "TrialLog",
+    "cell_proportions", "cluster_bootstrap", "wilson_interval", "participant_summary",
+    "confusion_matrices", "confusion_matrix",
+    "fit_gee", "fit_bayes", "group_contrasts", "ModelFit", "FORMULA",
+    "plot_figure9", "plot_confusion",
+    "power_curve", "PowerResult",
+    "LogError", "LogWarning", "ModelWarning",
+]

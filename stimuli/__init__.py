@@ -1,1 +1,28 @@
-"""Thermal model of a fingertip touching a material (filled by issue 2)."""
+"""Thermal model of a fingertip touching a material (issue 2).
+
+The contract (DESIGN.md, docs/internal-contracts.md): :class:`Skin`,
+:class:`Material`, :func:`material`, :func:`contact_resistance` (Eq. 5),
+:class:`Contact` (methods "exact", "paper", "paper-as-printed", "numerical"),
+:func:`skin_response` and :func:`target_profile` (display-driven model).
+"""
+from .errors import ModelInputError
+from .properties import Material, Skin
+from .materials import MATERIALS, MATERIAL_SOURCES, PAPER_SAMPLE_THICKNESS, material
+from .roughness import contact_resistance
+from .contact import METHODS, Contact, MethodInfo
+
+__all__ = [
+    "ModelInputError", "Skin", "Material", "MATERIALS", "MATERIAL_SOURCES",
+    "PAPER_SAMPLE_THICKNESS", "material", "contact_resistance", "Contact", "MethodInfo", "METHODS",
+]
+
+try:  # the display-driven model (stimuli/finite_volume.py, stimuli/target.py) lands separately
+    from .finite_volume import skin_response  # noqa: F401
+    __all__.append("skin_response")
+except ImportError:  # pragma: no cover
+    pass
+try:
+    from .target import TargetProfile, target_profile  # noqa: F401
+    __all__ += ["TargetProfile", "target_profile"]
+except ImportError:  # pragma: no cover
+    pass

@@ -1,11 +1,45 @@
-"""`thermocue analyze` (placeholder until its issue lands; the owner replaces this module)."""
+"""``thermocue analyze DATA_DIR --out DIR``: Figure 9, every table and report.md from the logs."""
 from __future__ import annotations
+
+import sys
+import time
 
 
 def register(sub) -> None:
-    p = sub.add_parser("analyze", help="(not yet implemented)")
+    p = sub.add_parser(
+        "analyze", help="analyse the sessions under DATA_DIR: figure9.png, CSV tables, report.md",
+        description="Load and validate every session under DATA_DIR (DATA/<participant>/<session>/), "
+                    "compute proportions correct with Wilson and participant-bootstrap intervals, "
+                    "confusion matrices, a GEE and a Bayesian mixed logit, and write figure9.png, "
+                    "the CSV tables and report.md to --out.")
+    p.add_argument("data_dir", metavar="DATA_DIR", help="data directory holding the session folders")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
+    p.add_argument("--bootstrap", type=int, default=2000, metavar="N",
+                   help="participant-bootstrap resamples (default 2000)")
+    p.add_argument("--seed", type=int, default=20261122, help="seed of the bootstrap (default 20261122)")
+    p.add_argument("--no-bayes", action="store_true", help="skip the Bayesian mixed logit")
     p.set_defaults(func=_run)
 
 
 def _run(ns) -> int:
-    raise SystemExit("thermocue analyze: not implemented yet")
+    import warnings
+
+    from analysis import LogWarning, analyze
+    from experiments.errors import UserInputError
+
+    if ns.bootstrap < 0:
+        raise UserInputError(f"--bootstrap: expected an integer >= 0, got {ns.bootstrap!r}")
+    start = time.monotonic()
+
+    def progress(message: str) -> None:
+        print(f"[{time.monotonic() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LogWarning)     # listed in the report and below
+        result = analyze(ns.data_dir, ns.out, n_boot=ns.bootstrap, seed=ns.seed,
+                         bayes=not ns.no_bayes, progress=progress)
+    for message in result.log.warnings:
+        print(f"warning: {message}", file=sys.stderr)
+    progress(f"done: {result.files['report']}")
+    print(result.files["report"])
+    return 0

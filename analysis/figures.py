@@ -1,0 +1,130 @@
+"""Figure 9 (proportion correct per roughness number) and confusion-matrix heatmaps."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["plot_figure9", "plot_confusion"]
+
+#: Series of Figure 9: (group, mode) -> (label, colour, marker, line style).
+SERIES = {
+    ("A", "real"): ("Group A, real", "tab:red", "o", "-"),
+    ("B", "real"): ("Group B, real", "tab:blue", "s", "-"),
+    ("A", "simulated"): ("Group A, simulated", "tab:red", "^", "--"),
+    ("B", "simulated"): ("Group B, simulated", "tab:blue", "D", "--"),
+}
+CHANCE = 0.25
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
+                 title: str | None = None) -> Path:
+    """Draw Figure 9: proportion correct against roughness number, four series.
+
+    Parameters
+    ----------
+    proportions : pandas.DataFrame
+        From :func:`analysis.cell_proportions`.
+    path : str or Path
+        PNG file to write.
+    interval : {"boot", "wilson"}
+        Which interval the error bars show (participant-cluster bootstrap or Wilson).
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    if interval not in ("boot", "wilson"):
+        raise ValueError(f"plot_figure9: interval: expected 'boot' or 'wilson', got {interval!r}")
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=150)
+    offsets = {key: off for key, off in zip(SERIES, (-0.09, -0.03, 0.03, 0.09))}
+    for key, (label, colour, marker, style) in SERIES.items():
+        sel = proportions[(proportions["group"] == key[0]) & (proportions["mode"] == key[1])]
+        if sel.empty:
+            continue
+        sel = sel.sort_values("roughness_id")
+        x = sel["roughness_id"].to_numpy(float) + offsets[key]
+        y = sel["proportion_correct"].to_numpy(float)
+        low, high = sel[f"{interval}_low"].to_numpy(float), sel[f"{interval}_high"].to_numpy(float)
+        yerr = np.vstack([np.clip(y - low, 0, None), np.clip(high - y, 0, None)])
+        ax.errorbar(x, y, yerr=yerr, label=label, color=colour, marker=marker, linestyle=style,
+                    capsize=3, linewidth=1.4, markersize=6,
+                    markerfacecolor=colour if key[1] == "real" else "white")
+    ax.axhline(CHANCE, color="0.4", linestyle=":", linewidth=1, label="chance (0.25)")
+    ax.set_xticks([1, 2, 3, 4], ["1#", "2#", "3#", "4#"])
+    ax.set_xlim(0.5, 4.5)
+    ax.set_ylim(0.0, 1.0)
+    ax.set_xlabel("Roughness Number")
+    ax.set_ylabel("Proportions of correct recognition")
+    which = "participant-cluster bootstrap" if interval == "boot" else "Wilson"
+    ax.set_title(title or f"Figure 9: correct recognition (95% {which} intervals)", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left", frameon=False)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def plot_confusion(confusion: pd.DataFrame, path) -> Path:
+    """Heatmaps of the confusion matrices, one panel per group × mode.
+
+    Parameters
+    ----------
+    confusion : pandas.DataFrame
+        From :func:`analysis.confusion_matrices`.
+    path : str or Path
+        PNG file to write.
+
+    Returns
+    -------
+    Path
+        The file written. Colours are the share of a stimulus's trials given
+        each response (rows sum to 1); numbers are trial counts.
+    """
+    plt = _pyplot()
+    panels = list(SERIES)
+    fig, axes = plt.subplots(2, 2, figsize=(8, 7.2), dpi=120, squeeze=False)
+    image = None
+    for k, (ax, (group, mode)) in enumerate(zip(axes.ravel(), panels)):
+        sel = confusion[(confusion["group"] == group) & (confusion["mode"] == mode)]
+        ax.set_title(f"Group {group}, {mode}", fontsize=10)
+        ax.set_xticks(range(4), ["1#", "2#", "3#", "4#"])
+        ax.set_yticks(range(4), ["1#", "2#", "3#", "4#"])
+        if k >= 2:
+            ax.set_xlabel("response")
+        if k % 2 == 0:
+            ax.set_ylabel("stimulus")
+        if sel.empty:
+            ax.text(1.5, 1.5, "no trials", ha="center", va="center")
+            ax.set_xlim(-0.5, 3.5)
+            ax.set_ylim(3.5, -0.5)
+            continue
+        share = sel.pivot(index="stimulus_roughness_id", columns="response_id",
+                          values="proportion_of_stimulus").to_numpy(float)
+        counts = sel.pivot(index="stimulus_roughness_id", columns="response_id",
+                           values="n_trials").to_numpy(int)
+        image = ax.imshow(share, vmin=0, vmax=1, cmap="viridis")
+        for i in range(4):
+            for j in range(4):
+                ax.text(j, i, str(counts[i, j]), ha="center", va="center", fontsize=9,
+                        color="white" if (np.nan_to_num(share[i, j]) < 0.5) else "black")
+    if image is not None:
+        fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
+                     label="share of the stimulus's trials")
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

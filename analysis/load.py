@@ -1,0 +1,557 @@
+"""Load every session under a data directory into one tidy, validated trials table.
+
+A session directory is any folder holding ``trials.csv`` or ``events.jsonl``
+(normally ``DATA/<participant>/<session>/``). For each session:
+
+1. ``trials.csv`` is read up to the first damaged line (a torn last line, a row
+   with the wrong number of fields, undecodable bytes); the damage is reported
+   as a :class:`~analysis.errors.LogWarning` naming the file and the line.
+2. ``events.jsonl`` (the source of truth) is read the same way. Trial rows are
+   taken from the events whose payload carries ``trial_index`` and a final
+   ``status`` (``ok``, ``fault``, ``aborted``): the payload is the event's
+   ``"row"`` member (``experiments.logbook``'s ``trial_completed`` and
+   ``trial_aborted`` events), or its ``"trial"``, ``"data"`` or ``"record"``
+   member, or the event itself; other events (``trial_started``, ...) are skipped. Columns it
+   lacks (participant, session, group) come from the session's other events,
+   ``session.json`` or the folder names.
+3. ``trials.csv`` is used unless it is missing or *older* than the event log,
+   which is judged by content, not by modification time (the session appends a
+   closing event after its last rewrite of ``trials.csv``, so the log is
+   normally the newer file): the table is rebuilt from the events when they hold
+   trials (``trial_index``, ``attempt``) that ``trials.csv`` lacks.
+
+Rows are then validated (required columns, types, allowed values, duplicate
+``(participant, session, trial_index, attempt)`` keys, ``correct`` consistent with
+``response_id == roughness_id``) and marked ``included`` or given an
+``exclusion`` reason: familiarisation, a non-ok status, or an ok attempt
+superseded by a later ok attempt of the same trial.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .errors import LogError, LogWarning
+
+__all__ = [
+    "TrialLog",
+    "load_trials",
+    "load_session",
+    "read_trials_csv",
+    "read_trial_events",
+    "REQUIRED_COLUMNS",
+    "STATUSES",
+]
+
+#: Columns every trial row must have (DESIGN.md, docs/internal-contracts.md "Trials table").
+REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "mode",
+                    "roughness_id", "response_id", "correct", "status")
+#: Optional columns and their kinds; missing ones are added empty (``attempt`` defaults to 1).
+OPTIONAL_COLUMNS = {"roughness_um": "float", "repetition": "int", "rt_s": "float",
+                    "tracking_rms_C": "float", "skin_thickness_um": "float", "sex": "str",
+                    "attempt": "int", "started_at": "str", "fault_code": "str"}
+STATUSES = ("ok", "fault", "aborted")
+MODES = ("real", "simulated", "familiarise")
+GROUPS = ("A", "B")
+FAMILIARISE = "familiarise"
+N_ROUGHNESS = 4
+_PAYLOAD_KEYS = ("row", "trial", "data", "record")
+
+
+@dataclass
+class TrialLog:
+    """Every trial row read, validated, with its inclusion status.
+
+    Attributes
+    ----------
+    trials : pandas.DataFrame
+        One row per logged trial attempt: the contract's columns, typed, plus
+        ``source`` (file the row came from), ``line`` (its line in that file),
+        ``included`` (bool) and ``exclusion`` (reason, ``""`` when included).
+    sessions : pandas.DataFrame
+        One row per session folder: ``participant``, ``group``, ``session``,
+        ``path``, ``source`` (``"trials.csv"`` or ``"events.jsonl"``), ``n_rows``.
+    warnings : list of str
+        Every problem that was worked around (also issued as :class:`LogWarning`).
+    """
+
+    trials: pd.DataFrame
+    sessions: pd.DataFrame
+    warnings: list = field(default_factory=list)
+
+    @property
+    def analysable(self) -> pd.DataFrame:
+        """The rows used for inference (ok, not familiarisation, last ok attempt)."""
+        return self.trials[self.trials["included"]].reset_index(drop=True)
+
+    def exclusion_counts(self) -> pd.DataFrame:
+        """Number of rows per exclusion reason (``"included"`` for the kept ones)."""
+        reason = self.trials["exclusion"].where(~self.trials["included"], "included")
+        out = reason.value_counts().rename_axis("reason").reset_index(name="n_trials")
+        return out.sort_values("reason", ignore_index=True)
+
+
+# --------------------------------------------------------------------------- readers
+
+def _warn(messages: list, text: str) -> None:
+    messages.append(text)
+    warnings.warn(text, LogWarning, stacklevel=3)
+
+
+def _decode_prefix(raw: bytes, path: Path, messages: list) -> str:
+    """Decode ``raw`` as UTF-8 up to the first NUL or undecodable byte."""
+    cut = len(raw)
+    nul = raw.find(b"\x00")
+    if nul >= 0:
+        cut = nul
+    try:
+        text = raw[:cut].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        cut = exc.start
+        text = raw[:cut].decode("utf-8")
+    if cut < len(raw):
+        line = text.count("\n") + 1
+        _warn(messages, f"{path}: line {line}: damaged bytes from here on; read the lines before it")
+        text = text[: text.rfind("\n") + 1]      # the damaged line is not trusted either
+    return text
+
+
+def read_trials_csv(path, messages: list | None = None) -> pd.DataFrame:
+    """Read a ``trials.csv`` up to its first damaged line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    messages : list of str, optional
+        Warnings are appended here (and issued as :class:`LogWarning`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        All columns as strings (``""`` for empty cells) plus ``line`` (1-based
+        line number in the file). Extra columns (PsychoPy-style wide CSV) are kept.
+
+    Raises
+    ------
+    LogError
+        If the file has no header line.
+    """
+    path = Path(path)
+    messages = [] if messages is None else messages
+    text = _decode_prefix(path.read_bytes(), path, messages)
+    if text and not text.endswith("\n"):
+        torn = text.count("\n") + 1
+        _warn(messages, f"{path}: line {torn}: torn last line (no newline at its end); ignored")
+        text = text[: text.rfind("\n") + 1]
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader, None)
+    if not header or not any(h.strip() for h in header):
+        raise LogError(f"{path}: header: expected a CSV header line, got {''.join(header or [])!r}")
+    header = [h.strip() for h in header]
+    rows, lines = [], []
+    for row in reader:
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) != len(header):
+            _warn(messages, f"{path}: line {reader.line_num}: expected {len(header)} fields, "
+                            f"got {len(row)}; read the {len(rows)} rows before it")
+            break
+        rows.append(row)
+        lines.append(reader.line_num)
+    df = pd.DataFrame(rows, columns=header, dtype=object)
+    df["line"] = lines
+    return df
+
+
+def _payload(event: dict) -> dict | None:
+    for key in _PAYLOAD_KEYS:
+        inner = event.get(key)
+        if isinstance(inner, dict) and "trial_index" in inner:
+            merged = {k: v for k, v in event.items() if not isinstance(v, (dict, list))}
+            merged.update(inner)
+            return merged
+    if "trial_index" in event:
+        return event
+    return None
+
+
+def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame, dict]:
+    """Read the trial rows of an ``events.jsonl`` up to its first damaged line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The event log.
+    messages : list of str, optional
+        Warnings are appended here (and issued as :class:`LogWarning`).
+
+    Returns
+    -------
+    trials : pandas.DataFrame
+        One row per trial event with a final status (columns as logged, plus
+        ``line``); when an attempt is logged twice the first event is kept (as
+        ``experiments`` does when it rebuilds ``trials.csv``).
+    context : dict
+        Session-level values seen in other events (``participant``, ``group``,
+        ``session``, ``sex``, ``skin_thickness_um``), for filling missing columns.
+    """
+    path = Path(path)
+    messages = [] if messages is None else messages
+    raw = path.read_bytes()
+    text = _decode_prefix(raw, path, messages)
+    lines = text.split("\n")
+    torn_last = bool(text) and not text.endswith("\n")
+    rows, context = {}, {}
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            event = json.loads(line)
+        except json.JSONDecodeError:
+            last = number == len(lines) and torn_last
+            what = "torn last line" if last else "not a JSON object"
+            _warn(messages, f"{path}: line {number}: {what}; read the lines before it")
+            break
+        if not isinstance(event, dict):
+            _warn(messages, f"{path}: line {number}: not a JSON object; read the lines before it")
+            break
+        for key in ("participant", "group", "session", "sex", "skin_thickness_um"):
+            for source in (event, event.get("participant") if isinstance(event.get("participant"), dict) else {}):
+                value = source.get(key) if isinstance(source, dict) else None
+                if isinstance(value, (str, int, float)) and not isinstance(value, bool):
+                    context.setdefault(key, value)
+        payload = _payload(event)
+        if payload is None or payload.get("status") not in STATUSES:
+            continue
+        row = {k: v for k, v in payload.items() if not isinstance(v, (dict, list))}
+        row["line"] = number
+        rows.setdefault((_int_text(row.get("trial_index")), _int_text(row.get("attempt"))), row)
+    return pd.DataFrame(list(rows.values())), context
+
+
+def _session_context(folder: Path, messages: list) -> dict:
+    """participant/session/group/sex from ``session.json`` (tolerant); ``{}`` if unreadable."""
+    meta = folder / "session.json"
+    if not meta.exists():
+        return {}
+    try:
+        data = json.loads(meta.read_text("utf-8"))
+    except (ValueError, UnicodeDecodeError):
+        _warn(messages, f"{meta}: not valid JSON; participant and session taken from the event log "
+                        f"or the folder names")
+        return {}
+    if not isinstance(data, dict):
+        return {}
+    found: dict = {}
+
+    def scan(source: dict, aliases: dict) -> None:
+        for key, names in aliases.items():
+            for name in names:
+                value = source.get(name)
+                if isinstance(value, (str, int)) and not isinstance(value, bool):
+                    found.setdefault(key, value)
+                    break
+
+    scan(data, {"participant": ("participant", "participant_id"), "session": ("session", "session_id"),
+                "group": ("group",), "sex": ("sex",)})
+    for name in ("participant", "assignment", "group_assignment"):
+        if isinstance(data.get(name), dict):
+            scan(data[name], {"participant": ("id", "participant_id"), "group": ("group",),
+                              "sex": ("sex",)})
+    return found
+
+
+# --------------------------------------------------------------------------- validation
+
+def _blank(series: pd.Series) -> pd.Series:
+    return series.isna() | series.astype(str).str.strip().isin(["", "nan", "None", "NaN"])
+
+
+def _as_str(series: pd.Series) -> pd.Series:
+    out = series.astype(object).where(~_blank(series), "")
+    return out.map(lambda v: str(v).strip() if not isinstance(v, float) or not np.isnan(v) else "")
+
+
+def _as_number(df: pd.DataFrame, column: str, *, integer: bool, allow_blank) -> pd.Series:
+    """Parse ``column`` as numbers; LogError names the file, column and line of the first bad cell."""
+    series = df[column].astype(object)
+    series = series.map(lambda v: {True: 1, False: 0, "True": 1, "False": 0, "true": 1,
+                                   "false": 0}.get(v, v) if isinstance(v, (bool, str)) else v)
+    blank = _blank(series)
+    values = pd.to_numeric(series.where(~blank, np.nan), errors="coerce")
+    bad = (~blank & values.isna())
+    if integer:
+        bad |= ~blank & values.notna() & (values != np.round(values))
+    if not isinstance(allow_blank, pd.Series):
+        allow_blank = pd.Series(bool(allow_blank), index=df.index)
+    bad |= blank & ~allow_blank
+    if bad.any():
+        i = bad.idxmax()
+        what = "an integer" if integer else "a number"
+        raise LogError(f"{df.at[i, 'source']}: {column}: expected {what} (line {df.at[i, 'line']}), "
+                       f"got {df.at[i, column]!r}")
+    return values
+
+
+def _check_allowed(values: pd.Series, allowed, df, column, *, mask=None) -> None:
+    bad = ~values.isin(allowed)
+    if mask is not None:
+        bad &= mask
+    if bad.any():
+        i = bad.idxmax()
+        raise LogError(f"{df.at[i, 'source']}: {column}: expected one of {', '.join(map(str, allowed))} "
+                       f"(line {df.at[i, 'line']}), got {df.at[i, column]!r}")
+
+
+def _require_columns(df: pd.DataFrame, path: Path) -> None:
+    missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
+    if missing:
+        raise LogError(f"{path}: {missing[0]}: expected a column named {missing[0]!r}, "
+                       f"got columns {sorted(c for c in df.columns if c != 'line')!r}")
+
+
+def _validate(df: pd.DataFrame) -> pd.DataFrame:
+    """Type and check rows (of any number of sessions; ``source`` and ``line`` say where from)."""
+    out = pd.DataFrame(index=df.index)
+    for column in ("participant", "session", "group", "block", "mode", "status"):
+        out[column] = _as_str(df[column])
+    for column in ("participant", "session"):
+        if (out[column] == "").any():
+            i = (out[column] == "").idxmax()
+            raise LogError(f"{df.at[i, 'source']}: {column}: expected a non-empty value (line {df.at[i, 'line']}), got ''")
+    _check_allowed(out["status"], STATUSES, df, "status")
+    familiar = (out["block"] == FAMILIARISE) | (out["mode"] == FAMILIARISE)
+    _check_allowed(out["mode"], MODES, df, "mode")
+    _check_allowed(out["group"], GROUPS, df, "group")
+    ok = out["status"] == "ok"
+    out["trial_index"] = _as_number(df, "trial_index", integer=True, allow_blank=False).astype("int64")
+    out["roughness_id"] = _as_number(df, "roughness_id", integer=True, allow_blank=False).astype("int64")
+    _check_allowed(out["roughness_id"], range(1, N_ROUGHNESS + 1), df, "roughness_id")
+    response = _as_number(df, "response_id", integer=True, allow_blank=~ok)
+    _check_allowed(response, list(range(1, N_ROUGHNESS + 1)), df, "response_id",
+                   mask=response.notna())
+    out["response_id"] = response.astype("Int64")
+    correct = _as_number(df, "correct", integer=True, allow_blank=~ok)
+    _check_allowed(correct, [0, 1], df, "correct", mask=correct.notna())
+    out["correct"] = correct.astype("Int64")
+    both = correct.notna() & response.notna()
+    mismatch = both & ((response == out["roughness_id"]).astype(int) != correct)
+    if mismatch.any():
+        i = mismatch.idxmax()
+        raise LogError(f"{df.at[i, 'source']}: correct: expected {int(response[i] == out.at[i, 'roughness_id'])} "
+                       f"for response_id {int(response[i])} on roughness_id "
+                       f"{out.at[i, 'roughness_id']} (line {df.at[i, 'line']}), got {df.at[i, 'correct']!r}")
+    for column, kind in OPTIONAL_COLUMNS.items():
+        if column not in df.columns:
+            if column == "attempt":
+                out[column] = pd.Series(1, index=df.index, dtype="Int64")
+            else:
+                out[column] = pd.Series(pd.NA if kind == "int" else (np.nan if kind == "float" else ""),
+                                        index=df.index, dtype="Int64" if kind == "int" else None)
+            continue
+        if kind == "str":
+            out[column] = _as_str(df[column])
+        else:
+            values = _as_number(df, column, integer=kind == "int", allow_blank=True)
+            if column == "attempt":
+                values = values.fillna(1)
+            out[column] = values.astype("Int64") if kind == "int" else values.astype(float)
+    out["familiarisation"] = familiar
+    out["source"] = df["source"].astype(str).to_numpy()
+    out["line"] = df["line"].astype("int64").to_numpy()
+    return out
+
+
+def _fill_from_context(df: pd.DataFrame, context: dict, path: Path, messages: list) -> pd.DataFrame:
+    for key, value in context.items():
+        if key not in df.columns or _blank(df[key]).all():
+            df[key] = value
+        else:
+            df[key] = df[key].where(~_blank(df[key]), value)
+    return df
+
+
+# --------------------------------------------------------------------------- sessions
+
+def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, str]:
+    """Read and validate one session folder.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A folder with ``trials.csv`` and/or ``events.jsonl``.
+    messages : list of str, optional
+        Warnings are appended here.
+
+    Returns
+    -------
+    trials : pandas.DataFrame
+        The rows as read (strings or JSON values), with ``source`` (the file)
+        and ``line``; typed and checked later by :func:`load_trials`.
+    source : str
+        ``"trials.csv"`` or ``"events.jsonl"``: the file the rows came from.
+
+    Raises
+    ------
+    LogError
+        Unusable input; the message names the file and the column.
+    """
+    folder = Path(folder)
+    messages = [] if messages is None else messages
+    csv_path, events_path = folder / "trials.csv", folder / "events.jsonl"
+    table = events = None
+    if csv_path.exists():
+        table = read_trials_csv(csv_path, messages)
+    ev_ctx: dict = {}
+    if events_path.exists():
+        events, ev_ctx = read_trial_events(events_path, messages)
+    # session.json first, then the event log, then the folder names
+    ctx = {"participant": folder.parent.name, "session": folder.name, **ev_ctx,
+           **_session_context(folder, messages)}
+    use_events = False
+    if table is None:
+        if events is None or events.empty:
+            raise LogError(f"{folder}: trials.csv: expected trials.csv or trial events in events.jsonl, "
+                           f"got neither")
+        _warn(messages, f"{csv_path}: missing; rebuilt {len(events)} rows from {events_path}")
+        use_events = True
+    elif events is not None and not events.empty and "trial_index" in table.columns:
+        def keys(df):
+            attempts = df["attempt"] if "attempt" in df.columns else [1] * len(df)
+            return {(_int_text(t), _int_text(a)) for t, a in zip(df["trial_index"], attempts)}
+        lacking = keys(events) - keys(table)
+        if lacking:
+            _warn(messages, f"{csv_path}: older than {events_path.name} ({len(lacking)} trial rows "
+                            f"missing); rebuilt {len(events)} rows from {events_path}")
+            use_events = True
+    if use_events:
+        rows, path = _fill_from_context(events, ctx, events_path, messages), events_path
+    else:
+        rows, path = table, csv_path
+    rows = rows.reset_index(drop=True)
+    _require_columns(rows, path)
+    rows["source"] = str(path)
+    return rows, path.name
+
+
+def _int_text(value) -> str:
+    """A trial_index/attempt cell as canonical text (blank attempt -> "1")."""
+    if value is None or (isinstance(value, float) and np.isnan(value)) or str(value).strip() == "":
+        return "1"
+    try:
+        return str(int(float(value)))
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def _session_folders(root: Path) -> list[Path]:
+    found = {p.parent for name in ("trials.csv", "events.jsonl") for p in root.rglob(name)}
+    return sorted(found)
+
+
+def _mark_inclusion(trials: pd.DataFrame) -> pd.DataFrame:
+    exclusion = pd.Series("", index=trials.index, dtype=object)
+    exclusion[trials["status"] != "ok"] = "status " + trials["status"]
+    exclusion[trials["familiarisation"]] = "familiarisation"
+    ok = exclusion == ""
+    key = ["participant", "session", "trial_index"]
+    last = trials[ok].groupby(key)["attempt"].transform("max")
+    superseded = pd.Series(False, index=trials.index)
+    superseded[last.index] = trials.loc[last.index, "attempt"] < last
+    exclusion[superseded] = "superseded attempt"
+    trials["exclusion"] = exclusion
+    trials["included"] = exclusion == ""
+    return trials
+
+
+def load_trials(data_dir) -> TrialLog:
+    """Load, validate and combine every session under ``data_dir``.
+
+    Parameters
+    ----------
+    data_dir : str or Path
+        A data directory (``DATA/<participant>/<session>/...``); any folder that
+        holds ``trials.csv`` or ``events.jsonl`` below it is a session.
+
+    Returns
+    -------
+    TrialLog
+        The tidy table of every row, the sessions and the warnings.
+
+    Raises
+    ------
+    LogError
+        ``data_dir`` missing or holding no session, a missing required column,
+        a value of the wrong type, an unknown status, or two different rows with
+        the same ``(participant, session, trial_index, attempt)``.
+
+    Warns
+    -----
+    LogWarning
+        A truncated file (read up to the damage), a missing or stale
+        ``trials.csv`` (rebuilt from ``events.jsonl``), an exact duplicate row (dropped).
+    """
+    root = Path(data_dir)
+    if not root.is_dir():
+        raise LogError(f"{root}: data directory: expected an existing directory, got {str(root)!r}")
+    folders = _session_folders(root)
+    if not folders:
+        raise LogError(f"{root}: trials.csv: expected session folders holding trials.csv or "
+                       f"events.jsonl, got none")
+    messages: list = []
+    parts, sessions = [], []
+    for folder in folders:
+        rows, source = load_session(folder, messages)
+        parts.append(rows)
+        sessions.append({"path": str(folder), "source": source, "n_rows": len(rows)})
+    raw = pd.concat(parts, ignore_index=True)
+    trials = _validate(raw)
+    first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()
+    sessions = pd.DataFrame(sessions)
+    sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
+    sessions = sessions.join(first, on="file").drop(columns="file")
+    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows"]]
+    trials = _drop_duplicates(trials, messages)
+    for column in ("participant", "group"):
+        per = trials.groupby("participant")["group"].nunique() if column == "group" else None
+        if per is not None and (per > 1).any():
+            who = per[per > 1].index[0]
+            files = sorted(trials.loc[trials["participant"] == who, "source"].unique())
+            raise LogError(f"{files[0]}: group: expected one group per participant, got "
+                           f"{sorted(trials.loc[trials['participant'] == who, 'group'].unique())!r} "
+                           f"for participant {who!r}")
+    trials = _mark_inclusion(trials)
+    order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
+             "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
+             "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
+             "familiarisation", "included", "exclusion", "source", "line"]
+    trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
+                                       ignore_index=True)
+    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages)
+
+
+def _drop_duplicates(trials: pd.DataFrame, messages: list) -> pd.DataFrame:
+    key = ["participant", "session", "trial_index", "attempt"]
+    dup = trials.duplicated(key, keep=False)
+    if not dup.any():
+        return trials
+    data_cols = [c for c in trials.columns if c not in ("source", "line")]
+    for _, group in trials[dup].groupby(key, sort=False):
+        a, b = group.iloc[0], group.iloc[1]
+        differ = [c for c in data_cols if not (a[c] == b[c] or (pd.isna(a[c]) and pd.isna(b[c])))]
+        if differ:
+            raise LogError(f"{b['source']}: {differ[0]}: expected one row per (participant, session, "
+                           f"trial_index, attempt) = ({a['participant']}, {a['session']}, "
+                           f"{a['trial_index']}, {a['attempt']}), got different rows at line "
+                           f"{a['line']} and line {b['line']}")
+        _warn(messages, f"{b['source']}: line {b['line']}: exact duplicate of line {a['line']} "
+                        f"(trial_index {a['trial_index']}, attempt {a['attempt']}); dropped")
+    return trials.drop_duplicates(subset=data_cols, keep="first").reset_index(drop=True)

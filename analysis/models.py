@@ -1,0 +1,341 @@
+"""Group comparisons: a logit GEE and a Bayesian mixed logit, and per-roughness contrasts.
+
+Both models explain ``correct`` (0/1) by ``group * mode * C(roughness_id)``:
+
+- :func:`fit_gee`: a marginal (population-averaged) logit fitted by
+  generalised estimating equations [1]_ with participants as clusters, an
+  exchangeable working correlation and the bias-reduced (Mancl-DeRouen [2]_)
+  sandwich covariance, which corrects the robust covariance's downward bias
+  with few (here 30) clusters.
+- :func:`fit_bayes`: a conditional logit with a random intercept per
+  participant, ``statsmodels``' ``BinomialBayesMixedGLM`` fitted by mean-field
+  variational Bayes (``fit_vb``). Its posterior SDs ignore the correlation
+  between terms and are too small for correlated (interaction) terms; the
+  report's inference (contrasts, p-values) therefore comes from the GEE.
+
+With 3 repetitions per cell a cell may have every answer right or wrong; the
+saturated model then has no finite estimate (separation) or does not converge.
+Both fits then fall back, in order, to ``group * mode + C(roughness_id)`` and
+``group + mode + C(roughness_id)``, and :attr:`ModelFit.notes` says so.
+
+References
+----------
+.. [1] K.-Y. Liang, S. L. Zeger, "Longitudinal data analysis using generalized
+   linear models", Biometrika 73 (1986) 13-22.
+.. [2] L. A. Mancl, T. A. DeRouen, "A covariance estimator for GEE with improved
+   small-sample properties", Biometrics 57 (2001) 126-134.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+import patsy
+from scipy import sparse, special, stats
+
+from .errors import ModelWarning
+
+__all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data"]
+
+#: The requested model (issue 5).
+FORMULA = "correct ~ group * mode * C(roughness_id)"
+_MAX_ABS_COEF = 10.0       # |log odds| beyond this means a separated (infinite) estimate
+_MAX_SE = 20.0
+
+
+@dataclass
+class ModelFit:
+    """A fitted model and what it took to fit it.
+
+    Attributes
+    ----------
+    kind : str
+        ``"gee"`` or ``"bayes"``.
+    formula : str
+        The formula actually fitted (``None`` if nothing could be fitted).
+    requested : str
+        The formula asked for.
+    table : pandas.DataFrame
+        GEE: ``term, log_odds, se, z, p_value, ci_low, ci_high``; Bayes:
+        ``term, posterior_mean, posterior_sd, cri_low, cri_high`` (log odds;
+        ``participant_sd`` last, on the SD scale).
+    notes : list of str
+        Fallbacks and warnings, in plain words.
+    params, cov : ndarray
+        Estimates and their covariance (Bayes: diagonal of posterior variances).
+    design_info : patsy.DesignInfo
+        For building design rows of new data (contrasts).
+    result : object
+        The statsmodels result.
+    """
+
+    kind: str
+    formula: str | None
+    requested: str
+    table: pd.DataFrame
+    notes: list = field(default_factory=list)
+    params: np.ndarray | None = None
+    cov: np.ndarray | None = None
+    design_info: object = None
+    result: object = None
+
+    @property
+    def simplified(self) -> bool:
+        """True if a simpler formula than the requested one was fitted."""
+        return self.formula != self.requested
+
+
+def model_data(trials: pd.DataFrame) -> pd.DataFrame:
+    """The columns the models use, typed (correct int, roughness_id int, strings).
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Analysable trials.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``participant, group, mode, roughness_id, correct``.
+    """
+    data = pd.DataFrame({
+        "participant": trials["participant"].astype(str).to_numpy(),
+        "group": trials["group"].astype(str).to_numpy(),
+        "mode": trials["mode"].astype(str).to_numpy(),
+        "roughness_id": trials["roughness_id"].astype(int).to_numpy(),
+        "correct": trials["correct"].astype(int).to_numpy(),
+    })
+    return data
+
+
+def _candidates(data: pd.DataFrame, formula: str, notes: list) -> list[str]:
+    """The requested formula, then the fallbacks (factors with one level left out)."""
+    present = [f for f, col in (("group", "group"), ("mode", "mode"),
+                                ("C(roughness_id)", "roughness_id")) if data[col].nunique() > 1]
+    dropped = [f for f in ("group", "mode", "C(roughness_id)") if f not in present]
+    if dropped:
+        notes.append(f"only one level of {', '.join(dropped)} in the data: left out of the model")
+        out = ["correct ~ " + (" * ".join(present) if present else "1")]
+    else:
+        out = [formula]
+    if len(present) == 3:
+        more = ["correct ~ group * mode + C(roughness_id)", "correct ~ group + mode + C(roughness_id)"]
+    else:
+        more = ["correct ~ " + " + ".join(present)] if present else []
+    return out + [m for m in more if m not in out]
+
+
+def _separated_cells(data: pd.DataFrame) -> list[str]:
+    rate = data.groupby(["group", "mode", "roughness_id"])["correct"].mean()
+    bad = rate[(rate == 0) | (rate == 1)]
+    return [f"{g}/{m}/{r}# ({'all correct' if v == 1 else 'none correct'})"
+            for (g, m, r), v in bad.items()]
+
+
+def _design(formula: str, data: pd.DataFrame):
+    y, x = patsy.dmatrices(formula, data, return_type="dataframe")
+    return y.iloc[:, 0].to_numpy(), x
+
+
+def _fit_ok(params, se) -> str | None:
+    if not (np.all(np.isfinite(params)) and np.all(np.isfinite(se))):
+        return "non-finite estimates"
+    if np.max(np.abs(params)) > _MAX_ABS_COEF or np.max(se) > _MAX_SE:
+        return "estimates drifting to infinity (separation)"
+    return None
+
+
+def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95) -> ModelFit:
+    """Logit GEE with participant clusters, exchangeable correlation, bias-reduced covariance.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Analysable trials.
+    formula : str
+        Patsy formula; on separation or non-convergence simpler ones are tried.
+    level : float
+        Confidence level of the table's intervals, 0–1.
+
+    Returns
+    -------
+    ModelFit
+        ``table`` has one row per term (log odds). ``formula`` is ``None`` and
+        the table empty if no formula could be fitted.
+    """
+    import statsmodels.api as sm
+
+    data = model_data(trials)
+    notes: list = []
+    z = stats.norm.ppf(0.5 + level / 2)
+    for candidate in _candidates(data, formula, notes):
+        if candidate == FORMULA:
+            cells = _separated_cells(data)
+            if cells:
+                notes.append(f"GEE: {candidate!r} not estimable: complete separation in cell(s) "
+                             f"{', '.join(cells)}; trying a simpler formula")
+                continue
+        y, x = _design(candidate, data)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                model = sm.GEE(y, x, groups=data["participant"], family=sm.families.Binomial(),
+                               cov_struct=sm.cov_struct.Exchangeable())
+                res = model.fit(cov_type="bias_reduced", maxiter=100)
+            except (np.linalg.LinAlgError, ValueError, ZeroDivisionError) as exc:
+                res, why = None, f"failed ({exc})"
+        if res is not None:
+            trouble = [str(w.message) for w in caught
+                       if "converge" in str(w.message).lower() or "singular" in str(w.message).lower()
+                       or "separation" in str(w.message).lower()]
+            params = np.asarray(res.params)
+            se = np.asarray(res.bse)
+            why = "; ".join(trouble) if (trouble or not res.converged) else _fit_ok(params, se)
+            if not res.converged and not trouble:
+                why = "did not converge"
+        if why:
+            notes.append(f"GEE: {candidate!r} {why}; trying a simpler formula")
+            continue
+        if candidate != formula:
+            notes.append(f"GEE: fitted the simpler {candidate!r} instead of {formula!r}")
+            warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
+        table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
+                              "z": params / se, "p_value": 2 * stats.norm.sf(np.abs(params / se)),
+                              "ci_low": params - z * se, "ci_high": params + z * se})
+        return ModelFit("gee", candidate, formula, table, notes, params,
+                        np.asarray(res.cov_params()), x.design_info, res)
+    notes.append("GEE: no formula could be fitted")
+    warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
+    return ModelFit("gee", None, formula, pd.DataFrame(
+        columns=["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high"]), notes)
+
+
+def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
+              seed: int = 20261122) -> ModelFit:
+    """Bayesian mixed logit with a random intercept per participant (``fit_vb``).
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Analysable trials.
+    formula : str
+        Fixed-effects formula; on non-convergence simpler ones are tried.
+    level : float
+        Credible level of the table's intervals (normal approximation), 0–1.
+    seed : int
+        Seed of the optimiser's random starting values.
+
+    Returns
+    -------
+    ModelFit
+        ``table`` rows: fixed effects (log odds) then ``participant_sd`` (the
+        random intercepts' SD, log-odds scale; its interval from the
+        log-SD posterior). Priors: statsmodels' defaults, N(0, 2²) on fixed
+        effects and N(0, 1²) on the log SD.
+    """
+    from statsmodels.genmod.bayes_mixed_glm import BinomialBayesMixedGLM
+
+    data = model_data(trials)
+    notes: list = []
+    z = stats.norm.ppf(0.5 + level / 2)
+    people = pd.Categorical(data["participant"])
+    exog_vc = sparse.csr_matrix((np.ones(len(data)), (np.arange(len(data)), people.codes)),
+                                shape=(len(data), len(people.categories)))
+    ident = np.zeros(len(people.categories), dtype=int)
+    for candidate in _candidates(data, formula, notes):
+        y, x = _design(candidate, data)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                model = BinomialBayesMixedGLM(y, x.to_numpy(), exog_vc, ident,
+                                              fep_names=list(x.columns), vcp_names=["participant"])
+                res = model.fit_vb(rng=np.random.RandomState(seed))
+                why = None
+            except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
+                res, why = None, f"failed ({exc})"
+        if res is not None:
+            if not res.optim_retvals.success or any("converge" in str(w.message).lower()
+                                                    for w in caught):
+                why = "did not converge (VB optimiser)"
+            else:
+                why = _fit_ok(res.fe_mean, res.fe_sd)
+        if why:
+            notes.append(f"Bayes: {candidate!r} {why}; trying a simpler formula")
+            continue
+        if candidate != formula:
+            notes.append(f"Bayes: fitted the simpler {candidate!r} instead of {formula!r}")
+            warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
+        mean, sd = np.asarray(res.fe_mean), np.asarray(res.fe_sd)
+        table = pd.DataFrame({"term": x.columns, "posterior_mean": mean, "posterior_sd": sd,
+                              "cri_low": mean - z * sd, "cri_high": mean + z * sd})
+        lm, ls = float(res.vcp_mean[0]), float(res.vcp_sd[0])
+        table.loc[len(table)] = ["participant_sd", np.exp(lm), np.nan, np.exp(lm - z * ls),
+                                 np.exp(lm + z * ls)]
+        return ModelFit("bayes", candidate, formula, table, notes, mean, np.diag(sd ** 2),
+                        x.design_info, res)
+    notes.append("Bayes: no formula could be fitted")
+    return ModelFit("bayes", None, formula, pd.DataFrame(
+        columns=["term", "posterior_mean", "posterior_sd", "cri_low", "cri_high"]), notes)
+
+
+def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
+    """Group A vs group B within each mode and roughness, from a fitted model.
+
+    Parameters
+    ----------
+    fit : ModelFit
+        From :func:`fit_gee` (or :func:`fit_bayes`: mean-field intervals, too narrow).
+    trials : pandas.DataFrame
+        Analysable trials (for the modes and roughness levels present).
+    level : float
+        Confidence level, 0–1.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``model, mode, roughness_id, log_odds_ratio_A_vs_B, se, ci_low, ci_high,
+        odds_ratio_A_vs_B, p_value, p_correct_A, p_correct_B,
+        difference_A_minus_B, difference_low, difference_high`` (probabilities
+        are fractions 0–1; GEE probabilities are population averages). One row
+        per mode × roughness, then one per mode averaged over roughness
+        (``roughness_id`` 0: the mean log odds over the four samples).
+        Empty if the model has no group term.
+
+    Notes
+    -----
+    With design rows :math:`x_A, x_B` the log odds ratio is
+    :math:`(x_A - x_B)\\hat\\beta` with variance :math:`(x_A-x_B) V (x_A-x_B)^T`;
+    the probability difference uses the delta method with gradient
+    :math:`p_A(1-p_A)x_A - p_B(1-p_B)x_B`.
+    """
+    columns = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low", "ci_high",
+               "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
+               "difference_A_minus_B", "difference_low", "difference_high"]
+    if fit.formula is None or "group" not in fit.formula:
+        return pd.DataFrame(columns=columns)
+    data = model_data(trials)
+    if set(data["group"]) != {"A", "B"}:
+        return pd.DataFrame(columns=columns)
+    z = stats.norm.ppf(0.5 + level / 2)
+    beta, cov = fit.params, fit.cov
+    rows = []
+    roughness = sorted(data["roughness_id"].unique())
+    for mode in sorted(data["mode"].unique()):
+        specs = [(r, [r]) for r in roughness] + [(0, roughness)]
+        for label, levels in specs:
+            grid = pd.DataFrame({"group": ["A"] * len(levels) + ["B"] * len(levels),
+                                 "mode": mode, "roughness_id": list(levels) * 2,
+                                 "correct": 0, "participant": "x"})
+            x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
+            xa, xb = x[: len(levels)].mean(axis=0), x[len(levels):].mean(axis=0)
+            diff = xa - xb
+            est, se = diff @ beta, float(np.sqrt(diff @ cov @ diff))
+            pa, pb = special.expit(xa @ beta), special.expit(xb @ beta)
+            grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
+            dse = float(np.sqrt(grad @ cov @ grad))
+            rows.append([fit.kind, mode, label, est, se, est - z * se, est + z * se, np.exp(est),
+                         2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
+                         pa - pb, pa - pb - z * dse, pa - pb + z * dse])
+    return pd.DataFrame(rows, columns=columns)

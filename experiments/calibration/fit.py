@@ -1,0 +1,406 @@
+"""Estimate per-sample contact resistances R_k and a shared skin thickness L from contact traces.
+
+Least squares (:func:`scipy.optimize.least_squares`, trust-region reflective) on the exact
+model of :mod:`experiments.calibration.model`, parameters in log space (log R_k, log L) with
+bounds, the analytic Jacobian from the Laplace domain, a few starting values of L.  Optionally
+one shared initial skin temperature T_S0 (°C, linear) replaces the per-trace values.
+
+A fit is *refused* (:class:`CalibrationRefused`, the reasons in words) when the optimiser did
+not converge, a parameter ends at a bound, the Jacobian is rank-deficient or ill-conditioned,
+or a profile likelihood does not close within the bounds (a flat profile: the data do not
+determine the parameter).  Intervals: profile likelihood (default) or parametric bootstrap,
+see :mod:`experiments.calibration.intervals`.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from experiments.calibration.errors import CalibrationError, CalibrationRefused
+from experiments.calibration.model import ContactSetup, ResponseGrid
+from experiments.calibration.trace import ContactTrace
+
+__all__ = ["FitProblem", "CalibrationFit", "Parameter", "fit_traces", "BOUNDS",
+           "MAX_CONDITION", "BOUND_TOLERANCE"]
+
+#: Bounds of the fitted parameters (SI; T_S0 in °C).  L: the participant schema's hard range.
+BOUNDS = {"resistance": (1e-6, 0.1), "skin_thickness": (100e-6, 5e-3), "skin_temperature": (20.0, 42.0)}
+#: Condition number of the scaled Jacobian above which a fit is refused (not identifiable).
+MAX_CONDITION = 1e6
+#: A log-parameter within this distance of its bound "is at the bound".
+BOUND_TOLERANCE = 1e-3
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One fitted parameter: estimate, interval and how it is stored.
+
+    Attributes
+    ----------
+    name : str
+        ``"R[<sample>]"``, ``"L"`` or ``"T_S0"``.
+    kind : str
+        ``"resistance"`` (m² K/W), ``"skin_thickness"`` (m), ``"skin_temperature"`` (°C).
+    value, low, high : float
+        Estimate and interval, SI (°C for temperatures).
+    standard_error_log : float
+        Wald standard error of log(value) (of the value itself for T_S0).
+    sample : str or None
+    """
+
+    name: str
+    kind: str
+    value: float
+    low: float = float("nan")
+    high: float = float("nan")
+    standard_error_log: float = float("nan")
+    sample: str | None = None
+    roughness_um: float | None = None
+    roughness_id: int | None = None
+
+
+class FitProblem:
+    """The residuals and Jacobian of a set of traces, in the fit's coordinates.
+
+    Coordinates ``p``: ``log R_k`` for each sample (in order of first appearance),
+    ``log L``, and ``T_S0`` (°C) if ``fit_skin_temperature``.
+
+    Parameters
+    ----------
+    traces : sequence of ContactTrace
+    setup : ContactSetup
+    fit_skin_temperature : bool
+        Fit one initial skin temperature shared by all traces instead of using theirs.
+    """
+
+    def __init__(self, traces, setup: ContactSetup, fit_skin_temperature: bool = False):
+        traces = list(traces)
+        if not traces:
+            raise CalibrationError("calibration: traces: expected at least one contact trace, got none")
+        for tr in traces:
+            if not isinstance(tr, ContactTrace):
+                raise CalibrationError(f"calibration: traces: expected ContactTrace objects, got {tr!r}")
+        self.traces = traces
+        self.setup = setup
+        self.fit_skin_temperature = bool(fit_skin_temperature)
+        self.samples: list[str] = []
+        for tr in traces:
+            if tr.sample not in self.samples:
+                self.samples.append(tr.sample)
+        self.k = len(self.samples)
+        self.index = [self.samples.index(tr.sample) for tr in traces]
+        self.names = [f"R[{s}]" for s in self.samples] + ["L"] + (["T_S0"] if fit_skin_temperature else [])
+        self.kinds = ["resistance"] * self.k + ["skin_thickness"] + (
+            ["skin_temperature"] if fit_skin_temperature else [])
+        self.n_params = len(self.names)
+        self.n_obs = sum(tr.n for tr in traces)
+        self.y = np.concatenate([tr.temperature_C for tr in traces])
+        lo, hi = [], []
+        for kind in self.kinds:
+            a, b = BOUNDS[kind]
+            if kind == "skin_temperature":
+                a = max(a, max(tr.material_temperature_C for tr in traces) + 0.5)
+                lo.append(a), hi.append(b)
+            else:
+                lo.append(math.log(a)), hi.append(math.log(b))
+        self.lower, self.upper = np.array(lo), np.array(hi)
+        self.n_evaluations = 0
+        grids: dict = {}
+        self.grids = []
+        for tr in traces:           # traces sampled at the same times share one grid
+            key = (tr.n, tr.time_s.tobytes())
+            if key not in grids:
+                grids[key] = ResponseGrid(tr.time_s, setup)
+            self.grids.append(grids[key])
+
+    # -- coordinates -------------------------------------------------------------------
+    def to_natural(self, p) -> np.ndarray:
+        """SI values (°C for T_S0) of the coordinates ``p``."""
+        p = np.asarray(p, dtype=float)
+        out = np.exp(p)
+        if self.fit_skin_temperature:
+            out[-1] = p[-1]
+        return out
+
+    def to_coordinates(self, values) -> np.ndarray:
+        v = np.asarray(values, dtype=float)
+        out = np.log(np.maximum(v, 1e-300))
+        if self.fit_skin_temperature:
+            out[-1] = v[-1]
+        return out
+
+    # -- model -----------------------------------------------------------------------
+    def predict(self, p, jacobian: bool = False):
+        """Model readings (°C) for all traces, concatenated; optionally the Jacobian."""
+        p = np.asarray(p, dtype=float)
+        nat = self.to_natural(p)
+        L = nat[self.k]
+        out = np.empty(self.n_obs)
+        jac = np.zeros((self.n_obs, self.n_params)) if jacobian else None
+        i0 = 0
+        self.n_evaluations += 1
+        for tr, k, grid in zip(self.traces, self.index, self.grids):
+            i1 = i0 + tr.n
+            R = nat[k]
+            ts0 = nat[-1] if self.fit_skin_temperature else tr.skin_temperature_C
+            dT = ts0 - tr.material_temperature_C
+            if jacobian:
+                th, d_r, d_l = grid.response(R, L, derivatives=True)
+                jac[i0:i1, k] = dT * R * d_r
+                jac[i0:i1, self.k] = dT * L * d_l
+                if self.fit_skin_temperature:
+                    jac[i0:i1, -1] = th
+            else:
+                th = grid.response(R, L)
+            out[i0:i1] = tr.material_temperature_C + dT * th
+            i0 = i1
+        return (out, jac) if jacobian else out
+
+    def residuals(self, p) -> np.ndarray:
+        return self.predict(p) - self.y
+
+    def jacobian(self, p) -> np.ndarray:
+        return self.predict(p, jacobian=True)[1]
+
+    def solve(self, p0, fixed: dict | None = None, max_nfev: int = 200):
+        """Least squares from ``p0``; ``fixed`` maps coordinate index -> value held fixed.
+
+        Returns
+        -------
+        scipy.optimize.OptimizeResult
+            With ``x`` the full coordinate vector (fixed entries included) and ``cost`` =
+            SSR / 2.
+        """
+        fixed = dict(fixed or {})
+        free = [i for i in range(self.n_params) if i not in fixed]
+        full = np.array(p0, dtype=float)
+        for i, v in fixed.items():
+            full[i] = v
+
+        def expand(q):
+            x = full.copy()
+            x[free] = q
+            return x
+
+        cache = {}
+
+        def fun(q):
+            key = q.tobytes()
+            if key not in cache:
+                cache.clear()
+                y, j = self.predict(expand(q), jacobian=True)
+                cache[key] = (y - self.y, j[:, free])
+            return cache[key][0]
+
+        def jac(q):
+            fun(q)
+            return cache[q.tobytes()][1]
+
+        q0 = np.clip(full[free], self.lower[free] + 1e-9, self.upper[free] - 1e-9)
+        res = least_squares(fun, q0, jac=jac, bounds=(self.lower[free], self.upper[free]),
+                            method="trf", x_scale="jac", xtol=1e-10, ftol=1e-12, gtol=1e-10,
+                            max_nfev=max_nfev)
+        res.x = expand(res.x)
+        return res
+
+
+@dataclass
+class CalibrationFit:
+    """A reported calibration: estimates, intervals, residuals and the checks that passed.
+
+    Attributes
+    ----------
+    parameters : list of Parameter
+    sigma_C : float, °C
+        Residual standard deviation (the noise estimate used for the intervals).
+    interval_method : str
+        ``"profile"`` (profile likelihood) or ``"bootstrap"`` (parametric).
+    level : float
+        Coverage probability of the intervals.
+    diagnostics : dict
+        Condition number, singular values, optimiser status, residual lag-1 autocorrelation,
+        elapsed time, ... (JSON-ready).
+    """
+
+    problem: FitProblem
+    coordinates: np.ndarray
+    parameters: list
+    sigma_C: float
+    interval_method: str
+    level: float
+    diagnostics: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    @property
+    def skin_thickness(self) -> Parameter:
+        return self.parameter("L")
+
+    def resistances(self) -> list:
+        """The R_k parameters, in sample order."""
+        return [p for p in self.parameters if p.kind == "resistance"]
+
+    def predicted(self) -> np.ndarray:
+        """Model readings at the optimum (°C), concatenated over traces."""
+        return self.problem.predict(self.coordinates)
+
+    def residuals(self) -> np.ndarray:
+        return self.problem.residuals(self.coordinates)
+
+
+def _start_values(problem: FitProblem, skin_thickness_guess: float | None) -> list[np.ndarray]:
+    """A few starting points: Eq. 5's R for each sample (if roughness known), several L."""
+    from stimuli import contact_resistance
+    r0 = []
+    for s in problem.samples:
+        tr = next(t for t in problem.traces if t.sample == s)
+        if tr.roughness_um is not None and math.isfinite(tr.roughness_um) and tr.roughness_um >= 0:
+            r0.append(float(contact_resistance(tr.roughness_um * 1e-6)))
+        else:
+            r0.append(1e-3)
+    ls = [skin_thickness_guess] if skin_thickness_guess else []
+    ls += [0.5e-3, 1.0e-3, 2.0e-3]
+    starts = []
+    for L in ls:
+        v = r0 + [L]
+        if problem.fit_skin_temperature:
+            v.append(float(np.median([t.skin_temperature_C for t in problem.traces])))
+        starts.append(np.clip(problem.to_coordinates(v), problem.lower + 1e-6, problem.upper - 1e-6))
+    return starts
+
+
+def _identifiability(problem: FitProblem, res, sigma: float) -> tuple[list, dict]:
+    """Reasons to refuse (list of str) and what was measured."""
+    reasons = []
+    diag = {"optimizer_status": int(res.status), "optimizer_message": str(res.message),
+            "nfev": int(res.nfev)}
+    if res.status <= 0:
+        reasons.append(f"the optimiser did not converge ({res.message.strip()})")
+    x = res.x
+    for i, name in enumerate(problem.names):
+        if x[i] - problem.lower[i] < BOUND_TOLERANCE or problem.upper[i] - x[i] < BOUND_TOLERANCE:
+            which = "lower" if x[i] - problem.lower[i] < BOUND_TOLERANCE else "upper"
+            val = problem.to_natural(x)[i]
+            reasons.append(f"{name} = {val:.4g} is at its {which} bound: the data do not determine it "
+                           f"within the physically allowed range")
+    dof = problem.n_obs - problem.n_params
+    diag["degrees_of_freedom"] = int(dof)
+    if dof < 10:
+        reasons.append(f"only {dof} degrees of freedom ({problem.n_obs} samples for "
+                       f"{problem.n_params} parameters)")
+    J = problem.jacobian(x) / max(sigma, 1e-12)
+    sv = np.linalg.svd(J, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+    diag["singular_values"] = [float(v) for v in sv]
+    diag["condition_number"] = cond
+    rank = int(np.sum(sv > sv[0] * 1e-10)) if sv[0] > 0 else 0
+    diag["jacobian_rank"] = rank
+    if rank < problem.n_params:
+        reasons.append(f"the Jacobian has rank {rank} < {problem.n_params} parameters: some "
+                       f"parameters cannot be told apart")
+    elif cond > MAX_CONDITION:
+        reasons.append(f"the Jacobian's condition number is {cond:.3g} > {MAX_CONDITION:g}: the "
+                       f"parameters are not identifiable from these traces")
+    return reasons, diag
+
+
+def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperature: bool = False,
+               skin_thickness_guess: float | None = None, interval: str = "profile",
+               level: float = 0.95, bootstrap_samples: int = 200, seed: int = 0) -> CalibrationFit:
+    """Fit R_k per sample and a shared L (and T_S0) to contact traces; refuse if not identifiable.
+
+    Parameters
+    ----------
+    traces : sequence of ContactTrace
+        Traces on one or more samples; traces with the same ``sample`` share R.
+    setup : ContactSetup, optional
+        Sample material/thickness and sensor placement (default: 3 mm steel, skin-side sensor).
+    fit_skin_temperature : bool
+        Also fit one initial skin temperature (°C) shared by all traces.
+    skin_thickness_guess : float, m, optional
+        Extra starting value of L (e.g. the participant record's).
+    interval : {"profile", "bootstrap"}
+        Profile likelihood or parametric bootstrap (percentile) intervals.
+    level : float
+        Interval coverage, e.g. 0.95.
+    bootstrap_samples : int
+        Number of refits for ``interval="bootstrap"``.
+    seed : int
+        Seed of the bootstrap's noise.
+
+    Returns
+    -------
+    CalibrationFit
+
+    Raises
+    ------
+    CalibrationRefused
+        Non-convergence, a parameter at a bound, rank-deficient or ill-conditioned
+        Jacobian, a profile that does not close within the bounds (``.reasons``).
+    CalibrationError
+        Bad arguments.
+    """
+    from experiments.calibration.intervals import bootstrap_intervals, profile_intervals
+
+    if interval not in ("profile", "bootstrap"):
+        raise CalibrationError(f"calibration: interval: expected 'profile' or 'bootstrap', got {interval!r}")
+    if not 0.5 <= level < 1.0:
+        raise CalibrationError(f"calibration: level: expected a probability in [0.5, 1), got {level!r}")
+    setup = setup or ContactSetup()
+    t_start = time.perf_counter()
+    problem = FitProblem(traces, setup, fit_skin_temperature)
+    best = None
+    for p0 in _start_values(problem, skin_thickness_guess):
+        res = problem.solve(p0)
+        if best is None or res.cost < best.cost - 1e-12:
+            best = res
+    ssr = 2.0 * best.cost
+    dof = problem.n_obs - problem.n_params
+    sigma = math.sqrt(ssr / max(dof, 1))
+    reasons, diag = _identifiability(problem, best, sigma)
+    r = problem.residuals(best.x)
+    diag["residual_sd_C"] = sigma
+    diag["residual_lag1_autocorrelation"] = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if r.size > 2 else 0.0
+    diag["n_observations"] = int(problem.n_obs)
+    diag["n_traces"] = len(problem.traces)
+    if reasons:
+        raise CalibrationRefused("calibration refused: " + "; ".join(reasons), reasons, diag)
+
+    J = problem.jacobian(best.x)
+    cov = sigma ** 2 * np.linalg.inv(J.T @ J)
+    se = np.sqrt(np.diag(cov))
+    if interval == "profile":
+        lows, highs, flat = profile_intervals(problem, best.x, ssr, se, level)
+    else:
+        lows, highs, flat = bootstrap_intervals(problem, best.x, sigma, level, bootstrap_samples, seed)
+    if flat:
+        diag["flat"] = flat
+        raise CalibrationRefused("calibration refused: " + "; ".join(flat), flat, diag)
+    nat = problem.to_natural(best.x)
+    params = []
+    for i, (name, kind) in enumerate(zip(problem.names, problem.kinds)):
+        sample = problem.samples[i] if kind == "resistance" else None
+        tr = next((t for t in problem.traces if t.sample == sample), None) if sample else None
+        params.append(Parameter(
+            name=name, kind=kind, value=float(nat[i]), low=float(lows[i]), high=float(highs[i]),
+            standard_error_log=float(se[i]), sample=sample,
+            roughness_um=tr.roughness_um if tr else None, roughness_id=tr.roughness_id if tr else None))
+    warnings = []
+    if abs(diag["residual_lag1_autocorrelation"]) > 0.5:
+        warnings.append(
+            f"residuals are autocorrelated (lag-1 {diag['residual_lag1_autocorrelation']:.2f}): the "
+            f"model misses something systematic, so the intervals (which assume white noise) are "
+            f"too narrow")
+    diag["correlation"] = (cov / np.outer(se, se)).round(4).tolist()
+    diag["elapsed_s"] = time.perf_counter() - t_start
+    diag["model_evaluations"] = problem.n_evaluations
+    return CalibrationFit(problem, best.x, params, sigma, interval, level, diag, warnings)

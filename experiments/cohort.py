@@ -1,0 +1,225 @@
+"""The paper's cohort of 30 simulated participants and the whole Figure 9 study in one call.
+
+§3.2 of the paper: thirty right-handed adults aged 18-45 (twelve women, eighteen men) of
+different occupations, split by fingertip skin thickness into group A (600-750 µm: five men,
+ten women) and group B (900-1200 µm: twelve men, three women). :func:`paper_cohort` writes such
+a cohort as participant records (valid against ``participants_schema``); the thicknesses,
+dermis shares, skin temperatures and ages are drawn uniformly within the stated ranges from a
+seed. :func:`run_figure9_study` runs every participant through ``roughness_recognition.toml``
+with the emulated display on a virtual clock and the simulated participant responding, then
+the analysis.
+
+The paper contradicts itself on the sexes: "twelve women and eighteen men", but group A "has
+five men and ten women" and group B "twelve men and three women", i.e. 13 women and 17 men.
+The cohort follows the per-group numbers (they fix who is in which group); both are 15 per
+group, which is what the analysis compares.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["PAPER_GROUPS", "CohortGroup", "paper_cohort", "write_cohort", "run_figure9_study",
+           "run_participant"]
+
+
+@dataclass(frozen=True)
+class CohortGroup:
+    """One group of the paper's cohort.
+
+    Parameters
+    ----------
+    name : str
+    men, women : int
+    thickness_um : (float, float), µm
+        Range of the total fingertip skin thickness.
+    """
+
+    name: str
+    men: int
+    women: int
+    thickness_um: tuple[float, float]
+
+
+#: §3.2: A = 5 men + 10 women, 600-750 µm; B = 12 men + 3 women, 900-1200 µm.
+PAPER_GROUPS = (CohortGroup("A", 5, 10, (600.0, 750.0)), CohortGroup("B", 12, 3, (900.0, 1200.0)))
+#: "different occupations, for example, student, teacher, worker, farmer, etc."
+OCCUPATIONS = ("student", "teacher", "worker", "farmer", "engineer", "nurse", "clerk", "driver")
+AGE_RANGE = (18, 45)
+SKIN_TEMPERATURE_RANGE_C = (35.5, 36.0)
+DERMIS_FRACTION_RANGE = (0.55, 0.65)
+
+
+def paper_cohort(seed: int = 0, groups=PAPER_GROUPS) -> list[dict]:
+    """Participant records of the paper's cohort (S01..S30), reproducible from ``seed``.
+
+    Parameters
+    ----------
+    seed : int
+    groups : sequence of CohortGroup
+
+    Returns
+    -------
+    list of dict
+        Records valid for :func:`participants_schema.validate_participant`; each has an
+        ``x_simulation`` member with the intended group and the draw's seed.
+    """
+    rng = np.random.default_rng([int(seed), 0xC0_40_27])
+    records = []
+    n = 0
+    for group in groups:
+        sexes = ["male"] * group.men + ["female"] * group.women
+        rng.shuffle(sexes)
+        for sex in sexes:
+            n += 1
+            total = round(float(rng.uniform(*group.thickness_um)), 1)
+            dermis = round(total * float(rng.uniform(*DERMIS_FRACTION_RANGE)), 1)
+            records.append({
+                "schema_version": 1,
+                "id": f"S{n:02d}",
+                "age": int(rng.integers(AGE_RANGE[0], AGE_RANGE[1] + 1)),
+                "sex": sex,
+                "handedness": "right",
+                "dominant_hand": "right",
+                "occupation": str(rng.choice(OCCUPATIONS)),
+                "skin_thickness": {
+                    "epidermis_um": round(total - dermis, 1),
+                    "dermis_um": dermis,
+                    "total_um": total,
+                    "method": "simulated: uniform within the paper's group range (§3.2)",
+                    "finger": "right index",
+                },
+                "initial_skin_temperature_C": round(float(rng.uniform(*SKIN_TEMPERATURE_RANGE_C)), 2),
+                "consent": {"given": True, "date": "2026-01-01", "form": "simulated participant"},
+                "notes": "Simulated participant of the Figure 9 study (experiments.cohort).",
+                "x_simulation": {"group": group.name, "seed": int(seed) * 1000 + n},
+            })
+    return records
+
+
+def write_cohort(directory, seed: int = 0) -> list[Path]:
+    """Write :func:`paper_cohort` as ``<directory>/<id>.json`` (validated); return the paths."""
+    from participants_schema import validate_participant
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for record in paper_cohort(seed):
+        path = directory / f"{record['id']}.json"
+        validate_participant(record, source=str(path))
+        path.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+        paths.append(path)
+    return paths
+
+
+def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "roughness_recognition",
+                    responder_options: dict | None = None) -> dict:
+    """Run one participant's session with the emulator (virtual clock) and the simulated responder.
+
+    Returns
+    -------
+    dict
+        ``participant``, ``session_dir``, ``seconds`` (wall time), ``trials``.
+    """
+    from experiments.session import run_session   # heavy: the session engine, display, stimuli
+
+    record = json.loads(Path(participant_path).read_text(encoding="utf-8"))
+    options = {"seed": record.get("x_simulation", {}).get("seed", seed)}
+    options.update(responder_options or {})
+    start = time.perf_counter()
+    result = run_session(protocol=protocol, participant=participant_path,
+                         display=f"emulator://?clock=virtual&seed={int(seed)}",
+                         responder="simulated", responder_options=options, data_dir=data_dir,
+                         seed=int(seed))
+    return {"participant": record["id"], "session_dir": str(getattr(result, "session_dir", result)),
+            "seconds": time.perf_counter() - start}
+
+
+def _run_one(args):
+    path, data_dir, seed, protocol, options = args
+    return run_participant(path, data_dir, seed=seed, protocol=protocol, responder_options=options)
+
+
+def _progress(done: int, total: int, start: float, label: str, stream) -> None:
+    elapsed = time.perf_counter() - start
+    eta = elapsed / done * (total - done) if done else float("nan")
+    stream.write(f"figure9: participant {done} of {total} done ({label}); elapsed {elapsed:5.1f} s, "
+                 f"ETA {eta:5.1f} s\n")
+    stream.flush()
+
+
+def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: int = 2, *,
+                      protocol: str = "roughness_recognition", responder_options: dict | None = None,
+                      analyze: bool = True, participants: int | None = None) -> dict:
+    """Run the paper's Figure 9 study end to end with simulated participants.
+
+    Parameters
+    ----------
+    out_dir : path
+        Gets ``participants/`` (the cohort's records), ``data/`` (session logs) and the
+        analysis outputs (``figure9.png``, tables, ``report.md``).
+    seed : int
+        Seeds the cohort, the schedules, the emulator and the responders.
+    progress : bool
+        Print "participant n of N, elapsed, ETA" lines on stderr.
+    workers : int
+        Processes running participants in parallel (1: in this process).
+    protocol : str
+        Protocol name or path.
+    responder_options : dict, optional
+        Options of :class:`experiments.responders.simulated.SimulatedResponder` for everyone
+        (noise parameters...).
+    analyze : bool
+        Run :func:`analysis.analyze` on ``out_dir/data`` at the end.
+    participants : int, optional
+        Run only the first ``participants`` records (tests).
+
+    Returns
+    -------
+    dict
+        ``out_dir``, ``sessions`` (per-participant results), ``seconds`` (wall time of the
+        sessions), ``analysis`` (whatever :func:`analysis.analyze` returned), ``analysis_seconds``.
+    """
+    out_dir = Path(out_dir)
+    data_dir = out_dir / "data"
+    data_dir.mkdir(parents=True, exist_ok=True)
+    paths = write_cohort(out_dir / "participants", seed=seed)
+    if participants is not None:
+        paths = paths[:int(participants)]
+    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {})) for p in paths]
+    stream = sys.stderr
+    start = time.perf_counter()
+    results = []
+    workers = max(1, min(int(workers), len(jobs)))
+    if workers == 1:
+        for job in jobs:
+            results.append(_run_one(job))
+            if progress:
+                _progress(len(results), len(jobs), start, results[-1]["participant"], stream)
+    else:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+        with ProcessPoolExecutor(max_workers=workers,
+                                 mp_context=multiprocessing.get_context(method)) as pool:
+            futures = [pool.submit(_run_one, job) for job in jobs]
+            for fut in as_completed(futures):
+                results.append(fut.result())
+                if progress:
+                    _progress(len(results), len(jobs), start, results[-1]["participant"], stream)
+    seconds = time.perf_counter() - start
+    summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
+               "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
+    if analyze:
+        from analysis import analyze as run_analysis
+        t0 = time.perf_counter()
+        summary["analysis"] = run_analysis(data_dir, out_dir)
+        summary["analysis_seconds"] = time.perf_counter() - t0
+        if progress:
+            stream.write(f"figure9: sessions {seconds:.1f} s, analysis "
+                         f"{summary['analysis_seconds']:.1f} s; results in {out_dir}\n")
+    return summary

@@ -1,0 +1,293 @@
+"""Physics of the emulated display: Peltier pad, heat sink, sensors, finger and passive sample.
+
+Everything here is plain floating point and deterministic given a seed; :mod:`device` owns the
+state machine and calls :meth:`PadPlant.step` once per 10 ms tick.
+
+Model (SI inside)
+-----------------
+Pad: a lumped thermal mass ``C`` (J/K) on the cold/hot face of a Peltier module, whose other face
+sits on a heat sink (lumped, ``C_hs``, cooled to the room through ``G_hs``). With ``i`` the module
+current (positive heats the pad), Seebeck coefficient ``a`` (V/K), electrical resistance ``R_e``
+and thermal conductance ``K``::
+
+    Q_pad = a i T_pad[K] + i² R_e / 2 + K (T_hs - T_pad) + q_finger
+    Q_hs  = -a i T_hs[K] + i² R_e / 2 + K (T_pad - T_hs) + G_hs (T_room - T_hs)
+
+Contact sensor: a thin-film thermometer on the pad, first-order lag ``tau_sensor`` plus white
+noise, digitised to 0.001 °C. Controller (device firmware), every ``dt_control``:
+feed-forward of the setpoint's derivative (the device knows the next profile sample) and of the
+modelled leak to the heat sink, a proportional term, and a disturbance observer that estimates
+the unmodelled heat flow (mostly the finger) from the measured temperature change; the desired
+heat flow is turned into a current by inverting the Peltier equation with the firmware's
+(deliberately imperfect, ±5 %) model, then clamped to ``±i_max``.
+
+Finger (playback): the skin slab of :mod:`stimuli` (0 < x < L, inner boundary held at the skin
+temperature, uniform initially) discretised in 24 finite volumes refined towards the surface and
+advanced exactly over each tick (matrix exponential, input held); its surface exchanges heat with
+the pad through the finger–pad contact resistance (``stimuli.contact_resistance`` of a 0.4 µm
+copper face) while touching, and with room air (10 W/m²K) otherwise, over the paper's 135 mm².
+
+Passive sample (record): ``stimuli.Contact(...).interface_temperature`` (exact), material side for
+the contact sensor glued on the sample, skin side for the finger, from the first touch.
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy.linalg import expm
+
+__all__ = ["PadParams", "PadPlant", "FingerSkin", "PassiveSample", "CONTACT_AREA_M2",
+           "finger_pad_resistance"]
+
+#: Contact area of the fingertip, m² (paper: 2 N on 135 mm²).
+CONTACT_AREA_M2 = 135e-6
+#: Heat transfer coefficient of the finger to room air, W/(m² K).
+H_AIR = 10.0
+KELVIN = 273.15
+
+
+@dataclass(frozen=True)
+class PadParams:
+    """Parameters of the emulated pad, module, heat sink and sensors (SI, °C)."""
+
+    capacity: float = 0.8            # J/K, pad + half the module
+    conductance: float = 0.4         # W/K, module, pad to heat sink
+    seebeck: float = 0.025           # V/K, module
+    resistance: float = 1.5          # ohm, module
+    i_max: float = 3.0               # A
+    hs_capacity: float = 60.0        # J/K
+    hs_conductance: float = 2.0      # W/K, heat sink to room (fan)
+    room: float = 20.0               # °C
+    tau_sensor: float = 0.003        # s
+    noise_sensor: float = 0.003      # °C rms
+    noise_force: float = 0.005       # N rms per sensor
+    noise_ambient: float = 0.01      # °C rms
+    dt_control: float = 0.002        # s (500 Hz)
+    model_error: float = 0.05        # relative error of the firmware's model
+    kp: float = 60.0                 # W/K
+    tau_observer: float = 0.012      # s
+
+
+def finger_pad_resistance() -> float:
+    """Contact resistance between the finger and the pad's polished copper face, m² K/W.
+
+    ``stimuli.contact_resistance(0.4 µm, copper)`` (Eq. 5 of the paper at 2 N on 135 mm²).
+    """
+    from stimuli import Skin, contact_resistance, material
+    return float(contact_resistance(0.4e-6, skin=Skin(1.0e-3), material=material("copper")))
+
+
+@lru_cache(maxsize=64)
+def _skin_matrices(thickness, conductivity, density, specific_heat, g_surface, dt, n=24):
+    # geometric cells from the surface inwards, first cell 1.5 µm
+    first = min(1.5e-6, thickness / n)
+    lo, hi = 1.0, 2.0
+    for _ in range(80):          # ratio r with first * (r^n - 1)/(r - 1) = thickness
+        r = 0.5 * (lo + hi)
+        s = first * (r ** n - 1) / (r - 1)
+        lo, hi = (r, hi) if s < thickness else (lo, r)
+    w_surf = first * r ** np.arange(n)            # index 0 at the surface
+    w = w_surf[::-1] * thickness / w_surf.sum()   # index 0 at the inner boundary
+    xc = np.cumsum(w) - w / 2
+    cap = density * specific_heat * w
+    A = np.zeros((n, n))
+    B = np.zeros((n, 2))                          # inputs: surface reservoir, core
+    g_core = conductivity / (w[0] / 2)
+    g_surf = 1.0 / (1.0 / g_surface + w[-1] / (2 * conductivity))
+    for i in range(n - 1):
+        g = conductivity / (xc[i + 1] - xc[i])
+        A[i, i] -= g; A[i, i + 1] += g; A[i + 1, i + 1] -= g; A[i + 1, i] += g
+    A[0, 0] -= g_core; B[0, 1] = g_core
+    A[-1, -1] -= g_surf; B[-1, 0] = g_surf
+    A /= cap[:, None]; B /= cap[:, None]
+    M = np.zeros((n + 2, n + 2))
+    M[:n, :n] = A * dt; M[:n, n:] = B * dt
+    E = expm(M)
+    return E[:n, :n].copy(), E[:n, n:].copy(), xc, g_surf, w[-1]
+
+
+class FingerSkin:
+    """The finger's skin slab, advanced in fixed ticks (see module Notes).
+
+    Parameters
+    ----------
+    thickness_m : float, m
+    skin_temperature_C : float, °C
+        Uniform initial temperature and inner-boundary temperature.
+    dt : float, s
+        Tick.
+    resistance : float, m² K/W
+        Finger–pad contact resistance while touching.
+    """
+
+    def __init__(self, thickness_m, skin_temperature_C, dt, resistance, skin=None):
+        if skin is None:
+            try:
+                from stimuli import Skin
+                skin = Skin(thickness_m)
+            except ImportError:  # pragma: no cover - stimuli is part of the package
+                skin = None
+        k, rho, c = ((skin.conductivity, skin.density, skin.specific_heat) if skin is not None
+                     else (0.34, 1200.0, 3340.0))
+        self.conductivity = k
+        self.dermis = skin.dermis if skin is not None else 0.6 * thickness_m
+        self.core = float(skin_temperature_C)
+        key = (float(thickness_m), k, rho, c)
+        self._touch = _skin_matrices(*key, 1.0 / resistance, dt)
+        self._air = _skin_matrices(*key, H_AIR, dt)
+        self.T = np.full(self._touch[0].shape[0], self.core)
+        self.flux = 0.0       # W/m², skin to pad (or air), over the last tick
+
+    def step(self, touching: bool, outside_C: float) -> float:
+        """Advance one tick with the pad (or air) at ``outside_C``; return the heat flux into it, W/m²."""
+        Ad, Bd, _, g_surf, _ = self._touch if touching else self._air
+        T0 = self.T
+        self.T = Ad @ T0 + Bd[:, 0] * outside_C + Bd[:, 1] * self.core
+        # average surface flux over the tick (trapezoid on the surface node)
+        self.flux = g_surf * (0.5 * (T0[-1] + self.T[-1]) - outside_C)
+        return self.flux
+
+    def surface_C(self, touching: bool) -> float:
+        """Temperature of the skin surface, °C."""
+        _, _, _, g_surf, w = self._touch if touching else self._air
+        return float(self.T[-1] - self.flux * w / (2 * self.conductivity))
+
+    def temperature_at(self, depth_from_inner_m: float) -> float:
+        """Temperature at ``x`` from the inner boundary (linear between cell centres), °C."""
+        xc = self._touch[2]
+        return float(np.interp(depth_from_inner_m, xc, self.T))
+
+
+class PassiveSample:
+    """A sample at rest on the display (record mode): interface temperatures from :mod:`stimuli`.
+
+    Parameters
+    ----------
+    material : str
+        A name from ``stimuli.MATERIALS``.
+    roughness_m, thickness_m : float, m
+    temperature_C : float, °C
+    """
+
+    def __init__(self, material="stainless_steel", roughness_m=1.6e-6, thickness_m=3e-3,
+                 temperature_C=20.0):
+        self.material = str(material)
+        self.roughness_m = float(roughness_m)
+        self.thickness_m = None if thickness_m is None else float(thickness_m)
+        self.temperature_C = float(temperature_C)
+
+    def curves(self, skin_thickness_m, skin_temperature_C, dt, n):
+        """``(material_side_C, skin_side_C)`` at ``t = k dt``, k = 0..n-1, from first touch."""
+        return _interface_curves(self.material, self.roughness_m, self.thickness_m,
+                                 self.temperature_C, round(float(skin_thickness_m), 9),
+                                 round(float(skin_temperature_C), 3), dt, n)
+
+
+@lru_cache(maxsize=256)
+def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n):
+    from stimuli import Contact, Skin, contact_resistance, material
+    skin = Skin(skin_th)
+    m = material(mat, thickness=thickness)
+    R = contact_resistance(roughness, skin=skin, material=m)
+    c = Contact(skin, m, resistance=R, skin_temperature=t_skin, material_temperature=t_mat)
+    t = np.arange(n) * dt
+    tm = np.asarray(c.interface_temperature(t, side="material"), dtype=float)
+    ts = np.asarray(c.interface_temperature(t, side="skin"), dtype=float)
+    tm.setflags(write=False); ts.setflags(write=False)
+    return tm, ts
+
+
+class PadPlant:
+    """Pad, module, heat sink, contact sensor and the firmware's controller.
+
+    ``step(setpoint, next_setpoint, load_W, enabled)`` advances one tick and returns the contact
+    sensor reading; the fields ``pad``, ``hs``, ``sensor``, ``current`` hold the state.
+    Fault hooks: ``stuck_current`` (A, a driver stuck on), ``sensor_override`` (°C or None),
+    ``sensor_frozen`` (bool).
+    """
+
+    def __init__(self, params: PadParams, tick: float, start_C: float, seed: int = 0):
+        self.p = params
+        self.tick = tick
+        self.n_sub = max(1, int(round(tick / params.dt_control)))
+        self.dtc = tick / self.n_sub
+        self.rng = random.Random(seed)
+        self.pad = float(start_C)
+        self.hs = params.room + 0.5
+        self.sensor_state = self.pad
+        self.sensor = self.pad
+        self.current = 0.0
+        self.d_hat = 0.0
+        self._y_prev = self.pad
+        self._q_prev = 0.0
+        self.stuck_current = None
+        self.sensor_override = None
+        self.sensor_frozen = False
+        self.same_count = 0
+        e = params.model_error
+        self._c_hat = params.capacity * (1 + e)
+        self._k_hat = params.conductance * (1 - e)
+        self._a_hat = params.seebeck * (1 - e)
+        self._r_hat = params.resistance * (1 + e)
+
+    def step(self, sp0: float, sp1: float, load_W: float, enabled: bool) -> float:
+        """Advance one tick: setpoint moving linearly from ``sp0`` to ``sp1``; return the reading."""
+        p = self.p
+        dtc, n = self.dtc, self.n_sub
+        C, K, a, Re = p.capacity, p.conductance, p.seebeck, p.resistance
+        ch, kh, ah, rh = self._c_hat, self._k_hat, self._a_hat, self._r_hat
+        kp, imax = p.kp, p.i_max
+        g_obs = dtc / p.tau_observer
+        lag = 1.0 - math.exp(-dtc / p.tau_sensor)
+        gauss = self.rng.gauss
+        noise = p.noise_sensor
+        pad, hs, s_state, y_prev, q_prev, d_hat = (self.pad, self.hs, self.sensor_state,
+                                                   self._y_prev, self._q_prev, self.d_hat)
+        override, frozen, stuck = self.sensor_override, self.sensor_frozen, self.stuck_current
+        dsp = (sp1 - sp0) / n
+        y = self.sensor
+        i = 0.0
+        for k in range(n):
+            # sensor
+            s_state += lag * (pad - s_state)
+            if override is not None:
+                y_new = override
+            elif frozen:
+                y_new = y
+            else:
+                y_new = round(s_state + noise * gauss(0.0, 1.0), 3)
+            self.same_count = self.same_count + 1 if y_new == y else 0
+            y = y_new
+            r = sp0 + dsp * k
+            if enabled:
+                # disturbance observer: measured minus modelled heat flow
+                d_meas = ch * (y - y_prev) / dtc - q_prev - kh * (hs - y_prev)
+                d_hat += g_obs * (d_meas - d_hat)
+                q_des = ch * dsp / dtc + kh * (r - hs) + kp * (r - y) - d_hat
+                # invert  rh/2 i^2 + ah T i + kh (hs - y) = q_des  for the root nearest 0
+                aT = ah * (y + KELVIN)
+                disc = aT * aT + 2.0 * rh * (q_des - kh * (hs - y))
+                i = (-aT + math.sqrt(disc)) / rh if disc > 0 else -aT / rh
+                i = imax if i > imax else -imax if i < -imax else i
+                q_prev = ah * (y + KELVIN) * i + 0.5 * rh * i * i
+            else:
+                i = 0.0
+                q_prev = 0.0
+                d_hat = 0.0
+            y_prev = y
+            if stuck is not None:
+                i = stuck
+            joule = 0.5 * Re * i * i
+            q_pad = a * i * (pad + KELVIN) + joule + K * (hs - pad) + load_W
+            q_hs = -a * i * (hs + KELVIN) + joule + K * (pad - hs) + p.hs_conductance * (p.room - hs)
+            pad += dtc * q_pad / C
+            hs += dtc * q_hs / p.hs_capacity
+        self.pad, self.hs, self.sensor_state, self._y_prev, self._q_prev, self.d_hat = (
+            pad, hs, s_state, y_prev, q_prev, d_hat)
+        self.sensor = y
+        self.current = i
+        return y

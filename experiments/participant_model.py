@@ -1,0 +1,531 @@
+"""A simulated participant: skin physics at the thermoreceptors plus a Thurstonian decision rule.
+
+Pure model, no I/O. A :class:`SimulatedPerson` has a fingertip skin (total thickness ``L``,
+dermis ``d``; receptors at depth ``d`` from the inner boundary, i.e. under an epidermis of
+``L - d``), an initial skin temperature, and perceptual noise. On each trial it *feels* the
+receptor temperature the physics predicts:
+
+* real trial: its own skin in contact with the steel sample through the contact resistance of
+  the sample's roughness against its own skin (:class:`stimuli.Contact`, Eq. 5 resistance);
+* simulated trial: the surface temperature the display actually produced imposed on its own
+  skin (:func:`stimuli.skin_response`).
+
+From the receptor trace it extracts a few features (:data:`FEATURE_NAMES`), perceives them
+with Gaussian noise, learns one template per roughness class from the familiarisation trials,
+and answers with the class of maximum Gaussian likelihood (a Thurstonian / signal-detection
+observer), with an optional lapse rate. Nothing about the paper's Figure 9 is built in: the
+pattern of correct answers follows from the physics and the noise parameters below.
+
+The sample is a 3 mm steel slab with an insulated back (the paper's samples are 3 mm thick,
+§3.1), not a half-space; :class:`PerceptionParameters` has ``sample_thickness_m=None`` for a
+half-space.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+__all__ = [
+    "FEATURE_NAMES",
+    "PerceptionParameters",
+    "SimulatedPerson",
+    "draw_person",
+    "receptor_features",
+    "predicted_cell_probabilities",
+    "GROUP_THICKNESS_UM",
+    "PAPER_ROUGHNESS_UM",
+]
+
+_SD_FLOOR = 1e-6
+
+#: The paper's groups (§3.2): skin thickness ranges, µm.
+GROUP_THICKNESS_UM = {"A": (600.0, 750.0), "B": (900.0, 1200.0)}
+#: Skin temperature the protocol's target profiles are computed for, °C
+#: (``roughness_recognition.toml``, ``[simulation] skin_temperature_C``).
+TARGET_SKIN_TEMPERATURE_C = 35.5
+#: Table 3: the four samples 1#..4#, Ra in µm.
+PAPER_ROUGHNESS_UM = (1.6, 12.5, 50.0, 100.0)
+
+
+@dataclass(frozen=True)
+class PerceptionParameters:
+    """Every parameter of the simulated observer (SI except where the name says otherwise).
+
+    Parameters
+    ----------
+    drop_times_s : tuple of float, s
+        Times after contact at which the receptor temperature drop ``T0 - T_rec(t)`` is a
+        feature ("a few seconds" and "the end" of the judged contact).
+    rate_window_s : float, s
+        The peak rate of fall of the receptor temperature, ``max(-dT_rec/dt)`` over
+        ``(0, rate_window_s]``, is a feature (the initial rate of cooling).
+    drop_noise_C : float, K
+        Additive sensory noise (standard deviation) on each drop feature.
+    rate_noise_C_per_s : float, K/s
+        Additive sensory noise on the rate feature.
+    weber_fraction : float
+        Multiplicative noise: each feature's noise standard deviation grows by
+        ``weber_fraction * |feature|`` (Weber-like).
+    lapse_rate : float
+        Probability of answering at random (uniform over the four classes) on a test trial.
+    skin_temperature_sd_C : float, K
+        Trial-to-trial variation of the skin temperature after rewarming (around the person's
+        initial skin temperature).
+    sample_thickness_m : float or None, m
+        Steel sample thickness (insulated back); None for a half-space.
+    material_temperature_C : float, °C
+        Sample temperature when none is given by the trial (the paper's room: 20 °C).
+    rt_median_s, rt_log_sd : float
+        Response time after withdrawal: log-normal with this median (s) and log-sd.
+    sample_rate_Hz : float, Hz
+        Time step of the receptor trace the features are computed on.
+
+    Notes
+    -----
+    The defaults are stated, not fitted to the paper's Figure 9: drop noise 0.3 K is of the
+    order of fingertip cold-detection thresholds for fast changes (a few tenths of a kelvin),
+    Weber fraction 0.1 is a typical discrimination fraction for intensive continua, and a
+    2 % lapse rate is the usual allowance for inattention.
+    """
+
+    drop_times_s: tuple[float, ...] = (1.0, 3.0, 8.0)
+    rate_window_s: float = 3.0
+    drop_noise_C: float = 0.3
+    rate_noise_C_per_s: float = 0.3
+    weber_fraction: float = 0.10
+    lapse_rate: float = 0.02
+    skin_temperature_sd_C: float = 0.1
+    sample_thickness_m: float | None = 3e-3
+    material_temperature_C: float = 20.0
+    rt_median_s: float = 1.5
+    rt_log_sd: float = 0.35
+    sample_rate_Hz: float = 100.0
+
+    def __post_init__(self):
+        times = tuple(float(t) for t in self.drop_times_s)
+        if not times or any(not math.isfinite(t) or t <= 0 for t in times):
+            raise ValueError(f"PerceptionParameters: drop_times_s: expected positive times in s, "
+                             f"got {self.drop_times_s!r}")
+        object.__setattr__(self, "drop_times_s", times)
+        positive = ("rate_window_s", "rt_median_s", "sample_rate_Hz")
+        nonneg = ("drop_noise_C", "rate_noise_C_per_s", "weber_fraction", "skin_temperature_sd_C",
+                  "rt_log_sd")
+        for name in positive + nonneg:
+            value = getattr(self, name)
+            ok = isinstance(value, (int, float)) and math.isfinite(value) and \
+                (value > 0 if name in positive else value >= 0)
+            if not ok:
+                what = "a number > 0" if name in positive else "a number >= 0"
+                raise ValueError(f"PerceptionParameters: {name}: expected {what}, got {value!r}")
+        if not (0.0 <= self.lapse_rate <= 1.0):
+            raise ValueError(f"PerceptionParameters: lapse_rate: expected a probability in "
+                             f"[0, 1], got {self.lapse_rate!r}")
+        if self.sample_thickness_m is not None and not self.sample_thickness_m > 0:
+            raise ValueError(f"PerceptionParameters: sample_thickness_m: expected > 0 m or None, "
+                             f"got {self.sample_thickness_m!r}")
+
+    @property
+    def duration_s(self) -> float:
+        """Contact time the features need, s."""
+        return max(max(self.drop_times_s), self.rate_window_s)
+
+    def noise_sd(self, features: np.ndarray) -> np.ndarray:
+        """Noise standard deviation of each feature (last axis), K or K/s."""
+        features = np.asarray(features, dtype=float)
+        absolute = np.array([self.drop_noise_C] * len(self.drop_times_s) + [self.rate_noise_C_per_s])
+        # A floor keeps a noise-free observer's likelihoods finite (nearest template wins).
+        return np.maximum(absolute + self.weber_fraction * np.abs(features), _SD_FLOOR)
+
+    def to_dict(self) -> dict:
+        """JSON-ready parameters."""
+        d = asdict(self)
+        d["drop_times_s"] = list(self.drop_times_s)
+        return d
+
+
+def feature_names(params: PerceptionParameters) -> tuple[str, ...]:
+    """Names of the features for ``params`` (drop at each time, then the peak rate)."""
+    return tuple(f"drop_{t:g}s_C" for t in params.drop_times_s) + ("peak_rate_C_per_s",)
+
+
+#: Feature names for the default parameters.
+FEATURE_NAMES = feature_names(PerceptionParameters())
+
+
+def receptor_features(t, receptor_C, initial_C, params: PerceptionParameters) -> np.ndarray:
+    """Features of one receptor-temperature trace.
+
+    Parameters
+    ----------
+    t : array_like, s
+        Increasing times after contact (the trace at ``t = 0`` is taken as ``initial_C`` if
+        ``t`` does not start at 0).
+    receptor_C : array_like, °C
+        Receptor temperature at ``t``.
+    initial_C : float, °C
+        Skin temperature before contact.
+    params : PerceptionParameters
+
+    Returns
+    -------
+    ndarray
+        ``[drop at each of params.drop_times_s (K), peak rate of fall over the rate window
+        (K/s)]``; a trace shorter than a drop time holds its last value.
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(receptor_C, dtype=float)
+    if t.ndim != 1 or t.shape != y.shape or t.size < 2:
+        raise ValueError(f"receptor_features: expected matching 1-D t and receptor_C with >= 2 "
+                         f"points, got shapes {t.shape} and {y.shape}")
+    if t[0] > 0:
+        t = np.concatenate(([0.0], t))
+        y = np.concatenate(([initial_C], y))
+    drops = initial_C - np.interp(params.drop_times_s, t, y)
+    window = (t > 0) & (t <= params.rate_window_s)
+    rate = -np.diff(y) / np.diff(t)
+    in_window = window[1:]
+    peak = float(np.max(rate[in_window])) if np.any(in_window) else 0.0
+    return np.concatenate((drops, [peak]))
+
+
+@dataclass
+class SimulatedPerson:
+    """One simulated participant.
+
+    Parameters
+    ----------
+    skin_thickness_m : float, m
+        Total fingertip skin thickness ``L``.
+    dermis_fraction : float
+        ``d / L``; the receptors lie at depth ``d`` (under an epidermis ``L - d``).
+    skin_temperature_C : float, °C
+        Skin temperature when touching (after rewarming).
+    params : PerceptionParameters
+    templates : dict
+        Learned class templates: roughness_id -> (sum of percepts, count). Filled by
+        :meth:`learn`.
+    """
+
+    skin_thickness_m: float
+    dermis_fraction: float = 0.6
+    skin_temperature_C: float = 35.75
+    params: PerceptionParameters = field(default_factory=PerceptionParameters)
+    templates: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if not (isinstance(self.skin_thickness_m, (int, float)) and 0 < self.skin_thickness_m < 5e-3):
+            raise ValueError(f"SimulatedPerson: skin_thickness_m: expected a thickness in "
+                             f"(0, 5e-3) m, got {self.skin_thickness_m!r}")
+        if not 0 < self.dermis_fraction < 1:
+            raise ValueError(f"SimulatedPerson: dermis_fraction: expected a share in (0, 1), "
+                             f"got {self.dermis_fraction!r}")
+        self._real_cache: dict = {}
+
+    # -- physics ---------------------------------------------------------------------------
+    @property
+    def skin(self):
+        """The person's :class:`stimuli.Skin`."""
+        from stimuli import Skin
+        return Skin(self.skin_thickness_m, dermis=self.dermis_fraction * self.skin_thickness_m)
+
+    def time_grid(self, duration_s: float | None = None) -> np.ndarray:
+        """Uniform times 0, dt, ..., duration (s) at ``params.sample_rate_Hz``."""
+        duration = self.params.duration_s if duration_s is None else float(duration_s)
+        n = int(round(duration * self.params.sample_rate_Hz))
+        return np.arange(n + 1) / self.params.sample_rate_Hz
+
+    def feel_real(self, roughness_m: float, *, material: str = "stainless_steel",
+                  sample_thickness_m: float | None | str = "default",
+                  material_temperature_C: float | None = None,
+                  skin_temperature_C: float | None = None):
+        """Receptor temperature on touching a real sample.
+
+        Parameters
+        ----------
+        roughness_m : float, m
+            The sample's Ra.
+        material : str
+            A :func:`stimuli.material` name.
+        sample_thickness_m : float or None, m
+            Default ``params.sample_thickness_m``; None is a half-space.
+        material_temperature_C, skin_temperature_C : float, °C
+            Default ``params.material_temperature_C`` and the person's skin temperature.
+
+        Returns
+        -------
+        t : ndarray, s
+        receptor_C : ndarray, °C
+        """
+        from stimuli import Contact, contact_resistance
+        from stimuli import material as make_material
+        thickness = self.params.sample_thickness_m if sample_thickness_m == "default" \
+            else sample_thickness_m
+        t_m = self.params.material_temperature_C if material_temperature_C is None \
+            else float(material_temperature_C)
+        t_s = self.skin_temperature_C if skin_temperature_C is None else float(skin_temperature_C)
+        key = (float(roughness_m), material, thickness)
+        t = self.time_grid()
+        if key not in self._real_cache:
+            # The solution is linear in (T_S0 - T_M0): compute theta once per sample, scale after.
+            skin = self.skin
+            steel = make_material(material, thickness=thickness)
+            resistance = contact_resistance(roughness=float(roughness_m), skin=skin, material=steel)
+            contact = Contact(skin, steel, resistance=resistance, skin_temperature=1.0,
+                              material_temperature=0.0)
+            theta = np.asarray(contact.receptor_temperature(t[1:]), dtype=float)
+            self._real_cache[key] = np.concatenate(([1.0], theta))
+        theta = self._real_cache[key]
+        return t, t_m + theta * (t_s - t_m)
+
+    def feel_imposed(self, t, surface_C, skin_temperature_C: float | None = None):
+        """Receptor temperature when a display imposes ``surface_C`` on the skin surface.
+
+        Parameters
+        ----------
+        t : array_like, s
+            Times after contact of the surface samples (need not be uniform; resampled).
+        surface_C : array_like, °C
+            The surface temperature the display produced (its contact sensor).
+        skin_temperature_C : float, °C
+            Skin temperature before contact (default: the person's).
+
+        Returns
+        -------
+        t : ndarray, s
+            Uniform times from 0 up to ``min(params.duration_s, t[-1])``.
+        receptor_C : ndarray, °C
+        """
+        from stimuli import skin_response
+        t_in = np.asarray(t, dtype=float)
+        g_in = np.asarray(surface_C, dtype=float)
+        ok = np.isfinite(t_in) & np.isfinite(g_in)
+        t_in, g_in = t_in[ok], g_in[ok]
+        if t_in.size < 2:
+            raise ValueError(f"feel_imposed: expected a surface trace of >= 2 finite samples, "
+                             f"got {t_in.size}")
+        t_in = t_in - t_in[0]
+        t_s = self.skin_temperature_C if skin_temperature_C is None else float(skin_temperature_C)
+        grid = self.time_grid(min(self.params.duration_s, float(t_in[-1])))
+        surface = np.interp(grid, t_in, g_in)
+        skin = self.skin
+        receptor = skin_response(skin, grid, surface, initial_temperature=t_s, depth=skin.dermis)
+        return grid, np.asarray(receptor, dtype=float)
+
+    def features(self, t, receptor_C, skin_temperature_C: float | None = None) -> np.ndarray:
+        """Noise-free features of a receptor trace (see :func:`receptor_features`)."""
+        t_s = self.skin_temperature_C if skin_temperature_C is None else float(skin_temperature_C)
+        return receptor_features(t, receptor_C, t_s, self.params)
+
+    # -- perception and decision -------------------------------------------------------------
+    def perceive(self, features, rng: np.random.Generator) -> np.ndarray:
+        """Noisy percept: ``features + N(0, noise_sd(features)^2)``, independent per feature."""
+        features = np.asarray(features, dtype=float)
+        return features + rng.standard_normal(features.shape) * self.params.noise_sd(features)
+
+    def learn(self, roughness_id: int, percept) -> None:
+        """Add a familiarisation percept to the template of ``roughness_id``."""
+        total, count = self.templates.get(int(roughness_id), (0.0, 0))
+        self.templates[int(roughness_id)] = (total + np.asarray(percept, dtype=float), count + 1)
+
+    def template_means(self) -> dict[int, np.ndarray]:
+        """roughness_id -> mean learned percept."""
+        return {k: total / count for k, (total, count) in sorted(self.templates.items())}
+
+    def log_likelihoods(self, percept) -> dict[int, float]:
+        """Gaussian log-likelihood of ``percept`` under each learned template.
+
+        The observer knows its own noise: class ``c`` predicts ``N(m_c, s_c^2 (1 + 1/n_c))``
+        per feature, with ``m_c`` the template mean of ``n_c`` percepts and
+        ``s_c = params.noise_sd(m_c)`` (the ``1/n_c`` term is the template's own uncertainty).
+        """
+        percept = np.asarray(percept, dtype=float)
+        out = {}
+        for rid, (total, count) in sorted(self.templates.items()):
+            mean = total / count
+            var = self.params.noise_sd(mean) ** 2 * (1.0 + 1.0 / count)
+            out[rid] = float(-0.5 * np.sum((percept - mean) ** 2 / var + np.log(2 * np.pi * var)))
+        return out
+
+    def decide(self, percept, rng: np.random.Generator, choices=(1, 2, 3, 4)) -> int:
+        """The answer to a test trial: maximum likelihood class, or a lapse (uniform guess).
+
+        With no templates at all, every answer is a guess.
+        """
+        if not self.templates or rng.random() < self.params.lapse_rate:
+            return int(rng.choice(choices))
+        ll = self.log_likelihoods(percept)
+        return int(max(ll, key=ll.get))
+
+    def response_time(self, rng: np.random.Generator) -> float:
+        """A response time, s (log-normal)."""
+        return float(self.params.rt_median_s * math.exp(self.params.rt_log_sd * rng.standard_normal()))
+
+    def trial_skin_temperature(self, rng: np.random.Generator) -> float:
+        """The skin temperature on one trial after rewarming, °C."""
+        return float(self.skin_temperature_C + self.params.skin_temperature_sd_C * rng.standard_normal())
+
+    def describe(self) -> dict:
+        """JSON-ready description (SI plus the unit-suffixed user fields)."""
+        return {"skin_thickness_um": self.skin_thickness_m * 1e6,
+                "dermis_um": self.dermis_fraction * self.skin_thickness_m * 1e6,
+                "dermis_fraction": self.dermis_fraction,
+                "skin_temperature_C": self.skin_temperature_C,
+                "parameters": self.params.to_dict()}
+
+
+def draw_person(group: str | None = None, rng: np.random.Generator | int | None = None, *,
+                thickness_um: tuple[float, float] | None = None,
+                dermis_fraction: tuple[float, float] = (0.55, 0.65),
+                skin_temperature_C: tuple[float, float] = (35.5, 36.0),
+                params: PerceptionParameters | None = None) -> SimulatedPerson:
+    """Draw a person uniformly within the ranges (the group's thickness range by default).
+
+    Parameters
+    ----------
+    group : {"A", "B"}, optional
+        Use :data:`GROUP_THICKNESS_UM` for the thickness range.
+    rng : Generator or int
+    thickness_um : (low, high), µm
+        Overrides the group's range.
+    dermis_fraction : (low, high)
+    skin_temperature_C : (low, high), °C
+        The paper's 35.5–36 °C.
+    params : PerceptionParameters
+    """
+    rng = np.random.default_rng(rng)
+    if thickness_um is None:
+        if group not in GROUP_THICKNESS_UM:
+            raise ValueError(f"draw_person: group: expected one of {sorted(GROUP_THICKNESS_UM)}, "
+                             f"got {group!r}")
+        thickness_um = GROUP_THICKNESS_UM[group]
+    return SimulatedPerson(skin_thickness_m=float(rng.uniform(*thickness_um)) * 1e-6,
+                           dermis_fraction=float(rng.uniform(*dermis_fraction)),
+                           skin_temperature_C=float(rng.uniform(*skin_temperature_C)),
+                           params=params or PerceptionParameters())
+
+
+def _person_features(person: SimulatedPerson, mode: str, roughness_um, target_thickness_um: float,
+                     target_options: dict) -> np.ndarray:
+    """Noise-free features, one row per roughness, for ``mode`` "real" or "simulated"."""
+    rows = []
+    for ra in roughness_um:
+        if mode == "real":
+            t, rec = person.feel_real(ra * 1e-6)
+        elif mode == "simulated":
+            from stimuli import Skin, target_profile
+            opts = {"material": "stainless_steel",
+                    "skin_temperature": TARGET_SKIN_TEMPERATURE_C,
+                    "material_temperature": person.params.material_temperature_C,
+                    "duration": person.params.duration_s,
+                    "rate": person.params.sample_rate_Hz, **target_options}
+            prof = target_profile(roughness=ra * 1e-6, skin=Skin(target_thickness_um * 1e-6), **opts)
+            t, rec = person.feel_imposed(prof.times, prof.temperature)
+        else:
+            raise ValueError(f"predicted_cell_probabilities: modes: expected 'real' or "
+                             f"'simulated', got {mode!r}")
+        rows.append(person.features(t, rec))
+    return np.array(rows)
+
+
+def _monte_carlo_correct(params: PerceptionParameters, fam: np.ndarray, test: np.ndarray,
+                         familiarise_reps: int, n_reps: int, rng: np.random.Generator) -> np.ndarray:
+    """P(correct) per class for one person: ``n_reps`` replicates of familiarisation + test.
+
+    ``fam`` and ``test`` are (classes, features) noise-free features. Vectorised version of
+    :meth:`SimulatedPerson.learn`, :meth:`~SimulatedPerson.perceive` and
+    :meth:`~SimulatedPerson.decide` (same model, same noise).
+    """
+    n_cls, n_feat = fam.shape
+    sd_fam = params.noise_sd(fam)
+    draws = fam + rng.standard_normal((n_reps, familiarise_reps, n_cls, n_feat)) * sd_fam
+    templates = draws.mean(axis=1)                                   # (R, C, F)
+    var = params.noise_sd(templates) ** 2 * (1.0 + 1.0 / familiarise_reps)
+    percepts = test + rng.standard_normal((n_reps, n_cls, n_feat)) * params.noise_sd(test)
+    diff = percepts[:, :, None, :] - templates[:, None, :, :]         # (R, true, template, F)
+    ll = -0.5 * np.sum(diff ** 2 / var[:, None] + np.log(2 * np.pi * var[:, None]), axis=-1)
+    choice = np.argmax(ll, axis=-1)                                  # (R, true)
+    lapse = rng.random((n_reps, n_cls)) < params.lapse_rate
+    choice = np.where(lapse, rng.integers(0, n_cls, (n_reps, n_cls)), choice)
+    return (choice == np.arange(n_cls)).mean(axis=0)
+
+
+def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "simulated"),
+                                 roughness_um=PAPER_ROUGHNESS_UM, n_people: int = 15,
+                                 n_reps: int = 400, familiarise_reps: int = 1,
+                                 familiarise_mode: str = "real",
+                                 target_thickness_um: dict | None = None,
+                                 target_options: dict | None = None,
+                                 params: PerceptionParameters | None = None,
+                                 seed: int = 0):
+    """Probability of a correct answer per group x mode x roughness, by Monte Carlo.
+
+    For each group, ``n_people`` persons are drawn (:func:`draw_person`); for each, the
+    noise-free features of every sample are computed from the physics (real: contact through
+    Eq. 5's resistance; simulated: the group's target profile imposed on the person's skin,
+    i.e. a display that tracks perfectly); then ``n_reps`` replicates of familiarisation
+    (``familiarise_reps`` presentations per sample, in ``familiarise_mode``) and one test
+    presentation per sample give the person's probabilities, averaged over persons.
+
+    Parameters
+    ----------
+    groups : dict, optional
+        group -> (low, high) skin thickness, µm. Default :data:`GROUP_THICKNESS_UM`.
+    modes : sequence of {"real", "simulated"}
+    roughness_um : sequence of float, µm
+        The samples, roughness_id 1, 2, ... in this order.
+    n_people, n_reps, familiarise_reps : int
+    familiarise_mode : {"real", "simulated"}
+        What the familiarisation presentations are.
+    target_thickness_um : dict, optional
+        group -> skin thickness the simulated profiles are computed for, µm. Default
+        650 µm for A and 1000 µm for B (§3.2), else the middle of the group's range.
+    target_options : dict, optional
+        Keyword arguments for :func:`stimuli.target_profile` overriding the defaults
+        (steel, skin at :data:`TARGET_SKIN_TEMPERATURE_C`, material at
+        ``params.material_temperature_C``, ``params.duration_s`` at ``params.sample_rate_Hz``),
+        e.g. ``sample_thickness`` or ``method``.
+    params : PerceptionParameters
+    seed : int
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns group, mode, roughness_id, roughness_um, p_correct, se (Monte Carlo standard
+        error over persons), n_people.
+
+    Notes
+    -----
+    The trial-to-trial skin temperature jitter (``skin_temperature_sd_C``, 0.1 K against a
+    ~15 K skin-sample difference) is left out of the prediction.
+    """
+    import pandas as pd
+
+    groups = dict(GROUP_THICKNESS_UM if groups is None else groups)
+    params = params or PerceptionParameters()
+    defaults = {"A": 650.0, "B": 1000.0}
+    target_thickness_um = dict(target_thickness_um or {})
+    for g, (lo, hi) in groups.items():
+        target_thickness_um.setdefault(g, defaults.get(g, 0.5 * (lo + hi)))
+    target_options = dict(target_options or {})
+    rng = np.random.default_rng(seed)
+    needed = set(modes) | {familiarise_mode}
+    rows = []
+    for g, rng_um in groups.items():
+        per_person = {m: [] for m in modes}
+        for _ in range(int(n_people)):
+            person = draw_person(thickness_um=rng_um, rng=rng, params=params)
+            feats = {m: _person_features(person, m, roughness_um, target_thickness_um[g],
+                                         target_options) for m in needed}
+            for m in modes:
+                per_person[m].append(_monte_carlo_correct(params, feats[familiarise_mode], feats[m],
+                                                          int(familiarise_reps), int(n_reps), rng))
+        for m in modes:
+            p = np.array(per_person[m])                                # (people, classes)
+            for i, ra in enumerate(roughness_um):
+                se = p[:, i].std(ddof=1) / math.sqrt(len(p)) if len(p) > 1 else float("nan")
+                rows.append({"group": g, "mode": m, "roughness_id": i + 1, "roughness_um": float(ra),
+                             "p_correct": float(p[:, i].mean()), "se": float(se),
+                             "n_people": len(p)})
+    return pd.DataFrame(rows)

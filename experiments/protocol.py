@@ -1,0 +1,681 @@
+"""Experiment protocols: TOML files validated into typed, frozen objects.
+
+A protocol says everything a session needs that is not about the participant: the samples,
+the room and skin temperatures, the display's safe range, the contact settings, the group
+rule, how simulated profiles are computed and the blocks of trials.  The paper's two
+experiments ship in ``experiments/protocols/`` (``interface_temperature``,
+``roughness_recognition``); ``load_protocol("roughness_recognition")`` finds them by name.
+
+Validation is strict: a wrong type, an out-of-range value, a missing key or an unknown key
+raises :class:`experiments.errors.ProtocolError` with one line naming the file and the
+field, e.g. ``"roughness_recognition.toml: blocks[1].repetitions: expected an integer ≥ 1,
+got 'three'"``.  Block indices are 0-based, as in the TOML array.
+
+The protocol's :attr:`Protocol.hash` is the SHA-256 of the parsed content in canonical JSON
+(sorted keys, no whitespace), so comments and layout do not change it, and
+``parse_protocol(protocol.data)`` (e.g. from ``session.json``) gives the same hash.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+from experiments.errors import ProtocolError
+from participants_schema import GroupRule
+
+__all__ = [
+    "PROTOCOLS_DIR",
+    "Protocol",
+    "Sample",
+    "Environment",
+    "SampleMaterial",
+    "DisplaySettings",
+    "ContactSettings",
+    "Simulation",
+    "Block",
+    "load_protocol",
+    "parse_protocol",
+    "protocol_names",
+    "canonical_hash",
+]
+
+#: Folder of the packaged protocols.
+PROTOCOLS_DIR = Path(__file__).with_name("protocols")
+
+MODES = ("real", "simulated")
+ORDERS = ("random", "by_repetition", "fixed")
+BLOCK_ORDERS = ("fixed", "counterbalanced", "random")
+SIM_THICKNESS = ("group", "participant")
+SIM_METHODS = ("exact", "paper", "paper-as-printed", "numerical")
+_MISSING = object()
+
+
+# --------------------------------------------------------------------------- typed parts
+@dataclass(frozen=True)
+class Sample:
+    """A physical sample (or the roughness class a simulated trial stands for).
+
+    Attributes
+    ----------
+    id : int
+        Number used in responses and logs (``roughness_id``; 1..4 for 1#-4#).
+    label : str
+        What the experimenter and participant see, e.g. ``"2#"``.
+    roughness_um : float, µm
+        Ra of the surface.
+    """
+
+    id: int
+    label: str
+    roughness_um: float
+
+    @property
+    def roughness_m(self) -> float:
+        """Ra in metres."""
+        return self.roughness_um * 1e-6
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Room and skin conditions (°C)."""
+
+    room_temperature_C: float
+    skin_temperature_min_C: float
+    skin_temperature_max_C: float
+    measure_skin_temperature: bool = True
+
+
+@dataclass(frozen=True)
+class SampleMaterial:
+    """The samples' material (a name in ``stimuli.MATERIALS``) and thickness (mm)."""
+
+    name: str
+    thickness_mm: float | None = None
+
+    @property
+    def thickness_m(self) -> float | None:
+        """Thickness in metres (None: a half-space)."""
+        return None if self.thickness_mm is None else self.thickness_mm * 1e-3
+
+
+@dataclass(frozen=True)
+class DisplaySettings:
+    """The Peltier display's safe range, rate limit and neutral setpoint.
+
+    Field names match ``experiments.hardware.SafetyLimits``:
+    ``SafetyLimits(**dataclasses.asdict(protocol.display))``.
+    """
+
+    min_C: float
+    max_C: float
+    max_rate_C_per_s: float
+    neutral_C: float
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """How a touch is detected and how long it lasts.
+
+    Attributes
+    ----------
+    force_threshold_N : float, N
+        Contact starts when the force reaches this.
+    max_contact_s : float, s
+        Longest contact per trial.
+    record_s : float, s
+        Length of the recorded contact trace (≤ ``max_contact_s``).
+    trial_timeout_s : float, s
+        No contact within this time: the attempt is aborted.
+    rewarm_s : float, s
+        Rewarming interval between trials (hand on the hot-water bag).
+    """
+
+    force_threshold_N: float
+    max_contact_s: float
+    record_s: float
+    trial_timeout_s: float
+    rewarm_s: float
+
+
+@dataclass(frozen=True)
+class Simulation:
+    """How the target profiles of simulated trials are computed.
+
+    Attributes
+    ----------
+    skin_thickness : {"group", "participant"}
+        ``"group"``: the group's mean thickness (the paper: 650 µm A, 1000 µm B);
+        ``"participant"``: the participant's own ``skin_thickness.total_um``.
+    group_skin_thickness_um : dict of str to float, µm
+    dermis_fraction : float
+        d / L, depth of the thermoreceptors as a fraction of the skin thickness.
+    skin_temperature_C, material_temperature_C : float, °C
+    duration_s : float, s
+    rate_Hz : float, Hz
+    resolution_C : float, °C
+    method : str
+        ``stimuli`` method name.
+    """
+
+    skin_thickness: str
+    group_skin_thickness_um: Mapping[str, float]
+    dermis_fraction: float
+    skin_temperature_C: float
+    material_temperature_C: float
+    duration_s: float
+    rate_Hz: float
+    resolution_C: float
+    method: str
+
+    def skin_thickness_for(self, group: str, participant_thickness_um: float | None = None) -> float:
+        """The skin thickness (µm) to simulate for a participant of ``group``."""
+        if self.skin_thickness == "participant":
+            if participant_thickness_um is None:
+                raise ValueError("simulation.skin_thickness is 'participant' but no thickness was given")
+            return float(participant_thickness_um)
+        try:
+            return float(self.group_skin_thickness_um[group])
+        except KeyError:
+            raise ValueError(f"simulation.group_skin_thickness_um: expected a value for group "
+                             f"{group!r}, got none") from None
+
+
+@dataclass(frozen=True)
+class Block:
+    """A block of trials.
+
+    Attributes
+    ----------
+    name : str
+        Unique; the ``block`` column of the trials table (``"familiarise"`` is excluded
+        from the analysis).
+    mode : {"real", "simulated"}
+    repetitions : int
+        Presentations of each sample.
+    order : {"random", "by_repetition", "fixed"}
+        ``random``: all presentations shuffled together; ``by_repetition``: each repetition
+        is a shuffled pass over the samples; ``fixed``: samples in listed order, repeated.
+    samples : tuple of int
+        Sample ids used (default all, in the protocol's order).
+    scored : bool
+        Counted in the analysis (default: same as ``response``).
+    feedback : bool
+        The participant is told the sample's label (familiarisation).
+    response : bool
+        A response (1..n) is asked for.
+    no_immediate_repeats : bool
+        With a shuffled order, the same sample never comes twice in a row.
+    instructions : str
+    """
+
+    name: str
+    mode: str
+    repetitions: int
+    order: str
+    samples: tuple[int, ...]
+    scored: bool = True
+    feedback: bool = False
+    response: bool = True
+    no_immediate_repeats: bool = False
+    instructions: str = ""
+
+    @property
+    def n_trials(self) -> int:
+        """Trials in the block."""
+        return len(self.samples) * self.repetitions
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """A validated protocol.
+
+    Attributes
+    ----------
+    name, title, description : str
+    experiment : int
+        The paper's experiment number (informative).
+    version : int
+    samples : tuple of Sample
+    environment : Environment
+    material : SampleMaterial
+    contact : ContactSettings
+    display : DisplaySettings
+    grouping : participants_schema.GroupRule or None
+    simulation : Simulation or None
+        Required when a block is simulated.
+    block_order : {"fixed", "counterbalanced", "random"}
+        How scored blocks are ordered per participant (unscored blocks keep their place).
+    blocks : tuple of Block
+    hash : str
+        SHA-256 hex of the canonical JSON of :attr:`data`.
+    path : Path or None
+        The file it was read from.
+    data : dict
+        The parsed content (JSON-ready); store it in session.json and rebuild with
+        :func:`parse_protocol`.  Treat as read-only.
+    """
+
+    name: str
+    title: str
+    description: str
+    experiment: int
+    version: int
+    samples: tuple[Sample, ...]
+    environment: Environment
+    material: SampleMaterial
+    contact: ContactSettings
+    display: DisplaySettings
+    grouping: GroupRule | None
+    simulation: Simulation | None
+    block_order: str
+    blocks: tuple[Block, ...]
+    hash: str
+    path: Path | None
+    data: dict
+
+    def sample(self, sample_id: int) -> Sample:
+        """The sample with this id (KeyError if none)."""
+        for s in self.samples:
+            if s.id == sample_id:
+                return s
+        raise KeyError(sample_id)
+
+    def block(self, name: str) -> Block:
+        """The block with this name (KeyError if none)."""
+        for b in self.blocks:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    @property
+    def n_trials(self) -> int:
+        """Trials in a whole session."""
+        return sum(b.n_trials for b in self.blocks)
+
+
+# --------------------------------------------------------------------------- validation
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+class _Table:
+    """One TOML table being read: typed getters, then :meth:`done` rejects unknown keys."""
+
+    def __init__(self, source: str, data: Any, field: str):
+        self.source, self.field = source, field
+        if not isinstance(data, Mapping):
+            self._fail(field, "a table", data)
+        self.data = data
+        self.used: list[str] = []
+
+    def _name(self, key: str) -> str:
+        return f"{self.field}.{key}" if self.field else key
+
+    def _fail(self, field: str, what: str, value: Any = _MISSING):
+        got = "nothing (the key is required)" if value is _MISSING else repr(value)
+        raise ProtocolError(f"{self.source}: {field}: expected {what}, got {got}")
+
+    def fail(self, key: str, what: str, value: Any = _MISSING):
+        self._fail(self._name(key), what, value)
+
+    def _get(self, key: str, default: Any, what: str) -> Any:
+        self.used.append(key)
+        if key in self.data:
+            return self.data[key]
+        if default is _MISSING:
+            self._missing(key, what)
+        return default
+
+    def _missing(self, key: str, what: str):
+        import difflib
+
+        near = difflib.get_close_matches(key, [k for k in self.data if isinstance(k, str)], n=1, cutoff=0.75)
+        if near:
+            self._fail(self._name(key), what, _Note(f"nothing (the key is required; is {near[0]!r} a misspelling?)"))
+        self.fail(key, what)
+
+    def number(self, key, default=_MISSING, *, gt=None, ge=None, le=None, lt=None) -> float | None:
+        bounds = []
+        if gt is not None:
+            bounds.append(f"> {_fmt(gt)}")
+        if ge is not None:
+            bounds.append(f"≥ {_fmt(ge)}")
+        if lt is not None:
+            bounds.append(f"< {_fmt(lt)}")
+        if le is not None:
+            bounds.append(f"≤ {_fmt(le)}")
+        what = "a number" + (" " + " and ".join(bounds) if bounds else "")
+        v = self._get(key, default, what)
+        if v is None and default is None and key not in self.data:
+            return None
+        if not _is_number(v) or (gt is not None and not v > gt) or (ge is not None and not v >= ge) \
+                or (lt is not None and not v < lt) or (le is not None and not v <= le):
+            self.fail(key, what, v)
+        return float(v)
+
+    def integer(self, key, default=_MISSING, *, ge=None) -> int:
+        what = "an integer" + (f" ≥ {ge}" if ge is not None else "")
+        v = self._get(key, default, what)
+        if isinstance(v, bool) or not isinstance(v, int) or (ge is not None and v < ge):
+            self.fail(key, what, v)
+        return v
+
+    def string(self, key, default=_MISSING, *, choices=None, nonempty=True) -> str:
+        what = ("one of " + ", ".join(repr(c) for c in choices)) if choices else \
+            ("a non-empty string" if nonempty else "a string")
+        v = self._get(key, default, what)
+        if not isinstance(v, str) or (choices and v not in choices) or (nonempty and not v.strip()):
+            self.fail(key, what, v)
+        return v
+
+    def boolean(self, key, default=_MISSING) -> bool:
+        v = self._get(key, default, "true or false")
+        if not isinstance(v, bool):
+            self.fail(key, "true or false", v)
+        return v
+
+    def table(self, key, required=True) -> "_Table | None":
+        self.used.append(key)
+        if key not in self.data:
+            if required:
+                self._missing(key, "a table")
+            return None
+        return _Table(self.source, self.data[key], self._name(key))
+
+    def tables(self, key) -> list["_Table"]:
+        self.used.append(key)
+        v = self.data.get(key, _MISSING)
+        if v is _MISSING:
+            self._missing(key, "an array of tables ([[" + key + "]])")
+        if not isinstance(v, list) or not v:
+            self.fail(key, "a non-empty array of tables ([[" + key + "]])", v)
+        return [_Table(self.source, item, f"{self._name(key)}[{i}]") for i, item in enumerate(v)]
+
+    def done(self):
+        unknown = [k for k in self.data if k not in self.used]
+        if unknown:
+            known = ", ".join(sorted(set(self.used)))
+            self._fail(self._name(unknown[0]), f"one of the known keys ({known})",
+                       _Unknown(unknown[0]))
+
+
+class _Note(str):
+    def __repr__(self):
+        return str(self)
+
+
+class _Unknown(str):
+    def __repr__(self):
+        return f"an unknown key {str.__repr__(self)}"
+
+
+def _read_samples(top: _Table) -> tuple[Sample, ...]:
+    out, ids, labels = [], set(), set()
+    for t in top.tables("samples"):
+        sid = t.integer("id", ge=0)
+        label = t.string("label", str(sid))
+        r = t.number("roughness_um", gt=0)
+        t.done()
+        if sid in ids:
+            t.fail("id", "an id not used by another sample", sid)
+        if label in labels:
+            t.fail("label", "a label not used by another sample", label)
+        ids.add(sid)
+        labels.add(label)
+        out.append(Sample(sid, label, r))
+    return tuple(out)
+
+
+def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
+    ids = [s.id for s in samples]
+    out, names = [], set()
+    for t in top.tables("blocks"):
+        name = t.string("name")
+        if name in names:
+            t.fail("name", "a name not used by another block", name)
+        names.add(name)
+        mode = t.string("mode", choices=MODES)
+        reps = t.integer("repetitions", ge=1)
+        order = t.string("order", "random", choices=ORDERS)
+        chosen = t._get("samples", list(ids), "a list of sample ids")
+        if not isinstance(chosen, list) or not chosen or any(
+                isinstance(c, bool) or not isinstance(c, int) for c in chosen):
+            t.fail("samples", "a non-empty list of sample ids", chosen)
+        for c in chosen:
+            if c not in ids:
+                t.fail("samples", f"ids of listed samples ({', '.join(map(str, ids))})", c)
+        if len(set(chosen)) != len(chosen):
+            t.fail("samples", "each sample id once", chosen)
+        response = t.boolean("response", True)
+        scored = t.boolean("scored", response)
+        if scored and not response:
+            t.fail("scored", "false when response = false", scored)
+        feedback = t.boolean("feedback", False)
+        nir = t.boolean("no_immediate_repeats", False)
+        if nir and len(chosen) < 2 and reps > 1:
+            t.fail("no_immediate_repeats", "false with a single sample", nir)
+        instructions = t.string("instructions", "", nonempty=False)
+        t.done()
+        out.append(Block(name, mode, reps, order, tuple(chosen), scored, feedback, response,
+                         nir, instructions))
+    return tuple(out)
+
+
+def _build(source: str, data: Any, path: Path | None) -> Protocol:
+    top = _Table(source, data, "")
+    p = top.table("protocol")
+    name = p.string("name")
+    title = p.string("title", name)
+    description = p.string("description", "", nonempty=False).strip()
+    experiment = p.integer("experiment", 0, ge=0)
+    version = p.integer("version", 1, ge=1)
+    p.done()
+
+    e = top.table("environment")
+    env = Environment(
+        room_temperature_C=e.number("room_temperature_C", ge=-10, le=50),
+        skin_temperature_min_C=e.number("skin_temperature_min_C", ge=20, le=42),
+        skin_temperature_max_C=e.number("skin_temperature_max_C", ge=20, le=42),
+        measure_skin_temperature=e.boolean("measure_skin_temperature", True),
+    )
+    if env.skin_temperature_max_C < env.skin_temperature_min_C:
+        e.fail("skin_temperature_max_C",
+               f"a number ≥ skin_temperature_min_C ({_fmt(env.skin_temperature_min_C)})",
+               env.skin_temperature_max_C)
+    e.done()
+
+    m = top.table("material")
+    mat = SampleMaterial(m.string("name"), m.number("thickness_mm", None, gt=0))
+    m.done()
+
+    samples = _read_samples(top)
+
+    c = top.table("contact")
+    contact = ContactSettings(
+        force_threshold_N=c.number("force_threshold_N", gt=0, le=50),
+        max_contact_s=c.number("max_contact_s", gt=0, le=600),
+        record_s=c.number("record_s", gt=0, le=600),
+        trial_timeout_s=c.number("trial_timeout_s", gt=0),
+        rewarm_s=c.number("rewarm_s", ge=0),
+    )
+    if contact.record_s > contact.max_contact_s:
+        c.fail("record_s", f"a number ≤ max_contact_s ({_fmt(contact.max_contact_s)})", contact.record_s)
+    c.done()
+
+    d = top.table("display")
+    display = DisplaySettings(
+        min_C=d.number("min_C", ge=0, le=60),
+        max_C=d.number("max_C", ge=0, le=60),
+        max_rate_C_per_s=d.number("max_rate_C_per_s", gt=0, le=100),
+        neutral_C=d.number("neutral_C", ge=0, le=60),
+    )
+    if not display.max_C > display.min_C:
+        d.fail("max_C", f"a number > min_C ({_fmt(display.min_C)})", display.max_C)
+    if not display.min_C <= display.neutral_C <= display.max_C:
+        d.fail("neutral_C", f"a number from min_C to max_C ({_fmt(display.min_C)}-{_fmt(display.max_C)})",
+               display.neutral_C)
+    d.done()
+
+    grouping = None
+    g = top.table("grouping", required=False)
+    if g is not None:
+        below = g.string("below", "A")
+        above = g.string("above", "B")
+        if above == below:
+            g.fail("above", "a group name different from below", above)
+        grouping = GroupRule(threshold_um=g.number("threshold_um", gt=0),
+                             margin_um=g.number("margin_um", 50.0, ge=0), below=below, above=above)
+        g.done()
+
+    simulation = None
+    s = top.table("simulation", required=False)
+    if s is not None:
+        how = s.string("skin_thickness", "group", choices=SIM_THICKNESS)
+        gst = s.table("group_skin_thickness_um", required=(how == "group"))
+        per_group = {}
+        if gst is not None:
+            for key in list(gst.data):
+                per_group[key] = gst.number(key, gt=0)
+            gst.done()
+        if how == "group":
+            if grouping is None:
+                s.fail("skin_thickness", "'participant' when the protocol has no [grouping]", how)
+            for grp in (grouping.below, grouping.above):
+                if grp not in per_group:
+                    gst.fail(grp, "the group's skin thickness in µm, a number > 0")
+        simulation = Simulation(
+            skin_thickness=how,
+            group_skin_thickness_um=per_group,
+            dermis_fraction=s.number("dermis_fraction", 0.6, gt=0, lt=1),
+            skin_temperature_C=s.number("skin_temperature_C", ge=20, le=42),
+            material_temperature_C=s.number("material_temperature_C", ge=-10, le=60),
+            duration_s=s.number("duration_s", gt=0, le=600),
+            rate_Hz=s.number("rate_Hz", 100.0, gt=0, le=10000),
+            resolution_C=s.number("resolution_C", 0.01, gt=0, le=1),
+            method=s.string("method", "exact", choices=SIM_METHODS),
+        )
+        s.done()
+
+    sch = top.table("schedule", required=False)
+    block_order = "fixed"
+    if sch is not None:
+        block_order = sch.string("block_order", "fixed", choices=BLOCK_ORDERS)
+        sch.done()
+
+    blocks = _read_blocks(top, samples)
+    if simulation is None:
+        for i, b in enumerate(blocks):
+            if b.mode == "simulated":
+                raise ProtocolError(f"{source}: simulation: expected a [simulation] table because "
+                                    f"blocks[{i}] is simulated, got nothing")
+    top.done()
+
+    canonical = _canonical(data)
+    return Protocol(name=name, title=title, description=description, experiment=experiment,
+                    version=version, samples=samples, environment=env, material=mat,
+                    contact=contact, display=display, grouping=grouping, simulation=simulation,
+                    block_order=block_order, blocks=blocks,
+                    hash=hashlib.sha256(canonical).hexdigest(), path=path,
+                    data=copy.deepcopy(dict(data)))
+
+
+def _canonical(data: Any) -> bytes:
+    return json.dumps(data, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                      allow_nan=False).encode("utf-8")
+
+
+def canonical_hash(data: Mapping[str, Any]) -> str:
+    """SHA-256 hex of ``data`` in canonical JSON (sorted keys, no whitespace, UTF-8)."""
+    return hashlib.sha256(_canonical(data)).hexdigest()
+
+
+# --------------------------------------------------------------------------- entry points
+def protocol_names() -> list[str]:
+    """Names of the packaged protocols (``experiments/protocols/*.toml``)."""
+    return sorted(p.stem for p in PROTOCOLS_DIR.glob("*.toml"))
+
+
+def _resolve(path_or_name: str | Path) -> tuple[Path, str]:
+    p = Path(path_or_name)
+    if p.is_file():
+        return p, str(path_or_name)
+    text = str(path_or_name)
+    if isinstance(path_or_name, str) and "/" not in text and "\\" not in text and not text.endswith(".toml"):
+        packaged = PROTOCOLS_DIR / f"{text}.toml"
+        if packaged.is_file():
+            return packaged, packaged.name
+    raise ProtocolError(f"{text}: expected a protocol file or one of the packaged protocols "
+                        f"({', '.join(protocol_names())}), got no such file")
+
+
+def load_protocol(path_or_name: str | Path) -> Protocol:
+    """Read and validate a protocol.
+
+    Parameters
+    ----------
+    path_or_name : str or Path
+        A TOML file, or the bare name of a packaged protocol
+        (``"roughness_recognition"``, ``"interface_temperature"``).
+
+    Returns
+    -------
+    Protocol
+
+    Raises
+    ------
+    ProtocolError
+        One line naming the file and the field, for a missing file, a TOML syntax error,
+        a missing, unknown, mistyped or out-of-range key.
+
+    Examples
+    --------
+    >>> p = load_protocol("roughness_recognition")
+    >>> [s.label for s in p.samples], [b.name for b in p.blocks]
+    (['1#', '2#', '3#', '4#'], ['familiarise', 'real', 'simulated'])
+    >>> p.simulation.skin_thickness_for("A"), p.grouping.threshold_um
+    (650.0, 800.0)
+    """
+    path, source = _resolve(path_or_name)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ProtocolError(f"{source}: expected valid TOML, got {exc}") from None
+    except OSError as exc:
+        raise ProtocolError(f"{source}: expected a readable file, got {exc.strerror}") from None
+    return _build(source, data, path)
+
+
+def parse_protocol(data: Mapping[str, Any], source: str = "<protocol>", path: Path | None = None) -> Protocol:
+    """Validate an already-parsed protocol (e.g. ``session.json``'s copy).
+
+    Parameters
+    ----------
+    data : dict
+        The content of a protocol file, as :attr:`Protocol.data`.
+    source : str
+        Name used in error messages.
+    path : Path, optional
+        Recorded as :attr:`Protocol.path`.
+
+    Returns
+    -------
+    Protocol
+        With the same :attr:`~Protocol.hash` as the file ``data`` came from.
+    """
+    return _build(source, data, path)

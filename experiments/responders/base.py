@@ -1,0 +1,240 @@
+"""The responder interface: who answers a trial (a person at a window or console, or a model).
+
+A responder is chosen by name (``--responder psychopy|console|simulated``). Subclasses register
+themselves by name when they are defined, in the manner of PsychoPy's
+``BaseDevice.__init_subclass__``::
+
+    class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
+        ...
+
+:func:`get_responder` looks a name up, importing the module that defines it on first use, so
+that neither PsychoPy nor the participant model is imported unless asked for.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from experiments.errors import UserInputError
+
+__all__ = [
+    "Response",
+    "TrialStimulus",
+    "Responder",
+    "ResponderClosed",
+    "get_responder",
+    "responder_names",
+    "RESPONSE_IDS",
+]
+
+#: The answers a participant may give: the four roughness classes 1#..4#.
+RESPONSE_IDS = (1, 2, 3, 4)
+
+#: Responder name -> module of this package that defines it (imported on demand).
+_KNOWN_MODULES = {
+    "console": "console",
+    "psychopy": "psychopy_window",
+    "window": "psychopy_window",
+    "simulated": "simulated",
+}
+
+_REGISTRY: dict[str, type["Responder"]] = {}
+
+
+class ResponderClosed(Exception):
+    """The responder can give no more answers (end of input, window closed, escape key).
+
+    The session treats it like an interruption: display neutral, log closed, resumable.
+    """
+
+
+@dataclass(frozen=True)
+class Response:
+    """One answer to one trial.
+
+    Parameters
+    ----------
+    response_id : int
+        The roughness class named, 1..4.
+    rt_s : float, s
+        Response time, from the response prompt to the answer.
+    source : str
+        What produced it (``"keyboard"``, ``"console"``, ``"simulated"``, ...).
+    """
+
+    response_id: int
+    rt_s: float
+    source: str = "unknown"
+
+    def __post_init__(self):
+        if isinstance(self.response_id, bool) or not isinstance(self.response_id, (int, np.integer)) \
+                or int(self.response_id) not in RESPONSE_IDS:
+            raise ValueError(f"Response: response_id: expected one of {RESPONSE_IDS}, "
+                             f"got {self.response_id!r}")
+        object.__setattr__(self, "response_id", int(self.response_id))
+        rt = float(self.rt_s)
+        if not math.isfinite(rt) or rt < 0:
+            raise ValueError(f"Response: rt_s: expected a finite time >= 0 s, got {self.rt_s!r}")
+        object.__setattr__(self, "rt_s", rt)
+
+    def __repr__(self) -> str:
+        return f"Response(response_id={self.response_id}, rt_s={self.rt_s:.4f}, source={self.source!r})"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {"response_id": self.response_id, "rt_s": self.rt_s, "source": self.source}
+
+
+@dataclass(frozen=True)
+class TrialStimulus:
+    """What the participant was given on one trial, as recorded.
+
+    Parameters
+    ----------
+    mode : str
+        ``"real"``, ``"simulated"`` or ``"familiarise"``.
+    roughness_id : int
+        The sample's class, 1..4.
+    roughness_um : float, µm
+        The sample's roughness Ra.
+    time_s, target_C, contact_C : ndarray, s / °C
+        The recorded trace from contact on (empty if the trial faulted before contact).
+    forces_N : ndarray, N
+        Shape ``(n, 4)``, the four force sensors.
+    profile_parameters : dict or None
+        The target profile's parameters (simulated trials).
+    sample : dict or None
+        The physical sample placed (real trials).
+    status : str
+        The recording's status, ``"ok"``, ``"fault"`` or ``"aborted"``.
+    """
+
+    mode: str
+    roughness_id: int
+    roughness_um: float
+    time_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    target_C: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    contact_C: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    forces_N: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    profile_parameters: dict | None = None
+    sample: dict | None = None
+    status: str = "ok"
+
+
+class Responder:
+    """Base class of responders; subclass with ``name=`` (and optional ``aliases=``) to register.
+
+    The session calls, in order: :meth:`begin_session`; per trial :meth:`show_text` (progress),
+    :meth:`prompt_experimenter` (real trials), :meth:`cue`, :meth:`touch`, :meth:`respond`,
+    :meth:`rewarm`; finally :meth:`end_session` (also after an interruption).
+    """
+
+    #: The registered name (set by ``__init_subclass__``).
+    name: ClassVar[str] = ""
+    #: Whether answers come from a person (the session then shows instructions and waits).
+    human: ClassVar[bool] = True
+
+    def __init_subclass__(cls, name: str | None = None, aliases: tuple[str, ...] = (), **kwargs):
+        super().__init_subclass__(**kwargs)
+        if name is None:
+            return
+        cls.name = name
+        for key in (name, *aliases):
+            old = _REGISTRY.get(key)
+            if old is not None and old is not cls and \
+                    (old.__module__, old.__qualname__) != (cls.__module__, cls.__qualname__):
+                raise TypeError(f"responder name {key!r} already registered by {old.__qualname__}")
+            _REGISTRY[key] = cls
+
+    def __init__(self, **options):
+        if options:
+            raise UserInputError(f"responder {self.name!r}: unknown option(s) {sorted(options)}")
+        self.session = None
+
+    # -- life cycle -----------------------------------------------------------------------
+    def begin_session(self, session) -> None:
+        """Called once before the first trial; ``session`` is the running :class:`Session`."""
+        self.session = session
+
+    def end_session(self) -> None:
+        """Called once at the end (normal or interrupted); release windows, devices."""
+
+    # -- experimenter and participant -------------------------------------------------------
+    def show_text(self, text: str) -> None:
+        """Show instructions or progress (no waiting)."""
+
+    def progress(self, text: str) -> None:
+        """Show the experimenter's progress line (trial n of N, block, elapsed)."""
+
+    def prompt_experimenter(self, text: str) -> None:
+        """Show ``text`` to the experimenter and block until they confirm."""
+
+    def cue(self) -> bool:
+        """Play the sound cue; return False (and log it) if no audio is available."""
+        self.log("cue_unavailable", reason="responder has no audio")
+        return False
+
+    def touch(self, trial, display) -> None:
+        """Before the trial starts: a model scripts the emulator's finger; a person does nothing.
+
+        Against the emulator (capability ``"sim"``) the default stands in for the person's
+        hand so that a session can be tried from the window or the console: it places the
+        trial's sample (real trials) and presses the emulated finger
+        (:meth:`experiments.session.Session.emulated_touch`).
+        """
+        if self.session is not None and "sim" in _capabilities(display):
+            self.session.emulated_touch(trial, display)
+
+    def respond(self, trial, stimulus: TrialStimulus) -> Response:
+        """Collect the answer to ``trial`` (1..4) and its response time."""
+        raise NotImplementedError
+
+    def rewarm(self, seconds: float) -> None:
+        """Inter-trial rewarming of the finger for ``seconds`` s (no wait on a virtual clock)."""
+        if seconds > 0:
+            self.show_text(f"Rewarm your finger on the hot-water bag ({seconds:.0f} s)")
+            self.sleep(seconds)
+
+    # -- helpers for subclasses ----------------------------------------------------------
+    def log(self, kind: str, **fields) -> None:
+        """Append an event to the session's log (no-op outside a session)."""
+        if self.session is not None:
+            self.session.log_event(kind, **fields)
+
+    def sleep(self, seconds: float) -> None:
+        """Wait ``seconds`` s on the session's clock (returns at once on a virtual clock)."""
+        if self.session is not None:
+            self.session.clock.sleep(seconds)
+        else:
+            time.sleep(max(0.0, seconds))
+
+
+def _capabilities(display) -> tuple:
+    info = getattr(display, "info", None)
+    return tuple(getattr(info, "capabilities", ()) or ())
+
+
+def responder_names() -> list[str]:
+    """Names :func:`get_responder` accepts."""
+    return sorted(set(_KNOWN_MODULES) | set(_REGISTRY))
+
+
+def get_responder(name: str, **options) -> Responder:
+    """Make the responder registered as ``name``, importing its module on first use.
+
+    Raises
+    ------
+    UserInputError
+        Unknown name or option.
+    """
+    if name not in _REGISTRY and name in _KNOWN_MODULES:
+        importlib.import_module(f"{__package__}.{_KNOWN_MODULES[name]}")
+    cls = _REGISTRY.get(name)
+    if cls is None:
+        raise UserInputError(f"--responder: expected one of {responder_names()}, got {name!r}")
+    return cls(**options)

@@ -1,0 +1,75 @@
+"""A responder on the terminal: prompts on stdout, answers 1-4 typed on stdin."""
+from __future__ import annotations
+
+import sys
+import time
+
+from experiments.responders.base import RESPONSE_IDS, Responder, ResponderClosed, Response
+
+__all__ = ["ConsoleResponder"]
+
+
+class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
+    """Prompts on ``stdout``; reads the experimenter's confirmations and the answers on ``stdin``.
+
+    Parameters
+    ----------
+    stdin, stdout : file-like, optional
+        Default ``sys.stdin`` and ``sys.stdout`` (read at call time, so pytest's capture works).
+    bell : bool
+        Whether :meth:`cue` writes the terminal bell (it is the only cue a terminal has).
+
+    Notes
+    -----
+    ``rt_s`` runs from the response prompt to the line being read; terminal line buffering
+    makes it coarse (the Enter key ends the answer).
+    """
+
+    def __init__(self, stdin=None, stdout=None, bell: bool = True):
+        super().__init__()
+        self._stdin = stdin
+        self._stdout = stdout
+        self.bell = bool(bell)
+
+    @property
+    def stdin(self):
+        return self._stdin if self._stdin is not None else sys.stdin
+
+    @property
+    def stdout(self):
+        return self._stdout if self._stdout is not None else sys.stdout
+
+    def _print(self, text: str, end: str = "\n") -> None:
+        self.stdout.write(text + end)
+        self.stdout.flush()
+
+    def _readline(self, what: str) -> str:
+        line = self.stdin.readline()
+        if line == "":
+            raise ResponderClosed(f"stdin: expected {what}, got end of input")
+        return line.strip()
+
+    def show_text(self, text: str) -> None:
+        self._print(text)
+
+    def prompt_experimenter(self, text: str) -> None:
+        self._print(f"[experimenter] {text} -- press Enter when ready")
+        self._readline("Enter")
+
+    def cue(self) -> bool:
+        if self.bell:
+            self.stdout.write("\a")
+            self.stdout.flush()
+        self._print(">>> Touch now")
+        return self.bell
+
+    def respond(self, trial, stimulus) -> Response:
+        choices = ", ".join(str(i) for i in RESPONSE_IDS)
+        t0 = time.perf_counter()
+        while True:
+            self._print(f"Which roughness ({choices})? ", end="")
+            text = self._readline(f"an answer {choices}")
+            rt = time.perf_counter() - t0
+            if text in {str(i) for i in RESPONSE_IDS}:
+                return Response(int(text), rt, source="console")
+            self._print(f"expected one of {choices}, got {text!r}; try again")

@@ -1,0 +1,288 @@
+"""The simulated participant as a responder: ``--responder simulated``.
+
+It wraps :class:`experiments.participant_model.SimulatedPerson`: before each trial it scripts the
+emulator's finger (its own skin thickness and temperature, a ~2 N press) and, on real trials,
+places the trial's sample on the emulator; after the trial it feels what the physics says at its
+receptors (real trials: its skin on the sample through the contact resistance; simulated trials:
+the display's recorded contact temperature imposed on its skin), learns templates on
+familiarisation trials and answers test trials by the model's decision rule.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+
+import numpy as np
+
+from experiments.errors import UserInputError
+from experiments.participant_model import PerceptionParameters, SimulatedPerson
+from experiments.responders.base import RESPONSE_IDS, Responder, Response
+
+__all__ = ["SimulatedResponder"]
+
+_PARAM_FIELDS = {f.name: f for f in dataclasses.fields(PerceptionParameters)}
+
+
+def _number(name: str, value, kind=float):
+    """Coerce an option given as text (from the command line) to a number, or fail clearly."""
+    try:
+        out = kind(value)
+    except (TypeError, ValueError):
+        raise UserInputError(f"responder 'simulated': {name}: expected a number, got {value!r}") \
+            from None
+    if isinstance(out, float) and not math.isfinite(out):
+        raise UserInputError(f"responder 'simulated': {name}: expected a finite number, got {value!r}")
+    return out
+
+
+def _stable_seed(text: str) -> int:
+    return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "little")
+
+
+class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
+    """A simulated participant answering from the skin physics plus a Thurstonian observer.
+
+    Parameters
+    ----------
+    seed : int, optional
+        Seed of the person's randomness; default derived from the participant id. Each trial's
+        randomness is drawn from ``(seed, trial_index)``, so answers do not depend on the order
+        of calls or on resuming.
+    skin_thickness_um : float, µm, optional
+        Default: the participant record's ``skin_thickness.total_um``.
+    dermis_fraction : float, optional
+        Default: the record's ``dermis_um / total_um`` if given, else 0.6.
+    skin_temperature_C : float, °C, optional
+        Default: the record's ``initial_skin_temperature_C``, else 35.75 °C.
+    press_after_s, force_N : float, s / N
+        The scripted finger: when it presses after being armed, and how hard (2 N, §3.2).
+    hold_s : float, s, optional
+        How long the finger stays on (default: the model's feature window + 0.5 s).
+    **perception
+        Any field of :class:`~experiments.participant_model.PerceptionParameters`
+        (``drop_noise_C``, ``weber_fraction``, ``lapse_rate``, ...).
+    """
+
+    human = False
+
+    def __init__(self, seed=None, skin_thickness_um=None, dermis_fraction=None,
+                 skin_temperature_C=None, press_after_s=0.3, force_N=2.0, hold_s=None,
+                 **perception):
+        super().__init__()
+        unknown = sorted(set(perception) - set(_PARAM_FIELDS))
+        if unknown:
+            raise UserInputError(f"responder 'simulated': unknown option(s) {unknown}; expected "
+                                 f"seed, skin_thickness_um, dermis_fraction, skin_temperature_C, "
+                                 f"press_after_s, force_N, hold_s or one of {sorted(_PARAM_FIELDS)}")
+        values = {}
+        for key, value in perception.items():
+            if key == "drop_times_s" and isinstance(value, str):
+                value = tuple(_number(key, v) for v in value.split(","))
+            elif key == "sample_thickness_m" and value in (None, "none", "None", "half-space"):
+                value = None
+            elif key != "drop_times_s":
+                value = _number(key, value)
+            values[key] = value
+        try:
+            self.params = PerceptionParameters(**values)
+        except ValueError as exc:
+            raise UserInputError(f"responder 'simulated': {exc}") from None
+        self.seed = None if seed is None else _number("seed", seed, int)
+        self._overrides = {
+            "skin_thickness_um": None if skin_thickness_um is None else _number("skin_thickness_um", skin_thickness_um),
+            "dermis_fraction": None if dermis_fraction is None else _number("dermis_fraction", dermis_fraction),
+            "skin_temperature_C": None if skin_temperature_C is None else _number("skin_temperature_C", skin_temperature_C),
+        }
+        self.press_after_s = _number("press_after_s", press_after_s)
+        self.force_N = _number("force_N", force_N)
+        self.hold_s = self.params.duration_s + 0.5 if hold_s is None else _number("hold_s", hold_s)
+        self.person: SimulatedPerson | None = None
+        self._trial_state: dict[int, tuple[np.random.Generator, float]] = {}
+        self._learned: set[int] = set()
+
+    # -- set-up ----------------------------------------------------------------------------
+    def begin_session(self, session) -> None:
+        super().begin_session(session)
+        record = _participant_record(session)
+        self.person = self.make_person(record)
+        if self.seed is None:
+            self.seed = _stable_seed(str(record.get("id", "anonymous")))
+        self.log("simulated_participant", seed=self.seed, **self.person.describe())
+
+    def make_person(self, record: dict | None = None) -> SimulatedPerson:
+        """The :class:`SimulatedPerson` for a participant record and this responder's options."""
+        record = record or {}
+        st = record.get("skin_thickness", {}) or {}
+        thickness = self._overrides["skin_thickness_um"] or st.get("total_um")
+        if thickness is None:
+            raise UserInputError("responder 'simulated': skin_thickness_um: expected an option or "
+                                 "the participant record's skin_thickness.total_um, got neither")
+        fraction = self._overrides["dermis_fraction"]
+        if fraction is None:
+            fraction = st["dermis_um"] / st["total_um"] if st.get("dermis_um") and st.get("total_um") else 0.6
+        temperature = self._overrides["skin_temperature_C"] or record.get("initial_skin_temperature_C", 35.75)
+        try:
+            return SimulatedPerson(skin_thickness_m=float(thickness) * 1e-6, dermis_fraction=float(fraction),
+                                   skin_temperature_C=float(temperature), params=self.params)
+        except ValueError as exc:
+            raise UserInputError(f"responder 'simulated': {exc}") from None
+
+    def _ensure_person(self) -> SimulatedPerson:
+        if self.person is None:
+            self.person = self.make_person({})
+        if self.seed is None:
+            self.seed = 0
+        return self.person
+
+    def _trial(self, trial) -> tuple[np.random.Generator, float]:
+        """This trial's random generator and skin temperature (made once per trial index)."""
+        index = int(trial.trial_index)
+        if index not in self._trial_state:
+            person = self._ensure_person()
+            rng = np.random.default_rng([self.seed, index])
+            self._trial_state[index] = (rng, person.trial_skin_temperature(rng))
+        return self._trial_state[index]
+
+    # -- the trial -------------------------------------------------------------------------
+    def cue(self) -> bool:
+        return True   # the model "hears" the cue; nothing to play
+
+    def touch(self, trial, display) -> None:
+        """Script the emulator: the sample (real trials) and the finger."""
+        person = self._ensure_person()
+        _, skin_temperature = self._trial(trial)
+        if trial.mode != "simulated":
+            sample = _sample_for(self.session, trial, self.params)
+            display.sim_sample(material=sample["material"], roughness_m=sample["roughness_m"],
+                               thickness_m=sample["thickness_m"], temperature_C=sample["temperature_C"])
+        display.sim_finger(press_after_s=self.press_after_s, force_N=self.force_N, hold_s=self.hold_s,
+                           skin_thickness_m=person.skin_thickness_m,
+                           skin_temperature_C=skin_temperature)
+        if _is_familiarisation(trial) and trial.mode != "simulated":
+            # A real sample is felt by physics alone: learn now, whether or not the protocol
+            # asks for an answer on familiarisation trials (``response = false``).
+            from experiments.responders.base import TrialStimulus
+            self._learn(trial, TrialStimulus(mode="real", roughness_id=trial.roughness_id,
+                                             roughness_um=trial.roughness_um))
+
+    def feel(self, trial, stimulus) -> tuple[np.ndarray, np.ndarray, float]:
+        """The receptor temperature trace this trial produced: ``(t_s, receptor_C, skin_C)``."""
+        person = self._ensure_person()
+        _, skin_temperature = self._trial(trial)
+        played = stimulus.mode == "simulated" or (
+            stimulus.mode == "familiarise" and stimulus.profile_parameters is not None)
+        if played:
+            t, surface = _contact_trace(stimulus)
+            t, rec = person.feel_imposed(t, surface, skin_temperature_C=skin_temperature)
+        else:
+            sample = _sample_for(self.session, trial, self.params, stimulus.sample)
+            t, rec = person.feel_real(sample["roughness_m"], material=sample["material"],
+                                      sample_thickness_m=sample["thickness_m"],
+                                      material_temperature_C=sample["temperature_C"],
+                                      skin_temperature_C=skin_temperature)
+        return t, rec, skin_temperature
+
+    def _learn(self, trial, stimulus) -> None:
+        """Add this familiarisation trial's percept to its class template (once per trial)."""
+        index = int(trial.trial_index)
+        if index in self._learned:
+            return
+        person = self._ensure_person()
+        rng, _ = self._trial(trial)
+        t, rec, skin_temperature = self.feel(trial, stimulus)
+        person.learn(trial.roughness_id, person.perceive(person.features(t, rec, skin_temperature), rng))
+        self._learned.add(index)
+
+    def respond(self, trial, stimulus) -> Response:
+        person = self._ensure_person()
+        rng, _ = self._trial(trial)
+        rt = person.response_time(rng)
+        index = int(trial.trial_index)
+        usable = stimulus.status == "ok" and not (stimulus.mode == "simulated" and len(stimulus.time_s) < 2)
+        if _is_familiarisation(trial):
+            if usable:
+                self._learn(trial, stimulus)
+            answer = int(trial.roughness_id)
+        elif not usable:
+            answer = int(rng.choice(RESPONSE_IDS))
+        else:
+            t, rec, skin_temperature = self.feel(trial, stimulus)
+            percept = person.perceive(person.features(t, rec, skin_temperature), rng)
+            answer = person.decide(percept, rng, choices=RESPONSE_IDS)
+        self._trial_state.pop(index, None)
+        return Response(answer, rt, source="simulated")
+
+    def rewarm(self, seconds: float) -> None:
+        self.sleep(seconds)
+
+
+def _is_familiarisation(trial) -> bool:
+    return trial.mode == "familiarise" or str(getattr(trial, "block", "")).startswith("familiar")
+
+
+def _participant_record(session) -> dict:
+    for name in ("participant", "participant_record", "record"):
+        value = getattr(session, name, None)
+        if isinstance(value, dict):
+            return value
+    return {}
+
+
+def _contact_trace(stimulus) -> tuple[np.ndarray, np.ndarray]:
+    """The contact-temperature trace from contact on (times shifted to start at 0)."""
+    t = np.asarray(stimulus.time_s, dtype=float)
+    g = np.asarray(stimulus.contact_C, dtype=float)
+    if t.size and t.min() < 0:
+        keep = t >= 0
+        t, g = t[keep], g[keep]
+    if t.size:
+        t = t - t[0]
+    return t, g
+
+
+def _sample_for(session, trial, params: PerceptionParameters, sample: dict | None = None) -> dict:
+    """The physical sample of a trial: from the stimulus, else the protocol, else the defaults."""
+    sample = dict(sample or {})
+    protocol_sample = _protocol_sample(session)
+    def pick(*names, default=None):
+        for source in (sample, protocol_sample):
+            for n in names:
+                if source.get(n) is not None:
+                    return source[n]
+        return default
+    thickness = pick("thickness_m")
+    if thickness is None and pick("thickness_mm") is not None:
+        thickness = float(pick("thickness_mm")) * 1e-3
+    if thickness is None:
+        thickness = params.sample_thickness_m
+    temperature = pick("temperature_C", "material_temperature_C", "room_temperature_C",
+                       default=params.material_temperature_C)
+    roughness = pick("roughness_m")
+    if roughness is None:
+        roughness = float(trial.roughness_um) * 1e-6
+    return {"material": pick("material", default="stainless_steel"), "roughness_m": float(roughness),
+            "thickness_m": None if thickness is None else float(thickness),
+            "temperature_C": float(temperature)}
+
+
+def _protocol_sample(session) -> dict:
+    """Sample settings from the session's protocol (``[material]``, ``[environment]``), if any."""
+    protocol = getattr(session, "protocol", None)
+    data = getattr(protocol, "data", None)
+    if not isinstance(data, dict):
+        return {}
+    out = {}
+    material = data.get("material")
+    if isinstance(material, dict):
+        if material.get("name") is not None:
+            out["material"] = material["name"]
+        for key in ("thickness_m", "thickness_mm", "temperature_C"):
+            if material.get(key) is not None:
+                out[key] = material[key]
+    elif isinstance(material, str):
+        out["material"] = material
+    environment = data.get("environment")
+    if isinstance(environment, dict) and environment.get("room_temperature_C") is not None:
+        out.setdefault("temperature_C", environment["room_temperature_C"])
+    return out

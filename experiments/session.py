@@ -1,0 +1,909 @@
+"""The session engine: one participant through one protocol, every step logged, nothing lost.
+
+A session lives in ``DATA/<participant>/<session>/``:
+
+``session.json``
+    The protocol (data and hash), the participant record and group, the seed, the schedule,
+    the display URL, the responder and the package versions. Written once (atomically).
+``events.jsonl``
+    The source of truth (:class:`experiments.logbook.EventLog`, fsynced per event): every
+    state change, upload, contact, response, completed or aborted trial.
+``trials.csv``
+    Rebuilt from the events (atomically) after every trial.
+``traces/trial-NNN.csv``
+    The telemetry of each trial, streamed while it runs.
+
+Each trial is an explicit state machine (:data:`TRANSITIONS`)::
+
+    idle -> prompt -> prepare -> cue -> wait_contact -> playback | record -> respond -> write
+         -> rewarm -> idle ...                      \\-> no_contact (aborted, re-run)
+    prepare | wait_contact | playback | record -> fault -> write
+
+``prompt`` asks the experimenter to place the sample (real trials); ``prepare`` computes and
+uploads the target profile and arms the display (playback for simulated trials, record for
+real ones); ``cue`` plays the sound. A :class:`~experiments.errors.DisplayError` during a trial
+puts the display to neutral and writes the trial with status ``"fault"``; after
+``max_consecutive_faults`` the session stops cleanly (resumable). SIGINT and SIGTERM put the
+display to neutral, log the running attempt as aborted and a ``session_interrupted`` event, and
+:meth:`Session.run` returns 1. :func:`open_session` + :meth:`Session.run` resume: the first
+incomplete trial is re-run with the next attempt number, completed trials are never re-run.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import secrets
+import signal
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
+
+import numpy as np
+
+from experiments.errors import DisplayError, SessionError, UserInputError
+from experiments.responders.base import Responder, ResponderClosed, TrialStimulus
+from experiments.session_files import TraceWriter, aborted_trace_name, package_versions, trace_name
+
+__all__ = [
+    "Session",
+    "create_session",
+    "open_session",
+    "SessionInterrupted",
+    "TransitionError",
+    "StateMachine",
+    "TRANSITIONS",
+    "RealClock",
+    "VirtualClock",
+    "clock_for_url",
+    "PAUSE_ENV",
+]
+
+#: Environment variable naming test pause points, e.g. ``"playback:5"`` or
+#: ``"upload:9,after_response:3"``: on reaching one, the engine prints ``THERMOCUE_PAUSED
+#: <point> <trial_index> <attempt>`` on stderr and waits for ever (tests SIGKILL it there).
+PAUSE_ENV = "THERMOCUE_TEST_PAUSE_AT"
+PAUSE_POINTS = ("trial_started", "upload", "armed", "playback", "after_response", "after_write")
+
+#: Legal state changes of the engine (state -> states it may go to).
+TRANSITIONS: dict[str, frozenset[str]] = {
+    "idle": frozenset({"prompt", "finished", "stopped", "interrupted"}),
+    "prompt": frozenset({"prepare", "interrupted"}),
+    "prepare": frozenset({"cue", "fault", "interrupted"}),
+    "cue": frozenset({"wait_contact", "interrupted"}),
+    "wait_contact": frozenset({"playback", "record", "no_contact", "fault", "interrupted"}),
+    "playback": frozenset({"respond", "fault", "interrupted"}),
+    "record": frozenset({"respond", "fault", "interrupted"}),
+    "respond": frozenset({"write", "interrupted"}),
+    "fault": frozenset({"write", "interrupted"}),
+    "no_contact": frozenset({"rewarm", "idle", "interrupted"}),
+    "write": frozenset({"rewarm", "idle", "interrupted"}),
+    "rewarm": frozenset({"idle", "interrupted"}),
+    "finished": frozenset(),
+    "stopped": frozenset(),
+    "interrupted": frozenset(),
+}
+
+#: Telemetry states that mean "no contact yet".
+_WAITING_STATES = {"idle", "armed", "waiting", "wait_contact", "wait", "neutral", "ready"}
+
+
+class TransitionError(RuntimeError):
+    """An illegal state change (a bug in the engine, never a user error)."""
+
+
+class SessionInterrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived; ``reason`` is the signal's name."""
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
+class StateMachine:
+    """A finite-state machine over a transition table that reports every change.
+
+    Parameters
+    ----------
+    table : dict of str to set of str
+    initial : str
+    on_change : callable(old, new, **context)
+        Called after every change (the session logs a ``state`` event).
+    """
+
+    def __init__(self, table=TRANSITIONS, initial: str = "idle", on_change=None):
+        if initial not in table:
+            raise ValueError(f"state machine: initial: expected one of {sorted(table)}, got {initial!r}")
+        self.table = table
+        self.state = initial
+        self.on_change = on_change
+
+    def can(self, new: str) -> bool:
+        return new in self.table.get(self.state, ())
+
+    def go(self, new: str, **context) -> None:
+        """Change to ``new``; raises :class:`TransitionError` naming both states if illegal."""
+        if not self.can(new):
+            raise TransitionError(f"illegal session transition: {self.state!r} -> {new!r}")
+        old, self.state = self.state, new
+        if self.on_change is not None:
+            self.on_change(old, new, **context)
+
+
+class RealClock:
+    """Wall-clock waits (a lab session)."""
+
+    virtual = False
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+
+class VirtualClock:
+    """Waits that return at once and only advance :attr:`now` (simulated sessions)."""
+
+    virtual = True
+
+    def __init__(self):
+        self.now = 0.0
+
+    def sleep(self, seconds: float) -> None:
+        self.now += max(0.0, float(seconds))
+
+
+def clock_for_url(url: str, clock: str = "auto"):
+    """The session clock: ``"real"``, ``"virtual"`` or ``"auto"`` (virtual iff the display URL
+    says ``clock=virtual``, the emulator's own virtual clock)."""
+    if clock == "virtual":
+        return VirtualClock()
+    if clock == "real":
+        return RealClock()
+    if clock != "auto":
+        raise UserInputError(f"--clock: expected 'auto', 'real' or 'virtual', got {clock!r}")
+    query = parse_qs(urlsplit(url).query) if "?" in url else {}
+    return VirtualClock() if query.get("clock", [""])[-1] == "virtual" else RealClock()
+
+
+def _now_iso() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def _safe_name(text: str, what: str) -> str:
+    if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text:
+        raise UserInputError(f"{what}: expected a name usable as a folder, got {text!r}")
+    return text
+
+
+@dataclass
+class _Attempt:
+    spec: object
+    attempt: int
+    trace: Path
+    logged_end: bool = False
+
+
+class Session:
+    """A session directory and the engine that runs its trials.
+
+    Make one with :func:`create_session` (new) or :func:`open_session` (resume), then call
+    :meth:`run`.
+
+    Attributes
+    ----------
+    directory : Path
+    protocol : experiments.protocol.Protocol
+    participant : dict
+        The validated participant record.
+    assignment : participants_schema.GroupAssignment or None
+    group : str
+    seed : int
+    schedule : list of TrialSpec
+    name : str
+        The session's name (its folder).
+    display_url : str
+    clock : RealClock or VirtualClock
+    """
+
+    def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
+                 *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
+                 progress: bool = True):
+        self.directory = Path(directory)
+        self.protocol = protocol
+        self.participant = participant
+        self.group = group
+        self.assignment = assignment
+        self.seed = seed
+        self.schedule = list(schedule)
+        self.name = name
+        self.display_url = display_url
+        self.clock = clock if clock is not None else clock_for_url(display_url)
+        self.max_consecutive_faults = int(max_consecutive_faults)
+        self.out = out
+        self.show_progress = progress
+        self.log = None
+        self.responder: Responder | None = None
+        self.display = None
+        self.machine = StateMachine(on_change=self._on_state)
+        self._attempt: _Attempt | None = None
+        self._started = time.monotonic()
+        self._defer = 0
+        self._pending: str | None = None
+        self._pause_at = _parse_pause(os.environ.get(PAUSE_ENV, ""))
+        self._last_block = None
+
+    # -- paths and context ------------------------------------------------------------------
+    @property
+    def participant_id(self) -> str:
+        return str(self.participant["id"])
+
+    @property
+    def skin_thickness_um(self):
+        return (self.participant.get("skin_thickness") or {}).get("total_um")
+
+    @property
+    def n_trials(self) -> int:
+        return len(self.schedule)
+
+    @property
+    def events_path(self) -> Path:
+        return self.directory / "events.jsonl"
+
+    @property
+    def trials_path(self) -> Path:
+        return self.directory / "trials.csv"
+
+    @property
+    def traces_dir(self) -> Path:
+        return self.directory / "traces"
+
+    def _context(self) -> dict:
+        return {"session": self.name, "participant": self.participant_id, "group": self.group,
+                "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
+                "seed": self.seed, "n_trials": self.n_trials,
+                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex")}
+
+    def sample_for(self, spec) -> dict:
+        """The physical sample of a trial: material, roughness (m), thickness (m), temperature (°C)."""
+        sample = self.protocol.sample(spec.roughness_id)
+        return {"material": self.protocol.material.name, "roughness_m": sample.roughness_m,
+                "thickness_m": self.protocol.material.thickness_m,
+                "temperature_C": self.protocol.environment.room_temperature_C}
+
+    def emulated_touch(self, spec, display) -> None:
+        """Stand in for a person's hand on the emulator: place the sample, press the finger.
+
+        The finger presses 0.3 s after arming with 0.5 N more than the protocol's threshold
+        and stays for the recorded contact time, with the participant's skin thickness and
+        measured (else the protocol's mean) skin temperature.
+        """
+        contact = self.protocol.contact
+        if spec.mode != "simulated":
+            display.sim_sample(**self.sample_for(spec))
+        env = self.protocol.environment
+        skin_C = self.participant.get("initial_skin_temperature_C",
+                                      0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C))
+        thickness_um = self.skin_thickness_um or 800.0
+        display.sim_finger(press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
+                           hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
+                           skin_thickness_m=float(thickness_um) * 1e-6,
+                           skin_temperature_C=float(skin_C))
+        self.log_event("emulated_touch", trial_index=spec.trial_index, skin_temperature_C=skin_C)
+
+    # -- logging --------------------------------------------------------------------------
+    @contextmanager
+    def _critical(self):
+        """No signal interrupts a log append or a file rewrite; it is raised right after."""
+        self._defer += 1
+        try:
+            yield
+        finally:
+            self._defer -= 1
+            if self._defer == 0 and self._pending is not None:
+                reason, self._pending = self._pending, None
+                raise SessionInterrupted(reason)
+
+    def log_event(self, kind: str, **fields) -> dict | None:
+        """Append an event to ``events.jsonl`` (fsynced). Used by responders too."""
+        if self.log is None or self.log.closed:
+            return None
+        with self._critical():
+            return self.log.append(kind, **fields)
+
+    def _on_state(self, old: str, new: str, **context) -> None:
+        self.log_event("state", **{"from": old, "to": new}, **context)
+
+    def _say(self, text: str) -> None:
+        if self.show_progress:
+            print(f"thermocue: {text}", file=self.out or sys.stderr, flush=True)
+
+    def _pause(self, point: str, spec, attempt: int) -> None:
+        if (point, spec.trial_index) in self._pause_at:
+            print(f"THERMOCUE_PAUSED {point} {spec.trial_index} {attempt}", file=sys.stderr, flush=True)
+            while True:  # the test kills us here
+                time.sleep(3600)
+
+    # -- the run --------------------------------------------------------------------------
+    def run(self, responder: Responder, display=None) -> int:
+        """Run (or resume) the session to its end.
+
+        Parameters
+        ----------
+        responder : Responder
+        display : open display, optional
+            Default: opened from :attr:`display_url` with the protocol's safety limits.
+
+        Returns
+        -------
+        int
+            0 when every trial is done; 1 when interrupted or stopped after repeated faults
+            (the session can be resumed).
+        """
+        from experiments.logbook import EventLog, read_events, replay
+
+        events = []
+        if self.events_path.exists():
+            events, _report = read_events(self.events_path, warn=False)
+        progress = replay(events)
+        with EventLog(self.events_path) as log:
+            self.log = log
+            old_handlers = self._install_signals()
+            try:
+                return self._run(responder, display, progress)
+            finally:
+                self._restore_signals(old_handlers)
+                self.log = None
+
+    def _run(self, responder, display, progress) -> int:
+        resumed = progress.session is not None
+        kind = "session_resumed" if resumed else "session_started"
+        try:
+            self.log_event(kind, **self._context(), responder=responder.name,
+                           display_url=self.display_url, clock="virtual" if self.clock.virtual else "real")
+            for trial_index, attempt in progress.open_attempts:
+                self._abort_attempt(trial_index, attempt, reason="killed")
+            self._write_trials()
+            if progress.finished:
+                self._say(f"session {self.directory} is already finished")
+                return 0
+            todo = [s for s in self.schedule if s.trial_index not in progress.completed]
+            self._say(f"{self.participant_id}/{self.name}: {len(todo)} of {self.n_trials} trials to run"
+                      + (" (resumed)" if resumed else ""))
+            self.responder = responder
+            responder.begin_session(self)
+            try:
+                if display is None:
+                    with self._open_display() as disp:
+                        return self._guarded(disp, todo, progress)
+                return self._guarded(display, todo, progress)
+            finally:
+                responder.end_session()
+        except _STOPS as exc:
+            self._interrupted(_reason(exc))
+            return 1
+
+    def _guarded(self, disp, todo, progress) -> int:
+        """Run the trials; on an interruption or an error, neutral first (display still open)."""
+        try:
+            return self._run_trials(disp, todo, progress)
+        except _STOPS as exc:
+            self._interrupted(_reason(exc))
+            return 1
+        except Exception as exc:
+            self._defer += 1
+            try:
+                self._neutral(disp)
+                a = self._attempt
+                if a is not None and not a.logged_end:
+                    self._abort_attempt(a.spec.trial_index, a.attempt, reason="error")
+                self.log_event("session_error", message=f"{type(exc).__name__}: {exc}")
+            finally:
+                self._defer -= 1
+                self._pending = None
+            raise
+
+    def _open_display(self):
+        from experiments.hardware import SafetyLimits, open_display
+        import dataclasses
+        limits = SafetyLimits(**dataclasses.asdict(self.protocol.display))
+        return open_display(self.display_url, limits=limits)
+
+    def _run_trials(self, disp, todo, progress) -> int:
+        self.display = disp
+        info = getattr(disp, "info", None)
+        self.log_event("display_opened", url=self.display_url,
+                       device_id=getattr(info, "device_id", None), firmware=getattr(info, "firmware", None),
+                       capabilities=list(getattr(info, "capabilities", ()) or ()))
+        disp.set_neutral(self.protocol.display.neutral_C)
+        faults = 0
+        queue = list(todo)
+        while queue:
+            spec = queue[0]
+            attempt = progress.next_attempt(spec.trial_index)
+            progress.attempts[spec.trial_index] = attempt
+            outcome = self._run_trial(disp, spec, attempt)
+            if outcome == "ok":
+                faults = 0
+                queue.pop(0)
+            elif outcome == "fault":
+                faults += 1
+                queue.pop(0)
+            else:  # "no_contact": the same trial again
+                faults += 1
+            if faults >= self.max_consecutive_faults:
+                self.machine.go("idle")
+                self.machine.go("stopped")
+                self._neutral(disp)
+                self.log_event("session_stopped", reason=f"{faults} consecutive faults",
+                               n_completed=self.n_trials - len(queue))
+                self._say(f"stopped after {faults} consecutive faults; resume with "
+                          f"`thermocue resume {self.directory}`")
+                return 1
+            if queue:
+                self._rewarm()
+            self.machine.go("idle")
+        self.machine.go("finished")
+        self._neutral(disp)
+        self.log_event("session_finished", n_completed=self.n_trials)
+        self._write_trials()
+        elapsed = time.monotonic() - self._started
+        self._say(f"session finished: {self.n_trials} trials, {elapsed:.1f} s; data in {self.directory}")
+        if self.responder is not None:
+            self.responder.show_text("Thank you: the session is finished.")
+        return 0
+
+    # -- one trial --------------------------------------------------------------------------
+    def _progress_text(self, spec) -> str:
+        elapsed = time.monotonic() - self._started
+        m, s = divmod(int(elapsed), 60)
+        return (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
+                f"elapsed {m}:{s:02d}")
+
+    def _run_trial(self, disp, spec, attempt: int) -> str:
+        ctx = {"trial_index": spec.trial_index, "attempt": attempt}
+        self.machine.go("prompt", **ctx)
+        trace = self.traces_dir / trace_name(spec.trial_index)
+        self._attempt = _Attempt(spec, attempt, trace)
+        self.log_event("trial_started", **ctx, **{k: v for k, v in spec.to_dict().items()
+                                                 if k != "trial_index"})
+        started_at = _now_iso()
+        self._pause("trial_started", spec, attempt)
+        text = self._progress_text(spec)
+        self._say(text + (f" | attempt {attempt}" if attempt > 1 else ""))
+        self.responder.progress(text)
+        block = self.protocol.block(spec.block)
+        sample = self.protocol.sample(spec.roughness_id)
+        if spec.block != self._last_block and block.instructions:
+            self.responder.show_text(block.instructions)
+        self._last_block = spec.block
+        real = spec.mode != "simulated"
+        if real:
+            self.responder.prompt_experimenter(
+                f"Trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
+                f"(Ra {sample.roughness_um:g} µm)")
+            self.log_event("sample_placed", **ctx, sample=sample.label)
+        if block.feedback:
+            self.responder.show_text(f"This is sample {sample.label}")
+        row = {"started_at": started_at, "protocol_hash": self.protocol.hash,
+               "mode": spec.mode, "block": spec.block}
+        self.machine.go("prepare", **ctx)
+        profile = None
+        try:
+            if real:
+                disp.arm(mode="record", force_threshold_N=self.protocol.contact.force_threshold_N,
+                         max_duration_s=self.protocol.contact.record_s)
+            else:
+                profile = self._target_profile(spec)
+                row["profile_skin_thickness_um"] = profile.parameters.get("skin_thickness_um")
+                self._pause("upload", spec, attempt)
+                disp.upload_profile(np.asarray(profile.times), np.asarray(profile.temperature))
+                self.log_event("profile_uploaded", **ctx, content_hash=profile.content_hash,
+                               n_points=len(profile.times), method=profile.method,
+                               error_bound_C=profile.error_bound,
+                               skin_thickness_um=row["profile_skin_thickness_um"])
+                disp.arm(mode="playback", force_threshold_N=self.protocol.contact.force_threshold_N,
+                         max_duration_s=self.protocol.contact.max_contact_s)
+            self.log_event("armed", **ctx, mode="record" if real else "playback")
+            self._pause("armed", spec, attempt)
+            self.responder.touch(spec, disp)
+        except DisplayError as exc:
+            return self._fault(disp, spec, attempt, row, exc)
+        self.machine.go("cue", **ctx)
+        played = bool(self.responder.cue())
+        row["cue_played"] = played
+        self.log_event("cue", **ctx, played=played)
+        self.machine.go("wait_contact", **ctx)
+        self.traces_dir.mkdir(exist_ok=True)
+        writer = TraceWriter(trace)
+        active = "record" if real else "playback"
+
+        def on_frame(frame):
+            writer.write(frame)
+            if self.machine.state == "wait_contact" and str(frame.state) not in _WAITING_STATES:
+                self.machine.go(active, **ctx)
+                self.log_event("contact", **ctx, device_time_s=float(frame.device_time_s))
+                self._pause("playback", spec, attempt)
+
+        timeout = (self.protocol.contact.trial_timeout_s + self.protocol.contact.max_contact_s + 5.0)
+        try:
+            try:
+                rec = disp.run_trial(timeout_s=timeout, on_telemetry=on_frame)
+            finally:
+                writer.close()
+        except DisplayError as exc:
+            return self._fault(disp, spec, attempt, row, exc)
+        row.update(self._recording_fields(rec))
+        self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
+                       contact_time_s=rec.contact_time_s, frames=rec.frames,
+                       frames_lost=rec.frames_lost, tracking_rms_C=rec.tracking_rms_C)
+        if rec.contact_time_s is None and rec.status != "fault":
+            return self._no_contact(disp, spec, attempt, rec)
+        if rec.status != "ok":
+            return self._fault(disp, spec, attempt, row, None, rec=rec)
+        if self.machine.state == "wait_contact":
+            self.machine.go(active, **ctx)
+        self.machine.go("respond", **ctx)
+        if block.response:
+            stimulus = self._stimulus(spec, writer, rec, profile, sample)
+            response = self.responder.respond(spec, stimulus)
+            self.log_event("response", **ctx, **response.to_dict())
+            row.update(response_id=response.response_id, rt_s=response.rt_s,
+                       correct=int(response.response_id == spec.roughness_id),
+                       response_source=response.source)
+        self._pause("after_response", spec, attempt)
+        self.machine.go("write", **ctx)
+        row.update(status="ok", trace_file=f"traces/{trace.name}", finished_at=_now_iso())
+        self._complete(spec, attempt, row)
+        self._pause("after_write", spec, attempt)
+        return "ok"
+
+    def _recording_fields(self, rec) -> dict:
+        return {"tracking_rms_C": rec.tracking_rms_C, "tracking_max_C": rec.tracking_max_C,
+                "contact_time_s": rec.contact_time_s, "frames": rec.frames,
+                "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
+
+    def _stimulus(self, spec, writer, rec, profile, sample) -> TrialStimulus:
+        t = np.asarray(writer.time_s, dtype=float)
+        if rec.contact_time_s is not None and t.size:
+            t = t - float(rec.contact_time_s)
+        forces = np.asarray(writer.forces_N, dtype=float).reshape(-1, 4)
+        material = self.protocol.material
+        sample_info = None
+        if spec.mode != "simulated":
+            sample_info = {"label": sample.label, "material": material.name,
+                           "roughness_m": sample.roughness_m, "thickness_m": material.thickness_m,
+                           "temperature_C": self.protocol.environment.room_temperature_C}
+        return TrialStimulus(mode=spec.mode, roughness_id=spec.roughness_id,
+                             roughness_um=spec.roughness_um, time_s=t,
+                             target_C=np.asarray(writer.target_C, dtype=float),
+                             contact_C=np.asarray(writer.contact_C, dtype=float), forces_N=forces,
+                             profile_parameters=None if profile is None else dict(profile.parameters),
+                             sample=sample_info, status=rec.status)
+
+    def _target_profile(self, spec):
+        """The target interface profile of a simulated trial (stimuli.target_profile)."""
+        from stimuli import Skin, target_profile
+
+        sim = self.protocol.simulation
+        calibration = self.participant.get("calibration") or {}
+        source = "protocol"
+        if calibration.get("skin_thickness_um") is not None:
+            thickness_um, source = float(calibration["skin_thickness_um"]), "calibration"
+        else:
+            thickness_um = sim.skin_thickness_for(self.group, self.skin_thickness_um)
+        L = thickness_um * 1e-6
+        prof = target_profile(material=self.protocol.material.name, roughness=spec.roughness_um * 1e-6,
+                              skin=Skin(L, dermis=sim.dermis_fraction * L),
+                              skin_temperature=sim.skin_temperature_C,
+                              material_temperature=sim.material_temperature_C,
+                              duration=sim.duration_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
+                              sample_thickness=self.protocol.material.thickness_m, method=sim.method)
+        params = dict(prof.parameters)
+        params.setdefault("skin_thickness_um", thickness_um)
+        params["skin_thickness_source"] = source
+        return _Profile(prof, params)
+
+    def _complete(self, spec, attempt: int, row: dict) -> None:
+        with self._critical():
+            self.log_event("trial_completed", trial_index=spec.trial_index, attempt=attempt, row=row)
+            self._attempt.logged_end = True
+            self._write_trials()
+        self._say(f"trial {spec.trial_index}: {row.get('status')}"
+                  + (f", answer {row['response_id']} ({'correct' if row.get('correct') else 'wrong'})"
+                     if row.get("response_id") is not None else ""))
+
+    def _fault(self, disp, spec, attempt, row, exc, rec=None) -> str:
+        ctx = {"trial_index": spec.trial_index, "attempt": attempt}
+        code = getattr(exc, "code", None) if exc is not None else None
+        if exc is not None:
+            code = code if code is not None else type(exc).__name__
+            message = str(exc)
+        else:
+            code, message = rec.fault_code or "fault", rec.fault_message
+        self.machine.go("fault", **ctx)
+        self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
+        self._neutral(disp)
+        self.machine.go("write", **ctx)
+        trace = self._attempt.trace
+        row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
+                   trace_file=f"traces/{trace.name}" if trace.exists() else None)
+        self._complete(spec, attempt, row)
+        self._say(f"trial {spec.trial_index}: display fault {code}: {message}")
+        return "fault"
+
+    def _no_contact(self, disp, spec, attempt, rec) -> str:
+        ctx = {"trial_index": spec.trial_index, "attempt": attempt}
+        self.machine.go("no_contact", **ctx)
+        self._neutral(disp)
+        self._abort_attempt(spec.trial_index, attempt, reason="no_contact",
+                            fault_code=rec.fault_code)
+        self._say(f"trial {spec.trial_index}: no contact within "
+                  f"{self.protocol.contact.trial_timeout_s:g} s; the trial will be run again")
+        return "no_contact"
+
+    def _abort_attempt(self, trial_index: int, attempt: int, reason: str, fault_code=None) -> None:
+        """Log an attempt as aborted and keep its trace under an ``aborted`` name."""
+        trace = self.traces_dir / trace_name(trial_index)
+        kept = None
+        if trace.exists():
+            kept = self.traces_dir / aborted_trace_name(trial_index, attempt)
+            os.replace(trace, kept)
+            from experiments.logbook import fsync_dir
+            fsync_dir(self.traces_dir)
+        with self._critical():
+            self.log_event("trial_aborted", trial_index=trial_index, attempt=attempt, reason=reason,
+                           fault_code=fault_code,
+                           trace_file=None if kept is None else f"traces/{kept.name}")
+            if self._attempt is not None and self._attempt.spec.trial_index == trial_index \
+                    and self._attempt.attempt == attempt:
+                self._attempt.logged_end = True
+            self._write_trials()
+
+    def _write_trials(self) -> None:
+        from experiments.logbook import read_events, trials_from_events, write_trials_csv
+        events, _ = read_events(self.events_path, warn=False)
+        rows = trials_from_events(events)
+        for row in rows:  # an aborted row's trace_file comes from its event
+            row.setdefault("trace_file", None)
+        aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
+                   for e in events if e.get("event") == "trial_aborted"}
+        for row in rows:
+            if row.get("status") == "aborted":
+                row["trace_file"] = aborted.get((row.get("trial_index"), row.get("attempt")))
+        write_trials_csv(self.trials_path, rows)
+
+    def _rewarm(self) -> None:
+        self.machine.go("rewarm")
+        seconds = self.protocol.contact.rewarm_s
+        self.responder.rewarm(0.0 if self.clock.virtual else seconds)
+
+    def _neutral(self, disp) -> None:
+        """Display to neutral whatever state it is in (errors logged, never raised)."""
+        for step in ("abort", "set_neutral"):
+            try:
+                if step == "abort":
+                    disp.abort()
+                else:
+                    disp.set_neutral(self.protocol.display.neutral_C)
+            except DisplayError as exc:
+                self.log_event("display_error", step=step, message=str(exc))
+            except Exception as exc:  # an interrupted driver may be in any state
+                self.log_event("display_error", step=step, message=f"{type(exc).__name__}: {exc}")
+
+    # -- interruption -------------------------------------------------------------------------
+    def _install_signals(self):
+        if threading.current_thread() is not threading.main_thread():
+            return None
+
+        def handler(signum, frame):
+            name = signal.Signals(signum).name
+            if self._defer:
+                self._pending = name
+                return
+            raise SessionInterrupted(name)
+
+        old = {}
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            old[sig] = signal.signal(sig, handler)
+        return old
+
+    def _restore_signals(self, old) -> None:
+        if old:
+            for sig, h in old.items():
+                signal.signal(sig, h)
+
+    def _interrupted(self, reason: str) -> None:
+        if self.machine.state == "interrupted":
+            return  # already handled with the display open
+        # Further signals must not cut the clean-up short.
+        self._defer += 1
+        try:
+            if self.display is not None:
+                self._neutral(self.display)
+            a = self._attempt
+            if a is not None and not a.logged_end:
+                self._abort_attempt(a.spec.trial_index, a.attempt, reason="interrupted")
+            if self.machine.can("interrupted"):
+                self.machine.go("interrupted")
+            self.log_event("session_interrupted", reason=reason)
+            self._write_trials()
+        finally:
+            self._defer -= 1
+            self._pending = None
+        self._say(f"session interrupted ({reason}); display neutral; resume with "
+                  f"`thermocue resume {self.directory}`")
+
+
+_STOPS = (SessionInterrupted, KeyboardInterrupt, ResponderClosed)
+
+
+def _reason(exc) -> str:
+    return getattr(exc, "reason", None) or str(exc) or type(exc).__name__
+
+
+class _Profile:
+    """A target profile with the session's extra parameters (thickness source)."""
+
+    def __init__(self, prof, parameters):
+        self._prof = prof
+        self.parameters = parameters
+
+    def __getattr__(self, name):
+        return getattr(self._prof, name)
+
+
+def _parse_pause(text: str) -> set:
+    out = set()
+    for item in filter(None, (p.strip() for p in text.split(","))):
+        point, _, index = item.partition(":")
+        if point not in PAUSE_POINTS or not index.isdigit():
+            raise UserInputError(f"{PAUSE_ENV}: expected point:trial_index with point one of "
+                                 f"{PAUSE_POINTS}, got {item!r}")
+        out.add((point, int(index)))
+    return out
+
+
+# --------------------------------------------------------------------------- making sessions
+def _next_session_name(folder: Path) -> str:
+    n = 1
+    while (folder / f"S{n:02d}").exists():
+        n += 1
+    return f"S{n:02d}"
+
+
+def create_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
+                   session_name: str | None = None, responder_name: str = "", clock: str = "auto",
+                   max_consecutive_faults: int = 3, out=None) -> Session:
+    """Validate the inputs, plan the schedule and write a new session directory.
+
+    Parameters
+    ----------
+    protocol : str, Path or Protocol
+        A protocol file, the name of a packaged protocol, or a loaded protocol.
+    participant_path : str or Path
+        The participant record (JSON).
+    data_dir : str or Path
+        ``DATA``; the session goes to ``DATA/<participant id>/<session name>/``.
+    display_url : str
+        pyserial URL of the display (``emulator://?clock=virtual``, a pty, ``/dev/ttyUSB0``).
+    seed : int, optional
+        Default: a random seed (stored).
+    session_name : str, optional
+        Default: the first free ``S01``, ``S02``, ...
+    responder_name : str
+        Recorded in ``session.json`` (``thermocue resume`` uses it by default).
+    clock : {"auto", "real", "virtual"}
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    ProtocolError, ParticipantError, SessionError
+        Bad files, or a session folder that already exists.
+    """
+    from experiments.logbook import atomic_write_json, ensure_dir
+    from experiments.protocol import load_protocol
+    from experiments.schedule import build_schedule
+    from participants_schema import assign_group, load_participant
+
+    if not hasattr(protocol, "hash"):
+        protocol = load_protocol(protocol)
+    participant = load_participant(participant_path)
+    if protocol.grouping is None:
+        raise SessionError(f"{protocol.path or protocol.name}: grouping: expected a [grouping] table "
+                           f"to run a session, got nothing")
+    assignment = assign_group(participant, protocol.grouping)
+    if seed is None:
+        seed = secrets.randbelow(2**31)
+    schedule = build_schedule(protocol, str(participant["id"]), seed)
+    pid = _safe_name(str(participant["id"]), f"{participant_path}: id")
+    folder = Path(data_dir) / pid
+    name = _safe_name(session_name, "--session") if session_name else _next_session_name(folder)
+    directory = folder / name
+    if directory.exists() and any(directory.iterdir()):
+        raise SessionError(f"{directory}: expected a new session folder, got an existing one "
+                           f"(resume it with `thermocue resume {directory}` or choose --session)")
+    ensure_dir(directory)
+    ensure_dir(directory / "traces")
+    clock_obj = clock_for_url(display_url, clock)
+    atomic_write_json(directory / "session.json", {
+        "format": "thermocue-session/1",
+        "session": name,
+        "created_at": _now_iso(),
+        "participant_id": pid,
+        "participant": participant,
+        "participant_file": str(participant_path),
+        "group": assignment.group,
+        "group_assignment": assignment.to_dict(),
+        "protocol_name": protocol.name,
+        "protocol_file": None if protocol.path is None else str(protocol.path),
+        "protocol_hash": protocol.hash,
+        "protocol": protocol.data,
+        "seed": seed,
+        "schedule": [s.to_dict() for s in schedule],
+        "display_url": display_url,
+        "responder": responder_name,
+        "clock": "virtual" if clock_obj.virtual else "real",
+        "max_consecutive_faults": max_consecutive_faults,
+        "versions": package_versions(),
+    })
+    session = Session(directory, protocol, participant, assignment.group, seed, schedule, name,
+                      display_url, assignment=assignment, clock=clock_obj,
+                      max_consecutive_faults=max_consecutive_faults, out=out)
+    for w in assignment.warnings:
+        session._say(f"warning: {w}")
+    session._say(f"{pid}: {assignment.describe()}")
+    return session
+
+
+def open_session(session_dir, *, display_url: str | None = None, clock: str | None = None,
+                 out=None) -> Session:
+    """Reopen a session directory to resume it (same protocol, participant, seed, schedule).
+
+    Raises
+    ------
+    SessionError
+        No ``session.json``, a damaged one, or a protocol copy whose hash does not match.
+    """
+    import json
+
+    from experiments.protocol import parse_protocol
+    from experiments.schedule import TrialSpec
+    from participants_schema import validate_participant
+
+    directory = Path(session_dir)
+    path = directory / "session.json"
+    if not directory.is_dir():
+        raise SessionError(f"{directory}: expected a session folder, got no such folder")
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SessionError(f"{path}: expected a session.json, got no such file") from None
+    except (OSError, ValueError) as exc:
+        raise SessionError(f"{path}: expected valid JSON, got {exc}") from None
+    if not isinstance(meta, dict):
+        raise SessionError(f"{path}: expected a JSON object, got {type(meta).__name__}")
+    for key in ("session", "participant", "protocol", "protocol_hash", "seed", "schedule",
+                "display_url", "group"):
+        if key not in meta:
+            raise SessionError(f"{path}: {key}: expected a value, got nothing")
+    protocol = parse_protocol(meta["protocol"], source=f"{path}: protocol",
+                              path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
+    if protocol.hash != meta["protocol_hash"]:
+        raise SessionError(f"{path}: protocol_hash: expected {protocol.hash} (the stored protocol's "
+                           f"hash), got {meta['protocol_hash']!r}")
+    participant = validate_participant(meta["participant"], source=f"{path}: participant")
+    try:
+        schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
+    except (TypeError, ValueError) as exc:
+        raise SessionError(f"{path}: schedule: expected a list of trials, got {exc}") from None
+    url = display_url or meta["display_url"]
+    clock_obj = clock_for_url(url, clock or meta.get("clock", "auto"))
+    return Session(directory, protocol, participant, meta["group"], meta["seed"], schedule,
+                   meta["session"], url, clock=clock_obj,
+                   max_consecutive_faults=meta.get("max_consecutive_faults", 3), out=out)

@@ -1,0 +1,127 @@
+"""The files of a session directory: trials table, per-trial traces, package versions.
+
+``DATA/<participant>/<session>/`` holds ``session.json``, ``events.jsonl`` (the source of truth),
+``trials.csv`` (rebuilt from the events after every trial, :mod:`experiments.logbook`) and
+``traces/trial-NNN.csv``. This module writes the traces and lists the extra trial columns;
+:mod:`experiments.session` decides when things are written.
+"""
+from __future__ import annotations
+
+import math
+import os
+import platform
+import sys
+from importlib import metadata
+from pathlib import Path
+
+__all__ = [
+    "EXTRA_TRIAL_COLUMNS",
+    "TRACE_COLUMNS",
+    "TraceWriter",
+    "package_versions",
+    "trace_name",
+    "aborted_trace_name",
+]
+
+#: Columns the session adds to :data:`experiments.logbook.TRIAL_COLUMNS` in ``trials.csv``.
+EXTRA_TRIAL_COLUMNS = [
+    "tracking_max_C", "contact_time_s", "frames", "frames_lost", "cue_played",
+    "response_source", "profile_skin_thickness_um", "protocol_hash", "trace_file", "finished_at",
+]
+
+#: Columns of ``traces/trial-NNN.csv``.
+TRACE_COLUMNS = ["time_s", "target_C", "contact_C", "ambient_C", "finger_C",
+                 "force1_N", "force2_N", "force3_N", "force4_N", "state"]
+
+
+def trace_name(trial_index: int) -> str:
+    """File name (inside ``traces/``) of a trial's trace."""
+    return f"trial-{int(trial_index):03d}.csv"
+
+
+def aborted_trace_name(trial_index: int, attempt: int) -> str:
+    """File name an aborted attempt's trace is kept under."""
+    return f"trial-{int(trial_index):03d}.attempt-{int(attempt)}.aborted.csv"
+
+
+def _fmt(value) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        if math.isnan(value):
+            return ""
+        return repr(round(value, 6))
+    return str(value)
+
+
+class TraceWriter:
+    """Streams telemetry frames of one trial attempt to a CSV file.
+
+    Lines are written as frames arrive and flushed every ``flush_every`` frames, so a killed
+    session leaves the trace up to the last flush; :meth:`close` fsyncs the file and its folder.
+
+    Parameters
+    ----------
+    path : path-like
+        The CSV file (created or truncated).
+    """
+
+    def __init__(self, path, flush_every: int = 50):
+        self.path = Path(path)
+        self.flush_every = int(flush_every)
+        self._fh = open(self.path, "w", encoding="utf-8", newline="")
+        self._fh.write(",".join(TRACE_COLUMNS) + "\n")
+        self._n = 0
+        self.time_s: list[float] = []
+        self.target_C: list[float] = []
+        self.contact_C: list[float] = []
+        self.forces_N: list[tuple] = []
+
+    def write(self, frame) -> None:
+        """Append one :class:`~experiments.hardware.Telemetry` frame."""
+        forces = tuple(float(f) for f in frame.forces_N)
+        t, target, contact = float(frame.device_time_s), float(frame.setpoint_C), float(frame.contact_C)
+        fields = [t, target, contact, float(frame.ambient_C), float(frame.finger_C), *forces]
+        self._fh.write(",".join(_fmt(v) for v in fields) + f",{frame.state}\n")
+        self.time_s.append(t)
+        self.target_C.append(target)
+        self.contact_C.append(contact)
+        self.forces_N.append(forces)
+        self._n += 1
+        if self._n % self.flush_every == 0:
+            self._fh.flush()
+
+    @property
+    def frames(self) -> int:
+        return self._n
+
+    def close(self) -> None:
+        """Flush, fsync, close, fsync the folder."""
+        if self._fh.closed:
+            return
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+        self._fh.close()
+        _fsync_dir(self.path.parent)
+
+
+def _fsync_dir(path) -> None:
+    fd = os.open(str(path), os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def package_versions() -> dict[str, str]:
+    """Versions of Python, the platform and the packages a session depends on."""
+    out = {"python": sys.version.split()[0], "platform": platform.platform()}
+    for name in ("thermocue", "numpy", "scipy", "pyserial", "jsonschema", "psychopy",
+                 "psychtoolbox", "sounddevice"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out

@@ -1,0 +1,77 @@
+"""Tests of experiments.cohort: the paper's cohort as records, and the Figure 9 study end to end."""
+from __future__ import annotations
+
+import json
+import time
+from collections import Counter
+
+import pytest
+
+from experiments.cohort import paper_cohort, run_figure9_study, write_cohort
+from participants_schema import GroupRule, assign_group, load_participant, validate_participant
+
+
+def test_cohort_matches_section_3_2():
+    records = paper_cohort(seed=0)
+    assert len(records) == 30
+    assert len({r["id"] for r in records}) == 30
+    # The paper is inconsistent: "twelve women and eighteen men", but its groups (A: 5 men +
+    # 10 women, B: 12 men + 3 women) add up to 13 women and 17 men. The cohort follows the groups.
+    assert Counter(r["sex"] for r in records) == {"female": 13, "male": 17}
+    rule = GroupRule(threshold_um=800.0)
+    by_group = {"A": [], "B": []}
+    for r in records:
+        validate_participant(r, source=r["id"])
+        assignment = assign_group(r, rule)
+        assert assignment.group == r["x_simulation"]["group"]
+        by_group[assignment.group].append(r)
+        assert r["handedness"] == "right" and 18 <= r["age"] <= 45 and r["occupation"]
+        assert 35.5 <= r["initial_skin_temperature_C"] <= 36.0
+    a, b = by_group["A"], by_group["B"]
+    assert len(a) == len(b) == 15
+    assert Counter(r["sex"] for r in a) == {"female": 10, "male": 5}
+    assert Counter(r["sex"] for r in b) == {"female": 3, "male": 12}
+    assert all(600 <= r["skin_thickness"]["total_um"] <= 750 for r in a)
+    assert all(900 <= r["skin_thickness"]["total_um"] <= 1200 for r in b)
+    assert len({r["occupation"] for r in records}) > 3
+
+
+def test_cohort_is_reproducible_from_its_seed(tmp_path):
+    assert paper_cohort(seed=4) == paper_cohort(seed=4)
+    assert paper_cohort(seed=4) != paper_cohort(seed=5)
+    paths = write_cohort(tmp_path, seed=4)
+    assert [load_participant(p) for p in paths] == paper_cohort(seed=4)
+
+
+def _check_study(out, n_participants):
+    from analysis.load import load_trials
+    data = out / "data"
+    trials = load_trials(data)
+    table = trials.table if hasattr(trials, "table") else trials
+    scored = table[table["block"] != "familiarise"]
+    assert scored["participant"].nunique() == n_participants
+    # 4 samples x 3 repetitions x (real, simulated) per participant, all completed.
+    assert (scored.groupby("participant").size() == 24).all()
+    assert set(scored["mode"]) == {"real", "simulated"}
+    assert scored["response_id"].between(1, 4).all()
+    assert (out / "figure9.png").exists()
+    return scored
+
+
+def test_two_participants_end_to_end(tmp_path):
+    start = time.perf_counter()
+    summary = run_figure9_study(tmp_path, seed=3, progress=False, workers=1, participants=2)
+    assert len(summary["sessions"]) == 2
+    _check_study(tmp_path, 2)
+    assert time.perf_counter() - start < 60
+
+
+@pytest.mark.slow
+def test_the_whole_study_runs_in_a_minute(tmp_path, capsys):
+    start = time.perf_counter()
+    run_figure9_study(tmp_path, seed=0, progress=True, workers=2)
+    seconds = time.perf_counter() - start
+    scored = _check_study(tmp_path, 30)
+    assert "participant 30 of 30" in capsys.readouterr().err
+    assert scored.groupby("participant")["group"].first().value_counts().to_dict() == {"A": 15, "B": 15}
+    assert seconds < 90, f"the 30-participant study took {seconds:.0f} s"

@@ -1,0 +1,126 @@
+"""Tests of the simulated participant as a responder (experiments.responders.simulated)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from experiments.errors import UserInputError
+from experiments.responders import Response, TrialStimulus, get_responder
+from experiments.responders.simulated import SimulatedResponder
+from experiments.schedule import TrialSpec
+
+RA_UM = {1: 1.6, 2: 12.5, 3: 50.0, 4: 100.0}
+
+
+class FakeDisplay:
+    """Records the emulator-only calls a simulated responder makes."""
+
+    def __init__(self):
+        self.calls = []
+
+    def sim_sample(self, **kw):
+        self.calls.append(("sim_sample", kw))
+
+    def sim_finger(self, **kw):
+        self.calls.append(("sim_finger", kw))
+
+
+def spec(index, block, mode, rid, rep=1):
+    return TrialSpec(trial_index=index, block=block, mode=mode, roughness_id=rid,
+                     roughness_um=RA_UM[rid], repetition=rep)
+
+
+def familiarise(responder, display):
+    for rid in RA_UM:
+        trial = spec(rid, "familiarise", "real", rid)
+        responder.touch(trial, display)
+        answer = responder.respond(trial, TrialStimulus("real", rid, RA_UM[rid]))
+        assert answer.response_id == rid        # the sample is named on familiarisation trials
+
+
+def test_registered_under_its_name_with_options():
+    r = get_responder("simulated", seed=3, skin_thickness_um=700, drop_noise_C="0.2")
+    assert isinstance(r, SimulatedResponder) and not r.human
+    assert r.params.drop_noise_C == 0.2
+
+
+@pytest.mark.parametrize("options, field", [({"nois": 1}, "nois"),
+                                            ({"lapse_rate": 2.0}, "lapse_rate"),
+                                            ({"weber_fraction": "lots"}, "weber_fraction")])
+def test_bad_options_are_user_errors_naming_the_option(options, field):
+    with pytest.raises(UserInputError, match=field):
+        get_responder("simulated", **options)
+
+
+def test_touch_scripts_the_emulator_with_own_skin_and_the_sample():
+    r = SimulatedResponder(seed=1, skin_thickness_um=720.0, skin_temperature_C=35.8,
+                           skin_temperature_sd_C=0.0)
+    d = FakeDisplay()
+    r.touch(spec(5, "real", "real", 3), d)
+    (kind1, sample), (kind2, finger) = d.calls
+    assert kind1 == "sim_sample" and sample["roughness_m"] == pytest.approx(50e-6)
+    assert sample["material"] == "stainless_steel" and sample["thickness_m"] == pytest.approx(3e-3)
+    assert kind2 == "sim_finger"
+    assert finger["skin_thickness_m"] == pytest.approx(720e-6)
+    assert finger["skin_temperature_C"] == pytest.approx(35.8)
+    assert finger["force_N"] == pytest.approx(2.0)
+    d2 = FakeDisplay()
+    r.touch(spec(6, "simulated", "simulated", 3), d2)
+    assert [c[0] for c in d2.calls] == ["sim_finger"]       # no sample on a simulated trial
+
+
+def test_familiarisation_learns_templates_even_without_a_response():
+    r = SimulatedResponder(seed=2, skin_thickness_um=650.0)
+    d = FakeDisplay()
+    for rid in RA_UM:
+        r.touch(spec(rid, "familiarise", "real", rid), d)     # protocol: response = false
+    assert sorted(r.person.templates) == [1, 2, 3, 4]
+    assert all(count == 1 for _, count in r.person.templates.values())
+    # Asking for the answer afterwards does not learn the same trial twice.
+    r.respond(spec(1, "familiarise", "real", 1), TrialStimulus("real", 1, 1.6))
+    assert r.person.templates[1][1] == 1
+
+
+def test_answers_are_reproducible_under_a_seed_and_vary_between_seeds():
+    def answers(seed):
+        r = SimulatedResponder(seed=seed, skin_thickness_um=650.0)
+        d = FakeDisplay()
+        familiarise(r, d)
+        out = []
+        for k in range(40):
+            rid = k % 4 + 1
+            trial = spec(10 + k, "real", "real", rid)
+            r.touch(trial, d)
+            resp = r.respond(trial, TrialStimulus("real", rid, RA_UM[rid]))
+            assert isinstance(resp, Response) and resp.rt_s > 0 and resp.source == "simulated"
+            out.append(resp.response_id)
+        return out
+    a = answers(7)
+    assert a == answers(7)
+    assert a != answers(8)
+    # The far samples (3#, 4#) are named correctly more often than chance.
+    truth = [k % 4 + 1 for k in range(40)]
+    far = [x == t for x, t in zip(a, truth) if t >= 3]
+    assert np.mean(far) > 0.25
+
+
+def test_simulated_trial_feels_the_recorded_contact_trace():
+    # A colder recorded surface must feel colder at the receptors: compare a trace 2 K colder.
+    r = SimulatedResponder(seed=4, skin_thickness_um=900.0, skin_temperature_sd_C=0.0,
+                           skin_temperature_C=35.5)
+    t = np.arange(0, 10.0, 0.01)
+    surface = 20.0 + 8.0 * np.exp(-t / 30.0)
+    trial = spec(9, "simulated", "simulated", 2)
+    _, warm, _ = r.feel(trial, TrialStimulus("simulated", 2, 12.5, time_s=t, contact_C=surface,
+                                            target_C=surface, profile_parameters={}))
+    _, cold, _ = r.feel(trial, TrialStimulus("simulated", 2, 12.5, time_s=t, contact_C=surface - 2,
+                                            target_C=surface, profile_parameters={}))
+    assert np.all(cold[1:] < warm[1:])
+    assert warm[0] == pytest.approx(35.5)
+
+
+def test_faulted_trial_is_answered_with_a_guess_not_an_error():
+    r = SimulatedResponder(seed=5, skin_thickness_um=650.0)
+    resp = r.respond(spec(3, "simulated", "simulated", 1),
+                     TrialStimulus("simulated", 1, 1.6, status="fault"))
+    assert resp.response_id in (1, 2, 3, 4)
