@@ -335,11 +335,11 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
     out["trial_index"] = _as_number(df, "trial_index", integer=True, allow_blank=False).astype("int64")
     out["roughness_id"] = _as_number(df, "roughness_id", integer=True, allow_blank=False).astype("int64")
     _check_allowed(out["roughness_id"], range(1, N_ROUGHNESS + 1), df, "roughness_id")
-    response = _as_number(df, "response_id", integer=True, allow_blank=~ok)
+    response = _as_number(df, "response_id", integer=True, allow_blank=~ok | familiar)
     _check_allowed(response, list(range(1, N_ROUGHNESS + 1)), df, "response_id",
                    mask=response.notna())
     out["response_id"] = response.astype("Int64")
-    correct = _as_number(df, "correct", integer=True, allow_blank=~ok)
+    correct = _as_number(df, "correct", integer=True, allow_blank=~ok | familiar)
     _check_allowed(correct, [0, 1], df, "correct", mask=correct.notna())
     out["correct"] = correct.astype("Int64")
     both = correct.notna() & response.notna()

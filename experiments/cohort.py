@@ -125,18 +125,26 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     dict
         ``participant``, ``session_dir``, ``seconds`` (wall time), ``trials``.
     """
-    from experiments.session import run_session   # heavy: the session engine, display, stimuli
+    import io
+
+    from experiments.responders import get_responder
+    from experiments.session import create_session   # heavy: the session engine, display, stimuli
 
     record = json.loads(Path(participant_path).read_text(encoding="utf-8"))
     options = {"seed": record.get("x_simulation", {}).get("seed", seed)}
     options.update(responder_options or {})
     start = time.perf_counter()
-    result = run_session(protocol=protocol, participant=participant_path,
-                         display=f"emulator://?clock=virtual&seed={int(seed)}",
-                         responder="simulated", responder_options=options, data_dir=data_dir,
-                         seed=int(seed))
-    return {"participant": record["id"], "session_dir": str(getattr(result, "session_dir", result)),
-            "seconds": time.perf_counter() - start}
+    responder = get_responder("simulated", **options)
+    session = create_session(protocol, participant_path, data_dir,
+                             f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
+                             responder_name="simulated", clock="virtual", out=io.StringIO())
+    session.show_progress = False
+    status = session.run(responder)
+    if status != 0:
+        raise RuntimeError(f"{participant_path}: the session in {session.directory} ended with "
+                           f"status {status}; see its events.jsonl")
+    return {"participant": record["id"], "session_dir": str(session.directory),
+            "seconds": time.perf_counter() - start, "n_trials": session.n_trials}
 
 
 def _run_one(args):

@@ -56,6 +56,7 @@ import json
 import math
 import os
 import re
+import threading
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -393,6 +394,7 @@ class EventLog:
 
     def __init__(self, path: str | Path, lock: bool = True):
         self.path = Path(path)
+        self._lock = threading.Lock()   # appends from several threads stay whole and ordered
         existed = self.path.exists()
         self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o644)
         try:
@@ -489,19 +491,23 @@ class EventLog:
             raise ValueError(f"{self.path}: {event}.{missing[0]}: expected a value, got nothing")
         if event == "trial_completed" and not isinstance(fields["row"], Mapping):
             raise ValueError(f"{self.path}: trial_completed.row: expected a mapping, got {fields['row']!r}")
-        rec = {"event": event, "seq": self._seq + 1, "time": fields.pop("time", None) or _now()}
-        rec.update(fields)
-        rec = to_jsonable(rec)
-        line = _dumps(rec) + "\n"
-        self._write(line.encode("utf-8"))
-        self._seq += 1
+        with self._lock:
+            if self.closed:
+                raise ValueError(f"{self.path}: the log is closed")
+            rec = {"event": event, "seq": self._seq + 1, "time": fields.pop("time", None) or _now()}
+            rec.update(fields)
+            rec = to_jsonable(rec)
+            line = _dumps(rec) + "\n"
+            self._write(line.encode("utf-8"))
+            self._seq += 1
         return rec
 
     def close(self) -> None:
         """Close the file (and release the lock); further appends raise."""
-        if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
+        with self._lock:
+            if self._fd >= 0:
+                os.close(self._fd)
+                self._fd = -1
 
     def __enter__(self) -> "EventLog":
         return self

@@ -419,7 +419,8 @@ def _person_features(person: SimulatedPerson, mode: str, roughness_um, target_th
                     "skin_temperature": TARGET_SKIN_TEMPERATURE_C,
                     "material_temperature": person.params.material_temperature_C,
                     "duration": person.params.duration_s,
-                    "rate": person.params.sample_rate_Hz, **target_options}
+                    "rate": person.params.sample_rate_Hz,
+                    "sample_thickness": person.params.sample_thickness_m, **target_options}
             prof = target_profile(roughness=ra * 1e-6, skin=Skin(target_thickness_um * 1e-6), **opts)
             t, rec = person.feel_imposed(prof.times, prof.temperature)
         else:
@@ -483,9 +484,10 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
         650 µm for A and 1000 µm for B (§3.2), else the middle of the group's range.
     target_options : dict, optional
         Keyword arguments for :func:`stimuli.target_profile` overriding the defaults
-        (steel, skin at :data:`TARGET_SKIN_TEMPERATURE_C`, material at
-        ``params.material_temperature_C``, ``params.duration_s`` at ``params.sample_rate_Hz``),
-        e.g. ``sample_thickness`` or ``method``.
+        (steel of ``params.sample_thickness_m``, skin at :data:`TARGET_SKIN_TEMPERATURE_C`,
+        material at ``params.material_temperature_C``, ``params.duration_s`` at
+        ``params.sample_rate_Hz``; as the session computes them from the protocol), e.g.
+        ``method`` or ``resolution``.
     params : PerceptionParameters
     seed : int
 

@@ -87,8 +87,10 @@ TRANSITIONS: dict[str, frozenset[str]] = {
     "interrupted": frozenset(),
 }
 
-#: Telemetry states that mean "no contact yet".
-_WAITING_STATES = {"idle", "armed", "waiting", "wait_contact", "wait", "neutral", "ready"}
+#: Telemetry states of a trial in contact (the display's ``State`` names).
+_ACTIVE_STATES = {"PLAYING", "RECORDING"}
+#: Recording fault codes that mean "nobody touched" (the attempt is aborted and re-run).
+_NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
 
 
 class TransitionError(RuntimeError):
@@ -516,13 +518,15 @@ class Session:
         row["cue_played"] = played
         self.log_event("cue", **ctx, played=played)
         self.machine.go("wait_contact", **ctx)
-        self.traces_dir.mkdir(exist_ok=True)
+        if not self.traces_dir.is_dir():
+            from experiments.logbook import ensure_dir
+            ensure_dir(self.traces_dir)
         writer = TraceWriter(trace)
         active = "record" if real else "playback"
 
         def on_frame(frame):
             writer.write(frame)
-            if self.machine.state == "wait_contact" and str(frame.state) not in _WAITING_STATES:
+            if self.machine.state == "wait_contact" and str(frame.state).upper() in _ACTIVE_STATES:
                 self.machine.go(active, **ctx)
                 self.log_event("contact", **ctx, device_time_s=float(frame.device_time_s))
                 self._pause("playback", spec, attempt)
@@ -539,7 +543,7 @@ class Session:
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,
                        frames_lost=rec.frames_lost, tracking_rms_C=rec.tracking_rms_C)
-        if rec.contact_time_s is None and rec.status != "fault":
+        if rec.contact_time_s is None and (rec.status == "aborted" or rec.fault_code in _NO_CONTACT_CODES):
             return self._no_contact(disp, spec, attempt, rec)
         if rec.status != "ok":
             return self._fault(disp, spec, attempt, row, None, rec=rec)
@@ -611,9 +615,11 @@ class Session:
             self.log_event("trial_completed", trial_index=spec.trial_index, attempt=attempt, row=row)
             self._attempt.logged_end = True
             self._write_trials()
-        self._say(f"trial {spec.trial_index}: {row.get('status')}"
-                  + (f", answer {row['response_id']} ({'correct' if row.get('correct') else 'wrong'})"
-                     if row.get("response_id") is not None else ""))
+        if row.get("status") == "ok":
+            answer = row.get("response_id")
+            self._say(f"trial {spec.trial_index}: ok" + (
+                "" if answer is None else
+                f", answer {answer} ({'correct' if row.get('correct') else 'wrong'})"))
 
     def _fault(self, disp, spec, attempt, row, exc, rec=None) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -825,11 +831,10 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     folder = Path(data_dir) / pid
     name = _safe_name(session_name, "--session") if session_name else _next_session_name(folder)
     directory = folder / name
-    if directory.exists() and any(directory.iterdir()):
+    if (directory / "session.json").exists() or (directory / "events.jsonl").exists():
         raise SessionError(f"{directory}: expected a new session folder, got an existing one "
                            f"(resume it with `thermocue resume {directory}` or choose --session)")
-    ensure_dir(directory)
-    ensure_dir(directory / "traces")
+    ensure_dir(directory)   # a folder left by a run killed before session.json is reused
     clock_obj = clock_for_url(display_url, clock)
     atomic_write_json(directory / "session.json", {
         "format": "thermocue-session/1",
@@ -852,6 +857,7 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
         "max_consecutive_faults": max_consecutive_faults,
         "versions": package_versions(),
     })
+    ensure_dir(directory / "traces")
     session = Session(directory, protocol, participant, assignment.group, seed, schedule, name,
                       display_url, assignment=assignment, clock=clock_obj,
                       max_consecutive_faults=max_consecutive_faults, out=out)

@@ -16,8 +16,10 @@ __all__ = [
     "PAPER_SAMPLE_THICKNESS", "material", "contact_resistance", "Contact", "MethodInfo", "METHODS",
 ]
 
-try:  # the display-driven model (stimuli/finite_volume.py, stimuli/target.py) lands separately
-    from .finite_volume import skin_response  # noqa: F401
+# The display-driven model (display_response.py, finite_volume.py, target.py) is written
+# alongside; import what is there so the package stays importable while it lands.
+try:
+    from .display_response import skin_response  # noqa: F401
     __all__.append("skin_response")
 except ImportError:  # pragma: no cover
     pass

@@ -15,12 +15,13 @@ E_m = R_rest(t_m) - R_rest(t_{m-1}), done by FFT: O(N log N) for N samples.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import fftconvolve
+from scipy.signal import fftconvolve, lfilter
 
 __all__ = ["superpose"]
 
 
-def superpose(h: np.ndarray, dt: float, S: np.ndarray, R_rest: np.ndarray, gain: float) -> np.ndarray:
+def superpose(h: np.ndarray, dt: float, S: np.ndarray, R_rest: np.ndarray, gain: float,
+              tail=None) -> np.ndarray:
     """Return u(t_i) for the piecewise-linear history ``h`` (see the module docstring).
 
     Parameters
@@ -34,6 +35,11 @@ def superpose(h: np.ndarray, dt: float, S: np.ndarray, R_rest: np.ndarray, gain:
         R(t_i) - gain * t_i, with R_rest[0] = 0.
     gain : float, dimensionless
         Static gain g.
+    tail : tuple or None
+        ``(m0, rates, k)``: for t >= t_{m0 - 1}, R_rest(t) = const + sum_n k_n exp(-rates_n t)
+        (rates in 1/s). The convolution is then split: lags m < m0 by FFT, lags m >= m0 by one
+        exact first-order recursion per mode (``scipy.signal.lfilter``), which is cheaper when
+        m0 is much shorter than the record.
 
     Returns
     -------
@@ -44,6 +50,19 @@ def superpose(h: np.ndarray, dt: float, S: np.ndarray, R_rest: np.ndarray, gain:
     if h.size > 1:
         slopes = np.diff(h) / dt
         E = np.diff(R_rest)
-        if np.any(slopes):
-            u[1:] += fftconvolve(E, slopes)[: h.size - 1]
+        if not np.any(slopes):
+            return u
+        n = slopes.size
+        if tail is None or tail[0] >= n:
+            u[1:] += fftconvolve(E, slopes)[:n]
+            return u
+        m0, rates, k = tail
+        # lags 1 .. m0-1 (E[0 .. m0-2]) by FFT
+        u[1:] += fftconvolve(E[: m0 - 1], slopes)[:n]
+        # lags m >= m0: E_m = sum_n A_n r_n^m with r_n = exp(-rate_n dt)
+        for rate, kn in zip(rates, k):
+            r = np.exp(-rate * dt)
+            A = kn * -np.expm1(rate * dt)          # k (r^m - r^(m-1)) = k (1 - 1/r) r^m
+            y = lfilter([1.0], [1.0, -r], slopes[: n - m0 + 1])
+            u[m0:] += (A * r ** m0) * y
     return u

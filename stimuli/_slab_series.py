@@ -33,10 +33,12 @@ import math
 import numpy as np
 from scipy.special import erfcx
 
-__all__ = ["step_and_ramp", "first_image_term", "TAU_SWITCH"]
+__all__ = ["step_and_ramp", "first_image_term", "ramp_modes", "TAU_SWITCH", "TAU_TAIL"]
 
 #: tau = alpha t / L^2 below which the image series is used.
 TAU_SWITCH = 0.25
+#: tau beyond which R - xi t is a sum of at most three decaying modes (n^2 pi^2 tau > 45 for n >= 4).
+TAU_TAIL = 0.3
 _ZMAX = 6.5          # erfc(6.5) = 3.8e-20: image terms with larger arguments are dropped
 _EIG_EXPONENT = 45.0  # modes with n^2 pi^2 tau > 45 (e^-45 = 3e-20) are dropped
 _SQRT_PI = math.sqrt(math.pi)
@@ -148,3 +150,17 @@ def first_image_term(xi: float, tau: np.ndarray, diffusion_time: float, *, rest:
     S[pos:] = s
     Rr[pos:] = diffusion_time * r - xi * diffusion_time * t
     return S, Rr
+
+
+def ramp_modes(xi: float, tau_from: float, diffusion_time: float):
+    """Modes of R - xi t for tau >= ``tau_from``: R - xi t = c0 + sum_n k_n exp(-n^2 pi^2 tau).
+
+    Returns ``(c0, rates, k)``: c0 in s, ``rates`` n^2 pi^2 (per unit tau), ``k`` in s, keeping
+    the modes with n^2 pi^2 tau_from <= 45 (the rest are below 3e-20 relative).
+    """
+    c0 = -diffusion_time * (xi - xi ** 3) / 6.0
+    n_max = max(1, int(math.floor(math.sqrt(_EIG_EXPONENT / (math.pi ** 2 * tau_from)))))
+    n = np.arange(1, n_max + 1)
+    rates = (n * math.pi) ** 2
+    k = -diffusion_time * (2.0 / math.pi ** 3) * (-1.0) ** n * np.sin(n * math.pi * xi) / n ** 3
+    return c0, rates, k

@@ -26,7 +26,13 @@ _SINGLE_TERM = ("interface_material", "psi")
 
 @dataclass(frozen=True)
 class MethodInfo:
-    """What a `Contact` evaluation used: ``method`` and ``error_bound`` (K, or 1 for psi)."""
+    """What a `Contact` evaluation used (:attr:`Contact.last_info`).
+
+    ``method``: the method name; ``error_bound``: K for temperatures,
+    dimensionless for psi -- the exact method's 1e-12 |T_S0 - T_M0|, the
+    probe estimate when ``tolerance=`` chose a closed form, ``nan`` when a
+    closed form was asked for directly (unknown); ``quantity``: what was computed.
+    """
 
     method: str
     error_bound: float

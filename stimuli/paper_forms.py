@@ -71,7 +71,7 @@ from scipy.special import erfc
 from ._special import exp_erfc
 from .errors import ModelInputError
 
-__all__ = ["PaperParameters", "eq3a", "eq3b", "eq4b", "eq7", "eq8", "evaluate"]
+__all__ = ["PaperParameters", "eq3a", "eq4a", "eq3b", "eq4b", "eq7", "eq8", "evaluate"]
 
 _EPS = 1e-17
 _ERFC_CUT = 6.5      # erfc(6.5) = 3.8e-20, exp(-6.5^2) = 4.4e-19
@@ -285,3 +285,7 @@ def evaluate(P: PaperParameters, quantity: str, x: float, t, printed: bool):
             raise ModelInputError(f"paper_forms: quantity: unknown {quantity!r}")
         out[pos] = v
     return out
+
+
+#: Eq. 4a is Eq. 3a written for T_S (the same formula; prefactor (1 - gamma)/2).
+eq4a = eq3a

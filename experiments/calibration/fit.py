@@ -315,7 +315,8 @@ def _identifiability(problem: FitProblem, res, sigma: float) -> tuple[list, dict
 
 def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperature: bool = False,
                skin_thickness_guess: float | None = None, interval: str = "profile",
-               level: float = 0.95, bootstrap_samples: int = 200, seed: int = 0) -> CalibrationFit:
+               level: float = 0.95, bootstrap_samples: int = 200, seed: int = 0,
+               max_nfev: int = 200) -> CalibrationFit:
     """Fit R_k per sample and a shared L (and T_S0) to contact traces; refuse if not identifiable.
 
     Parameters
@@ -323,7 +324,7 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
     traces : sequence of ContactTrace
         Traces on one or more samples; traces with the same ``sample`` share R.
     setup : ContactSetup, optional
-        Sample material/thickness and sensor placement (default: 3 mm steel, skin-side sensor).
+        Sample material/thickness and sensor placement (default: 3 mm steel, material-side sensor).
     fit_skin_temperature : bool
         Also fit one initial skin temperature (°C) shared by all traces.
     skin_thickness_guess : float, m, optional
@@ -336,6 +337,8 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
         Number of refits for ``interval="bootstrap"``.
     seed : int
         Seed of the bootstrap's noise.
+    max_nfev : int
+        Evaluation budget of each least-squares run (exhausting it is non-convergence).
 
     Returns
     -------
@@ -360,7 +363,7 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
     problem = FitProblem(traces, setup, fit_skin_temperature)
     best = None
     for p0 in _start_values(problem, skin_thickness_guess):
-        res = problem.solve(p0)
+        res = problem.solve(p0, max_nfev=max_nfev)
         if best is None or res.cost < best.cost - 1e-12:
             best = res
     ssr = 2.0 * best.cost

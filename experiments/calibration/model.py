@@ -5,13 +5,14 @@ half-space or a slab of thickness D with an insulated back (the paper's samples:
 and the contact between them has the effective resistance R.  Where the sensor sits is an
 explicit choice (:class:`Sensor`):
 
-``"skin"``
-    A massless sensor on the skin surface, x = L⁻.  The paper's Exp. 1 (Sec. 3.1) glues the
-    sensor to the fingertip with cyanoacrylate, so the rough contact is between the sensor
-    and the sample and the sensor follows the skin side of it.  The default.
 ``"material"``
-    A massless sensor on the sample surface, x = L⁺ (the quantity of Eq. 7; the display's
-    contact sensor under a finger is of this kind).
+    A massless sensor on the sample surface, x = L⁺ (the quantity of Eq. 7).  thermocue
+    records real trials through the display's contact sensor, which sits on the sample (the
+    emulator models exactly this), so this is the default.
+``"skin"``
+    A massless sensor on the skin surface, x = L⁻.  The paper's Exp. 1 (Sec. 3.1) glued the
+    sensor to the fingertip with cyanoacrylate, so the rough contact was between the sensor
+    and the sample and the sensor followed the skin side of it: use this for such data.
 ``"lumped"``
     A sensor with its own heat capacity per area C (J/(m² K)), joined to the skin by a fixed
     resistance R₁ (glue + half the film) and to the sample by the fitted R (the rough
@@ -64,7 +65,7 @@ class Sensor:
         Unknown side, or lumped parameters that are negative or non-finite.
     """
 
-    side: str = "skin"
+    side: str = "material"
     heat_capacity: float = 0.0
     skin_resistance: float = 0.0
 
@@ -121,7 +122,7 @@ class ContactSetup:
         The sample; ``thickness=None`` is a half-space, otherwise a slab (m) with an
         insulated back.  Default: stainless steel, 3 mm (the paper's samples).
     sensor : Sensor
-        Default: ``Sensor("skin")``.
+        Default: ``Sensor("material")``.
     skin_properties : tuple of float
         (conductivity W/(m K), density kg/m³, specific heat J/(kg K)); default Table 1.
     nodes : int

@@ -31,7 +31,7 @@ def synthetic_trace(resistance: float, skin_thickness: float, *, setup: ContactS
     resistance : float, m² K/W
     skin_thickness : float, m
     setup : ContactSetup, optional
-        Default: 3 mm steel, skin-side sensor.
+        Default: 3 mm steel, material-side sensor.
     skin_temperature, material_temperature : float, °C
     duration_s : float, s
     rate_Hz : float, Hz

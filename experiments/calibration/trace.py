@@ -125,11 +125,14 @@ class ContactTrace:
                 f"{src}: contact_C: expected readings between the sample ({tm0:g} °C) and the skin "
                 f"({ts0:g} °C) temperatures (a passive contact cannot leave that range), got "
                 f"{y[i]:.4g} °C at time_s = {t[i]:g} (non-physical)")
-        span = float(np.ptp(y))
-        if span < max(0.05 * (hi - lo), 10.0 * sigma):
+        w = max(1, t.size // 20)                       # block means: noise SD sigma / sqrt(w)
+        means = y[: (t.size // w) * w].reshape(-1, w).mean(axis=1)
+        span = float(np.ptp(means))
+        if span < max(0.005 * (hi - lo), 6.0 * sigma / math.sqrt(w)):
             raise CalibrationError(
                 f"{src}: contact_C: expected the reading to change after contact, got a flat trace "
-                f"(range {span:.3g} K, noise {sigma:.2g} K, skin-sample difference {hi - lo:.3g} K)")
+                f"(range of {w}-sample means {span:.3g} K, noise {sigma:.2g} K, skin-sample "
+                f"difference {hi - lo:.3g} K)")
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "temperature_C", y)
         object.__setattr__(self, "sample", str(self.sample))

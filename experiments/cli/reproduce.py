@@ -1,11 +1,51 @@
-"""`thermocue reproduce` (placeholder until its issue lands; the owner replaces this module)."""
+"""`thermocue reproduce {figure9,table2,figures} --out DIR`: the paper's results, recomputed.
+
+* ``figures``: Figs. 3, 4a, 4b, 5, 6 as PNG + CSV, each with the paper's formulas as
+  printed, corrected, and the exact solution side by side (:mod:`analysis.model_figures`).
+* ``table2``: Table 2 beside our models, with residuals (:mod:`analysis.table2`); the
+  markdown table is also printed.
+* ``figure9``: the simulated-cohort study (:func:`experiments.cohort.run_figure9_study`).
+"""
 from __future__ import annotations
+
+from pathlib import Path
+
+TARGETS = ("figure9", "table2", "figures")
 
 
 def register(sub) -> None:
-    p = sub.add_parser("reproduce", help="(not yet implemented)")
+    p = sub.add_parser("reproduce", help="recompute the paper's figures and tables",
+                       description=__doc__.split("\n\n")[0])
+    p.add_argument("target", choices=TARGETS, help="what to reproduce")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing)")
+    p.add_argument("--seed", type=int, default=0, help="figure9 only: cohort seed (default 0)")
     p.set_defaults(func=_run)
 
 
+def _out_dir(path: str) -> Path:
+    from experiments.errors import UserInputError
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise UserInputError(f"{path}: --out: expected a folder, got an existing file")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
 def _run(ns) -> int:
-    raise SystemExit("thermocue reproduce: not implemented yet")
+    out = _out_dir(ns.out)
+    if ns.target == "figures":
+        from analysis.model_figures import write_figures
+        for path in write_figures(out):
+            print(path)
+        return 0
+    if ns.target == "table2":
+        from analysis.table2 import write_table2
+        csv_path, md_path, md = write_table2(out)
+        print(md)
+        print(csv_path)
+        print(md_path)
+        return 0
+    # figure9: the simulated cohort (owned by experiments/cohort.py)
+    from experiments.cohort import run_figure9_study
+    run_figure9_study(out, seed=ns.seed)
+    return 0

@@ -1,11 +1,42 @@
-"""`thermocue resume` (placeholder until its issue lands; the owner replaces this module)."""
+"""`thermocue resume`: continue an interrupted session at its first incomplete trial."""
 from __future__ import annotations
 
 
 def register(sub) -> None:
-    p = sub.add_parser("resume", help="(not yet implemented)")
+    from experiments.cli.run import RESPONDERS, add_common
+    p = sub.add_parser(
+        "resume", help="continue an interrupted session",
+        description="Continue a session at its first incomplete trial with the same schedule; an "
+                    "attempt cut off mid-way is logged as aborted and run again; trials.csv is "
+                    "rebuilt from events.jsonl.")
+    p.add_argument("session_dir", metavar="SESSION_DIR", help="DATA/<participant>/<session>")
+    p.add_argument("--display", default=None, metavar="URL",
+                   help="display URL (default: the one in session.json)")
+    p.add_argument("--responder", default=None, choices=RESPONDERS,
+                   help="responder (default: the one in session.json)")
+    add_common(p)
     p.set_defaults(func=_run)
 
 
 def _run(ns) -> int:
-    raise SystemExit("thermocue resume: not implemented yet")
+    import json
+    from pathlib import Path
+
+    from experiments.cli.run import responder_options
+    from experiments.errors import SessionError
+    from experiments.responders import get_responder
+    from experiments.session import open_session
+
+    session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
+    name = ns.responder
+    if name is None:
+        meta = json.loads((Path(ns.session_dir) / "session.json").read_text(encoding="utf-8"))
+        name = meta.get("responder")
+        if not name:
+            raise SessionError(f"{ns.session_dir}/session.json: responder: expected a name, got "
+                               f"{name!r} (give --responder)")
+    if ns.max_faults is not None:
+        session.max_consecutive_faults = ns.max_faults
+    session.show_progress = not ns.quiet
+    responder = get_responder(name, **responder_options(ns.responder_option))
+    return session.run(responder)

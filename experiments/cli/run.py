@@ -1,11 +1,83 @@
-"""`thermocue run` (placeholder until its issue lands; the owner replaces this module)."""
+"""`thermocue run`: run one participant through a protocol (new session)."""
 from __future__ import annotations
+
+RESPONDERS = ("psychopy", "console", "simulated")
 
 
 def register(sub) -> None:
-    p = sub.add_parser("run", help="(not yet implemented)")
+    p = sub.add_parser(
+        "run", help="run one participant through a protocol",
+        description="Run one participant through a protocol and write DATA/<participant>/<session>/ "
+                    "(session.json, events.jsonl, trials.csv, traces/).")
+    p.add_argument("protocol", metavar="PROTOCOL",
+                   help="protocol file (TOML) or packaged protocol name, e.g. roughness_recognition")
+    p.add_argument("--participant", required=True, metavar="FILE", help="participant record (JSON)")
+    p.add_argument("--display", required=True, metavar="URL",
+                   help="display: emulator://[?clock=virtual&seed=N&faults=...], a pty or /dev/ttyUSB0")
+    p.add_argument("--responder", required=True, choices=RESPONDERS,
+                   help="who answers: PsychoPy window, console, or simulated participant")
+    p.add_argument("--data", required=True, metavar="DIR", help="data folder (DATA)")
+    p.add_argument("--seed", type=int, default=None, metavar="N", help="schedule seed (default: random, stored)")
+    p.add_argument("--session", default=None, metavar="NAME", help="session name (default: S01, S02, ...)")
+    add_common(p)
     p.set_defaults(func=_run)
 
 
+def add_common(p) -> None:
+    """Options shared with `thermocue resume`."""
+    p.add_argument("--clock", choices=("auto", "real", "virtual"), default=None,
+                   help="virtual: no waiting (rewarming), for simulated sessions; auto (default): "
+                        "virtual iff the display URL has clock=virtual")
+    p.add_argument("--responder-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="option passed to the responder (repeatable), e.g. fullscr=true")
+    p.add_argument("--max-faults", type=int, default=None, metavar="N",
+                   help="stop cleanly after N consecutive display faults (default 3)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def responder_options(items) -> dict:
+    """Parse KEY=VALUE strings (true/false/numbers converted)."""
+    from experiments.errors import UserInputError
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise UserInputError(f"--responder-option: expected KEY=VALUE, got {item!r}")
+        v: object = value
+        low = value.strip().lower()
+        if low in ("true", "yes", "on"):
+            v = True
+        elif low in ("false", "no", "off"):
+            v = False
+        elif low in ("none", "null"):
+            v = None
+        else:
+            for kind in (int, float):
+                try:
+                    v = kind(value)
+                    break
+                except ValueError:
+                    pass
+        out[key.strip().replace("-", "_")] = v
+    return out
+
+
 def _run(ns) -> int:
-    raise SystemExit("thermocue run: not implemented yet")
+    import sys
+
+    from experiments.errors import UserInputError
+    from experiments.responders import get_responder
+    from experiments.session import create_session
+
+    if ns.seed is not None and ns.seed < 0:
+        raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
+    if ns.max_faults is not None and ns.max_faults < 1:
+        raise UserInputError(f"--max-faults: expected an integer ≥ 1, got {ns.max_faults}")
+    responder = get_responder(ns.responder, **responder_options(ns.responder_option))
+    session = create_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
+                             session_name=ns.session, responder_name=ns.responder,
+                             clock=ns.clock or "auto",
+                             max_consecutive_faults=ns.max_faults or 3)
+    session.show_progress = not ns.quiet
+    print(session.directory, file=sys.stdout, flush=True)
+    return session.run(responder)

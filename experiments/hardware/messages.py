@@ -18,7 +18,7 @@ __all__ = [
     "DeviceInfo", "Status", "Telemetry", "DeviceEvent", "UploadAck", "CommitAck",
     "centi", "from_centi", "error_name",
     "HELLO_REQ", "HELLO_REPLY_HEAD", "TIME", "CENTI", "LIMITS", "UPLOAD_BEGIN", "UPLOAD_CHUNK_HEAD",
-    "UPLOAD_CHUNK_ACK", "COMMIT", "COMMIT_ACK", "ARM", "STATUS_REPLY", "TELEMETRY", "EVENT_HEAD",
+    "UPLOAD_CHUNK_ACK", "COMMIT", "COMMIT_ACK", "ARM", "COUNTER", "STATUS_REPLY", "TELEMETRY", "EVENT_HEAD",
     "NAK_HEAD", "encode_strings", "decode_strings", "encode_json", "decode_json",
 ]
 
@@ -121,6 +121,7 @@ UPLOAD_CHUNK_ACK = struct.Struct("<IHI")        # offset, count, crc32 of the ch
 COMMIT = struct.Struct("<I")                    # crc32 of the whole profile's bytes
 COMMIT_ACK = struct.Struct("<IIH")              # n points, crc32, samples clamped by the device
 ARM = struct.Struct("<BHI")                     # mode, threshold (cN), max duration (ms)
+COUNTER = struct.Struct("<I")                   # ARM's reply: telemetry counter at arming
 STATUS_REPLY = struct.Struct("<BBQhhhhhhhhhhIQBII")
 #   state, last fault, time, setpoint, contact, ambient, finger, heat sink, forces x4, neutral,
 #   profile points, contact time (µs, 0 = none), end reason, telemetry counter, trials

@@ -13,6 +13,7 @@ that neither PsychoPy nor the participant model is imported unless asked for.
 from __future__ import annotations
 
 import importlib
+import inspect
 import math
 import time
 from dataclasses import dataclass, field
@@ -237,4 +238,9 @@ def get_responder(name: str, **options) -> Responder:
     cls = _REGISTRY.get(name)
     if cls is None:
         raise UserInputError(f"--responder: expected one of {responder_names()}, got {name!r}")
+    try:
+        inspect.signature(cls).bind(**options)
+    except TypeError as exc:
+        raise UserInputError(f"responder {name!r}: options {sorted(options)}: expected options "
+                             f"of {cls.__name__}{inspect.signature(cls)}, got {exc}") from None
     return cls(**options)

@@ -129,6 +129,7 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         The ptb keyboard reads the X server's queue itself: no window event pumping needed.
         """
         start = time.monotonic()
+        self.log("awaiting_key", keys=keys)   # experimenters' record; tests wait for it
         while True:
             pressed = self.kb.getKeys(keyList=keys + _QUIT_KEYS, waitRelease=False)
             for key in pressed:

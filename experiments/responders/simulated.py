@@ -56,9 +56,11 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     skin_temperature_C : float, °C, optional
         Default: the record's ``initial_skin_temperature_C``, else 35.75 °C.
     press_after_s, force_N : float, s / N
-        The scripted finger: when it presses after being armed, and how hard (2 N, §3.2).
+        The scripted finger: when it presses after being armed, and how hard (default: the
+        protocol's force threshold + 0.5 N, i.e. 2.5 N for the paper's 2 N).
     hold_s : float, s, optional
-        How long the finger stays on (default: the model's feature window + 0.5 s).
+        How long the finger stays on (default: the model's feature window + 0.5 s; the paper's
+        participants withdrew after answering, within 20 s).
     **perception
         Any field of :class:`~experiments.participant_model.PerceptionParameters`
         (``drop_noise_C``, ``weber_fraction``, ``lapse_rate``, ...).
@@ -67,7 +69,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     human = False
 
     def __init__(self, seed=None, skin_thickness_um=None, dermis_fraction=None,
-                 skin_temperature_C=None, press_after_s=0.3, force_N=2.0, hold_s=None,
+                 skin_temperature_C=None, press_after_s=0.3, force_N=None, hold_s=None,
                  **perception):
         super().__init__()
         unknown = sorted(set(perception) - set(_PARAM_FIELDS))
@@ -95,7 +97,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             "skin_temperature_C": None if skin_temperature_C is None else _number("skin_temperature_C", skin_temperature_C),
         }
         self.press_after_s = _number("press_after_s", press_after_s)
-        self.force_N = _number("force_N", force_N)
+        self.force_N = None if force_N is None else _number("force_N", force_N)
         self.hold_s = self.params.duration_s + 0.5 if hold_s is None else _number("hold_s", hold_s)
         self.person: SimulatedPerson | None = None
         self._trial_state: dict[int, tuple[np.random.Generator, float]] = {}
@@ -107,7 +109,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         record = _participant_record(session)
         self.person = self.make_person(record)
         if self.seed is None:
-            self.seed = _stable_seed(str(record.get("id", "anonymous")))
+            self.seed = _stable_seed(f"{record.get('id', 'anonymous')}:{getattr(session, 'seed', '')}")
         self.log("simulated_participant", seed=self.seed, **self.person.describe())
 
     def make_person(self, record: dict | None = None) -> SimulatedPerson:
@@ -156,7 +158,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             sample = _sample_for(self.session, trial, self.params)
             display.sim_sample(material=sample["material"], roughness_m=sample["roughness_m"],
                                thickness_m=sample["thickness_m"], temperature_C=sample["temperature_C"])
-        display.sim_finger(press_after_s=self.press_after_s, force_N=self.force_N, hold_s=self.hold_s,
+        display.sim_finger(press_after_s=self.press_after_s, force_N=self._force(), hold_s=self.hold_s,
                            skin_thickness_m=person.skin_thickness_m,
                            skin_temperature_C=skin_temperature)
         if _is_familiarisation(trial) and trial.mode != "simulated":
@@ -165,6 +167,13 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             from experiments.responders.base import TrialStimulus
             self._learn(trial, TrialStimulus(mode="real", roughness_id=trial.roughness_id,
                                              roughness_um=trial.roughness_um))
+
+    def _force(self) -> float:
+        if self.force_N is not None:
+            return self.force_N
+        contact = getattr(getattr(self.session, "protocol", None), "contact", None)
+        threshold = getattr(contact, "force_threshold_N", 2.0)
+        return float(threshold) + 0.5
 
     def feel(self, trial, stimulus) -> tuple[np.ndarray, np.ndarray, float]:
         """The receptor temperature trace this trial produced: ``(t_s, receptor_C, skin_C)``."""

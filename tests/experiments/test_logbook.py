@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import experiments.logbook as logbook
 from experiments.errors import SessionError
@@ -82,6 +84,26 @@ def test_reopen_continues_seq(tmp_path):
     with EventLog(path) as log:
         assert log.seq == 2
         assert log.append("note")["seq"] == 3
+
+
+def test_appends_from_threads_stay_whole(tmp_path):
+    import threading
+
+    path = tmp_path / "events.jsonl"
+    with EventLog(path) as log:
+        def work(k):
+            for i in range(25):
+                log.append("note", thread=k, i=i, pad="y" * 3000)
+        threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    events, report = read_events(path)
+    assert report.ok
+    assert [e["seq"] for e in events] == list(range(1, 101))
+    for k in range(4):
+        assert [e["i"] for e in events if e["thread"] == k] == list(range(25))
 
 
 def test_append_validates(tmp_path):
@@ -173,6 +195,42 @@ def test_reopen_cuts_a_torn_tail_and_keeps_its_bytes(tmp_path):
 def test_missing_log():
     with pytest.raises(FileNotFoundError):
         read_events("/nonexistent/events.jsonl")
+
+
+def _reference_log(directory: Path) -> tuple[bytes, list[dict]]:
+    path = directory / "ref.jsonl"
+    with EventLog(path) as log:
+        evs = [log.append("note", i=i, text="é" * (i * 7 % 23), pad="x" * (i * 37 % 101)) for i in range(12)]
+    return path.read_bytes(), evs
+
+
+@settings(max_examples=60, deadline=None)
+@given(cut=st.integers(min_value=0, max_value=10**6))
+def test_any_truncation_reads_as_a_prefix(cut):
+    """A log cut at any byte (even inside a UTF-8 character) reads as the whole lines before the
+    cut; a partial line is reported as torn, with a warning."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        data, evs = _reference_log(Path(d))
+        cut = cut % (len(data) + 1)
+        path = Path(d) / "events.jsonl"
+        path.write_bytes(data[:cut])
+        whole = data[:cut].count(b"\n")
+        tail = data[:cut].rsplit(b"\n", 1)[-1]
+        if tail and data[cut:cut + 1] == b"\n":    # the whole last line, only its newline cut
+            whole, tail = whole + 1, b""
+        partial = bool(tail)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            events, report = read_events(path)
+        assert events == evs[:whole]
+        assert (report.torn_tail is not None) == partial
+        assert len(caught) == int(partial)
+        with EventLog(path) as log:                 # and the writer repairs it and goes on
+            log.append("note", i=99)
+        events, report = read_events(path)
+        assert report.ok and events[:whole] == evs[:whole] and events[-1]["i"] == 99
 
 
 # --------------------------------------------------------------------------- SIGKILL

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from pathlib import Path
 
 import pytest
 
@@ -181,3 +182,15 @@ def test_participant_thickness_mode_needs_no_groups(tmp_path):
     path = variant(tmp_path, 'skin_thickness = "group"', 'skin_thickness = "participant"')
     p = load_protocol(path)
     assert p.simulation.skin_thickness_for("A", 720.0) == 720.0
+
+
+def test_bad_protocol_through_the_cli(tmp_path, capsys):
+    from experiments.cli import main
+
+    path = variant(tmp_path, "repetitions = 3", 'repetitions = "three"')
+    participant = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
+    status = main(["run", str(path), "--participant", str(participant), "--display",
+                   "emulator://?clock=virtual", "--responder", "simulated", "--data", str(tmp_path / "data")])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err == f"thermocue run: {path}: blocks[1].repetitions: expected an integer ≥ 1, got 'three'\n"

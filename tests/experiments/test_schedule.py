@@ -178,3 +178,17 @@ def test_bad_inputs(rr, pid, seed, message):
     with pytest.raises(UserInputError) as ei:
         build_schedule(rr, pid, seed)
     assert str(ei.value) == message
+
+
+def test_unscored_blocks_keep_their_place_when_counterbalanced(tmp_path):
+    review = ("# [[blocks]]\n# name = \"review\"\n# mode = \"real\"\n# repetitions = 1\n# order = \"fixed\"\n"
+              "# scored = false\n# feedback = true\n# response = false\n")
+    p = variant(tmp_path, (review, review.replace("# ", "")),
+                ('block_order = "fixed"', 'block_order = "counterbalanced"'))
+    assert [b.name for b in p.blocks] == ["familiarise", "real", "review", "simulated"]
+    for pid, middle_first in (("P01", "simulated"), ("P02", "real")):
+        s = build_schedule(p, pid, 1)
+        assert len(s) == 32
+        assert [t.block for t in s][::4] == (["familiarise"] + [middle_first] * 3 + ["review"]
+                                             + [{"real": "simulated", "simulated": "real"}[middle_first]] * 3)
+        assert [t.roughness_id for t in s if t.block == "review"] == [1, 2, 3, 4]

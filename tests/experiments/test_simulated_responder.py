@@ -63,7 +63,7 @@ def test_touch_scripts_the_emulator_with_own_skin_and_the_sample():
     assert kind2 == "sim_finger"
     assert finger["skin_thickness_m"] == pytest.approx(720e-6)
     assert finger["skin_temperature_C"] == pytest.approx(35.8)
-    assert finger["force_N"] == pytest.approx(2.0)
+    assert finger["force_N"] == pytest.approx(2.5)      # 0.5 N over the 2 N threshold
     d2 = FakeDisplay()
     r.touch(spec(6, "simulated", "simulated", 3), d2)
     assert [c[0] for c in d2.calls] == ["sim_finger"]       # no sample on a simulated trial
@@ -115,7 +115,9 @@ def test_simulated_trial_feels_the_recorded_contact_trace():
                                             target_C=surface, profile_parameters={}))
     _, cold, _ = r.feel(trial, TrialStimulus("simulated", 2, 12.5, time_s=t, contact_C=surface - 2,
                                             target_C=surface, profile_parameters={}))
-    assert np.all(cold[1:] < warm[1:])
+    # The receptors lie under the epidermis: the first milliseconds are equal to rounding.
+    assert np.all(cold <= warm + 1e-12)
+    assert np.all(cold[10:] < warm[10:])
     assert warm[0] == pytest.approx(35.5)
 
 

@@ -175,3 +175,14 @@ def test_unusual_but_possible_thickness_warns():
     rec = changed(skin_thickness={"total_um": 3000, "method": "ultrasound"})
     validate_participant(rec)
     assert any("outside the usual fingertip range" in w for w in participant_warnings(rec))
+
+
+def test_bad_participant_through_the_cli(tmp_path, capsys):
+    from experiments.cli import main
+
+    path = write(tmp_path, changed(skin_thickness__total_um="abc"))
+    status = main(["run", "roughness_recognition", "--participant", str(path), "--display",
+                   "emulator://?clock=virtual", "--responder", "simulated", "--data", str(tmp_path / "data")])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert err == f"thermocue run: {path}: skin_thickness.total_um: expected a number > 0, got 'abc'\n"

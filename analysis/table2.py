@@ -1,0 +1,95 @@
+"""Table 2 of the paper (interface temperature at 20 s on steel) beside our models.
+
+Experiment 1 of the paper: skin 35 degC, steel at room temperature 24 degC,
+roughness 0.4 ... 100 um, the temperature read at 20 s by a sensor between the
+fingertip and the sample. We compute that temperature with Eq. 5's contact
+resistance (paper defaults, lambda_a = steel) and
+
+* Eq. 7 as printed and corrected (the material side, half-space: the closed forms'
+  only geometry),
+* the exact solution, material side and skin side, for a half-space and for the
+  paper's 3 mm samples (a slab with an insulated back).
+
+Skin: 650 um thick (the paper's group A mean; Experiment 1's participant is not
+characterised), dermis 0.6 L; Table 1 properties. Nothing is fitted: the
+residuals say how far the model is from the table.
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+__all__ = ["PAPER_TABLE2", "table2_rows", "write_table2", "MODEL_COLUMNS"]
+
+#: roughness_um: (paper simulation degC, paper experiment degC)
+PAPER_TABLE2 = {
+    0.4: (25.704, 25.776),
+    1.6: (25.729, 25.751),
+    12.5: (26.269, 26.340),
+    50.0: (27.338, 28.116),
+    100.0: (28.820, 30.021),
+}
+SKIN_C, ROOM_C, TIME_S, SKIN_THICKNESS_UM = 35.0, 24.0, 20.0, 650.0
+
+#: column -> (method, side, sample thickness m or None)
+MODEL_COLUMNS = {
+    "eq7_printed_C": ("paper-as-printed", "material", None),
+    "eq7_corrected_C": ("paper", "material", None),
+    "exact_halfspace_C": ("exact", "material", None),
+    "exact_slab3mm_C": ("exact", "material", 3e-3),
+    "exact_halfspace_skinside_C": ("exact", "skin", None),
+    "exact_slab3mm_skinside_C": ("exact", "skin", 3e-3),
+}
+
+
+def table2_rows(skin_thickness_um: float = SKIN_THICKNESS_UM):
+    """Header and rows: paper values, ours, and residuals (ours - paper), K."""
+    from stimuli import Contact, Skin, contact_resistance, material
+
+    skin = Skin(skin_thickness_um * 1e-6)
+    header = ["roughness_um", "R_m2K_per_W", "paper_simulation_C", "paper_experiment_C"]
+    header += list(MODEL_COLUMNS)
+    header += [f"{c[:-2]}_minus_experiment_K" for c in MODEL_COLUMNS]
+    header += [f"{c[:-2]}_minus_simulation_K" for c in MODEL_COLUMNS]
+    rows = []
+    for ra, (sim, exp) in PAPER_TABLE2.items():
+        R = contact_resistance(ra * 1e-6, skin, material("stainless_steel"))
+        ours = []
+        for method, side, thick in MODEL_COLUMNS.values():
+            c = Contact(skin, material("stainless_steel", thick), R, SKIN_C, ROOM_C)
+            ours.append(float(c.interface_temperature([TIME_S], side=side, method=method)[0]))
+        rows.append([ra, R, sim, exp, *ours, *[o - exp for o in ours], *[o - sim for o in ours]])
+    return header, rows
+
+
+def _md_table(header, rows) -> list[str]:
+    return (["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+            + ["| " + " | ".join(r) + " |" for r in rows])
+
+
+def _markdown(header, rows) -> str:
+    k = len(MODEL_COLUMNS)
+    n = 4 + k
+    lines = _md_table(header[:n], [[f"{r[0]:g}", f"{r[1]:.3e}"] + [f"{v:.3f}" for v in r[2:n]] for r in rows])
+    cols = ["roughness_um"] + list(MODEL_COLUMNS)
+    lines += ["", "Residuals, ours minus the paper's experiment (K):", ""]
+    lines += _md_table(cols, [[f"{r[0]:g}"] + [f"{v:+.3f}" for v in r[n:n + k]] for r in rows])
+    lines += ["", "Residuals, ours minus the paper's simulation (K):", ""]
+    lines += _md_table(cols, [[f"{r[0]:g}"] + [f"{v:+.3f}" for v in r[n + k:]] for r in rows])
+    return "\n".join(lines) + "\n"
+
+
+def write_table2(out_dir) -> tuple[Path, Path, str]:
+    """Write ``table2.csv`` and ``table2.md`` into ``out_dir``; return both paths and the markdown."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    header, rows = table2_rows()
+    with open(out / "table2.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        for r in rows:
+            w.writerow([f"{v:.6g}" for v in r])
+    md = (f"# Table 2: interface temperature at {TIME_S:g} s (skin {SKIN_C:g} °C, steel {ROOM_C:g} °C, "
+          f"skin {SKIN_THICKNESS_UM:g} µm)\n\n" + _markdown(header, rows))
+    (out / "table2.md").write_text(md)
+    return out / "table2.csv", out / "table2.md", md

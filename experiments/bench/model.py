@@ -1,0 +1,395 @@
+"""Speed against error of every thermal-model method on a 20 s profile sampled at 1 kHz.
+
+Two problems, both the paper's simulated trial (stainless steel half-space, R_a = 12.5 µm -> Eq. 5
+resistance, skin 650 µm with receptors at 0.6 L, T_S0 = 35.5 °C, T_M0 = 20 °C):
+
+* ``interface``: the target interface temperature on the material side (Eq. 7's quantity) with
+  every :class:`stimuli.Contact` method and inversion setting, and the finite-volume solver at
+  several grids. Reference: mpmath's Talbot inversion of the exact Laplace-domain solution at
+  40 digits, at 41 times (the first sample, geometric to 20 s, and uniform ones).
+* ``receptor``: :func:`stimuli.skin_response` at the receptors while the display imposes that
+  target profile (20001 samples, linear in between), with every method and grid, plus a per-mode
+  exact recursion (the eigen series advanced mode by mode; bench only) for comparison.
+  Reference: the Duhamel sum evaluated in mpmath at 30 digits with its own image/eigen series,
+  at 31 times including the first and the last sample.
+
+Cost is the best of several runs of the whole 20001-point profile, divided by 20001 (µs per point);
+the machine is named in the output. The stable closed form of Eq. 7 (``Contact`` method
+``"paper-as-printed"`` on the interface) is the yardstick of the issue's targets.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["run_model_benchmark", "machine_info"]
+
+DURATION_S = 20.0
+RATE_HZ = 1000.0
+SKIN_THICKNESS_M = 650e-6
+ROUGHNESS_M = 12.5e-6
+T_SKIN_C = 35.5
+T_MATERIAL_C = 20.0
+
+
+# --------------------------------------------------------------------------- machine
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def machine_info() -> dict:
+    """Platform, CPU model, core count, load and the numerical library versions."""
+    import mpmath
+    import scipy
+    try:
+        load = os.getloadavg()[0]
+    except OSError:  # pragma: no cover
+        load = float("nan")
+    return {"platform": platform.platform(), "machine": platform.machine(), "cpu_model": _cpu_model(),
+            "cpu_count": os.cpu_count(), "load_average_1min": load,
+            "python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__,
+            "mpmath": mpmath.__version__}
+
+
+def _best_seconds(fn, repeat=7, budget_s=3.0):
+    """Best wall time of ``fn()`` over ``repeat`` runs (fewer if one run exceeds the budget)."""
+    best = math.inf
+    start = time.perf_counter()
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+        if time.perf_counter() - start > budget_s:
+            break
+    return best
+
+
+# --------------------------------------------------------------------------- references
+def _reference_times():
+    geo = np.unique(np.round(np.geomspace(1e-3, DURATION_S, 30) * RATE_HZ).astype(int))
+    uni = np.round(np.linspace(0.5, DURATION_S, 12) * RATE_HZ).astype(int)
+    return np.unique(np.concatenate([geo, uni]))          # sample indices
+
+
+def _interface_reference(skin, steel, R, idx, dps=40):
+    """theta_M(L+, t) by mpmath Talbot inversion of DESIGN.md's transform (independent of stimuli)."""
+    import mpmath as mp
+    with mp.workdps(dps):
+        a_s = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
+        b_s = mp.sqrt(mp.mpf(skin.conductivity) * mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
+        b_m = mp.sqrt(mp.mpf(steel.conductivity) * mp.mpf(steel.density) * mp.mpf(steel.specific_heat))
+        L, Rm = mp.mpf(skin.thickness), mp.mpf(R)
+
+        def fhat(s):
+            p = mp.sqrt(s)
+            F = (1 / s) / (Rm + mp.tanh(p / mp.sqrt(a_s) * L) / (b_s * p) + 1 / (b_m * p))
+            return F / (b_m * p)
+
+        return np.array([float(mp.invertlaplace(fhat, mp.mpf(int(i)) / int(RATE_HZ), method="talbot"))
+                         for i in idx])
+
+
+def _receptor_reference(skin, h, idx, dps=30):
+    """Exact receptor response (relative to T_S0) of the piecewise-linear history h, in mpmath.
+
+    u_i = h_0 S(t_i) + sum_j s_j [R(t_i - t_j) - R(t_i - t_{j+1})], with the slab's step response S
+    and its integral R from the image series (tau < 1/4) or the eigen series, each summed in
+    mpmath until the terms fall below 1e-40.
+    """
+    import mpmath as mp
+    with mp.workdps(dps):
+        L = mp.mpf(skin.thickness)
+        a = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
+        xi = mp.mpf(skin.dermis) / L
+        Td = L * L / a
+        dt = mp.mpf(1) / int(RATE_HZ)
+        tiny = mp.mpf(10) ** -40
+
+        def i2erfc4(z):            # 4 i^2 erfc(z)
+            return (1 + 2 * z * z) * mp.erfc(z) - 2 * z * mp.exp(-z * z) / mp.sqrt(mp.pi)
+
+        def S_R(m):
+            if m == 0:
+                return mp.mpf(0), mp.mpf(0)
+            tau = a * m * dt / (L * L)
+            S = R = mp.mpf(0)
+            if tau < mp.mpf(1) / 4:
+                n = 0
+                while True:
+                    za = (2 * n + 1 - xi) / (2 * mp.sqrt(tau))
+                    zb = (2 * n + 1 + xi) / (2 * mp.sqrt(tau))
+                    dS = mp.erfc(za) - mp.erfc(zb)
+                    S += dS
+                    R += Td * tau * (i2erfc4(za) - i2erfc4(zb))
+                    if abs(dS) < tiny and n > 0:
+                        break
+                    n += 1
+            else:
+                S, R = xi, xi * m * dt - Td * (xi - xi ** 3) / 6
+                n = 1
+                while True:
+                    e = mp.exp(-(n * mp.pi) ** 2 * tau)
+                    sgn = (-1) ** n * mp.sin(n * mp.pi * xi)
+                    S += 2 / mp.pi * sgn / n * e
+                    R -= Td * 2 / mp.pi ** 3 * sgn / n ** 3 * e
+                    if e < tiny:
+                        break
+                    n += 1
+            return S, R
+
+        top = int(max(idx))
+        SR = [S_R(m) for m in range(top + 1)]
+        D = [SR[m][1] - SR[m - 1][1] for m in range(1, top + 1)]      # D_m, m = 1..top
+        hm = [mp.mpf(float(v)) for v in h[: top + 1]]
+        slopes = [(hm[j + 1] - hm[j]) / dt for j in range(top)]
+        out = []
+        for i in idx:
+            i = int(i)
+            u = hm[0] * SR[i][0] + mp.fsum(slopes[j] * D[i - j - 1] for j in range(i))
+            out.append(float(u))
+        return np.array(out)
+
+
+# --------------------------------------------------------------------------- bench-only method
+def modal_recursion(skin, t, surface_temperature, initial_temperature, depth, tol_K=1e-7):
+    """Eigen series advanced mode by mode with an exact recursion per sample step (bench only).
+
+    u = xi h(t) + sum_n c_n(t) sin(n pi xi), c_n' = -lambda_n c_n - a_n h'(t), a_n = 2(-1)^(n+1)/(n pi),
+    c_n(0+) = -a_n h_0; over a step with slope s: c <- r c - a_n s (1 - r)/lambda_n, r = e^(-lambda_n dt),
+    one ``scipy.signal.lfilter`` per mode. Modes: enough that the neglected ones are < tol_K at t_1.
+    """
+    from scipy.signal import lfilter
+    t = np.asarray(t, dtype=float)
+    dt = t[1] - t[0]
+    h = np.asarray(surface_temperature, dtype=float) - initial_temperature
+    L = skin.thickness
+    xi = depth / L
+    lam1 = skin.diffusivity * (math.pi / L) ** 2
+    tail, n = math.inf, 0
+    h0 = abs(h[0]) + 1e-300
+    while tail > tol_K:
+        n += 1
+        tail = (2 * h0 / math.pi) * sum(math.exp(-k * k * lam1 * dt) / k for k in range(n + 1, n + 200))
+    slopes = np.diff(h) / dt
+    u = xi * h.copy()
+    for k in range(1, n + 1):
+        lam = lam1 * k * k
+        r = math.exp(-lam * dt)
+        a = 2.0 * (-1) ** (k + 1) / (k * math.pi)
+        c0 = -a * h[0]
+        b = -a * (-math.expm1(-lam * dt)) / lam
+        c = lfilter([b], [1.0, -r], slopes, zi=[r * c0])[0]
+        sn = math.sin(k * math.pi * xi)
+        u[1:] += sn * c
+    u[0] = 0.0 if xi < 1 else h[0]
+    return initial_temperature + u, n
+
+
+# --------------------------------------------------------------------------- run
+def _row(problem, method, setting, seconds, err_K, err_theta, n_ref, note=""):
+    pts = int(DURATION_S * RATE_HZ) + 1
+    return {"problem": problem, "method": method, "setting": setting,
+            "cost_per_point_us": seconds / pts * 1e6, "total_ms": seconds * 1e3,
+            "max_error_K": err_K, "max_error_theta": err_theta, "reference_points": n_ref,
+            "note": note}
+
+
+def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
+    """Measure every method, write ``bench.json``, ``bench.csv``, ``bench.png`` and return the dict.
+
+    Parameters
+    ----------
+    out_dir : path
+        Created if missing.
+    quick : bool
+        Fewer timing repeats and grids (for tests); the same tables.
+    echo : callable
+        Receives each printed line.
+    """
+    from stimuli import Contact, Skin, contact_resistance, material, skin_response
+    from stimuli.exact import invert_laplace
+    from stimuli.finite_volume import solve_contact, solve_surface
+    from stimuli.laplace import ContactTransform
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    repeat = 3 if quick else 7
+    n = int(DURATION_S * RATE_HZ) + 1
+    t = np.arange(n) / RATE_HZ
+    skin = Skin(SKIN_THICKNESS_M)
+    steel = material("stainless_steel")
+    R = float(contact_resistance(ROUGHNESS_M, skin=skin, material=steel))
+    dT = T_SKIN_C - T_MATERIAL_C
+    contact = Contact(skin, steel, resistance=R, skin_temperature=T_SKIN_C,
+                      material_temperature=T_MATERIAL_C)
+    idx = _reference_times()
+    if quick:
+        idx = idx[::4]
+    echo(f"thermocue bench model: {machine_info()['cpu_model']}, {n} points ({DURATION_S:g} s at "
+         f"{RATE_HZ:g} Hz); computing mpmath references at {idx.size} times ...")
+    ref_if = T_MATERIAL_C + dT * _interface_reference(skin, steel, R, idx)
+    rows = []
+
+    # ---- interface temperature (Eq. 7's quantity)
+    def bench_if(method, setting, fn, note=""):
+        vals = fn()
+        secs = _best_seconds(fn, repeat)
+        err = float(np.max(np.abs(np.asarray(vals)[idx] - ref_if)))
+        rows.append(_row("interface", method, setting, secs, err, err / abs(dT), int(idx.size), note))
+        return vals
+
+    bench_if("paper-as-printed", "Eq. 7 stable (erfcx)",
+             lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
+             "the yardstick")
+    bench_if("paper", "corrected closed form",
+             lambda: contact.interface_temperature(t, side="material", method="paper"))
+    bench_if("exact", "default",
+             lambda: contact.interface_temperature(t, side="material", method="exact"))
+    tr = ContactTransform.from_contact(skin, steel, R)
+    for nodes in ((12, 16) if quick else (8, 12, 16, 20, 24, 32)):
+        bench_if("exact", f"nodes={nodes}",
+                 lambda nodes=nodes: np.concatenate(   # R > 0: theta(L+, 0) = 0
+                     [[T_MATERIAL_C], T_MATERIAL_C + dT * invert_laplace(
+                         lambda s: tr.material_rise(s, tr.L), t[1:], nodes=nodes)]))
+    for cells in ((16, 32) if quick else (16, 32, 64, 128)):
+        bench_if("numerical", f"cells={cells}",
+                 lambda cells=cells: solve_contact(skin, steel, R, T_SKIN_C, T_MATERIAL_C, t,
+                                                   depth=skin.thickness, side="material", cells=cells))
+
+    # ---- receptor under the display replaying that profile
+    g = contact.interface_temperature(t, side="material", method="exact")
+    echo("  receptor reference (mpmath Duhamel sum) ...")
+    ref_rc = T_SKIN_C + _receptor_reference(skin, g - T_SKIN_C, idx)
+
+    def bench_rc(method, setting, fn, note=""):
+        vals = fn()
+        secs = _best_seconds(fn, repeat)
+        err = float(np.max(np.abs(np.asarray(vals)[idx] - ref_rc)))
+        rows.append(_row("receptor", method, setting, secs, err, err / abs(dT), int(idx.size), note))
+
+    bench_rc("exact", "Duhamel + FFT", lambda: skin_response(skin, t, g, T_SKIN_C))
+    bench_rc("paper", "n = 0 image term", lambda: skin_response(skin, t, g, T_SKIN_C, method="paper"))
+    bench_rc("paper-as-printed", "Eq. 8 prefactor",
+             lambda: skin_response(skin, t, g, T_SKIN_C, method="paper-as-printed"))
+    for cells in ((16,) if quick else (16, 32, 64)):
+        bench_rc("numerical", f"cells={cells}+{2 * cells}, Richardson",
+                 lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical", cells=cells))
+    for cells in ((32,) if quick else (32, 64, 128, 256)):
+        bench_rc("numerical", f"cells={cells}, single grid",
+                 lambda cells=cells: solve_surface(skin, t, g, T_SKIN_C, cells=cells))
+    modes = modal_recursion(skin, t, g, T_SKIN_C, skin.dermis)[1]
+    bench_rc("modal-recursion", f"{modes} modes (bench only)",
+             lambda: modal_recursion(skin, t, g, T_SKIN_C, skin.dermis)[0],
+             "exact per-mode recursion, one lfilter per mode")
+
+    def cost(problem, method, setting):
+        for r in rows:
+            if (r["problem"], r["method"], r["setting"]) == (problem, method, setting):
+                return r["cost_per_point_us"]
+        return math.nan  # pragma: no cover
+
+    eq7 = cost("interface", "paper-as-printed", "Eq. 7 stable (erfcx)")
+    exact_if = [r for r in rows if r["problem"] == "interface" and r["method"] == "exact"
+                and r["setting"] == "default"][0]
+    sr_exact = [r for r in rows if r["problem"] == "receptor" and r["method"] == "exact"][0]
+    sr_num = [r for r in rows if r["problem"] == "receptor" and r["method"] == "numerical"
+              and "Richardson" in r["setting"]]
+    sr_num_best = min(sr_num, key=lambda r: r["max_error_K"])
+    ratios = {
+        "exact_over_eq7_cost_ratio": exact_if["cost_per_point_us"] / eq7,
+        "exact_max_error_theta": exact_if["max_error_theta"],
+        "skin_response_exact_over_eq7_cost_ratio": sr_exact["cost_per_point_us"] / eq7,
+        "skin_response_exact_max_error_K": sr_exact["max_error_K"],
+        "skin_response_numerical_over_eq7_cost_ratio": sr_num_best["cost_per_point_us"] / eq7,
+        "skin_response_numerical_setting": sr_num_best["setting"],
+        "skin_response_numerical_max_error_K": sr_num_best["max_error_K"],
+    }
+    targets = {
+        "exact_within_1e-12_theta_at_3x_eq7": bool(exact_if["max_error_theta"] <= 1e-12
+                                                    and ratios["exact_over_eq7_cost_ratio"] <= 3.0),
+        "skin_response_within_1e-6_K_at_3x_eq7": bool(sr_exact["max_error_K"] <= 1e-6
+                                                       and ratios["skin_response_exact_over_eq7_cost_ratio"] <= 3.0),
+    }
+    result = {
+        "machine": machine_info(),
+        "profile": {"duration_s": DURATION_S, "rate_Hz": RATE_HZ, "points": n,
+                    "skin_thickness_m": SKIN_THICKNESS_M, "receptor_depth_m": skin.dermis,
+                    "material": "stainless_steel (half-space)", "roughness_m": ROUGHNESS_M,
+                    "resistance_m2K_per_W": R, "skin_temperature_C": T_SKIN_C,
+                    "material_temperature_C": T_MATERIAL_C,
+                    "reference": "mpmath: Talbot inversion at 40 digits (interface), Duhamel sum of "
+                                 "image/eigen series at 30 digits (receptor)",
+                    "reference_times_s": (idx / RATE_HZ).tolist()},
+        "rows": rows, "ratios": ratios, "targets": targets,
+    }
+    _write(out, result, echo)
+    return result
+
+
+def _format_table(rows) -> list[str]:
+    head = f"{'problem':<10} {'method':<17} {'setting':<32} {'cost_per_point_us':>17} {'max_error_K':>12} {'max_error_theta':>15}"
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(f"{r['problem']:<10} {r['method']:<17} {r['setting']:<32} "
+                     f"{r['cost_per_point_us']:>17.4f} {r['max_error_K']:>12.3e} {r['max_error_theta']:>15.3e}")
+    return lines
+
+
+def _write(out: Path, result: dict, echo) -> None:
+    m = result["machine"]
+    echo(f"machine: {m['cpu_model']} x{m['cpu_count']}, {m['platform']}, python {m['python']}, "
+         f"numpy {m['numpy']}, scipy {m['scipy']}, load {m['load_average_1min']:.2f}")
+    for line in _format_table(result["rows"]):
+        echo(line)
+    for k, v in result["ratios"].items():
+        echo(f"{k}: {v:.4g}" if isinstance(v, float) else f"{k}: {v}")
+    for k, v in result["targets"].items():
+        echo(f"target {k}: {'met' if v else 'NOT met'}")
+    (out / "bench.json").write_text(json.dumps(result, indent=2), encoding="utf-8")
+    keys = ["problem", "method", "setting", "cost_per_point_us", "total_ms", "max_error_K",
+            "max_error_theta", "reference_points"]
+    with open(out / "bench.csv", "w", encoding="utf-8") as fh:
+        fh.write(",".join(keys) + "\n")
+        for r in result["rows"]:
+            fh.write(",".join(f'"{r[k]}"' if isinstance(r[k], str) else repr(r[k]) for k in keys) + "\n")
+    _plot(out / "bench.png", result)
+    echo(f"wrote {out / 'bench.json'}, {out / 'bench.csv'}, {out / 'bench.png'}")
+
+
+def _plot(path: Path, result: dict) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    for ax, problem, title in zip(axes, ("interface", "receptor"),
+                                  ("interface temperature (Eq. 7 quantity)", "receptor, display-driven")):
+        for r in result["rows"]:
+            if r["problem"] != problem:
+                continue
+            y = max(r["max_error_K"], 1e-16)
+            ax.loglog(r["cost_per_point_us"], y, "o")
+            ax.annotate(f"{r['method']} {r['setting']}", (r["cost_per_point_us"], y), fontsize=6,
+                        xytext=(3, 3), textcoords="offset points")
+        ax.set_xlabel("cost per point (µs)")
+        ax.set_ylabel("max error vs mpmath (K)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+    m = result["machine"]
+    fig.suptitle(f"20 s at 1 kHz; {m['cpu_model']} x{m['cpu_count']}, numpy {m['numpy']}, "
+                 f"scipy {m['scipy']}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

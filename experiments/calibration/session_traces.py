@@ -1,0 +1,270 @@
+"""Read the contact traces of a recorded session (Exp. 1) into :class:`ContactTrace` objects.
+
+``DATA/<participant>/<session>/``: ``session.json`` (protocol, participant record),
+``trials.csv`` (one row per trial; ``mode``, ``status``, ``roughness_id``, ``roughness_um``,
+``trace_file``) and ``traces/trial-NNN.csv`` (``time_s``, ``target_C``, ``contact_C``,
+``ambient_C``, ``finger_C``, ``force1_N`` .. ``force4_N``, ``state``).  Every real trial with
+status ``ok`` and a trace is used.
+
+Per trace (each rule documented because each is a choice):
+
+* **contact onset** (t = 0): the first sample whose summed force reaches
+  ``contact_threshold_N`` (default 0.1 N, ten times the summed force noise of the emulator: the thermal contact starts at the first touch,
+  before the force reaches the protocol's trial threshold); without force columns, the first
+  sample (the display records "from contact").
+* **the sensor's own body**: the median pre-contact ``contact_C`` is the initial temperature
+  of the body the sensor is attached to: T_M0 for a ``"material"`` sensor, T_S0 for a
+  ``"skin"`` or ``"lumped"`` one (a sensor glued to the finger reads the finger before contact).
+* **T_M0** (sample) otherwise: ``material_temperature_C`` if given, else the median
+  ``ambient_C`` before contact (the samples rest at room temperature), else the protocol's
+  ``environment.room_temperature_C``.
+* **T_S0** (skin) otherwise: ``skin_temperature_C`` if given, else the median ``finger_C``
+  (radiation thermometer) before contact, else the record's ``initial_skin_temperature_C``,
+  else the middle of the protocol's skin-temperature range.
+
+An explicit ``skin_temperature_C`` / ``material_temperature_C`` always wins.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from experiments.calibration.errors import CalibrationError
+from experiments.calibration.trace import ContactTrace
+
+__all__ = ["SessionTraces", "load_session_traces", "read_trace_csv", "TOUCH_THRESHOLD_N"]
+
+_REQUIRED_TRACE_COLUMNS = ("time_s", "contact_C")
+#: Summed force (N) taken as the first touch.
+TOUCH_THRESHOLD_N = 0.1
+
+
+@dataclass
+class SessionTraces:
+    """The traces of a session and what the calibration needs to know about it."""
+
+    session_dir: Path
+    traces: list
+    participant: dict | None
+    protocol: object | None
+    material_name: str
+    sample_thickness_m: float | None
+    skipped: list = field(default_factory=list)
+
+    @property
+    def participant_id(self) -> str | None:
+        return (self.participant or {}).get("id")
+
+
+def _float(value):
+    if value is None or value == "":
+        return float("nan")
+    try:
+        return float(value)
+    except ValueError:
+        return float("nan")
+
+
+def read_trace_csv(path) -> dict:
+    """Columns of a trace file as float arrays (``state`` kept as strings).
+
+    Raises
+    ------
+    CalibrationError
+        Missing file, missing column, unreadable number.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationError(f"{path}: expected a trace file, got none")
+    with open(path, encoding="utf-8", newline="") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise CalibrationError(f"{path}: header: expected {', '.join(_REQUIRED_TRACE_COLUMNS)}, got an empty file")
+    header = [h.strip() for h in rows[0]]
+    for col in _REQUIRED_TRACE_COLUMNS:
+        if col not in header:
+            raise CalibrationError(f"{path}: {col}: expected a column {col!r}, got columns {header}")
+    out = {}
+    body = [r for r in rows[1:] if r]
+    if body and len(body[-1]) < len(header):      # a torn last line of a killed session
+        body = body[:-1]
+    for j, name in enumerate(header):
+        vals = [r[j] if j < len(r) else "" for r in body]
+        if name == "state":
+            out[name] = vals
+            continue
+        try:
+            out[name] = np.array([float(v) if v != "" else np.nan for v in vals], dtype=float)
+        except ValueError:
+            bad = next(v for v in vals if v != "" and not _isfloat(v))
+            raise CalibrationError(f"{path}: {name}: expected numbers, got {bad!r}") from None
+    return out
+
+
+def _isfloat(v) -> bool:
+    try:
+        float(v)
+        return True
+    except ValueError:
+        return False
+
+
+def _median_finite(x):
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    return float(np.median(x)) if x.size else float("nan")
+
+
+def _load_json(path: Path) -> dict:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh)
+    except FileNotFoundError:
+        raise CalibrationError(f"{path}: expected a session.json, got none") from None
+    except json.JSONDecodeError as exc:
+        raise CalibrationError(f"{path}: expected JSON, got a syntax error at line {exc.lineno}") from None
+
+
+def _session_protocol(session: dict, path: Path):
+    data = session.get("protocol")
+    if not isinstance(data, dict):
+        return None
+    from experiments.protocol import parse_protocol
+    # session.json may hold the protocol as {"data": ..., "hash": ...} or the data itself
+    data = data.get("data", data) if "data" in data and isinstance(data.get("data"), dict) else data
+    return parse_protocol(data, source=f"{path}: protocol")
+
+
+def _session_participant(session: dict):
+    for key in ("participant", "participant_record"):
+        rec = session.get(key)
+        if isinstance(rec, dict):
+            return rec.get("record", rec) if isinstance(rec.get("record"), dict) else rec
+    return None
+
+
+def load_session_traces(session_dir, *, sensor_side: str = "material", skin_temperature_C: float | None = None,
+                        material_temperature_C: float | None = None,
+                        contact_threshold_N: float | None = None) -> SessionTraces:
+    """Read every usable real-trial trace of a session.
+
+    Parameters
+    ----------
+    session_dir : path-like
+        ``DATA/<participant>/<session>/``.
+    sensor_side : {"material", "skin", "lumped"}
+        Decides which initial temperature the pre-contact sensor reading gives.
+    skin_temperature_C, material_temperature_C : float, °C, optional
+        Override the per-trace initial temperatures (see the module docstring).
+    contact_threshold_N : float, N, optional
+        Summed force that marks the first touch (default :data:`TOUCH_THRESHOLD_N`).
+
+    Returns
+    -------
+    SessionTraces
+
+    Raises
+    ------
+    CalibrationError
+        A missing or malformed file, no usable trial, a bad trace (naming file and field).
+    """
+    session_dir = Path(session_dir)
+    if not session_dir.is_dir():
+        raise CalibrationError(f"{session_dir}: expected a session directory, got none")
+    spath = session_dir / "session.json"
+    session = _load_json(spath)
+    protocol = _session_protocol(session, spath)
+    participant = _session_participant(session)
+    tpath = session_dir / "trials.csv"
+    if not tpath.is_file():
+        raise CalibrationError(f"{tpath}: expected the trials table, got none")
+    with open(tpath, encoding="utf-8", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for col in ("mode", "status", "roughness_id", "trial_index"):
+        if rows and col not in rows[0]:
+            raise CalibrationError(f"{tpath}: {col}: expected a column {col!r}, got columns {list(rows[0])}")
+
+    if contact_threshold_N is None:
+        contact_threshold_N = TOUCH_THRESHOLD_N
+    room = protocol.environment.room_temperature_C if protocol else float("nan")
+    skin_default = float("nan")
+    if participant and participant.get("initial_skin_temperature_C") is not None:
+        skin_default = float(participant["initial_skin_temperature_C"])
+    elif protocol:
+        env = protocol.environment
+        skin_default = 0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C)
+
+    traces, skipped = [], []
+    for row in rows:
+        idx = row.get("trial_index")
+        if row.get("mode") != "real" or row.get("status") != "ok":
+            skipped.append(f"trial {idx}: mode {row.get('mode')!r}, status {row.get('status')!r}")
+            continue
+        name = row.get("trace_file") or f"traces/trial-{int(idx):03d}.csv"
+        path = session_dir / name
+        if not path.is_file() and (session_dir / "traces" / name).is_file():
+            path = session_dir / "traces" / name
+        cols = read_trace_csv(path)
+        t = cols["time_s"]
+        forces = [cols[c] for c in ("force1_N", "force2_N", "force3_N", "force4_N") if c in cols]
+        onset = None
+        if forces:
+            total = np.nansum(np.vstack(forces), axis=0)
+            hit = np.flatnonzero(total >= contact_threshold_N)
+            if hit.size:
+                onset = float(t[hit[0]])
+            elif np.any(np.isfinite(np.vstack(forces))):
+                raise CalibrationError(
+                    f"{path}: force1_N..force4_N: expected the summed force to reach the contact "
+                    f"threshold {contact_threshold_N:g} N, got at most {np.nanmax(total):.3g} N "
+                    f"(no contact)")
+        if onset is None:
+            onset = float(t[0]) if t.size else 0.0
+        pre = t < onset
+        early = pre if np.any(pre) else (t <= onset + 1.0)
+        own = _median_finite(cols["contact_C"][pre]) if np.any(pre) else float("nan")
+        tm0 = material_temperature_C
+        if tm0 is None:
+            tm0 = own if sensor_side == "material" else float("nan")
+            if not math.isfinite(tm0) and "ambient_C" in cols:
+                tm0 = _median_finite(cols["ambient_C"][early])
+            if not math.isfinite(tm0):
+                tm0 = room
+        ts0 = skin_temperature_C
+        if ts0 is None:
+            ts0 = own if sensor_side != "material" else float("nan")
+            if not math.isfinite(ts0) and "finger_C" in cols:
+                fpre = cols["finger_C"][pre] if np.any(pre) else cols["finger_C"][:1]
+                ts0 = _median_finite(fpre)
+            if not math.isfinite(ts0):
+                ts0 = skin_default
+        if not math.isfinite(tm0):
+            raise CalibrationError(f"{path}: ambient_C: expected the sample temperature (ambient_C, "
+                                   f"the protocol or --material-temperature-C), got none")
+        if not math.isfinite(ts0):
+            raise CalibrationError(f"{path}: finger_C: expected the initial skin temperature (finger_C, "
+                                   f"the participant record or --skin-temperature-C), got none")
+        rid = row.get("roughness_id")
+        rid = int(float(rid)) if rid not in (None, "") else None
+        ra = _float(row.get("roughness_um"))
+        if not math.isfinite(ra) and protocol and rid is not None:
+            try:
+                ra = protocol.sample(rid).roughness_um
+            except Exception:          # noqa: BLE001 - unknown id: roughness stays unknown
+                ra = float("nan")
+        key = f"{ra:g}" if math.isfinite(ra) else f"id{rid}"
+        traces.append(ContactTrace(
+            t - onset, cols["contact_C"], ts0, tm0, sample=key,
+            roughness_um=ra if math.isfinite(ra) else None, source=str(path), roughness_id=rid,
+            meta={"trial_index": int(float(idx)), "onset_s": onset}))
+    if not traces:
+        raise CalibrationError(f"{tpath}: mode: expected at least one real trial with status 'ok' and "
+                               f"a trace, got none ({len(rows)} rows)")
+    mat_name = protocol.material.name if protocol else "stainless_steel"
+    thick = protocol.material.thickness_m if protocol else None
+    return SessionTraces(session_dir, traces, participant, protocol, mat_name, thick, skipped)

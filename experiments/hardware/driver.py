@@ -1,0 +1,661 @@
+"""The host side: :class:`ThermalDisplay` over any pyserial URL, and :func:`open_display`.
+
+One port, one lock, one parser. Commands are request/reply with a sequence number, a timeout and
+bounded retries (every command is safe to retry: the device answers a repeated sequence number
+with its cached reply instead of acting twice). Telemetry and events that arrive while waiting for
+a reply are routed to the armed trial, never held in bulk. A heartbeat goes out every 20 ms
+(wall time or device time, whichever runs faster) from the thread doing I/O, and from a small
+background thread when nothing else is talking.
+
+Failure policy: a refused command raises :class:`DisplayRefused` (with the device's code); no
+answer after the retries raises :class:`DisplayTimeout`; a dead link raises :class:`DisplayError`
+— in each case after a best-effort ABORT, and the device's own watchdog returns the pad to neutral
+within 100 ms of the host falling silent. A trial that goes wrong ends as a
+:class:`TrialRecording` with ``status="fault"`` and a fault code rather than an exception.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+import zlib
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import serial
+
+from experiments.errors import (DisplayError, DisplayRefused, DisplayTimeout, SafetyLimitError,
+                                UserInputError)
+
+from . import messages as m
+from .framing import FrameParser, encode_frame
+from .messages import (Cmd, CommitAck, DeviceEvent, DeviceInfo, Err, Mode, Msg, State, Status,
+                       Telemetry, UploadAck)
+from .safety import SafetyLimits, check_profile
+
+__all__ = ["ThermalDisplay", "open_display", "TrialRecording", "ContactEvent"]
+
+CHUNK = 512                    # samples per upload chunk
+_ACTIVE = ("ARMED", "PLAYING", "RECORDING")
+_END_NAMES = {0: "complete", 1: "released", 2: "max_duration", 3: "aborted", 4: "fault"}
+
+
+@dataclass(frozen=True)
+class ContactEvent:
+    """The moment the summed force crossed the threshold (device clock, s) and the force, N."""
+
+    device_time_s: float
+    force_N: float | None = None
+
+
+@dataclass(frozen=True)
+class TrialRecording:
+    """How one trial went on the display.
+
+    Parameters
+    ----------
+    status : str
+        ``"ok"``, ``"fault"`` or ``"aborted"``.
+    fault_code, fault_message : str or None
+        Device codes (``WATCHDOG``, ``OVER_TEMPERATURE``, ``SENSOR_FAILURE``, ``SENSOR_STUCK``)
+        or host codes (``LINK_TIMEOUT``, ``LINK_LOST``, ``TRIAL_TIMEOUT``, ``TELEMETRY_LOSS``).
+    contact_time_s : float or None, s
+        Device time of contact.
+    frames, frames_lost : int
+        Telemetry frames received, and missing from the device's numbering.
+    tracking_rms_C, tracking_max_C : float, °C
+        Contact temperature minus the uploaded target during playback (NaN in record mode).
+    mode : str
+        ``"playback"`` or ``"record"``.
+    end_reason : str or None
+        ``complete``, ``released``, ``max_duration``, ``aborted``, ``fault``.
+    duration_s : float, s
+        Contact to end.
+    bad_frames : int
+        Frames rejected by the CRC check during the trial.
+    """
+
+    status: str
+    fault_code: str | None
+    fault_message: str | None
+    contact_time_s: float | None
+    frames: int
+    frames_lost: int
+    tracking_rms_C: float
+    tracking_max_C: float
+    mode: str = "playback"
+    end_reason: str | None = None
+    duration_s: float = 0.0
+    bad_frames: int = 0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+class _Trial:
+    """Book-keeping of the armed trial (frames are streamed, not kept)."""
+
+    def __init__(self, mode, profile, counter0):
+        self.mode = mode
+        self.dt, self.target = profile if profile else (None, None)
+        self.n_target = len(self.target) if self.target else 0
+        self.counter0 = counter0
+        self.last_counter = counter0
+        self.frames = 0
+        self.pending: list = []          # frames before run_trial() attaches a callback
+        self.callback = None
+        self.on_event = None
+        self.contact_s = None
+        self.contact_force = None
+        self.ready = False
+        self.active_seen = False
+        self.ended = False
+        self.end_reason = None
+        self.end_time_s = None
+        self.fault = None
+        self.fault_msg = None
+        self.sq = 0.0
+        self.n_track = 0
+        self.max_err = 0.0
+        self.last_frame_clock = None
+        self.bad0 = 0
+
+    def telemetry(self, fr: Telemetry) -> None:
+        gap = fr.counter - self.last_counter
+        if gap <= 0:
+            return                       # a stale frame from before arming
+        self.last_counter = fr.counter
+        self.frames += 1
+        st = fr.state
+        if st == "PLAYING" or st == "RECORDING":
+            self.active_seen = True
+            if self.contact_s is None:   # CONTACT event lost: the first active frame bounds it
+                self.contact_s = fr.device_time_s
+            if st == "PLAYING" and self.target is not None:
+                x = (fr.device_time_s - self.contact_s) / self.dt
+                i = int(x)
+                tgt = self.target
+                if i >= self.n_target - 1:
+                    y = tgt[-1]
+                elif i < 0:
+                    y = tgt[0]
+                else:
+                    y = tgt[i] + (x - i) * (tgt[i + 1] - tgt[i])
+                e = fr.contact_C - y
+                self.sq += e * e
+                self.n_track += 1
+                if abs(e) > self.max_err:
+                    self.max_err = abs(e)
+        elif st == "FAULT" and self.fault is None:
+            self.fault = fr.fault or "FAULT"
+            self.ended = True
+            self.end_time_s = fr.device_time_s
+        elif st == "IDLE" and (self.active_seen or self.ready):
+            self.ended = True
+            if self.end_time_s is None:
+                self.end_time_s = fr.device_time_s
+        if self.callback is not None:
+            self.callback(fr)
+        elif len(self.pending) < 5000:
+            self.pending.append(fr)
+
+    def event(self, ev: DeviceEvent) -> None:
+        k = ev.kind
+        if k == "READY":
+            self.ready = True
+        elif k == "CONTACT":
+            self.contact_s = ev.device_time_s
+            try:
+                self.contact_force = float(ev.text.split()[0])
+            except (ValueError, IndexError):
+                pass
+        elif k == "END":
+            self.ended = True
+            self.end_reason = _END_NAMES.get(ev.arg, str(ev.arg))
+            self.end_time_s = ev.device_time_s
+        elif k in ("FAULT", "WATCHDOG"):
+            if self.fault is None:
+                self.fault = m.error_name(ev.arg) if k == "FAULT" else "WATCHDOG"
+                self.fault_msg = ev.text
+            self.ended = True
+            self.end_reason = "fault"
+            self.end_time_s = ev.device_time_s
+        if self.on_event is not None:
+            self.on_event(ev)
+
+
+class ThermalDisplay:
+    """A Peltier thermal display (or its emulator) on an open pyserial port.
+
+    Use :func:`open_display`, which also does the handshake and starts the heartbeat.
+
+    Parameters
+    ----------
+    port : serial.SerialBase
+        Opened with ``serial.serial_for_url``.
+    limits : SafetyLimits
+    reply_timeout_s : float, s
+        How long to wait for each reply (wall time; device time on a virtual clock).
+    retries : int
+        Extra attempts after a timeout.
+    heartbeat_s : float, s
+    max_frame_loss : float
+        Fraction of telemetry frames a trial may lose before it is reported as a fault.
+    """
+
+    def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
+                 retries: int = 3, heartbeat_s: float = 0.02, max_frame_loss: float = 0.01):
+        self.port = port
+        self.limits = limits or SafetyLimits()
+        self.reply_timeout_s = float(reply_timeout_s)
+        self.retries = int(retries)
+        self.heartbeat_s = float(heartbeat_s)
+        self.max_frame_loss = float(max_frame_loss)
+        self.info: DeviceInfo | None = None
+        self._lock = threading.RLock()
+        self._parser = FrameParser()
+        self._seq = 0
+        self._last_seq_by_type: dict[int, int] = {}
+        self._virtual = getattr(port, "virtual_time_s", None) is not None
+        if self._virtual:
+            dev = port.device
+            self._clock = lambda: dev.time_us * 1e-6
+        self._dev_time = 0.0
+        self._hb_clock = -1e9
+        self._hb_dev = -1e9
+        self._trial: _Trial | None = None
+        self._profile = None
+        self._hb_thread = None
+        self._hb_stop = threading.Event()
+        self._link_error: Exception | None = None
+        self.last_recording: TrialRecording | None = None
+
+    # ------------------------------------------------------------------ clock & low level
+    def _clock(self) -> float:
+        vt = getattr(self.port, "virtual_time_s", None)
+        return vt if vt is not None else time.monotonic()
+
+    def _next_seq(self, mtype: int) -> int:
+        s = (self._seq + 1) & 0xFF
+        if self._last_seq_by_type.get(mtype) == s:      # never repeat a type's last number
+            s = (s + 1) & 0xFF
+        self._seq = s
+        self._last_seq_by_type[mtype] = s
+        return s
+
+    def _write(self, data: bytes) -> None:
+        try:
+            self.port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            self._link_error = exc
+            raise DisplayError(f"display: link lost while writing: {exc}") from exc
+
+    def _read_frames(self):
+        try:
+            port = self.port
+            n = port.in_waiting
+            data = port.read(n if n > 0 else 1)
+            if n <= 0 and data:
+                n = port.in_waiting             # the rest of what arrived with the first byte
+                if n > 0:
+                    data += port.read(n)
+        except (serial.SerialException, OSError) as exc:
+            self._link_error = exc
+            raise DisplayError(f"display: link lost while reading: {exc}") from exc
+        if not data:
+            return self._parser.drop_candidate() if self._parser.buffered else []
+        return self._parser.feed(data)
+
+    def _heartbeat_if_due(self) -> None:
+        c = self._clock()
+        if c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s:
+            self._hb_clock, self._hb_dev = c, self._dev_time
+            self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT))
+
+    def _dispatch(self, fr) -> None:
+        """Route a frame that is not the awaited reply."""
+        t = fr.type
+        if t == Msg.TELEMETRY:
+            try:
+                tel = Telemetry.decode(fr.payload)
+            except Exception:        # a frame with a good CRC but a wrong layout: count, go on
+                self._parser.bad_frames += 1
+                return
+            self._dev_time = tel.device_time_s
+            if self._trial is not None:
+                self._trial.last_frame_clock = self._clock()
+                self._trial.telemetry(tel)
+        elif t == Msg.EVENT:
+            try:
+                ev = DeviceEvent.decode(fr.payload)
+            except Exception:
+                self._parser.bad_frames += 1
+                return
+            self._dev_time = max(self._dev_time, ev.device_time_s)
+            if self._trial is not None:
+                self._trial.event(ev)
+        elif t == (Cmd.HEARTBEAT | m.REPLY_BIT) and len(fr.payload) == m.TIME.size:
+            self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
+
+    def _transact(self, cmd: int, payload: bytes = b"", *, timeout_s: float | None = None,
+                  retries: int | None = None) -> bytes:
+        """Send a command, return the reply payload; raise on refusal or silence."""
+        timeout_s = self.reply_timeout_s if timeout_s is None else timeout_s
+        retries = self.retries if retries is None else retries
+        with self._lock:
+            seq = self._next_seq(cmd)
+            frame = encode_frame(seq, cmd, payload)
+            want = (cmd | m.REPLY_BIT) & 0xFF
+            for attempt in range(retries + 1):
+                self._write(frame)
+                self._hb_clock, self._hb_dev = self._clock(), self._dev_time  # any frame feeds the watchdog
+                deadline = self._clock() + timeout_s
+                while self._clock() < deadline:
+                    for fr in self._read_frames():
+                        if fr.seq == seq and fr.type == want:
+                            return fr.payload
+                        if fr.type == Msg.NAK and fr.seq == seq and fr.payload[:1] == bytes([cmd]):
+                            _, code = m.NAK_HEAD.unpack_from(fr.payload)
+                            text = fr.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
+                            raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
+                                                 f"{m.error_name(code)} ({text})", code=code)
+                        self._dispatch(fr)
+                    self._heartbeat_if_due()
+            raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
+                                 f"{timeout_s} s, got none after {retries + 1} attempts")
+
+    # ------------------------------------------------------------------ session set-up
+    def handshake(self) -> DeviceInfo:
+        """HELLO: learn the device id, firmware, capabilities and limits; send our limits."""
+        try:
+            self.port.reset_input_buffer()
+        except (serial.SerialException, OSError):
+            pass
+        self._parser.reset()
+        p = self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
+        (ver, hz, hmin, hmax, rate, neutral, wd, npts, mindt) = m.HELLO_REPLY_HEAD.unpack_from(p)
+        dev_id, fw, caps = m.decode_strings(p[m.HELLO_REPLY_HEAD.size:], 3)
+        self.info = DeviceInfo(dev_id, fw, tuple(c for c in caps.split(",") if c), ver, hz,
+                               hmin / 100, hmax / 100, rate / 100, neutral / 100, wd, npts,
+                               mindt * 1e-6)
+        lim = self.limits
+        if lim.min_C < self.info.hard_min_C or lim.max_C > self.info.hard_max_C:
+            raise SafetyLimitError(f"display: limits: expected a range inside the device's "
+                                   f"[{self.info.hard_min_C}, {self.info.hard_max_C}] °C, got "
+                                   f"[{lim.min_C}, {lim.max_C}]")
+        self._transact(Cmd.SET_LIMITS, m.LIMITS.pack(m.centi(lim.min_C), m.centi(lim.max_C),
+                                                     int(round(lim.max_rate_C_per_s * 100))))
+        self.set_neutral(lim.neutral_C)
+        return self.info
+
+    def start_heartbeat(self) -> None:
+        """Start the background heartbeat (not needed, and not started, on a virtual clock)."""
+        if self._virtual or self._hb_thread is not None:
+            return
+        self._hb_stop.clear()
+        self._hb_thread = threading.Thread(target=self._heartbeat_loop, name="display-heartbeat",
+                                           daemon=True)
+        self._hb_thread.start()
+
+    def _heartbeat_loop(self) -> None:
+        while not self._hb_stop.wait(self.heartbeat_s / 2):
+            if not self._lock.acquire(blocking=False):
+                continue                       # the I/O thread sends its own heartbeats
+            try:
+                self._heartbeat_if_due()
+                if self.port.in_waiting:
+                    for fr in self._parser.feed(self.port.read(self.port.in_waiting)):
+                        self._dispatch(fr)
+            except Exception as exc:           # reported by the next call in the main thread
+                self._link_error = exc
+            finally:
+                self._lock.release()
+
+    # ------------------------------------------------------------------ commands
+    def set_neutral(self, temperature_C: float) -> float:
+        """Set the temperature held between trials; return what the device holds, °C."""
+        v = self.limits.check_setpoint(temperature_C, "neutral_C")
+        p = self._transact(Cmd.SET_NEUTRAL, m.CENTI.pack(m.centi(v)))
+        return m.CENTI.unpack(p)[0] / 100
+
+    def upload_profile(self, times_s, target_C) -> CommitAck:
+        """Check, upload in CRC-verified chunks, and commit a target profile.
+
+        Parameters
+        ----------
+        times_s : array_like, s
+            Uniform from 0, step ≥ 1 ms.
+        target_C : array_like, °C
+
+        Raises
+        ------
+        SafetyLimitError
+            Before anything is sent, if a sample is out of range or the rate is too high.
+        DisplayError
+            If the device keeps returning a chunk checksum that does not match.
+        """
+        max_pts = self.info.max_points if self.info else None
+        dt, y = check_profile(times_s, target_C, self.limits, max_points=max_pts)
+        q = np.round(y * 100.0).astype("<i2")
+        raw = q.tobytes()
+        dt_us = int(round(dt * 1e6))
+        self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(q), dt_us))
+        for off in range(0, len(q), CHUNK):
+            body = raw[2 * off:2 * min(off + CHUNK, len(q))]
+            count = len(body) // 2
+            for attempt in range(self.retries + 1):
+                ack = UploadAck(*m.UPLOAD_CHUNK_ACK.unpack(self._transact(
+                    Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_HEAD.pack(off, count) + body)))
+                if (ack.offset, ack.count, ack.crc32) == (off, count, zlib.crc32(body)):
+                    break
+            else:
+                self._safe_abort()
+                raise DisplayError(f"display: upload chunk at {off}: the device's checksum does "
+                                   f"not match after {self.retries + 1} attempts")
+        ack = CommitAck(*m.COMMIT_ACK.unpack(self._transact(Cmd.UPLOAD_COMMIT,
+                                                            m.COMMIT.pack(zlib.crc32(raw)))))
+        if ack.clamped:
+            self._safe_abort()
+            raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
+                                   f"its own range; refusing to play it")
+        self._profile = (dt, (q.astype(float) / 100.0).tolist())
+        return ack
+
+    def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
+            max_duration_s: float = 20.0) -> None:
+        """Arm a trial: the device waits for the summed force to cross the threshold.
+
+        ``"playback"`` starts the uploaded profile at contact; ``"record"`` leaves the Peltier at
+        neutral and records the contact sensor from contact.
+        """
+        if mode not in ("playback", "record"):
+            raise UserInputError(f"display: arm.mode: expected 'playback' or 'record', got {mode!r}")
+        for name, v, hi in (("force_threshold_N", force_threshold_N, 600.0),
+                            ("max_duration_s", max_duration_s, 3600.0)):
+            if not isinstance(v, (int, float)) or not (0 < v <= hi):
+                raise UserInputError(f"display: arm.{name}: expected 0 < value ≤ {hi}, got {v!r}")
+        if mode == "playback" and self._profile is None:
+            raise UserInputError("display: arm: expected a profile uploaded before a playback trial")
+        self._check_link()
+        md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
+        with self._lock:
+            self._trial = _Trial(mode, self._profile if mode == "playback" else None, 0)
+            self._trial.bad0 = self._parser.bad_frames
+            try:
+                p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),
+                                                       int(round(max_duration_s * 1000))))
+            except DisplayError:
+                self._trial = None
+                raise
+            c0 = m.COUNTER.unpack(p)[0]
+            self._trial.counter0 = self._trial.last_counter = c0
+            self._trial.pending = [f for f in self._trial.pending if f.counter > c0]
+
+    def run_trial(self, timeout_s: float = 30.0, on_telemetry=None, on_event=None) -> TrialRecording:
+        """Stream the armed trial until it ends, faults or times out.
+
+        Parameters
+        ----------
+        timeout_s : float, s
+            From the call to the end of the trial (device time on a virtual clock).
+        on_telemetry : callable, optional
+            Called with each :class:`Telemetry` frame, in order.
+        on_event : callable, optional
+            Called with each :class:`DeviceEvent` (READY, CONTACT, END, FAULT, WATCHDOG).
+
+        Returns
+        -------
+        TrialRecording
+        """
+        tr = self._trial
+        if tr is None:
+            raise UserInputError("display: run_trial: expected arm() first")
+        with self._lock:
+            tr.callback, tr.on_event = on_telemetry, on_event
+            if on_telemetry is not None:
+                for fr in tr.pending:
+                    on_telemetry(fr)
+            tr.pending = []
+            start = self._clock()
+            tr.last_frame_clock = start
+            host_fault = None
+            try:
+                while not tr.ended:
+                    for fr in self._read_frames():
+                        self._dispatch(fr)
+                    self._heartbeat_if_due()
+                    now = self._clock()
+                    if now - start > timeout_s:
+                        host_fault = ("TRIAL_TIMEOUT", f"no end of trial within {timeout_s} s")
+                        break
+                    if now - tr.last_frame_clock > max(0.3, 3 * self.reply_timeout_s):
+                        st = self.status()        # telemetry silent: is the device there at all?
+                        tr.last_frame_clock = self._clock()
+                        if st.state not in _ACTIVE:
+                            tr.ended = True
+                            if st.state == "FAULT" and tr.fault is None:
+                                tr.fault = st.last_fault or "FAULT"
+            except DisplayTimeout as exc:
+                host_fault = ("LINK_TIMEOUT", str(exc))
+            except DisplayError as exc:
+                host_fault = ("LINK_LOST", str(exc))
+            rec = self._finish(tr, host_fault)
+        self._trial = None
+        self.last_recording = rec
+        return rec
+
+    def _finish(self, tr: _Trial, host_fault) -> TrialRecording:
+        status, code, msg = "ok", None, None
+        if host_fault is None:
+            # frames still in flight belong to this trial (the END event can overtake nothing,
+            # but a last telemetry frame may follow it): drain briefly, then ask for the truth
+            try:
+                st = self.status()
+                if st.contact_time_s is not None and tr.active_seen:
+                    tr.contact_s = st.contact_time_s
+                if tr.end_reason is None:
+                    tr.end_reason = _END_NAMES.get(st.end_reason)
+                if st.state == "FAULT" and tr.fault is None:
+                    tr.fault = st.last_fault
+            except DisplayError as exc:
+                host_fault = ("LINK_TIMEOUT", str(exc))
+        if tr.fault is not None:
+            status, code, msg = "fault", tr.fault, tr.fault_msg or f"device fault {tr.fault}"
+        elif host_fault is not None:
+            status, code, msg = "fault", host_fault[0], host_fault[1]
+            self._safe_abort()
+        elif tr.end_reason == "aborted":
+            status = "aborted"
+        expected = tr.last_counter - tr.counter0
+        lost = max(0, expected - tr.frames)
+        if status == "ok" and expected > 0 and lost > self.max_frame_loss * expected:
+            status, code, msg = "fault", "TELEMETRY_LOSS", f"{lost} of {expected} frames lost"
+        rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
+        mx = tr.max_err if tr.n_track else float("nan")
+        dur = (tr.end_time_s - tr.contact_s) if (tr.end_time_s is not None and
+                                                 tr.contact_s is not None) else 0.0
+        return TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
+                              tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
+                              self._parser.bad_frames - tr.bad0)
+
+    def abort(self) -> None:
+        """Stop whatever runs; the device returns to neutral (and leaves FAULT)."""
+        self._transact(Cmd.ABORT)
+        if self._trial is not None:
+            self._trial.ended = True
+            self._trial.end_reason = "aborted"
+
+    def _safe_abort(self) -> None:
+        try:
+            self._transact(Cmd.ABORT, retries=1)
+        except DisplayError:
+            pass                 # link gone: the device's watchdog takes the pad to neutral
+
+    def status(self) -> Status:
+        """The device's state, sensors and last trial (one STATUS round trip)."""
+        return Status.decode(self._transact(Cmd.STATUS))
+
+    def heartbeat(self) -> float:
+        """One acknowledged heartbeat; return the device time, s."""
+        t = m.TIME.unpack(self._transact(Cmd.HEARTBEAT))[0] * 1e-6
+        self._dev_time = max(self._dev_time, t)
+        return t
+
+    def wait(self, seconds: float) -> None:
+        """Let ``seconds`` pass (device time on a virtual clock) while keeping the link alive."""
+        with self._lock:
+            end = self._clock() + seconds
+            while self._clock() < end:
+                for fr in self._read_frames():
+                    self._dispatch(fr)
+                self._heartbeat_if_due()
+
+    def _check_link(self) -> None:
+        if self._link_error is not None:
+            exc, self._link_error = self._link_error, None
+            raise DisplayError(f"display: link lost: {exc}")
+
+    # ------------------------------------------------------------------ emulator-only
+    def _sim(self, cmd, args: dict) -> dict:
+        if self.info is None or "sim" not in self.info.capabilities:
+            raise DisplayError("display: sim commands need the emulator (capability 'sim'); "
+                               f"this device offers {self.info.capabilities if self.info else ()}")
+        return m.decode_json(self._transact(cmd, m.encode_json(args)))
+
+    def sim_sample(self, material: str = "stainless_steel", roughness_m: float = 1.6e-6,
+                   thickness_m: float | None = 3e-3, temperature_C: float = 20.0) -> dict:
+        """Emulator: place a passive sample for record-mode trials (SI lengths, °C)."""
+        return self._sim(Cmd.SIM_SAMPLE, dict(material=material, roughness_m=roughness_m,
+                                              thickness_m=thickness_m, temperature_C=temperature_C))
+
+    def sim_finger(self, press_after_s: float = 0.3, force_N: float = 2.0, hold_s: float = 20.0,
+                   skin_thickness_m: float = 650e-6, skin_temperature_C: float = 35.5) -> dict:
+        """Emulator: script the finger (approach, press, hold, release).
+
+        If the display is armed but not yet at its starting temperature, the script's clock
+        starts when it is (the participant waits for the cue).
+        """
+        return self._sim(Cmd.SIM_FINGER, dict(press_after_s=press_after_s, force_N=force_N,
+                                              hold_s=hold_s, skin_thickness_m=skin_thickness_m,
+                                              skin_temperature_C=skin_temperature_C))
+
+    def sim_fault(self, spec: str) -> dict:
+        """Emulator: inject faults now (SPEC as in :mod:`experiments.hardware.faults`, times from now)."""
+        return self._sim(Cmd.SIM_FAULT, dict(spec=spec))
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self) -> None:
+        """Stop the heartbeat, put the display to neutral (best effort), close the port."""
+        self._hb_stop.set()
+        if self._hb_thread is not None:
+            self._hb_thread.join(timeout=1.0)
+            self._hb_thread = None
+        if self.port.is_open:
+            if self._link_error is None:
+                self._safe_abort()
+            try:
+                self.port.close()
+            except Exception:
+                pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+def open_display(url: str, limits: SafetyLimits | None = None, **options) -> ThermalDisplay:
+    """Open a display by pyserial URL, shake hands, start the heartbeat.
+
+    Parameters
+    ----------
+    url : str
+        A device path (``/dev/ttyUSB0``), a pty path, or ``emulator://[?...]``.
+    limits : SafetyLimits, optional
+    **options
+        ``baudrate`` (default 115200) and the keyword arguments of :class:`ThermalDisplay`.
+
+    Raises
+    ------
+    DisplayError
+        If the port cannot be opened or the device does not answer the handshake.
+    """
+    import experiments.hardware  # noqa: F401  (registers emulator://)
+    baud = options.pop("baudrate", 115200)
+    try:
+        port = serial.serial_for_url(url, baudrate=baud, timeout=0.01, write_timeout=1.0)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
+    disp = ThermalDisplay(port, limits, **options)
+    try:
+        disp.handshake()
+    except BaseException:
+        try:
+            port.close()
+        except Exception:
+            pass
+        raise
+    disp.start_heartbeat()
+    return disp

@@ -1,0 +1,181 @@
+"""Fault injection for the emulator: the SPEC grammar, and the byte-level faults of the link.
+
+Grammar (also quoted in every error message)::
+
+    SPEC := ITEM ("," ITEM)*
+    ITEM := NAME ["=" VALUE] ["@" AT_s] ["+" FOR_s]
+
+    drop=P          each byte, either direction, is lost with probability P
+    corrupt=P       each byte, either direction, gets one bit flipped with probability P
+    garbage=P       per 10 ms tick, probability P of 1-32 random bytes on the line to the host
+    delay=S         every chunk the device sends reaches the host S seconds late
+    disconnect      the link goes dead (reads and writes fail)
+    stall           the firmware hangs: no input handled, no output; its hardware watchdog
+                    opens the Peltier relay
+    stuck_sensor    the contact sensor's reading freezes
+    sensor_range    the contact sensor reads 150 °C (open circuit)
+    overtemp        the Peltier driver sticks at full heating current
+
+``@AT_s`` is the device time (s) the fault starts (since power-up for a URL or command-line SPEC,
+since the command for ``sim_fault``); default 0. ``+FOR_s`` is how long it lasts; default for ever.
+Example: ``drop=0.001,corrupt=0.0005,overtemp@2.5``.
+"""
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass
+
+from experiments.errors import UserInputError
+
+__all__ = ["FaultSpec", "parse_faults", "LinkFaults", "GRAMMAR", "FAULT_NAMES"]
+
+GRAMMAR = 'SPEC := NAME["="VALUE]["@"AT_s]["+"FOR_s] ("," ...)*, NAME one of ' \
+          "drop, corrupt, garbage, delay, disconnect, stall, stuck_sensor, sensor_range, overtemp"
+
+#: name -> (needs a value, value range)
+FAULT_NAMES = {
+    "drop": (True, (0.0, 1.0)),
+    "corrupt": (True, (0.0, 1.0)),
+    "garbage": (True, (0.0, 1.0)),
+    "delay": (True, (0.0, 60.0)),
+    "disconnect": (False, None),
+    "stall": (False, None),
+    "stuck_sensor": (False, None),
+    "sensor_range": (False, None),
+    "overtemp": (False, None),
+}
+LINK_FAULTS = ("drop", "corrupt", "garbage", "delay", "disconnect")
+
+
+@dataclass(frozen=True)
+class FaultSpec:
+    """One injected fault: ``name``, ``value`` (probability or seconds), ``at_s``, ``for_s``."""
+
+    name: str
+    value: float | None = None
+    at_s: float = 0.0
+    for_s: float | None = None
+
+    def active(self, t_s: float) -> bool:
+        """Whether the fault acts at device time ``t_s``."""
+        return t_s >= self.at_s and (self.for_s is None or t_s < self.at_s + self.for_s)
+
+    def shifted(self, dt_s: float) -> "FaultSpec":
+        return FaultSpec(self.name, self.value, self.at_s + dt_s, self.for_s)
+
+
+def _number(text, item, what):
+    try:
+        v = float(text)
+    except ValueError:
+        raise UserInputError(f"faults: {item!r}: expected {what} to be a number, got {text!r} "
+                             f"({GRAMMAR})") from None
+    if v != v or v < 0:
+        raise UserInputError(f"faults: {item!r}: expected {what} ≥ 0, got {text!r} ({GRAMMAR})")
+    return v
+
+
+def parse_faults(spec: str | None, *, where: str = "faults") -> list[FaultSpec]:
+    """Parse a fault SPEC (see the module docstring).
+
+    Raises
+    ------
+    UserInputError
+        Naming the bad item and quoting the grammar.
+
+    Examples
+    --------
+    >>> parse_faults("drop=0.01,overtemp@2+1")
+    [FaultSpec(name='drop', value=0.01, at_s=0.0, for_s=None), FaultSpec(name='overtemp', value=None, at_s=2.0, for_s=1.0)]
+    """
+    out: list[FaultSpec] = []
+    if spec is None or not str(spec).strip():
+        return out
+    for raw in str(spec).split(","):
+        item = raw.strip()
+        if not item:
+            continue
+        rest, for_s = item, None
+        if "+" in rest:
+            rest, f = rest.split("+", 1)
+            for_s = _number(f, item, "FOR_s")
+        at_s = 0.0
+        if "@" in rest:
+            rest, a = rest.split("@", 1)
+            at_s = _number(a, item, "AT_s")
+        value = None
+        if "=" in rest:
+            rest, v = rest.split("=", 1)
+            value = _number(v, item, "VALUE")
+        name = rest.strip()
+        if name not in FAULT_NAMES:
+            raise UserInputError(f"{where}: {item!r}: expected a fault name, got {name!r} ({GRAMMAR})")
+        needs, rng = FAULT_NAMES[name]
+        if needs and value is None:
+            raise UserInputError(f"{where}: {item!r}: expected {name}=VALUE ({GRAMMAR})")
+        if not needs and value is not None:
+            raise UserInputError(f"{where}: {item!r}: expected no value for {name} ({GRAMMAR})")
+        if rng is not None and not (rng[0] <= value <= rng[1]):
+            raise UserInputError(f"{where}: {item!r}: expected {rng[0]} ≤ VALUE ≤ {rng[1]}, "
+                                 f"got {value!r}")
+        out.append(FaultSpec(name, value, at_s, for_s))
+    return out
+
+
+class LinkFaults:
+    """Byte-level faults applied by a transport to what crosses the link.
+
+    Parameters
+    ----------
+    specs : list of FaultSpec
+        Only the link faults among them are used.
+    seed : int
+    """
+
+    def __init__(self, specs, seed: int = 0):
+        self.specs = [s for s in specs if s.name in LINK_FAULTS]
+        self.rng = random.Random(seed ^ 0x5EED)
+        self.dropped = 0
+        self.corrupted = 0
+
+    def add(self, specs) -> None:
+        self.specs += [s for s in specs if s.name in LINK_FAULTS]
+
+    def _value(self, name, t_s):
+        v = 0.0
+        for s in self.specs:
+            if s.name == name and s.active(t_s):
+                v = max(v, s.value if s.value is not None else 1.0)
+        return v
+
+    def disconnected(self, t_s: float) -> bool:
+        return any(s.name == "disconnect" and s.active(t_s) for s in self.specs)
+
+    def delay_s(self, t_s: float) -> float:
+        return self._value("delay", t_s)
+
+    def mangle(self, data: bytes, t_s: float) -> bytes:
+        """Apply drop and corrupt to ``data`` (one direction, at device time ``t_s``)."""
+        if not self.specs or not data:
+            return data
+        p_drop, p_corrupt = self._value("drop", t_s), self._value("corrupt", t_s)
+        if p_drop <= 0 and p_corrupt <= 0:
+            return data
+        rnd = self.rng.random
+        out = bytearray()
+        for b in data:
+            if p_drop and rnd() < p_drop:
+                self.dropped += 1
+                continue
+            if p_corrupt and rnd() < p_corrupt:
+                b ^= 1 << self.rng.randrange(8)
+                self.corrupted += 1
+            out.append(b)
+        return bytes(out)
+
+    def garbage(self, t_s: float) -> bytes:
+        """Random bytes to put on the line this tick (usually none)."""
+        p = self._value("garbage", t_s)
+        if p and self.rng.random() < p:
+            return bytes(self.rng.randrange(256) for _ in range(self.rng.randint(1, 32)))
+        return b""

@@ -1,0 +1,303 @@
+"""The emulated display as a pyserial URL handler, in the manner of pyserial's ``loop://``.
+
+URL grammar::
+
+    emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=DEVICE_ID]
+
+    faults   fault injection, see experiments.hardware.faults (default: none)
+    clock    real: the device ticks every 10 ms of wall time in its own thread (default);
+             virtual: the device advances only while the host waits for bytes -- each read that
+             finds nothing to return steps it by 10 ms ticks until there is something or the
+             read's timeout (counted in device time) is used up
+    seed     seeds sensor noise and link faults (default 0)
+    sim      offer the emulator-only "sim" commands (default 1)
+    log      append the device's state changes, faults and watchdog trips as JSON lines to PATH
+    id       device id reported in the handshake (default EMU-0001)
+
+pyserial finds this module because ``experiments.hardware`` adds itself to
+``serial.protocol_handler_packages`` on import; open it with ``serial.serial_for_url``.
+"""
+from __future__ import annotations
+
+import collections
+import json
+import threading
+import time
+import urllib.parse
+
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
+
+from .device import TICK_US, Device
+from .faults import LinkFaults, parse_faults
+
+__all__ = ["Serial", "URL_GRAMMAR"]
+
+URL_GRAMMAR = ("emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH]"
+               "[&id=DEVICE_ID]")
+_OPTIONS = ("faults", "clock", "seed", "sim", "log", "id")
+
+
+def parse_url(url: str) -> dict:
+    """Options of an ``emulator://`` URL as a dict (``faults`` parsed).
+
+    Raises
+    ------
+    SerialException
+        Wrong scheme, unknown option or bad value; the message quotes the grammar.
+    """
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme != "emulator":
+        raise SerialException(f"expected a URL of the form {URL_GRAMMAR!r}: not starting with "
+                              f"emulator:// ({url!r})")
+    opts = dict(faults=[], clock="real", seed=0, sim=True, log=None, id="EMU-0001")
+    try:
+        for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
+            value = values[-1]
+            if key not in _OPTIONS:
+                raise ValueError(f"unknown option {key!r}")
+            if key == "faults":
+                opts["faults"] = parse_faults(value, where="emulator:// faults")
+            elif key == "clock":
+                if value not in ("real", "virtual"):
+                    raise ValueError(f"clock: expected real or virtual, got {value!r}")
+                opts["clock"] = value
+            elif key == "seed":
+                opts["seed"] = int(value)
+            elif key == "sim":
+                if value not in ("0", "1"):
+                    raise ValueError(f"sim: expected 0 or 1, got {value!r}")
+                opts["sim"] = value == "1"
+            else:
+                opts[key] = value
+    except ValueError as exc:
+        raise SerialException(f"expected a URL of the form {URL_GRAMMAR!r}: {exc}") from None
+    return opts
+
+
+class JsonLog:
+    """Append dicts as JSON lines (flushed at once) and keep the last 2,000 in memory."""
+
+    def __init__(self, path=None):
+        self.records = collections.deque(maxlen=2000)
+        self._fh = open(path, "a", encoding="utf-8") if path else None
+
+    def __call__(self, rec: dict) -> None:
+        self.records.append(rec)
+        if self._fh is not None:
+            self._fh.write(json.dumps(rec, sort_keys=True) + "\n")
+            self._fh.flush()
+
+    def close(self):
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+
+class Serial(SerialBase):
+    """An emulated display behind the pyserial API (see the module docstring for the URL)."""
+
+    def __init__(self, *args, **kwargs):
+        self.device: Device | None = None
+        self.link: LinkFaults | None = None
+        self.virtual = False
+        self._cond = threading.Condition()
+        self._rx = bytearray()
+        self._delayed = collections.deque()
+        self._thread = None
+        self._stop = False
+        self._log = None
+        super().__init__(*args, **kwargs)
+
+    # ------------------------------------------------------------------ pyserial plumbing
+    def open(self):
+        if self.is_open:
+            raise SerialException("Port is already open.")
+        if self._port is None:
+            raise SerialException("Port must be configured before it can be used.")
+        opts = parse_url(self.port)
+        self._log = JsonLog(opts["log"])
+        self.device = Device(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
+                             log=self._log, device_id=opts["id"])
+        self.link = LinkFaults(opts["faults"], seed=opts["seed"])
+        self.virtual = opts["clock"] == "virtual"
+        self._rx.clear()
+        self._delayed.clear()
+        self.is_open = True
+        self._stop = False
+        if not self.virtual:
+            self._thread = threading.Thread(target=self._run_real_time, name="emulator-clock",
+                                            daemon=True)
+            self._thread.start()
+
+    def close(self):
+        if self.is_open:
+            self.is_open = False
+            with self._cond:
+                self._stop = True
+                self._cond.notify_all()
+            if self._thread is not None and self._thread is not threading.current_thread():
+                self._thread.join(timeout=1.0)
+            self._thread = None
+            if self._log is not None:
+                self._log.close()
+        super().close()
+
+    def from_url(self, url):
+        """Check an ``emulator://`` URL (see the module docstring); return its options."""
+        return parse_url(url)
+
+    def _reconfigure_port(self):
+        pass
+
+    def _update_break_state(self):
+        pass
+
+    def _update_rts_state(self):
+        pass
+
+    def _update_dtr_state(self):
+        pass
+
+    @property
+    def cts(self):
+        self._check_open()
+        return True
+
+    @property
+    def dsr(self):
+        self._check_open()
+        return True
+
+    @property
+    def ri(self):
+        self._check_open()
+        return False
+
+    @property
+    def cd(self):
+        self._check_open()
+        return True
+
+    def _check_open(self):
+        if not self.is_open:
+            raise PortNotOpenError()
+
+    # ------------------------------------------------------------------ the device clock
+    @property
+    def virtual_time_s(self) -> float | None:
+        """Device time in virtual-clock mode (the driver's clock), else None."""
+        return self.device.time_us * 1e-6 if self.virtual and self.device else None
+
+    def _tick(self) -> None:
+        """Advance the device one tick and move its output to the host side (lock held)."""
+        dev, link = self.device, self.link
+        dev.step()
+        self._pump()
+
+    def _pump(self) -> None:
+        dev, link = self.device, self.link
+        data = dev.take_output()
+        if link.specs:
+            t = dev.time_us * 1e-6
+            data = link.mangle(data, t) + link.garbage(t)
+            delay = link.delay_s(t)
+            if delay > 0 or self._delayed:
+                if data:
+                    self._delayed.append((t + delay, data))
+                while self._delayed and self._delayed[0][0] <= t:
+                    self._rx += self._delayed.popleft()[1]
+                return
+        if data:
+            self._rx += data
+
+    def _run_real_time(self) -> None:
+        tick = TICK_US * 1e-6
+        nxt = time.monotonic() + tick
+        while True:
+            with self._cond:
+                if self._stop:
+                    return
+                now = time.monotonic()
+                if now < nxt:
+                    self._cond.wait(nxt - now)
+                    continue
+                behind = 0
+                while nxt <= now and behind < 20:          # catch up, but not for ever
+                    self._tick()
+                    nxt += tick
+                    behind += 1
+                if nxt <= now:
+                    nxt = now + tick
+                if self._rx:
+                    self._cond.notify_all()
+
+    def _disconnected(self) -> bool:
+        return bool(self.link.specs) and self.link.disconnected(self.device.time_us * 1e-6)
+
+    # ------------------------------------------------------------------ I/O
+    @property
+    def in_waiting(self):
+        self._check_open()
+        return len(self._rx)
+
+    def read(self, size=1):
+        self._check_open()
+        if size <= 0:
+            return b""
+        timeout = self._timeout
+        with self._cond:
+            if self._disconnected():
+                raise SerialException("emulator: device disconnected (injected fault)")
+            if self.virtual:
+                if not self._rx and timeout != 0:
+                    budget = 10**9 if timeout is None else max(1, int(timeout * 1e6 / TICK_US + 0.5))
+                    rx = self._rx
+                    for _ in range(budget):
+                        self._tick()
+                        if rx:
+                            break
+                    if self._disconnected():
+                        raise SerialException("emulator: device disconnected (injected fault)")
+            elif not self._rx and timeout != 0:
+                deadline = None if timeout is None else time.monotonic() + timeout
+                while not self._rx and self.is_open:
+                    left = None if deadline is None else deadline - time.monotonic()
+                    if left is not None and left <= 0:
+                        break
+                    self._cond.wait(left)
+            n = min(size, len(self._rx))
+            data = bytes(self._rx[:n])
+            del self._rx[:n]
+            return data
+
+    def write(self, data):
+        self._check_open()
+        data = to_bytes(data)
+        with self._cond:
+            if self._disconnected():
+                raise SerialException("emulator: device disconnected (injected fault)")
+            dev = self.device
+            if self.link.specs:
+                data = self.link.mangle(data, dev.time_us * 1e-6)
+            dev.receive(data)
+            self._pump()
+            if self._rx:
+                self._cond.notify_all()
+        return len(data)
+
+    def reset_input_buffer(self):
+        self._check_open()
+        with self._cond:
+            self._rx.clear()
+
+    def reset_output_buffer(self):
+        self._check_open()
+
+    @property
+    def out_waiting(self):
+        self._check_open()
+        return 0
+
+    def cancel_read(self):
+        with self._cond:
+            self._cond.notify_all()

@@ -1,0 +1,250 @@
+"""Target interface profiles for simulated trials: what the display must reproduce.
+
+A simulated trial replays, on the thermal display, the interface temperature the fingertip would
+have felt on a real sample (the paper's Eq. 7 quantity, ``Contact.interface_temperature(side=
+"material")``), for that sample's roughness (via Eq. 5), the participant's skin thickness and the
+initial temperatures. :func:`target_profile` samples it at the display's rate, quantises it to the
+display's resolution, records the method, an error bound and a content hash, and caches it on
+disk by that hash (:mod:`stimuli._cache`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _cache
+from .errors import ModelInputError
+from .properties import Material, Skin
+
+__all__ = ["TargetProfile", "target_profile", "MODEL_REVISION"]
+
+#: Bumped when a change in the model would change a cached profile (part of the hash).
+MODEL_REVISION = 1
+_KIND = "target"
+
+
+def _package_version() -> str:
+    try:
+        from importlib.metadata import version
+        return version("thermocue")
+    except Exception:  # pragma: no cover - running from a source tree without metadata
+        return "0+unknown"
+
+
+@dataclass(frozen=True, eq=False)
+class TargetProfile:
+    """A simulated trial's target interface profile, ready to hand to a display.
+
+    Attributes
+    ----------
+    times : ndarray, s
+        Uniform from 0, ``1 / rate`` apart, ``duration * rate + 1`` points.
+    temperature : ndarray, °C
+        Target interface temperature (material side), quantised to ``resolution``.
+    method : str
+        Model method used (``Contact`` method name).
+    error_bound : float, K
+        Bound on |temperature - exact interface temperature| at the sample times:
+        the model's error (measured against the exact method unless it *is* the exact method)
+        plus half the quantisation step.
+    content_hash : str
+        sha256 hex of the inputs, the method, the package version and :data:`MODEL_REVISION`.
+    parameters : dict
+        Every input in SI (JSON-ready), including the contact resistance used.
+    cached : bool
+        True if this profile was read from the cache (not part of equality, which compares the
+        hash, the method and the arrays).
+    """
+
+    times: np.ndarray
+    temperature: np.ndarray
+    method: str
+    error_bound: float
+    content_hash: str
+    parameters: dict
+    cached: bool = field(default=False, compare=False)
+
+    def __eq__(self, other):
+        if not isinstance(other, TargetProfile):
+            return NotImplemented
+        return (self.content_hash == other.content_hash and self.method == other.method
+                and np.array_equal(self.times, other.times)
+                and np.array_equal(self.temperature, other.temperature))
+
+    def __hash__(self):
+        return hash(self.content_hash)
+
+    def to_dict(self) -> dict:
+        """JSON-ready form: parameters, method, error bound (K), hash, time_s and target_C lists."""
+        return {"content_hash": self.content_hash, "method": self.method,
+                "error_bound_K": self.error_bound, "parameters": self.parameters,
+                "time_s": self.times.tolist(), "target_C": self.temperature.tolist()}
+
+
+def _positive(name, value):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if not (math.isfinite(v) and v > 0):
+        raise ModelInputError(f"target_profile: {name}: expected a finite number > 0, got {value!r}")
+    return v
+
+
+def _finite(name, value):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
+    if not math.isfinite(v):
+        raise ModelInputError(f"target_profile: {name}: expected a finite number, got {value!r}")
+    return v
+
+
+def _resolve_material(mat, sample_thickness) -> Material:
+    from .materials import material as lookup
+    if isinstance(mat, Material):
+        m = mat
+    elif isinstance(mat, str):
+        m = lookup(mat)
+    else:
+        raise ModelInputError(f"target_profile: material: expected a name or a stimuli.Material, got {mat!r}")
+    if sample_thickness is not None:
+        m = m.with_thickness(_positive("sample_thickness", sample_thickness))
+    return m
+
+
+def _parameters(mat, skin, roughness, resistance, Ts, Tm, duration, rate, resolution, method,
+                tolerance):
+    return {
+        "material": {"name": mat.name, "conductivity_W_per_mK": mat.conductivity,
+                     "density_kg_per_m3": mat.density, "specific_heat_J_per_kgK": mat.specific_heat,
+                     "thickness_m": mat.thickness},
+        "roughness_m": roughness,
+        "resistance_m2K_per_W": resistance,
+        "skin": {"thickness_m": skin.thickness, "dermis_m": skin.dermis,
+                 "conductivity_W_per_mK": skin.conductivity, "density_kg_per_m3": skin.density,
+                 "specific_heat_J_per_kgK": skin.specific_heat},
+        "skin_temperature_C": Ts, "material_temperature_C": Tm,
+        "duration_s": duration, "rate_Hz": rate, "resolution_K": resolution,
+        "method": method, "tolerance_K": tolerance,
+    }
+
+
+def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin_temperature=35.5,
+                   material_temperature=20.0, duration=20.0, rate=100.0, resolution=0.01,
+                   sample_thickness=None, method="exact", *, tolerance=None, resistance=None,
+                   cache=True, cache_dir=None):
+    """The target interface temperature profile of a simulated trial.
+
+    Parameters
+    ----------
+    material : str or Material
+        The simulated sample's material (a :data:`stimuli.MATERIALS` name or a Material).
+    roughness : float, m
+        Its surface roughness R_a; gives the contact resistance by Eq. 5
+        (:func:`stimuli.contact_resistance` with the paper's defaults) unless ``resistance``.
+    skin : Skin or None
+        The participant's skin (``None``: ``Skin(650e-6)``, group A's mean).
+    skin_temperature, material_temperature : float, °C
+        Initial T_S0 and T_M0.
+    duration : float, s
+    rate : float, Hz
+        The display's sample rate; ``duration * rate`` must be a whole number.
+    resolution : float, K
+        The display's setpoint resolution; the profile is rounded to multiples of it.
+    sample_thickness : float or None, m
+        ``None``: half-space; e.g. 3e-3 for the paper's samples (slab, insulated back).
+    method : str
+        A :class:`stimuli.Contact` method ("exact", "paper", "paper-as-printed", "numerical").
+    tolerance : float or None, K, keyword-only
+        Let :class:`Contact` pick the cheapest method within it (``method`` is then ignored).
+    resistance : float or None, m^2 K/W, keyword-only
+        Use this contact resistance instead of Eq. 5.
+    cache : bool, keyword-only
+        Read and write the on-disk cache.
+    cache_dir : path or None, keyword-only
+        Cache folder (default ``$THERMOCUE_CACHE`` or ``~/.cache/thermocue``).
+
+    Returns
+    -------
+    TargetProfile
+
+    Raises
+    ------
+    ModelInputError
+        A non-positive duration, rate or resolution, ``duration * rate`` not whole, an unknown
+        material or method.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from stimuli.properties import Skin
+    >>> d = tempfile.mkdtemp()
+    >>> p = target_profile(roughness=12.5e-6, skin=Skin(650e-6), skin_temperature=35.5,
+    ...                    material_temperature=20.0, duration=2.0, rate=10.0, cache_dir=d)
+    >>> p.times.size, float(p.times[1]), p.cached
+    (21, 0.1, False)
+    >>> target_profile(roughness=12.5e-6, skin=Skin(650e-6), skin_temperature=35.5,
+    ...                material_temperature=20.0, duration=2.0, rate=10.0, cache_dir=d).cached
+    True
+    """
+    from .contact import Contact
+    from .roughness import contact_resistance
+
+    skin = Skin(650e-6) if skin is None else skin
+    if not isinstance(skin, Skin):
+        raise ModelInputError(f"target_profile: skin: expected a stimuli.Skin, got {skin!r}")
+    mat = _resolve_material(material, sample_thickness)
+    rough = _finite("roughness", roughness)
+    if rough < 0:
+        raise ModelInputError(f"target_profile: roughness: expected a value >= 0 in m, got {roughness!r}")
+    Ts, Tm = _finite("skin_temperature", skin_temperature), _finite("material_temperature", material_temperature)
+    duration, rate, res = _positive("duration", duration), _positive("rate", rate), _positive("resolution", resolution)
+    n = duration * rate
+    if abs(n - round(n)) > 1e-9 * max(1.0, n):
+        raise ModelInputError(f"target_profile: duration: expected a whole number of samples at "
+                              f"{rate!r} Hz, got duration {duration!r} s")
+    n = int(round(n))
+    tol = None if tolerance is None else _positive("tolerance", tolerance)
+    R = (float(contact_resistance(rough, skin=skin, material=mat)) if resistance is None
+         else _finite("resistance", resistance))
+    params = _parameters(mat, skin, rough, R, Ts, Tm, duration, rate, res,
+                         None if tol is not None else str(method), tol)
+    key = _cache.content_hash({"parameters": params, "version": _package_version(),
+                               "revision": MODEL_REVISION, "kind": _KIND})
+    times = np.arange(n + 1) / rate
+    times.setflags(write=False)
+
+    if cache:
+        hit = _cache.load(_KIND, key, cache_dir)
+        if hit is not None and len(hit.get("counts", ())) == n + 1:
+            temp = np.asarray(hit["counts"], dtype=float) * res
+            temp.setflags(write=False)
+            return TargetProfile(times, temp, hit["method"], float(hit["error_bound_K"]), key,
+                                 params, cached=True)
+
+    contact = Contact(skin, mat, resistance=R, skin_temperature=Ts, material_temperature=Tm)
+    T = np.asarray(contact.interface_temperature(times, side="material", method=method,
+                                                 tolerance=tol), dtype=float)
+    info = contact.last_info
+    used = info.method if info is not None else str(method)
+    if used == "exact" and info is not None and math.isfinite(info.error_bound):
+        model_err = float(info.error_bound)
+    else:
+        exact = contact.interface_temperature(times, side="material", method="exact")
+        exact_bound = contact.last_info.error_bound if contact.last_info is not None else 0.0
+        model_err = float(np.max(np.abs(T - exact))) + float(exact_bound)
+    if not np.all(np.isfinite(T)):
+        raise ModelInputError(f"target_profile: method: {used!r} gave non-finite temperatures")  # pragma: no cover
+    counts = np.round(T / res)
+    temp = counts * res
+    temp.setflags(write=False)
+    bound = model_err + 0.5 * res
+    if cache:
+        _cache.store(_KIND, key, {"content_hash": key, "method": used, "error_bound_K": bound,
+                                  "parameters": params, "counts": [int(c) for c in counts]},
+                     cache_dir)
+    return TargetProfile(times, temp, used, bound, key, params, cached=False)

@@ -1,0 +1,212 @@
+"""Loader: tidy table, exclusions, truncated / stale / duplicated / malformed logs."""
+from __future__ import annotations
+
+import csv
+import json
+import warnings
+
+import pandas as pd
+import pytest
+
+from analysis import LogError, LogWarning, load_trials
+
+
+def _rows(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _write_rows(path, rows, fieldnames=None):
+    fieldnames = fieldnames or list(rows[0])
+    with open(path, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=fieldnames, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def test_tidy_table_counts_and_exclusions(study):
+    data, _ = study(n_per_group=3, fault_rate=0.2, seed=11)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", LogWarning)          # a clean study warns about nothing
+        log = load_trials(data)
+    t = log.trials
+    raw = pd.concat([pd.read_csv(p, keep_default_na=False) for p in sorted(data.rglob("trials.csv"))])
+    assert len(t) == len(raw)
+    assert sorted(log.sessions["participant"]) == sorted(f"{g}{i:02d}" for g in "AB" for i in range(3))
+    n_fault = int((raw["status"] == "fault").sum())
+    n_fam = int((raw["block"] == "familiarise").sum())
+    counts = log.exclusion_counts().set_index("reason")["n_trials"]
+    assert counts["familiarisation"] == n_fam == 6 * 4
+    assert counts.get("status fault", 0) == n_fault > 0
+    assert counts["included"] == len(raw) - n_fam - n_fault == 6 * 24
+    a = log.analysable
+    assert set(a["mode"]) == {"real", "simulated"} and a["included"].all()
+    assert a["correct"].isin([0, 1]).all()
+    assert (a["correct"] == (a["response_id"] == a["roughness_id"]).astype(int)).all()
+    assert a["trial_index"].dtype.kind == "i" and a["rt_s"].dtype.kind == "f"
+
+
+def test_truncated_csv_read_up_to_damage_with_warning(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=1)
+    path = next(data.rglob("trials.csv"))
+    text = path.read_text()
+    lines = text.splitlines(keepends=True)
+    # cut line 11 in the middle: header + 9 full rows survive, line 11 is torn
+    path.write_text("".join(lines[:10]) + lines[10][:12])
+    with pytest.warns(LogWarning, match=rf"{path}: line 11: torn last line"):
+        log = load_trials(data)
+    rows = log.trials[log.trials["source"] == str(path)]
+    assert len(rows) == 9 and rows["line"].max() == 10
+
+
+def test_wrong_field_count_in_the_middle_stops_there(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=2)
+    path = next(data.rglob("trials.csv"))
+    lines = path.read_text().splitlines(keepends=True)
+    lines[5] = "A00,A,S1,real,5\n"
+    path.write_text("".join(lines))
+    with pytest.warns(LogWarning, match=rf"{path}: line 6: expected 19 fields, got 5"):
+        log = load_trials(data)
+    assert len(log.trials[log.trials["source"] == str(path)]) == 4
+
+
+def test_nul_bytes_are_damage(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=3)
+    path = next(data.rglob("trials.csv"))
+    raw = path.read_bytes()
+    cut = raw.index(b"\n", raw.index(b"\n") + 1) + 1 + 7        # 7 bytes into line 3
+    path.write_bytes(raw[:cut] + b"\x00" * 64)
+    with pytest.warns(LogWarning, match=rf"{path}: line 3: damaged bytes"):
+        log = load_trials(data)
+    assert len(log.trials[log.trials["source"] == str(path)]) == 1
+
+
+def test_missing_csv_rebuilt_from_events_with_torn_tail(study):
+    data, _ = study(n_per_group=1, seed=4)
+    folder = next(data.rglob("trials.csv")).parent
+    expected = _rows(folder / "trials.csv")
+    (folder / "trials.csv").unlink()
+    events = folder / "events.jsonl"
+    text = events.read_text()
+    events.write_text(text + '{"event": "trial_completed", "row": {"trial_ind')   # torn append
+    with pytest.warns(LogWarning) as record:
+        log = load_trials(data)
+    messages = [str(w.message) for w in record]
+    assert any(f"{folder / 'trials.csv'}: missing; rebuilt" in m for m in messages)
+    assert any(f"{events}: line {text.count(chr(10)) + 1}: torn last line" in m for m in messages)
+    rows = log.trials[log.trials["source"] == str(events)]
+    assert len(rows) == len(expected)
+    assert sorted(rows["trial_index"]) == sorted(int(r["trial_index"]) for r in expected)
+    assert set(rows["participant"]) == {expected[0]["participant"]}
+    assert set(rows["group"]) == {expected[0]["group"]}
+
+
+def test_stale_csv_replaced_by_event_log(study):
+    data, _ = study(n_per_group=1, seed=5)
+    folder = next(data.rglob("trials.csv")).parent
+    rows = _rows(folder / "trials.csv")
+    _write_rows(folder / "trials.csv", rows[:-3])            # the last three trials not yet written
+    with pytest.warns(LogWarning, match=r"older than events.jsonl \(3 trial rows missing\)"):
+        log = load_trials(data)
+    assert len(log.trials[log.trials["participant"] == rows[0]["participant"]]) == len(rows)
+
+
+def test_exact_duplicate_dropped_with_warning(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=6)
+    path = next(data.rglob("trials.csv"))
+    rows = _rows(path)
+    _write_rows(path, rows + [rows[7]])
+    with pytest.warns(LogWarning, match=rf"{path}: line {len(rows) + 2}: exact duplicate of line 9"):
+        log = load_trials(data)
+    assert len(log.trials[log.trials["source"] == str(path)]) == len(rows)
+
+
+def test_conflicting_duplicate_is_an_error(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=7)
+    path = next(data.rglob("trials.csv"))
+    rows = _rows(path)
+    clash = dict(rows[7], rt_s="99.0")
+    _write_rows(path, rows + [clash])
+    with pytest.raises(LogError, match=rf"^{path}: rt_s: expected one row per \(participant, session, "
+                                       rf"trial_index, attempt\)"):
+        load_trials(data)
+
+
+def test_missing_column_names_file_and_column(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=8)
+    path = next(data.rglob("trials.csv"))
+    rows = _rows(path)
+    for r in rows:
+        del r["status"]
+    _write_rows(path, rows)
+    with pytest.raises(LogError, match=rf"^{path}: status: expected a column named 'status'"):
+        load_trials(data)
+
+
+@pytest.mark.parametrize("column, value, expected", [
+    ("status", "crashed", "expected one of ok, fault, aborted"),
+    ("correct", "maybe", "expected an integer"),
+    ("roughness_id", "7", "expected one of 1, 2, 3, 4"),
+    ("group", "C", "expected one of A, B"),
+    ("trial_index", "", "expected an integer"),
+])
+def test_bad_values_name_file_column_and_line(study, column, value, expected):
+    data, _ = study(n_per_group=1, write_events=False, seed=9)
+    path = next(data.rglob("trials.csv"))
+    rows = _rows(path)
+    rows[4][column] = value
+    _write_rows(path, rows)
+    with pytest.raises(LogError, match=rf"^{path}: {column}: {expected}.*line 6.*got '{value}'"):
+        load_trials(data)
+
+
+def test_correct_inconsistent_with_response_is_an_error(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=10)
+    path = next(data.rglob("trials.csv"))
+    rows = _rows(path)
+    i = next(i for i, r in enumerate(rows) if r["block"] == "real")
+    rows[i]["correct"] = str(1 - int(rows[i]["correct"]))
+    _write_rows(path, rows)
+    with pytest.raises(LogError, match=rf"^{path}: correct: expected"):
+        load_trials(data)
+
+
+def test_retry_after_fault_and_superseded_attempt(study):
+    data, _ = study(n_per_group=1, write_events=False, seed=12)
+    path = next(data.rglob("trials.csv"))
+    rows = _rows(path)
+    i = next(i for i, r in enumerate(rows) if r["block"] == "real")
+    redo = dict(rows[i], attempt="2", rt_s="3.5")                # a second ok attempt of one trial
+    _write_rows(path, rows + [redo])
+    log = load_trials(data)
+    t = log.trials[(log.trials["trial_index"] == int(rows[i]["trial_index"]))
+                   & (log.trials["participant"] == rows[i]["participant"])]
+    assert list(t["attempt"]) == [1, 2]
+    assert list(t["exclusion"]) == ["superseded attempt", ""]
+    assert not log.analysable.duplicated(["participant", "session", "trial_index"]).any()
+
+
+def test_no_sessions_is_an_error(tmp_path):
+    with pytest.raises(LogError, match="expected session folders"):
+        load_trials(tmp_path)
+    with pytest.raises(LogError, match="expected an existing directory"):
+        load_trials(tmp_path / "nope")
+
+
+def test_session_json_fills_missing_group_in_events(study):
+    data, _ = study(n_per_group=1, write_csv=False, seed=13)
+    events = next(data.rglob("events.jsonl"))
+    lines = [json.loads(l) for l in events.read_text().splitlines()]
+    for e in lines:
+        e.pop("group", None)
+        if "row" in e:
+            e["row"].pop("group")
+            e["row"].pop("participant")
+    events.write_text("".join(json.dumps(e) + "\n" for e in lines))
+    with pytest.warns(LogWarning, match="missing; rebuilt"):
+        log = load_trials(data)
+    meta = json.loads((events.parent / "session.json").read_text())
+    rows = log.trials[log.trials["source"] == str(events)]
+    assert len(rows) == 28
+    assert set(rows["group"]) == {meta["group"]}
+    assert set(rows["participant"]) == {meta["participant"]["id"]}

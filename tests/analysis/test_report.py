@@ -1,0 +1,57 @@
+"""``analyze`` and ``thermocue analyze``: every file, the report's contents, errors."""
+from __future__ import annotations
+
+import pandas as pd
+
+from analysis import analyze
+from experiments.cli import main
+
+
+def test_analyze_writes_every_table_figure_and_report(study, tmp_path):
+    data, _ = study(n_per_group=8, sigma=0.4, fault_rate=0.05, seed=51)
+    out = tmp_path / "out"
+    steps = []
+    result = analyze(data, out, n_boot=300, progress=steps.append)
+    names = {"figure9.png", "confusion.png", "proportions.csv", "participants.csv", "confusion.csv",
+             "gee.csv", "bayes.csv", "contrasts.csv", "exclusions.csv", "sessions.csv",
+             "trials.csv", "report.md"}
+    assert names <= {p.name for p in out.iterdir()}
+    assert all(p.stat().st_size > 0 for p in out.iterdir())
+    assert len(steps) >= 4
+    props = pd.read_csv(out / "proportions.csv")
+    assert list(props.columns[:3]) == ["group", "mode", "roughness_id"]
+    assert {"proportion_correct", "wilson_low", "boot_high", "n_trials"} <= set(props.columns)
+    assert len(props) == 16
+    pd.testing.assert_frame_equal(props, result.proportions, check_dtype=False, atol=1e-5)
+    contrasts = pd.read_csv(out / "contrasts.csv")
+    assert {"gee"} <= set(contrasts["model"]) and len(contrasts[contrasts["model"] == "gee"]) == 10
+    report = (out / "report.md").read_text()
+    n_fam = int((result.log.trials["exclusion"] == "familiarisation").sum())
+    n_fault = int((result.log.trials["exclusion"] == "status fault").sum())
+    assert f"| familiarisation | {n_fam} |" in report
+    assert f"| status fault | {n_fault} |" in report and n_fault > 0
+    assert "16 participants" in report and "GEE" in report and "participant_sd" in report
+    assert "![Figure 9](figure9.png)" in report
+    assert result.summary in report
+
+
+def test_cli_analyze(study, tmp_path, capsys):
+    data, _ = study(n_per_group=4, seed=52)
+    out = tmp_path / "out"
+    assert main(["analyze", str(data), "--out", str(out), "--bootstrap", "200", "--no-bayes"]) == 0
+    captured = capsys.readouterr()
+    assert "loading sessions" in captured.err and "done" in captured.err
+    assert captured.out.strip() == str(out / "report.md")
+    assert (out / "figure9.png").stat().st_size > 0
+
+
+def test_cli_analyze_bad_log_exits_2_naming_file_and_column(study, tmp_path, capsys):
+    data, _ = study(n_per_group=1, write_events=False, seed=53)
+    path = next(data.rglob("trials.csv"))
+    text = path.read_text().replace("participant,group,", "participant,grp,", 1)
+    path.write_text(text)
+    assert main(["analyze", str(data), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0].startswith("[") and "loading sessions" in err[0]        # progress, then one line
+    assert len(err) == 2
+    assert err[1].startswith(f"thermocue analyze: {path}: group: expected a column named 'group'")

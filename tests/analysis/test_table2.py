@@ -1,0 +1,40 @@
+import csv
+
+import pytest
+
+from analysis.table2 import MODEL_COLUMNS, PAPER_TABLE2, table2_rows
+from experiments.cli import main
+
+
+def test_rows_carry_paper_values_and_residuals():
+    header, rows = table2_rows()
+    assert [r[0] for r in rows] == list(PAPER_TABLE2)
+    i_exp = header.index("paper_experiment_C")
+    for col in MODEL_COLUMNS:
+        j = header.index(col)
+        k = header.index(f"{col[:-2]}_minus_experiment_K")
+        for r in rows:
+            assert r[k] == pytest.approx(r[j] - r[i_exp])
+            assert 24.0 < r[j] < 35.0
+
+
+def test_design_md_claim_eq7_never_exceeds_27_05():
+    header, rows = table2_rows()
+    j = header.index("eq7_printed_C")
+    assert all(r[j] <= 27.05 for r in rows)
+
+
+def test_cli_table2(tmp_path, capsys):
+    assert main(["reproduce", "table2", "--out", str(tmp_path)]) == 0
+    assert "minus the paper's experiment" in capsys.readouterr().out
+    with open(tmp_path / "table2.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 5 and "exact_slab3mm_C" in rows[0]
+    assert (tmp_path / "table2.md").read_text().startswith("# Table 2")
+
+
+def test_cli_rejects_file_as_out(tmp_path, capsys):
+    f = tmp_path / "x"
+    f.write_text("")
+    assert main(["reproduce", "table2", "--out", str(f)]) == 2
+    assert "--out" in capsys.readouterr().err

@@ -1,0 +1,76 @@
+"""Shared fixtures: an X server for the GUI tests.
+
+``xvfb`` (session scope) starts ``Xvfb -screen 0 1280x1024x24 -nolisten tcp`` on a free display
+number (``-displayfd``, so parallel runs do not collide), points ``DISPLAY`` at it and ``HOME``
+at a temporary folder holding ``.asoundrc`` with ``pcm.!default { type null }`` (PsychoPy writes
+``~/.psychopy3``; the sounddevice cue plays to ALSA's null device). Tests marked ``gui`` use it;
+they are skipped, with the reason, only when Xvfb itself is not installed.
+"""
+from __future__ import annotations
+
+import os
+import select
+import shutil
+import subprocess
+import time
+
+import pytest
+
+
+def _start_xvfb():
+    read_fd, write_fd = os.pipe()
+    proc = subprocess.Popen(
+        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", "1280x1024x24", "-nolisten", "tcp"],
+        pass_fds=(write_fd,), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    os.close(write_fd)
+    number = b""
+    deadline = time.monotonic() + 15.0
+    try:
+        while not number.endswith(b"\n"):
+            left = deadline - time.monotonic()
+            if left <= 0 or proc.poll() is not None:
+                raise RuntimeError("Xvfb did not start: "
+                                   + (proc.stderr.read().decode(errors="replace")[-500:]
+                                      if proc.poll() is not None else "no display number in 15 s"))
+            ready, _, _ = select.select([read_fd], [], [], left)
+            if ready:
+                chunk = os.read(read_fd, 64)
+                if not chunk:
+                    raise RuntimeError("Xvfb closed -displayfd without a display number")
+                number += chunk
+    except BaseException:
+        proc.kill()
+        proc.wait()
+        raise
+    finally:
+        os.close(read_fd)
+    return proc, f":{int(number.strip())}"
+
+
+@pytest.fixture(scope="session")
+def xvfb(tmp_path_factory):
+    """An X display for GUI tests; yields the environment (``DISPLAY``, ``HOME``) to use."""
+    if shutil.which("Xvfb") is None:
+        pytest.skip("Xvfb is not installed (apt-get install xvfb; .ci/run installs it)")
+    home = tmp_path_factory.mktemp("home")
+    (home / ".asoundrc").write_text("pcm.!default { type null }\n")
+    proc, display = _start_xvfb()
+    saved = {k: os.environ.get(k) for k in ("DISPLAY", "HOME")}
+    os.environ["DISPLAY"] = display
+    os.environ["HOME"] = str(home)
+    try:
+        yield {"DISPLAY": display, "HOME": str(home)}
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+        proc.terminate()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        if proc.stderr is not None:
+            proc.stderr.close()

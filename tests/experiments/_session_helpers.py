@@ -1,0 +1,224 @@
+"""Helpers for the session tests: a short protocol, participant records, a scripted responder,
+and a scripted stand-in display for the engine's unit tests (the emulator is used elsewhere)."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from experiments.errors import DisplayError, DisplayTimeout
+from experiments.responders.base import Responder, Response
+
+ROOT = Path(__file__).resolve().parents[2]
+P01 = ROOT / "participants" / "examples" / "P01.json"
+
+MINI_PROTOCOL = """
+[protocol]
+name = "mini"
+title = "A short session for tests"
+
+[environment]
+room_temperature_C = 20.0
+skin_temperature_min_C = 35.5
+skin_temperature_max_C = 36.0
+
+[material]
+name = "stainless_steel"
+thickness_mm = 3.0
+
+[[samples]]
+id = 1
+label = "1#"
+roughness_um = 1.6
+
+[[samples]]
+id = 2
+label = "2#"
+roughness_um = 12.5
+
+[[samples]]
+id = 3
+label = "3#"
+roughness_um = 50.0
+
+[[samples]]
+id = 4
+label = "4#"
+roughness_um = 100.0
+
+[contact]
+force_threshold_N = 2.0
+max_contact_s = {contact_s}
+record_s = {contact_s}
+trial_timeout_s = 5.0
+rewarm_s = {rewarm_s}
+
+[display]
+min_C = 15.0
+max_C = 42.0
+max_rate_C_per_s = 10.0
+neutral_C = 32.0
+
+[grouping]
+threshold_um = 800.0
+margin_um = 50.0
+
+[simulation]
+skin_thickness = "group"
+group_skin_thickness_um = {{ A = 650.0, B = 1000.0 }}
+skin_temperature_C = 35.5
+material_temperature_C = 20.0
+duration_s = {contact_s}
+rate_Hz = 50.0
+resolution_C = 0.01
+method = "exact"
+
+[[blocks]]
+name = "real"
+mode = "real"
+repetitions = 1
+samples = {real_samples}
+order = "random"
+
+[[blocks]]
+name = "simulated"
+mode = "simulated"
+repetitions = 1
+samples = {sim_samples}
+order = "random"
+"""
+
+
+def write_protocol(folder: Path, *, contact_s=1.0, rewarm_s=0.0, real_samples=(1, 2, 3, 4),
+                   sim_samples=(1, 2, 3, 4), name="mini.toml") -> Path:
+    """A protocol with a real and a simulated block over the paper's four samples."""
+    text = MINI_PROTOCOL.format(contact_s=contact_s, rewarm_s=rewarm_s,
+                                real_samples=list(real_samples), sim_samples=list(sim_samples))
+    if not sim_samples:
+        text = text.split("[[blocks]]\nname = \"simulated\"")[0]
+    path = Path(folder) / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+class ScriptedResponder(Responder, name="scripted-test"):
+    """Answers from a fixed list (cycled) and drives the emulator's finger like a person."""
+
+    human = False
+
+    def __init__(self, answers=(1, 2, 3, 4), rt_s=0.5, press=True):
+        super().__init__()
+        self.answers = list(answers)
+        self.rt_s = rt_s
+        self.press = press
+        self.calls = []
+        self.n = 0
+
+    def begin_session(self, session):
+        super().begin_session(session)
+        self.calls.append(("begin",))
+
+    def end_session(self):
+        self.calls.append(("end",))
+
+    def prompt_experimenter(self, text):
+        self.calls.append(("prompt", text))
+
+    def cue(self):
+        self.calls.append(("cue",))
+        return True
+
+    def touch(self, trial, display):
+        self.calls.append(("touch", trial.trial_index))
+        if self.press:
+            self.session.emulated_touch(trial, display)
+
+    def respond(self, trial, stimulus):
+        answer = self.answers[self.n % len(self.answers)]
+        self.n += 1
+        self.calls.append(("respond", trial.trial_index, stimulus.status, len(stimulus.time_s)))
+        return Response(answer, self.rt_s, source="scripted")
+
+
+# --------------------------------------------------------------------------- stand-in display
+@dataclass
+class Frame:
+    device_time_s: float
+    setpoint_C: float
+    contact_C: float
+    ambient_C: float
+    finger_C: float
+    forces_N: tuple
+    state: str
+
+
+@dataclass
+class Recording:
+    status: str
+    fault_code: str | None = None
+    fault_message: str | None = None
+    contact_time_s: float | None = None
+    frames: int = 0
+    frames_lost: int = 0
+    tracking_rms_C: float | None = None
+    tracking_max_C: float | None = None
+
+
+@dataclass
+class Info:
+    device_id: str = "scripted"
+    firmware: str = "0"
+    capabilities: tuple = ("sim",)
+
+
+@dataclass
+class ScriptedDisplay:
+    """Follows the driver's contract; ``script`` says per run_trial call what happens:
+    ``"ok"``, ``"fault"`` (faulted recording), ``"raise"`` (DisplayError), ``"timeout"``
+    (DisplayTimeout) or ``"no_contact"``."""
+
+    script: list = field(default_factory=list)
+    calls: list = field(default_factory=list)
+    info: Info = field(default_factory=Info)
+    n_runs: int = 0
+
+    def set_neutral(self, c):
+        self.calls.append(("set_neutral", c))
+
+    def upload_profile(self, t, y):
+        self.calls.append(("upload", len(t)))
+
+    def arm(self, **kw):
+        self.calls.append(("arm", kw["mode"]))
+
+    def abort(self):
+        self.calls.append(("abort",))
+
+    def sim_sample(self, **kw):
+        self.calls.append(("sim_sample", kw["roughness_m"]))
+
+    def sim_finger(self, **kw):
+        self.calls.append(("sim_finger",))
+
+    def run_trial(self, timeout_s, on_telemetry=None):
+        what = self.script[self.n_runs] if self.n_runs < len(self.script) else "ok"
+        self.n_runs += 1
+        self.calls.append(("run_trial", what))
+        if what == "raise":
+            raise DisplayError("serial link lost")
+        if what == "timeout":
+            raise DisplayTimeout("no answer in 1 s")
+        if what == "no_contact":
+            for i in range(3):
+                on_telemetry(Frame(i * 0.1, 32.0, 32.0, 20.0, 35.0, (0.0,) * 4, "ARMED"))
+            return Recording("fault", "TRIAL_TIMEOUT", "no end of trial within 5 s", None, 3)
+        for i in range(10):
+            state = "ARMED" if i < 2 else "RECORDING"
+            on_telemetry(Frame(i * 0.1, 30.0, 30.1, 20.0, 35.0, (0.5,) * 4, state))
+        if what == "fault":
+            return Recording("fault", "OVER_TEMPERATURE", "pad above limit", 0.2, 10, 0, 0.1, 0.2)
+        return Recording("ok", None, None, 0.2, 10, 0, 0.05, 0.1)
+
+
+def read_json_lines(path):
+    return [json.loads(line) for line in Path(path).read_text().splitlines() if line.strip()]

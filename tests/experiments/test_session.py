@@ -1,0 +1,206 @@
+"""Tests of the session engine's logic (experiments.session) with a scripted stand-in display.
+
+The emulator-backed end-to-end and SIGKILL tests are in test_session_kill.py; the PsychoPy
+window under Xvfb in test_session_gui.py.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import signal
+
+import pytest
+
+from _session_helpers import P01, ScriptedDisplay, ScriptedResponder, read_json_lines, write_protocol
+from experiments.cli import main
+from experiments.session import (
+    TRANSITIONS,
+    SessionInterrupted,
+    StateMachine,
+    TransitionError,
+    create_session,
+    open_session,
+)
+
+
+def rows(path):
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def new_session(tmp_path, **protocol):
+    protocol.setdefault("sim_samples", ())
+    proto = write_protocol(tmp_path, **protocol)
+    return create_session(proto, P01, tmp_path / "data", "scripted://", seed=7,
+                          responder_name="scripted-test", clock="virtual")
+
+
+# --------------------------------------------------------------------------- state machine
+def test_illegal_transition_names_both_states():
+    seen = []
+    sm = StateMachine(on_change=lambda old, new, **ctx: seen.append((old, new, ctx)))
+    sm.go("prompt", trial_index=1)
+    with pytest.raises(TransitionError, match=r"'prompt' -> 'respond'"):
+        sm.go("respond")
+    assert sm.state == "prompt" and seen == [("idle", "prompt", {"trial_index": 1})]
+
+
+def test_transition_table_is_closed_and_reaches_the_end_states():
+    for src, targets in TRANSITIONS.items():
+        assert targets <= set(TRANSITIONS), src
+    # The trial cycle of the docstring is legal, for both trial kinds.
+    for active in ("playback", "record"):
+        sm = StateMachine()
+        for s in ("prompt", "prepare", "cue", "wait_contact", active, "respond", "write",
+                  "rewarm", "idle", "finished"):
+            sm.go(s)
+    # Every non-final state can be interrupted.
+    assert all("interrupted" in t for s, t in TRANSITIONS.items()
+               if s not in ("finished", "stopped", "interrupted"))
+
+
+# --------------------------------------------------------------------------- whole sessions
+def test_real_session_writes_every_file(tmp_path):
+    s = new_session(tmp_path)
+    disp, resp = ScriptedDisplay(), ScriptedResponder(answers=[1, 1, 1, 1])
+    assert s.run(resp, display=disp) == 0
+    meta = json.loads((s.directory / "session.json").read_text())
+    assert meta["protocol_hash"] == s.protocol.hash and meta["seed"] == 7
+    assert meta["participant"]["id"] == "P01" and meta["group"] == "A"
+    assert len(meta["schedule"]) == 4 and meta["versions"]["numpy"]
+    table = rows(s.directory / "trials.csv")
+    assert [int(r["trial_index"]) for r in table] == [1, 2, 3, 4]
+    assert {r["status"] for r in table} == {"ok"} and {r["participant"] for r in table} == {"P01"}
+    assert {r["session"] for r in table} == {s.name} and {r["group"] for r in table} == {"A"}
+    for r in table:   # correct is response_id == roughness_id, all answers were 1
+        assert r["correct"] == ("1" if r["roughness_id"] == "1" else "0")
+        assert r["mode"] == "real" and float(r["rt_s"]) == 0.5
+        trace = (s.directory / r["trace_file"]).read_text().splitlines()
+        assert trace[0].startswith("time_s,target_C,contact_C,ambient_C,finger_C,force1_N")
+        assert len(trace) == 11
+    ev = read_json_lines(s.directory / "events.jsonl")
+    kinds = [e["event"] for e in ev]
+    assert kinds[0] == "session_started" and kinds[-1] == "session_finished"
+    states = [(e["from"], e["to"]) for e in ev if e["event"] == "state"]
+    assert ("wait_contact", "record") in states and ("respond", "write") in states
+    # Experimenter prompted to place each sample, and the emulated hand placed it.
+    prompts = [c[1] for c in resp.calls if c[0] == "prompt"]
+    assert len(prompts) == 4 and all("place sample" in p for p in prompts)
+    assert [c[0] for c in disp.calls].count("sim_sample") == 4
+    assert disp.calls[-1] == ("set_neutral", 32.0)
+
+
+def test_a_display_fault_is_written_and_the_session_goes_on(tmp_path):
+    s = new_session(tmp_path)
+    disp = ScriptedDisplay(script=["ok", "raise", "fault", "ok"])
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    table = rows(s.directory / "trials.csv")
+    assert [r["status"] for r in table] == ["ok", "fault", "fault", "ok"]
+    assert table[1]["fault_code"] == "DisplayError" and table[2]["fault_code"] == "OVER_TEMPERATURE"
+    assert table[1]["response_id"] == "" and table[3]["response_id"] != ""
+    # neutral after each fault: abort then set_neutral right after the failing run_trial
+    i = disp.calls.index(("run_trial", "raise"))
+    assert disp.calls[i + 1:i + 3] == [("abort",), ("set_neutral", 32.0)]
+
+
+def test_consecutive_faults_stop_cleanly_and_resume_finishes(tmp_path):
+    s = new_session(tmp_path)
+    disp = ScriptedDisplay(script=["ok", "raise", "timeout", "fault"])
+    assert s.run(ScriptedResponder(), display=disp) == 1
+    ev = read_json_lines(s.directory / "events.jsonl")
+    assert ev[-1]["event"] == "session_stopped"
+    assert [r["status"] for r in rows(s.directory / "trials.csv")] == ["ok", "fault", "fault", "fault"]
+    # Faulted trials count as done: nothing is left to run.
+    s2 = open_session(s.directory)
+    assert s2.run(ScriptedResponder(), display=ScriptedDisplay()) == 0
+    assert len(rows(s.directory / "trials.csv")) == 4
+
+
+def test_no_contact_aborts_the_attempt_and_runs_the_trial_again(tmp_path):
+    s = new_session(tmp_path)
+    disp = ScriptedDisplay(script=["no_contact", "ok", "ok", "ok", "ok"])
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    table = rows(s.directory / "trials.csv")
+    first = [r for r in table if r["trial_index"] == "1"]
+    assert [(r["attempt"], r["status"]) for r in first] == [("1", "aborted"), ("2", "ok")]
+    assert first[0]["abort_reason"] == "no_contact" and first[0]["fault_code"] == "TRIAL_TIMEOUT"
+    assert (s.directory / first[0]["trace_file"]).exists()     # the aborted attempt's trace is kept
+    assert first[1]["trace_file"] == "traces/trial-001.csv"
+
+
+def test_interruption_puts_the_display_neutral_and_logs_it(tmp_path):
+    s = new_session(tmp_path)
+
+    class Interrupting(ScriptedResponder):
+        def respond(self, trial, stimulus):
+            if trial.trial_index == 2:
+                raise SessionInterrupted("SIGTERM")
+            return super().respond(trial, stimulus)
+
+    disp = ScriptedDisplay()
+    assert s.run(Interrupting(), display=disp) == 1
+    ev = read_json_lines(s.directory / "events.jsonl")
+    assert ev[-1] == {**ev[-1], "event": "session_interrupted", "reason": "SIGTERM"}
+    aborted = [e for e in ev if e["event"] == "trial_aborted"]
+    assert [(e["trial_index"], e["attempt"], e["reason"]) for e in aborted] == [(2, 1, "interrupted")]
+    assert ("abort",) in disp.calls[-3:] and disp.calls[-1] == ("set_neutral", 32.0)
+    # Resume: trial 2 again as attempt 2, trial 1 not repeated.
+    resp = ScriptedResponder()
+    assert open_session(s.directory).run(resp, display=ScriptedDisplay()) == 0
+    assert [c[1] for c in resp.calls if c[0] == "respond"] == [2, 3, 4]
+    table = rows(s.directory / "trials.csv")
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in table] == [
+        ("1", "1", "ok"), ("2", "1", "aborted"), ("2", "2", "ok"), ("3", "1", "ok"), ("4", "1", "ok")]
+
+
+def test_sigint_handler_raises_into_the_run(tmp_path):
+    s = new_session(tmp_path)
+
+    class Signalling(ScriptedResponder):
+        def cue(self):
+            if self.n == 1:
+                signal.raise_signal(signal.SIGINT)
+            return super().cue()
+
+    assert s.run(Signalling(), display=ScriptedDisplay()) == 1
+    ev = read_json_lines(s.directory / "events.jsonl")
+    assert ev[-1]["event"] == "session_interrupted" and ev[-1]["reason"] == "SIGINT"
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler   # handler restored
+
+
+# --------------------------------------------------------------------------- command line
+def test_bad_participant_file_is_one_line_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"id": "P09", "age": "old"}))
+    status = main(["run", "roughness_recognition", "--participant", str(bad), "--display",
+                   "emulator://?clock=virtual", "--responder", "console", "--data", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and "bad.json" in err and "Traceback" not in err
+
+
+def test_bad_protocol_file_is_one_line_exit_2(tmp_path, capsys):
+    proto = write_protocol(tmp_path)
+    proto.write_text(proto.read_text().replace("repetitions = 1", "repetitions = 'three'", 1))
+    status = main(["run", str(proto), "--participant", str(P01), "--display", "emulator://",
+                   "--responder", "console", "--data", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert status == 2 and "mini.toml: blocks[0].repetitions" in err and err.count("\n") == 1
+
+
+def test_resume_of_a_missing_or_broken_session_is_exit_2(tmp_path, capsys):
+    assert main(["resume", str(tmp_path / "nope")]) == 2
+    (tmp_path / "s").mkdir()
+    (tmp_path / "s" / "session.json").write_text("{not json")
+    assert main(["resume", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert "nope: expected a session folder" in err[0] and "session.json: expected valid JSON" in err[1]
+
+
+def test_existing_session_folder_is_refused(tmp_path):
+    s = new_session(tmp_path)
+    s.run(ScriptedResponder(), display=ScriptedDisplay())
+    from experiments.errors import SessionError
+    with pytest.raises(SessionError, match="existing one"):
+        create_session(s.protocol, P01, tmp_path / "data", "x", seed=1, session_name=s.name)
+    second = create_session(s.protocol, P01, tmp_path / "data", "x", seed=1)
+    assert second.name == "S02"

@@ -1,0 +1,183 @@
+"""skin_response (stimuli.display_response) against an independent high-precision reference.
+
+The reference inverts DESIGN.md's Laplace-domain solution with mpmath (Talbot, 30 digits):
+a unit surface step gives sinh(q x) / (s sinh(q L)), a unit ramp sinh(q x) / (s^2 sinh(q L)),
+q = sqrt(s / alpha). A surface history that is piecewise linear with few kinks, *sampled* at 1 kHz,
+is exactly its own linear interpolant, so its exact response is a short sum of such inversions:
+u(t) = h0 S(t) + sum_k (m_k - m_{k-1}) Rr(t - t_k). No series or FFT of the code under test is used.
+"""
+from __future__ import annotations
+
+import math
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+from stimuli.display_response import skin_response
+from stimuli.errors import ModelInputError
+from stimuli.finite_volume import Layer
+from stimuli.properties import Skin
+
+
+def _laplace_pair(skin, x):
+    a = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
+    L, x = mp.mpf(skin.thickness), mp.mpf(x)
+
+    def step(s):
+        q = mp.sqrt(s / a)
+        return mp.sinh(q * x) / (s * mp.sinh(q * L))
+
+    def ramp(s):
+        q = mp.sqrt(s / a)
+        return mp.sinh(q * x) / (s * s * mp.sinh(q * L))
+
+    def S(t):
+        return mp.invertlaplace(step, t, method="talbot") if t > 0 else mp.mpf(0)
+
+    def Rr(t):
+        return mp.invertlaplace(ramp, t, method="talbot") if t > 0 else mp.mpf(0)
+
+    return S, Rr
+
+
+# kinks of the test history: (time s, slope K/s from there on); h0 relative to T_S0
+H0 = -8.0
+KINKS = [(0.0, -0.6), (2.0, 0.5), (7.5, 0.0), (12.3, 0.9), (16.0, -0.3)]
+
+
+def _history(t):
+    h = np.full_like(t, H0)
+    prev = 0.0
+    for tk, m in KINKS:
+        h += (m - prev) * np.clip(t - tk, 0.0, None)
+        prev = m
+    return h
+
+
+def _reference(skin, x, t):
+    S, Rr = _laplace_pair(skin, x)
+    with mp.workdps(30):
+        u = mp.mpf(H0) * S(mp.mpf(t))
+        prev = 0.0
+        for tk, m in KINKS:
+            if t > tk:
+                u += mp.mpf(m - prev) * Rr(mp.mpf(t) - mp.mpf(tk))
+            prev = m
+    return float(u)
+
+
+@pytest.mark.parametrize("thickness, depth", [(1.0e-3, None), (650e-6, 0.2e-3)])
+def test_exact_20s_at_1kHz_within_1e_6_K_of_mpmath(thickness, depth):
+    skin = Skin(thickness)
+    x = skin.dermis if depth is None else depth
+    t = np.arange(20001) * 1e-3
+    T0 = 35.0
+    T = skin_response(skin, t, T0 + _history(t), initial_temperature=T0, depth=depth)
+    assert T.shape == t.shape and T[0] == T0
+    for i in [1, 37, 500, 2000, 2001, 4321, 7500, 12300, 12301, 16000, 20000]:
+        ref = T0 + _reference(skin, x, t[i])
+        assert abs(T[i] - ref) < 1e-6, (i, T[i], ref)
+
+
+def test_exact_constant_step_matches_eigen_series_far_in_time():
+    # Eigen series by hand (mpmath): S = xi + 2/pi sum (-1)^n/n sin(n pi xi) exp(-n^2 pi^2 tau)
+    skin = Skin(650e-6)
+    t = np.linspace(0.0, 60.0, 601)
+    T = skin_response(skin, t, np.full(t.size, 20.0), initial_temperature=36.0)
+    xi = mp.mpf(skin.dermis) / mp.mpf(skin.thickness)
+    for i in [5, 50, 300, 600]:
+        tau = mp.mpf(skin.diffusivity) * mp.mpf(t[i]) / mp.mpf(skin.thickness) ** 2
+        S = xi + 2 / mp.pi * mp.nsum(lambda n: (-1) ** n / n * mp.sin(n * mp.pi * xi)
+                                     * mp.exp(-n ** 2 * mp.pi ** 2 * tau), [1, mp.inf])
+        assert abs(T[i] - float(36 - 16 * S)) < 1e-9
+
+
+def test_paper_form_is_first_image_term_and_its_bound_holds():
+    skin = Skin(1e-3)
+    t = np.arange(4001) * 1e-3
+    g = 35.0 + _history(t)
+    T_exact = skin_response(skin, t, g)
+    T_paper, info = skin_response(skin, t, g, method="paper", full_output=True)
+    err = np.max(np.abs(T_paper - T_exact))
+    assert info.method == "paper"
+    assert 1e-6 < err <= info.error_bound          # a real, bounded approximation
+    printed, pinfo = skin_response(skin, t, g, method="paper-as-printed", full_output=True)
+    assert np.all(printed == 35.0)                 # Eq. 8's (1 + gamma)/2 -> 0 for a display
+    assert np.max(np.abs(printed - T_exact)) <= pinfo.error_bound
+
+
+def test_tolerance_picks_cheapest_method_and_reports_it():
+    skin = Skin(1e-3)
+    short = np.arange(501) * 1e-3                  # 0.5 s: the n = 0 term is all there is
+    _, info = skin_response(skin, short, np.full(short.size, 30.0), tolerance=1e-6, full_output=True)
+    assert info.method == "paper" and info.error_bound <= 1e-6
+    long = np.arange(20001) * 1e-3
+    _, info = skin_response(skin, long, np.full(long.size, 30.0), tolerance=1e-6, full_output=True)
+    assert info.method == "exact" and info.error_bound <= 1e-6
+    _, info = skin_response(skin, short, np.full(short.size, 30.0), tolerance=1e-2, full_output=True,
+                            epidermis_properties=Layer(0.5, 1200.0, 3340.0))
+    assert info.method == "numerical" and info.error_bound <= 1e-2
+
+
+def test_numerical_agrees_with_exact():
+    skin = Skin(1e-3)
+    t = np.arange(2001) * 1e-2
+    g = 35.0 + _history(t)
+    T_exact = skin_response(skin, t, g)
+    T_num, info = skin_response(skin, t, g, method="numerical", full_output=True)
+    err = np.max(np.abs(T_num - T_exact))
+    assert err < 1e-3
+    assert err <= info.error_bound                 # the two-grid estimate is conservative here
+    finer = skin_response(skin, t, g, method="numerical", cells=128)
+    assert np.max(np.abs(finer - T_exact)) < 2e-5
+
+
+def test_surface_and_inner_boundary():
+    skin = Skin(1e-3)
+    t = np.arange(11) * 0.1
+    g = np.linspace(30.0, 31.0, 11)
+    assert np.array_equal(skin_response(skin, t, g, depth=skin.thickness), g)
+    assert np.all(skin_response(skin, t, g, depth=0.0) == 35.0)
+
+
+def test_no_warnings_nan_for_extremes():
+    for L in (100e-6, 5e-3):
+        skin = Skin(L)
+        t = np.arange(10001) * 1.0
+        with np.errstate(all="raise"):
+            T = skin_response(skin, t, np.full(t.size, 20.0), depth=L * 0.999)
+        assert np.all(np.isfinite(T)) and np.all((T >= 20.0 - 1e-9) & (T <= 35.0 + 1e-9))
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(t=np.array([0.0, 0.1, 0.3])), "t"),
+    (dict(t=np.array([0.1, 0.2, 0.3])), "t"),
+    (dict(surface_temperature=np.array([30.0, 30.0])), "surface_temperature"),
+    (dict(surface_temperature=np.array([30.0, np.nan, 30.0])), "surface_temperature"),
+    (dict(depth=2e-3), "depth"),
+    (dict(method="magic"), "method"),
+    (dict(tolerance=-1.0), "tolerance"),
+    (dict(method="exact", epidermis_properties=Layer(1.0, 1.0, 1.0)), "method"),
+])
+def test_bad_input_names_the_field(kwargs, field):
+    args = dict(t=np.array([0.0, 0.1, 0.2]), surface_temperature=np.array([30.0, 30.0, 30.0]))
+    args.update(kwargs)
+    with pytest.raises(ModelInputError, match=rf"skin_response: {field}: expected"):
+        skin_response(Skin(1e-3), **args)
+
+
+def test_response_is_linear_and_monotone_in_surface_temperature():
+    skin = Skin(800e-6)
+    t = np.arange(3001) * 1e-3
+    rng = np.random.default_rng(20240601)
+    g1 = 30.0 + np.cumsum(rng.normal(0.0, 0.01, t.size))
+    g2 = 30.0 + 2.0 * np.sin(t)
+    a = skin_response(skin, t, g1) - 35.0
+    b = skin_response(skin, t, g2) - 35.0
+    ab = skin_response(skin, t, g1 + g2 - 35.0) - 35.0
+    assert np.max(np.abs(ab - (a + b))) < 1e-10
+    colder = skin_response(skin, t, g2 - 1.0)
+    assert np.all(colder <= b + 35.0)
+    assert np.all(colder[100:] < b[100:] + 35.0)   # after 0.1 s the receptor has felt the step
+    assert math.isclose(colder[0], 35.0)
