@@ -6,13 +6,11 @@ A session directory is any folder holding ``trials.csv`` or ``events.jsonl``
 1. ``trials.csv`` is read up to the first damaged line (a torn last line, a row
    with the wrong number of fields, undecodable bytes); the damage is reported
    as a :class:`~analysis.errors.LogWarning` naming the file and the line.
-2. ``events.jsonl`` (the source of truth) is read the same way. Trial rows are
-   taken from the events whose payload carries ``trial_index`` and a final
-   ``status`` (``ok``, ``fault``, ``aborted``): the payload is the event's
-   ``"row"`` member (``experiments.logbook``'s ``trial_completed`` and
-   ``trial_aborted`` events), or its ``"trial"``, ``"data"`` or ``"record"``
-   member, or the event itself; other events (``trial_started``, ...) are skipped. Columns it
-   lacks (participant, session, group) come from the session's other events,
+2. ``events.jsonl`` (the source of truth) is read the same way and its trial
+   rows rebuilt by the rules of ``experiments.logbook`` (``trial_completed``
+   rows completed from ``session_started`` and ``trial_started``;
+   ``trial_aborted`` as status ``aborted``; see :func:`read_trial_events`).
+   Columns still missing (participant, session, group) come from
    ``session.json`` or the folder names.
 3. ``trials.csv`` is used unless it is missing or *older* than the event log,
    which is judged by content, not by modification time (the session appends a
@@ -171,20 +169,27 @@ def read_trials_csv(path, messages: list | None = None) -> pd.DataFrame:
     return df
 
 
+_CONTEXT_KEYS = ("participant", "group", "session", "skin_thickness_um", "sex")
+_SPEC_KEYS = ("block", "mode", "roughness_id", "roughness_um", "repetition")
+
+
+def _scalars(mapping: dict) -> dict:
+    return {k: v for k, v in mapping.items() if not isinstance(v, (dict, list))}
+
+
 def _payload(event: dict) -> dict | None:
+    """A trial row carried by an event of another writer (``trial``/``row``/... member or top level)."""
     for key in _PAYLOAD_KEYS:
         inner = event.get(key)
         if isinstance(inner, dict) and "trial_index" in inner:
-            merged = {k: v for k, v in event.items() if not isinstance(v, (dict, list))}
-            merged.update(inner)
-            return merged
+            return {**_scalars(event), **_scalars(inner)}
     if "trial_index" in event:
-        return event
+        return _scalars(event)
     return None
 
 
 def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame, dict]:
-    """Read the trial rows of an ``events.jsonl`` up to its first damaged line.
+    """Rebuild the trial rows of an ``events.jsonl``, reading up to its first damaged line.
 
     Parameters
     ----------
@@ -196,45 +201,84 @@ def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame,
     Returns
     -------
     trials : pandas.DataFrame
-        One row per trial event with a final status (columns as logged, plus
-        ``line``); when an attempt is logged twice the first event is kept (as
-        ``experiments`` does when it rebuilds ``trials.csv``).
+        One row per trial attempt, in log order (columns as logged, plus ``line``).
     context : dict
-        Session-level values seen in other events (``participant``, ``group``,
-        ``session``, ``sex``, ``skin_thickness_um``), for filling missing columns.
+        Session-level values (``participant``, ``group``, ``session``, ``sex``,
+        ``skin_thickness_um``) from ``session_started``/``session_resumed``.
+
+    Notes
+    -----
+    The rules of ``experiments.logbook`` (re-implemented here so that analysis
+    does not import the experiment runtime): a ``trial_completed`` event gives
+    one row, its ``row`` member completed by the session context, the
+    attempt's ``trial_started`` event (``block``, ``mode``, ``roughness_id``,
+    ``roughness_um``, ``repetition``; its ``time`` as ``started_at``) and the
+    event's ``trial_index``/``attempt`` (the row's own values win; ``status``
+    defaults to ``ok``; ``correct`` is derived from ``response_id ==
+    roughness_id`` when missing). A ``trial_aborted`` event gives a row with
+    status ``aborted``. Only in a log without such events, events of other types
+    whose payload (the event or its ``trial``/``data``/``record`` member) holds
+    ``trial_index`` and a final ``status`` are taken as rows. A second event for the same
+    ``(trial_index, attempt)`` is ignored, as ``experiments`` does.
     """
     path = Path(path)
     messages = [] if messages is None else messages
-    raw = path.read_bytes()
-    text = _decode_prefix(raw, path, messages)
+    text = _decode_prefix(path.read_bytes(), path, messages)
     lines = text.split("\n")
     torn_last = bool(text) and not text.endswith("\n")
-    rows, context = {}, {}
+    context: dict = {}
+    starts: dict = {}
+    rows: dict = {}
+    others: dict = {}        # rows from events of other writers, used only if the log has no trial_* rows
     for number, line in enumerate(lines, start=1):
         if not line.strip():
             continue
         try:
             event = json.loads(line)
         except json.JSONDecodeError:
-            last = number == len(lines) and torn_last
-            what = "torn last line" if last else "not a JSON object"
+            what = "torn last line" if number == len(lines) and torn_last else "not a JSON object"
             _warn(messages, f"{path}: line {number}: {what}; read the lines before it")
             break
         if not isinstance(event, dict):
             _warn(messages, f"{path}: line {number}: not a JSON object; read the lines before it")
             break
-        for key in ("participant", "group", "session", "sex", "skin_thickness_um"):
-            for source in (event, event.get("participant") if isinstance(event.get("participant"), dict) else {}):
-                value = source.get(key) if isinstance(source, dict) else None
-                if isinstance(value, (str, int, float)) and not isinstance(value, bool):
-                    context.setdefault(key, value)
-        payload = _payload(event)
-        if payload is None or payload.get("status") not in STATUSES:
+        kind = event.get("event")
+        if kind in ("session_started", "session_resumed"):
+            context.update({k: event[k] for k in _CONTEXT_KEYS
+                            if isinstance(event.get(k), (str, int, float))
+                            and not isinstance(event.get(k), bool)})
             continue
-        row = {k: v for k, v in payload.items() if not isinstance(v, (dict, list))}
+        key = (_int_text(event.get("trial_index")), _int_text(event.get("attempt")))
+        if kind == "trial_started":
+            spec = {k: event[k] for k in _SPEC_KEYS if k in event}
+            if "time" in event:
+                spec["started_at"] = event["time"]
+            starts[key] = spec
+            continue
+        if kind in ("trial_completed", "trial_aborted"):
+            row = {**context, **starts.get(key, {}),
+                   "trial_index": event.get("trial_index"), "attempt": event.get("attempt", 1)}
+            if kind == "trial_completed":
+                inner = event.get("row")
+                row.update(_scalars(inner) if isinstance(inner, dict) else {})
+                row.setdefault("status", "ok")
+                if row.get("correct") in (None, "") and row.get("response_id") not in (None, "") \
+                        and row.get("roughness_id") not in (None, ""):
+                    row["correct"] = int(str(row["response_id"]) == str(row["roughness_id"]))
+            else:
+                row["status"] = "aborted"
+                if event.get("fault_code") is not None:
+                    row["fault_code"] = event["fault_code"]
+        else:
+            payload = _payload(event)
+            if payload is None or payload.get("status") not in STATUSES:
+                continue
+            row = {**context, **payload}
+        row = {k: v for k, v in row.items() if k not in ("event", "seq", "time")}
         row["line"] = number
-        rows.setdefault((_int_text(row.get("trial_index")), _int_text(row.get("attempt"))), row)
-    return pd.DataFrame(list(rows.values())), context
+        key = (_int_text(row.get("trial_index")), _int_text(row.get("attempt")))
+        (rows if kind in ("trial_completed", "trial_aborted") else others).setdefault(key, row)
+    return pd.DataFrame(list((rows or others).values())), context
 
 
 def _session_context(folder: Path, messages: list) -> dict:

@@ -110,13 +110,13 @@ def model_data(trials: pd.DataFrame) -> pd.DataFrame:
     return data
 
 
-def _candidates(data: pd.DataFrame, formula: str, notes: list) -> list[str]:
+def _candidates(data: pd.DataFrame, formula: str, notes: list, kind: str) -> list[str]:
     """The requested formula, then the fallbacks (factors with one level left out)."""
     present = [f for f, col in (("group", "group"), ("mode", "mode"),
                                 ("C(roughness_id)", "roughness_id")) if data[col].nunique() > 1]
     dropped = [f for f in ("group", "mode", "C(roughness_id)") if f not in present]
     if dropped:
-        notes.append(f"only one level of {', '.join(dropped)} in the data: left out of the model")
+        notes.append(f"{kind}: only one level of {', '.join(dropped)} in the data: left out")
         out = ["correct ~ " + (" * ".join(present) if present else "1")]
     else:
         out = [formula]
@@ -170,7 +170,7 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
     data = model_data(trials)
     notes: list = []
     z = stats.norm.ppf(0.5 + level / 2)
-    for candidate in _candidates(data, formula, notes):
+    for candidate in _candidates(data, formula, notes, "GEE"):
         if candidate == FORMULA:
             cells = _separated_cells(data)
             if cells:
@@ -244,7 +244,7 @@ def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.
     exog_vc = sparse.csr_matrix((np.ones(len(data)), (np.arange(len(data)), people.codes)),
                                 shape=(len(data), len(people.categories)))
     ident = np.zeros(len(people.categories), dtype=int)
-    for candidate in _candidates(data, formula, notes):
+    for candidate in _candidates(data, formula, notes, "Bayes"):
         y, x = _design(candidate, data)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")

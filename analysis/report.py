@@ -29,7 +29,7 @@ COLUMN_MEANINGS = {
     "n_correct": "correct answers (count)",
     "proportion_correct": "fraction of trials answered correctly, 0-1",
     "wilson_low/high": "95% Wilson score interval of proportion_correct (trials independent), 0-1",
-    "boot_low/high": "95% participant-cluster percentile bootstrap interval, 0-1",
+    "boot_low/high": "95% participant-cluster studentized (bootstrap-t) interval, 0-1",
     "boot_se": "bootstrap standard error of proportion_correct, 0-1",
     "log_odds, se, ci_low/high": "GEE coefficient (log odds), its bias-reduced SE and 95% CI",
     "posterior_mean/sd, cri_low/high": "variational posterior mean, SD, 95% credible interval (log odds)",
@@ -158,7 +158,7 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                    f"(95 % credible interval {sd['cri_low']:.2f}-{sd['cri_high']:.2f}).")
     notes = gee.notes + bayes.notes
     if notes:
-        out.append("Model notes: " + " ".join(notes))
+        out.append("Model notes:\n" + "\n".join(f"- {n}" for n in notes))
     return "\n\n".join(out)
 
 

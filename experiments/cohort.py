@@ -192,8 +192,13 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         ``out_dir``, ``sessions`` (per-participant results), ``seconds`` (wall time of the
         sessions), ``analysis`` (whatever :func:`analysis.analyze` returned), ``analysis_seconds``.
     """
+    from experiments.errors import UserInputError
+
     out_dir = Path(out_dir)
     data_dir = out_dir / "data"
+    if data_dir.is_dir() and any(data_dir.iterdir()):
+        raise UserInputError(f"{data_dir}: --out: expected a folder without earlier study data "
+                             f"(the analysis would pool both runs), got a non-empty data/ folder")
     data_dir.mkdir(parents=True, exist_ok=True)
     paths = write_cohort(out_dir / "participants", seed=seed)
     if participants is not None:
@@ -211,6 +216,11 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     else:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # Import the engine once here so forked workers start with it loaded.
+        import experiments.hardware  # noqa: F401
+        import experiments.session  # noqa: F401
+        import stimuli  # noqa: F401
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         with ProcessPoolExecutor(max_workers=workers,
                                  mp_context=multiprocessing.get_context(method)) as pool:
@@ -228,6 +238,29 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         summary["analysis"] = run_analysis(data_dir, out_dir)
         summary["analysis_seconds"] = time.perf_counter() - t0
         if progress:
-            stream.write(f"figure9: sessions {seconds:.1f} s, analysis "
+            table = _figure9_text(getattr(summary["analysis"], "proportions", None))
+            stream.write(table + f"figure9: sessions {seconds:.1f} s, analysis "
                          f"{summary['analysis_seconds']:.1f} s; results in {out_dir}\n")
+            stream.flush()
+    from experiments.logbook import atomic_write_json
+    atomic_write_json(out_dir / "study.json", {
+        "study": "figure9", "seed": int(seed), "workers": workers, "protocol": str(protocol),
+        "responder_options": dict(responder_options or {}),
+        "sessions_s": seconds, "analysis_s": summary["analysis_seconds"],
+        "participants": summary["sessions"]})
     return summary
+
+
+def _figure9_text(proportions) -> str:
+    """Figure 9's numbers as a small text table (proportion correct per group x mode x sample)."""
+    if proportions is None or not hasattr(proportions, "pivot_table"):
+        return ""
+    try:
+        table = proportions.pivot_table(index=["group", "mode"], columns="roughness_id",
+                                        values="proportion_correct")
+    except (KeyError, ValueError):
+        return ""
+    lines = ["figure9: proportion correct   " + "  ".join(f"{c}#".rjust(5) for c in table.columns)]
+    for (group, mode), row in table.iterrows():
+        lines.append(f"figure9:   group {group} {mode:<10}  " + "  ".join(f"{v:5.2f}" for v in row))
+    return "\n".join(lines) + "\n"

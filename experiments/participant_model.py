@@ -204,8 +204,8 @@ class SimulatedPerson:
         Skin temperature when touching (after rewarming).
     params : PerceptionParameters
     templates : dict
-        Learned class templates: roughness_id -> (sum of percepts, count). Filled by
-        :meth:`learn`.
+        Learned class templates: mode -> {roughness_id -> (sum of percepts, count)}. Filled
+        by :meth:`learn`.
     """
 
     skin_thickness_m: float
@@ -324,16 +324,29 @@ class SimulatedPerson:
         features = np.asarray(features, dtype=float)
         return features + rng.standard_normal(features.shape) * self.params.noise_sd(features)
 
-    def learn(self, roughness_id: int, percept) -> None:
-        """Add a familiarisation percept to the template of ``roughness_id``."""
-        total, count = self.templates.get(int(roughness_id), (0.0, 0))
-        self.templates[int(roughness_id)] = (total + np.asarray(percept, dtype=float), count + 1)
+    def learn(self, roughness_id: int, percept, mode: str = "real") -> None:
+        """Add a familiarisation percept to the template of ``roughness_id`` for ``mode``.
 
-    def template_means(self) -> dict[int, np.ndarray]:
-        """roughness_id -> mean learned percept."""
-        return {k: total / count for k, (total, count) in sorted(self.templates.items())}
+        ``mode`` is the kind of stimulus ("real" sample or "simulated" on the display): the
+        observer keeps one template set per kind it was familiarised with.
+        """
+        bank = self.templates.setdefault(str(mode), {})
+        total, count = bank.get(int(roughness_id), (0.0, 0))
+        bank[int(roughness_id)] = (total + np.asarray(percept, dtype=float), count + 1)
 
-    def log_likelihoods(self, percept) -> dict[int, float]:
+    def template_set(self, mode: str | None = None) -> dict:
+        """The templates used to judge a ``mode`` trial: that mode's if learned, else the real
+        samples' (the paper's familiarisation), else any; ``{}`` if none."""
+        for key in (mode, "real", *sorted(self.templates)):
+            if key is not None and self.templates.get(key):
+                return self.templates[key]
+        return {}
+
+    def template_means(self, mode: str | None = None) -> dict[int, np.ndarray]:
+        """roughness_id -> mean learned percept (of :meth:`template_set`)."""
+        return {k: total / count for k, (total, count) in sorted(self.template_set(mode).items())}
+
+    def log_likelihoods(self, percept, mode: str | None = None) -> dict[int, float]:
         """Gaussian log-likelihood of ``percept`` under each learned template.
 
         The observer knows its own noise: class ``c`` predicts ``N(m_c, s_c^2 (1 + 1/n_c))``
@@ -342,20 +355,21 @@ class SimulatedPerson:
         """
         percept = np.asarray(percept, dtype=float)
         out = {}
-        for rid, (total, count) in sorted(self.templates.items()):
+        for rid, (total, count) in sorted(self.template_set(mode).items()):
             mean = total / count
             var = self.params.noise_sd(mean) ** 2 * (1.0 + 1.0 / count)
             out[rid] = float(-0.5 * np.sum((percept - mean) ** 2 / var + np.log(2 * np.pi * var)))
         return out
 
-    def decide(self, percept, rng: np.random.Generator, choices=(1, 2, 3, 4)) -> int:
+    def decide(self, percept, rng: np.random.Generator, choices=(1, 2, 3, 4),
+               mode: str | None = None) -> int:
         """The answer to a test trial: maximum likelihood class, or a lapse (uniform guess).
 
         With no templates at all, every answer is a guess.
         """
-        if not self.templates or rng.random() < self.params.lapse_rate:
+        if rng.random() < self.params.lapse_rate or not self.template_set(mode):
             return int(rng.choice(choices))
-        ll = self.log_likelihoods(percept)
+        ll = self.log_likelihoods(percept, mode)
         return int(max(ll, key=ll.get))
 
     def response_time(self, rng: np.random.Generator) -> float:
@@ -477,8 +491,10 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
     roughness_um : sequence of float, µm
         The samples, roughness_id 1, 2, ... in this order.
     n_people, n_reps, familiarise_reps : int
-    familiarise_mode : {"real", "simulated"}
-        What the familiarisation presentations are.
+    familiarise_mode : {"real", "simulated", "same"}
+        What the familiarisation presentations are ("same": each mode's own stimuli, i.e. a
+        protocol that also familiarises on the display). ``roughness_recognition.toml``
+        familiarises on the real samples only.
     target_thickness_um : dict, optional
         group -> skin thickness the simulated profiles are computed for, µm. Default
         650 µm for A and 1000 µm for B (§3.2), else the middle of the group's range.
@@ -512,7 +528,10 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
         target_thickness_um.setdefault(g, defaults.get(g, 0.5 * (lo + hi)))
     target_options = dict(target_options or {})
     rng = np.random.default_rng(seed)
-    needed = set(modes) | {familiarise_mode}
+    if familiarise_mode not in ("real", "simulated", "same"):
+        raise ValueError(f"predicted_cell_probabilities: familiarise_mode: expected 'real', "
+                         f"'simulated' or 'same', got {familiarise_mode!r}")
+    needed = set(modes) | ({familiarise_mode} - {"same"})
     rows = []
     for g, rng_um in groups.items():
         per_person = {m: [] for m in modes}
@@ -521,7 +540,8 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
             feats = {m: _person_features(person, m, roughness_um, target_thickness_um[g],
                                          target_options) for m in needed}
             for m in modes:
-                per_person[m].append(_monte_carlo_correct(params, feats[familiarise_mode], feats[m],
+                fam = feats[m if familiarise_mode == "same" else familiarise_mode]
+                per_person[m].append(_monte_carlo_correct(params, fam, feats[m],
                                                           int(familiarise_reps), int(n_reps), rng))
         for m in modes:
             p = np.array(per_person[m])                                # (people, classes)

@@ -21,9 +21,11 @@ Each trial is an explicit state machine (:data:`TRANSITIONS`)::
 
 ``prompt`` asks the experimenter to place the sample (real trials); ``prepare`` computes and
 uploads the target profile and arms the display (playback for simulated trials, record for
-real ones); ``cue`` plays the sound. A :class:`~experiments.errors.DisplayError` during a trial
-puts the display to neutral and writes the trial with status ``"fault"``; after
-``max_consecutive_faults`` the session stops cleanly (resumable). SIGINT and SIGTERM put the
+real ones); ``cue`` plays the sound. A :class:`~experiments.errors.DisplayError` or a faulted
+recording puts the display to neutral and writes the attempt with status ``"fault"`` (and its
+``fault_code``); the trial is then run again as its next attempt, and after
+``max_consecutive_faults`` faults or contact time-outs in a row the session stops cleanly
+(resumable: the stopped trial is the first one run on resume). SIGINT and SIGTERM put the
 display to neutral, log the running attempt as aborted and a ``session_interrupted`` event, and
 :meth:`Session.run` returns 1. :func:`open_session` + :meth:`Session.run` resume: the first
 incomplete trial is re-run with the next attempt number, completed trials are never re-run.
@@ -371,7 +373,7 @@ class Session:
             if progress.finished:
                 self._say(f"session {self.directory} is already finished")
                 return 0
-            todo = [s for s in self.schedule if s.trial_index not in progress.completed]
+            todo = [s for s in self.schedule if progress.completed.get(s.trial_index) != "ok"]
             self._say(f"{self.participant_id}/{self.name}: {len(todo)} of {self.n_trials} trials to run"
                       + (" (resumed)" if resumed else ""))
             self.responder = responder
@@ -430,10 +432,7 @@ class Session:
             if outcome == "ok":
                 faults = 0
                 queue.pop(0)
-            elif outcome == "fault":
-                faults += 1
-                queue.pop(0)
-            else:  # "no_contact": the same trial again
+            else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again
                 faults += 1
             if faults >= self.max_consecutive_faults:
                 self.machine.go("idle")
@@ -524,11 +523,14 @@ class Session:
         writer = TraceWriter(trace)
         active = "record" if real else "playback"
 
+        contact = []
+
         def on_frame(frame):
+            # Runs at the telemetry rate inside the driver's read loop: no fsync here (a slow
+            # callback lets the serial buffer overrun); contact is logged once the trial ends.
             writer.write(frame)
-            if self.machine.state == "wait_contact" and str(frame.state).upper() in _ACTIVE_STATES:
-                self.machine.go(active, **ctx)
-                self.log_event("contact", **ctx, device_time_s=float(frame.device_time_s))
+            if not contact and str(frame.state).upper() in _ACTIVE_STATES:
+                contact.append(float(frame.device_time_s))
                 self._pause("playback", spec, attempt)
 
         timeout = (self.protocol.contact.trial_timeout_s + self.protocol.contact.max_contact_s + 5.0)
@@ -539,6 +541,8 @@ class Session:
                 writer.close()
         except DisplayError as exc:
             return self._fault(disp, spec, attempt, row, exc)
+        if contact:
+            self.machine.go(active, **ctx, device_time_s=contact[0])
         row.update(self._recording_fields(rec))
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,
@@ -547,8 +551,8 @@ class Session:
             return self._no_contact(disp, spec, attempt, rec)
         if rec.status != "ok":
             return self._fault(disp, spec, attempt, row, None, rec=rec)
-        if self.machine.state == "wait_contact":
-            self.machine.go(active, **ctx)
+        if self.machine.state == "wait_contact":   # contact seen by the device only
+            self.machine.go(active, **ctx, device_time_s=rec.contact_time_s)
         self.machine.go("respond", **ctx)
         if block.response:
             stimulus = self._stimulus(spec, writer, rec, profile, sample)

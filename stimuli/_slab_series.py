@@ -37,8 +37,10 @@ __all__ = ["step_and_ramp", "first_image_term", "ramp_modes", "TAU_SWITCH", "TAU
 
 #: tau = alpha t / L^2 below which the image series is used.
 TAU_SWITCH = 0.25
-#: tau beyond which R - xi t is a sum of at most three decaying modes (n^2 pi^2 tau > 45 for n >= 4).
-TAU_TAIL = 0.3
+#: tau beyond which R - xi t is taken as two decaying modes: mode 3 is below e^-35 = 6e-16 of its
+#: amplitude there (n^2 pi^2 tau > _TAIL_EXPONENT for n >= 3).
+TAU_TAIL = 0.4
+_TAIL_EXPONENT = 32.0
 _ZMAX = 6.5          # erfc(6.5) = 3.8e-20: image terms with larger arguments are dropped
 _EIG_EXPONENT = 45.0  # modes with n^2 pi^2 tau > 45 (e^-45 = 3e-20) are dropped
 _SQRT_PI = math.sqrt(math.pi)
@@ -156,10 +158,11 @@ def ramp_modes(xi: float, tau_from: float, diffusion_time: float):
     """Modes of R - xi t for tau >= ``tau_from``: R - xi t = c0 + sum_n k_n exp(-n^2 pi^2 tau).
 
     Returns ``(c0, rates, k)``: c0 in s, ``rates`` n^2 pi^2 (per unit tau), ``k`` in s, keeping
-    the modes with n^2 pi^2 tau_from <= 45 (the rest are below 3e-20 relative).
+    the modes with n^2 pi^2 tau_from <= 32 (the rest are below 1.3e-14 relative, and their
+    amplitudes k_n fall as 1/n^3).
     """
     c0 = -diffusion_time * (xi - xi ** 3) / 6.0
-    n_max = max(1, int(math.floor(math.sqrt(_EIG_EXPONENT / (math.pi ** 2 * tau_from)))))
+    n_max = max(1, int(math.floor(math.sqrt(_TAIL_EXPONENT / (math.pi ** 2 * tau_from)))))
     n = np.arange(1, n_max + 1)
     rates = (n * math.pi) ** 2
     k = -diffusion_time * (2.0 / math.pi ** 3) * (-1.0) ** n * np.sin(n * math.pi * xi) / n ** 3

@@ -142,12 +142,22 @@ def _skin_layers(skin, epidermis_properties):
     return derm, epi
 
 
-def _skin_grid(skin, cells, depths, epidermis_properties, h_min=None):
+def _split(faces, split):
+    """Each cell cut into ``split`` equal cells (an exactly self-similar refinement)."""
+    if split == 1:
+        return faces
+    f = np.asarray(faces)
+    w = np.arange(split) / split
+    inner = f[:-1, None] + np.diff(f)[:, None] * w[None, :]
+    return np.concatenate([inner.ravel(), f[-1:]])
+
+
+def _skin_grid(skin, cells, depths, epidermis_properties, h_min=None, split=1):
     L, d = skin.thickness, skin.dermis
     derm, epi = _skin_layers(skin, epidermis_properties)
     h_min = L / (_H_RATIO * cells) if h_min is None else h_min
     s_faces = _faces(L, h_min, _GROWTH / cells, [L - d] + [L - x for x in depths])
-    x = np.sort(L - s_faces)
+    x = _split(np.sort(L - s_faces), split)
     x[0], x[-1] = 0.0, L
     centres = 0.5 * (x[:-1] + x[1:])
     in_epi = centres > d
@@ -257,15 +267,17 @@ def _check_depth(skin, depth, where, *, allow_material=False, material_extent=No
 
 
 # --------------------------------------------------------------------------- surface problem
-def surface_kernel(skin, t_max: float, depth: float, *, cells: int = DEFAULT_CELLS,
-                   epidermis_properties=None):
+def _surface_kernel(skin, depth: float, *, cells: int = DEFAULT_CELLS,
+                   epidermis_properties=None, split: int = 1):
     """Discrete step response of the FV skin at ``depth`` to a unit surface step.
 
     Returns ``(gain, a, lam)``: S(t) = gain - sum_k (a_k / lam_k) exp(-lam_k t) and
     R(t) - gain t = -sum_k a_k / lam_k^2 (1 - exp(-lam_k t)). ``depth`` strictly inside (0, L).
+    ``split`` cuts every cell of the ``cells`` grid into that many equal cells (the exactly
+    self-similar refinement used for Richardson extrapolation).
     """
     cells = _check_cells(cells)
-    grid = _skin_grid(skin, cells, [depth], epidermis_properties)
+    grid = _skin_grid(skin, cells, [depth], epidermis_properties, split=int(split))
     h = grid.h
     g_left = grid.k[0] / (0.5 * h[0])
     g_right = grid.k[-1] / (0.5 * h[-1])
@@ -279,7 +291,7 @@ def surface_kernel(skin, t_max: float, depth: float, *, cells: int = DEFAULT_CEL
 
 
 def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=None, *,
-                  cells: int = DEFAULT_CELLS, epidermis_properties=None):
+                  cells: int = DEFAULT_CELLS, epidermis_properties=None, split: int = 1):
     """Temperature at one depth of the skin under an imposed surface temperature history.
 
     Parameters
@@ -298,6 +310,9 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
         Grid resolution (about 1.3 x cells across the skin; every cell size scales as 1/cells).
     epidermis_properties : Layer or Material-like or None
         Properties of the epidermis (d < x < L); ``None``: the same as the dermis (``skin``).
+    split : int
+        Cut every cell into ``split`` equal cells (exactly self-similar refinement: the
+        error falls by split^2; used for Richardson extrapolation).
 
     Returns
     -------
@@ -332,7 +347,10 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
         return np.full(t.shape, T0)
     if x >= skin.thickness:
         return g.copy()
-    gain, a, lam = surface_kernel(skin, t[-1], x, cells=cells, epidermis_properties=epidermis_properties)
+    if isinstance(split, bool) or not isinstance(split, (int, np.integer)) or split < 1:
+        raise ModelInputError(f"{where}: split: expected an integer >= 1, got {split!r}")
+    gain, a, lam = _surface_kernel(skin, x, cells=cells, epidermis_properties=epidermis_properties,
+                                  split=split)
     S = gain - _exp_sum(a / lam, lam, t)
     S[0] = 0.0
     R_rest = _exp_sum(a / lam ** 2, lam, t) - float(np.sum(a / lam ** 2))
@@ -341,7 +359,7 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
 
 
 # --------------------------------------------------------------------------- contact problem
-def _contact_grid(skin, material, t_max, cells, depths, epidermis_properties):
+def _contact_grid(skin, material, t_max, cells, depths, epidermis_properties, split=1):
     L = skin.thickness
     derm, epi = _skin_layers(skin, epidermis_properties)
     h_min_s = L / (_H_RATIO * cells)
@@ -357,16 +375,18 @@ def _contact_grid(skin, material, t_max, cells, depths, epidermis_properties):
         extent = material.thickness
     m_depths = [x - L for x in depths if x > L]
     s = _faces(extent, h_min_m, _GROWTH / cells, m_depths)
-    faces = np.concatenate([sg.faces, L + s[1:]])
-    nm = s.size - 1
-    k = np.concatenate([sg.k, np.full(nm, material.conductivity)])
-    C = np.concatenate([sg.C, np.full(nm, material.density * material.specific_heat)])
-    return _Grid(faces, k, C, interface=sg.k.size), extent
+    sf, mf = _split(sg.faces, split), _split(L + s, split)
+    sf[-1] = mf[0] = L
+    faces = np.concatenate([sf, mf[1:]])
+    ns, nm = sf.size - 1, mf.size - 1
+    k = np.concatenate([np.repeat(sg.k, split), np.full(nm, material.conductivity)])
+    C = np.concatenate([np.repeat(sg.C, split), np.full(nm, material.density * material.specific_heat)])
+    return _Grid(faces, k, C, interface=ns), extent
 
 
 def solve_contact(skin, material, resistance, skin_temperature, material_temperature, t,
                   depth=None, *, side: str = "skin", cells: int = DEFAULT_CELLS,
-                  epidermis_properties=None):
+                  epidermis_properties=None, split: int = 1):
     """Temperature at one depth after the skin touches a material through a contact resistance.
 
     The numerical method behind ``Contact(..., method="numerical")``: the same problem as
@@ -394,6 +414,8 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
         Grid resolution (every cell size scales as 1/cells).
     epidermis_properties : Layer or Material-like or None
         Epidermis properties; ``None``: homogeneous skin.
+    split : int
+        Cut every cell into ``split`` equal cells (self-similar refinement, for Richardson).
 
     Returns
     -------
@@ -433,10 +455,12 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
     L = skin.thickness
     x = _check_depth(skin, depth, where, allow_material=True, material_extent=material.thickness)
     cells = _check_cells(cells)
+    if isinstance(split, bool) or not isinstance(split, (int, np.integer)) or split < 1:
+        raise ModelInputError(f"{where}: split: expected an integer >= 1, got {split!r}")
     if x <= 0.0:
         return np.full(shape, Ts0)
     t_max = float(np.max(t1))
-    grid, extent = _contact_grid(skin, material, t_max, cells, [x], epidermis_properties)
+    grid, extent = _contact_grid(skin, material, t_max, cells, [x], epidermis_properties, int(split))
     h = grid.h
     half = 0.5 * h / grid.k
     g_left = 1.0 / half[0]
@@ -478,11 +502,3 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
             theta[at0] = bs / (bs + bm)
     return (Tm0 + (Ts0 - Tm0) * theta).reshape(shape)
 
-
-def __getattr__(name):
-    # ``from stimuli.finite_volume import skin_response`` (stimuli/__init__.py) keeps working;
-    # the function lives in stimuli.display_response, which imports this module.
-    if name == "skin_response":
-        from .display_response import skin_response
-        return skin_response
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -15,7 +15,9 @@ resistance, skin 650 µm with receptors at 0.6 L, T_S0 = 35.5 °C, T_M0 = 20 °C
 
 Cost is the best of several runs of the whole 20001-point profile, divided by 20001 (µs per point);
 the machine is named in the output. The stable closed form of Eq. 7 (``Contact`` method
-``"paper-as-printed"`` on the interface) is the yardstick of the issue's targets.
+``"paper-as-printed"`` on the interface) is the yardstick of the issue's targets; the ratios to it
+come from 40 interleaved rounds of Eq. 7, the exact interface and ``skin_response`` (best of each),
+which is robust to other load on a shared machine.
 """
 from __future__ import annotations
 
@@ -169,7 +171,9 @@ def modal_recursion(skin, t, surface_temperature, initial_temperature, depth, to
 
     u = xi h(t) + sum_n c_n(t) sin(n pi xi), c_n' = -lambda_n c_n - a_n h'(t), a_n = 2(-1)^(n+1)/(n pi),
     c_n(0+) = -a_n h_0; over a step with slope s: c <- r c - a_n s (1 - r)/lambda_n, r = e^(-lambda_n dt),
-    one ``scipy.signal.lfilter`` per mode. Modes: enough that the neglected ones are < tol_K at t_1.
+    one ``scipy.signal.lfilter`` per mode. Modes: enough that the neglected ones are < tol_K at t_1;
+    the neglected modes' quasi-static part, -h'(t) sum_{n>N} a_n sin(n pi xi)/lambda_n (closed form
+    from sum (-1)^(n+1) sin(n pi xi)/n^3 = pi^3 (xi - xi^3)/12), is added back.
     """
     from scipy.signal import lfilter
     t = np.asarray(t, dtype=float)
@@ -185,6 +189,10 @@ def modal_recursion(skin, t, surface_temperature, initial_temperature, depth, to
         tail = (2 * h0 / math.pi) * sum(math.exp(-k * k * lam1 * dt) / k for k in range(n + 1, n + 200))
     slopes = np.diff(h) / dt
     u = xi * h.copy()
+    static = (L * L / skin.diffusivity) * (xi - xi ** 3) / 6.0     # sum over all n of a_n sin / lambda_n
+    for k in range(1, n + 1):
+        static -= (2.0 * (-1) ** (k + 1) / (k * math.pi)) * math.sin(k * math.pi * xi) / (lam1 * k * k)
+    u[1:] -= slopes * static
     for k in range(1, n + 1):
         lam = lam1 * k * k
         r = math.exp(-lam * dt)
@@ -284,35 +292,47 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     bench_rc("paper", "n = 0 image term", lambda: skin_response(skin, t, g, T_SKIN_C, method="paper"))
     bench_rc("paper-as-printed", "Eq. 8 prefactor",
              lambda: skin_response(skin, t, g, T_SKIN_C, method="paper-as-printed"))
-    for cells in ((16,) if quick else (16, 32, 64)):
-        bench_rc("numerical", f"cells={cells}+{2 * cells}, Richardson",
+    for cells in ((16,) if quick else (8, 16, 32, 64)):
+        bench_rc("numerical", f"cells={cells} x1,2,4, Richardson",
                  lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical", cells=cells))
     for cells in ((32,) if quick else (32, 64, 128, 256)):
         bench_rc("numerical", f"cells={cells}, single grid",
                  lambda cells=cells: solve_surface(skin, t, g, T_SKIN_C, cells=cells))
-    modes = modal_recursion(skin, t, g, T_SKIN_C, skin.dermis)[1]
-    bench_rc("modal-recursion", f"{modes} modes (bench only)",
-             lambda: modal_recursion(skin, t, g, T_SKIN_C, skin.dermis)[0],
-             "exact per-mode recursion, one lfilter per mode")
+    for tol in ((1e-7,) if quick else (1e-5, 1e-7, 1e-9)):
+        modes = modal_recursion(skin, t, g, T_SKIN_C, skin.dermis, tol_K=tol)[1]
+        bench_rc("modal-recursion", f"{modes} modes (bench only)",
+                 lambda tol=tol: modal_recursion(skin, t, g, T_SKIN_C, skin.dermis, tol_K=tol)[0],
+                 "exact per-mode recursion, one lfilter per mode, static tail correction")
 
-    def cost(problem, method, setting):
-        for r in rows:
-            if (r["problem"], r["method"], r["setting"]) == (problem, method, setting):
-                return r["cost_per_point_us"]
-        return math.nan  # pragma: no cover
+    # the targets' ratios: interleaved runs of the three, best of each (robust to a shared machine)
+    pair = {"eq7": lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
+            "exact": lambda: contact.interface_temperature(t, side="material", method="exact"),
+            "skin_response": lambda: skin_response(skin, t, g, T_SKIN_C)}
+    best = {k: math.inf for k in pair}
+    for _ in range(8 if quick else 40):
+        for k, fn in pair.items():
+            t0 = time.perf_counter()
+            fn()
+            best[k] = min(best[k], time.perf_counter() - t0)
 
-    eq7 = cost("interface", "paper-as-printed", "Eq. 7 stable (erfcx)")
+    eq7 = best["eq7"] / n * 1e6
     exact_if = [r for r in rows if r["problem"] == "interface" and r["method"] == "exact"
                 and r["setting"] == "default"][0]
     sr_exact = [r for r in rows if r["problem"] == "receptor" and r["method"] == "exact"][0]
     sr_num = [r for r in rows if r["problem"] == "receptor" and r["method"] == "numerical"
               and "Richardson" in r["setting"]]
-    sr_num_best = min(sr_num, key=lambda r: r["max_error_K"])
+    within = [r for r in sr_num if r["max_error_K"] <= 1e-6]
+    sr_num_best = (min(within, key=lambda r: r["cost_per_point_us"]) if within
+                   else min(sr_num, key=lambda r: r["max_error_K"]))
     ratios = {
-        "exact_over_eq7_cost_ratio": exact_if["cost_per_point_us"] / eq7,
+        "eq7_cost_per_point_us": eq7,
+        "exact_cost_per_point_us": best["exact"] / n * 1e6,
+        "skin_response_exact_cost_per_point_us": best["skin_response"] / n * 1e6,
+        "exact_over_eq7_cost_ratio": best["exact"] / best["eq7"],
         "exact_max_error_theta": exact_if["max_error_theta"],
-        "skin_response_exact_over_eq7_cost_ratio": sr_exact["cost_per_point_us"] / eq7,
+        "skin_response_exact_over_eq7_cost_ratio": best["skin_response"] / best["eq7"],
         "skin_response_exact_max_error_K": sr_exact["max_error_K"],
+        # the cheapest numerical setting within 1e-6 K (else the most accurate one)
         "skin_response_numerical_over_eq7_cost_ratio": sr_num_best["cost_per_point_us"] / eq7,
         "skin_response_numerical_setting": sr_num_best["setting"],
         "skin_response_numerical_max_error_K": sr_num_best["max_error_K"],
@@ -373,6 +393,8 @@ def _plot(path: Path, result: dict) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
+    eq7 = result["ratios"]["eq7_cost_per_point_us"]
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     for ax, problem, title in zip(axes, ("interface", "receptor"),
                                   ("interface temperature (Eq. 7 quantity)", "receptor, display-driven")):
@@ -383,6 +405,11 @@ def _plot(path: Path, result: dict) -> None:
             ax.loglog(r["cost_per_point_us"], y, "o")
             ax.annotate(f"{r['method']} {r['setting']}", (r["cost_per_point_us"], y), fontsize=6,
                         xytext=(3, 3), textcoords="offset points")
+        ax.axvline(3 * eq7, color="k", lw=0.8, ls="--")
+        ax.text(3 * eq7, ax.get_ylim()[1], " 3 x Eq. 7", fontsize=7, va="top")
+        ax.axhline(1e-12 * abs(T_SKIN_C - T_MATERIAL_C) if problem == "interface" else 1e-6,
+                   color="k", lw=0.8, ls=":")
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("cost per point (µs)")
         ax.set_ylabel("max error vs mpmath (K)")
         ax.set_title(title, fontsize=10)

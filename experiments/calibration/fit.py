@@ -3,7 +3,9 @@
 Least squares (:func:`scipy.optimize.least_squares`, trust-region reflective) on the exact
 model of :mod:`experiments.calibration.model`, parameters in log space (log R_k, log L) with
 bounds, the analytic Jacobian from the Laplace domain, a few starting values of L.  Optionally
-one shared initial skin temperature T_S0 (°C, linear) replaces the per-trace values.
+the initial skin temperature is fitted too (°C, linear): one T_S0 shared by all traces, or one
+per trace (the skin is rewarmed between touches and never to exactly the same temperature; a
+radiation thermometer sees the surface, a little cooler than the tissue underneath).
 
 A fit is *refused* (:class:`CalibrationRefused`, the reasons in words) when the optimiser did
 not converge, a parameter ends at a bound, the Jacobian is rank-deficient or ill-conditioned,
@@ -13,6 +15,7 @@ see :mod:`experiments.calibration.intervals`.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -24,11 +27,13 @@ from experiments.calibration.errors import CalibrationError, CalibrationRefused
 from experiments.calibration.model import ContactSetup, ResponseGrid
 from experiments.calibration.trace import ContactTrace
 
-__all__ = ["FitProblem", "CalibrationFit", "Parameter", "fit_traces", "BOUNDS",
+__all__ = ["FitProblem", "CalibrationFit", "Parameter", "fit_traces", "BOUNDS", "SKIN_TEMPERATURE_MODES",
            "MAX_CONDITION", "BOUND_TOLERANCE"]
 
 #: Bounds of the fitted parameters (SI; T_S0 in °C).  L: the participant schema's hard range.
 BOUNDS = {"resistance": (1e-6, 0.1), "skin_thickness": (100e-6, 5e-3), "skin_temperature": (20.0, 42.0)}
+#: How the initial skin temperature enters the fit.
+SKIN_TEMPERATURE_MODES = ("none", "shared", "per-trace")
 #: Condition number of the scaled Jacobian above which a fit is refused (not identifiable).
 MAX_CONDITION = 1e6
 #: A log-parameter within this distance of its bound "is at the bound".
@@ -42,7 +47,8 @@ class Parameter:
     Attributes
     ----------
     name : str
-        ``"R[<sample>]"``, ``"L"`` or ``"T_S0"``.
+        ``"R[<sample>]"``, ``"L"``, ``"T_S0"`` (shared) or ``"T_S0[<trace>]"`` (per trace,
+        numbered from 1 in the order of the traces).
     kind : str
         ``"resistance"`` (m² K/W), ``"skin_thickness"`` (m), ``"skin_temperature"`` (°C).
     value, low, high : float
@@ -67,17 +73,19 @@ class FitProblem:
     """The residuals and Jacobian of a set of traces, in the fit's coordinates.
 
     Coordinates ``p``: ``log R_k`` for each sample (in order of first appearance),
-    ``log L``, and ``T_S0`` (°C) if ``fit_skin_temperature``.
+    ``log L``, then ``T_S0`` (°C): one if ``fit_skin_temperature="shared"``, one per trace if
+    ``"per-trace"``.
 
     Parameters
     ----------
     traces : sequence of ContactTrace
     setup : ContactSetup
-    fit_skin_temperature : bool
-        Fit one initial skin temperature shared by all traces instead of using theirs.
+    fit_skin_temperature : {"none", "shared", "per-trace"} or bool
+        Fit the initial skin temperature instead of using the traces' values (``True`` is
+        ``"shared"``, ``False`` is ``"none"``).
     """
 
-    def __init__(self, traces, setup: ContactSetup, fit_skin_temperature: bool = False):
+    def __init__(self, traces, setup: ContactSetup, fit_skin_temperature="none"):
         traces = list(traces)
         if not traces:
             raise CalibrationError("calibration: traces: expected at least one contact trace, got none")
@@ -86,16 +94,23 @@ class FitProblem:
                 raise CalibrationError(f"calibration: traces: expected ContactTrace objects, got {tr!r}")
         self.traces = traces
         self.setup = setup
-        self.fit_skin_temperature = bool(fit_skin_temperature)
+        mode = {True: "shared", False: "none", None: "none"}.get(fit_skin_temperature, fit_skin_temperature)
+        if mode not in SKIN_TEMPERATURE_MODES:
+            raise CalibrationError(f"calibration: fit_skin_temperature: expected one of "
+                                   f"{SKIN_TEMPERATURE_MODES}, got {fit_skin_temperature!r}")
+        self.skin_temperature_mode = mode
+        self.fit_skin_temperature = mode != "none"
+        self.n_ts0 = {"none": 0, "shared": 1, "per-trace": len(traces)}[mode]
         self.samples: list[str] = []
         for tr in traces:
             if tr.sample not in self.samples:
                 self.samples.append(tr.sample)
         self.k = len(self.samples)
         self.index = [self.samples.index(tr.sample) for tr in traces]
-        self.names = [f"R[{s}]" for s in self.samples] + ["L"] + (["T_S0"] if fit_skin_temperature else [])
-        self.kinds = ["resistance"] * self.k + ["skin_thickness"] + (
-            ["skin_temperature"] if fit_skin_temperature else [])
+        ts0_names = {"none": [], "shared": ["T_S0"],
+                     "per-trace": [f"T_S0[{i + 1}]" for i in range(len(traces))]}[mode]
+        self.names = [f"R[{s}]" for s in self.samples] + ["L"] + ts0_names
+        self.kinds = ["resistance"] * self.k + ["skin_thickness"] + ["skin_temperature"] * self.n_ts0
         self.n_params = len(self.names)
         self.n_obs = sum(tr.n for tr in traces)
         self.y = np.concatenate([tr.temperature_C for tr in traces])
@@ -121,16 +136,16 @@ class FitProblem:
     def to_natural(self, p) -> np.ndarray:
         """SI values (°C for T_S0) of the coordinates ``p``."""
         p = np.asarray(p, dtype=float)
-        out = np.exp(p)
-        if self.fit_skin_temperature:
-            out[-1] = p[-1]
+        out = np.exp(np.minimum(p, 700.0))
+        if self.n_ts0:
+            out[self.k + 1:] = p[self.k + 1:]
         return out
 
     def to_coordinates(self, values) -> np.ndarray:
         v = np.asarray(values, dtype=float)
         out = np.log(np.maximum(v, 1e-300))
-        if self.fit_skin_temperature:
-            out[-1] = v[-1]
+        if self.n_ts0:
+            out[self.k + 1:] = v[self.k + 1:]
         return out
 
     # -- model -----------------------------------------------------------------------
@@ -143,17 +158,18 @@ class FitProblem:
         jac = np.zeros((self.n_obs, self.n_params)) if jacobian else None
         i0 = 0
         self.n_evaluations += 1
-        for tr, k, grid in zip(self.traces, self.index, self.grids):
+        for j, (tr, k, grid) in enumerate(zip(self.traces, self.index, self.grids)):
             i1 = i0 + tr.n
             R = nat[k]
-            ts0 = nat[-1] if self.fit_skin_temperature else tr.skin_temperature_C
+            col = None if not self.n_ts0 else self.k + 1 + (j if self.n_ts0 > 1 else 0)
+            ts0 = tr.skin_temperature_C if col is None else nat[col]
             dT = ts0 - tr.material_temperature_C
             if jacobian:
                 th, d_r, d_l = grid.response(R, L, derivatives=True)
                 jac[i0:i1, k] = dT * R * d_r
                 jac[i0:i1, self.k] = dT * L * d_l
-                if self.fit_skin_temperature:
-                    jac[i0:i1, -1] = th
+                if col is not None:
+                    jac[i0:i1, col] = th
             else:
                 th = grid.response(R, L)
             out[i0:i1] = tr.material_temperature_C + dT * th
@@ -272,8 +288,10 @@ def _start_values(problem: FitProblem, skin_thickness_guess: float | None) -> li
     starts = []
     for L in ls:
         v = r0 + [L]
-        if problem.fit_skin_temperature:
+        if problem.skin_temperature_mode == "shared":
             v.append(float(np.median([t.skin_temperature_C for t in problem.traces])))
+        elif problem.skin_temperature_mode == "per-trace":
+            v += [t.skin_temperature_C for t in problem.traces]
         starts.append(np.clip(problem.to_coordinates(v), problem.lower + 1e-6, problem.upper - 1e-6))
     return starts
 
@@ -313,7 +331,28 @@ def _identifiability(problem: FitProblem, res, sigma: float) -> tuple[list, dict
     return reasons, diag
 
 
-def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperature: bool = False,
+def _single_threaded_blas():
+    """Limit BLAS to one thread while fitting (if threadpoolctl is installed).
+
+    The trust-region solver takes an SVD of the tall Jacobian at every step; on a busy
+    2-core machine OpenBLAS's threads made each 2000 x 9 SVD 13 ms instead of 1 ms.
+    """
+    global _BLAS_CONTROLLER
+    if _BLAS_CONTROLLER is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+            _BLAS_CONTROLLER = ThreadpoolController()      # inspecting the libraries is the slow part
+        except ImportError:            # pragma: no cover - optional speed-up only
+            _BLAS_CONTROLLER = False
+    if _BLAS_CONTROLLER is False:      # pragma: no cover
+        return contextlib.nullcontext()
+    return _BLAS_CONTROLLER.limit(limits=1, user_api="blas")
+
+
+_BLAS_CONTROLLER = None
+
+
+def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperature="none",
                skin_thickness_guess: float | None = None, interval: str = "profile",
                level: float = 0.95, bootstrap_samples: int = 200, seed: int = 0,
                max_nfev: int = 200) -> CalibrationFit:
@@ -325,8 +364,8 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
         Traces on one or more samples; traces with the same ``sample`` share R.
     setup : ContactSetup, optional
         Sample material/thickness and sensor placement (default: 3 mm steel, material-side sensor).
-    fit_skin_temperature : bool
-        Also fit one initial skin temperature (°C) shared by all traces.
+    fit_skin_temperature : {"none", "shared", "per-trace"} or bool
+        Also fit the initial skin temperature (°C): one shared by all traces, or one per trace.
     skin_thickness_guess : float, m, optional
         Extra starting value of L (e.g. the participant record's).
     interval : {"profile", "bootstrap"}
@@ -352,6 +391,14 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
     CalibrationError
         Bad arguments.
     """
+    with _single_threaded_blas():
+        return _fit_traces(traces, setup, fit_skin_temperature=fit_skin_temperature,
+                           skin_thickness_guess=skin_thickness_guess, interval=interval, level=level,
+                           bootstrap_samples=bootstrap_samples, seed=seed, max_nfev=max_nfev)
+
+
+def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
+                bootstrap_samples, seed, max_nfev):
     from experiments.calibration.intervals import bootstrap_intervals, profile_intervals
 
     if interval not in ("profile", "bootstrap"):
@@ -382,7 +429,8 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
     cov = sigma ** 2 * np.linalg.inv(J.T @ J)
     se = np.sqrt(np.diag(cov))
     if interval == "profile":
-        lows, highs, flat = profile_intervals(problem, best.x, ssr, se, level)
+        which = range(problem.k + 1 + (problem.n_ts0 if problem.n_ts0 == 1 else 0))
+        lows, highs, flat = profile_intervals(problem, best.x, ssr, se, level, which=which)
     else:
         lows, highs, flat = bootstrap_intervals(problem, best.x, sigma, level, bootstrap_samples, seed)
     if flat:

@@ -7,7 +7,9 @@ residual sum of squares with θ_j held at v.  The interval is where
 
 (the likelihood-ratio interval with the noise variance estimated; exact for a linear model).
 A profile that stays below that threshold up to a parameter bound is *flat*: the data do
-not determine the parameter, and the fit is refused.
+not determine the parameter, and the fit is refused.  Per-trace initial skin temperatures are
+nuisance parameters: they get Wald intervals (x̂ ± z·se) instead of profiles, which halves the
+cost; their identifiability is still checked (Jacobian rank and condition, bounds).
 
 Parametric bootstrap: refit B synthetic data sets (fitted model + white noise of SD σ̂) and
 take percentile intervals; refused if more than 10 % of the refits end at a bound.
@@ -20,6 +22,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import f as f_dist
+from scipy.stats import norm
 
 __all__ = ["profile_intervals", "bootstrap_intervals", "profile_curve"]
 
@@ -38,7 +41,7 @@ def profile_curve(problem, x_hat, j: int, values):
     return np.array(out)
 
 
-def profile_intervals(problem, x_hat, ssr_min: float, se, level: float = 0.95):
+def profile_intervals(problem, x_hat, ssr_min: float, se, level: float = 0.95, which=None):
     """Profile-likelihood intervals of every parameter.
 
     Parameters
@@ -51,6 +54,9 @@ def profile_intervals(problem, x_hat, ssr_min: float, se, level: float = 0.95):
     se : ndarray
         Wald standard errors in fit coordinates (used only to choose the first steps).
     level : float
+    which : sequence of int, optional
+        Coordinates to profile (default all); the others get Wald intervals
+        (``x̂ ± z·se`` in fit coordinates).
 
     Returns
     -------
@@ -64,7 +70,15 @@ def profile_intervals(problem, x_hat, ssr_min: float, se, level: float = 0.95):
     lows = np.full(problem.n_params, np.nan)
     highs = np.full(problem.n_params, np.nan)
     flat = []
+    which = range(problem.n_params) if which is None else list(which)
+    z = float(norm.ppf(0.5 + level / 2))
+    for j in range(problem.n_params):
+        if j not in which:
+            lo, hi = x_hat[j] - z * se[j], x_hat[j] + z * se[j]
+            lows[j], highs[j] = _natural(problem, j, lo), _natural(problem, j, hi)
     for j, name in enumerate(problem.names):
+        if j not in which:
+            continue
         warm = {"x": np.array(x_hat, dtype=float)}
 
         def excess(v):

@@ -8,8 +8,10 @@ Files written into ``out``:
     One row per sample: ``sample, roughness_id, roughness_um, n_traces, R_m2K_W, R_low_m2K_W,
     R_high_m2K_W, R_eq5_m2K_W, rms_residual_C`` (``R_eq5`` is the paper's Eq. 5 for comparison).
 ``skin.csv``
-    One row: ``skin_thickness_um`` with its interval, ``skin_temperature_C`` (fitted or the
-    per-trace values' mean), ``residual_sd_C``, ``level``, ``interval_method``.
+    One row: ``skin_thickness_um`` with its interval, ``skin_temperature_C`` (the shared fitted
+    value with its interval, else the mean of the per-trace fitted or given values),
+    ``skin_temperature_fitted`` (none, shared, per-trace), ``residual_sd_C``, ``level``,
+    ``interval_method``.
 ``parameters.md``
     Both tables, the set-up and the diagnostics in words.
 ``fit.json``
@@ -55,7 +57,7 @@ def fit_summary(fit: CalibrationFit) -> dict:
         "setup": {"description": prob.setup.describe(), "sensor": prob.setup.sensor.to_dict(),
                   "material": getattr(prob.setup.material, "name", ""),
                   "sample_thickness_m": prob.setup.sample_thickness,
-                  "fit_skin_temperature": prob.fit_skin_temperature},
+                  "fit_skin_temperature": prob.skin_temperature_mode},
         "level": fit.level, "interval_method": fit.interval_method,
         "skin_thickness_m": {"value": L.value, "low": L.low, "high": L.high},
         "samples": per_sample,
@@ -66,9 +68,13 @@ def fit_summary(fit: CalibrationFit) -> dict:
                    for tr in prob.traces],
         "diagnostics": fit.diagnostics, "warnings": list(fit.warnings),
     }
-    if prob.fit_skin_temperature:
+    if prob.skin_temperature_mode == "shared":
         T = fit.parameter("T_S0")
         out["skin_temperature_C"] = {"value": T.value, "low": T.low, "high": T.high}
+    elif prob.skin_temperature_mode == "per-trace":
+        for i, tr in enumerate(out["traces"]):
+            T = fit.parameter(f"T_S0[{i + 1}]")
+            tr["fitted_skin_temperature_C"] = {"value": T.value, "low": T.low, "high": T.high}
     return out
 
 
@@ -135,7 +141,11 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
                         _fmt(s["eq5_m2K_W"], digits=6), _fmt(s["rms_residual_C"], digits=4)])
     L = summary["skin_thickness_m"]
     T = summary.get("skin_temperature_C")
-    ts0_mean = float(np.mean([t["skin_temperature_C"] for t in summary["traces"]]))
+    mode = summary["setup"]["fit_skin_temperature"]
+    if mode == "per-trace":
+        ts0_mean = float(np.mean([t["fitted_skin_temperature_C"]["value"] for t in summary["traces"]]))
+    else:
+        ts0_mean = float(np.mean([t["skin_temperature_C"] for t in summary["traces"]]))
     with open(out / "skin.csv", "w", encoding="utf-8", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(["skin_thickness_um", "skin_thickness_low_um", "skin_thickness_high_um",
@@ -143,7 +153,7 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
                     "skin_temperature_fitted", "residual_sd_C", "level", "interval_method"])
         w.writerow([_fmt(L["value"], 1e6, 6), _fmt(L["low"], 1e6, 6), _fmt(L["high"], 1e6, 6),
                     _fmt(T["value"] if T else ts0_mean, digits=6), _fmt(T["low"] if T else None, digits=6),
-                    _fmt(T["high"] if T else None, digits=6), 1 if T else 0,
+                    _fmt(T["high"] if T else None, digits=6), mode,
                     _fmt(summary["residual_sd_C"], digits=4), summary["level"], summary["interval_method"]])
     lvl = f"{summary['level']:.0%}"
     lines = [
@@ -159,6 +169,12 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
     if T:
         lines.append(f"| initial skin temperature T_S0 (°C) | {_fmt(T['value'], digits=5)} | "
                      f"{_fmt(T['low'], digits=5)} – {_fmt(T['high'], digits=5)} |")
+    for i, tr in enumerate(summary["traces"]):
+        if "fitted_skin_temperature_C" in tr:
+            Ti = tr["fitted_skin_temperature_C"]
+            lines.append(f"| T_S0 of trace {i + 1} ({Path(tr['source']).name}, sample {tr['sample']}; "
+                         f"given {tr['skin_temperature_C']:.2f}) (°C) | {_fmt(Ti['value'], digits=5)} | "
+                         f"{_fmt(Ti['low'], digits=5)} – {_fmt(Ti['high'], digits=5)} |")
     lines += ["", f"| sample R_a (µm) | traces | R (m² K/W) | {lvl} interval (m² K/W) | Eq. 5 (m² K/W) | "
               "RMS residual (mK) |", "|---|---|---|---|---|---|"]
     for s in summary["samples"]:

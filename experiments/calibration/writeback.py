@@ -13,7 +13,8 @@ names)::
                     "contact_resistance_m2K_W": {"1.6": [6.47e-4, 6.51e-4], ...}},
       "samples": [{"key": "1.6", "roughness_id": 1, "roughness_um": 1.6, "n_traces": 3}, ...],
       "sensor_side": "skin", "sample_thickness_um": 3000.0, "material": "stainless_steel",
-      "skin_temperature_C": 35.2,                 # only if it was fitted
+      "skin_temperature_C": 35.2,                 # only if one shared T_S0 was fitted
+      "trace_skin_temperatures_C": [35.8, ...],   # only if fitted per trace
       "residual_sd_C": 0.021, "session": "DATA/P07/S01"
     }
 
@@ -50,7 +51,7 @@ def calibration_record(fit: CalibrationFit, *, session: str | None = None, date:
     L = fit.skin_thickness
     d = setup.sample_thickness
     method = (f"thermocue calibrate {version}: least squares (scipy trf) on the exact Laplace model, "
-              f"parameters log R per sample and log L{' and T_S0' if prob.fit_skin_temperature else ''}; "
+              f"parameters log R per sample and log L{' and T_S0 (' + prob.skin_temperature_mode + ')' if prob.fit_skin_temperature else ''}; "
               f"{setup.describe()}; {fit.level:.0%} "
               f"{'profile-likelihood' if fit.interval_method == 'profile' else 'parametric-bootstrap'} intervals")
     resist, r_int, samples = {}, {}, []
@@ -76,10 +77,13 @@ def calibration_record(fit: CalibrationFit, *, session: str | None = None, date:
     }
     if setup.sensor.side == "lumped":
         rec["sensor"] = setup.sensor.to_dict()
-    if prob.fit_skin_temperature:
+    if prob.skin_temperature_mode == "shared":
         T = fit.parameter("T_S0")
         rec["skin_temperature_C"] = T.value
         rec["intervals"]["skin_temperature_C"] = [T.low, T.high]
+    elif prob.skin_temperature_mode == "per-trace":     # kept for the record; not used by profiles
+        rec["trace_skin_temperatures_C"] = [
+            fit.parameter(f"T_S0[{i + 1}]").value for i in range(len(prob.traces))]
     if session:
         rec["session"] = str(session)
     return rec

@@ -40,8 +40,11 @@ def register(sub) -> None:
                         "then the participant record, then the protocol)")
     p.add_argument("--material-temperature-C", type=float, default=None,
                    help="initial sample temperature (default: ambient_C before contact, then the protocol)")
-    p.add_argument("--fit-skin-temperature", action="store_true",
-                   help="also fit one initial skin temperature shared by all traces")
+    p.add_argument("--fit-skin-temperature", default="per-trace", choices=("per-trace", "shared", "none"),
+                   help="fit the initial skin temperature too: one per trace (default: the finger is "
+                        "rewarmed between touches, and a radiation thermometer sees the surface, a "
+                        "little cooler than the tissue), one shared by all traces, or none (use the "
+                        "measured values as they are)")
     p.add_argument("--contact-threshold-N", type=float, default=None,
                    help="summed force that marks the first touch, t = 0 (default 0.1 N)")
     p.add_argument("--interval", choices=("profile", "bootstrap"), default="profile",

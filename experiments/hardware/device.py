@@ -34,7 +34,7 @@ HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to 
 HARD_MAX_C = 45.0
 HARD_RATE_C_PER_S = 100.0  # largest setpoint step per second the firmware ever makes
 DEFAULT_NEUTRAL_C = 32.0
-WATCHDOG_MS = 60           # host silence that trips the watchdog (checked every 10 ms tick)
+WATCHDOG_MS = 80           # host silence that trips the watchdog (checked every 10 ms tick)
 MAX_POINTS = 65536         # 65.5 s at 1 ms, 655 s at 10 ms
 MIN_DT_US = 1000
 TICK_US = 10_000
@@ -43,6 +43,10 @@ RELEASE_MS = 50            # force below half the threshold this long ends a tri
 OVERTEMP_C = HARD_MAX_C + 3.0
 HEATSINK_MAX_C = 70.0
 STUCK_SAMPLES = 20         # identical raw readings in a row (100 ms at 200 Hz)
+_IDLE, _ARMED, _PLAYING, _RECORDING, _FAULT = (State.IDLE, State.ARMED, State.PLAYING,
+                                               State.RECORDING, State.FAULT)
+_ACTIVE = (State.ARMED, State.PLAYING, State.RECORDING)
+_PLAYBACK, _RECORD = Mode.PLAYBACK, Mode.RECORD
 _TEL_HEAD = struct.Struct("<HBB")
 _CRC = struct.Struct("<H")
 END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
@@ -146,8 +150,8 @@ class Device:
         self.ambient_C = self.params.room
         self.contact_C = self.plant.sensor
         self.stalled = False
-        self.stall_ticks = 0
-        self._r_fp = None
+        self.fault_listeners = []          # transports that apply link faults (drop, delay, ...)
+        self._r_fp = finger_pad_resistance()     # imports stimuli now, not mid-trial
 
     # ------------------------------------------------------------------ output helpers
     def log(self, kind: str, **fields) -> None:
@@ -205,6 +209,8 @@ class Device:
 
     def _handle(self, seq: int, cmd: int, p: bytes) -> bytes:
         if cmd == Cmd.HEARTBEAT:
+            if p == b"\x00":
+                return b""                         # a silent heartbeat: no reply wanted
             return self._ack(seq, cmd, m.TIME.pack(self.time_us))
         if cmd == Cmd.HELLO:
             (ver,) = m.HELLO_REQ.unpack(p)
@@ -339,7 +345,10 @@ class Device:
             return dict(start_s=None if f.start_us is None else f.start_us * 1e-6)
         specs = parse_faults(a["spec"], where="sim_fault")
         now = self.time_us * 1e-6
-        self.faults += [s.shifted(now) for s in specs]
+        shifted = [s.shifted(now) for s in specs]
+        self.faults += shifted
+        for listener in self.fault_listeners:
+            listener(shifted)
         self.log("fault_injected", spec=a["spec"])
         return dict(now_s=now, faults=len(specs))
 
@@ -389,16 +398,16 @@ class Device:
             # firmware hung: the hardware watchdog has opened the relay; only physics goes on
             self.plant.step(self.sp, self.sp, 0.0, False)
             return
-        state = self.state
+        state = prev_state = self.state
         # watchdog: host silent while the pad is doing something
-        if (self.hello and state in (State.ARMED, State.PLAYING, State.RECORDING)
+        if (self.hello and state in _ACTIVE
                 and t_us - self.last_rx_us > WATCHDOG_MS * 1000):
             ms = (t_us - self.last_rx_us) // 1000
             self.last_fault = int(Err.WATCHDOG)
             self.end_reason = END_FAULT
             self.log("watchdog", since_last_rx_ms=ms)
             self._event(Event.WATCHDOG, ms, "host heartbeat lost")
-            self._set_state(State.IDLE, "watchdog")
+            self._set_state(_IDLE, "watchdog")
             state = self.state
         # finger and forces
         fin = self.finger
@@ -410,13 +419,12 @@ class Device:
                        F * sh[2] + nf * next(nz), F * sh[3] + nf * next(nz))
         Fsum = self.forces[0] + self.forces[1] + self.forces[2] + self.forces[3]
         touching = F > 0.1
-        if touching and self.touch_us is None and state in (State.ARMED, State.PLAYING,
-                                                            State.RECORDING):
+        if touching and self.touch_us is None and state in _ACTIVE:
             self.touch_us = t_us
         # setpoint
         sp_prev = self.sp
         max_step = self.lim_rate * self.tick_s
-        if state == State.PLAYING:
+        if state == _PLAYING:
             vals, dt_us = self.profile
             x = (t_us - self.contact_us) / dt_us
             i = int(x)
@@ -425,7 +433,7 @@ class Device:
             else:
                 goal = vals[i] + (x - i) * (vals[i + 1] - vals[i])
             max_step = HARD_RATE_C_PER_S * self.tick_s
-        elif state == State.ARMED and self.arm_mode == Mode.PLAYBACK:
+        elif state == _ARMED and self.arm_mode == _PLAYBACK:
             goal = self.profile[0][0]
         else:
             goal = self.neutral
@@ -437,7 +445,7 @@ class Device:
         load = 0.0
         skin = self.skin
         if skin is not None:
-            if touching and self.arm_mode == Mode.PLAYBACK:      # the finger is on the pad
+            if touching and self.arm_mode == _PLAYBACK:      # the finger is on the pad
                 load = skin.step(True, self.plant.pad) * CONTACT_AREA_M2
                 self.finger_C = skin.surface_C(True)
             elif not touching:
@@ -447,12 +455,12 @@ class Device:
             self.finger_C = self.params.room + self.params.noise_ambient * next(nz)
         y = self.plant.step(sp_prev, sp, load, self.enabled)
         self.ambient_C = self.params.room + self.params.noise_ambient * next(nz)
-        if self.arm_mode == Mode.RECORD and state in (State.ARMED, State.RECORDING):
+        if self.arm_mode == _RECORD and state in (_ARMED, _RECORDING):
             self.contact_C = self._sample_reading(t_us, touching)
         else:
             self.contact_C = y
         # safety monitors (on the pad's own sensor, whatever the mode)
-        if state != State.FAULT:
+        if state != _FAULT:
             if not (-10.0 < y < 90.0):
                 self._trip(Err.SENSOR_FAILURE, f"contact sensor reads {y:.2f} °C")
             elif self.enabled and self.plant.same_count >= STUCK_SAMPLES:
@@ -462,9 +470,9 @@ class Device:
                            f"pad {y:.2f} °C, heat sink {self.plant.hs:.2f} °C")
         state = self.state
         # trial logic
-        if state == State.ARMED:
+        if state == _ARMED:
             if not self.ready:
-                near = (self.arm_mode == Mode.RECORD or
+                near = (self.arm_mode == _RECORD or
                         (abs(y - self.profile[0][0]) < READY_BAND_C and sp == goal))
                 self.ready_count = self.ready_count + 1 if near else 0
                 if self.ready_count >= 10:
@@ -478,9 +486,9 @@ class Device:
                 self.trials += 1
                 self.release_count = 0
                 self._event(Event.CONTACT, 0, f"{Fsum:.2f} N")
-                self._set_state(State.PLAYING if self.arm_mode == Mode.PLAYBACK else State.RECORDING,
+                self._set_state(_PLAYING if self.arm_mode == _PLAYBACK else _RECORDING,
                                 "contact")
-        elif state in (State.PLAYING, State.RECORDING):
+        elif state in (_PLAYING, _RECORDING):
             elapsed = t_us - self.contact_us
             self.release_count = self.release_count + 1 if Fsum < 0.5 * self.threshold else 0
             reason = None
@@ -488,14 +496,14 @@ class Device:
                 reason = END_RELEASED
             elif elapsed >= self.max_duration_us:
                 reason = END_MAX_DURATION
-            elif state == State.PLAYING and elapsed >= (len(self.profile[0]) - 1) * self.profile[1]:
+            elif state == _PLAYING and elapsed >= (len(self.profile[0]) - 1) * self.profile[1]:
                 reason = END_COMPLETE
             if reason is not None:
                 self.end_reason = reason
                 self._event(Event.END, reason, ("complete", "released", "max duration")[reason])
-                self._set_state(State.IDLE, "end")
+                self._set_state(_IDLE, "end")
         # telemetry: while a trial is on, in FAULT, and on the tick a trial ends
-        if self.state != State.IDLE or state != State.IDLE:
+        if self.state != _IDLE or prev_state != _IDLE:
             self.counter += 1
             self.tx_seq = seq = (self.tx_seq + 1) & 0xFF
             f = self.forces
@@ -503,7 +511,7 @@ class Device:
             body = _TEL_HEAD.pack(m.TELEMETRY.size, seq, m.Msg.TELEMETRY) + m.TELEMETRY.pack(
                 self.counter, t_us, c(sp), c(self.contact_C), c(self.ambient_C),
                 c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]),
-                self.state, self.last_fault if self.state == State.FAULT else 0)
+                self.state, self.last_fault if self.state == _FAULT else 0)
             self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
 
     def _sample_reading(self, t_us, touching) -> float:

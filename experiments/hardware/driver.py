@@ -204,7 +204,7 @@ class ThermalDisplay:
     """
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
-                 retries: int = 3, heartbeat_s: float = 0.02, max_frame_loss: float = 0.01):
+                 retries: int = 3, heartbeat_s: float = 0.025, max_frame_loss: float = 0.01):
         self.port = port
         self.limits = limits or SafetyLimits()
         self.reply_timeout_s = float(reply_timeout_s)
@@ -270,7 +270,8 @@ class ThermalDisplay:
         c = self._clock()
         if c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s:
             self._hb_clock, self._hb_dev = c, self._dev_time
-            self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT))
+            # silent (no reply wanted): telemetry or the next reply shows the device is alive
+            self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
 
     def _dispatch(self, fr) -> None:
         """Route a frame that is not the awaited reply."""
@@ -311,15 +312,20 @@ class ThermalDisplay:
                 self._hb_clock, self._hb_dev = self._clock(), self._dev_time  # any frame feeds the watchdog
                 deadline = self._clock() + timeout_s
                 while self._clock() < deadline:
-                    for fr in self._read_frames():
-                        if fr.seq == seq and fr.type == want:
-                            return fr.payload
-                        if fr.type == Msg.NAK and fr.seq == seq and fr.payload[:1] == bytes([cmd]):
-                            _, code = m.NAK_HEAD.unpack_from(fr.payload)
-                            text = fr.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
-                            raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
-                                                 f"{m.error_name(code)} ({text})", code=code)
-                        self._dispatch(fr)
+                    answer = None
+                    for fr in self._read_frames():      # dispatch every other frame, even after
+                        if answer is None and fr.seq == seq and (
+                                fr.type == want or (fr.type == Msg.NAK and fr.payload[:1] == bytes([cmd]))):
+                            answer = fr
+                        else:
+                            self._dispatch(fr)
+                    if answer is not None:
+                        if answer.type == want:
+                            return answer.payload
+                        _, code = m.NAK_HEAD.unpack_from(answer.payload)
+                        text = answer.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
+                        raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
+                                             f"{m.error_name(code)} ({text})", code=code)
                     self._heartbeat_if_due()
             raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
                                  f"{timeout_s} s, got none after {retries + 1} attempts")

@@ -117,7 +117,7 @@ def parse_faults(spec: str | None, *, where: str = "faults") -> list[FaultSpec]:
             raise UserInputError(f"{where}: {item!r}: expected no value for {name} ({GRAMMAR})")
         if rng is not None and not (rng[0] <= value <= rng[1]):
             raise UserInputError(f"{where}: {item!r}: expected {rng[0]} ≤ VALUE ≤ {rng[1]}, "
-                                 f"got {value!r}")
+                                 f"got {value!r} ({GRAMMAR})")
         out.append(FaultSpec(name, value, at_s, for_s))
     return out
 

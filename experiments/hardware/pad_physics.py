@@ -22,7 +22,7 @@ heat flow is turned into a current by inverting the Peltier equation with the fi
 (deliberately imperfect, ±5 %) model, then clamped to ``±i_max``.
 
 Finger (playback): the skin slab of :mod:`stimuli` (0 < x < L, inner boundary held at the skin
-temperature, uniform initially) discretised in 24 finite volumes refined towards the surface and
+temperature, uniform initially) discretised in 32 finite volumes (the first 3 µm thick) refined towards the surface and
 advanced exactly over each tick (matrix exponential, input held); its surface exchanges heat with
 the pad through the finger–pad contact resistance (``stimuli.contact_resistance`` of a 0.4 µm
 copper face) while touching, and with room air (10 W/m²K) otherwise, over the paper's 135 mm².
@@ -91,9 +91,9 @@ def finger_pad_resistance() -> float:
 
 
 @lru_cache(maxsize=64)
-def _skin_matrices(thickness, conductivity, density, specific_heat, g_surface, dt, n=24):
-    # geometric cells from the surface inwards, first cell 1.5 µm
-    first = min(1.5e-6, thickness / n)
+def _skin_matrices(thickness, conductivity, density, specific_heat, g_surface, dt, n=32):
+    # geometric cells from the surface inwards, first cell 3 µm
+    first = min(3e-6, thickness / n)
     lo, hi = 1.0, 2.0
     for _ in range(80):          # ratio r with first * (r^n - 1)/(r - 1) = thickness
         r = 0.5 * (lo + hi)
@@ -303,7 +303,7 @@ class PadPlant:
                 q_prev = 0.0
                 d_hat = 0.0
             y_prev = y
-            if stuck is not None:
+            if stuck is not None and enabled:      # the relay cuts a stuck driver too
                 i = stuck
             joule = 0.5 * Re * i * i
             q_pad = a * i * (pad + KELVIN) + joule + K * (hs - pad) + load_W

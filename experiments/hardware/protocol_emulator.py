@@ -119,6 +119,7 @@ class Serial(SerialBase):
         self.device = Device(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
                              log=self._log, device_id=opts["id"])
         self.link = LinkFaults(opts["faults"], seed=opts["seed"])
+        self.device.fault_listeners.append(self.link.add)
         self.virtual = opts["clock"] == "virtual"
         self._rx.clear()
         self._delayed.clear()

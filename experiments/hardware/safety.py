@@ -75,7 +75,8 @@ class SafetyLimits:
         try:
             v = float(value_C)
         except (TypeError, ValueError):
-            raise SafetyLimitError(f"display: {field}: expected a temperature in °C, got {value_C!r}")
+            raise SafetyLimitError(f"display: {field}: expected a temperature {self.min_C} ≤ T ≤ "
+                                   f"{self.max_C} °C, got {value_C!r}") from None
         if not (math.isfinite(v) and self.min_C <= v <= self.max_C):
             raise SafetyLimitError(f"display: {field}: expected {self.min_C} ≤ T ≤ {self.max_C} °C, "
                                    f"got {value_C!r}")

@@ -49,7 +49,9 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
     Notes
     -----
     ``rt_s`` is measured by the keyboard's clock from the flip that shows the question to the
-    key press (``waitRelease=False``). Escape ends the session (resumable).
+    key going down; the key counts once released (``waitRelease=True``: with ``False`` the
+    ptb backend reports a press again at its release), and keys pressed before the question
+    was shown are ignored. Escape ends the session (resumable).
     """
 
     def __init__(self, fullscr: bool = False, size=(1024, 768), check_timing: bool = False,
@@ -131,8 +133,10 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         start = time.monotonic()
         self.log("awaiting_key", keys=keys)   # experimenters' record; tests wait for it
         while True:
-            pressed = self.kb.getKeys(keyList=keys + _QUIT_KEYS, waitRelease=False)
+            pressed = self.kb.getKeys(keyList=keys + _QUIT_KEYS, waitRelease=True)
             for key in pressed:
+                if key.rt is None or key.rt < 0:
+                    continue      # pressed before the question was shown
                 if key.name in _QUIT_KEYS:
                     raise ResponderClosed("escape pressed in the PsychoPy window")
                 return key
@@ -152,6 +156,7 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
     def prompt_experimenter(self, text: str) -> None:
         self._main_text = f"{text}\n\n(experimenter: press space when ready)"
         self.kb.clearEvents()
+        self.win.callOnFlip(self.kb.clock.reset)
         self._draw()
         self._wait(_CONFIRM_KEYS)
 

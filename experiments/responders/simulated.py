@@ -179,9 +179,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         """The receptor temperature trace this trial produced: ``(t_s, receptor_C, skin_C)``."""
         person = self._ensure_person()
         _, skin_temperature = self._trial(trial)
-        played = stimulus.mode == "simulated" or (
-            stimulus.mode == "familiarise" and stimulus.profile_parameters is not None)
-        if played:
+        if _played(stimulus):
             t, surface = _contact_trace(stimulus)
             t, rec = person.feel_imposed(t, surface, skin_temperature_C=skin_temperature)
         else:
@@ -200,7 +198,8 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         person = self._ensure_person()
         rng, _ = self._trial(trial)
         t, rec, skin_temperature = self.feel(trial, stimulus)
-        person.learn(trial.roughness_id, person.perceive(person.features(t, rec, skin_temperature), rng))
+        person.learn(trial.roughness_id, person.perceive(person.features(t, rec, skin_temperature), rng),
+                     mode="simulated" if _played(stimulus) else "real")
         self._learned.add(index)
 
     def respond(self, trial, stimulus) -> Response:
@@ -218,12 +217,19 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         else:
             t, rec, skin_temperature = self.feel(trial, stimulus)
             percept = person.perceive(person.features(t, rec, skin_temperature), rng)
-            answer = person.decide(percept, rng, choices=RESPONSE_IDS)
+            answer = person.decide(percept, rng, choices=RESPONSE_IDS,
+                                   mode="simulated" if _played(stimulus) else "real")
         self._trial_state.pop(index, None)
         return Response(answer, rt, source="simulated")
 
     def rewarm(self, seconds: float) -> None:
         self.sleep(seconds)
+
+
+def _played(stimulus) -> bool:
+    """Whether the display played a profile (else a real sample was touched)."""
+    return stimulus.mode == "simulated" or (
+        stimulus.mode == "familiarise" and stimulus.profile_parameters is not None)
 
 
 def _is_familiarisation(trial) -> bool:

@@ -3,9 +3,9 @@
 ``write_study`` writes session folders in the documented layout
 (``DATA/<participant>/<session>/`` with ``session.json``, ``events.jsonl`` and
 ``trials.csv``; DESIGN.md "Session directory", docs/internal-contracts.md
-"Trials table"; events as ``experiments.logbook`` logs them: ``session_started``,
-``trial_started``, ``trial_completed{row}`` / ``trial_aborted{row}``,
-``session_finished``) from *known* per-cell probabilities of a correct answer. A
+"Trials table"; events as ``experiments.logbook`` documents them:
+``session_started`` with the session context, ``trial_started`` with the trial's
+spec, ``trial_completed`` whose ``row`` holds only the outcome, ``session_finished``) from *known* per-cell probabilities of a correct answer. A
 participant's probability in a cell is ``expit(logit(p_cell) + u)`` with a
 random intercept ``u ~ N(0, sigma²)`` on the log-odds scale (``sigma = 0``: no
 participant differences). A wrong answer is one of the three other samples,
@@ -80,8 +80,12 @@ def write_study(root, cells, *, n_per_group=15, reps=3, sigma=0.0, seed=0, famil
                                      "status": "fault", "tracking_rms_C": "", "attempt": attempt,
                                      "fault_code": "E_TRACK"})
                         attempt += 1
-                    key = (group, block, r) if block != "familiarise" else None
-                    p = expit(logit(cells[key]) + u) if key else 1.0
+                    if block == "familiarise":     # no answer asked (as experiments.session logs it)
+                        rows.append({**base, "response_id": "", "correct": "", "rt_s": "",
+                                     "status": "ok", "tracking_rms_C": "", "attempt": attempt,
+                                     "fault_code": ""})
+                        continue
+                    p = expit(logit(cells[(group, block, r)]) + u)
                     correct = bool(rng.random() < p)
                     response = r if correct else int(rng.choice([s for s in range(1, 5) if s != r]))
                     rows.append({**base, "response_id": response, "correct": int(correct),
@@ -94,16 +98,22 @@ def write_study(root, cells, *, n_per_group=15, reps=3, sigma=0.0, seed=0, famil
                 "participant": {"id": pid, "sex": "F" if i % 2 else "M",
                                 "skin_thickness_um": thickness},
                 "group": group, "session": session, "seed": seed}))
-            if write_events:
+            if write_events:     # as experiments.logbook writes them
+                spec_keys = ("block", "mode", "roughness_id", "roughness_um", "repetition")
+                context = ("participant", "group", "session", "skin_thickness_um", "sex")
                 with open(folder / "events.jsonl", "w") as fh:
-                    fh.write(json.dumps({"event": "session_started", "participant": pid,
-                                         "group": group, "session": session}) + "\n")
+                    first = rows[0]
+                    fh.write(json.dumps({"event": "session_started", "seq": 1, "seed": seed,
+                                         **{k: first[k] for k in context}}) + "\n")
                     for row in rows:
-                        fh.write(json.dumps({"event": "trial_started",
-                                             "trial_index": row["trial_index"],
-                                             "attempt": row["attempt"]}) + "\n")
-                        kind = "trial_completed" if row["status"] == "ok" else "trial_aborted"
-                        fh.write(json.dumps({"event": kind, "row": row}) + "\n")
+                        key = {"trial_index": row["trial_index"], "attempt": row["attempt"]}
+                        fh.write(json.dumps({"event": "trial_started", **key,
+                                             "time": row["started_at"],
+                                             **{k: row[k] for k in spec_keys}}) + "\n")
+                        outcome = {k: (None if row[k] == "" else row[k]) for k in row
+                                   if k not in spec_keys + context + ("trial_index", "attempt")}
+                        fh.write(json.dumps({"event": "trial_completed", **key,
+                                             "row": outcome}) + "\n")
                     fh.write(json.dumps({"event": "session_finished"}) + "\n")
             if write_csv:
                 with open(folder / "trials.csv", "w", newline="") as fh:

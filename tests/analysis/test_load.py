@@ -197,11 +197,9 @@ def test_session_json_fills_missing_group_in_events(study):
     data, _ = study(n_per_group=1, write_csv=False, seed=13)
     events = next(data.rglob("events.jsonl"))
     lines = [json.loads(l) for l in events.read_text().splitlines()]
-    for e in lines:
+    for e in lines:                       # the session context lost from the event log
         e.pop("group", None)
-        if "row" in e:
-            e["row"].pop("group")
-            e["row"].pop("participant")
+        e.pop("participant", None)
     events.write_text("".join(json.dumps(e) + "\n" for e in lines))
     with pytest.warns(LogWarning, match="missing; rebuilt"):
         log = load_trials(data)
@@ -210,3 +208,23 @@ def test_session_json_fills_missing_group_in_events(study):
     assert len(rows) == 28
     assert set(rows["group"]) == {meta["group"]}
     assert set(rows["participant"]) == {meta["participant"]["id"]}
+
+
+def test_aborted_attempt_in_the_event_log(study):
+    data, _ = study(n_per_group=1, write_csv=False, seed=14)
+    events = next(data.rglob("events.jsonl"))
+    lines = events.read_text().splitlines(keepends=True)
+    # attempt 1 of trial 7 was aborted (killed) before its retry, as experiments.logbook logs it
+    start = next(l for l in lines if '"trial_started"' in l and '"trial_index": 7,' in l)
+    aborted = start.replace('"attempt": 1', '"attempt": 0')
+    tail = ('{"event": "trial_aborted", "trial_index": 7, "attempt": 0, "reason": "killed", '
+            '"fault_code": "E_KILL"}\n')
+    i = lines.index(start)
+    events.write_text("".join(lines[:i] + [aborted, tail] + lines[i:]))
+    with pytest.warns(LogWarning, match="missing; rebuilt"):
+        log = load_trials(data)
+    t = log.trials[(log.trials["source"] == str(events)) & (log.trials["trial_index"] == 7)]
+    assert list(t["attempt"]) == [0, 1]
+    assert list(t["status"]) == ["aborted", "ok"]
+    assert list(t["exclusion"]) == ["status aborted", ""]
+    assert t["fault_code"].iloc[0] == "E_KILL" and t["mode"].iloc[0] == t["mode"].iloc[1]

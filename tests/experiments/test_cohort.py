@@ -46,9 +46,7 @@ def test_cohort_is_reproducible_from_its_seed(tmp_path):
 def _check_study(out, n_participants):
     from analysis.load import load_trials
     data = out / "data"
-    trials = load_trials(data)
-    table = trials.table if hasattr(trials, "table") else trials
-    scored = table[table["block"] != "familiarise"]
+    scored = load_trials(data).analysable
     assert scored["participant"].nunique() == n_participants
     # 4 samples x 3 repetitions x (real, simulated) per participant, all completed.
     assert (scored.groupby("participant").size() == 24).all()
@@ -60,18 +58,27 @@ def _check_study(out, n_participants):
 
 def test_two_participants_end_to_end(tmp_path):
     start = time.perf_counter()
-    summary = run_figure9_study(tmp_path, seed=3, progress=False, workers=1, participants=2)
+    summary = run_figure9_study(tmp_path, seed=3, progress=False, workers=2, participants=2)
     assert len(summary["sessions"]) == 2
     _check_study(tmp_path, 2)
     assert time.perf_counter() - start < 60
 
 
+def test_refuses_to_pool_with_an_earlier_run(tmp_path):
+    from experiments.errors import UserInputError
+    (tmp_path / "data" / "S01").mkdir(parents=True)
+    with pytest.raises(UserInputError, match="data"):
+        run_figure9_study(tmp_path, progress=False, participants=1)
+
+
 @pytest.mark.slow
 def test_the_whole_study_runs_in_a_minute(tmp_path, capsys):
+    from experiments.cli import main
     start = time.perf_counter()
-    run_figure9_study(tmp_path, seed=0, progress=True, workers=2)
+    assert main(["reproduce", "figure9", "--out", str(tmp_path)]) == 0
     seconds = time.perf_counter() - start
     scored = _check_study(tmp_path, 30)
-    assert "participant 30 of 30" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "participant 30 of 30" in err and "proportion correct" in err
     assert scored.groupby("participant")["group"].first().value_counts().to_dict() == {"A": 15, "B": 15}
     assert seconds < 90, f"the 30-participant study took {seconds:.0f} s"

@@ -111,6 +111,20 @@ def test_templates_are_the_mean_of_familiarisation_percepts():
     np.testing.assert_allclose(means[1], [5.0, 5.0, 5.0, 5.0])
 
 
+def test_each_mode_is_judged_with_its_own_templates_when_it_has_them():
+    params = PerceptionParameters(lapse_rate=0.0)
+    p = person(650.0, params=params)
+    rng = np.random.default_rng(1)
+    p.learn(1, [1.0, 1.0, 1.0, 1.0], mode="real")
+    p.learn(2, [9.0, 9.0, 9.0, 9.0], mode="real")
+    # Only real templates: a simulated trial is judged against them.
+    assert p.decide([8.5, 8.5, 8.5, 8.5], rng, mode="simulated") == 2
+    p.learn(3, [8.0, 8.0, 8.0, 8.0], mode="simulated")
+    p.learn(4, [1.5, 1.5, 1.5, 1.5], mode="simulated")
+    assert p.decide([8.5, 8.5, 8.5, 8.5], rng, mode="simulated") == 3
+    assert p.decide([8.5, 8.5, 8.5, 8.5], rng, mode="real") == 2
+
+
 def test_noise_free_observer_names_every_familiar_sample():
     params = PerceptionParameters(drop_noise_C=0.0, rate_noise_C_per_s=0.0, weber_fraction=0.0,
                                   lapse_rate=0.0)

@@ -90,12 +90,14 @@ def test_real_session_writes_every_file(tmp_path):
     assert disp.calls[-1] == ("set_neutral", 32.0)
 
 
-def test_a_display_fault_is_written_and_the_session_goes_on(tmp_path):
+def test_a_display_fault_is_written_and_the_trial_run_again(tmp_path):
     s = new_session(tmp_path)
     disp = ScriptedDisplay(script=["ok", "raise", "fault", "ok"])
     assert s.run(ScriptedResponder(), display=disp) == 0
     table = rows(s.directory / "trials.csv")
-    assert [r["status"] for r in table] == ["ok", "fault", "fault", "ok"]
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in table] == [
+        ("1", "1", "ok"), ("2", "1", "fault"), ("2", "2", "fault"), ("2", "3", "ok"),
+        ("3", "1", "ok"), ("4", "1", "ok")]
     assert table[1]["fault_code"] == "DisplayError" and table[2]["fault_code"] == "OVER_TEMPERATURE"
     assert table[1]["response_id"] == "" and table[3]["response_id"] != ""
     # neutral after each fault: abort then set_neutral right after the failing run_trial
@@ -109,11 +111,15 @@ def test_consecutive_faults_stop_cleanly_and_resume_finishes(tmp_path):
     assert s.run(ScriptedResponder(), display=disp) == 1
     ev = read_json_lines(s.directory / "events.jsonl")
     assert ev[-1]["event"] == "session_stopped"
-    assert [r["status"] for r in rows(s.directory / "trials.csv")] == ["ok", "fault", "fault", "fault"]
-    # Faulted trials count as done: nothing is left to run.
-    s2 = open_session(s.directory)
-    assert s2.run(ScriptedResponder(), display=ScriptedDisplay()) == 0
-    assert len(rows(s.directory / "trials.csv")) == 4
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in rows(s.directory / "trials.csv")] \
+        == [("1", "1", "ok"), ("2", "1", "fault"), ("2", "2", "fault"), ("2", "3", "fault")]
+    # Resume starts at the stopped trial, as its 4th attempt; trial 1 is not repeated.
+    resp = ScriptedResponder()
+    assert open_session(s.directory).run(resp, display=ScriptedDisplay()) == 0
+    assert [c[1] for c in resp.calls if c[0] == "respond"] == [2, 3, 4]
+    table = rows(s.directory / "trials.csv")
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in table][3:] == [
+        ("2", "3", "fault"), ("2", "4", "ok"), ("3", "1", "ok"), ("4", "1", "ok")]
 
 
 def test_no_contact_aborts_the_attempt_and_runs_the_trial_again(tmp_path):

@@ -110,19 +110,30 @@ def test_psychopy_session_with_real_keys_against_the_emulator_on_a_pty(tmp_path,
     events = _events(events_path)
     # The keyboard really was psychtoolbox's (the event backend never matches keyList).
     assert [e["backend"] for e in events if e["event"] == "keyboard"] == ["ptb"]
-    # The cue was played or its absence logged: never silently skipped.
-    cues = [e for e in events if e["event"] == "cue"]
-    assert len(cues) == 2
-    for c in cues:
-        assert c["played"] or any(e["event"] == "cue_unavailable" for e in events)
-    # One experimenter confirmation (the real trial), then an answer per trial.
-    assert sent[0] == "space" and sorted(sent[1:]) == ["2", "3"]
     with open(data / "P01" / "S01" / "trials.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert [(r["mode"], r["roughness_id"], r["response_id"], r["correct"], r["status"]) for r in rows] \
-        == [("real", "2", "2", "1", "ok"), ("simulated", "3", "3", "1", "ok")]
-    assert all(r["response_source"] == "keyboard:ptb" and 0 < float(r["rt_s"]) < 30 for r in rows)
+    ok = [r for r in rows if r["status"] == "ok"]
+    assert [(r["trial_index"], r["mode"], r["roughness_id"]) for r in ok] == \
+        [("1", "real", "2"), ("2", "simulated", "3")]
+    # On a loaded machine the display layer may miss its 60 ms heartbeat or lose 2 of ~150
+    # telemetry frames over the pty: that attempt is written as a fault and run again.
+    faults = [r for r in rows if r["status"] != "ok"]
+    assert all(r["status"] == "fault" and r["fault_code"] in ("TELEMETRY_LOSS", "WATCHDOG")
+               for r in faults), faults
+    # The experimenter confirmed each real attempt; each completed trial was answered with the
+    # key pressed: the sample's own number.
+    real_attempts = sum(r["mode"] == "real" for r in rows)
+    assert sent.count("space") == real_attempts
+    assert [k for k in sent if k != "space"] == [r["roughness_id"] for r in ok]
+    # The cue was played or its absence logged: never silently skipped.
+    cues = {(e["trial_index"], e["attempt"]): e["played"] for e in events if e["event"] == "cue"}
+    for r in ok:
+        played = cues[(int(r["trial_index"]), int(r["attempt"]))]
+        assert played or any(e["event"] == "cue_unavailable" for e in events)
+    for r in ok:
+        assert (r["response_id"], r["correct"], r["response_source"]) == (r["roughness_id"], "1", "keyboard:ptb")
+        assert 0 < float(r["rt_s"]) < 30
     for r in rows:   # the contact trace was recorded over the pty
         lines = (data / "P01" / "S01" / r["trace_file"]).read_text().splitlines()
-        assert len(lines) > 10
+        assert len(lines) > 50 and any(line.endswith(("RECORDING", "PLAYING")) for line in lines)
     assert "trial 2 of 2" in err   # progress for the experimenter on stderr

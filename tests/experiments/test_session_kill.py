@@ -51,6 +51,7 @@ def _spawn(args, pause=None):
         proc.stdin.close()
     except BrokenPipeError:
         pass
+    proc.stdin = None
     return proc
 
 
@@ -130,7 +131,7 @@ def _rebuilt_equals_csv(session) -> None:
 
 @pytest.fixture
 def protocol(tmp_path):
-    return write_protocol(tmp_path, contact_s=1.0, rewarm_s=30.0)
+    return write_protocol(tmp_path, contact_s=1.0, rewarm_s=0.25)
 
 
 def test_kill_at_named_points_then_resume_loses_and_duplicates_nothing(tmp_path, protocol):
@@ -187,13 +188,16 @@ def test_kill_at_named_points_then_resume_loses_and_duplicates_nothing(tmp_path,
 def test_kill_at_random_moments_then_resume(tmp_path, protocol):
     data = tmp_path / "data"
     session = data / "P01" / "S01"
+    # A real clock for the session's own waits (0.25 s rewarming) stretches the run over a
+    # couple of seconds, so that the kills land inside it.
     run = ["run", str(protocol), "--participant", str(P01), "--display", URL, "--responder", "console",
-           "--data", str(data), "--seed", "12", "--session", "S01", "--quiet"]
+           "--data", str(data), "--seed", "12", "--session", "S01", "--quiet", "--clock", "real"]
+    resume = ["resume", str(session), "--quiet", "--clock", "real"]
     rng = np.random.default_rng(20261122)
     done: dict = {}
     schedule = None
-    resume = ["resume", str(session), "--quiet"]
-    for delay in rng.uniform(1.2, 2.5, size=3):
+    landed = []
+    for delay in rng.uniform(1.0, 2.6, size=4):
         proc = _spawn(resume if (session / "session.json").exists() else run)
         time.sleep(delay)          # wherever it is: an fsync, a frame, a rewrite of trials.csv
         if proc.poll() is not None:
@@ -204,6 +208,8 @@ def test_kill_at_random_moments_then_resume(tmp_path, protocol):
         schedule = schedule or json.loads((session / "session.json").read_text())["schedule"]
         if (session / "trials.csv").exists():
             done = _check(session, schedule, done)
+        landed.append(len(done))
+    assert any(0 < n < 8 for n in landed), f"no kill landed mid-session: {landed}"
     _finish(_spawn(resume if (session / "session.json").exists() else run))
     schedule = schedule or json.loads((session / "session.json").read_text())["schedule"]
     done = _check(session, schedule, done)

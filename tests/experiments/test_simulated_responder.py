@@ -74,11 +74,12 @@ def test_familiarisation_learns_templates_even_without_a_response():
     d = FakeDisplay()
     for rid in RA_UM:
         r.touch(spec(rid, "familiarise", "real", rid), d)     # protocol: response = false
-    assert sorted(r.person.templates) == [1, 2, 3, 4]
-    assert all(count == 1 for _, count in r.person.templates.values())
+    assert list(r.person.templates) == ["real"]
+    assert sorted(r.person.templates["real"]) == [1, 2, 3, 4]
+    assert all(count == 1 for _, count in r.person.templates["real"].values())
     # Asking for the answer afterwards does not learn the same trial twice.
     r.respond(spec(1, "familiarise", "real", 1), TrialStimulus("real", 1, 1.6))
-    assert r.person.templates[1][1] == 1
+    assert r.person.templates["real"][1][1] == 1
 
 
 def test_answers_are_reproducible_under_a_seed_and_vary_between_seeds():

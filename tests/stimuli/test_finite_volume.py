@@ -154,3 +154,55 @@ def test_contact_bad_input(args, field):
 def test_layer_rejects_nonpositive():
     with pytest.raises(ModelInputError, match="Layer: density: expected"):
         Layer(0.3, 0.0, 3000.0)
+
+
+def test_bisected_grid_is_self_similar_and_richardson_gains_two_orders():
+    # splitting every cell in two divides the (second-order) error by 4 almost exactly, so the
+    # Richardson combination (4 u2 - u1)/3 is far more accurate than either grid
+    skin = Skin(1e-3)
+    t = np.arange(2001) * 1e-2
+    check = [10, 50, 200, 1000, 2000]
+    ref = np.array([35.0 - 10.0 * _eigen_step(skin, skin.dermis, t[i]) for i in check])
+    g = np.full(t.size, 25.0)
+    u1 = solve_surface(skin, t, g, 35.0, cells=32)[check]
+    u2 = solve_surface(skin, t, g, 35.0, cells=32, split=2)[check]
+    e1, e2 = np.max(np.abs(u1 - ref)), np.max(np.abs(u2 - ref))
+    assert 3.8 < e1 / e2 < 4.2
+    assert np.max(np.abs((4 * u2 - u1) / 3 - ref)) < e2 / 20
+    with pytest.raises(ModelInputError, match="split: expected"):
+        solve_surface(skin, t, g, 35.0, split=0)
+
+
+@pytest.mark.parametrize("name, thickness, R", [
+    ("stainless_steel", None, 1e-3), ("stainless_steel", 3e-3, 0.0), ("wood", None, 5e-3),
+    ("copper", 3e-3, 1e-4),
+])
+def test_contact_agrees_with_the_exact_laplace_solution(name, thickness, R):
+    # two independent methods: finite volumes here, numerical Laplace inversion in stimuli.contact
+    from stimuli.materials import material
+    from stimuli.contact import Contact
+    skin = Skin(800e-6)
+    mat = material(name, thickness=thickness)
+    t = np.array([0.01, 0.3, 2.0, 20.0])
+    c = Contact(skin, mat, resistance=R, skin_temperature=35.0, material_temperature=20.0)
+    for depth, side, exact in [
+            (skin.thickness, "material", c.interface_temperature(t, side="material")),
+            (skin.thickness, "skin", c.interface_temperature(t, side="skin")),
+            (skin.dermis, "skin", c.receptor_temperature(t))]:
+        u1 = solve_contact(skin, mat, R, 35.0, 20.0, t, depth=depth, side=side, cells=32)
+        u2 = solve_contact(skin, mat, R, 35.0, 20.0, t, depth=depth, side=side, cells=32, split=2)
+        assert np.max(np.abs(u2 - exact)) < 0.02, (depth, side)            # second order ...
+        rich = (4.0 * u2 - u1) / 3.0                                       # ... and Richardson
+        assert np.max(np.abs(rich - exact)) < 2e-4, (depth, side, rich, exact)
+
+
+@pytest.mark.parametrize("name", ["copper", "polystyrene_foam"])
+@pytest.mark.parametrize("R", [0.0, 1e-1])
+def test_contact_hard_cases_finite_and_bounded(name, R):
+    from stimuli.materials import material
+    skin = Skin(5e-3)
+    t = np.geomspace(1e-4, 1e4, 9)
+    with np.errstate(all="raise"):
+        for depth, side in [(0.0, "skin"), (skin.dermis, "skin"), (5e-3, "skin"), (5e-3, "material")]:
+            T = solve_contact(skin, material(name), R, 35.0, 20.0, t, depth=depth, side=side)
+            assert np.all(np.isfinite(T)) and np.all((T >= 20.0 - 1e-9) & (T <= 35.0 + 1e-9))

@@ -1,0 +1,166 @@
+"""The emulated firmware on its own: no port, no driver, frames in and out."""
+import json
+import zlib
+
+import numpy as np
+import pytest
+
+from experiments.hardware import messages as m
+from experiments.hardware.device import WATCHDOG_MS, Device
+from experiments.hardware.framing import FrameParser, encode_frame
+from experiments.hardware.messages import Cmd, Err, Msg, State
+
+
+class Host:
+    """A bare-hands host: raw frames, no safety checks (to test the device's own)."""
+
+    def __init__(self, dev):
+        self.dev, self.parser, self.seq, self.other = dev, FrameParser(), 0, []
+
+    def send(self, cmd, payload=b"", seq=None):
+        if seq is None:
+            self.seq = seq = (self.seq + 1) & 0xFF
+        self.dev.receive(encode_frame(seq, cmd, payload))
+        reply = None
+        for fr in self.parser.feed(self.dev.take_output()):
+            if fr.seq == seq and fr.type in ((cmd | 0x80), Msg.NAK):
+                reply = fr
+            else:
+                self.other.append(fr)
+        return reply
+
+    def step(self, n=1, heartbeat=True):
+        frames = []
+        for _ in range(n):
+            self.dev.step()
+            if heartbeat:
+                self.dev.receive(encode_frame(0, Cmd.HEARTBEAT, b"\x00"))
+            frames += self.parser.feed(self.dev.take_output())
+        return [m.Telemetry.decode(f.payload) for f in frames if f.type == Msg.TELEMETRY], \
+               [m.DeviceEvent.decode(f.payload) for f in frames if f.type == Msg.EVENT]
+
+    def upload(self, values_C, dt_us=10_000):
+        raw = np.round(np.asarray(values_C) * 100).astype("<i2").tobytes()
+        assert self.send(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(values_C), dt_us)).type == 0x90
+        for off in range(0, len(values_C), 400):
+            body = raw[2 * off:2 * min(off + 400, len(values_C))]
+            r = self.send(Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_HEAD.pack(off, len(body) // 2) + body)
+            assert m.UPLOAD_CHUNK_ACK.unpack(r.payload)[2] == zlib.crc32(body)
+        return self.send(Cmd.UPLOAD_COMMIT, m.COMMIT.pack(zlib.crc32(raw)))
+
+
+def nak_code(fr):
+    assert fr.type == Msg.NAK
+    return m.NAK_HEAD.unpack_from(fr.payload)[1]
+
+
+@pytest.fixture
+def host():
+    log = []
+    h = Host(Device(seed=5, log=log.append))
+    h.log = log
+    assert h.send(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)).type == Cmd.HELLO | 0x80
+    assert h.send(Cmd.SET_LIMITS, m.LIMITS.pack(1500, 4200, 1000)).type == Cmd.SET_LIMITS | 0x80
+    return h
+
+
+def finger(h, **kw):
+    args = dict(press_after_s=0.1, force_N=2.0, hold_s=30.0, skin_thickness_m=650e-6,
+                skin_temperature_C=35.5)
+    args.update(kw)
+    return h.send(Cmd.SIM_FINGER, m.encode_json(args))
+
+
+def test_refusals_carry_codes(host):
+    assert nak_code(host.send(0x55)) == Err.UNKNOWN_COMMAND
+    assert nak_code(host.send(Cmd.SET_NEUTRAL, b"\x01")) == Err.BAD_LENGTH
+    assert nak_code(host.send(Cmd.ARM, m.ARM.pack(0, 200, 1000))) == Err.PROFILE_INCOMPLETE
+    assert nak_code(host.send(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(10, 500))) == Err.OUT_OF_RANGE
+    assert nak_code(host.send(Cmd.HELLO, m.HELLO_REQ.pack(99))) == Err.NOT_SUPPORTED
+
+
+def test_device_clamps_what_a_careless_host_sends(host):
+    r = host.send(Cmd.SET_NEUTRAL, m.CENTI.pack(6000))                 # 60 °C
+    assert m.CENTI.unpack(r.payload)[0] == 4200
+    vals = np.r_[np.full(50, 30.0), np.full(150, 50.0)]                # 50 °C: beyond 42
+    ack = m.COMMIT_ACK.unpack(host.upload(vals).payload)
+    assert ack[2] == 150
+    assert host.send(Cmd.ARM, m.ARM.pack(0, 200, 5000)).type == Cmd.ARM | 0x80
+    finger(host)
+    tel, _ = host.step(400)
+    sp = np.array([t.setpoint_C for t in tel])
+    assert {"PLAYING"} <= {t.state for t in tel}
+    assert sp.max() <= 42.0 and sp.min() >= 15.0
+    assert max(t.contact_C for t in tel) < 42.3
+
+
+def test_a_repeated_sequence_number_is_answered_not_acted_on(host):
+    host.upload(np.full(100, 30.0))
+    a = host.send(Cmd.ARM, m.ARM.pack(0, 200, 5000), seq=77)
+    b = host.send(Cmd.HEARTBEAT, b"", seq=78)
+    c = host.send(Cmd.ARM, m.ARM.pack(0, 200, 5000), seq=77)          # the host's retry
+    assert a.type == c.type == Cmd.ARM | 0x80 and a.payload == c.payload
+    d = host.send(Cmd.ARM, m.ARM.pack(0, 200, 5000), seq=79)          # a genuinely new ARM
+    assert nak_code(d) == Err.BAD_STATE
+
+
+def test_watchdog_returns_to_neutral_within_100_ms(host):
+    host.upload(np.full(3000, 25.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    finger(host)
+    tel, ev = host.step(300)                                           # armed, ready, playing
+    assert tel[-1].state == "PLAYING"
+    last_rx = host.dev.time_us
+    tel, ev = host.step(30, heartbeat=False)                           # the host dies
+    trip = next(e for e in ev if e.kind == "WATCHDOG")
+    assert trip.device_time_s * 1e6 - last_rx <= 100_000
+    assert (trip.device_time_s * 1e6 - last_rx) >= WATCHDOG_MS * 1000
+    first_idle = next(t for t in tel if t.state == "IDLE")
+    assert first_idle.device_time_s == trip.device_time_s
+    assert host.dev.state == State.IDLE and host.dev.last_fault == Err.WATCHDOG
+    for _ in range(300):
+        host.dev.step()
+    assert host.dev.sp == 32.0 and abs(host.dev.plant.pad - 32.0) < 0.1
+    assert any(r["event"] == "watchdog" for r in host.log)
+
+
+def test_heartbeats_keep_the_watchdog_quiet(host):
+    host.upload(np.full(3000, 25.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    finger(host)
+    tel, ev = host.step(600)
+    assert not any(e.kind == "WATCHDOG" for e in ev) and tel[-1].state == "PLAYING"
+
+
+@pytest.mark.parametrize("spec, code", [("overtemp", Err.OVER_TEMPERATURE),
+                                        ("sensor_range", Err.SENSOR_FAILURE),
+                                        ("stuck_sensor", Err.SENSOR_STUCK)])
+def test_faults_open_the_relay_and_are_reported(host, spec, code):
+    host.upload(np.full(3000, 30.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    finger(host)
+    host.step(200)
+    host.send(Cmd.SIM_FAULT, m.encode_json({"spec": spec}))
+    tel, ev = host.step(100)
+    assert [e.arg for e in ev if e.kind == "FAULT"] == [code]
+    assert tel[-1].state == "FAULT" and tel[-1].fault == code.name
+    assert host.dev.enabled is False and host.dev.sp == 32.0
+    assert max(t.setpoint_C for t in tel) <= 42.0
+    assert nak_code(host.send(Cmd.ARM, m.ARM.pack(0, 200, 1000))) == Err.FAULT_LATCHED
+    st = m.Status.decode(host.send(Cmd.STATUS).payload)
+    assert st.state == "FAULT" and st.last_fault == code.name
+
+
+def test_overtemperature_is_caught_before_harm():
+    dev = Device(seed=2, faults="overtemp@1")
+    pads = []
+    for _ in range(500):
+        dev.step()
+        pads.append(dev.plant.pad)
+    assert dev.state == State.FAULT and dev.last_fault == Err.OVER_TEMPERATURE
+    assert max(pads) < 50.0 and pads[-1] < max(pads) - 1.0       # cooling once the relay opened
+
+
+def test_sim_commands_refused_by_a_real_device():
+    h = Host(Device(sim=False))
+    assert nak_code(finger(h)) == Err.NOT_SUPPORTED

@@ -1,0 +1,105 @@
+"""The driver against the display under test (``--display``; default: the in-process emulator)."""
+import numpy as np
+import pytest
+
+from experiments.errors import DisplayError, DisplayRefused, SafetyLimitError
+from experiments.hardware import SafetyLimits, Telemetry, open_display
+
+T = np.arange(0, 3.0001, 0.01)
+PROFILE = np.round(26.0 + 2.0 * np.sqrt(T / 3.0), 2)        # a gentle 3 s profile, °C
+
+
+def emulator_only(display):
+    if not hasattr(display.port, "device"):
+        pytest.skip("white-box check of the in-process emulator")
+    return display.port.device
+
+
+def test_handshake(display):
+    info = display.info
+    assert info.protocol == 1 and info.telemetry_hz >= 100
+    assert info.min_dt_s <= 1e-3 and info.max_points * info.min_dt_s >= 30.0
+    assert "playback" in info.capabilities
+    st = display.status()
+    assert st.state == "IDLE" and st.neutral_C == 32.0
+
+
+def test_playback_trial_end_to_end(sim_display):
+    d = sim_display
+    d.upload_profile(T, PROFILE)
+    d.arm("playback", force_threshold_N=2.0, max_duration_s=20.0)
+    d.sim_finger(press_after_s=0.2, force_N=2.0, hold_s=10.0)
+    frames, events = [], []
+    rec = d.run_trial(timeout_s=30.0, on_telemetry=frames.append, on_event=events.append)
+    assert rec.status == "ok" and rec.end_reason == "complete" and rec.fault_code is None
+    assert isinstance(frames[0], Telemetry) and rec.frames == len(frames) and rec.frames_lost == 0
+    assert [e.kind for e in events][:2] == ["READY", "CONTACT"]
+    assert rec.contact_time_s == events[1].device_time_s
+    playing = [f for f in frames if f.state == "PLAYING"]
+    assert len(playing) == pytest.approx(300, abs=2)                     # 100 Hz for 3 s
+    assert sum(playing[0].forces_N) >= 2.0
+    assert rec.duration_s == pytest.approx(3.0, abs=0.02)
+    assert rec.tracking_rms_C < 0.05 and rec.tracking_max_C < 0.5
+    # the finger warms the pad; the IR thermometer sees a finger cooler than its 35.5 °C core
+    assert 26.0 < playing[-1].finger_C < 35.5
+    assert d.status().state == "IDLE"
+
+
+def test_record_trial_reports_the_exact_interface_temperature(sim_display):
+    stimuli = pytest.importorskip("stimuli")
+    d = sim_display
+    d.sim_sample(material="stainless_steel", roughness_m=50e-6, thickness_m=3e-3, temperature_C=20.0)
+    d.arm("record", max_duration_s=4.0)
+    d.sim_finger(press_after_s=0.1, hold_s=10.0, skin_thickness_m=1000e-6, skin_temperature_C=36.0)
+    frames = []
+    rec = d.run_trial(on_telemetry=frames.append)
+    assert rec.status == "ok" and rec.end_reason == "max_duration" and np.isnan(rec.tracking_rms_C)
+    skin = stimuli.Skin(1000e-6)
+    steel = stimuli.material("stainless_steel", thickness=3e-3)
+    R = stimuli.contact_resistance(50e-6, skin=skin, material=steel)
+    c = stimuli.Contact(skin, steel, resistance=R, skin_temperature=36.0, material_temperature=20.0)
+    rec_frames = [f for f in frames if f.state == "RECORDING"]
+    t = np.array([f.device_time_s for f in rec_frames]) - rec.contact_time_s
+    y = np.array([f.contact_C for f in rec_frames])
+    # thermal contact starts at first touch, 0.10-0.16 s before the 2 N crossing stamps contact
+    lo = c.interface_temperature(t + 0.09)
+    hi = c.interface_temperature(t + 0.17)
+    assert np.all(y > lo - 0.03) and np.all(y < hi + 0.03)
+
+
+def test_host_refuses_before_sending(display):
+    writes = []
+    real = display.port.write
+    display.port.write = lambda data: (writes.append(data), real(data))[1]
+    hot = PROFILE.copy()
+    hot[100] = 45.0
+    with pytest.raises(SafetyLimitError, match=r"target_C\[100\]"):
+        display.upload_profile(T, hot)
+    with pytest.raises(SafetyLimitError, match="rate"):
+        display.upload_profile(T, 26.0 + 10.0 * (T > 1.0))
+    with pytest.raises(SafetyLimitError):
+        display.set_neutral(43.0)
+    assert writes == []
+
+
+def test_refusal_is_typed(sim_display):
+    sim_display.upload_profile(T, PROFILE)
+    sim_display.arm("playback")
+    with pytest.raises(DisplayRefused) as e:
+        sim_display._transact(0x20, b"\x00\xc8\x00\x10\x27\x00\x00")      # a second ARM
+    assert e.value.code == 4 and "BAD_STATE" in str(e.value)
+    sim_display.abort()
+    assert sim_display.status().state == "IDLE"
+
+
+def test_sim_commands_need_an_emulator():
+    with open_display("emulator://?clock=virtual&sim=0") as d:
+        with pytest.raises(DisplayError, match="capability 'sim'"):
+            d.sim_finger()
+
+
+def test_unopenable_url_is_a_display_error():
+    with pytest.raises(DisplayError, match="cannot open"):
+        open_display("emulator://?colour=red")
+    with pytest.raises(DisplayError, match="cannot open"):
+        open_display("/dev/no-such-display")

@@ -1,0 +1,46 @@
+import pytest
+import serial
+
+import experiments.hardware  # noqa: F401  (registers the package)
+from experiments.hardware.protocol_emulator import URL_GRAMMAR, parse_url
+
+
+def test_registered_once():
+    import importlib
+    importlib.reload(experiments.hardware)
+    assert serial.protocol_handler_packages.count("experiments.hardware") == 1
+
+
+def test_serial_for_url_opens_the_emulator():
+    port = serial.serial_for_url("emulator://?clock=virtual&seed=3", timeout=0.05)
+    try:
+        assert port.is_open and port.virtual_time_s == 0.0
+        assert port.read(10) == b""                 # idle: nothing to say
+        assert port.virtual_time_s == pytest.approx(0.05)   # the timeout was spent in device time
+    finally:
+        port.close()
+    with pytest.raises(serial.PortNotOpenError):
+        port.read(1)
+
+
+@pytest.mark.parametrize("url, words", [
+    ("emulator://?colour=red", "unknown option 'colour'"),
+    ("emulator://?clock=fast", "clock: expected real or virtual"),
+    ("emulator://?faults=melt", "expected a fault name"),
+    ("loop://", "not starting with emulator://"),
+])
+def test_bad_urls_quote_the_grammar(url, words):
+    with pytest.raises(serial.SerialException) as e:
+        parse_url(url)
+    assert words in str(e.value) and URL_GRAMMAR in str(e.value)
+
+
+def test_real_clock_ticks_in_wall_time():
+    import time
+    port = serial.serial_for_url("emulator://", timeout=0.05)
+    try:
+        t0 = port.device.time_us
+        time.sleep(0.2)
+        assert 0.1e6 < port.device.time_us - t0 < 0.4e6
+    finally:
+        port.close()

@@ -1,0 +1,113 @@
+"""The emulator on a real pty in its own process, driven by the driver (wall-clock time)."""
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from experiments.hardware import open_display
+
+
+def start_emulator(tmp_path, *args):
+    log = tmp_path / "emulator.jsonl"
+    proc = subprocess.Popen([sys.executable, "-m", "experiments.hardware.pty_server",
+                             "--log", str(log), *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    r, _, _ = select.select([proc.stdout], [], [], 30)
+    if not r:
+        proc.kill()
+        pytest.fail("the emulator printed no pty path within 30 s")
+    path = proc.stdout.readline().strip()
+    assert path.startswith("/dev/pts/"), path
+    return proc, path, log
+
+
+def stop(proc):
+    proc.send_signal(signal.SIGTERM)
+    try:
+        assert proc.wait(timeout=10) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
+def read_log(log):
+    return [json.loads(line) for line in log.read_text().splitlines()]
+
+
+def test_trial_over_a_real_pty(tmp_path):
+    proc, path, log = start_emulator(tmp_path, "--link", str(tmp_path / "display"))
+    try:
+        assert os.path.realpath(tmp_path / "display") == path
+        t = np.arange(0, 1.0001, 0.01)
+        with open_display(str(tmp_path / "display")) as d:
+            assert d.info.device_id == "EMU-0001"
+            rtt = []
+            for _ in range(50):
+                t0 = time.perf_counter()
+                d.heartbeat()
+                rtt.append(time.perf_counter() - t0)
+            assert np.median(rtt) < 0.02
+            d.upload_profile(t, np.round(31.0 - 0.5 * t, 2))
+            d.arm("playback", max_duration_s=5.0)
+            d.sim_finger(press_after_s=0.1, hold_s=5.0)
+            frames = []
+            rec = d.run_trial(timeout_s=10.0, on_telemetry=frames.append)
+        assert rec.status == "ok" and rec.end_reason == "complete", rec
+        assert rec.frames_lost == 0 and rec.tracking_rms_C < 0.05
+        span = frames[-1].device_time_s - frames[0].device_time_s
+        assert len(frames) / span >= 95.0                      # ≥ 100 Hz, less rounding
+    finally:
+        stop(proc)
+    assert not os.path.lexists(tmp_path / "display")
+    events = [r["event"] for r in read_log(log)]
+    assert events[0] == "serve" and "hello" in events and events[-1] == "stop"
+
+
+HOST = textwrap.dedent("""
+    import sys, numpy as np
+    from experiments.hardware import open_display
+    d = open_display(sys.argv[1])
+    t = np.arange(0, 10.0001, 0.01)
+    d.upload_profile(t, np.full(t.size, 29.0))
+    d.arm("playback", max_duration_s=20.0)
+    d.sim_finger(press_after_s=0.1, hold_s=20.0)
+    said = []
+    def tell(f):
+        if f.state == "PLAYING" and not said:
+            said.append(1); print("PLAYING", flush=True)
+    d.run_trial(timeout_s=30.0, on_telemetry=tell)
+    print("NOT KILLED", flush=True)
+""")
+
+
+def test_watchdog_brings_the_pad_to_neutral_when_the_host_is_killed(tmp_path):
+    proc, path, log = start_emulator(tmp_path)
+    host = subprocess.Popen([sys.executable, "-c", HOST, path], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        r, _, _ = select.select([host.stdout], [], [], 40)
+        assert r and host.stdout.readline().strip() == "PLAYING", host.stderr.read()
+        time.sleep(0.3)
+        host.send_signal(signal.SIGKILL)
+        host.wait(timeout=10)
+        time.sleep(1.0)
+        with open_display(path) as d:            # a new host asks what happened
+            st = d.status()
+        assert st.state == "IDLE" and st.last_fault == "WATCHDOG"
+        assert st.setpoint_C == 32.0 and abs(st.contact_C - 32.0) < 0.2
+    finally:
+        if host.poll() is None:
+            host.kill()
+        stop(proc)
+    recs = read_log(log)
+    trip = next(r for r in recs if r["event"] == "watchdog")
+    assert trip["since_last_rx_ms"] <= 100
+    idle = next(r for r in recs if r["event"] == "state" and r["why"] == "watchdog")
+    assert idle["t_s"] == trip["t_s"] and idle["old"] == "PLAYING"

@@ -1,0 +1,58 @@
+import numpy as np
+import pytest
+
+from experiments.errors import SafetyLimitError, UserInputError
+from experiments.hardware.safety import SafetyLimits, check_profile, profile_max_rate
+
+
+def test_range():
+    lim = SafetyLimits(min_C=15.0, max_C=42.0)
+    assert lim.check_setpoint(15.0) == 15.0
+    for bad in (14.99, 42.01, float("nan"), "hot"):
+        with pytest.raises(SafetyLimitError, match="15.0 ≤ T ≤ 42.0 °C"):
+            lim.check_setpoint(bad, "neutral_C")
+
+
+def test_limits_themselves_are_checked():
+    with pytest.raises(UserInputError, match="min_C < max_C"):
+        SafetyLimits(min_C=30.0, max_C=20.0)
+    with pytest.raises(SafetyLimitError, match="neutral_C"):
+        SafetyLimits(neutral_C=50.0)
+
+
+def test_rate_is_measured_over_the_window():
+    t = np.arange(0, 2.0001, 0.01)
+    y = 25.0 + 0.9 * (t >= 1.0)          # a 0.9 °C step: 9 °C/s over 0.1 s, 90 °C/s per sample
+    assert profile_max_rate(y, 0.01, 0.1) == pytest.approx(9.0)
+    check_profile(t, y, SafetyLimits())
+    with pytest.raises(SafetyLimitError, match="rate"):
+        check_profile(t, 25.0 + 1.2 * (t >= 1.0), SafetyLimits())
+
+
+def test_out_of_range_sample_is_named():
+    t = np.arange(0, 1.0001, 0.01)
+    y = np.full_like(t, 30.0)
+    y[37] = 42.5
+    with pytest.raises(SafetyLimitError, match=r"target_C\[37\]"):
+        check_profile(t, y, SafetyLimits())
+
+
+@pytest.mark.parametrize("t, words", [
+    (np.arange(0, 1, 0.0005), "step ≥ 0.001"),
+    (np.r_[0.0, 0.01, 0.03, 0.04], "uniform"),
+    (np.arange(1, 2, 0.01), "from 0"),
+])
+def test_malformed_times(t, words):
+    with pytest.raises(UserInputError, match=words):
+        check_profile(t, np.full(t.size, 30.0), SafetyLimits())
+
+
+def test_the_papers_profiles_pass_the_default_limits():
+    stimuli = pytest.importorskip("stimuli")
+    skin = stimuli.Skin(650e-6)
+    steel = stimuli.material("stainless_steel", thickness=3e-3)
+    t = np.arange(2001) * 0.01
+    for ra in (1.6e-6, 12.5e-6, 50e-6, 100e-6):
+        R = stimuli.contact_resistance(ra, skin=skin, material=steel)
+        c = stimuli.Contact(skin, steel, resistance=R, skin_temperature=36.0, material_temperature=20.0)
+        check_profile(t, np.round(c.interface_temperature(t), 2), SafetyLimits())
