@@ -48,7 +48,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     if interval not in ("boot", "wilson"):
         raise ValueError(f"plot_figure9: interval: expected 'boot' or 'wilson', got {interval!r}")
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.8), dpi=150)
+    fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=150)
     offsets = {key: off for key, off in zip(SERIES, (-0.09, -0.03, 0.03, 0.09))}
     for key, (label, colour, marker, style) in SERIES.items():
         sel = proportions[(proportions["group"] == key[0]) & (proportions["mode"] == key[1])]
@@ -70,7 +70,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     ax.set_ylabel("Proportions of correct recognition")
     which = "participant-cluster bootstrap" if interval == "boot" else "Wilson"
     ax.set_title(title or f"Figure 9: correct recognition (95% {which} intervals)", fontsize=10)
-    ax.legend(fontsize=8, loc="upper left", frameon=False)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, frameon=False)
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path)

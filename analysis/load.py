@@ -414,7 +414,7 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def _fill_from_context(df: pd.DataFrame, context: dict, path: Path, messages: list) -> pd.DataFrame:
+def _fill_from_context(df: pd.DataFrame, context: dict) -> pd.DataFrame:
     for key, value in context.items():
         if key not in df.columns or _blank(df[key]).all():
             df[key] = value
@@ -441,7 +441,8 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
         The rows as read (strings or JSON values), with ``source`` (the file)
         and ``line``; typed and checked later by :func:`load_trials`.
     source : str
-        ``"trials.csv"`` or ``"events.jsonl"``: the file the rows came from.
+        ``"trials.csv"`` or ``"events.jsonl"``: the file the rows came from
+        (``""`` and an empty table, with a warning, for a session without trials).
 
     Raises
     ------
@@ -463,8 +464,9 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
     use_events = False
     if table is None:
         if events is None or events.empty:
-            raise LogError(f"{folder}: trials.csv: expected trials.csv or trial events in events.jsonl, "
-                           f"got neither")
+            _warn(messages, f"{folder}: no trial rows (no trials.csv, no finished trial in "
+                            f"events.jsonl); session skipped")
+            return pd.DataFrame(), ""
         _warn(messages, f"{csv_path}: missing; rebuilt {len(events)} rows from {events_path}")
         use_events = True
     elif events is not None and not events.empty and "trial_index" in table.columns:
@@ -477,9 +479,12 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
                             f"missing); rebuilt {len(events)} rows from {events_path}")
             use_events = True
     if use_events:
-        rows, path = _fill_from_context(events, ctx, events_path, messages), events_path
+        rows, path = _fill_from_context(events, ctx), events_path
     else:
         rows, path = table, csv_path
+    if rows.empty:
+        _warn(messages, f"{path}: no trial rows; session skipped")
+        return pd.DataFrame(), ""
     rows = rows.reset_index(drop=True)
     _require_columns(rows, path)
     rows["source"] = str(path)
@@ -554,8 +559,13 @@ def load_trials(data_dir) -> TrialLog:
     parts, sessions = [], []
     for folder in folders:
         rows, source = load_session(folder, messages)
+        if rows.empty:
+            continue
         parts.append(rows)
         sessions.append({"path": str(folder), "source": source, "n_rows": len(rows)})
+    if not parts:
+        raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
+                       f"{len(folders)} session folder(s) without any")
     raw = pd.concat(parts, ignore_index=True)
     trials = _validate(raw)
     first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()

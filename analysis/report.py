@@ -29,8 +29,10 @@ COLUMN_MEANINGS = {
     "n_correct": "correct answers (count)",
     "proportion_correct": "fraction of trials answered correctly, 0-1",
     "wilson_low/high": "95% Wilson score interval of proportion_correct (trials independent), 0-1",
-    "boot_low/high": "95% participant-cluster studentized (bootstrap-t) interval, 0-1",
+    "boot_low/high": "95% participant-cluster bootstrap interval (Wilson at the bootstrap's "
+                     "effective sample size), 0-1",
     "boot_se": "bootstrap standard error of proportion_correct, 0-1",
+    "design_effect": "bootstrap variance x m/(m-1) over binomial variance, floored at 1 (ratio)",
     "log_odds, se, ci_low/high": "GEE coefficient (log odds), its bias-reduced SE and 95% CI",
     "posterior_mean/sd, cri_low/high": "variational posterior mean, SD, 95% credible interval (log odds)",
     "log_odds_ratio_A_vs_B": "log odds of correct, group A minus group B",
@@ -128,10 +130,26 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                      f"{np.exp(r['ci_low']):.2f}-{np.exp(r['ci_high']):.2f}, p = {r['p_value']:.3f}): "
                      f"{verdict}.")
         out.append(line)
+    gap = {}
+    for mode in ("real", "simulated"):
+        rates = a[a["mode"] == mode].groupby("group")["correct"].mean()
+        if {"A", "B"} <= set(rates.index):
+            gap[mode] = 100 * (rates["A"] - rates["B"])
+    if len(gap) == 2:
+        out.append(f"The paper (Figure 9, §3.2) reports group A above group B with real samples "
+                   f"and a smaller difference with simulated ones; here group A minus group B is "
+                   f"{gap['real']:+.1f} percentage points with real samples and "
+                   f"{gap['simulated']:+.1f} with simulated ones.")
     if not proportions.empty:
         by_r = a.groupby("roughness_id")["correct"].mean()
         out.append(f"Pooled over groups and modes, the proportion correct was "
                    + ", ".join(f"{_pct(v)} for {r}#" for r, v in by_r.items()) + ".")
+    below = proportions[proportions["boot_high"] < 0.25]
+    if not below.empty:
+        out.append("Below chance (whole bootstrap interval under 0.25): " + ", ".join(
+            f"group {r.group} {r.mode} {r.roughness_id}# ({_pct(r.proportion_correct)})"
+            for r in below.itertuples()) + "; these samples are systematically named as another "
+            "one (see the confusion matrices).")
     if not confusion.empty:
         diag = confusion[confusion["stimulus_roughness_id"] == confusion["response_id"]]
         worst = diag.groupby("stimulus_roughness_id")["n_trials"].sum() / \
@@ -179,7 +197,9 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         Created if missing. Receives ``figure9.png``, ``confusion.png``,
         ``proportions.csv``, ``participants.csv``, ``confusion.csv``, ``gee.csv``,
         ``bayes.csv``, ``contrasts.csv``, ``exclusions.csv``, ``sessions.csv``,
-        ``trials.csv`` (the tidy table) and ``report.md``.
+        ``all_trials.csv`` (every logged row, tidy, with its inclusion; not named
+        ``trials.csv`` so that an output folder is never taken for a session)
+        and ``report.md``.
     n_boot : int
         Bootstrap resamples for the cluster intervals.
     level : float
@@ -242,7 +262,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         "contrasts": _write_csv(contrasts, out / "contrasts.csv"),
         "exclusions": _write_csv(log.exclusion_counts(), out / "exclusions.csv"),
         "sessions": _write_csv(log.sessions, out / "sessions.csv"),
-        "trials": _write_csv(log.trials, out / "trials.csv"),
+        "trials": _write_csv(log.trials, out / "all_trials.csv"),
     }
     result = AnalysisResult(log, proportions, participants, confusion, gee, bfit, contrasts,
                             summary, files)
@@ -277,7 +297,8 @@ def _report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, see
     parts += [
         "## Proportion correct (Figure 9)", "",
         "Wilson intervals treat trials as independent; bootstrap intervals resample participants "
-        "and are the ones to read when participants differ.", "",
+        "(the design effect measures how much one person's answers hang together) and are the "
+        "ones to read when participants differ.", "",
         _md_table(props.drop(columns=["boot_se"])), "",
         "## GEE: logit, participant clusters, exchangeable, bias-reduced covariance", "",
         f"Formula: `{r.gee.formula}`" + (f" (requested `{r.gee.requested}`)" if r.gee.simplified

@@ -36,7 +36,8 @@ def machine() -> str:
             f"Python {platform.python_version()} | numpy {np.__version__} | scipy {scipy.__version__}")
 
 
-def run(durations=(5.0, 10.0, 25.0), noises=(0.005, 0.02, 0.1), repeats=10, rate=20.0, seed=20261122):
+def run(durations=(5.0, 10.0, 25.0), noises=(0.005, 0.02, 0.1), repeats=10, rate=20.0, seed=20261122,
+        fit_skin_temperature="none"):
     from stimuli import contact_resistance
 
     from experiments.calibration import CalibrationRefused, fit_traces, synthetic_traces
@@ -55,7 +56,7 @@ def run(durations=(5.0, 10.0, 25.0), noises=(0.005, 0.02, 0.1), repeats=10, rate
                                           rate_Hz=rate, noise_C=noise, rng=rng)
                 t0 = time.perf_counter()
                 try:
-                    fit = fit_traces(traces)
+                    fit = fit_traces(traces, fit_skin_temperature=fit_skin_temperature)
                 except CalibrationRefused as exc:
                     refused += 1
                     reasons.update(r.split(":")[0] for r in exc.reasons)
@@ -97,12 +98,15 @@ def main(argv=None) -> int:
     ap.add_argument("--durations-s", type=float, nargs="+", default=[5.0, 10.0, 25.0])
     ap.add_argument("--noises-C", type=float, nargs="+", default=[0.005, 0.02, 0.1])
     ap.add_argument("--rate-Hz", type=float, default=20.0)
+    ap.add_argument("--fit-skin-temperature", choices=("none", "shared", "per-trace"), default="none",
+                    help="also fit T_S0 (the data are made with the given 35 °C)")
     ap.add_argument("--out", default=None, help="also write bench_calibration.md here")
     ns = ap.parse_args(argv)
     print(f"machine: {machine()}")
     print("method: least squares on the exact Laplace model (fixed Talbot, 20 nodes), 4 samples + L, "
-          f"{ns.rate_Hz:g} Hz, 95 % profile-likelihood intervals, {ns.repeats} data sets per row")
-    rows = run(ns.durations_s, ns.noises_C, ns.repeats, ns.rate_Hz)
+          f"{ns.rate_Hz:g} Hz, 95 % profile-likelihood intervals, T_S0 fitted: {ns.fit_skin_temperature}, "
+          f"{ns.repeats} data sets per row")
+    rows = run(ns.durations_s, ns.noises_C, ns.repeats, ns.rate_Hz, fit_skin_temperature=ns.fit_skin_temperature)
     text = table(rows)
     print(text)
     if ns.out:

@@ -1,4 +1,4 @@
-"""A simulated participant: skin physics at the thermoreceptors plus a Thurstonian decision rule.
+r"""A simulated participant: skin physics at the thermoreceptors plus a Thurstonian decision rule.
 
 Pure model, no I/O. A :class:`SimulatedPerson` has a fingertip skin (total thickness ``L``,
 dermis ``d``; receptors at depth ``d`` from the inner boundary, i.e. under an epidermis of
@@ -10,25 +10,47 @@ receptor temperature the physics predicts:
 * simulated trial: the surface temperature the display actually produced imposed on its own
   skin (:func:`stimuli.skin_response`).
 
-From the receptor trace it extracts a few features (:data:`FEATURE_NAMES`), perceives them
-with Gaussian noise, learns one template per roughness class from the familiarisation trials,
-and answers with the class of maximum Gaussian likelihood (a Thurstonian / signal-detection
-observer), with an optional lapse rate. Nothing about the paper's Figure 9 is built in: the
-pattern of correct answers follows from the physics and the noise parameters below.
+The decision rule. From the receptor trace :math:`T(t)` the person extracts the features
+:math:`f` (:func:`receptor_features`): the drop :math:`T_0 - T(t_k)` at ``drop_times_s`` and
+the peak rate of fall in the first ``rate_window_s``. It perceives
+:math:`x = f + \varepsilon`, :math:`\varepsilon_k \sim N(0, \sigma_k(f)^2)` independent,
+:math:`\sigma_k(f) = a_k + w |f_k|` (additive noise ``drop_noise_C`` / ``rate_noise_C_per_s``
+plus a Weber fraction ``w``). Familiarisation trials (the sample is named) add :math:`x` to the
+template of that sample, one template set per kind of stimulus (real or displayed); a test
+trial is answered with
+
+.. math:: \hat c = \arg\max_c \sum_k \log N\big(x_k;\ m_{ck},\ \sigma_k(m_c)^2 (1 + 1/n_c)\big)
+
+(:math:`m_c` the mean of the :math:`n_c` familiarisation percepts of sample :math:`c`), using
+the templates of the trial's kind if it has them, else the real samples'; with probability
+``lapse_rate`` it guesses uniformly. A Thurstonian (Case V-like, unequal variance) observer.
+Nothing about the paper's Figure 9 is built in: the pattern of correct answers follows from the
+physics and the noise parameters, all in :class:`PerceptionParameters`.
 
 The sample is a 3 mm steel slab with an insulated back (the paper's samples are 3 mm thick,
 §3.1), not a half-space; :class:`PerceptionParameters` has ``sample_thickness_m=None`` for a
 half-space.
+
+Notes
+-----
+The display's target (``stimuli.target_profile``) is the *material* side of the interface
+(Eq. 7's quantity). Imposed on the skin it leaves out the temperature step across the contact
+resistance, so it feels colder than the real sample, and the more so the rougher the sample
+(the steel's surface stays nearer its own temperature when R is large). An observer familiarised
+on the real samples therefore names 1# or 2# for almost every displayed sample;
+``predicted_cell_probabilities(target_side="skin")`` shows what a skin-side target would give.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 __all__ = [
     "FEATURE_NAMES",
+    "feature_names",
+    "TARGET_SKIN_TEMPERATURE_C",
     "PerceptionParameters",
     "SimulatedPerson",
     "draw_person",
@@ -421,22 +443,35 @@ def draw_person(group: str | None = None, rng: np.random.Generator | int | None 
 
 
 def _person_features(person: SimulatedPerson, mode: str, roughness_um, target_thickness_um: float,
-                     target_options: dict) -> np.ndarray:
+                     target_options: dict, target_side: str = "material") -> np.ndarray:
     """Noise-free features, one row per roughness, for ``mode`` "real" or "simulated"."""
+    from stimuli import Contact, Skin, contact_resistance, material, target_profile
     rows = []
     for ra in roughness_um:
         if mode == "real":
             t, rec = person.feel_real(ra * 1e-6)
         elif mode == "simulated":
-            from stimuli import Skin, target_profile
             opts = {"material": "stainless_steel",
                     "skin_temperature": TARGET_SKIN_TEMPERATURE_C,
                     "material_temperature": person.params.material_temperature_C,
                     "duration": person.params.duration_s,
                     "rate": person.params.sample_rate_Hz,
                     "sample_thickness": person.params.sample_thickness_m, **target_options}
-            prof = target_profile(roughness=ra * 1e-6, skin=Skin(target_thickness_um * 1e-6), **opts)
-            t, rec = person.feel_imposed(prof.times, prof.temperature)
+            skin = Skin(target_thickness_um * 1e-6)
+            if target_side == "material":
+                prof = target_profile(roughness=ra * 1e-6, skin=skin, **opts)
+                t, surface = prof.times, prof.temperature
+            else:   # the skin side of the same contact (what a real finger's surface feels)
+                sample = material(opts["material"], thickness=opts["sample_thickness"])
+                contact = Contact(skin, sample,
+                                  resistance=contact_resistance(ra * 1e-6, skin=skin, material=sample),
+                                  skin_temperature=opts["skin_temperature"],
+                                  material_temperature=opts["material_temperature"])
+                t = np.arange(int(round(opts["duration"] * opts["rate"])) + 1) / opts["rate"]
+                surface = np.empty_like(t)
+                surface[1:] = contact.interface_temperature(t[1:], side="skin")
+                surface[0] = surface[1]
+            t, rec = person.feel_imposed(t, surface)
         else:
             raise ValueError(f"predicted_cell_probabilities: modes: expected 'real' or "
                              f"'simulated', got {mode!r}")
@@ -472,6 +507,9 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
                                  familiarise_mode: str = "real",
                                  target_thickness_um: dict | None = None,
                                  target_options: dict | None = None,
+                                 target_side: str = "material",
+                                 skin_temperature_C: tuple[float, float] = (35.5, 36.0),
+                                 dermis_fraction: tuple[float, float] = (0.55, 0.65),
                                  params: PerceptionParameters | None = None,
                                  seed: int = 0):
     """Probability of a correct answer per group x mode x roughness, by Monte Carlo.
@@ -504,6 +542,13 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
         material at ``params.material_temperature_C``, ``params.duration_s`` at
         ``params.sample_rate_Hz``; as the session computes them from the protocol), e.g.
         ``method`` or ``resolution``.
+    skin_temperature_C, dermis_fraction : (low, high)
+        Ranges the persons are drawn from (:func:`draw_person`), °C and a share.
+    target_side : {"material", "skin"}
+        Which interface temperature the display replays: ``"material"`` is the contract's
+        target (Eq. 7's quantity, :func:`stimuli.target_profile`, what the session plays);
+        ``"skin"`` is the skin side of the same contact, for comparison (imposed on a skin of
+        the target's thickness it reproduces the real contact exactly).
     params : PerceptionParameters
     seed : int
 
@@ -531,14 +576,19 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
     if familiarise_mode not in ("real", "simulated", "same"):
         raise ValueError(f"predicted_cell_probabilities: familiarise_mode: expected 'real', "
                          f"'simulated' or 'same', got {familiarise_mode!r}")
+    if target_side not in ("material", "skin"):
+        raise ValueError(f"predicted_cell_probabilities: target_side: expected 'material' or "
+                         f"'skin', got {target_side!r}")
     needed = set(modes) | ({familiarise_mode} - {"same"})
     rows = []
     for g, rng_um in groups.items():
         per_person = {m: [] for m in modes}
         for _ in range(int(n_people)):
-            person = draw_person(thickness_um=rng_um, rng=rng, params=params)
+            person = draw_person(thickness_um=rng_um, rng=rng, params=params,
+                                 skin_temperature_C=skin_temperature_C,
+                                 dermis_fraction=dermis_fraction)
             feats = {m: _person_features(person, m, roughness_um, target_thickness_um[g],
-                                         target_options) for m in needed}
+                                         target_options, target_side) for m in needed}
             for m in modes:
                 fam = feats[m if familiarise_mode == "same" else familiarise_mode]
                 per_person[m].append(_monte_carlo_correct(params, fam, feats[m],

@@ -42,13 +42,21 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
 from experiments.errors import DisplayError, SessionError, UserInputError
 from experiments.responders.base import Responder, ResponderClosed, TrialStimulus
 from experiments.session_files import TraceWriter, aborted_trace_name, package_versions, trace_name
+from experiments.session_machine import (
+    TRANSITIONS,
+    RealClock,
+    SessionInterrupted,
+    StateMachine,
+    TransitionError,
+    VirtualClock,
+    clock_for_url,
+)
 
 __all__ = [
     "Session",
@@ -70,106 +78,10 @@ __all__ = [
 PAUSE_ENV = "THERMOCUE_TEST_PAUSE_AT"
 PAUSE_POINTS = ("trial_started", "upload", "armed", "playback", "after_response", "after_write")
 
-#: Legal state changes of the engine (state -> states it may go to).
-TRANSITIONS: dict[str, frozenset[str]] = {
-    "idle": frozenset({"prompt", "finished", "stopped", "interrupted"}),
-    "prompt": frozenset({"prepare", "interrupted"}),
-    "prepare": frozenset({"cue", "fault", "interrupted"}),
-    "cue": frozenset({"wait_contact", "interrupted"}),
-    "wait_contact": frozenset({"playback", "record", "no_contact", "fault", "interrupted"}),
-    "playback": frozenset({"respond", "fault", "interrupted"}),
-    "record": frozenset({"respond", "fault", "interrupted"}),
-    "respond": frozenset({"write", "interrupted"}),
-    "fault": frozenset({"write", "interrupted"}),
-    "no_contact": frozenset({"rewarm", "idle", "interrupted"}),
-    "write": frozenset({"rewarm", "idle", "interrupted"}),
-    "rewarm": frozenset({"idle", "interrupted"}),
-    "finished": frozenset(),
-    "stopped": frozenset(),
-    "interrupted": frozenset(),
-}
-
 #: Telemetry states of a trial in contact (the display's ``State`` names).
 _ACTIVE_STATES = {"PLAYING", "RECORDING"}
 #: Recording fault codes that mean "nobody touched" (the attempt is aborted and re-run).
 _NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
-
-
-class TransitionError(RuntimeError):
-    """An illegal state change (a bug in the engine, never a user error)."""
-
-
-class SessionInterrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived; ``reason`` is the signal's name."""
-
-    def __init__(self, reason: str):
-        super().__init__(reason)
-        self.reason = reason
-
-
-class StateMachine:
-    """A finite-state machine over a transition table that reports every change.
-
-    Parameters
-    ----------
-    table : dict of str to set of str
-    initial : str
-    on_change : callable(old, new, **context)
-        Called after every change (the session logs a ``state`` event).
-    """
-
-    def __init__(self, table=TRANSITIONS, initial: str = "idle", on_change=None):
-        if initial not in table:
-            raise ValueError(f"state machine: initial: expected one of {sorted(table)}, got {initial!r}")
-        self.table = table
-        self.state = initial
-        self.on_change = on_change
-
-    def can(self, new: str) -> bool:
-        return new in self.table.get(self.state, ())
-
-    def go(self, new: str, **context) -> None:
-        """Change to ``new``; raises :class:`TransitionError` naming both states if illegal."""
-        if not self.can(new):
-            raise TransitionError(f"illegal session transition: {self.state!r} -> {new!r}")
-        old, self.state = self.state, new
-        if self.on_change is not None:
-            self.on_change(old, new, **context)
-
-
-class RealClock:
-    """Wall-clock waits (a lab session)."""
-
-    virtual = False
-
-    def sleep(self, seconds: float) -> None:
-        if seconds > 0:
-            time.sleep(seconds)
-
-
-class VirtualClock:
-    """Waits that return at once and only advance :attr:`now` (simulated sessions)."""
-
-    virtual = True
-
-    def __init__(self):
-        self.now = 0.0
-
-    def sleep(self, seconds: float) -> None:
-        self.now += max(0.0, float(seconds))
-
-
-def clock_for_url(url: str, clock: str = "auto"):
-    """The session clock: ``"real"``, ``"virtual"`` or ``"auto"`` (virtual iff the display URL
-    says ``clock=virtual``, the emulator's own virtual clock)."""
-    if clock == "virtual":
-        return VirtualClock()
-    if clock == "real":
-        return RealClock()
-    if clock != "auto":
-        raise UserInputError(f"--clock: expected 'auto', 'real' or 'virtual', got {clock!r}")
-    query = parse_qs(urlsplit(url).query) if "?" in url else {}
-    return VirtualClock() if query.get("clock", [""])[-1] == "virtual" else RealClock()
 
 
 def _now_iso() -> str:
@@ -364,15 +276,15 @@ class Session:
     def _run(self, responder, display, progress) -> int:
         resumed = progress.session is not None
         kind = "session_resumed" if resumed else "session_started"
+        if progress.finished:
+            self._say(f"session {self.directory} is already finished; nothing to do")
+            return 0
         try:
             self.log_event(kind, **self._context(), responder=responder.name,
                            display_url=self.display_url, clock="virtual" if self.clock.virtual else "real")
             for trial_index, attempt in progress.open_attempts:
                 self._abort_attempt(trial_index, attempt, reason="killed")
             self._write_trials()
-            if progress.finished:
-                self._say(f"session {self.directory} is already finished")
-                return 0
             todo = [s for s in self.schedule if progress.completed.get(s.trial_index) != "ok"]
             self._say(f"{self.participant_id}/{self.name}: {len(todo)} of {self.n_trials} trials to run"
                       + (" (resumed)" if resumed else ""))
@@ -380,7 +292,14 @@ class Session:
             responder.begin_session(self)
             try:
                 if display is None:
-                    with self._open_display() as disp:
+                    try:
+                        opened = self._open_display()
+                    except DisplayError as exc:
+                        self.log_event("display_error", step="open", message=str(exc))
+                        self._say(f"{exc}; nothing was run: resume with `thermocue resume "
+                                  f"{self.directory} --display URL`")
+                        return 1
+                    with opened as disp:
                         return self._guarded(disp, todo, progress)
                 return self._guarded(display, todo, progress)
             finally:
@@ -637,9 +556,9 @@ class Session:
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
         self._neutral(disp)
         self.machine.go("write", **ctx)
-        trace = self._attempt.trace
+        kept = self._keep_trace(spec.trial_index, attempt, "fault")
         row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
-                   trace_file=f"traces/{trace.name}" if trace.exists() else None)
+                   trace_file=None if kept is None else f"traces/{kept.name}")
         self._complete(spec, attempt, row)
         self._say(f"trial {spec.trial_index}: display fault {code}: {message}")
         return "fault"
@@ -656,13 +575,7 @@ class Session:
 
     def _abort_attempt(self, trial_index: int, attempt: int, reason: str, fault_code=None) -> None:
         """Log an attempt as aborted and keep its trace under an ``aborted`` name."""
-        trace = self.traces_dir / trace_name(trial_index)
-        kept = None
-        if trace.exists():
-            kept = self.traces_dir / aborted_trace_name(trial_index, attempt)
-            os.replace(trace, kept)
-            from experiments.logbook import fsync_dir
-            fsync_dir(self.traces_dir)
+        kept = self._keep_trace(trial_index, attempt, "aborted")
         with self._critical():
             self.log_event("trial_aborted", trial_index=trial_index, attempt=attempt, reason=reason,
                            fault_code=fault_code,
@@ -671,6 +584,22 @@ class Session:
                     and self._attempt.attempt == attempt:
                 self._attempt.logged_end = True
             self._write_trials()
+
+    def _keep_trace(self, trial_index: int, attempt: int, kind: str):
+        """Move an unfinished attempt's trace out of the way of the next attempt.
+
+        Returns the kept file (also when a kill came between this rename and the event that
+        records it), or None if the attempt never started its trace.
+        """
+        from experiments.logbook import fsync_dir
+        trace = self.traces_dir / trace_name(trial_index)
+        if trace.exists():
+            kept = self.traces_dir / aborted_trace_name(trial_index, attempt, kind)
+            os.replace(trace, kept)
+            fsync_dir(self.traces_dir)
+            return kept
+        earlier = sorted(self.traces_dir.glob(aborted_trace_name(trial_index, attempt, "*")))
+        return earlier[0] if earlier else None
 
     def _write_trials(self) -> None:
         from experiments.logbook import read_events, trials_from_events, write_trials_csv

@@ -39,9 +39,13 @@ def trace_name(trial_index: int) -> str:
     return f"trial-{int(trial_index):03d}.csv"
 
 
-def aborted_trace_name(trial_index: int, attempt: int) -> str:
-    """File name an aborted attempt's trace is kept under."""
-    return f"trial-{int(trial_index):03d}.attempt-{int(attempt)}.aborted.csv"
+def aborted_trace_name(trial_index: int, attempt: int, kind: str = "aborted") -> str:
+    """File name the trace of an attempt that did not complete is kept under.
+
+    ``kind`` is ``"aborted"`` or ``"fault"``; the trace of the trial's completed attempt keeps
+    :func:`trace_name`.
+    """
+    return f"trial-{int(trial_index):03d}.attempt-{int(attempt)}.{kind}.csv"
 
 
 def _fmt(value) -> str:

@@ -4,9 +4,14 @@ The paper's Remark 3: initial skin temperatures and contact resistances differ b
 people; "we can manage to measure them ... as soon as they are determined, the theoretical
 profiles are then gotten".  This package makes that a step of the product:
 
->>> from experiments.calibration import synthetic_traces, fit_traces     # doctest: +SKIP
->>> fit = fit_traces(synthetic_traces([6.5e-4, 1.6e-3], 800e-6))          # doctest: +SKIP
->>> fit.skin_thickness.value, fit.skin_thickness.low, fit.skin_thickness.high   # doctest: +SKIP
+>>> import numpy as np
+>>> from experiments.calibration import synthetic_traces, fit_traces
+>>> traces = synthetic_traces([6.5e-4, 1.6e-3], 800e-6, duration_s=10.0,
+...                           rng=np.random.default_rng(1))   # 0.02 °C noise, 1 mK steps
+>>> fit = fit_traces(traces)              # 3 mm steel, sensor on the sample surface
+>>> L = fit.skin_thickness
+>>> bool(L.low < 800e-6 < L.high), bool(abs(L.value / 800e-6 - 1) < 0.01)
+(True, True)
 
 Modules: ``model`` (exact forward model of the sensor reading, sensor placement),
 ``trace`` (a checked trace), ``fit`` (least squares + identifiability checks),

@@ -260,7 +260,7 @@ def sensor_response(t, resistance: float, skin_thickness: float, setup: ContactS
         Skin thickness L.
     setup : ContactSetup
     derivatives : bool
-        Also return ∂θ/∂R (W⁻¹ m² K)⁻¹ and ∂θ/∂L (m⁻¹).
+        Also return ∂θ/∂R, W/(m² K), and ∂θ/∂L, 1/m.
 
     Returns
     -------

@@ -136,16 +136,17 @@ def calibrated_profile_parameters(record, roughness_id: int | None, roughness_um
     roughness_id : int or None
         The protocol's sample id (matched against the ids stored with the calibration).
     roughness_um : float, µm, optional
-        The sample's R_a; preferred over the id when given (ids differ between protocols,
+        The sample's R_a; when given it alone decides (ids may differ between protocols,
         roughness values do not).
 
     Returns
     -------
     dict or None
-        ``{"resistance": m² K/W, "skin_thickness": m, "source": str, "date": str,
-        "sensor_side": str}`` plus ``"skin_temperature"`` (°C) when it was fitted; None when
-        the record has no calibration or none for this sample: the caller then keeps the
-        group mean and Eq. 5.
+        None when the record has no calibration: the caller keeps the group mean and Eq. 5.
+        Else ``{"resistance": m² K/W or None, "skin_thickness": m, "source": str, "date": str,
+        "sensor_side": str}`` (plus ``"skin_temperature"``, °C, when one shared T_S0 was
+        fitted).  ``resistance`` is None when this sample was not calibrated: use Eq. 5 for it
+        (``target_profile(..., resistance=None)``) but still the calibrated skin thickness.
 
     Examples
     --------
@@ -154,9 +155,11 @@ def calibrated_profile_parameters(record, roughness_id: int | None, roughness_um
     ...        "samples": [{"key": "12.5", "roughness_id": 2, "roughness_um": 12.5}]}}
     >>> calibrated_profile_parameters(rec, 2)["resistance"]
     0.00075
-    >>> calibrated_profile_parameters(rec, None, roughness_um=12.5)["skin_thickness"]
-    0.0008
-    >>> calibrated_profile_parameters(rec, 3) is None
+    >>> round(calibrated_profile_parameters(rec, None, roughness_um=12.5)["skin_thickness"] * 1e6, 6)
+    800.0
+    >>> calibrated_profile_parameters(rec, 3)["resistance"] is None     # not calibrated: Eq. 5
+    True
+    >>> calibrated_profile_parameters({"id": "P01"}, 2) is None
     True
     """
     cal = (record or {}).get("calibration")
@@ -167,16 +170,16 @@ def calibrated_profile_parameters(record, roughness_id: int | None, roughness_um
     if roughness_um is not None:
         k = _key(roughness_um)
         key = k if k in table else None
-    if key is None and roughness_id is not None:
+    elif roughness_id is not None:          # the roughness, when given, decides alone
         for s in cal.get("samples") or []:
             if s.get("roughness_id") is not None and int(s["roughness_id"]) == int(roughness_id):
                 key = s.get("key")
                 break
-    if key is None or key not in table or "skin_thickness_um" not in cal:
+    if cal.get("skin_thickness_um") is None:
         return None
-    R = float(table[key])
+    R = float(table[key]) if key in table else None
     L = float(cal["skin_thickness_um"]) * 1e-6
-    if not (math.isfinite(R) and R >= 0 and math.isfinite(L) and L > 0):
+    if not ((R is None or (math.isfinite(R) and R >= 0)) and math.isfinite(L) and L > 0):
         raise CalibrationError(f"participant record: calibration.contact_resistance_m2K_W.{key}: "
                                f"expected a finite R ≥ 0 and a skin thickness > 0, got {R!r}, {L!r}")
     out = {"resistance": R, "skin_thickness": L,

@@ -20,6 +20,10 @@ HELP_SENSOR = ("where the contact sensor sits: 'material' (massless, on the samp
                "between skin and sample)")
 
 
+#: Files ``write_report`` puts into ``--out``.
+REPORT_FILES = ("residuals.png", "resistances.csv", "skin.csv", "parameters.md", "fit.json")
+
+
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate", help="fit contact resistance per sample and skin thickness to a session's traces",
@@ -108,6 +112,14 @@ def run(ns) -> int:
     if st.participant and isinstance(st.participant.get("skin_thickness"), dict):
         total = st.participant["skin_thickness"].get("total_um")
         guess = float(total) * 1e-6 if total else None
+    if ns.bootstrap_samples < 20:
+        raise CalibrationError(f"--bootstrap-samples: expected an integer ≥ 20, got {ns.bootstrap_samples!r}")
+    if ns.write_participant:       # check before fitting: the record must be this session's participant
+        from participants_schema import load_participant
+        rec = load_participant(ns.write_participant)
+        if st.participant_id is not None and rec.get("id") != st.participant_id:
+            raise CalibrationError(f"{ns.write_participant}: id: expected the session's participant "
+                                   f"{st.participant_id!r}, got {rec.get('id')!r}")
     out = Path(ns.out)
     try:
         fit = fit_traces(st.traces, setup, fit_skin_temperature=ns.fit_skin_temperature,
@@ -115,15 +127,17 @@ def run(ns) -> int:
                          bootstrap_samples=ns.bootstrap_samples, seed=ns.seed)
     except CalibrationRefused as exc:
         out.mkdir(parents=True, exist_ok=True)
+        for name in REPORT_FILES:          # no stale report from an earlier run next to a refusal
+            (out / name).unlink(missing_ok=True)
         with open(out / "refusal.json", "w", encoding="utf-8") as fh:
             json.dump({"session": str(ns.session_dir), "setup": setup.describe(),
                        "reasons": list(exc.reasons), "diagnostics": exc.diagnostics}, fh, indent=2,
                       default=str)
             fh.write("\n")
         raise CalibrationRefused(f"{ns.session_dir}: {exc}", exc.reasons, exc.diagnostics) from None
-    summary = write_report(fit, out, extra={"session": str(ns.session_dir),
-                                            "participant": st.participant_id,
-                                            "skipped_trials": st.skipped})
+    (out / "refusal.json").unlink(missing_ok=True)
+    write_report(fit, out, extra={"session": str(ns.session_dir), "participant": st.participant_id,
+                                  "skipped_trials": st.skipped})
     L = fit.skin_thickness
     print(f"calibrate: {len(st.traces)} traces, {len(fit.resistances())} samples; "
           f"L = {L.value * 1e6:.0f} µm [{L.low * 1e6:.0f}, {L.high * 1e6:.0f}] ({fit.level:.0%}), "
@@ -137,5 +151,4 @@ def run(ns) -> int:
         cal = calibration_record(fit, session=str(ns.session_dir))
         write_participant_calibration(ns.write_participant, cal)
         print(f"  wrote calibration into {ns.write_participant}")
-    del summary
     return 0

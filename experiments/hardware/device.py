@@ -48,6 +48,8 @@ _IDLE, _ARMED, _PLAYING, _RECORDING, _FAULT = (State.IDLE, State.ARMED, State.PL
 _ACTIVE = (State.ARMED, State.PLAYING, State.RECORDING)
 _PLAYBACK, _RECORD = Mode.PLAYBACK, Mode.RECORD
 _TEL_HEAD = struct.Struct("<HBB")
+_TEL_PREFIX = [_TEL_HEAD.pack(m.TELEMETRY.size, q, m.Msg.TELEMETRY) for q in range(256)]
+_TEL_PACK = m.TELEMETRY.pack
 _CRC = struct.Struct("<H")
 END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
 
@@ -507,11 +509,17 @@ class Device:
             self.counter += 1
             self.tx_seq = seq = (self.tx_seq + 1) & 0xFF
             f = self.forces
-            c = m.centi
-            body = _TEL_HEAD.pack(m.TELEMETRY.size, seq, m.Msg.TELEMETRY) + m.TELEMETRY.pack(
-                self.counter, t_us, c(sp), c(self.contact_C), c(self.ambient_C),
-                c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]),
-                self.state, self.last_fault if self.state == _FAULT else 0)
+            fault = self.last_fault if self.state == _FAULT else 0
+            try:
+                body = _TEL_PREFIX[seq] + _TEL_PACK(
+                    self.counter, t_us, round(sp * 100), round(self.contact_C * 100),
+                    round(self.ambient_C * 100), round(self.finger_C * 100), round(f[0] * 100),
+                    round(f[1] * 100), round(f[2] * 100), round(f[3] * 100), self.state, fault)
+            except struct.error:                   # a reading beyond ±327.67: saturate
+                c = m.centi
+                body = _TEL_PREFIX[seq] + _TEL_PACK(
+                    self.counter, t_us, c(sp), c(self.contact_C), c(self.ambient_C),
+                    c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]), self.state, fault)
             self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
 
     def _sample_reading(self, t_us, touching) -> float:

@@ -229,6 +229,7 @@ class ThermalDisplay:
         self._hb_stop = threading.Event()
         self._link_error: Exception | None = None
         self.last_recording: TrialRecording | None = None
+        self.last_contact: ContactEvent | None = None
 
     # ------------------------------------------------------------------ clock & low level
     def _clock(self) -> float:
@@ -253,6 +254,10 @@ class ThermalDisplay:
     def _read_frames(self):
         try:
             port = self.port
+            if self._virtual:                    # the emulator returns what one wait produced
+                data = port.read(65536)
+                return self._parser.feed(data) if data else (
+                    self._parser.drop_candidate() if self._parser.buffered else [])
             n = port.in_waiting
             data = port.read(n if n > 0 else 1)
             if n <= 0 and data:
@@ -362,6 +367,13 @@ class ThermalDisplay:
         self._hb_thread = threading.Thread(target=self._heartbeat_loop, name="display-heartbeat",
                                            daemon=True)
         self._hb_thread.start()
+
+    def stop_heartbeat(self) -> None:
+        """Stop the background heartbeat (commands still feed the watchdog; a silent host trips it)."""
+        self._hb_stop.set()
+        if self._hb_thread is not None:
+            self._hb_thread.join(timeout=1.0)
+            self._hb_thread = None
 
     def _heartbeat_loop(self) -> None:
         while not self._hb_stop.wait(self.heartbeat_s / 2):
@@ -508,6 +520,8 @@ class ThermalDisplay:
             rec = self._finish(tr, host_fault)
         self._trial = None
         self.last_recording = rec
+        self.last_contact = (ContactEvent(rec.contact_time_s, tr.contact_force)
+                             if rec.contact_time_s is not None else None)
         return rec
 
     def _finish(self, tr: _Trial, host_fault) -> TrialRecording:
@@ -567,6 +581,17 @@ class ThermalDisplay:
         self._dev_time = max(self._dev_time, t)
         return t
 
+    def is_awake(self) -> bool:
+        """Whether the display answers (one heartbeat, one attempt); never raises.
+
+        PsychoPy's devices offer the same check (``isAwake``) before an experiment starts.
+        """
+        try:
+            m.TIME.unpack(self._transact(Cmd.HEARTBEAT, retries=0))
+            return True
+        except DisplayError:
+            return False
+
     def wait(self, seconds: float) -> None:
         """Let ``seconds`` pass (device time on a virtual clock) while keeping the link alive."""
         with self._lock:
@@ -612,10 +637,7 @@ class ThermalDisplay:
     # ------------------------------------------------------------------ lifetime
     def close(self) -> None:
         """Stop the heartbeat, put the display to neutral (best effort), close the port."""
-        self._hb_stop.set()
-        if self._hb_thread is not None:
-            self._hb_thread.join(timeout=1.0)
-            self._hb_thread = None
+        self.stop_heartbeat()
         if self.port.is_open:
             if self._link_error is None:
                 self._safe_abort()

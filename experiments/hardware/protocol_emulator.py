@@ -7,7 +7,8 @@ URL grammar::
     faults   fault injection, see experiments.hardware.faults (default: none)
     clock    real: the device ticks every 10 ms of wall time in its own thread (default);
              virtual: the device advances only while the host waits for bytes -- each read that
-             finds nothing to return steps it by 10 ms ticks until there is something or the
+             finds nothing to return steps it by 10 ms ticks until there is something (and,
+             during a trial, up to two ticks more while the read wants more bytes) or the
              read's timeout (counted in device time) is used up
     seed     seeds sensor noise and link faults (default 0)
     sim      offer the emulator-only "sim" commands (default 1)
@@ -257,6 +258,12 @@ class Serial(SerialBase):
                         self._tick()
                         if rx:
                             break
+                    # a reader asking for more gets up to 3 ticks' worth per call (30 ms of device
+                    # time: well inside the 80 ms watchdog, with a 25 ms heartbeat)
+                    extra = 0
+                    while rx and len(rx) < size and extra < 2 and self.device.state != 0:
+                        self._tick()
+                        extra += 1
                     if self._disconnected():
                         raise SerialException("emulator: device disconnected (injected fault)")
             elif not self._rx and timeout != 0:

@@ -103,6 +103,8 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
                     seen_queued = True
                 virtual_go = q == 0 and (seen_queued or now - last_write > 0.002)
             wait = 0.0 if virtual_go else max(0.0, nxt - now)
+            if clock == "virtual" and dev.state != 0:
+                wait = min(wait, 0.0002)          # poll the host's progress
             if connected:
                 r, _, _ = select.select([master], [], [], min(wait, 0.05) if not virtual_go else 0)
             else:
@@ -169,8 +171,18 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
 
 def main(argv=None) -> int:
     """``python -m experiments.hardware.pty_server [thermocue emulator options]``."""
-    from experiments.cli import main as cli_main
-    return cli_main(["emulator", *(sys.argv[1:] if argv is None else argv)])
+    import argparse
+
+    from experiments.cli import emulator
+    from experiments.errors import UserInputError
+    parser = argparse.ArgumentParser(prog="python -m experiments.hardware.pty_server")
+    emulator.register(parser.add_subparsers(dest="command", required=True))
+    ns = parser.parse_args(["emulator", *(sys.argv[1:] if argv is None else argv)])
+    try:
+        return ns.func(ns)
+    except UserInputError as exc:          # same contract as thermocue: one line, status 2
+        print(f"thermocue emulator: {exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -10,9 +10,11 @@ with no audio device it becomes a logged no-op.
 """
 from __future__ import annotations
 
+import os
 import sys
 import time
 
+from experiments.errors import SessionError
 from experiments.responders.base import RESPONSE_IDS, Responder, ResponderClosed, Response
 
 __all__ = ["PsychopyResponder", "WINDOW_TITLE"]
@@ -78,13 +80,19 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         super().begin_session(session)
         from psychopy import prefs
         prefs.hardware["audioLib"] = [self.audio_lib]
-        from psychopy import core, visual  # noqa: F401  (needs an X display)
+        from psychopy import core
         from psychopy.hardware import keyboard
 
         self._core = core
-        self.win = visual.Window(size=self.size, fullscr=self.fullscr, title=WINDOW_TITLE,
-                                 checkTiming=self.check_timing, units="height", color=(-0.6,) * 3,
-                                 allowGUI=not self.fullscr)
+        try:
+            from psychopy import visual  # needs an X display already at import
+            self.win = visual.Window(size=self.size, fullscr=self.fullscr, title=WINDOW_TITLE,
+                                     checkTiming=self.check_timing, units="height",
+                                     color=(-0.6,) * 3, allowGUI=not self.fullscr)
+        except Exception as exc:   # pyglet's NoSuchDisplayException, GL errors
+            raise SessionError(f"--responder psychopy: expected a display to open a window on "
+                               f"(DISPLAY={os.environ.get('DISPLAY')!r}), got "
+                               f"{type(exc).__name__}: {exc}") from None
         self._stim = visual.TextStim(self.win, text="", height=0.045, wrapWidth=1.2, pos=(0, 0.05))
         self._footer = visual.TextStim(self.win, text="", height=0.03, wrapWidth=1.3,
                                        pos=(0, -0.43), color=(0.3, 0.3, 0.3))
@@ -97,9 +105,9 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             print(f"thermocue: warning: {msg}", file=sys.stderr)
             if self.require_ptb:
                 self.end_session()
-                raise RuntimeError(msg)
+                raise SessionError(f"--responder psychopy: {msg}")
         self._make_sound()
-        self._draw()
+        self.show_text("thermocue\n\nThe session will start in a moment.")
 
     def end_session(self) -> None:
         if self.win is not None:
@@ -172,6 +180,19 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         except Exception as exc:
             self.log("cue_unavailable", reason=f"{type(exc).__name__}: {exc}")
             return False
+
+    def rewarm(self, seconds: float) -> None:
+        """A countdown in the window (escape still ends the session); none on a virtual clock."""
+        if seconds <= 0:
+            return
+        end = time.monotonic() + seconds
+        self.kb.clearEvents()
+        while (left := end - time.monotonic()) > 0:
+            self._main_text = f"Rewarm your finger on the hot-water bag\n\n{left:.0f} s"
+            self._draw()
+            if self.kb.getKeys(keyList=_QUIT_KEYS, waitRelease=False):
+                raise ResponderClosed("escape pressed in the PsychoPy window")
+            self._core.wait(min(0.25, left), hogCPUperiod=0)
 
     def respond(self, trial, stimulus) -> Response:
         choices = [str(i) for i in RESPONSE_IDS]

@@ -111,6 +111,22 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         if self.seed is None:
             self.seed = _stable_seed(f"{record.get('id', 'anonymous')}:{getattr(session, 'seed', '')}")
         self.log("simulated_participant", seed=self.seed, **self.person.describe())
+        self._relearn_opening_familiarisation(getattr(session, "schedule", ()) or ())
+
+    def _relearn_opening_familiarisation(self, schedule) -> None:
+        """Learn the real-sample familiarisation trials that open the schedule.
+
+        Their percepts depend only on the physics and ``(seed, trial_index)``, so learning them
+        here gives the same templates as learning them one by one, and a resumed session (whose
+        responder is new) gets its templates back.
+        """
+        from experiments.responders.base import TrialStimulus
+        for trial in schedule:
+            if not _is_familiarisation(trial):
+                break
+            if trial.mode != "simulated":
+                self._learn(trial, TrialStimulus(mode="real", roughness_id=trial.roughness_id,
+                                                 roughness_um=trial.roughness_um))
 
     def make_person(self, record: dict | None = None) -> SimulatedPerson:
         """The :class:`SimulatedPerson` for a participant record and this responder's options."""

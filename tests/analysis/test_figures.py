@@ -23,7 +23,7 @@ def test_figure9_written_and_non_empty(tmp_path, tables):
     path = plot_figure9(props, tmp_path / "figure9.png")
     assert path.stat().st_size > 20_000
     image = mpimg.imread(path)
-    assert image.shape[0] >= 600 and image.shape[1] >= 900      # 6.4 x 4.8 in at 150 dpi
+    assert image.shape[0] >= 750 and image.shape[1] >= 900      # 6.4 x 5.4 in at 150 dpi
     # coloured series drawn (red and blue pixels), not a blank canvas
     rgb = image[..., :3]
     red = (rgb[..., 0] > 0.7) & (rgb[..., 1] < 0.3) & (rgb[..., 2] < 0.3)

@@ -228,3 +228,18 @@ def test_aborted_attempt_in_the_event_log(study):
     assert list(t["status"]) == ["aborted", "ok"]
     assert list(t["exclusion"]) == ["status aborted", ""]
     assert t["fault_code"].iloc[0] == "E_KILL" and t["mode"].iloc[0] == t["mode"].iloc[1]
+
+
+def test_session_without_trials_is_skipped_with_a_warning(study):
+    data, _ = study(n_per_group=1, seed=15)
+    empty = data / "C99" / "S1"
+    empty.mkdir(parents=True)
+    (empty / "events.jsonl").write_text('{"event": "session_started", "participant": "C99"}\n')
+    with pytest.warns(LogWarning, match=rf"{empty}: no trial rows"):
+        log = load_trials(data)
+    assert "C99" not in set(log.trials["participant"]) and len(log.sessions) == 2
+    only = data / "only"
+    only.mkdir()
+    (empty.parent).rename(only / "C99")
+    with pytest.warns(LogWarning), pytest.raises(LogError, match="expected at least one session"):
+        load_trials(only)

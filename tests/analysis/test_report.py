@@ -14,7 +14,7 @@ def test_analyze_writes_every_table_figure_and_report(study, tmp_path):
     result = analyze(data, out, n_boot=300, progress=steps.append)
     names = {"figure9.png", "confusion.png", "proportions.csv", "participants.csv", "confusion.csv",
              "gee.csv", "bayes.csv", "contrasts.csv", "exclusions.csv", "sessions.csv",
-             "trials.csv", "report.md"}
+             "all_trials.csv", "report.md"}
     assert names <= {p.name for p in out.iterdir()}
     assert all(p.stat().st_size > 0 for p in out.iterdir())
     assert len(steps) >= 4

@@ -1,74 +1,15 @@
-"""`thermocue calibrate` on session directories built like the session engine writes them.
-
-The traces are the exact model + the stated noise (0.02 °C white, 1 mK quantisation) at
-20 Hz, with 1 s before the touch (forces 0, the sensor on the sample reads the sample).
-"""
+"""`thermocue calibrate` on session directories (hand-built, and one from the real engine)."""
 import csv
 import json
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from experiments.calibration import ContactSetup, Sensor, sensor_temperature
+from _calibration_helpers import EXAMPLE, make_session
 from experiments.cli import main
-from experiments.protocol import load_protocol
 from participants_schema import load_participant
 from stimuli import Skin, contact_resistance, material
-
-EXAMPLE = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
-T_S0, T_M0, L_TRUE = 35.0, 24.0, 700e-6
-# DESIGN.md's session-directory columns (traces/trial-NNN.csv and the trials table)
-TRACE_COLUMNS = ["time_s", "target_C", "contact_C", "ambient_C", "finger_C",
-                 "force1_N", "force2_N", "force3_N", "force4_N", "state"]
-TRIAL_COLUMNS = ["participant", "group", "session", "block", "trial_index", "mode", "roughness_id",
-                 "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
-                 "tracking_rms_C"]
-
-
-def make_session(root: Path, *, duration_s=25.0, samples=(1, 2, 3, 4), rate=20.0, flat=False,
-                 drop_column=None, half_space=False, skin_thickness=L_TRUE, seed=0):
-    protocol = load_protocol("interface_temperature")
-    record = json.loads(EXAMPLE.read_text())
-    sdir = root / "P01" / "S1"
-    (sdir / "traces").mkdir(parents=True)
-    (sdir / "session.json").write_text(json.dumps({
-        "format": "thermocue-session/1", "participant_id": "P01", "participant": record,
-        "protocol_name": protocol.name, "protocol_hash": protocol.hash, "protocol": protocol.data}))
-    rng = np.random.default_rng(seed)
-    steel = material("stainless_steel", thickness=None if half_space else 3e-3)
-    setup = ContactSetup(steel, Sensor("material"))
-    rows = []
-    for i, sid in enumerate(samples, start=1):
-        ra = protocol.sample(sid).roughness_um
-        R = float(contact_resistance(ra * 1e-6))
-        t = np.arange(0, int(round((duration_s + 1.0) * rate))) / rate
-        touching = t >= 1.0
-        y = sensor_temperature(t - 1.0, R, skin_thickness, T_S0, T_M0, setup)
-        if flat:
-            y = np.full_like(t, T_M0)
-        y = np.round((y + 0.02 * rng.standard_normal(t.size)) * 1000) / 1000
-        name = f"trial-{i:03d}.csv"
-        with open(sdir / "traces" / name, "w", newline="") as fh:
-            w = csv.writer(fh)
-            cols = [c for c in TRACE_COLUMNS if c != drop_column]
-            w.writerow(cols)
-            for k in range(t.size):
-                f = 0.625 if touching[k] else 0.0
-                vals = {"time_s": t[k], "target_C": "", "contact_C": y[k], "ambient_C": 24.0,
-                        "finger_C": T_S0, "force1_N": f, "force2_N": f, "force3_N": f, "force4_N": f,
-                        "state": "record" if touching[k] else "armed"}
-                w.writerow([vals[c] for c in cols])
-        rows.append({"participant": "P01", "session": "S1", "block": "contact", "trial_index": i,
-                     "mode": "real", "roughness_id": sid, "roughness_um": ra, "repetition": 1,
-                     "status": "ok"})   # the trace is found as traces/trial-NNN.csv
-    with open(sdir / "trials.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, TRIAL_COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow(r)
-    return sdir
 
 
 def test_calibrate_end_to_end_and_write_back(tmp_path, capsys):
@@ -179,3 +120,44 @@ def test_calibrate_an_emulated_exp1_session(tmp_path, capsys):
         assert abs(s["resistance_m2K_W"] / truth - 1) < 0.02
     rec = load_participant(pfile)
     assert abs(rec["calibration"]["skin_thickness_um"] - 680.0) < 5.0
+
+
+def test_bootstrap_intervals_and_help(tmp_path, capsys):
+    sdir = make_session(tmp_path / "DATA", samples=(1, 4), duration_s=6.0)
+    out = tmp_path / "o"
+    assert main(["calibrate", str(sdir), "--out", str(out), "--interval", "bootstrap",
+                 "--bootstrap-samples", "40", "--fit-skin-temperature", "none", "--seed", "3"]) == 0, \
+        capsys.readouterr().err
+    summary = json.loads((out / "fit.json").read_text())
+    assert summary["interval_method"] == "bootstrap"
+    L = summary["skin_thickness_m"]
+    assert L["low"] < L["value"] < L["high"]
+    with pytest.raises(SystemExit):
+        main(["calibrate", "--help"])
+    text = capsys.readouterr().out
+    for option in ("--sensor-side", "--sample-thickness-um", "--write-participant", "--out",
+                   "--fit-skin-temperature", "--interval"):
+        assert option in text
+
+
+def test_write_participant_refuses_another_participants_record(tmp_path, capsys):
+    sdir = make_session(tmp_path / "DATA", samples=(1,), duration_s=5.0)
+    other = tmp_path / "P02.json"
+    shutil.copy(EXAMPLE.with_name("P02.json"), other)
+    before = other.read_bytes()
+    assert main(["calibrate", str(sdir), "--out", str(tmp_path / "o"), "--write-participant", str(other)]) == 2
+    assert "P02.json: id: expected the session's participant 'P01'" in capsys.readouterr().err
+    assert other.read_bytes() == before
+
+
+def test_non_physical_trace_exit_2(tmp_path, capsys):
+    sdir = make_session(tmp_path / "DATA", samples=(1, 2), duration_s=5.0)
+    path = sdir / "traces" / "trial-002.csv"
+    lines = path.read_text().splitlines()
+    cells = lines[60].split(",")
+    cells[2] = "48.5"                     # contact_C hotter than the 35 °C skin, 2 s after the touch
+    lines[60] = ",".join(cells)
+    path.write_text("\n".join(lines) + "\n")
+    assert main(["calibrate", str(sdir), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "trial-002.csv: contact_C" in err and "non-physical" in err and "48.5" in err

@@ -59,6 +59,7 @@ def test_bootstrap_intervals_cover_the_truth():
     _check_recovered(fit, R_TRUE[:2], L_TRUE, rtol=0.05)
 
 
+@pytest.mark.slow
 def test_profile_intervals_have_near_nominal_coverage():
     # 50 independent data sets (2 samples, 10 s at 10 Hz).  For 95 % intervals the number
     # covering the truth is Binomial(50, 0.95): P(X <= 41) = 0.012, so >= 42 is demanded;
@@ -114,3 +115,33 @@ def test_refuses_unidentifiable_skin_temperature():
     with pytest.raises(CalibrationRefused) as err:
         fit_traces(traces, setup, fit_skin_temperature=True)
     assert any(r.startswith("L ") or " of L " in r for r in err.value.reasons), err.value.reasons
+
+
+def test_per_trace_skin_temperatures_are_recovered():
+    # every touch starts from its own skin temperature; the traces are told 35.0 (a surface
+    # reading), the truth differs by up to ±0.2 K: fitting one T_S0 per trace recovers them
+    rng = np.random.default_rng(99)
+    true_ts0 = [35.2, 34.8, 35.1, 34.9]
+    traces = []
+    for k, (R, ts0) in enumerate(zip(R_TRUE, true_ts0)):
+        tr = synthetic_traces([R], L_TRUE, skin_temperature=ts0, duration_s=15.0, rng=rng)[0]
+        traces.append(type(tr)(tr.time_s, tr.temperature_C, 35.0, tr.material_temperature_C,
+                               str(k + 1), RA_UM[k], tr.source, k + 1))
+    fit = fit_traces(traces, fit_skin_temperature="per-trace")
+    _check_recovered(fit, R_TRUE, L_TRUE, rtol=0.05)
+    for i, ts0 in enumerate(true_ts0):
+        T = fit.parameter(f"T_S0[{i + 1}]")
+        half = (T.high - T.low) / 2                       # Wald interval (nuisance parameter)
+        assert abs(T.value - ts0) <= 2 * half and half < 0.5, (T, ts0)   # informative: < ±0.5 K
+    assert fit.parameter("T_S0[1]").kind == "skin_temperature"
+
+
+def test_refuses_rank_deficient_jacobian():
+    # 2 s on a half-space with a 3 mm skin: the heat front (sqrt(alpha t) ~ 0.4 mm) never
+    # reaches the inner boundary, so the readings do not depend on L at all
+    setup = ContactSetup(material("stainless_steel"), Sensor("material"))
+    traces = synthetic_traces([1e-3, 2e-3], 3e-3, setup=setup, duration_s=2.0,
+                              rng=np.random.default_rng(1))
+    with pytest.raises(CalibrationRefused, match="the Jacobian has rank 2 < 3") as err:
+        fit_traces(traces, setup)
+    assert err.value.diagnostics["jacobian_rank"] == 2

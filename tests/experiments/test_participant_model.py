@@ -195,3 +195,37 @@ def test_thin_skin_recognises_real_samples_better_with_additive_noise():
                                       params=params)
     mean = df.groupby("group")["p_correct"].mean()
     assert mean["A"] > mean["B"] + 0.02, df
+
+
+def test_material_side_targets_feel_colder_than_the_real_samples_and_reverse_their_order():
+    # The contract's display target is the *material* side of the interface (Eq. 7's quantity).
+    # Imposed on the skin it skips the contact resistance's temperature step, so it must feel
+    # colder than touching the real sample, and more so the rougher the sample (a larger R
+    # keeps the steel's surface nearer 20 °C). This is the physics behind the simulated half
+    # of the Figure 9 study; see the report.
+    from stimuli import Skin, target_profile
+    p = person(650.0)
+    real, sim = [], []
+    for ra in STEEL_RA_M:
+        real.append(p.features(*p.feel_real(ra)))
+        prof = target_profile(roughness=ra, skin=Skin(650e-6), skin_temperature=35.5,
+                              material_temperature=20.0, duration=p.params.duration_s,
+                              rate=100.0, sample_thickness=3e-3)
+        sim.append(p.features(*p.feel_imposed(prof.times, prof.temperature)))
+    real, sim = np.array(real), np.array(sim)
+    assert np.all(sim[:, :3] > real[:, :3])              # every drop larger on the display
+    assert np.all(np.diff(real[:, 1]) < 0)                # real: rougher feels warmer
+    assert np.all(np.diff(sim[:, 1]) > 0)                 # display: rougher feels colder
+
+
+def test_skin_side_targets_would_make_simulated_like_real():
+    groups = {"A": (650.0, 650.0)}
+    # Persons exactly like the target's skin (650 µm, 35.5 °C): the skin side of the contact,
+    # imposed on the skin, is the real contact again, so both modes must score alike.
+    kw = dict(groups=groups, target_thickness_um={"A": 650.0}, skin_temperature_C=(35.5, 35.5),
+              n_people=3, n_reps=1500, seed=4)
+    df = predicted_cell_probabilities(target_side="skin", **kw).set_index(["mode", "roughness_id"])
+    diff = (df.loc["simulated", "p_correct"] - df.loc["real", "p_correct"]).abs()
+    assert diff.max() < 0.08, df
+    with pytest.raises(ValueError, match="target_side"):
+        predicted_cell_probabilities(target_side="air", **kw)

@@ -13,14 +13,7 @@ import pytest
 
 from _session_helpers import P01, ScriptedDisplay, ScriptedResponder, read_json_lines, write_protocol
 from experiments.cli import main
-from experiments.session import (
-    TRANSITIONS,
-    SessionInterrupted,
-    StateMachine,
-    TransitionError,
-    create_session,
-    open_session,
-)
+from experiments.session import SessionInterrupted, create_session, open_session
 
 
 def rows(path):
@@ -33,30 +26,6 @@ def new_session(tmp_path, **protocol):
     proto = write_protocol(tmp_path, **protocol)
     return create_session(proto, P01, tmp_path / "data", "scripted://", seed=7,
                           responder_name="scripted-test", clock="virtual")
-
-
-# --------------------------------------------------------------------------- state machine
-def test_illegal_transition_names_both_states():
-    seen = []
-    sm = StateMachine(on_change=lambda old, new, **ctx: seen.append((old, new, ctx)))
-    sm.go("prompt", trial_index=1)
-    with pytest.raises(TransitionError, match=r"'prompt' -> 'respond'"):
-        sm.go("respond")
-    assert sm.state == "prompt" and seen == [("idle", "prompt", {"trial_index": 1})]
-
-
-def test_transition_table_is_closed_and_reaches_the_end_states():
-    for src, targets in TRANSITIONS.items():
-        assert targets <= set(TRANSITIONS), src
-    # The trial cycle of the docstring is legal, for both trial kinds.
-    for active in ("playback", "record"):
-        sm = StateMachine()
-        for s in ("prompt", "prepare", "cue", "wait_contact", active, "respond", "write",
-                  "rewarm", "idle", "finished"):
-            sm.go(s)
-    # Every non-final state can be interrupted.
-    assert all("interrupted" in t for s, t in TRANSITIONS.items()
-               if s not in ("finished", "stopped", "interrupted"))
 
 
 # --------------------------------------------------------------------------- whole sessions
@@ -100,6 +69,13 @@ def test_a_display_fault_is_written_and_the_trial_run_again(tmp_path):
         ("3", "1", "ok"), ("4", "1", "ok")]
     assert table[1]["fault_code"] == "DisplayError" and table[2]["fault_code"] == "OVER_TEMPERATURE"
     assert table[1]["response_id"] == "" and table[3]["response_id"] != ""
+    # Each attempt keeps its own trace; the completed one has the plain name.
+    assert [r["trace_file"] for r in table[1:4]] == [
+        "traces/trial-002.attempt-1.fault.csv", "traces/trial-002.attempt-2.fault.csv",
+        "traces/trial-002.csv"]
+    traces = s.directory / "traces"
+    assert len((traces / "trial-002.attempt-1.fault.csv").read_text().splitlines()) == 1  # no frame
+    assert len((traces / "trial-002.attempt-2.fault.csv").read_text().splitlines()) == 11
     # neutral after each fault: abort then set_neutral right after the failing run_trial
     i = disp.calls.index(("run_trial", "raise"))
     assert disp.calls[i + 1:i + 3] == [("abort",), ("set_neutral", 32.0)]

@@ -121,6 +121,14 @@ def _check(session, schedule, done_before: dict) -> dict:
     return done
 
 
+def _session_starts(session) -> int:
+    try:
+        text = (session / "events.jsonl").read_text(errors="replace")
+    except FileNotFoundError:
+        return 0
+    return text.count('"event":"session_started"') + text.count('"event":"session_resumed"')
+
+
 def _rebuilt_equals_csv(session) -> None:
     events, _ = read_events(session / "events.jsonl", warn=False)
     rebuilt = trials_from_events(events)
@@ -197,8 +205,13 @@ def test_kill_at_random_moments_then_resume(tmp_path, protocol):
     done: dict = {}
     schedule = None
     landed = []
-    for delay in rng.uniform(1.0, 2.6, size=4):
+    for delay in rng.uniform(0.05, 1.5, size=4):
+        runs = _session_starts(session)
         proc = _spawn(resume if (session / "session.json").exists() else run)
+        deadline = time.monotonic() + 40      # Python's start-up varies with the machine's load:
+        while _session_starts(session) == runs and proc.poll() is None \
+                and time.monotonic() < deadline:   # count from the run's first event
+            time.sleep(0.01)
         time.sleep(delay)          # wherever it is: an fsync, a frame, a rewrite of trials.csv
         if proc.poll() is not None:
             break
@@ -215,3 +228,36 @@ def test_kill_at_random_moments_then_resume(tmp_path, protocol):
     done = _check(session, schedule, done)
     assert sorted(int(k) for k in done) == list(range(1, 9))
     _rebuilt_equals_csv(session)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_sigterm_and_sigint_put_the_display_neutral_and_close_the_log(tmp_path, protocol, sig):
+    data = tmp_path / "data"
+    session = data / "P01" / "S01"
+    device_log = tmp_path / "device.jsonl"
+    url = f"emulator://?clock=virtual&seed=3&log={device_log}"
+    proc = _spawn(["run", str(protocol), "--participant", str(P01), "--display", url, "--responder",
+                   "console", "--data", str(data), "--seed", "13", "--session", "S01", "--quiet"],
+                  pause="playback:6")          # a simulated trial, the profile playing
+    _wait_paused(proc)
+    os.kill(proc.pid, sig)
+    _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 1 and b"Traceback" not in err
+    events, report = read_events(session / "events.jsonl", warn=False)
+    assert report.ok and events[-1]["event"] == "session_interrupted"
+    assert events[-1]["reason"] == signal.Signals(sig).name
+    aborted = [e for e in events if e["event"] == "trial_aborted"]
+    assert [(e["trial_index"], e["attempt"], e["reason"]) for e in aborted] == [(6, 1, "interrupted")]
+    # The device was playing, then told to stop and hold neutral: its own log says so.
+    device = [json.loads(line) for line in device_log.read_text().splitlines()]
+    playing = max(i for i, d in enumerate(device) if d.get("state") == "PLAYING")
+    after = device[playing + 1:]
+    assert after and after[0] == {**after[0], "event": "state", "old": "PLAYING", "state": "IDLE",
+                                  "why": "abort"}
+    assert any(d["event"] == "neutral" and d["neutral_C"] == 32.0 for d in after)
+    # And the interrupted session resumes at trial 6, attempt 2.
+    _finish(_spawn(["resume", str(session), "--quiet"]))
+    rows = _rows(session)
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in rows if r["trial_index"] == "6"] \
+        == [("6", "1", "aborted"), ("6", "2", "ok")]
+    assert len(_completed(rows)) == 8

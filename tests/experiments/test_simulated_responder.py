@@ -127,3 +127,48 @@ def test_faulted_trial_is_answered_with_a_guess_not_an_error():
     resp = r.respond(spec(3, "simulated", "simulated", 1),
                      TrialStimulus("simulated", 1, 1.6, status="fault"))
     assert resp.response_id in (1, 2, 3, 4)
+
+
+def test_thermocue_run_with_the_simulated_responder(tmp_path):
+    import csv
+    from pathlib import Path
+
+    from experiments.cli import main
+    from experiments.cohort import write_cohort
+
+    participant = write_cohort(tmp_path / "people", seed=1)[0]
+    status = main(["run", "roughness_recognition", "--participant", str(participant),
+                   "--display", "emulator://?clock=virtual&seed=2", "--responder", "simulated",
+                   "--data", str(tmp_path / "data"), "--seed", "5", "--quiet",
+                   "--responder-option", "lapse_rate=0.1"])
+    assert status == 0
+    (trials,) = Path(tmp_path / "data").glob("*/*/trials.csv")
+    rows = list(csv.DictReader(trials.open()))
+    scored = [r for r in rows if r["block"] != "familiarise"]
+    assert len(scored) == 24 and all(r["status"] == "ok" for r in rows)
+    assert {r["response_source"] for r in scored} == {"simulated"}
+    assert all(r["response_id"] in {"1", "2", "3", "4"} for r in scored)
+
+
+def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule():
+    # A resumed session gets a fresh responder: its templates must come back identical.
+    class FakeSession:
+        participant = {"id": "P9", "skin_thickness": {"total_um": 700.0, "method": "assumed"}}
+        seed = 12
+        schedule = [spec(i, "familiarise", "real", i) for i in (1, 2, 3, 4)] + \
+                   [spec(5, "real", "real", 2), spec(6, "familiarise", "real", 1)]
+
+        def log_event(self, kind, **fields):
+            pass
+
+    live = SimulatedResponder()
+    live.begin_session(FakeSession())
+    one_by_one = SimulatedResponder(seed=live.seed, skin_thickness_um=700.0)
+    d = FakeDisplay()
+    for trial in FakeSession.schedule[:4]:
+        one_by_one.touch(trial, d)
+    assert sorted(live.person.templates["real"]) == [1, 2, 3, 4]
+    for rid in (1, 2, 3, 4):
+        total, count = live.person.templates["real"][rid]
+        np.testing.assert_array_equal(total, one_by_one.person.templates["real"][rid][0])
+        assert count == 1          # trial 6 comes after a scored trial: not learned ahead

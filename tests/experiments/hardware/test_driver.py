@@ -22,6 +22,7 @@ def test_handshake(display):
     assert "playback" in info.capabilities
     st = display.status()
     assert st.state == "IDLE" and st.neutral_C == 32.0
+    assert display.is_awake()
 
 
 def test_playback_trial_end_to_end(sim_display):
@@ -34,7 +35,8 @@ def test_playback_trial_end_to_end(sim_display):
     assert rec.status == "ok" and rec.end_reason == "complete" and rec.fault_code is None
     assert isinstance(frames[0], Telemetry) and rec.frames == len(frames) and rec.frames_lost == 0
     assert [e.kind for e in events][:2] == ["READY", "CONTACT"]
-    assert rec.contact_time_s == events[1].device_time_s
+    assert rec.contact_time_s == events[1].device_time_s == d.last_contact.device_time_s
+    assert d.last_contact.force_N >= 2.0
     playing = [f for f in frames if f.state == "PLAYING"]
     assert len(playing) == pytest.approx(300, abs=2)                     # 100 Hz for 3 s
     assert sum(playing[0].forces_N) >= 2.0
@@ -90,6 +92,15 @@ def test_refusal_is_typed(sim_display):
     assert e.value.code == 4 and "BAD_STATE" in str(e.value)
     sim_display.abort()
     assert sim_display.status().state == "IDLE"
+
+
+def test_a_stalled_device_is_not_awake():
+    with open_display("emulator://?clock=virtual") as d:
+        assert d.is_awake()
+        d.sim_fault("stall")
+        assert not d.is_awake()
+        with pytest.raises(DisplayError, match="expected a reply"):
+            d.status()
 
 
 def test_sim_commands_need_an_emulator():

@@ -41,6 +41,7 @@ def read_log(log):
     return [json.loads(line) for line in log.read_text().splitlines()]
 
 
+@pytest.mark.slow
 def test_trial_over_a_real_pty(tmp_path):
     proc, path, log = start_emulator(tmp_path, "--link", str(tmp_path / "display"))
     try:
@@ -87,6 +88,7 @@ HOST = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_watchdog_brings_the_pad_to_neutral_when_the_host_is_killed(tmp_path):
     proc, path, log = start_emulator(tmp_path)
     host = subprocess.Popen([sys.executable, "-c", HOST, path], stdout=subprocess.PIPE,
@@ -111,3 +113,22 @@ def test_watchdog_brings_the_pad_to_neutral_when_the_host_is_killed(tmp_path):
     assert trip["since_last_rx_ms"] <= 100
     idle = next(r for r in recs if r["event"] == "state" and r["why"] == "watchdog")
     assert idle["t_s"] == trip["t_s"] and idle["old"] == "PLAYING"
+
+
+@pytest.mark.slow
+def test_virtual_clock_on_a_pty_runs_faster_than_wall_time(tmp_path):
+    proc, path, log = start_emulator(tmp_path, "--clock", "virtual")
+    try:
+        t = np.arange(0, 5.0001, 0.01)
+        with open_display(path) as d:
+            d.upload_profile(t, np.round(30.0 - 0.2 * t, 2))
+            d.arm("playback", max_duration_s=10.0)
+            d.sim_finger(press_after_s=0.1, hold_s=10.0)
+            t0 = time.monotonic()
+            rec = d.run_trial(timeout_s=30.0)
+            wall = time.monotonic() - t0
+        assert rec.status == "ok" and rec.end_reason == "complete" and rec.frames_lost == 0
+        assert rec.duration_s == pytest.approx(5.0, abs=0.02)
+        assert wall < 4.0                      # 5 s of device time, in less wall time
+    finally:
+        stop(proc)
