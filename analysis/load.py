@@ -453,11 +453,16 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
     messages = [] if messages is None else messages
     csv_path, events_path = folder / "trials.csv", folder / "events.jsonl"
     table = events = None
-    if csv_path.exists():
-        table = read_trials_csv(csv_path, messages)
     ev_ctx: dict = {}
     if events_path.exists():
         events, ev_ctx = read_trial_events(events_path, messages)
+    if csv_path.exists():
+        try:
+            table = read_trials_csv(csv_path, messages)
+        except LogError as exc:             # e.g. an empty file left by a crash
+            if events is None or events.empty:
+                raise
+            _warn(messages, f"{exc}; using {events_path.name} instead")
     # session.json first, then the event log, then the folder names
     ctx = {"participant": folder.parent.name, "session": folder.name, **ev_ctx,
            **_session_context(folder, messages)}
@@ -467,7 +472,8 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
             _warn(messages, f"{folder}: no trial rows (no trials.csv, no finished trial in "
                             f"events.jsonl); session skipped")
             return pd.DataFrame(), ""
-        _warn(messages, f"{csv_path}: missing; rebuilt {len(events)} rows from {events_path}")
+        if not csv_path.exists():
+            _warn(messages, f"{csv_path}: missing; rebuilt {len(events)} rows from {events_path}")
         use_events = True
     elif events is not None and not events.empty and "trial_index" in table.columns:
         def keys(df):

@@ -178,6 +178,7 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
                              f"{', '.join(cells)}; trying a simpler formula")
                 continue
         y, x = _design(candidate, data)
+        why = None
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
@@ -186,6 +187,8 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
                 res = model.fit(cov_type="bias_reduced", maxiter=100)
             except (np.linalg.LinAlgError, ValueError, ZeroDivisionError) as exc:
                 res, why = None, f"failed ({exc})"
+        if res is None and why is None:        # statsmodels returns None when it gives up
+            why = "failed (" + "; ".join(str(w.message) for w in caught) + ")"
         if res is not None:
             trouble = [str(w.message) for w in caught
                        if "converge" in str(w.message).lower() or "singular" in str(w.message).lower()

@@ -423,7 +423,9 @@ class Session:
                 self.log_event("profile_uploaded", **ctx, content_hash=profile.content_hash,
                                n_points=len(profile.times), method=profile.method,
                                error_bound_C=profile.error_bound,
-                               skin_thickness_um=row["profile_skin_thickness_um"])
+                               skin_thickness_um=row["profile_skin_thickness_um"],
+                               skin_thickness_source=profile.parameters["skin_thickness_source"],
+                               parameters=profile.parameters)
                 disp.arm(mode="playback", force_threshold_N=self.protocol.contact.force_threshold_N,
                          max_duration_s=self.protocol.contact.max_contact_s)
             self.log_event("armed", **ctx, mode="record" if real else "playback")
@@ -753,10 +755,7 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     if not hasattr(protocol, "hash"):
         protocol = load_protocol(protocol)
     participant = load_participant(participant_path)
-    if protocol.grouping is None:
-        raise SessionError(f"{protocol.path or protocol.name}: grouping: expected a [grouping] table "
-                           f"to run a session, got nothing")
-    assignment = assign_group(participant, protocol.grouping)
+    assignment = assign_group(participant, protocol.grouping)   # None: the paper's 800 µm rule
     if seed is None:
         seed = secrets.randbelow(2**31)
     schedule = build_schedule(protocol, str(participant["id"]), seed)

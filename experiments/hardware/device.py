@@ -351,6 +351,9 @@ class Device:
         self.faults += shifted
         for listener in self.fault_listeners:
             listener(shifted)
+        if not self.stalled and self._fault_active("stall"):
+            self.stalled = True                    # hangs right after this reply
+            self.log("stall")
         self.log("fault_injected", spec=a["spec"])
         return dict(now_s=now, faults=len(specs))
 

@@ -29,7 +29,7 @@ from experiments.errors import (DisplayError, DisplayRefused, DisplayTimeout, Sa
 
 from . import messages as m
 from .framing import FrameParser, encode_frame
-from .messages import (Cmd, CommitAck, DeviceEvent, DeviceInfo, Err, Mode, Msg, State, Status,
+from .messages import (Cmd, CommitAck, DeviceEvent, DeviceInfo, Mode, Msg, Status,
                        Telemetry, UploadAck)
 from .safety import SafetyLimits, check_profile
 

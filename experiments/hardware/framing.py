@@ -129,7 +129,7 @@ class FrameParser:
             start = buf.find(SOF, pos)
             if start < 0:
                 # keep a trailing 0xA5 that may begin the next marker
-                keep = 1 if n and buf[-1] == 0xA5 else 0
+                keep = 1 if n > pos and buf[-1] == 0xA5 else 0
                 self.bytes_skipped += n - pos - keep
                 del buf[:n - keep]
                 return out

@@ -192,8 +192,7 @@ class Serial(SerialBase):
 
     def _tick(self) -> None:
         """Advance the device one tick and move its output to the host side (lock held)."""
-        dev, link = self.device, self.link
-        dev.step()
+        self.device.step()
         self._pump()
 
     def _pump(self) -> None:

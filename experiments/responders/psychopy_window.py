@@ -123,7 +123,9 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             self.log("audio", backend=getattr(sound, "audioLib", self.audio_lib), ok=True)
         except Exception as exc:  # any audio failure means "no cue", never "no session"
             self._sound = None
-            self.log("cue_unavailable", reason=f"{type(exc).__name__}: {exc}")
+            reason = f"no audio output via {self.audio_lib} ({type(exc).__name__}: {exc})"
+            self.log("cue_unavailable", reason=reason)
+            print(f"thermocue: warning: {reason}; the sound cue is off", file=sys.stderr)
 
     # -- drawing and keys -------------------------------------------------------------------
     def _draw(self) -> None:

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from experiments.errors import UserInputError
-from experiments.participant_model import PerceptionParameters, SimulatedPerson
+from experiments.participant_model import PerceptionParameters, SimulatedPerson, feature_names
 from experiments.responders.base import RESPONSE_IDS, Responder, Response
 
 __all__ = ["SimulatedResponder"]
@@ -61,6 +61,9 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     hold_s : float, s, optional
         How long the finger stays on (default: the model's feature window + 0.5 s; the paper's
         participants withdrew after answering, within 20 s).
+    log_percepts : bool
+        Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
+        log-likelihood of each sample, answer), so every answer can be traced to the physics.
     **perception
         Any field of :class:`~experiments.participant_model.PerceptionParameters`
         (``drop_noise_C``, ``weber_fraction``, ``lapse_rate``, ...).
@@ -70,13 +73,14 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
 
     def __init__(self, seed=None, skin_thickness_um=None, dermis_fraction=None,
                  skin_temperature_C=None, press_after_s=0.3, force_N=None, hold_s=None,
-                 **perception):
+                 log_percepts=True, **perception):
         super().__init__()
         unknown = sorted(set(perception) - set(_PARAM_FIELDS))
         if unknown:
             raise UserInputError(f"responder 'simulated': unknown option(s) {unknown}; expected "
                                  f"seed, skin_thickness_um, dermis_fraction, skin_temperature_C, "
-                                 f"press_after_s, force_N, hold_s or one of {sorted(_PARAM_FIELDS)}")
+                                 f"press_after_s, force_N, hold_s, log_percepts or one of "
+                                 f"{sorted(_PARAM_FIELDS)}")
         values = {}
         for key, value in perception.items():
             if key == "drop_times_s" and isinstance(value, str):
@@ -99,6 +103,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         self.press_after_s = _number("press_after_s", press_after_s)
         self.force_N = None if force_N is None else _number("force_N", force_N)
         self.hold_s = self.params.duration_s + 0.5 if hold_s is None else _number("hold_s", hold_s)
+        self.log_percepts = log_percepts not in (False, "false", "False", "0", 0)
         self.person: SimulatedPerson | None = None
         self._trial_state: dict[int, tuple[np.random.Generator, float]] = {}
         self._learned: set[int] = set()
@@ -232,9 +237,19 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             answer = int(rng.choice(RESPONSE_IDS))
         else:
             t, rec, skin_temperature = self.feel(trial, stimulus)
-            percept = person.perceive(person.features(t, rec, skin_temperature), rng)
-            answer = person.decide(percept, rng, choices=RESPONSE_IDS,
-                                   mode="simulated" if _played(stimulus) else "real")
+            features = person.features(t, rec, skin_temperature)
+            percept = person.perceive(features, rng)
+            kind = "simulated" if _played(stimulus) else "real"
+            answer = person.decide(percept, rng, choices=RESPONSE_IDS, mode=kind)
+            if self.log_percepts:
+                self.log("simulated_percept", trial_index=index, felt_as=kind,
+                         skin_temperature_C=round(skin_temperature, 4),
+                         feature_names=list(feature_names(person.params)),
+                         features=[round(float(v), 4) for v in features],
+                         percept=[round(float(v), 4) for v in percept],
+                         log_likelihoods={str(k): round(v, 3) for k, v in
+                                          person.log_likelihoods(percept, kind).items()},
+                         answer=answer)
         self._trial_state.pop(index, None)
         return Response(answer, rt, source="simulated")
 

@@ -243,3 +243,13 @@ def test_session_without_trials_is_skipped_with_a_warning(study):
     (empty.parent).rename(only / "C99")
     with pytest.warns(LogWarning), pytest.raises(LogError, match="expected at least one session"):
         load_trials(only)
+
+
+def test_empty_csv_falls_back_to_events(study):
+    data, _ = study(n_per_group=1, seed=16)
+    path = next(data.rglob("trials.csv"))
+    path.write_text("")
+    with pytest.warns(LogWarning, match=rf"{path}: header: expected a CSV header line.*using "
+                                        rf"events.jsonl instead"):
+        log = load_trials(data)
+    assert (log.trials["source"] == str(path.parent / "events.jsonl")).sum() == 28

@@ -96,6 +96,9 @@ def write_protocol(folder: Path, *, contact_s=1.0, rewarm_s=0.0, real_samples=(1
                                 real_samples=list(real_samples), sim_samples=list(sim_samples))
     if not sim_samples:
         text = text.split("[[blocks]]\nname = \"simulated\"")[0]
+    if not real_samples:
+        head, _, rest = text.partition("[[blocks]]\nname = \"real\"")
+        text = head + rest[rest.index("[[blocks]]"):]
     path = Path(folder) / name
     path.write_text(text, encoding="utf-8")
     return path

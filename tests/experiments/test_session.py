@@ -186,3 +186,35 @@ def test_existing_session_folder_is_refused(tmp_path):
         create_session(s.protocol, P01, tmp_path / "data", "x", seed=1, session_name=s.name)
     second = create_session(s.protocol, P01, tmp_path / "data", "x", seed=1)
     assert second.name == "S02"
+
+
+@pytest.mark.parametrize("calibrated, expected_um, source", [(None, 650.0, "protocol"),
+                                                            (900.0, 900.0, "calibration")])
+def test_simulated_profiles_use_the_group_mean_or_the_calibrated_thickness(
+        tmp_path, calibrated, expected_um, source):
+    record = json.loads(P01.read_text())          # group A (680 µm): the group mean is 650 µm
+    if calibrated is not None:
+        record["calibration"] = {"method": "test", "skin_thickness_um": calibrated}
+    path = tmp_path / "P01.json"
+    path.write_text(json.dumps(record))
+    proto = write_protocol(tmp_path, real_samples=(1,), sim_samples=(2,))
+    s = create_session(proto, path, tmp_path / "data", "scripted://", seed=1, clock="virtual")
+    disp = ScriptedDisplay()
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    table = rows(s.directory / "trials.csv")
+    sim = [r for r in table if r["mode"] == "simulated"]
+    assert len(sim) == 1 and float(sim[0]["profile_skin_thickness_um"]) == expected_um
+    up = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "profile_uploaded"]
+    assert up[0]["skin_thickness_source"] == source and up[0]["n_points"] == 51   # 1 s at 50 Hz
+    # The profile is the one the protocol describes: sample 2# (12.5 µm) on 3 mm steel at 20 °C,
+    # skin at 35.5 °C, receptors at 0.6 L (mini protocol's [simulation] and [material]).
+    p = up[0]["parameters"]
+    assert p["roughness_m"] == pytest.approx(12.5e-6, rel=1e-12)
+    assert p["skin"]["thickness_m"] == pytest.approx(expected_um * 1e-6, rel=1e-12)
+    assert p["skin"]["dermis_m"] == pytest.approx(0.6 * expected_um * 1e-6, rel=1e-12)
+    assert p["material"]["name"] == "stainless_steel" and p["material"]["thickness_m"] == pytest.approx(3e-3)
+    assert (p["skin_temperature_C"], p["material_temperature_C"], p["duration_s"], p["rate_Hz"]) == \
+        (35.5, 20.0, 1.0, 50.0)
+    # playback for the simulated trial (after its upload), record for the real one
+    assert [c for c in disp.calls if c[0] in ("upload", "arm")] == [("arm", "record"), ("upload", 51),
+                                                                     ("arm", "playback")]

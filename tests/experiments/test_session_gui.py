@@ -44,6 +44,40 @@ def _key(env, key: str) -> None:
                    capture_output=True)
 
 
+def _run_answering(cmd, env, events_path):
+    """Run ``cmd``; answer each ``awaiting_key`` event with a key (space, or the sample's number)."""
+    run = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    answered, sent, resent = set(), [], 0
+    deadline = time.monotonic() + 75
+    try:
+        while run.poll() is None and time.monotonic() < deadline:
+            events = _events(events_path)
+            waiting = [e for e in events if e["event"] == "awaiting_key" and e["seq"] not in answered]
+            if not waiting:
+                time.sleep(0.05)
+                continue
+            ev = waiting[0]
+            started = [e for e in events if e["event"] == "trial_started" and e["seq"] < ev["seq"]]
+            key = "space" if "space" in ev["keys"] else str(started[-1]["roughness_id"])
+            for attempt in range(2):          # one retry if the key was missed
+                _key(env, key)
+                t0 = time.monotonic()
+                while time.monotonic() - t0 < 4 and not any(
+                        e["seq"] > ev["seq"] for e in _events(events_path)) and run.poll() is None:
+                    time.sleep(0.05)
+                if any(e["seq"] > ev["seq"] for e in _events(events_path)) or run.poll() is not None:
+                    break
+                resent += 1
+            answered.add(ev["seq"])
+            sent.append(key)
+        _, err = run.communicate(timeout=20)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.communicate()
+    return run, sent, resent, err
+
+
 @pytest.fixture
 def emulator_pty(tmp_path):
     """``thermocue emulator`` in a subprocess; yields the pty path (a symlink)."""
@@ -71,40 +105,11 @@ def test_psychopy_session_with_real_keys_against_the_emulator_on_a_pty(tmp_path,
     proto = write_protocol(tmp_path, contact_s=1.0, rewarm_s=0.0, real_samples=(2,), sim_samples=(3,))
     data = tmp_path / "data"
     env = {**os.environ, **xvfb}
-    run = subprocess.Popen(
+    run, sent, resent, err = _run_answering(
         THERMOCUE + ["run", str(proto), "--participant", str(P01), "--display", emulator_pty,
                      "--responder", "psychopy", "--data", str(data), "--seed", "5", "--session", "S01",
-                     "--responder-option", "max_wait_s=40"],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                     "--responder-option", "max_wait_s=40"], env, data / "P01" / "S01" / "events.jsonl")
     events_path = data / "P01" / "S01" / "events.jsonl"
-    answered, sent, resent = set(), [], 0
-    deadline = time.monotonic() + 75
-    try:
-        while run.poll() is None and time.monotonic() < deadline:
-            events = _events(events_path)
-            waiting = [e for e in events if e["event"] == "awaiting_key" and e["seq"] not in answered]
-            if not waiting:
-                time.sleep(0.05)
-                continue
-            ev = waiting[0]
-            started = [e for e in events if e["event"] == "trial_started" and e["seq"] < ev["seq"]]
-            key = "space" if "space" in ev["keys"] else str(started[-1]["roughness_id"])
-            for attempt in range(2):          # one retry if the key was missed
-                _key(env, key)
-                t0 = time.monotonic()
-                while time.monotonic() - t0 < 4 and not any(
-                        e["seq"] > ev["seq"] for e in _events(events_path)) and run.poll() is None:
-                    time.sleep(0.05)
-                if any(e["seq"] > ev["seq"] for e in _events(events_path)) or run.poll() is not None:
-                    break
-                resent += 1
-            answered.add(ev["seq"])
-            sent.append(key)
-        out, err = run.communicate(timeout=20)
-    finally:
-        if run.poll() is None:
-            run.kill()
-            run.communicate()
     assert run.returncode == 0, err[-2000:]
     assert resent <= 1, f"{resent} keys had to be resent"
     events = _events(events_path)
@@ -137,3 +142,26 @@ def test_psychopy_session_with_real_keys_against_the_emulator_on_a_pty(tmp_path,
         lines = (data / "P01" / "S01" / r["trace_file"]).read_text().splitlines()
         assert len(lines) > 50 and any(line.endswith(("RECORDING", "PLAYING")) for line in lines)
     assert "trial 2 of 2" in err   # progress for the experimenter on stderr
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_no_audio_device_makes_the_cue_a_logged_no_op(tmp_path, xvfb):
+    proto = write_protocol(tmp_path, contact_s=0.5, rewarm_s=0.0, real_samples=(), sim_samples=(4,))
+    data = tmp_path / "data"
+    home = tmp_path / "home"          # no ~/.asoundrc: ALSA has no device at all
+    home.mkdir()
+    env = {**os.environ, **xvfb, "HOME": str(home)}
+    events_path = data / "P01" / "S01" / "events.jsonl"
+    run, sent, _, err = _run_answering(
+        THERMOCUE + ["run", str(proto), "--participant", str(P01), "--display",
+                     "emulator://?clock=virtual", "--responder", "psychopy", "--data", str(data),
+                     "--session", "S01", "--responder-option", "max_wait_s=40"], env, events_path)
+    assert run.returncode == 0, err[-2000:]
+    events = _events(events_path)
+    missing = [e for e in events if e["event"] == "cue_unavailable"]
+    assert missing and missing[0]["reason"].startswith("no audio output via sounddevice (")
+    assert "the sound cue is off" in err
+    assert [e["played"] for e in events if e["event"] == "cue"] == [False]
+    with open(data / "P01" / "S01" / "trials.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["status"], r["response_id"], r["cue_played"]) for r in rows] == [("ok", "4", "0")]

@@ -131,6 +131,7 @@ def test_faulted_trial_is_answered_with_a_guess_not_an_error():
 
 def test_thermocue_run_with_the_simulated_responder(tmp_path):
     import csv
+    import json
     from pathlib import Path
 
     from experiments.cli import main
@@ -148,6 +149,13 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
     assert len(scored) == 24 and all(r["status"] == "ok" for r in rows)
     assert {r["response_source"] for r in scored} == {"simulated"}
     assert all(r["response_id"] in {"1", "2", "3", "4"} for r in scored)
+    # Every answer is traceable: one percept event per scored trial, answer as logged.
+    events = [json.loads(line) for line in (trials.parent / "events.jsonl").open()]
+    percepts = {e["trial_index"]: e for e in events if e.get("event") == "simulated_percept"}
+    assert sorted(percepts) == sorted(int(r["trial_index"]) for r in scored)
+    for r in scored:
+        e = percepts[int(r["trial_index"])]
+        assert e["answer"] == int(r["response_id"]) and len(e["features"]) == 4
 
 
 def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule():

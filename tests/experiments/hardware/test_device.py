@@ -1,5 +1,4 @@
 """The emulated firmware on its own: no port, no driver, frames in and out."""
-import json
 import zlib
 
 import numpy as np

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from experiments.errors import DisplayError, DisplayRefused, SafetyLimitError
-from experiments.hardware import SafetyLimits, Telemetry, open_display
+from experiments.hardware import Telemetry, open_display
 
 T = np.arange(0, 3.0001, 0.01)
 PROFILE = np.round(26.0 + 2.0 * np.sqrt(T / 3.0), 2)        # a gentle 3 s profile, °C

@@ -51,6 +51,14 @@ def test_one_flipped_bit_loses_only_that_frame():
     assert p.bad_frames >= 1
 
 
+def test_a_frame_ending_in_the_marker_byte_leaves_nothing_behind():
+    # regression (found by hypothesis): a CRC ending in 0xA5 was kept as a possible marker,
+    # which made bytes_skipped negative
+    f = next(encode_frame(s, 1, b"x") for s in range(256) if encode_frame(s, 1, b"x")[-1] == 0xA5)
+    p = FrameParser()
+    assert len(p.feed(f)) == 1 and p.buffered == 0 and p.bytes_skipped == 0
+
+
 def test_garbage_length_field_is_abandoned_on_timeout():
     # a stray start marker whose "length" is large holds the parser until the driver gives up on it
     real = encode_frame(1, 0x81, b"ok")
@@ -80,10 +88,14 @@ def test_round_trip_whatever_the_chunking(frames, cuts):
 @given(data=st.binary(max_size=3000))
 def test_never_raises_on_arbitrary_bytes(data):
     p = FrameParser()
+    decoded = 0
     for i in range(0, len(data), 97):
         for fr in p.feed(data[i:i + 97]):
             assert 0 <= fr.seq <= 255 and len(fr.payload) <= MAX_PAYLOAD
-    assert p.buffered <= len(data)
+            decoded += len(fr.payload) + 8
+        assert p.bytes_skipped >= 0
+        # every byte fed is in a decoded frame, skipped, or still buffered
+        assert decoded + p.bytes_skipped + p.buffered == min(i + 97, len(data))
 
 
 @settings(max_examples=300, deadline=None)
