@@ -82,3 +82,19 @@ def test_the_whole_study_runs_in_a_minute(tmp_path, capsys):
     assert "participant 30 of 30" in err and "proportion correct" in err
     assert scored.groupby("participant")["group"].first().value_counts().to_dict() == {"A": 15, "B": 15}
     assert seconds < 90, f"the 30-participant study took {seconds:.0f} s"
+
+
+def test_a_participant_answers_the_same_in_every_run(tmp_path):
+    # Worker count and scheduling must not change the study: each participant's session is a
+    # function of the seed alone.
+    import csv
+
+    from experiments.cohort import run_participant
+    (path,) = write_cohort(tmp_path / "people", seed=6)[:1]
+    answers = []
+    for run in ("a", "b"):
+        result = run_participant(path, tmp_path / run, seed=6)
+        with open(f"{result['session_dir']}/trials.csv") as f:
+            answers.append([(r["trial_index"], r["response_id"], r["rt_s"]) for r in csv.DictReader(f)])
+    assert answers[0] == answers[1]
+    assert sum(1 for _, rid, _ in answers[0] if rid) == 24

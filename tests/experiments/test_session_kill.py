@@ -261,3 +261,36 @@ def test_sigterm_and_sigint_put_the_display_neutral_and_close_the_log(tmp_path, 
     assert [(r["trial_index"], r["attempt"], r["status"]) for r in rows if r["trial_index"] == "6"] \
         == [("6", "1", "aborted"), ("6", "2", "ok")]
     assert len(_completed(rows)) == 8
+
+
+def test_kill_while_the_display_plays_over_a_pty_then_resume_on_the_same_device(tmp_path):
+    """The device outlives the host: ``thermocue emulator`` on a real pty, the runner killed
+    during playback (the device's watchdog sees the heartbeat stop), resumed on the same pty."""
+    proto = write_protocol(tmp_path, contact_s=0.5, rewarm_s=0.0, real_samples=(1, 2), sim_samples=(3, 4))
+    link = tmp_path / "pty"
+    emulator = subprocess.Popen(THERMOCUE + ["emulator", "--link", str(link), "--clock", "virtual"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 30
+        while not link.exists():
+            assert emulator.poll() is None and time.monotonic() < deadline, "emulator did not start"
+            time.sleep(0.05)
+        data = tmp_path / "data"
+        session = data / "P01" / "S01"
+        proc = _spawn(["run", str(proto), "--participant", str(P01), "--display", str(link),
+                       "--responder", "console", "--data", str(data), "--seed", "4", "--session", "S01",
+                       "--quiet"], pause="playback:3")
+        _wait_paused(proc)
+        _kill(proc)
+        schedule = json.loads((session / "session.json").read_text())["schedule"]
+        done = _check(session, schedule, {})
+        assert sorted(done) == ["1", "2"]
+        _finish(_spawn(["resume", str(session), "--quiet"]))
+    finally:
+        emulator.terminate()
+        emulator.wait(timeout=10)
+    done = _check(session, schedule, done)
+    rows = _rows(session)
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in rows] == [
+        ("1", "1", "ok"), ("2", "1", "ok"), ("3", "1", "aborted"), ("3", "2", "ok"), ("4", "1", "ok")]
+    _rebuilt_equals_csv(session)
