@@ -22,7 +22,7 @@ def _run(ns) -> int:
     import json
     from pathlib import Path
 
-    from experiments.cli.run import responder_options
+    from experiments.cli.run import check_window, responder_options
     from experiments.errors import SessionError
     from experiments.responders import get_responder
     from experiments.session import open_session
@@ -38,5 +38,6 @@ def _run(ns) -> int:
     if ns.max_faults is not None:
         session.max_consecutive_faults = ns.max_faults
     session.show_progress = not ns.quiet
+    check_window(name)
     responder = get_responder(name, **responder_options(ns.responder_option))
     return session.run(responder)

@@ -62,6 +62,18 @@ def responder_options(items) -> dict:
     return out
 
 
+def check_window(responder: str) -> None:
+    """Refuse the PsychoPy responder up front when there is no display to open a window on."""
+    import os
+    import sys
+
+    from experiments.errors import UserInputError
+    if responder == "psychopy" and sys.platform.startswith("linux") \
+            and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        raise UserInputError("--responder psychopy: expected a display for the window (DISPLAY), "
+                             "got none set (start Xvfb, or use --responder console)")
+
+
 def _run(ns) -> int:
     import sys
 
@@ -73,6 +85,7 @@ def _run(ns) -> int:
         raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
     if ns.max_faults is not None and ns.max_faults < 1:
         raise UserInputError(f"--max-faults: expected an integer ≥ 1, got {ns.max_faults}")
+    check_window(ns.responder)
     responder = get_responder(ns.responder, **responder_options(ns.responder_option))
     session = create_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
                              session_name=ns.session, responder_name=ns.responder,

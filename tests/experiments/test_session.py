@@ -218,3 +218,13 @@ def test_simulated_profiles_use_the_group_mean_or_the_calibrated_thickness(
     # playback for the simulated trial (after its upload), record for the real one
     assert [c for c in disp.calls if c[0] in ("upload", "arm")] == [("arm", "record"), ("upload", 51),
                                                                      ("arm", "playback")]
+
+
+def test_psychopy_without_a_display_is_refused_before_anything_is_written(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    status = main(["run", "roughness_recognition", "--participant", str(P01), "--display",
+                   "emulator://?clock=virtual", "--responder", "psychopy", "--data", str(tmp_path / "d")])
+    err = capsys.readouterr().err
+    assert status == 2 and "--responder psychopy: expected a display" in err and err.count("\n") == 1
+    assert not (tmp_path / "d").exists()
