@@ -163,7 +163,8 @@ def _progress(done: int, total: int, start: float, label: str, stream) -> None:
 
 def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: int | None = None, *,
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
-                      analyze: bool = True, participants: int | None = None) -> dict:
+                      analyze: bool = True, participants: int | None = None,
+                      target_side: str | None = None, rate_limit: str | None = None) -> dict:
     """Run the paper's Figure 9 study end to end with simulated participants.
 
     Parameters
@@ -189,6 +190,13 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         Run :func:`analysis.analyze` on ``out_dir/data`` at the end.
     participants : int, optional
         Run only the first ``participants`` records (tests).
+    target_side : {"material", "skin", "compensated"}, optional
+        Override the protocol's ``[simulation] target_side`` (default: the protocol's, i.e.
+        ``"material"``, the paper's Eq. 7, for ``roughness_recognition``); the protocol is then
+        copied to ``out_dir/protocol.toml`` with that one line changed.
+    rate_limit : {"refuse", "slew"}, optional
+        Override the protocol's ``[simulation] rate_limit`` likewise. Profiles the display
+        would refuse stop the study before any session runs.
 
     Returns
     -------
@@ -203,6 +211,8 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     if data_dir.is_dir() and any(data_dir.iterdir()):
         raise UserInputError(f"{data_dir}: --out: expected a folder without earlier study data "
                              f"(the analysis would pool both runs), got a non-empty data/ folder")
+    protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit)
+    check_simulated_profiles(used)
     data_dir.mkdir(parents=True, exist_ok=True)
     paths = write_cohort(out_dir / "participants", seed=seed)
     if participants is not None:
@@ -243,8 +253,12 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         t0 = time.perf_counter()
         summary["analysis"] = run_analysis(data_dir, out_dir)
         summary["analysis_seconds"] = time.perf_counter() - t0
+        _note_simulation(out_dir / "report.md", used)
         if progress:
             table = _figure9_text(getattr(summary["analysis"], "proportions", None))
+            stream.write(f"figure9: target side {used.simulation.target_side!r}, finger-pad "
+                         f"{used.simulation.pad_roughness_um:g} µm {used.simulation.pad_material}, "
+                         f"rate limit {used.simulation.rate_limit!r}\n")
             stream.write(table + f"figure9: sessions {seconds:.1f} s, analysis "
                          f"{summary['analysis_seconds']:.1f} s; results in {out_dir}\n")
             stream.flush()
@@ -252,9 +266,125 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers, "protocol": str(protocol),
         "responder_options": dict(responder_options or {}),
+        "protocol_hash": used.hash,
+        "target_side": used.simulation.target_side,
+        "pad_roughness_um": used.simulation.pad_roughness_um,
+        "pad_material": used.simulation.pad_material,
+        "rate_limit": used.simulation.rate_limit,
         "sessions_s": seconds, "analysis_s": summary["analysis_seconds"],
         "participants": summary["sessions"]})
     return summary
+
+
+def _note_simulation(report, protocol) -> None:
+    """Append which target side and finger–pad contact the simulated trials used to ``report``."""
+    if not report.is_file():
+        return
+    sim = protocol.simulation
+    side = {"material": "the material side of the interface, T_M(L+), the paper's Eq. 7",
+            "skin": "the skin side of the interface, T_S(L-)",
+            "compensated": "the pad temperature that reproduces the real contact through the "
+                           "finger-pad resistance"}[sim.target_side]
+    text = (f"\n## Simulated trials (Figure 9 study)\n\n"
+            f"- target side: `{sim.target_side}` ({side})\n"
+            f"- finger-pad contact: {sim.pad_material}, R_a {sim.pad_roughness_um:g} µm "
+            f"(Eq. 5, {sim.pad_resistance():.4g} m² K/W for the default skin conductivity); "
+            f"the simulated participants feel the pad through it\n"
+            f"- profiles faster than the display's {protocol.display.max_rate_C_per_s:g} °C/s: "
+            f"`{sim.rate_limit}`\n"
+            f"- protocol: `{protocol.path}` (sha256 {protocol.hash[:12]})\n")
+    with open(report, "a", encoding="utf-8") as fh:
+        fh.write(text)
+
+
+def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None):
+    """``(protocol to run, parsed Protocol)``; with overrides, a copy in ``out_dir``.
+
+    The copy (``out_dir/protocol.toml``) keeps the TOML text (comments, layout) and changes or
+    adds only the ``target_side`` / ``rate_limit`` lines of ``[simulation]``.
+    """
+    import re
+
+    from experiments.errors import UserInputError
+    from experiments.protocol import SIM_RATE_LIMITS, SIM_TARGET_SIDES, load_protocol
+    base = load_protocol(protocol)
+    sim = base.simulation
+    if sim is None:
+        raise UserInputError(f"{protocol}: simulation: expected a [simulation] table for the "
+                             f"Figure 9 study, got nothing")
+    changes = {}
+    for key, value, choices, option in (("target_side", target_side, SIM_TARGET_SIDES, "--target-side"),
+                                        ("rate_limit", rate_limit, SIM_RATE_LIMITS, "--rate-limit")):
+        if value is None or value == getattr(sim, key):
+            continue
+        if value not in choices:
+            raise UserInputError(f"{option}: expected one of {', '.join(choices)}, got {value!r}")
+        changes[key] = value
+    if not changes:
+        return str(protocol), base
+    lines = base.path.read_text(encoding="utf-8").splitlines(keepends=True)
+    section, start, end = None, None, len(lines)
+    for i, line in enumerate(lines):
+        head = re.match(r"\s*\[\[?([^\[\]]+)\]\]?\s*(#.*)?$", line)
+        if head:
+            if section == "simulation":
+                end = i
+                break
+            section = head.group(1).strip()
+            if section == "simulation":
+                start = i
+    for key, value in changes.items():
+        for i in range(start + 1, end):
+            if re.match(rf"\s*{key}\s*=", lines[i]):
+                lines[i] = f'{key} = "{value}"\n'
+                break
+        else:
+            lines.insert(start + 1, f'{key} = "{value}"\n')
+            end += 1
+    path = Path(out_dir) / "protocol.toml"
+    path.write_text("".join(lines), encoding="utf-8")
+    used = load_protocol(path)
+    for key, value in changes.items():
+        if getattr(used.simulation, key) != value:   # pragma: no cover - a TOML we could not edit
+            raise UserInputError(f"{path}: simulation.{key}: expected {value!r}, "
+                                 f"got {getattr(used.simulation, key)!r}")
+    return str(path), used
+
+
+def check_simulated_profiles(protocol) -> None:
+    """Refuse, before any session runs, a protocol whose simulated profiles the display refuses.
+
+    Computes each sample's profile for each group's thickness (as the session will, for a
+    participant without calibration) and applies the display's checks
+    (:func:`experiments.hardware.safety.check_profile`).
+
+    Raises
+    ------
+    UserInputError
+        Naming the protocol file, the sample and the fields to change.
+    """
+    import dataclasses
+
+    from experiments.errors import SafetyLimitError, UserInputError
+    from experiments.hardware.safety import SafetyLimits, check_profile
+    from experiments.session import simulated_target_profile
+    sim = protocol.simulation
+    limits = SafetyLimits(**dataclasses.asdict(protocol.display))
+    groups = sorted(sim.group_skin_thickness_um) or [None]
+    where = protocol.path.name if protocol.path is not None else protocol.name
+    for group in groups:
+        thickness = sim.group_skin_thickness_um.get(group, 1000.0) if group else 1000.0
+        for sample in protocol.samples:
+            prof = simulated_target_profile(protocol, {}, group, thickness, sample.id, sample.roughness_um)
+            try:
+                check_profile(prof.times, prof.temperature, limits)
+            except SafetyLimitError as exc:
+                hint = (" (or --rate-limit slew)" if sim.rate_limit == "refuse" else "")
+                raise UserInputError(
+                    f"{where}: simulation.target_side: expected profiles the display accepts; "
+                    f"{sim.target_side!r} for sample {sample.label} (group {group}) gives "
+                    f"{str(exc).removeprefix('display: ')}; set [simulation] rate_limit = "
+                    f"\"slew\"{hint} or raise display.max_rate_C_per_s") from None
 
 
 def _figure9_text(proportions) -> str:

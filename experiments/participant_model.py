@@ -7,8 +7,8 @@ receptor temperature the physics predicts:
 
 * real trial: its own skin in contact with the steel sample through the contact resistance of
   the sample's roughness against its own skin (:class:`stimuli.Contact`, Eq. 5 resistance);
-* simulated trial: the surface temperature the display actually produced imposed on its own
-  skin (:func:`stimuli.skin_response`).
+* simulated trial: the pad temperature the display actually produced, touched through its own
+  finger–pad contact resistance (:func:`stimuli.skin_response` with ``resistance``).
 
 The decision rule. From the receptor trace :math:`T(t)` the person extracts the features
 :math:`f` (:func:`receptor_features`): the drop :math:`T_0 - T(t_k)` at ``drop_times_s`` and
@@ -33,12 +33,15 @@ half-space.
 
 Notes
 -----
-The display's target (``stimuli.target_profile``) is the *material* side of the interface
-(Eq. 7's quantity). Imposed on the skin it leaves out the temperature step across the contact
-resistance, so it feels colder than the real sample, and the more so the rougher the sample
-(the steel's surface stays nearer its own temperature when R is large). An observer familiarised
-on the real samples therefore names 1# or 2# for almost every displayed sample;
-``predicted_cell_probabilities(target_side="skin")`` shows what a skin-side target would give.
+The paper's display target (``stimuli.target_profile(side="material")``) is the *material* side
+of the interface (Eq. 7's quantity). A simulated trial is felt as the pad's temperature through
+the person's own finger–pad contact resistance (Eq. 5 for the pad's polished face, as the
+emulated pad assumes), so a material-side target leaves out the temperature step across the
+sample's (larger) contact resistance: it feels colder than the real sample, and the more so the
+rougher the sample (the steel's surface stays nearer its own temperature when R is large). An
+observer familiarised on the real samples then names 1# or 2# for almost every displayed sample.
+``target_side="compensated"`` replays the pad temperature that, through the pad resistance,
+reproduces the real contact (``predicted_cell_probabilities(target_side=...)`` compares them).
 """
 from __future__ import annotations
 
@@ -58,6 +61,9 @@ __all__ = [
     "predicted_cell_probabilities",
     "GROUP_THICKNESS_UM",
     "PAPER_ROUGHNESS_UM",
+    "PAD_ROUGHNESS_M",
+    "PAD_MATERIAL",
+    "TARGET_SIDES",
 ]
 
 _SD_FLOOR = 1e-6
@@ -69,6 +75,12 @@ GROUP_THICKNESS_UM = {"A": (600.0, 750.0), "B": (900.0, 1200.0)}
 TARGET_SKIN_TEMPERATURE_C = 35.5
 #: Table 3: the four samples 1#..4#, Ra in µm.
 PAPER_ROUGHNESS_UM = (1.6, 12.5, 50.0, 100.0)
+#: The display's contact face (``roughness_recognition.toml`` ``[simulation] pad_roughness_um``,
+#: ``pad_material``; the emulated pad's ``finger_pad_resistance``): polished copper, 0.4 µm.
+PAD_ROUGHNESS_M = 0.4e-6
+PAD_MATERIAL = "copper"
+#: Target sides ``stimuli.target_profile`` can replay.
+TARGET_SIDES = ("material", "skin", "compensated")
 
 
 @dataclass(frozen=True)
@@ -301,17 +313,35 @@ class SimulatedPerson:
         theta = self._real_cache[key]
         return t, t_m + theta * (t_s - t_m)
 
-    def feel_imposed(self, t, surface_C, skin_temperature_C: float | None = None):
-        """Receptor temperature when a display imposes ``surface_C`` on the skin surface.
+    def pad_resistance(self, pad_roughness_m: float = PAD_ROUGHNESS_M,
+                       pad_material: str = PAD_MATERIAL) -> float:
+        """This person's finger–pad contact resistance, m² K/W.
+
+        Eq. 5 (:func:`stimuli.contact_resistance`) for the pad's face (R_a ``pad_roughness_m``,
+        m, of ``pad_material``) against this person's skin, at the paper's 2 N on 135 mm²: the
+        same formula the emulated pad uses
+        (:func:`experiments.hardware.pad_physics.finger_pad_resistance`, 0.4 µm copper).
+        """
+        from stimuli import contact_resistance, material
+        return float(contact_resistance(float(pad_roughness_m), skin=self.skin,
+                                        material=material(pad_material)))
+
+    def feel_imposed(self, t, surface_C, skin_temperature_C: float | None = None, *,
+                     pad_resistance: float | None = None):
+        """Receptor temperature when a display's pad at ``surface_C`` is touched.
 
         Parameters
         ----------
         t : array_like, s
             Times after contact of the surface samples (need not be uniform; resampled).
         surface_C : array_like, °C
-            The surface temperature the display produced (its contact sensor).
+            The pad temperature the display produced (its contact sensor).
         skin_temperature_C : float, °C
             Skin temperature before contact (default: the person's).
+        pad_resistance : float or None, m² K/W, keyword-only
+            Finger–pad contact resistance (e.g. :meth:`pad_resistance`): the pad is touched
+            through it (a Robin boundary, ``skin_response(..., resistance=...)``). ``None``:
+            the pad temperature is imposed on the skin surface itself (an ideal contact).
 
         Returns
         -------
@@ -332,7 +362,9 @@ class SimulatedPerson:
         grid = self.time_grid(min(self.params.duration_s, float(t_in[-1])))
         surface = np.interp(grid, t_in, g_in)
         skin = self.skin
-        receptor = skin_response(skin, grid, surface, initial_temperature=t_s, depth=skin.dermis)
+        extra = {} if pad_resistance is None else {"resistance": float(pad_resistance)}
+        receptor = skin_response(skin, grid, surface, initial_temperature=t_s, depth=skin.dermis,
+                                 **extra)
         return grid, np.asarray(receptor, dtype=float)
 
     def features(self, t, receptor_C, skin_temperature_C: float | None = None) -> np.ndarray:
@@ -443,9 +475,15 @@ def draw_person(group: str | None = None, rng: np.random.Generator | int | None 
 
 
 def _person_features(person: SimulatedPerson, mode: str, roughness_um, target_thickness_um: float,
-                     target_options: dict, target_side: str = "material") -> np.ndarray:
-    """Noise-free features, one row per roughness, for ``mode`` "real" or "simulated"."""
-    from stimuli import Contact, Skin, contact_resistance, material, target_profile
+                     target_options: dict, target_side: str = "material",
+                     pad: tuple[float, str] | None = (PAD_ROUGHNESS_M, PAD_MATERIAL)) -> np.ndarray:
+    """Noise-free features, one row per roughness, for ``mode`` "real" or "simulated".
+
+    Simulated: the target profile for a skin of ``target_thickness_um`` (the session's
+    ``_target_profile``), tracked perfectly by the pad, felt through the person's own finger–pad
+    resistance (``pad`` = (R_a in m, material); ``None``: imposed on the skin directly).
+    """
+    from stimuli import Skin, target_profile
     rows = []
     for ra in roughness_um:
         if mode == "real":
@@ -457,21 +495,18 @@ def _person_features(person: SimulatedPerson, mode: str, roughness_um, target_th
                     "duration": person.params.duration_s,
                     "rate": person.params.sample_rate_Hz,
                     "sample_thickness": person.params.sample_thickness_m, **target_options}
-            skin = Skin(target_thickness_um * 1e-6)
-            if target_side == "material":
-                prof = target_profile(roughness=ra * 1e-6, skin=skin, **opts)
-                t, surface = prof.times, prof.temperature
-            else:   # the skin side of the same contact (what a real finger's surface feels)
-                sample = material(opts["material"], thickness=opts["sample_thickness"])
-                contact = Contact(skin, sample,
-                                  resistance=contact_resistance(ra * 1e-6, skin=skin, material=sample),
-                                  skin_temperature=opts["skin_temperature"],
-                                  material_temperature=opts["material_temperature"])
-                t = np.arange(int(round(opts["duration"] * opts["rate"])) + 1) / opts["rate"]
-                surface = np.empty_like(t)
-                surface[1:] = contact.interface_temperature(t[1:], side="skin")
-                surface[0] = surface[1]
-            t, rec = person.feel_imposed(t, surface)
+            L = target_thickness_um * 1e-6
+            skin = Skin(L, dermis=0.6 * L)
+            own = None
+            if pad is not None:
+                from stimuli import contact_resistance, material
+                pad_R = float(contact_resistance(pad[0], skin=skin, material=material(pad[1])))
+                own = person.pad_resistance(*pad)
+            else:
+                pad_R = None
+            prof = target_profile(roughness=ra * 1e-6, skin=skin, side=target_side,
+                                  pad_resistance=pad_R, **opts)
+            t, rec = person.feel_imposed(prof.times, prof.temperature, pad_resistance=own)
         else:
             raise ValueError(f"predicted_cell_probabilities: modes: expected 'real' or "
                              f"'simulated', got {mode!r}")
@@ -508,6 +543,7 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
                                  target_thickness_um: dict | None = None,
                                  target_options: dict | None = None,
                                  target_side: str = "material",
+                                 pad: tuple[float, str] | None = (PAD_ROUGHNESS_M, PAD_MATERIAL),
                                  skin_temperature_C: tuple[float, float] = (35.5, 36.0),
                                  dermis_fraction: tuple[float, float] = (0.55, 0.65),
                                  params: PerceptionParameters | None = None,
@@ -544,11 +580,15 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
         ``method`` or ``resolution``.
     skin_temperature_C, dermis_fraction : (low, high)
         Ranges the persons are drawn from (:func:`draw_person`), °C and a share.
-    target_side : {"material", "skin"}
-        Which interface temperature the display replays: ``"material"`` is the contract's
-        target (Eq. 7's quantity, :func:`stimuli.target_profile`, what the session plays);
-        ``"skin"`` is the skin side of the same contact, for comparison (imposed on a skin of
-        the target's thickness it reproduces the real contact exactly).
+    target_side : {"material", "skin", "compensated"}
+        Which temperature the display replays (:func:`stimuli.target_profile` ``side``):
+        ``"material"`` is the paper's Eq. 7 (the protocol's default); ``"skin"`` the skin side
+        of the same contact; ``"compensated"`` the pad temperature that, through the finger–pad
+        resistance, reproduces the real contact for a skin of the target's thickness.
+    pad : (float, str) or None
+        The pad's face, (R_a in m, material): the target's pad resistance and each person's own
+        finger–pad resistance (Eq. 5; default 0.4 µm copper, as the emulator and the protocol).
+        ``None``: the pad temperature is imposed on the skin directly (no contact resistance).
     params : PerceptionParameters
     seed : int
 
@@ -576,9 +616,9 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
     if familiarise_mode not in ("real", "simulated", "same"):
         raise ValueError(f"predicted_cell_probabilities: familiarise_mode: expected 'real', "
                          f"'simulated' or 'same', got {familiarise_mode!r}")
-    if target_side not in ("material", "skin"):
-        raise ValueError(f"predicted_cell_probabilities: target_side: expected 'material' or "
-                         f"'skin', got {target_side!r}")
+    if target_side not in TARGET_SIDES:
+        raise ValueError(f"predicted_cell_probabilities: target_side: expected one of "
+                         f"{', '.join(TARGET_SIDES)}, got {target_side!r}")
     needed = set(modes) | ({familiarise_mode} - {"same"})
     rows = []
     for g, rng_um in groups.items():
@@ -588,7 +628,7 @@ def predicted_cell_probabilities(*, groups: dict | None = None, modes=("real", "
                                  skin_temperature_C=skin_temperature_C,
                                  dermis_fraction=dermis_fraction)
             feats = {m: _person_features(person, m, roughness_um, target_thickness_um[g],
-                                         target_options, target_side) for m in needed}
+                                         target_options, target_side, pad) for m in needed}
             for m in modes:
                 fam = feats[m if familiarise_mode == "same" else familiarise_mode]
                 per_person[m].append(_monte_carlo_correct(params, fam, feats[m],

@@ -58,6 +58,12 @@ ORDERS = ("random", "by_repetition", "fixed")
 BLOCK_ORDERS = ("fixed", "counterbalanced", "random")
 SIM_THICKNESS = ("group", "participant")
 SIM_METHODS = ("exact", "paper", "paper-as-printed", "numerical")
+SIM_TARGET_SIDES = ("material", "skin", "compensated")
+SIM_RATE_LIMITS = ("refuse", "slew")
+#: The emulated display's pad face (``experiments.hardware.pad_physics.finger_pad_resistance``):
+#: polished copper, R_a 0.4 µm.  The defaults of ``[simulation] pad_roughness_um`` / ``pad_material``.
+DEFAULT_PAD_ROUGHNESS_UM = 0.4
+DEFAULT_PAD_MATERIAL = "copper"
 _MISSING = object()
 
 
@@ -166,6 +172,20 @@ class Simulation:
     resolution_C : float, °C
     method : str
         ``stimuli`` method name.
+    target_side : {"material", "skin", "compensated"}
+        Which temperature the display replays (``stimuli.target_profile(side=...)``):
+        ``"material"`` the material side of the interface, the paper's Eq. 7 (default);
+        ``"skin"`` the skin side; ``"compensated"`` the pad temperature that, through the
+        finger–pad contact resistance, reproduces the real contact at the skin.
+    pad_roughness_um : float, µm
+        R_a of the display's contact face (its contact sensor surface); with ``pad_material``
+        and the profile's skin it gives the finger–pad resistance by Eq. 5.
+    pad_material : str
+        What the finger touches on the pad (a ``stimuli.MATERIALS`` name).
+    rate_limit : {"refuse", "slew"}
+        A profile faster than ``[display] max_rate_C_per_s``: ``"refuse"`` (default) leaves it to
+        the display's check, which refuses it (the trial faults); ``"slew"`` slows it to the limit
+        (:func:`experiments.profile_rate.limit_rate`) and logs the largest change.
     """
 
     skin_thickness: str
@@ -177,6 +197,27 @@ class Simulation:
     rate_Hz: float
     resolution_C: float
     method: str
+    target_side: str = "material"
+    pad_roughness_um: float = DEFAULT_PAD_ROUGHNESS_UM
+    pad_material: str = DEFAULT_PAD_MATERIAL
+    rate_limit: str = "refuse"
+
+    @property
+    def pad_roughness_m(self) -> float:
+        """R_a of the pad's contact face, m."""
+        return self.pad_roughness_um * 1e-6
+
+    def pad_resistance(self, skin=None) -> float:
+        """Finger–pad contact resistance, m² K/W: Eq. 5 (``stimuli.contact_resistance``) of the pad.
+
+        Parameters
+        ----------
+        skin : stimuli.Skin, optional
+            Supplies the skin conductivity (default: ``stimuli.Skin`` defaults).
+        """
+        from stimuli import Skin, contact_resistance, material
+        return float(contact_resistance(self.pad_roughness_m, skin=Skin(1e-3) if skin is None else skin,
+                                        material=material(self.pad_material)))
 
     def skin_thickness_for(self, group: str, participant_thickness_um: float | None = None) -> float:
         """The skin thickness (µm) to simulate for a participant of ``group``."""
@@ -424,6 +465,17 @@ class _Unknown(str):
         return f"an unknown key {str.__repr__(self)}"
 
 
+def _pad_material(s: _Table) -> str:
+    """``[simulation] pad_material``: a ``stimuli.MATERIALS`` name (aliases allowed)."""
+    from stimuli import MATERIALS, ModelInputError, material
+    name = s.string("pad_material", DEFAULT_PAD_MATERIAL)
+    try:
+        material(name)
+    except ModelInputError:
+        s.fail("pad_material", "one of " + ", ".join(repr(k) for k in sorted(MATERIALS)), name)
+    return name
+
+
 def _read_samples(top: _Table) -> tuple[Sample, ...]:
     out, ids, labels = [], set(), set()
     for t in top.tables("samples"):
@@ -568,6 +620,10 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
             rate_Hz=s.number("rate_Hz", 100.0, gt=0, le=10000),
             resolution_C=s.number("resolution_C", 0.01, gt=0, le=1),
             method=s.string("method", "exact", choices=SIM_METHODS),
+            target_side=s.string("target_side", "material", choices=SIM_TARGET_SIDES),
+            pad_roughness_um=s.number("pad_roughness_um", DEFAULT_PAD_ROUGHNESS_UM, ge=0, le=1000),
+            pad_material=_pad_material(s),
+            rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
         )
         s.done()
 

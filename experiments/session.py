@@ -61,6 +61,7 @@ from experiments.session_machine import (
 __all__ = [
     "Session",
     "create_session",
+    "simulated_target_profile",
     "open_session",
     "SessionInterrupted",
     "TransitionError",
@@ -418,6 +419,11 @@ class Session:
             else:
                 profile = self._target_profile(spec)
                 row["profile_skin_thickness_um"] = profile.parameters.get("skin_thickness_um")
+                row["target_side"] = profile.parameters["target_side"]
+                row["pad_resistance_m2K_W"] = profile.parameters["pad_resistance_m2K_W"]
+                row["profile_resistance_m2K_W"] = profile.parameters.get("resistance_m2K_per_W")
+                row["profile_resistance_source"] = profile.parameters["resistance_source"]
+                row["rate_limited_max_change_C"] = profile.parameters["rate_limited_max_change_C"]
                 self._pause("upload", spec, attempt)
                 disp.upload_profile(np.asarray(profile.times), np.asarray(profile.temperature))
                 self.log_event("profile_uploaded", **ctx, content_hash=profile.content_hash,
@@ -425,6 +431,11 @@ class Session:
                                error_bound_C=profile.error_bound,
                                skin_thickness_um=row["profile_skin_thickness_um"],
                                skin_thickness_source=profile.parameters["skin_thickness_source"],
+                               target_side=row["target_side"],
+                               pad_resistance_m2K_W=row["pad_resistance_m2K_W"],
+                               resistance_m2K_W=row["profile_resistance_m2K_W"],
+                               resistance_source=row["profile_resistance_source"],
+                               rate_limited_max_change_C=row["rate_limited_max_change_C"],
                                parameters=profile.parameters)
                 disp.arm(mode="playback", force_threshold_N=self.protocol.contact.force_threshold_N,
                          max_duration_s=self.protocol.contact.max_contact_s)
@@ -513,27 +524,9 @@ class Session:
                              sample=sample_info, status=rec.status)
 
     def _target_profile(self, spec):
-        """The target interface profile of a simulated trial (stimuli.target_profile)."""
-        from stimuli import Skin, target_profile
-
-        sim = self.protocol.simulation
-        calibration = self.participant.get("calibration") or {}
-        source = "protocol"
-        if calibration.get("skin_thickness_um") is not None:
-            thickness_um, source = float(calibration["skin_thickness_um"]), "calibration"
-        else:
-            thickness_um = sim.skin_thickness_for(self.group, self.skin_thickness_um)
-        L = thickness_um * 1e-6
-        prof = target_profile(material=self.protocol.material.name, roughness=spec.roughness_um * 1e-6,
-                              skin=Skin(L, dermis=sim.dermis_fraction * L),
-                              skin_temperature=sim.skin_temperature_C,
-                              material_temperature=sim.material_temperature_C,
-                              duration=sim.duration_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
-                              sample_thickness=self.protocol.material.thickness_m, method=sim.method)
-        params = dict(prof.parameters)
-        params.setdefault("skin_thickness_um", thickness_um)
-        params["skin_thickness_source"] = source
-        return _Profile(prof, params)
+        """The target profile of a simulated trial (:func:`simulated_target_profile`)."""
+        return simulated_target_profile(self.protocol, self.participant, self.group,
+                                        self.skin_thickness_um, spec.roughness_id, spec.roughness_um)
 
     def _complete(self, spec, attempt: int, row: dict) -> None:
         with self._critical():
@@ -686,14 +679,105 @@ def _reason(exc) -> str:
 
 
 class _Profile:
-    """A target profile with the session's extra parameters (thickness source)."""
+    """A target profile with the session's extra parameters (thickness source, rate limiting)."""
 
-    def __init__(self, prof, parameters):
+    def __init__(self, prof, parameters, temperature=None):
         self._prof = prof
         self.parameters = parameters
+        if temperature is not None:
+            self.temperature = temperature
 
     def __getattr__(self, name):
         return getattr(self._prof, name)
+
+
+def simulated_target_profile(protocol, participant: dict, group, skin_thickness_um,
+                             roughness_id, roughness_um):
+    """The target profile a simulated trial uploads (:func:`stimuli.target_profile`).
+
+    Skin thickness and the sample's contact resistance come from the participant's calibration
+    when it has one (:func:`experiments.calibration.calibrated_profile_parameters`: its skin
+    thickness, and its fitted resistance for this sample or else Eq. 5), else from the protocol
+    (the group's mean thickness or the participant's own) and Eq. 5.  The replayed side is
+    ``[simulation] target_side``; the finger–pad resistance is Eq. 5 of the pad
+    (``pad_roughness_um``, ``pad_material``) with the profile's skin.  With ``rate_limit =
+    "slew"`` a profile faster than ``[display] max_rate_C_per_s`` is slowed to it.
+
+    Parameters
+    ----------
+    protocol : Protocol
+    participant : dict
+        The participant record.
+    group : str
+    skin_thickness_um : float or None, µm
+        The participant's own thickness (for ``skin_thickness = "participant"``).
+    roughness_id : int
+    roughness_um : float, µm
+
+    Returns
+    -------
+    profile
+        The :class:`stimuli.TargetProfile`'s attributes, with ``parameters`` extended by
+        ``skin_thickness_um``, ``skin_thickness_source``, ``resistance_source`` ("calibration"
+        or "eq5"), ``target_side``, ``pad_resistance_m2K_W``, ``pad_roughness_um``,
+        ``pad_material``, ``rate_limited_max_change_C`` (K, 0 if unchanged).
+
+    Raises
+    ------
+    SessionError
+        An unusable calibration, or a compensated profile the pad cannot give (the message
+        names the protocol and the field).
+    """
+    from experiments.calibration import CalibrationError, calibrated_profile_parameters
+    from stimuli import ModelInputError, Skin, target_profile
+
+    sim = protocol.simulation
+    where = protocol.path.name if protocol.path is not None else protocol.name
+    try:
+        cal = calibrated_profile_parameters(participant, roughness_id, roughness_um=roughness_um)
+    except CalibrationError as exc:
+        raise SessionError(str(exc)) from None
+    resistance, resistance_source = None, "eq5"
+    if cal is not None:
+        thickness_um, source = float(cal["skin_thickness"]) * 1e6, "calibration"
+        if cal.get("resistance") is not None:
+            resistance, resistance_source = float(cal["resistance"]), "calibration"
+    else:
+        thickness_um, source = sim.skin_thickness_for(group, skin_thickness_um), "protocol"
+    L = thickness_um * 1e-6
+    skin = Skin(L, dermis=sim.dermis_fraction * L)
+    pad_resistance = sim.pad_resistance(skin)
+    try:
+        prof = target_profile(material=protocol.material.name, roughness=roughness_um * 1e-6,
+                              skin=skin, skin_temperature=sim.skin_temperature_C,
+                              material_temperature=sim.material_temperature_C,
+                              duration=sim.duration_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
+                              sample_thickness=protocol.material.thickness_m, method=sim.method,
+                              resistance=resistance, side=sim.target_side,
+                              pad_resistance=pad_resistance)
+    except ModelInputError as exc:
+        raise SessionError(f"{where}: simulation.target_side: {sim.target_side!r} for sample "
+                           f"{roughness_um:g} µm ({resistance_source} resistance): {exc}") from None
+    params = dict(prof.parameters)
+    params.setdefault("skin_thickness_um", thickness_um)
+    params["skin_thickness_source"] = source
+    params["resistance_source"] = resistance_source
+    params["target_side"] = sim.target_side
+    params["pad_resistance_m2K_W"] = pad_resistance
+    params["pad_roughness_um"] = sim.pad_roughness_um
+    params["pad_material"] = sim.pad_material
+    temperature, change = None, 0.0
+    if sim.rate_limit == "slew":
+        from experiments.hardware.safety import SafetyLimits
+        from experiments.profile_rate import limit_rate
+        window = SafetyLimits().rate_window_s
+        limited, change = limit_rate(prof.temperature, 1.0 / sim.rate_Hz, protocol.display.max_rate_C_per_s,
+                                     window_s=window, resolution_C=sim.resolution_C)
+        if change > 0:
+            temperature = limited
+            temperature.setflags(write=False)
+    params["rate_limited_max_change_C"] = change
+    return _Profile(prof, params, temperature)
 
 
 def _parse_pause(text: str) -> set:

@@ -6,7 +6,8 @@ Two problems are solved:
 
 * :func:`solve_surface` -- the display imposes a surface temperature g(t) at x = L
   (piecewise linear between samples on a uniform grid from t = 0, where it jumps from the
-  initial temperature to g(0));
+  initial temperature to g(0)), directly or through a contact resistance R (``resistance=``:
+  Robin condition, R added in series with the surface half-cell);
 * :func:`solve_contact` -- the skin touches a material (half-space, or a slab of thickness D
   with an insulated back) through a contact resistance R (the problem of
   :class:`stimuli.Contact`, here with layered skin allowed).
@@ -266,32 +267,61 @@ def _check_depth(skin, depth, where, *, allow_material=False, material_extent=No
     return d
 
 
+def _check_resistance(resistance, where):
+    """R in m^2 K/W: None -> 0.0; finite and >= 0, else a ModelInputError naming the field."""
+    if resistance is None:
+        return 0.0
+    try:
+        R = float(resistance)
+    except (TypeError, ValueError):
+        R = float("nan")
+    if not (math.isfinite(R) and R >= 0.0):
+        raise ModelInputError(f"{where}: resistance: expected a finite number >= 0 in m^2 K/W, "
+                              f"got {resistance!r}")
+    return R
+
+
 # --------------------------------------------------------------------------- surface problem
 def _surface_kernel(skin, depth: float, *, cells: int = DEFAULT_CELLS,
-                   epidermis_properties=None, split: int = 1):
+                   epidermis_properties=None, split: int = 1, resistance: float = 0.0):
     """Discrete step response of the FV skin at ``depth`` to a unit surface step.
 
     Returns ``(gain, a, lam)``: S(t) = gain - sum_k (a_k / lam_k) exp(-lam_k t) and
-    R(t) - gain t = -sum_k a_k / lam_k^2 (1 - exp(-lam_k t)). ``depth`` strictly inside (0, L).
+    R(t) - gain t = -sum_k a_k / lam_k^2 (1 - exp(-lam_k t)). ``depth`` strictly inside (0, L),
+    or ``depth == L`` with ``resistance > 0`` (the skin side L- of the contact, whose face value
+    has a feed-through w g of the surface value; S then jumps to w at 0+, a discretisation
+    artefact of order the surface cell's resistance over R that vanishes under refinement).
     ``split`` cuts every cell of the ``cells`` grid into that many equal cells (the exactly
-    self-similar refinement used for Richardson extrapolation).
+    self-similar refinement used for Richardson extrapolation). ``resistance`` (m^2 K/W): the
+    surface value is applied through it (Robin condition) instead of directly (Dirichlet).
     """
     cells = _check_cells(cells)
-    grid = _skin_grid(skin, cells, [depth], epidermis_properties, split=int(split))
+    L = skin.thickness
+    inner = [depth] if depth < L else []
+    grid = _skin_grid(skin, cells, inner, epidermis_properties, split=int(split))
     h = grid.h
     g_left = grid.k[0] / (0.5 * h[0])
-    g_right = grid.k[-1] / (0.5 * h[-1])
+    half_last = 0.5 * h[-1] / grid.k[-1]
+    g_right = grid.k[-1] / (0.5 * h[-1]) if resistance == 0.0 else 1.0 / (half_last + resistance)
     op = _Modal(grid, g_left, g_right)
-    c = _face_weights(grid, op.half, depth)
+    feed = 0.0
+    if depth < L:
+        c = _face_weights(grid, op.half, depth)
+    else:
+        # face value at L-: (T_last / half + g / R) / (1 / half + 1 / R)
+        feed = half_last / (half_last + resistance)
+        c = np.zeros(grid.k.size)
+        c[-1] = 1.0 - feed
     gamma = op.project(c)
     beta = op.V[-1, :] * g_right / op.sm[-1]
     a = gamma * beta
-    gain = float(np.sum(a / op.lam))
+    gain = feed + float(np.sum(a / op.lam))
     return gain, a, op.lam
 
 
 def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=None, *,
-                  cells: int = DEFAULT_CELLS, epidermis_properties=None, split: int = 1):
+                  cells: int = DEFAULT_CELLS, epidermis_properties=None, split: int = 1,
+                  resistance=None):
     """Temperature at one depth of the skin under an imposed surface temperature history.
 
     Parameters
@@ -313,6 +343,10 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
     split : int
         Cut every cell into ``split`` equal cells (exactly self-similar refinement: the
         error falls by split^2; used for Richardson extrapolation).
+    resistance : float or None, m^2 K/W
+        Contact resistance R between the skin surface and the surface held at g(t) (Robin
+        condition -lambda dT/dx = (T(L-) - g) / R at x = L); ``None`` or 0: g is imposed on
+        the skin itself (Dirichlet). With R > 0, ``depth = L`` is the skin side L-.
 
     Returns
     -------
@@ -322,7 +356,8 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
     Raises
     ------
     ModelInputError
-        Non-uniform times, mismatched lengths, a depth outside [0, L], a bad ``cells``.
+        Non-uniform times, mismatched lengths, a depth outside [0, L], a bad ``cells`` or
+        ``resistance``.
 
     Examples
     --------
@@ -343,14 +378,15 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
     T0 = float(initial_temperature)
     x = _check_depth(skin, depth, where)
     hist = g - T0
+    R = _check_resistance(resistance, where)
     if x <= 0.0:
         return np.full(t.shape, T0)
-    if x >= skin.thickness:
+    if x >= skin.thickness and R == 0.0:
         return g.copy()
     if isinstance(split, bool) or not isinstance(split, (int, np.integer)) or split < 1:
         raise ModelInputError(f"{where}: split: expected an integer >= 1, got {split!r}")
     gain, a, lam = _surface_kernel(skin, x, cells=cells, epidermis_properties=epidermis_properties,
-                                  split=split)
+                                  split=split, resistance=R)
     S = gain - _exp_sum(a / lam, lam, t)
     S[0] = 0.0
     R_rest = _exp_sum(a / lam ** 2, lam, t) - float(np.sum(a / lam ** 2))

@@ -4,7 +4,9 @@
   printed, corrected, and the exact solution side by side (:mod:`analysis.model_figures`).
 * ``table2``: Table 2 beside our models, with residuals (:mod:`analysis.table2`); the
   markdown table is also printed.
-* ``figure9``: the simulated-cohort study (:func:`experiments.cohort.run_figure9_study`).
+* ``figure9``: the simulated-cohort study (:func:`experiments.cohort.run_figure9_study`);
+  ``--target-side`` chooses what the display replays (default: the protocol's, the paper's
+  material side); ``study.json`` and ``report.md`` say which.
 """
 from __future__ import annotations
 
@@ -19,6 +21,14 @@ def register(sub) -> None:
     p.add_argument("target", choices=TARGETS, help="what to reproduce")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing)")
     p.add_argument("--seed", type=int, default=0, help="figure9 only: cohort seed (default 0)")
+    p.add_argument("--target-side", choices=("material", "skin", "compensated"), default=None,
+                   help="figure9 only: what the display replays on simulated trials: 'material' "
+                        "(the paper's Eq. 7), 'skin' or 'compensated' (through the finger-pad "
+                        "resistance, the real contact); default: the protocol's (material)")
+    p.add_argument("--rate-limit", choices=("refuse", "slew"), default=None,
+                   help="figure9 only: profiles faster than the display's rate limit are refused "
+                        "(the study stops before it starts) or slowed to it ('slew'; compensated "
+                        "3#/4# need it); default: the protocol's (refuse)")
     p.set_defaults(func=_run)
 
 
@@ -47,5 +57,5 @@ def _run(ns) -> int:
         return 0
     # figure9: the simulated cohort (owned by experiments/cohort.py)
     from experiments.cohort import run_figure9_study
-    run_figure9_study(out, seed=ns.seed)
+    run_figure9_study(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit)
     return 0

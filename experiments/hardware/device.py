@@ -34,7 +34,9 @@ HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to 
 HARD_MAX_C = 45.0
 HARD_RATE_C_PER_S = 100.0  # largest setpoint step per second the firmware ever makes
 DEFAULT_NEUTRAL_C = 32.0
-WATCHDOG_MS = 80           # host silence that trips the watchdog (checked every 10 ms tick)
+WATCHDOG_MS = 90           # host silence that trips the watchdog, checked every 10 ms tick:
+                           # the setpoint goes to neutral ≤ WATCHDOG_MS + one tick = 100 ms
+                           # after the last host frame (docs/display-protocol.md, timing budget)
 MAX_POINTS = 65536         # 65.5 s at 1 ms, 655 s at 10 ms
 MIN_DT_US = 1000
 TICK_US = 10_000
@@ -186,12 +188,24 @@ class Device:
             self.log("state", old=old.name, why=why)
 
     # ------------------------------------------------------------------ host input
-    def receive(self, data: bytes) -> None:
-        """Handle bytes from the host (any number of frames, garbage tolerated)."""
+    def receive(self, data: bytes, at_us: int | None = None) -> None:
+        """Handle bytes from the host (any number of frames, garbage tolerated).
+
+        Parameters
+        ----------
+        data : bytes
+        at_us : int, optional, µs
+            Device time at which the bytes are known to have arrived, when the transport runs
+            behind (a starved emulator process catching up on ticks): valid frames feed the
+            watchdog as of that time. Default: now (``time_us``).
+        """
         if self.stalled:
             return
+        stamp = self.time_us if at_us is None else max(self.time_us, int(at_us))
         for fr in self.parser.feed(data):
-            self.last_rx_us = self.time_us
+            self.last_rx_us = stamp
+            if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":
+                continue                           # silent: no reply, nothing to cache
             hit = self.cache.get(fr.type)
             if hit is not None and hit[0] == fr.seq:
                 self.out += hit[1]                 # a retry: the same answer, not a second action

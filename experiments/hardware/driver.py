@@ -3,9 +3,21 @@
 One port, one lock, one parser. Commands are request/reply with a sequence number, a timeout and
 bounded retries (every command is safe to retry: the device answers a repeated sequence number
 with its cached reply instead of acting twice). Telemetry and events that arrive while waiting for
-a reply are routed to the armed trial, never held in bulk. A heartbeat goes out every 20 ms
-(wall time or device time, whichever runs faster) from the thread doing I/O, and from a small
-background thread when nothing else is talking.
+a reply are routed to the armed trial, never held in bulk.
+
+Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
+(serial device, pty) a helper process (:mod:`.heartbeat`) writes a silent heartbeat every
+``heartbeat_s`` (10 ms) -- no thread of ours, and so no GIL-holding main thread (a PsychoPy
+window, a slow telemetry callback, a long C call), can hold it back. Elsewhere (``emulator://``)
+a dedicated thread does the same without waiting for the I/O lock. Every command and every pass
+of the I/O loop also counts (any valid frame feeds the watchdog). Both stop heartbeating when the
+thread doing I/O has shown no sign of life for ``host_stall_s`` (2 s): a hung host program still
+lets the device's watchdog take the pad to neutral. On a virtual clock the I/O thread heartbeats
+in device time.
+
+A frame read only in part waits for its rest for ``stale_s`` (0.2 s of wall time) before the
+parser gives up on it: a pty hands a frame over in pieces when the kernel's buffers wrap, and a
+loaded machine may take tens of ms to deliver the second piece.
 
 Failure policy: a refused command raises :class:`DisplayRefused` (with the device's code); no
 answer after the retries raises :class:`DisplayTimeout`; a dead link raises :class:`DisplayError`
@@ -199,17 +211,33 @@ class ThermalDisplay:
     retries : int
         Extra attempts after a timeout.
     heartbeat_s : float, s
+        Longest host silence before a heartbeat is sent (default 0.01).
+    host_stall_s : float, s
+        The heartbeat thread stops when the I/O thread has been silent this long (default 2).
+    stale_s : float, s
+        How long a partly received frame waits for its rest on a real port (default 0.2).
     max_frame_loss : float
         Fraction of telemetry frames a trial may lose before it is reported as a fault.
     """
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
-                 retries: int = 3, heartbeat_s: float = 0.025, max_frame_loss: float = 0.01):
+                 retries: int = 3, heartbeat_s: float = 0.01, max_frame_loss: float = 0.01,
+                 host_stall_s: float = 2.0, stale_s: float = 0.2):
         self.port = port
         self.limits = limits or SafetyLimits()
         self.reply_timeout_s = float(reply_timeout_s)
         self.retries = int(retries)
         self.heartbeat_s = float(heartbeat_s)
+        self.host_stall_s = float(host_stall_s)
+        self.stale_s = float(stale_s)
+        self._wlock = threading.Lock()          # writes and sequence numbers, any thread
+        self._last_tx = -1e9                    # wall time of the last frame written
+        self._alive = time.monotonic()          # wall time the I/O thread last did something
+        self._hb_proc = None                    # HeartbeatProcess on a port with a descriptor
+        self._cand_key = None                   # parser progress when a partial frame was seen
+        self._cand_since = 0.0
+        self.heartbeats_sent = 0                # by the heartbeat thread
+        self.max_tx_gap_s = 0.0                 # longest wall-time gap between written frames
         self.max_frame_loss = float(max_frame_loss)
         self.info: DeviceInfo | None = None
         self._lock = threading.RLock()
@@ -237,19 +265,27 @@ class ThermalDisplay:
         return vt if vt is not None else time.monotonic()
 
     def _next_seq(self, mtype: int) -> int:
-        s = (self._seq + 1) & 0xFF
-        if self._last_seq_by_type.get(mtype) == s:      # never repeat a type's last number
-            s = (s + 1) & 0xFF
-        self._seq = s
-        self._last_seq_by_type[mtype] = s
-        return s
+        with self._wlock:
+            s = (self._seq + 1) & 0xFF
+            if self._last_seq_by_type.get(mtype) == s:      # never repeat a type's last number
+                s = (s + 1) & 0xFF
+            if s == 0 and mtype == Cmd.HEARTBEAT:           # 0: the helper's silent heartbeats
+                s = 1 if self._last_seq_by_type.get(mtype) != 1 else 2
+            self._seq = s
+            self._last_seq_by_type[mtype] = s
+            return s
 
     def _write(self, data: bytes) -> None:
-        try:
-            self.port.write(data)
-        except (serial.SerialException, OSError) as exc:
-            self._link_error = exc
-            raise DisplayError(f"display: link lost while writing: {exc}") from exc
+        with self._wlock:
+            try:
+                self.port.write(data)
+            except (serial.SerialException, OSError) as exc:
+                self._link_error = exc
+                raise DisplayError(f"display: link lost while writing: {exc}") from exc
+            now = time.monotonic()
+            if self._last_tx > 0:
+                self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
+            self._last_tx = now
 
     def _read_frames(self):
         try:
@@ -267,13 +303,40 @@ class ThermalDisplay:
         except (serial.SerialException, OSError) as exc:
             self._link_error = exc
             raise DisplayError(f"display: link lost while reading: {exc}") from exc
+        self._touch()
         if not data:
-            return self._parser.drop_candidate() if self._parser.buffered else []
+            return self._stale_candidate() if self._parser.buffered else []
         return self._parser.feed(data)
 
+    def _stale_candidate(self):
+        """Give up on a partial frame only once the parser has made no progress for ``stale_s``.
+
+        The rest of a frame split by the kernel may take a while on a loaded machine; a
+        candidate whose length field is garbage is abandoned after ``stale_s`` (and sooner by
+        itself once enough later bytes arrive for its CRC to fail).
+        """
+        p = self._parser
+        key = (p.frames, p.bad_frames, p.bytes_skipped, p.buffered)
+        now = time.monotonic()
+        if key != self._cand_key:
+            self._cand_key, self._cand_since = key, now
+            return []
+        if now - self._cand_since < self.stale_s:
+            return []
+        self._cand_key = None
+        return p.drop_candidate()
+
+    def _touch(self) -> None:
+        """The I/O thread is alive: say so to the heartbeat thread and helper."""
+        self._alive = time.monotonic()
+        if self._hb_proc is not None:
+            self._hb_proc.ping()
+
     def _heartbeat_if_due(self) -> None:
+        self._touch()
         c = self._clock()
-        if c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s:
+        if (c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s
+                or (not self._virtual and self._alive - self._last_tx >= self.heartbeat_s)):
             self._hb_clock, self._hb_dev = c, self._dev_time
             # silent (no reply wanted): telemetry or the next reply shows the device is alive
             self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
@@ -360,9 +423,21 @@ class ThermalDisplay:
         return self.info
 
     def start_heartbeat(self) -> None:
-        """Start the background heartbeat (not needed, and not started, on a virtual clock)."""
+        """Start the background heartbeat (not needed, and not started, on a virtual clock).
+
+        A helper process on a port with a file descriptor, else a thread (module docstring).
+        """
         if self._virtual or self._hb_thread is not None:
             return
+        fd = getattr(self.port, "fd", None)
+        if isinstance(fd, int) and fd >= 0 and self._hb_proc is None:
+            from .heartbeat import HeartbeatProcess
+            try:
+                self._hb_proc = HeartbeatProcess(
+                    fd, encode_frame(0, Cmd.HEARTBEAT, b"\x00"), self.heartbeat_s,
+                    self.host_stall_s)
+            except OSError:
+                self._hb_proc = None          # no helper: the thread heartbeats
         self._hb_stop.clear()
         self._hb_thread = threading.Thread(target=self._heartbeat_loop, name="display-heartbeat",
                                            daemon=True)
@@ -374,20 +449,33 @@ class ThermalDisplay:
         if self._hb_thread is not None:
             self._hb_thread.join(timeout=1.0)
             self._hb_thread = None
+        if self._hb_proc is not None:
+            self._hb_proc.stop()
+            self._hb_proc = None
 
     def _heartbeat_loop(self) -> None:
-        while not self._hb_stop.wait(self.heartbeat_s / 2):
-            if not self._lock.acquire(blocking=False):
-                continue                       # the I/O thread sends its own heartbeats
+        period = self.heartbeat_s
+        while not self._hb_stop.wait(period):
+            now = time.monotonic()
+            helper = self._hb_proc is not None and self._hb_proc.running
             try:
-                self._heartbeat_if_due()
-                if self.port.in_waiting:
-                    for fr in self._parser.feed(self.port.read(self.port.in_waiting)):
-                        self._dispatch(fr)
+                # the I/O thread alive (or merely busy: a GIL-holding main thread still counts)
+                # and nothing written for half a period: heartbeat, whoever holds the I/O lock
+                if (not helper and now - self._alive <= self.host_stall_s
+                        and now - self._last_tx >= period / 2):
+                    self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
+                    self.heartbeats_sent += 1
+                if not self._lock.acquire(blocking=False):
+                    continue                   # the I/O thread is reading
+                try:                           # nobody reads: keep the input drained
+                    if self.port.in_waiting:
+                        for fr in self._parser.feed(self.port.read(self.port.in_waiting)):
+                            self._dispatch(fr)
+                finally:
+                    self._lock.release()
             except Exception as exc:           # reported by the next call in the main thread
                 self._link_error = exc
-            finally:
-                self._lock.release()
+                return
 
     # ------------------------------------------------------------------ commands
     def set_neutral(self, temperature_C: float) -> float:

@@ -213,7 +213,7 @@ class Serial(SerialBase):
 
     def _run_real_time(self) -> None:
         tick = TICK_US * 1e-6
-        nxt = time.monotonic() + tick
+        self._next_tick = nxt = time.monotonic() + tick
         while True:
             with self._cond:
                 if self._stop:
@@ -229,6 +229,7 @@ class Serial(SerialBase):
                     behind += 1
                 if nxt <= now:
                     nxt = now + tick
+                self._next_tick = nxt
                 if self._rx:
                     self._cond.notify_all()
 
@@ -286,7 +287,14 @@ class Serial(SerialBase):
             dev = self.device
             if self.link.specs:
                 data = self.link.mangle(data, dev.time_us * 1e-6)
-            dev.receive(data)
+            at_us = None
+            if not self.virtual:
+                # the clock thread may be late (starved): the bytes arrived now, so they feed
+                # the watchdog as of the device time it is about to catch up to
+                late = time.monotonic() - getattr(self, "_next_tick", float("inf"))
+                if late >= 0:
+                    at_us = dev.time_us + min(19, int(late / (TICK_US * 1e-6))) * TICK_US
+            dev.receive(data, at_us=at_us)
             self._pump()
             if self._rx:
                 self._cond.notify_all()

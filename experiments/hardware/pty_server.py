@@ -4,8 +4,15 @@
 ``link`` a symbolic link to it), then runs the device until SIGINT or SIGTERM. Any program can
 open the path with pyserial (``serial.serial_for_url(path)``) as if it were a USB serial adapter.
 The server keeps its own descriptor of the slave open, so a host may close the port and another
-connect later: the device (and its watchdog) keeps running in between. Output that the host does
-not read is dropped once the pty's buffer is full, as a UART would overrun.
+connect later: the device (and its watchdog) keeps running in between.
+
+A pty loses no bytes, and neither does this server: output that does not fit in the pty's buffer
+is kept and written as soon as the host reads (up to :data:`MAX_PENDING` bytes, beyond which the
+oldest bytes are dropped and counted -- a host that stopped reading for minutes). When the server
+itself is starved of CPU it catches up on up to 20 ticks at once; host bytes read at that moment
+feed the watchdog as of the caught-up device time (they arrived by then), so the emulator's own
+lateness never trips the watchdog. The stop record of the log gives ``max_late_ms``, the worst
+lateness of a tick, and ``dropped_output_bytes``.
 
 Run it with ``thermocue emulator`` or ``python -m experiments.hardware.pty_server``.
 """
@@ -26,7 +33,10 @@ from .device import TICK_US, Device
 from .faults import LinkFaults, parse_faults
 from .protocol_emulator import JsonLog
 
-__all__ = ["serve", "main"]
+__all__ = ["serve", "main", "MAX_PENDING"]
+
+#: Output bytes held for a host that does not read (≈ 4 min of telemetry at 100 Hz).
+MAX_PENDING = 1 << 20
 
 
 def _queued(fd: int) -> int:
@@ -88,6 +98,8 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     tick = TICK_US * 1e-6
     delayed = collections.deque()
     dropped_out = 0
+    pending = bytearray()                 # output the pty could not take yet
+    max_late = 0.0
     connected = True
     last_write, seen_queued = 0.0, False
     nxt = time.monotonic() + tick
@@ -95,7 +107,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
         while not stopping and not (stop is not None and stop()):
             now = time.monotonic()
             virtual_go = False
-            if clock == "virtual" and connected and dev.state != 0 and not dev.out:
+            if clock == "virtual" and connected and dev.state != 0 and not dev.out and not pending:
                 # the host has read everything sent (a just-written frame may not have reached
                 # the slave's queue yet: it counts as read only once seen there, or after 2 ms)
                 q = _queued(slave)
@@ -106,9 +118,14 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
             if clock == "virtual" and dev.state != 0:
                 wait = min(wait, 0.0002)          # poll the host's progress
             if connected:
-                r, _, _ = select.select([master], [], [], min(wait, 0.05) if not virtual_go else 0)
+                r, _, _ = select.select([master], [master] if pending else [], [],
+                                        min(wait, 0.05) if not virtual_go else 0)
             else:
                 time.sleep(min(wait, 0.05)); r = []
+            now = time.monotonic()
+            if not virtual_go and now >= nxt:
+                max_late = max(max_late, now - nxt)
+            due = 1 if virtual_go else min(20, int((now - nxt) / tick) + 1 if now >= nxt else 0)
             if r:
                 try:
                     data = os.read(master, 65536)
@@ -119,8 +136,8 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
                 if data:
                     if lf.specs:
                         data = lf.mangle(data, dev.time_us * 1e-6)
-                    dev.receive(data)
-            now = time.monotonic()
+                    # the bytes arrived by now: stamp them with the device time we catch up to
+                    dev.receive(data, at_us=dev.time_us + max(0, due - 1) * TICK_US)
             n = 0
             if virtual_go:
                 dev.step(); n = 1
@@ -146,18 +163,25 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
                     while delayed and delayed[0][0] <= t:
                         out += delayed.popleft()[1]
             if out and connected:
-                last_write, seen_queued = time.monotonic(), False
+                pending += out
+                if len(pending) > MAX_PENDING:          # nobody reads: drop the oldest bytes
+                    dropped_out += len(pending) - MAX_PENDING
+                    del pending[:len(pending) - MAX_PENDING]
+            if pending and connected:
                 try:
-                    k = os.write(master, out)
-                    dropped_out += len(out) - k
+                    k = os.write(master, pending)
+                    del pending[:k]
+                    last_write, seen_queued = time.monotonic(), False
                 except (BlockingIOError, InterruptedError):
-                    dropped_out += len(out)
+                    pass                                # the pty is full: retry when writable
                 except OSError:
-                    dropped_out += len(out)
+                    dropped_out += len(pending)
+                    pending.clear()
     finally:
         for s, h in old.items():
             signal.signal(s, h)
-        jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop", dropped_output_bytes=dropped_out,
+        jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop", dropped_output_bytes=dropped_out + len(pending),
+                  max_late_ms=round(max_late * 1e3, 1),
                   state=dev.state.name, last_fault=dev.last_fault, setpoint_C=round(dev.sp, 3),
                   pad_C=round(dev.plant.pad, 3)))
         jlog.close()

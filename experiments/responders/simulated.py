@@ -4,7 +4,7 @@ It wraps :class:`experiments.participant_model.SimulatedPerson`: before each tri
 emulator's finger (its own skin thickness and temperature, a ~2 N press) and, on real trials,
 places the trial's sample on the emulator; after the trial it feels what the physics says at its
 receptors (real trials: its skin on the sample through the contact resistance; simulated trials:
-the display's recorded contact temperature imposed on its skin), learns templates on
+the display's recorded pad temperature touched through its own finger–pad contact resistance), learns templates on
 familiarisation trials and answers test trials by the model's decision rule.
 """
 from __future__ import annotations
@@ -16,7 +16,8 @@ import math
 import numpy as np
 
 from experiments.errors import UserInputError
-from experiments.participant_model import PerceptionParameters, SimulatedPerson, feature_names
+from experiments.participant_model import (PAD_MATERIAL, PAD_ROUGHNESS_M, PerceptionParameters,
+                                           SimulatedPerson, feature_names)
 from experiments.responders.base import RESPONSE_IDS, Responder, Response
 
 __all__ = ["SimulatedResponder"]
@@ -61,6 +62,14 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     hold_s : float, s, optional
         How long the finger stays on (default: the model's feature window + 0.5 s; the paper's
         participants withdrew after answering, within 20 s).
+    pad_roughness_um : float, µm, optional
+        R_a of the display's face the finger touches (default: the protocol's ``[simulation]
+        pad_roughness_um``, else 0.4 µm).
+    pad_material : str, optional
+        Its material (default: the protocol's ``pad_material``, else ``"copper"``).
+    pad_contact : bool
+        Feel the display's pad through the finger–pad contact resistance (default); false
+        imposes the pad temperature on the skin directly.
     log_percepts : bool
         Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
         log-likelihood of each sample, answer), so every answer can be traced to the physics.
@@ -73,13 +82,15 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
 
     def __init__(self, seed=None, skin_thickness_um=None, dermis_fraction=None,
                  skin_temperature_C=None, press_after_s=0.3, force_N=None, hold_s=None,
-                 log_percepts=True, **perception):
+                 log_percepts=True, pad_roughness_um=None, pad_material=None, pad_contact=True,
+                 **perception):
         super().__init__()
         unknown = sorted(set(perception) - set(_PARAM_FIELDS))
         if unknown:
             raise UserInputError(f"responder 'simulated': unknown option(s) {unknown}; expected "
                                  f"seed, skin_thickness_um, dermis_fraction, skin_temperature_C, "
-                                 f"press_after_s, force_N, hold_s, log_percepts or one of "
+                                 f"press_after_s, force_N, hold_s, log_percepts, pad_roughness_um, "
+                                 f"pad_material, pad_contact or one of "
                                  f"{sorted(_PARAM_FIELDS)}")
         values = {}
         for key, value in perception.items():
@@ -104,6 +115,13 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         self.force_N = None if force_N is None else _number("force_N", force_N)
         self.hold_s = self.params.duration_s + 0.5 if hold_s is None else _number("hold_s", hold_s)
         self.log_percepts = log_percepts not in (False, "false", "False", "0", 0)
+        self.pad_roughness_um = None if pad_roughness_um is None else _number("pad_roughness_um", pad_roughness_um)
+        if self.pad_roughness_um is not None and self.pad_roughness_um < 0:
+            raise UserInputError(f"responder 'simulated': pad_roughness_um: expected a number >= 0, "
+                                 f"got {pad_roughness_um!r}")
+        self.pad_material = None if pad_material is None else str(pad_material)
+        self.pad_contact = pad_contact not in (False, "false", "False", "0", 0)
+        self._pad_cache: dict = {}
         self.person: SimulatedPerson | None = None
         self._trial_state: dict[int, tuple[np.random.Generator, float]] = {}
         self._learned: set[int] = set()
@@ -202,7 +220,8 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         _, skin_temperature = self._trial(trial)
         if _played(stimulus):
             t, surface = _contact_trace(stimulus)
-            t, rec = person.feel_imposed(t, surface, skin_temperature_C=skin_temperature)
+            t, rec = person.feel_imposed(t, surface, skin_temperature_C=skin_temperature,
+                                         pad_resistance=self.pad_resistance())
         else:
             sample = _sample_for(self.session, trial, self.params, stimulus.sample)
             t, rec = person.feel_real(sample["roughness_m"], material=sample["material"],
@@ -210,6 +229,30 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                                       material_temperature_C=sample["temperature_C"],
                                       skin_temperature_C=skin_temperature)
         return t, rec, skin_temperature
+
+    def pad_resistance(self) -> float | None:
+        """This person's finger–pad contact resistance on the display, m² K/W (or None).
+
+        Eq. 5 for the pad's face against the person's own skin
+        (:meth:`SimulatedPerson.pad_resistance`); the face is the protocol's ``[simulation]
+        pad_roughness_um`` / ``pad_material`` unless the options say otherwise (default 0.4 µm
+        copper, the emulated pad's).  ``pad_contact=false`` imposes the pad temperature on the
+        skin directly (no contact resistance, the model before the pad contact was modelled).
+        """
+        if not self.pad_contact:
+            return None
+        sim = getattr(getattr(self.session, "protocol", None), "simulation", None)
+        roughness_um = self.pad_roughness_um
+        if roughness_um is None:
+            roughness_um = getattr(sim, "pad_roughness_um", PAD_ROUGHNESS_M * 1e6)
+        pad_material = self.pad_material or getattr(sim, "pad_material", PAD_MATERIAL)
+        key = (float(roughness_um), str(pad_material))
+        if key not in self._pad_cache:
+            try:
+                self._pad_cache[key] = self._ensure_person().pad_resistance(key[0] * 1e-6, key[1])
+            except ValueError as exc:   # stimuli.ModelInputError: an unknown material
+                raise UserInputError(f"responder 'simulated': pad_material: {exc}") from None
+        return self._pad_cache[key]
 
     def _learn(self, trial, stimulus) -> None:
         """Add this familiarisation trial's percept to its class template (once per trial)."""
@@ -243,6 +286,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             answer = person.decide(percept, rng, choices=RESPONSE_IDS, mode=kind)
             if self.log_percepts:
                 self.log("simulated_percept", trial_index=index, felt_as=kind,
+                         pad_resistance_m2K_W=self.pad_resistance() if kind == "simulated" else None,
                          skin_temperature_C=round(skin_temperature, 4),
                          feature_names=list(feature_names(person.params)),
                          features=[round(float(v), 4) for v in features],

@@ -98,3 +98,43 @@ def test_a_participant_answers_the_same_in_every_run(tmp_path):
             answers.append([(r["trial_index"], r["response_id"], r["rt_s"]) for r in csv.DictReader(f)])
     assert answers[0] == answers[1]
     assert sum(1 for _, rid, _ in answers[0] if rid) == 24
+
+
+def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
+    from experiments.errors import UserInputError
+    with pytest.raises(UserInputError) as ei:
+        run_figure9_study(tmp_path, progress=False, participants=1, target_side="compensated")
+    msg = str(ei.value)
+    assert msg.startswith("protocol.toml: simulation.target_side: expected profiles the display accepts; "
+                          "'compensated' for sample 3# (group A) gives profile.target_C: expected a rate ≤ 10.0")
+    assert 'rate_limit = "slew"' in msg and "\n" not in msg
+    assert not any((tmp_path / "data").iterdir())
+
+
+def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_path):
+    import csv
+
+    from experiments.cohort import _note_simulation
+    from experiments.protocol import load_protocol
+    run_figure9_study(tmp_path, progress=False, participants=1, workers=1, analyze=False,
+                      target_side="compensated", rate_limit="slew")
+    study = json.loads((tmp_path / "study.json").read_text())
+    assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
+        ("compensated", "slew", 0.4, "copper")
+    copy = load_protocol(tmp_path / "protocol.toml")
+    assert study["protocol_hash"] == copy.hash
+    # only the two lines changed: everything else parses to the packaged protocol
+    packaged = load_protocol("roughness_recognition")
+    for key in ("target_side", "rate_limit"):
+        packaged.data["simulation"][key] = copy.data["simulation"][key]
+    assert copy.data == packaged.data
+    (session,) = study["participants"]
+    with open(f"{session['session_dir']}/trials.csv") as fh:
+        sim = [r for r in csv.DictReader(fh) if r["mode"] == "simulated"]
+    assert len(sim) == 12 and {r["target_side"] for r in sim} == {"compensated"}
+    assert max(float(r["rate_limited_max_change_C"]) for r in sim) > 0.05     # 3# and 4#
+    report = tmp_path / "report.md"
+    report.write_text("# report\n")
+    _note_simulation(report, copy)
+    text = report.read_text()
+    assert "target side: `compensated`" in text and "copper, R_a 0.4 µm" in text

@@ -194,3 +194,59 @@ def test_bad_protocol_through_the_cli(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 2
     assert err == f"thermocue run: {path}: blocks[1].repetitions: expected an integer ≥ 1, got 'three'\n"
+
+
+# -- [simulation] target side and finger–pad contact -------------------------------------------
+
+def test_simulation_target_side_and_pad_defaults_are_the_papers_and_the_emulators():
+    sim = load_protocol("roughness_recognition").simulation
+    assert (sim.target_side, sim.pad_roughness_um, sim.pad_material, sim.rate_limit) == \
+        ("material", 0.4, "copper", "refuse")
+    # a [simulation] table that leaves them out gets the same defaults
+    text = RR.read_text(encoding="utf-8")
+    for line in ('target_side = "material"\n', "pad_roughness_um = 0.4\n", 'pad_material = "copper"\n',
+                 'rate_limit = "refuse"\n'):
+        assert line in text
+        text = text.replace(line, "")
+    p = parse_protocol(__import__("tomllib").loads(text), source="bare.toml")
+    assert (p.simulation.target_side, p.simulation.pad_roughness_um, p.simulation.pad_material,
+            p.simulation.rate_limit) == ("material", 0.4, "copper", "refuse")
+
+
+def test_pad_resistance_is_the_emulated_pads():
+    from experiments.hardware.pad_physics import finger_pad_resistance
+    sim = load_protocol("roughness_recognition").simulation
+    assert sim.pad_resistance() == pytest.approx(finger_pad_resistance(), rel=1e-12)
+
+
+@pytest.mark.parametrize("side", ["skin", "compensated"])
+def test_target_side_choices(tmp_path, side):
+    path = variant(tmp_path, 'target_side = "material"', f'target_side = "{side}"')
+    assert load_protocol(path).simulation.target_side == side
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ('target_side = "material"', 'target_side = "Material"',
+     "simulation.target_side: expected one of 'material', 'skin', 'compensated', got 'Material'"),
+    ('target_side = "material"', "target_side = 1",
+     "simulation.target_side: expected one of 'material', 'skin', 'compensated', got 1"),
+    ("pad_roughness_um = 0.4", "pad_roughness_um = -0.4",
+     "simulation.pad_roughness_um: expected a number ≥ 0 and ≤ 1000, got -0.4"),
+    ("pad_roughness_um = 0.4", 'pad_roughness_um = "0.4 um"',
+     "simulation.pad_roughness_um: expected a number ≥ 0 and ≤ 1000, got '0.4 um'"),
+    ("pad_roughness_um = 0.4", "pad_roughness_m = 0.4e-6",
+     "simulation.pad_roughness_m: expected one of the known keys"),
+    ('pad_material = "copper"', 'pad_material = "unobtainium"',
+     "simulation.pad_material: expected one of 'aluminium', "),
+    ('pad_material = "copper"', "pad_material = 29",
+     "simulation.pad_material: expected a non-empty string, got 29"),
+    ('rate_limit = "refuse"', 'rate_limit = "clamp"',
+     "simulation.rate_limit: expected one of 'refuse', 'slew', got 'clamp'"),
+])
+def test_bad_simulation_fields_name_file_and_field(tmp_path, old, new, message):
+    path = variant(tmp_path, old, new)
+    with pytest.raises(ProtocolError) as ei:
+        load_protocol(path)
+    msg = str(ei.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{path}: {message}"), msg

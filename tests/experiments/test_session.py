@@ -228,3 +228,118 @@ def test_psychopy_without_a_display_is_refused_before_anything_is_written(tmp_pa
     err = capsys.readouterr().err
     assert status == 2 and "--responder psychopy: expected a display" in err and err.count("\n") == 1
     assert not (tmp_path / "d").exists()
+
+
+# --------------------------------------------------------------------------- target side, pad, calibration
+
+class _RecordingDisplay(ScriptedDisplay):
+    """The scripted display, keeping every uploaded profile."""
+
+    def upload_profile(self, t, y):
+        super().upload_profile(t, y)
+        self.uploads = getattr(self, "uploads", []) + [(list(t), list(y))]
+
+
+def _eq5_copper_pad():
+    # Eq. 5 by hand for the pad's 0.4 µm copper face (401 W/mK) against skin (0.34 W/mK),
+    # 2 N on 135 mm², H = 12.5 gf/mm², Delta_a = 0.3, R_S = 21.69 µm.
+    import math
+    lam = 2 * 0.34 * 401.0 / (0.34 + 401.0)
+    return 0.8 * math.hypot(21.69e-6, 0.4e-6) / (lam * 0.3) * (12.5 * 9.80665e-3 / 1e-6 / (2.0 / 135e-6)) ** 0.95
+
+
+def _side_protocol(tmp_path, side, rate_limit="refuse", sim_samples=(2,)):
+    proto = write_protocol(tmp_path, real_samples=(1,), sim_samples=sim_samples)
+    text = proto.read_text().replace('method = "exact"\n', f'method = "exact"\ntarget_side = "{side}"\n'
+                                     f'rate_limit = "{rate_limit}"\n')
+    proto.write_text(text)
+    return proto
+
+
+def _calibrated_record(tmp_path, resistance=1.2e-3):
+    record = json.loads(P01.read_text())
+    record["calibration"] = {"method": "test", "date": "2026-11-22", "skin_thickness_um": 900.0,
+                             "contact_resistance_m2K_W": {"12.5": resistance},
+                             "samples": [{"key": "12.5", "roughness_id": 2, "roughness_um": 12.5}]}
+    path = tmp_path / "P01.json"
+    path.write_text(json.dumps(record))
+    return path
+
+
+def test_simulated_profile_uses_the_calibrated_resistance_and_the_protocols_side(tmp_path):
+    from stimuli import Skin, target_profile
+    proto = _side_protocol(tmp_path, "compensated")
+    s = create_session(proto, _calibrated_record(tmp_path), tmp_path / "data", "scripted://", seed=1,
+                       clock="virtual")
+    disp = _RecordingDisplay()
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    up = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "profile_uploaded"]
+    assert len(up) == 1
+    ev = up[0]
+    r_pad = _eq5_copper_pad()
+    assert ev["target_side"] == "compensated"
+    assert ev["pad_resistance_m2K_W"] == pytest.approx(r_pad, rel=1e-12)
+    assert (ev["resistance_m2K_W"], ev["resistance_source"]) == (1.2e-3, "calibration")
+    assert ev["skin_thickness_source"] == "calibration"
+    # what target_profile was asked for (it records its inputs)
+    p = ev["parameters"]
+    assert p["side"] == "compensated" and p["resistance_m2K_per_W"] == 1.2e-3
+    assert p["pad_resistance_m2K_per_W"] == pytest.approx(r_pad, rel=1e-12)
+    assert p["skin"]["thickness_m"] == pytest.approx(900e-6, rel=1e-12)
+    # the upload is that profile, and not the paper's material-side one
+    kw = dict(roughness=12.5e-6, skin=Skin(900e-6, dermis=540e-6), skin_temperature=35.5,
+              material_temperature=20.0, duration=1.0, rate=50.0, sample_thickness=3e-3,
+              resistance=1.2e-3, pad_resistance=r_pad, cache=False)
+    comp = target_profile(side="compensated", **kw)
+    mat = target_profile(side="material", **kw)
+    (t, y), = disp.uploads
+    assert y == pytest.approx(list(comp.temperature), abs=1e-12)
+    assert abs(y[0] - mat.temperature[0]) > 1.0     # 12.5 µm: the pad starts > 1 K warmer
+    sim = [r for r in rows(s.directory / "trials.csv") if r["mode"] == "simulated"]
+    assert sim[0]["target_side"] == "compensated"
+    assert float(sim[0]["pad_resistance_m2K_W"]) == pytest.approx(r_pad, rel=1e-12)
+    assert float(sim[0]["profile_resistance_m2K_W"]) == 1.2e-3
+    assert sim[0]["profile_resistance_source"] == "calibration"
+
+
+def test_uncalibrated_sample_uses_eq5_and_the_material_side_by_default(tmp_path):
+    # the calibration covers 12.5 µm only: sample 3# (50 µm) gets Eq. 5 but the calibrated thickness
+    proto = write_protocol(tmp_path, real_samples=(1,), sim_samples=(3,))
+    s = create_session(proto, _calibrated_record(tmp_path), tmp_path / "data", "scripted://", seed=1,
+                       clock="virtual")
+    assert s.run(ScriptedResponder(), display=ScriptedDisplay()) == 0
+    ev, = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "profile_uploaded"]
+    assert ev["target_side"] == "material" and ev["resistance_source"] == "eq5"
+    assert ev["skin_thickness_source"] == "calibration"
+    assert ev["parameters"]["skin"]["thickness_m"] == pytest.approx(900e-6, rel=1e-12)
+    # Eq. 5 for 50 µm steel (14.9 W/mK) against skin, by hand
+    import math
+    lam = 2 * 0.34 * 14.9 / (0.34 + 14.9)
+    eq5 = 0.8 * math.hypot(21.69e-6, 50e-6) / (lam * 0.3) * (12.5 * 9.80665e-3 / 1e-6 / (2.0 / 135e-6)) ** 0.95
+    assert ev["resistance_m2K_W"] == pytest.approx(eq5, rel=1e-9)
+
+
+def test_slew_rate_limit_slows_a_fast_compensated_profile_and_logs_the_change(tmp_path):
+    from experiments.profile_rate import window_rate
+    proto = _side_protocol(tmp_path, "compensated", rate_limit="slew", sim_samples=(3,))
+    s = create_session(proto, P01, tmp_path / "data", "scripted://", seed=1, clock="virtual")
+    disp = _RecordingDisplay()
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    (t, y), = disp.uploads
+    assert window_rate(y, 0.02, 0.1) <= 10.0          # the display's limit (13.5 °C/s unslowed)
+    ev, = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "profile_uploaded"]
+    assert 0.05 < ev["rate_limited_max_change_C"] < 0.5
+    row, = [r for r in rows(s.directory / "trials.csv") if r["mode"] == "simulated"]
+    assert float(row["rate_limited_max_change_C"]) == ev["rate_limited_max_change_C"]
+
+
+def test_a_compensated_profile_the_pad_cannot_give_names_protocol_and_field(tmp_path):
+    from experiments.errors import SessionError
+    from experiments.protocol import load_protocol
+    from experiments.session import simulated_target_profile
+    proto = load_protocol(_side_protocol(tmp_path, "compensated"))
+    # a calibrated sample resistance below the pad's: no pad temperature can compensate
+    record = json.loads(_calibrated_record(tmp_path, resistance=1e-4).read_text())
+    with pytest.raises(SessionError, match=r"mini\.toml: simulation\.target_side: 'compensated' "
+                                           r"for sample 12\.5 µm \(calibration resistance\)"):
+        simulated_target_profile(proto, record, "A", 680.0, 2, 12.5)

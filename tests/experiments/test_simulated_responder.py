@@ -180,3 +180,41 @@ def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule(
         total, count = live.person.templates["real"][rid]
         np.testing.assert_array_equal(total, one_by_one.person.templates["real"][rid][0])
         assert count == 1          # trial 6 comes after a scored trial: not learned ahead
+
+
+def test_simulated_trial_is_felt_through_the_protocols_finger_pad_resistance():
+    from types import SimpleNamespace
+
+    from experiments.participant_model import SimulatedPerson
+    t = np.arange(0, 10.0, 0.01)
+    pad = 22.0 + 4.0 * (1 - np.exp(-t / 2.0))
+    trial = spec(9, "simulated", "simulated", 2)
+    stim = TrialStimulus("simulated", 2, 12.5, time_s=t, contact_C=pad, target_C=pad,
+                         profile_parameters={})
+    opts = dict(seed=4, skin_thickness_um=900.0, skin_temperature_sd_C=0.0, skin_temperature_C=35.5)
+    person = SimulatedPerson(900e-6, 0.6, 35.5)
+    # default (no protocol): the emulated pad's 0.4 µm copper face
+    r = SimulatedResponder(**opts)
+    _, felt, _ = r.feel(trial, stim)
+    _, expected = person.feel_imposed(t, pad, pad_resistance=person.pad_resistance(0.4e-6, "copper"))
+    np.testing.assert_allclose(felt, expected, atol=1e-9)
+    # the protocol's pad: a rough steel face has a larger resistance, so the same pad feels warmer
+    r = SimulatedResponder(**opts)
+    r.session = SimpleNamespace(protocol=SimpleNamespace(
+        simulation=SimpleNamespace(pad_roughness_um=50.0, pad_material="stainless_steel")))
+    _, rough, _ = r.feel(trial, stim)
+    assert r.pad_resistance() == pytest.approx(person.pad_resistance(50e-6, "stainless_steel"), rel=1e-12)
+    assert np.all(rough[100:] > felt[100:] + 0.05)
+    # pad_contact=false: the pad temperature imposed on the skin, colder still than through R
+    r = SimulatedResponder(pad_contact="false", **opts)
+    _, ideal, _ = r.feel(trial, stim)
+    assert r.pad_resistance() is None
+    assert np.all(ideal[100:] < felt[100:] - 0.05)
+
+
+def test_bad_pad_options_are_user_errors():
+    with pytest.raises(UserInputError, match="pad_roughness_um"):
+        SimulatedResponder(pad_roughness_um="-1")
+    r = SimulatedResponder(skin_thickness_um=900.0, pad_material="cheese")
+    with pytest.raises(UserInputError, match="pad_material"):
+        r.pad_resistance()

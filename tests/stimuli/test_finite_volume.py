@@ -206,3 +206,36 @@ def test_contact_hard_cases_finite_and_bounded(name, R):
         for depth, side in [(0.0, "skin"), (skin.dermis, "skin"), (5e-3, "skin"), (5e-3, "material")]:
             T = solve_contact(skin, material(name), R, 35.0, 20.0, t, depth=depth, side=side)
             assert np.all(np.isfinite(T)) and np.all((T >= 20.0 - 1e-9) & (T <= 35.0 + 1e-9))
+
+
+# --------------------------------------------------------------------------- surface through R
+def test_surface_through_resistance_steady_state_is_series_conduction():
+    skin = Skin(1e-3, dermis=0.7e-3)
+    epi = Layer(0.2, 1100.0, 3000.0)
+    t = np.arange(201) * 2.0                           # 400 s: long past every time constant
+    R = 5e-4
+    rd, re = 0.7e-3 / 0.34, 0.3e-3 / 0.2
+    T = solve_surface(skin, t, np.full(t.size, 25.0), 35.0, epidermis_properties=epi, resistance=R)
+    assert abs(T[-1] - (35.0 - 10.0 * rd / (rd + re + R))) < 1e-6
+    Ts = solve_surface(skin, t, np.full(t.size, 25.0), 35.0, depth=1e-3, epidermis_properties=epi,
+                       resistance=R)
+    assert abs(Ts[-1] - (35.0 - 10.0 * (rd + re) / (rd + re + R))) < 1e-6
+
+
+def test_surface_through_resistance_early_times_converge_second_order():
+    # t << L^2/alpha: a half-space behind R (Carslaw & Jaeger §2.7):
+    # T(L-) = T0 + h [1 - erfcx(H sqrt(alpha t))], H = 1 / (R lambda); images at 2L are below 1e-30
+    skin = Skin(5e-3)
+    R = 2e-4
+    t = np.arange(101) * 1e-3
+    z = np.sqrt(skin.diffusivity * t) / (R * skin.conductivity)
+    exact = 35.0 - 10.0 * (1.0 - erfcx(z))
+    errs = [np.max(np.abs(solve_surface(skin, t, np.full(t.size, 25.0), 35.0, depth=5e-3, cells=c,
+                                        resistance=R)[20:] - exact[20:])) for c in (32, 64)]
+    assert errs[1] < 2e-3 and 3.0 < errs[0] / errs[1] < 5.0
+
+
+@pytest.mark.parametrize("bad", [-1e-4, float("nan"), "rough"])
+def test_surface_bad_resistance(bad):
+    with pytest.raises(ModelInputError, match=r"solve_surface: resistance: expected"):
+        solve_surface(Skin(1e-3), np.arange(3) * 0.1, np.full(3, 30.0), 35.0, resistance=bad)

@@ -179,3 +179,132 @@ def test_response_is_linear_and_monotone_in_surface_temperature():
     assert np.all(colder <= b + 35.0)
     assert np.all(colder[100:] < b[100:] + 35.0)   # after 0.1 s the receptor has felt the step
     assert math.isclose(colder[0], 35.0)
+
+
+# --------------------------------------------------------------------------- contact resistance
+# Robin condition at x = L: -lambda dT/dx = (T(L-) - g) / R. With u = A sinh(q x) (u(0) = 0):
+# -lambda q A cosh(q L) = (A sinh(q L) - G) / R, so u = G sinh(q x) / (sinh(q L) + R lambda q cosh(q L)),
+# lambda q = beta sqrt(s). Written again here in plain mpmath hyperbolics, inverted by Talbot.
+def _robin_pair(skin, x, R):
+    a = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
+    lam, L, x, R = mp.mpf(skin.conductivity), mp.mpf(skin.thickness), mp.mpf(x), mp.mpf(R)
+
+    def K(s):
+        q = mp.sqrt(s / a)
+        return mp.sinh(q * x) / (mp.sinh(q * L) + R * lam * q * mp.cosh(q * L))
+
+    def S(t):
+        return mp.invertlaplace(lambda s: K(s) / s, t, method="talbot") if t > 0 else mp.mpf(0)
+
+    def Rr(t):
+        return mp.invertlaplace(lambda s: K(s) / (s * s), t, method="talbot") if t > 0 else mp.mpf(0)
+
+    return S, Rr
+
+
+def _robin_reference(skin, x, R, t):
+    S, Rr = _robin_pair(skin, x, R)
+    with mp.workdps(30):
+        u = mp.mpf(H0) * S(mp.mpf(t))
+        prev = 0.0
+        for tk, m in KINKS:
+            if t > tk:
+                u += mp.mpf(m - prev) * Rr(mp.mpf(t) - mp.mpf(tk))
+            prev = m
+    return float(u)
+
+
+@pytest.mark.parametrize("thickness, depth, R", [
+    (650e-6, None, 6.5e-4),          # a finger-pad resistance of Eq. 5's size
+    (650e-6, 650e-6, 6.5e-4),        # the skin side L- of the contact
+    (1.0e-3, None, 2e-5),            # small R: close to the Dirichlet case
+    (100e-6, 100e-6, 1e-2),          # thin skin, large R
+])
+def test_resistance_exact_20s_at_1kHz_within_1e_6_K_of_mpmath(thickness, depth, R):
+    skin = Skin(thickness)
+    x = skin.dermis if depth is None else depth
+    t = np.arange(20001) * 1e-3
+    T0 = 35.0
+    T, info = skin_response(skin, t, T0 + _history(t), initial_temperature=T0, depth=depth,
+                            resistance=R, full_output=True)
+    assert info.method == "exact" and info.error_bound < 1e-6
+    assert T[0] == T0
+    worst = 0.0
+    for i in [1, 37, 500, 2000, 2001, 7500, 12301, 16000, 20000]:
+        ref = T0 + _robin_reference(skin, x, R, t[i])
+        worst = max(worst, abs(T[i] - ref))
+    assert worst <= max(info.error_bound, 1e-9), worst
+
+
+def test_resistance_numerical_agrees_with_exact_and_its_estimate_holds():
+    skin = Skin(650e-6)
+    t = np.arange(2001) * 1e-2
+    g = 35.0 + _history(t)
+    for depth in (None, skin.thickness):
+        T_exact = skin_response(skin, t, g, depth=depth, resistance=6.5e-4)
+        T_num, info = skin_response(skin, t, g, depth=depth, resistance=6.5e-4, method="numerical",
+                                    full_output=True)
+        err = np.max(np.abs(T_num - T_exact))
+        assert info.method == "numerical" and err < 1e-4 and err <= info.error_bound
+
+
+def test_resistance_zero_is_dirichlet_and_small_resistance_is_continuous():
+    skin = Skin(650e-6)
+    t = np.arange(5001) * 1e-3
+    g = 35.0 + _history(t)
+    dirichlet = skin_response(skin, t, g)
+    assert np.array_equal(skin_response(skin, t, g, resistance=0.0), dirichlet)
+    assert np.array_equal(skin_response(skin, t, g, resistance=None), dirichlet)
+    diffs = [np.max(np.abs(skin_response(skin, t, g, resistance=R) - dirichlet)) for R in (1e-5, 1e-6, 1e-7)]
+    # the receptor's gain d / (L + R lambda) moves by O(R): the difference shrinks ~10x per decade
+    assert diffs[0] > diffs[1] > diffs[2] and diffs[2] < 2e-3 and diffs[0] / diffs[2] > 30
+
+
+def test_large_resistance_limits():
+    skin = Skin(650e-6)
+    lam, alpha = skin.conductivity, skin.diffusivity
+    t = np.arange(6001) * 1e-2                  # 60 s: tau = alpha t / L^2 > 10, steady
+    g = np.full(t.size, 25.0)                   # a 10 K step
+    for R in (1e-2, 1e-1, 1.0):
+        T = skin_response(skin, t, g, initial_temperature=35.0, resistance=R)
+        # steady state: a series circuit R + d / lambda of the total L / lambda + R
+        assert abs(T[-1] - (35.0 - 10.0 * skin.dermis / (skin.thickness + R * lam))) < 1e-9
+        # surface, short times: a half-space behind R (Carslaw & Jaeger §2.7),
+        # u = h [1 - exp(H^2 alpha t) erfc(H sqrt(alpha t))], H = 1 / (R lambda)
+        Ts = skin_response(skin, t[:11], g[:11], initial_temperature=35.0, depth=skin.thickness,
+                           resistance=R)
+        for i in (1, 5, 10):
+            z = mp.sqrt(mp.mpf(alpha) * t[i]) / (mp.mpf(R) * mp.mpf(lam))
+            ref = 35.0 - 10.0 * float(1 - mp.exp(z * z) * mp.erfc(z))
+            assert abs(Ts[i] - ref) < 1e-3 * 10.0 * float(z) + 1e-9     # images at 2L: e^-(L^2/alpha t)
+    # and the receptor's whole response falls as 1/R once R >> L / lambda
+    a = skin_response(skin, t, g, initial_temperature=35.0, resistance=1.0) - 35.0
+    b = skin_response(skin, t, g, initial_temperature=35.0, resistance=10.0) - 35.0
+    felt = np.abs(b) > 1e-8                     # above the inversion's ~1e-13 K absolute noise
+    assert felt.sum() > 5900 and np.max(np.abs(a[felt] / b[felt] - 10.0)) < 0.05
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    (dict(resistance=-1e-4), "resistance"),
+    (dict(resistance=float("nan")), "resistance"),
+    (dict(resistance=1e-4, method="paper"), "method"),
+    (dict(resistance=1e-4, epidermis_properties=Layer(0.5, 1200.0, 3340.0)), "method"),
+])
+def test_resistance_bad_input_names_the_field(kwargs, field):
+    args = dict(t=np.array([0.0, 0.1, 0.2]), surface_temperature=np.array([30.0, 30.0, 30.0]))
+    args.update(kwargs)
+    with pytest.raises(ModelInputError, match=rf"skin_response: {field}: expected"):
+        skin_response(Skin(1e-3), **args)
+
+
+def test_resistance_layered_numerical():
+    skin = Skin(650e-6)
+    t = np.arange(2001) * 1e-2
+    g = 35.0 + _history(t)
+    same = Layer(skin.conductivity, skin.density, skin.specific_heat)
+    T_layer = skin_response(skin, t, g, method="numerical", epidermis_properties=same, resistance=6.5e-4)
+    T_exact = skin_response(skin, t, g, resistance=6.5e-4)
+    assert np.max(np.abs(T_layer - T_exact)) < 1e-4
+    T_tol, info = skin_response(skin, t, g, tolerance=1e-5, epidermis_properties=Layer(0.5, 1200.0, 3340.0),
+                                resistance=6.5e-4, full_output=True)
+    assert info.method == "numerical" and info.error_bound <= 1e-5

@@ -163,3 +163,26 @@ def test_overtemperature_is_caught_before_harm():
 def test_sim_commands_refused_by_a_real_device():
     h = Host(Device(sim=False))
     assert nak_code(finger(h)) == Err.NOT_SUPPORTED
+
+
+def test_silent_heartbeats_are_not_cached(host):
+    # the heartbeat helper sends silent heartbeats with seq 0; an acknowledged heartbeat with
+    # the same number must still get its answer
+    assert host.send(Cmd.HEARTBEAT, b"\x00", seq=5) is None
+    r = host.send(Cmd.HEARTBEAT, b"", seq=5)
+    assert r is not None and r.type == Cmd.HEARTBEAT | 0x80
+    assert m.TIME.unpack(r.payload)[0] == host.dev.time_us
+
+
+def test_bytes_stamped_late_feed_the_watchdog_from_then(host):
+    # a starved transport catching up on ticks stamps what it read with the caught-up time
+    host.upload(np.full(3000, 25.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    t0 = host.dev.time_us
+    host.dev.receive(encode_frame(1, Cmd.HEARTBEAT, b"\x00"), at_us=t0 + 80_000)
+    for _ in range(17):                     # 170 ms: silence counted from t0 + 80 ms only
+        host.dev.step()
+    assert host.dev.state == State.ARMED
+    for _ in range(2):
+        host.dev.step()
+    assert host.dev.state == State.IDLE and host.dev.last_fault == Err.WATCHDOG

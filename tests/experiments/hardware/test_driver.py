@@ -114,3 +114,80 @@ def test_unopenable_url_is_a_display_error():
         open_display("emulator://?colour=red")
     with pytest.raises(DisplayError, match="cannot open"):
         open_display("/dev/no-such-display")
+
+
+def _telemetry_frame(counter):
+    from experiments.hardware import messages as m
+    from experiments.hardware.framing import encode_frame
+    body = m.TELEMETRY.pack(counter, counter * 10_000, 3000, 3000, 2000, 3400, 50, 50, 50, 50,
+                            m.State.PLAYING, 0)
+    return encode_frame(counter & 0xFF, m.Msg.TELEMETRY, body)
+
+
+def _loop_display(**options):
+    import serial
+
+    from experiments.hardware.driver import ThermalDisplay
+    return ThermalDisplay(serial.serial_for_url("loop://", timeout=0.01), **options)
+
+
+def test_a_frame_split_by_a_slow_kernel_is_not_lost():
+    # a pty hands a frame over in two pieces when its buffers wrap; on a loaded machine the
+    # second piece can come after a read timed out: the parser must wait for it (it used to
+    # drop the first byte after one empty 10 ms read, and the frame with it)
+    d = _loop_display(stale_s=0.5)
+    fr = _telemetry_frame(7)
+    d.port.write(fr[:20])
+    assert d._read_frames() == []
+    for _ in range(5):                                   # five empty reads (50 ms): still waiting
+        assert d._read_frames() == []
+    d.port.write(fr[20:])
+    got = d._read_frames()
+    assert [f.payload for f in got] == [fr[6:-2]] and d._parser.bytes_skipped == 0
+
+
+def test_a_garbage_length_is_abandoned_after_stale_s():
+    d = _loop_display(stale_s=0.05)
+    good = _telemetry_frame(8)
+    d.port.write(b"\xa5\x5a\xf0\x03" + good)             # claims 1008 bytes that never come
+    got = []
+    for _ in range(40):                                  # ≥ 0.4 s of empty reads
+        got += d._read_frames()
+        if got:
+            break
+    assert [f.payload for f in got] == [good[6:-2]]
+
+
+def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tmp_path):
+    # on a port with a descriptor the heartbeat comes from a helper process: here the host
+    # process holds the GIL in one C call (sorting floats) for well over the watchdog's 90 ms
+    import os
+    import pty
+    import random
+    import time
+
+    import serial
+
+    from experiments.hardware.driver import ThermalDisplay
+    from experiments.hardware.framing import FrameParser
+    master, slave = pty.openpty()
+    try:
+        port = serial.serial_for_url(os.ttyname(slave), timeout=0.01)
+        d = ThermalDisplay(port)
+        d.start_heartbeat()
+        assert d._hb_proc is not None and d._hb_proc.running
+        big = [random.random() for _ in range(1_000_000)]
+        t0 = time.monotonic()
+        big.sort()                                        # one C call: the GIL is ours
+        held = time.monotonic() - t0
+        time.sleep(0.05)
+        os.set_blocking(master, False)
+        frames = FrameParser().feed(os.read(master, 65536))
+        d.stop_heartbeat()
+        port.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert held > 0.12
+    hb = [f for f in frames if f.type == 0x02 and f.payload == b"\x00"]
+    assert len(hb) >= 0.5 * held / d.heartbeat_s         # ≥ half the 10 ms ticks got through

@@ -132,3 +132,73 @@ def test_virtual_clock_on_a_pty_runs_faster_than_wall_time(tmp_path):
         assert wall < 4.0                      # 5 s of device time, in less wall time
     finally:
         stop(proc)
+
+
+@pytest.mark.slow
+def test_real_clock_trials_survive_a_gil_hogging_host(tmp_path):
+    # the integration failure: PsychoPy in the runner's main thread kept the GIL, heartbeats
+    # came late (WATCHDOG) and frames went missing (TELEMETRY_LOSS). Here a thread of this
+    # process holds the GIL in ~50 ms C calls back to back while three real-clock trials run
+    import random
+    import threading
+    proc, path, log = start_emulator(tmp_path)
+    stop_hog = threading.Event()
+    floats = [random.random() for _ in range(300_000)]
+
+    def hog():
+        while not stop_hog.is_set():
+            sorted(floats)
+
+    t = np.arange(0, 1.5001, 0.01)
+    recs, gaps = [], []
+    try:
+        with open_display(path) as d:
+            d.upload_profile(t, np.round(31.0 - 0.5 * t, 2))
+            hog_thread = threading.Thread(target=hog, daemon=True)
+            hog_thread.start()
+            for _ in range(3):
+                d.arm("playback", max_duration_s=5.0)
+                d.sim_finger(press_after_s=0.1, hold_s=5.0)
+                seen = []
+                recs.append(d.run_trial(timeout_s=15.0,
+                                        on_telemetry=lambda f: seen.append(time.monotonic())))
+                gaps.append(np.diff(seen).max())
+            stop_hog.set()
+            hog_thread.join()
+    finally:
+        stop_hog.set()
+        stop(proc)
+    for rec in recs:
+        assert rec.status == "ok" and rec.end_reason == "complete", rec
+        assert rec.frames_lost == 0 and rec.frames >= 150 and rec.bad_frames == 0
+    # the premise: the main thread really was held off for longer than the 90 ms watchdog
+    assert max(gaps) > 0.09, gaps
+    assert not any(r["event"] == "watchdog" for r in read_log(log))
+
+
+@pytest.mark.slow
+def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
+    # a pty holds ~20 kB; a host that does not read for 7 s of telemetry (~27 kB) must still get
+    # every frame (the server used to drop what a write could not place)
+    from experiments.hardware.framing import encode_frame
+    from experiments.hardware.heartbeat import HeartbeatProcess
+    proc, path, log = start_emulator(tmp_path)
+    t = np.arange(0, 9.0001, 0.01)
+    try:
+        with open_display(path) as d:
+            d.upload_profile(t, np.full(t.size, 30.0))
+            d.arm("playback", max_duration_s=20.0)
+            d.sim_finger(press_after_s=0.1, hold_s=20.0)
+            d.stop_heartbeat()                  # nobody reads; only heartbeats go out
+            hb = HeartbeatProcess(d.port.fd, encode_frame(0, 0x02, b"\x00"), 0.01, 60.0)
+            try:
+                time.sleep(7.0)
+            finally:
+                hb.stop()
+            rec = d.run_trial(timeout_s=15.0)
+    finally:
+        stop(proc)
+    assert rec.status == "ok" and rec.end_reason == "complete", rec
+    assert rec.frames_lost == 0 and rec.bad_frames == 0 and rec.frames >= 900
+    end = read_log(log)[-1]
+    assert end["event"] == "stop" and end["dropped_output_bytes"] == 0
