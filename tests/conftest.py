@@ -1,4 +1,10 @@
-"""Shared fixtures: an X server for the GUI tests.
+"""Shared fixtures: an X server for the GUI tests, and the display under test.
+
+``--display URL`` (default ``emulator://``): the thermal display the hardware tests drive (a
+device path such as ``/dev/ttyUSB0``, a pty, or any pyserial URL); the option lives here, in the
+rootdir conftest, so that it works for whole-suite runs as well as for
+``pytest tests/experiments/hardware --display /dev/ttyUSB0``. Fixture: ``display_url``
+(tests/experiments/hardware/conftest.py adds ``display`` and ``sim_display``).
 
 ``xvfb`` (session scope) starts ``Xvfb -screen 0 1280x1024x24 -nolisten tcp`` on a free display
 number (``-displayfd``, so parallel runs do not collide), points ``DISPLAY`` at it and ``HOME``
@@ -15,6 +21,23 @@ import subprocess
 import time
 
 import pytest
+
+DISPLAY_DEFAULT = "emulator://"
+
+
+def pytest_addoption(parser):
+    parser.addoption("--display", action="store", default=DISPLAY_DEFAULT, metavar="URL",
+                     help="pyserial URL or device path of the thermal display for the hardware "
+                          "tests (default emulator://: the in-process emulator, virtual clock)")
+
+
+@pytest.fixture
+def display_url(request) -> str:
+    """The display under test; the default emulator runs on a virtual clock for speed."""
+    url = request.config.getoption("--display")
+    if url == DISPLAY_DEFAULT:
+        return "emulator://?clock=virtual&seed=20261122"
+    return url
 
 
 def _start_xvfb():

@@ -12,7 +12,7 @@ oldest bytes are dropped and counted -- a host that stopped reading for minutes)
 itself is starved of CPU it catches up on up to 20 ticks at once; host bytes read at that moment
 feed the watchdog as of the caught-up device time (they arrived by then), so the emulator's own
 lateness never trips the watchdog. The stop record of the log gives ``max_late_ms``, the worst
-lateness of a tick, and ``dropped_output_bytes``.
+lateness of a tick, ``max_pending_bytes`` and ``dropped_output_bytes``.
 
 Run it with ``thermocue emulator`` or ``python -m experiments.hardware.pty_server``.
 """
@@ -100,6 +100,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     dropped_out = 0
     pending = bytearray()                 # output the pty could not take yet
     max_late = 0.0
+    max_pending = 0
     connected = True
     last_write, seen_queued = 0.0, False
     nxt = time.monotonic() + tick
@@ -170,6 +171,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
             if pending and connected:
                 try:
                     k = os.write(master, pending)
+                    max_pending = max(max_pending, len(pending))
                     del pending[:k]
                     last_write, seen_queued = time.monotonic(), False
                 except (BlockingIOError, InterruptedError):
@@ -181,7 +183,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
         for s, h in old.items():
             signal.signal(s, h)
         jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop", dropped_output_bytes=dropped_out + len(pending),
-                  max_late_ms=round(max_late * 1e3, 1),
+                  max_late_ms=round(max_late * 1e3, 1), max_pending_bytes=max_pending,
                   state=dev.state.name, last_fault=dev.last_fault, setpoint_C=round(dev.sp, 3),
                   pad_C=round(dev.plant.pad, 3)))
         jlog.close()

@@ -108,7 +108,7 @@ def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
     assert msg.startswith("protocol.toml: simulation.target_side: expected profiles the display accepts; "
                           "'compensated' for sample 3# (group A) gives profile.target_C: expected a rate ≤ 10.0")
     assert 'rate_limit = "slew"' in msg and "\n" not in msg
-    assert not any((tmp_path / "data").iterdir())
+    assert not (tmp_path / "data").exists()          # refused before any session ran
 
 
 def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_path):

@@ -39,7 +39,7 @@ def test_playback_trial_end_to_end(sim_display):
     assert d.last_contact.force_N >= 2.0
     playing = [f for f in frames if f.state == "PLAYING"]
     assert len(playing) == pytest.approx(300, abs=2)                     # 100 Hz for 3 s
-    assert sum(playing[0].forces_N) >= 2.0
+    assert sum(playing[0].forces_N) >= 2.0 - 4 * 0.005      # four readings rounded to 0.01 N
     assert rec.duration_s == pytest.approx(3.0, abs=0.02)
     assert rec.tracking_rms_C < 0.05 and rec.tracking_max_C < 0.5
     # the finger warms the pad; the IR thermometer sees a finger cooler than its 35.5 °C core

@@ -158,11 +158,12 @@ def test_real_clock_trials_survive_a_gil_hogging_host(tmp_path):
             hog_thread.start()
             for _ in range(3):
                 d.arm("playback", max_duration_s=5.0)
-                d.sim_finger(press_after_s=0.1, hold_s=5.0)
+                d.sim_finger(press_after_s=0.1, hold_s=1.8)    # lifts 0.2 s after the end
                 seen = []
                 recs.append(d.run_trial(timeout_s=15.0,
                                         on_telemetry=lambda f: seen.append(time.monotonic())))
                 gaps.append(np.diff(seen).max())
+                d.wait(0.5)                     # the finger is off before the next ARM
             stop_hog.set()
             hog_thread.join()
     finally:
@@ -202,3 +203,4 @@ def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
     assert rec.frames_lost == 0 and rec.bad_frames == 0 and rec.frames >= 900
     end = read_log(log)[-1]
     assert end["event"] == "stop" and end["dropped_output_bytes"] == 0
+    assert end["max_pending_bytes"] > 4096           # the premise: the pty really was full
