@@ -57,7 +57,7 @@ DERMIS_FRACTION_RANGE = (0.55, 0.65)
 
 
 def paper_cohort(seed: int = 0, groups=PAPER_GROUPS) -> list[dict]:
-    """Participant records of the paper's cohort (S01..S30), reproducible from ``seed``.
+    """Participant records of the paper's cohort (P01..P30), reproducible from ``seed``.
 
     Parameters
     ----------
@@ -82,7 +82,7 @@ def paper_cohort(seed: int = 0, groups=PAPER_GROUPS) -> list[dict]:
             dermis = round(total * float(rng.uniform(*DERMIS_FRACTION_RANGE)), 1)
             records.append({
                 "schema_version": 1,
-                "id": f"S{n:02d}",
+                "id": f"P{n:02d}",
                 "age": int(rng.integers(AGE_RANGE[0], AGE_RANGE[1] + 1)),
                 "sex": sex,
                 "handedness": "right",

@@ -66,7 +66,7 @@ def test_two_participants_end_to_end(tmp_path):
 
 def test_refuses_to_pool_with_an_earlier_run(tmp_path):
     from experiments.errors import UserInputError
-    (tmp_path / "data" / "S01").mkdir(parents=True)
+    (tmp_path / "data" / "P01").mkdir(parents=True)
     with pytest.raises(UserInputError, match="data"):
         run_figure9_study(tmp_path, progress=False, participants=1)
 
