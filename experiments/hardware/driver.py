@@ -218,6 +218,14 @@ class ThermalDisplay:
         How long a partly received frame waits for its rest on a real port (default 0.2).
     max_frame_loss : float
         Fraction of telemetry frames a trial may lose before it is reported as a fault.
+
+    Attributes
+    ----------
+    heartbeats_sent : int
+        Heartbeats written by the fallback heartbeat thread (not by the helper process).
+    max_tx_gap_s : float, s
+        Longest wall-time gap between frames this process wrote itself (commands, heartbeats
+        of the I/O loop and of the thread): how long the host's own threads were held off.
     """
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,

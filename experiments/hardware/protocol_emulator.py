@@ -259,7 +259,7 @@ class Serial(SerialBase):
                         if rx:
                             break
                     # a reader asking for more gets up to 3 ticks' worth per call (30 ms of device
-                    # time: well inside the 80 ms watchdog, with a 25 ms heartbeat)
+                    # time: well inside the 90 ms watchdog, with a 10 ms heartbeat)
                     extra = 0
                     while rx and len(rx) < size and extra < 2 and self.device.state != 0:
                         self._tick()

@@ -203,4 +203,4 @@ def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
     assert rec.frames_lost == 0 and rec.bad_frames == 0 and rec.frames >= 900
     end = read_log(log)[-1]
     assert end["event"] == "stop" and end["dropped_output_bytes"] == 0
-    assert end["max_pending_bytes"] > 4096           # the premise: the pty really was full
+    assert end["max_pending_bytes"] > 1024           # the premise: the pty really was full
