@@ -81,6 +81,7 @@ PAUSE_POINTS = ("trial_started", "upload", "armed", "playback", "after_response"
 
 #: Telemetry states of a trial in contact (the display's ``State`` names).
 _ACTIVE_STATES = {"PLAYING", "RECORDING"}
+_TOUCH_N = 0.1   # N: summed force below which the finger is not yet touching
 #: Recording fault codes that mean "nobody touched" (the attempt is aborted and re-run).
 _NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
 
@@ -456,14 +457,18 @@ class Session:
         active = "record" if real else "playback"
 
         contact = []
+        finger_before = [None]   # the radiation thermometer's last reading before contact, °C
 
         def on_frame(frame):
             # Runs at the telemetry rate inside the driver's read loop: no fsync here (a slow
             # callback lets the serial buffer overrun); contact is logged once the trial ends.
             writer.write(frame)
-            if not contact and str(frame.state).upper() in _ACTIVE_STATES:
-                contact.append(float(frame.device_time_s))
-                self._pause("playback", spec, attempt)
+            if not contact:
+                if str(frame.state).upper() in _ACTIVE_STATES:
+                    contact.append(float(frame.device_time_s))
+                    self._pause("playback", spec, attempt)
+                elif sum(frame.forces_N) < _TOUCH_N:   # not yet touching: the IR reads bare skin
+                    finger_before[0] = frame.finger_C
 
         timeout = (self.protocol.contact.trial_timeout_s + self.protocol.contact.max_contact_s + 5.0)
         try:
@@ -476,6 +481,7 @@ class Session:
         if contact:
             self.machine.go(active, **ctx, device_time_s=contact[0])
         row.update(self._recording_fields(rec))
+        self._skin_temperature(row, ctx, finger_before[0])
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,
                        frames_lost=rec.frames_lost, tracking_rms_C=rec.tracking_rms_C)
@@ -499,6 +505,25 @@ class Session:
         self._complete(spec, attempt, row)
         self._pause("after_write", spec, attempt)
         return "ok"
+
+    def _skin_temperature(self, row: dict, ctx: dict, finger_C) -> None:
+        """Log the skin temperature measured just before touching (§3.2 of the paper).
+
+        The display's radiation thermometer reads the approaching finger; its last reading before
+        the first touch (summed force under ``_TOUCH_N``) goes into the trial row as
+        ``skin_temperature_C``. A reading outside the protocol's
+        ``environment`` range is kept and flagged with a ``skin_temperature_out_of_range`` event
+        (the experimenter decides whether to rewarm longer; the trial is not discarded).
+        """
+        env = self.protocol.environment
+        if not env.measure_skin_temperature or finger_C is None:
+            return
+        value = round(float(finger_C), 2)
+        row["skin_temperature_C"] = value
+        if not env.skin_temperature_min_C <= value <= env.skin_temperature_max_C:
+            self.log_event("skin_temperature_out_of_range", **ctx, skin_temperature_C=value,
+                           expected_min_C=env.skin_temperature_min_C,
+                           expected_max_C=env.skin_temperature_max_C)
 
     def _recording_fields(self, rec) -> dict:
         return {"tracking_rms_C": rec.tracking_rms_C, "tracking_max_C": rec.tracking_max_C,

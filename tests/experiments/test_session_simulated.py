@@ -40,6 +40,10 @@ def test_full_roughness_recognition_session_with_the_simulated_participant(tmp_p
     for r in ok[16:]:
         assert float(r["profile_skin_thickness_um"]) == 1000.0
         assert float(r["tracking_rms_C"]) < 0.5
+    # The skin temperature measured just before each touch (the display's radiation thermometer)
+    # is the simulated finger's, drawn in the paper's 35.5-36 °C; it cools a little on approach.
+    skin = [float(r["skin_temperature_C"]) for r in ok]
+    assert all(35.0 < v < 36.1 for v in skin), skin
     events, _ = read_events(session / "events.jsonl", warn=False)
     uploads = [e for e in events if e["event"] == "profile_uploaded"]
     assert len(uploads) >= 12 and len({e["content_hash"] for e in uploads}) == 4   # 4 samples
