@@ -130,9 +130,11 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
 
     from experiments.responders import get_responder
     from experiments.session import create_session   # heavy: the session engine, display, stimuli
+    from participants_schema import load_participant
 
-    record = json.loads(Path(participant_path).read_text(encoding="utf-8"))
-    options = {"seed": record.get("x_simulation", {}).get("seed", seed)}
+    record = load_participant(participant_path)   # a bad file: ParticipantError naming file, field
+    extra = record.get("x_simulation")
+    options = {"seed": extra.get("seed", seed) if isinstance(extra, dict) else seed}
     options.update(responder_options or {})
     start = time.perf_counter()
     responder = get_responder("simulated", **options)
@@ -363,13 +365,11 @@ def check_simulated_profiles(protocol) -> None:
     UserInputError
         Naming the protocol file, the sample and the fields to change.
     """
-    import dataclasses
-
     from experiments.errors import SafetyLimitError, UserInputError
-    from experiments.hardware.safety import SafetyLimits, check_profile
+    from experiments.hardware.safety import check_profile
     from experiments.session import simulated_target_profile
     sim = protocol.simulation
-    limits = SafetyLimits(**dataclasses.asdict(protocol.display))
+    limits = protocol.display.safety_limits()
     groups = sorted(sim.group_skin_thickness_um) or [None]
     where = protocol.path.name if protocol.path is not None else protocol.name
     for group in groups:

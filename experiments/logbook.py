@@ -72,6 +72,7 @@ __all__ = [
     "atomic_write_text",
     "atomic_write_json",
     "fsync_dir",
+    "now_iso",
     "ensure_dir",
     "to_jsonable",
     "trials_from_events",
@@ -221,7 +222,8 @@ def atomic_write_json(path: str | Path, obj: Any, indent: int = 2) -> None:
     atomic_write_text(path, _dumps(obj, indent=indent) + "\n")
 
 
-def _now() -> str:
+def now_iso() -> str:
+    """The current UTC time, ISO 8601 with milliseconds and a ``Z`` (as in every event's ``time``)."""
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
@@ -494,7 +496,7 @@ class EventLog:
         with self._lock:
             if self.closed:
                 raise ValueError(f"{self.path}: the log is closed")
-            rec = {"event": event, "seq": self._seq + 1, "time": fields.pop("time", None) or _now()}
+            rec = {"event": event, "seq": self._seq + 1, "time": fields.pop("time", None) or now_iso()}
             rec.update(fields)
             rec = to_jsonable(rec)
             line = _dumps(rec) + "\n"

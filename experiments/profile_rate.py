@@ -12,19 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from experiments.hardware.safety import profile_max_rate
+
 __all__ = ["limit_rate", "window_rate"]
 
-
-def window_rate(target_C, dt_s: float, window_s: float) -> float:
-    """Largest ``|T(t + w) - T(t)| / w`` of a uniformly sampled profile, °C/s.
-
-    ``w`` is ``window_s`` rounded to a whole number (≥ 1) of samples (as the display's check).
-    """
-    y = np.asarray(target_C, dtype=float)
-    if y.size < 2:
-        return 0.0
-    w = max(1, min(int(round(window_s / dt_s)), y.size - 1))
-    return float(np.max(np.abs(y[w:] - y[:-w])) / (w * dt_s))
+#: Largest ``|T(t + w) - T(t)| / w`` of a uniformly sampled profile, °C/s: the display's own
+#: check (:func:`experiments.hardware.safety.profile_max_rate`), so "within the limit" here and
+#: at upload cannot disagree.
+window_rate = profile_max_rate
 
 
 def _slew(x: np.ndarray, step: float) -> np.ndarray:

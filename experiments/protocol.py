@@ -119,14 +119,20 @@ class SampleMaterial:
 class DisplaySettings:
     """The Peltier display's safe range, rate limit and neutral setpoint.
 
-    Field names match ``experiments.hardware.SafetyLimits``:
-    ``SafetyLimits(**dataclasses.asdict(protocol.display))``.
+    Field names match ``experiments.hardware.SafetyLimits``: :meth:`safety_limits` builds them.
     """
 
     min_C: float
     max_C: float
     max_rate_C_per_s: float
     neutral_C: float
+
+    def safety_limits(self):
+        """These settings as the display driver's :class:`~experiments.hardware.safety.SafetyLimits`."""
+        import dataclasses
+
+        from experiments.hardware.safety import SafetyLimits
+        return SafetyLimits(**dataclasses.asdict(self))
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,6 @@ incomplete trial is re-run with the next attempt number, completed trials are ne
 """
 from __future__ import annotations
 
-import datetime as _dt
 import os
 import secrets
 import signal
@@ -46,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.errors import DisplayError, SessionError, UserInputError
+from experiments.logbook import now_iso as _now_iso
 from experiments.responders.base import Responder, ResponderClosed, TrialStimulus
 from experiments.session_files import TraceWriter, aborted_trace_name, package_versions, trace_name
 from experiments.session_machine import (
@@ -86,10 +86,6 @@ _TOUCH_N = 0.1   # N: summed force below which the finger is not yet touching
 _NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
 
 
-def _now_iso() -> str:
-    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="milliseconds").replace("+00:00", "Z")
-
-
 def _safe_name(text: str, what: str) -> str:
     if not text or text in (".", "..") or "/" in text or "\\" in text or "\0" in text:
         raise UserInputError(f"{what}: expected a name usable as a folder, got {text!r}")
@@ -100,7 +96,6 @@ def _safe_name(text: str, what: str) -> str:
 class _Attempt:
     spec: object
     attempt: int
-    trace: Path
     logged_end: bool = False
 
 
@@ -124,11 +119,13 @@ class Session:
         The session's name (its folder).
     display_url : str
     clock : RealClock or VirtualClock
+    responder_name : str
+        The responder recorded in ``session.json`` ("" if none).
     """
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
-                 progress: bool = True):
+                 progress: bool = True, responder_name: str = ""):
         self.directory = Path(directory)
         self.protocol = protocol
         self.participant = participant
@@ -138,6 +135,7 @@ class Session:
         self.schedule = list(schedule)
         self.name = name
         self.display_url = display_url
+        self.responder_name = responder_name
         self.clock = clock if clock is not None else clock_for_url(display_url)
         self.max_consecutive_faults = int(max_consecutive_faults)
         self.out = out
@@ -195,8 +193,9 @@ class Session:
         """Stand in for a person's hand on the emulator: place the sample, press the finger.
 
         The finger presses 0.3 s after arming with 0.5 N more than the protocol's threshold
-        and stays for the recorded contact time, with the participant's skin thickness and
-        measured (else the protocol's mean) skin temperature.
+        and stays for ``max_contact_s`` (simulated trials) or ``record_s`` (real ones), with the
+        participant's skin thickness (800 µm if the record has none) and
+        ``initial_skin_temperature_C`` (else the middle of the protocol's skin-temperature range).
         """
         contact = self.protocol.contact
         if spec.mode != "simulated":
@@ -331,10 +330,8 @@ class Session:
             raise
 
     def _open_display(self):
-        from experiments.hardware import SafetyLimits, open_display
-        import dataclasses
-        limits = SafetyLimits(**dataclasses.asdict(self.protocol.display))
-        return open_display(self.display_url, limits=limits)
+        from experiments.hardware import open_display
+        return open_display(self.display_url, limits=self.protocol.display.safety_limits())
 
     def _run_trials(self, disp, todo, progress) -> int:
         self.display = disp
@@ -388,7 +385,7 @@ class Session:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
         self.machine.go("prompt", **ctx)
         trace = self.traces_dir / trace_name(spec.trial_index)
-        self._attempt = _Attempt(spec, attempt, trace)
+        self._attempt = _Attempt(spec, attempt)
         self.log_event("trial_started", **ctx, **{k: v for k, v in spec.to_dict().items()
                                                  if k != "trial_index"})
         started_at = _now_iso()
@@ -464,7 +461,7 @@ class Session:
             # callback lets the serial buffer overrun); contact is logged once the trial ends.
             writer.write(frame)
             if not contact:
-                if str(frame.state).upper() in _ACTIVE_STATES:
+                if frame.state in _ACTIVE_STATES:
                     contact.append(float(frame.device_time_s))
                     self._pause("playback", spec, attempt)
                 elif sum(frame.forces_N) < _TOUCH_N:   # not yet touching: the IR reads bare skin
@@ -566,12 +563,15 @@ class Session:
 
     def _fault(self, disp, spec, attempt, row, exc, rec=None) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
-        code = getattr(exc, "code", None) if exc is not None else None
-        if exc is not None:
-            code = code if code is not None else type(exc).__name__
-            message = str(exc)
-        else:
+        if exc is None:
             code, message = rec.fault_code or "fault", rec.fault_message
+        else:
+            code, message = getattr(exc, "code", None), str(exc)
+            if isinstance(code, int):   # DisplayRefused: the device's code, named like a device fault
+                from experiments.hardware.messages import error_name
+                code = error_name(code)
+            elif code is None:
+                code = type(exc).__name__
         self.machine.go("fault", **ctx)
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
         self._neutral(disp)
@@ -625,13 +625,13 @@ class Session:
         from experiments.logbook import read_events, trials_from_events, write_trials_csv
         events, _ = read_events(self.events_path, warn=False)
         rows = trials_from_events(events)
-        for row in rows:  # an aborted row's trace_file comes from its event
-            row.setdefault("trace_file", None)
         aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
                    for e in events if e.get("event") == "trial_aborted"}
-        for row in rows:
+        for row in rows:  # an aborted row's trace_file comes from its event
             if row.get("status") == "aborted":
                 row["trace_file"] = aborted.get((row.get("trial_index"), row.get("attempt")))
+            else:
+                row.setdefault("trace_file", None)
         write_trials_csv(self.trials_path, rows)
 
     def _rewarm(self) -> None:
@@ -641,12 +641,10 @@ class Session:
 
     def _neutral(self, disp) -> None:
         """Display to neutral whatever state it is in (errors logged, never raised)."""
-        for step in ("abort", "set_neutral"):
+        for step, call in (("abort", lambda: disp.abort()),
+                           ("set_neutral", lambda: disp.set_neutral(self.protocol.display.neutral_C))):
             try:
-                if step == "abort":
-                    disp.abort()
-                else:
-                    disp.set_neutral(self.protocol.display.neutral_C)
+                call()
             except DisplayError as exc:
                 self.log_event("display_error", step=step, message=str(exc))
             except Exception as exc:  # an interrupted driver may be in any state
@@ -793,9 +791,8 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     params["pad_material"] = sim.pad_material
     temperature, change = None, 0.0
     if sim.rate_limit == "slew":
-        from experiments.hardware.safety import SafetyLimits
         from experiments.profile_rate import limit_rate
-        window = SafetyLimits().rate_window_s
+        window = protocol.display.safety_limits().rate_window_s   # the window the upload checks
         limited, change = limit_rate(prof.temperature, 1.0 / sim.rate_Hz, protocol.display.max_rate_C_per_s,
                                      window_s=window, resolution_C=sim.resolution_C)
         if change > 0:
@@ -901,7 +898,8 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     ensure_dir(directory / "traces")
     session = Session(directory, protocol, participant, assignment.group, seed, schedule, name,
                       display_url, assignment=assignment, clock=clock_obj,
-                      max_consecutive_faults=max_consecutive_faults, out=out)
+                      max_consecutive_faults=max_consecutive_faults, out=out,
+                      responder_name=responder_name)
     for w in assignment.warnings:
         session._say(f"warning: {w}")
     session._say(f"{pid}: {assignment.describe()}")
@@ -953,4 +951,5 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     clock_obj = clock_for_url(url, clock or meta.get("clock", "auto"))
     return Session(directory, protocol, participant, meta["group"], meta["seed"], schedule,
                    meta["session"], url, clock=clock_obj,
-                   max_consecutive_faults=meta.get("max_consecutive_faults", 3), out=out)
+                   max_consecutive_faults=meta.get("max_consecutive_faults", 3), out=out,
+                   responder_name=meta.get("responder") or "")

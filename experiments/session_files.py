@@ -14,6 +14,8 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
+from experiments.logbook import fsync_dir
+
 __all__ = [
     "EXTRA_TRIAL_COLUMNS",
     "TRACE_COLUMNS",
@@ -70,6 +72,8 @@ class TraceWriter:
     ----------
     path : path-like
         The CSV file (created or truncated).
+    flush_every : int
+        Frames between flushes (default 50: 0.5 s of telemetry at 100 Hz).
     """
 
     def __init__(self, path, flush_every: int = 50):
@@ -108,15 +112,7 @@ class TraceWriter:
         self._fh.flush()
         os.fsync(self._fh.fileno())
         self._fh.close()
-        _fsync_dir(self.path.parent)
-
-
-def _fsync_dir(path) -> None:
-    fd = os.open(str(path), os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+        fsync_dir(self.path.parent)
 
 
 def package_versions() -> dict[str, str]:

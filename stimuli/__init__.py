@@ -11,20 +11,11 @@ from .materials import MATERIALS, MATERIAL_SOURCES, PAPER_SAMPLE_THICKNESS, mate
 from .roughness import contact_resistance
 from .contact import METHODS, Contact, MethodInfo
 
+from .display_response import skin_response
+from .target import TargetProfile, target_profile
+
 __all__ = [
     "ModelInputError", "Skin", "Material", "MATERIALS", "MATERIAL_SOURCES",
     "PAPER_SAMPLE_THICKNESS", "material", "contact_resistance", "Contact", "MethodInfo", "METHODS",
+    "skin_response", "TargetProfile", "target_profile",
 ]
-
-# The display-driven model (display_response.py, finite_volume.py, target.py) is written
-# alongside; import what is there so the package stays importable while it lands.
-try:
-    from .display_response import skin_response  # noqa: F401
-    __all__.append("skin_response")
-except ImportError:  # pragma: no cover
-    pass
-try:
-    from .target import TargetProfile, target_profile  # noqa: F401
-    __all__ += ["TargetProfile", "target_profile"]
-except ImportError:  # pragma: no cover
-    pass

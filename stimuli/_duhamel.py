@@ -15,7 +15,6 @@ E_m = R_rest(t_m) - R_rest(t_{m-1}), done by FFT: O(N log N) for N samples.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import fftconvolve, lfilter
 
 __all__ = ["superpose"]
 
@@ -45,6 +44,7 @@ def superpose(h: np.ndarray, dt: float, S: np.ndarray, R_rest: np.ndarray, gain:
     -------
     ndarray
     """
+    from scipy.signal import fftconvolve, lfilter    # ~0.5 s to import: not at `import stimuli`
     h = np.asarray(h, dtype=float)
     u = h[0] * S + gain * (h - h[0])
     if h.size > 1:

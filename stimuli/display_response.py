@@ -22,7 +22,7 @@ import numpy as np
 
 from . import _slab_series as series
 from ._duhamel import superpose
-from .exact import INVERSION_ERROR, invert_laplace
+from .exact import INVERSION_ERROR, InversionPlan
 from .errors import ModelInputError
 from .finite_volume import (DEFAULT_CELLS, _check_depth, _check_resistance, _uniform_times,
                             solve_surface)
@@ -258,12 +258,7 @@ def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=
     xi = x / skin.thickness
     layered = epidermis_properties is not None
     if tolerance is not None:
-        try:
-            tol = float(tolerance)
-        except (TypeError, ValueError):
-            tol = float("nan")
-        if not (math.isfinite(tol) and tol > 0):
-            raise ModelInputError(f"{where}: tolerance: expected a finite number > 0 in K, got {tolerance!r}")
+        tol = _check_tolerance(tolerance, where)
     elif method not in METHODS:
         raise ModelInputError(f"{where}: method: expected one of {', '.join(METHODS)}, got {method!r}")
     if layered and tolerance is None and method != "numerical":
@@ -311,17 +306,23 @@ def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=
     return (T, info) if full_output else T
 
 
+def _check_tolerance(tolerance, where: str) -> float:
+    """``tolerance`` (K) as a finite float > 0, or a ModelInputError naming it."""
+    try:
+        tol = float(tolerance)
+    except (TypeError, ValueError):
+        tol = float("nan")
+    if not (math.isfinite(tol) and tol > 0):
+        raise ModelInputError(f"{where}: tolerance: expected a finite number > 0 in K, got {tolerance!r}")
+    return tol
+
+
 def _robin(skin, t, dt, h, T0, x, R, method, tolerance, epidermis_properties, cells, full_output,
            where):
     """skin_response through a contact resistance R > 0 (Robin condition at x = L)."""
     layered = epidermis_properties is not None
     if tolerance is not None:
-        try:
-            tol = float(tolerance)
-        except (TypeError, ValueError):
-            tol = float("nan")
-        if not (math.isfinite(tol) and tol > 0):
-            raise ModelInputError(f"{where}: tolerance: expected a finite number > 0 in K, got {tolerance!r}")
+        tol = _check_tolerance(tolerance, where)
         method = "numerical" if layered else "exact"
     elif method not in METHODS:
         raise ModelInputError(f"{where}: method: expected one of {', '.join(METHODS)}, got {method!r}")
@@ -378,8 +379,10 @@ def _robin_kernels(skin, x, R, t):
     Rr = np.zeros_like(t)
     pos = t > 0
     if np.any(pos):
-        S[pos] = invert_laplace(lambda s: kernel(s) / s, t[pos])
-        Rr[pos] = invert_laplace(lambda s: (kernel(s) - gain) / (s * s), t[pos])
+        plan = InversionPlan(t[pos])          # both transforms share the nodes and kernel values
+        k = kernel(plan.s)
+        S[pos] = plan.apply(k / plan.s)
+        Rr[pos] = plan.apply((k - gain) / (plan.s * plan.s))
     return S, Rr, gain, float(np.max(np.abs(Rr))) if Rr.size else 0.0
 
 

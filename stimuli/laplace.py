@@ -75,27 +75,28 @@ class ContactTransform:
 
     def flux(self, s):
         """F(s): transform of the interface flux / (T_S0 - T_M0), W/(m^2 K) * s."""
+        return self._flux_pq(*self._nodes(s))
+
+    def _nodes(self, s):
         s = np.asarray(s, dtype=complex)
         p = np.sqrt(s)
-        qs = p / np.sqrt(self.alpha_s)
+        return s, p, p / np.sqrt(self.alpha_s)
+
+    def _flux_pq(self, s, p, qs):
         return 1.0 / (s * (self.R + self._skin_impedance(p, qs) + self._material_impedance(p)))
 
     def skin_deficit(self, s, x):
         """Transform of 1 - theta_S(x, t) = F K_S(x), for 0 <= x <= L."""
-        s = np.asarray(s, dtype=complex)
-        p = np.sqrt(s)
-        qs = p / np.sqrt(self.alpha_s)
-        F = 1.0 / (s * (self.R + self._skin_impedance(p, qs) + self._material_impedance(p)))
+        s, p, qs = self._nodes(s)
+        F = self._flux_pq(s, p, qs)
         kern = (np.exp(-qs * (self.L - x)) * -np.expm1(-2.0 * qs * x)
                 / ((1.0 + np.exp(-2.0 * qs * self.L)) * self.beta_s * p))
         return F * kern
 
     def material_rise(self, s, x):
         """Transform of theta_M(x, t) = F K_M(x), for x >= L (x <= L + D for a slab)."""
-        s = np.asarray(s, dtype=complex)
-        p = np.sqrt(s)
-        qs = p / np.sqrt(self.alpha_s)
-        F = 1.0 / (s * (self.R + self._skin_impedance(p, qs) + self._material_impedance(p)))
+        s, p, qs = self._nodes(s)
+        F = self._flux_pq(s, p, qs)
         qm = p / np.sqrt(self.alpha_m)
         xi = x - self.L
         if self.D is None:

@@ -12,6 +12,9 @@ resistance, skin 650 µm with receptors at 0.6 L, T_S0 = 35.5 °C, T_M0 = 20 °C
   exact recursion (the eigen series advanced mode by mode; bench only) for comparison.
   Reference: the Duhamel sum evaluated in mpmath at 30 digits with its own image/eigen series,
   at 31 times including the first and the last sample.
+* ``pad``: the same receptor response when the finger touches the display's pad through its own
+  contact resistance R_pad (``skin_response(..., resistance=R_pad)``, the Robin case), exact and
+  numerical. Reference: the same mpmath Duhamel sum with the Robin slab's eigenfunction series.
 
 Cost is the best of several runs of the whole 20001-point profile, divided by 20001 (µs per point);
 the machine is named in the output. The stable closed form of Eq. 7 (``Contact`` method
@@ -38,6 +41,10 @@ SKIN_THICKNESS_M = 650e-6
 ROUGHNESS_M = 12.5e-6
 T_SKIN_C = 35.5
 T_MATERIAL_C = 20.0
+#: The display's pad face (experiments.participant_model.PAD_ROUGHNESS_M / PAD_MATERIAL): Eq. 5
+#: of polished copper, R_a 0.4 µm, gives the finger-pad resistance R_pad of the ``pad`` rows.
+PAD_ROUGHNESS_M = 0.4e-6
+PAD_MATERIAL = "copper"
 
 
 # --------------------------------------------------------------------------- machine
@@ -152,17 +159,78 @@ def _receptor_reference(skin, h, idx, dps=30):
                     n += 1
             return S, R
 
-        top = int(max(idx))
-        SR = [S_R(m) for m in range(top + 1)]
-        D = [SR[m][1] - SR[m - 1][1] for m in range(1, top + 1)]      # D_m, m = 1..top
-        hm = [mp.mpf(float(v)) for v in h[: top + 1]]
-        slopes = [(hm[j + 1] - hm[j]) / dt for j in range(top)]
-        out = []
-        for i in idx:
-            i = int(i)
-            u = hm[0] * SR[i][0] + mp.fsum(slopes[j] * D[i - j - 1] for j in range(i))
-            out.append(float(u))
-        return np.array(out)
+        return _duhamel_mp(S_R, h, idx, dt)
+
+
+def _receptor_robin_reference(skin, R, h, idx, dps=30):
+    """Receptor response (relative to T_S0) through a finger-pad resistance R, in mpmath.
+
+    The Duhamel sum of :func:`_receptor_reference` with the Robin slab's step response S and its
+    integral, from the eigenfunction series (independent of stimuli's Laplace inversion): with
+    u(0) = 0 and lambda u_x(L) = (h - u(L)) / R, the modes are sin(mu_n x / L) with
+    sin mu + b mu cos mu = 0, b = lambda R / L, mu_n in ((n - 1/2) pi, n pi);
+    S = x/G + sum c_n sin(mu_n xi) e^(-mu_n^2 tau), G = L + R lambda,
+    c_n = -L^2 (sin mu - mu cos mu) / (mu^2 G N_n), N_n = L/2 (1 - sin 2mu / (2 mu));
+    int_0^t S = x t/G + phi(x) - sum c_n sin(mu_n xi) L^2/(alpha mu_n^2) e^(-mu_n^2 tau), where
+    phi = x^3/(6 alpha G) - x L^2 (3 lambda R + L)/(6 alpha G^2) is the ramp's quasi-static part.
+    Terms are summed until e^(-mu_n^2 tau) < 1e-40.
+    """
+    import mpmath as mp
+    with mp.workdps(dps):
+        L = mp.mpf(skin.thickness)
+        lam = mp.mpf(skin.conductivity)
+        a = lam / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
+        Rm = mp.mpf(R)
+        x = mp.mpf(skin.dermis)
+        xi = x / L
+        G = L + Rm * lam
+        b = lam * Rm / L
+        dt = mp.mpf(1) / int(RATE_HZ)
+        tiny = mp.mpf(10) ** -40
+        phi = x ** 3 / (6 * a * G) - x * L * L * (3 * lam * Rm + L) / (6 * a * G * G)
+        tau1 = a * dt / (L * L)
+        modes = []              # (mu^2, c_n sin(mu xi), same * L^2 / (alpha mu^2))
+        n = 1
+        while True:
+            mu = mp.findroot(lambda m: mp.sin(m) + b * m * mp.cos(m),
+                             ((n - mp.mpf(1) / 2) * mp.pi, n * mp.pi), solver="anderson")
+            N = L / 2 * (1 - mp.sin(2 * mu) / (2 * mu))
+            cs = -L * L * (mp.sin(mu) - mu * mp.cos(mu)) / (mu * mu * G * N) * mp.sin(mu * xi)
+            modes.append((mu * mu, cs, cs * L * L / (a * mu * mu)))
+            if mp.exp(-mu * mu * tau1) < tiny:
+                break
+            n += 1
+
+        def S_R(m):
+            if m == 0:
+                return mp.mpf(0), mp.mpf(0)
+            tau = tau1 * m
+            S, Ri = x / G, x * m * dt / G + phi
+            for mu2, cs, cr in modes:
+                e = mp.exp(-mu2 * tau)
+                S += cs * e
+                Ri -= cr * e
+                if e < tiny:
+                    break
+            return S, Ri
+
+        return _duhamel_mp(S_R, h, idx, dt)
+
+
+def _duhamel_mp(S_R, h, idx, dt):
+    """u_i = h_0 S(t_i) + sum_j s_j [R(t_i - t_j) - R(t_i - t_{j+1})] in mpmath (inside workdps)."""
+    import mpmath as mp
+    top = int(max(idx))
+    SR = [S_R(m) for m in range(top + 1)]
+    D = [SR[m][1] - SR[m - 1][1] for m in range(1, top + 1)]      # D_m, m = 1..top
+    hm = [mp.mpf(float(v)) for v in h[: top + 1]]
+    slopes = [(hm[j + 1] - hm[j]) / dt for j in range(top)]
+    out = []
+    for i in idx:
+        i = int(i)
+        u = hm[0] * SR[i][0] + mp.fsum(slopes[j] * D[i - j - 1] for j in range(i))
+        out.append(float(u))
+    return np.array(out)
 
 
 # --------------------------------------------------------------------------- bench-only method
@@ -304,10 +372,29 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
                  lambda tol=tol: modal_recursion(skin, t, g, T_SKIN_C, skin.dermis, tol_K=tol)[0],
                  "exact per-mode recursion, one lfilter per mode, static tail correction")
 
+    # ---- the same display profile felt through the finger-pad resistance (Robin boundary)
+    R_pad = float(contact_resistance(PAD_ROUGHNESS_M, skin=skin, material=material(PAD_MATERIAL)))
+    echo(f"  finger-pad reference (R_pad = {R_pad:.4g} m² K/W, mpmath Robin eigen series) ...")
+    ref_pad = T_SKIN_C + _receptor_robin_reference(skin, R_pad, g - T_SKIN_C, idx)
+
+    def bench_pad(method, setting, fn, note=""):
+        vals = fn()
+        secs = _best_seconds(fn, repeat)
+        err = float(np.max(np.abs(np.asarray(vals)[idx] - ref_pad)))
+        rows.append(_row("pad", method, setting, secs, err, err / abs(dT), int(idx.size), note))
+
+    bench_pad("exact", "R_pad, Duhamel + Bromwich",
+              lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad))
+    for cells in ((16,) if quick else (16, 32, 64)):
+        bench_pad("numerical", f"R_pad, cells={cells} x1,2,4",
+                  lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical",
+                                                    cells=cells, resistance=R_pad))
+
     # the targets' ratios: interleaved runs of the three, best of each (robust to a shared machine)
     pair = {"eq7": lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
             "exact": lambda: contact.interface_temperature(t, side="material", method="exact"),
-            "skin_response": lambda: skin_response(skin, t, g, T_SKIN_C)}
+            "skin_response": lambda: skin_response(skin, t, g, T_SKIN_C),
+            "skin_response_pad": lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad)}
     best = {k: math.inf for k in pair}
     for _ in range(8 if quick else 40):
         for k, fn in pair.items():
@@ -321,9 +408,10 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     sr_exact = [r for r in rows if r["problem"] == "receptor" and r["method"] == "exact"][0]
     sr_num = [r for r in rows if r["problem"] == "receptor" and r["method"] == "numerical"
               and "Richardson" in r["setting"]]
-    within = [r for r in sr_num if r["max_error_K"] <= 1e-6]
-    sr_num_best = (min(within, key=lambda r: r["cost_per_point_us"]) if within
-                   else min(sr_num, key=lambda r: r["max_error_K"]))
+    sr_num_best = _cheapest_within(sr_num, 1e-6)
+    pad_exact = [r for r in rows if r["problem"] == "pad" and r["method"] == "exact"][0]
+    pad_num_best = _cheapest_within([r for r in rows if r["problem"] == "pad"
+                                     and r["method"] == "numerical"], 1e-6)
     ratios = {
         "eq7_cost_per_point_us": eq7,
         "exact_cost_per_point_us": best["exact"] / n * 1e6,
@@ -336,6 +424,13 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
         "skin_response_numerical_over_eq7_cost_ratio": sr_num_best["cost_per_point_us"] / eq7,
         "skin_response_numerical_setting": sr_num_best["setting"],
         "skin_response_numerical_max_error_K": sr_num_best["max_error_K"],
+        "pad_resistance_m2K_per_W": R_pad,
+        "skin_response_pad_exact_cost_per_point_us": best["skin_response_pad"] / n * 1e6,
+        "skin_response_pad_exact_over_eq7_cost_ratio": best["skin_response_pad"] / best["eq7"],
+        "skin_response_pad_exact_max_error_K": pad_exact["max_error_K"],
+        "skin_response_pad_numerical_over_eq7_cost_ratio": pad_num_best["cost_per_point_us"] / eq7,
+        "skin_response_pad_numerical_setting": pad_num_best["setting"],
+        "skin_response_pad_numerical_max_error_K": pad_num_best["max_error_K"],
     }
     targets = {
         "exact_within_1e-12_theta_at_3x_eq7": bool(exact_if["max_error_theta"] <= 1e-12
@@ -348,15 +443,25 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
         "profile": {"duration_s": DURATION_S, "rate_Hz": RATE_HZ, "points": n,
                     "skin_thickness_m": SKIN_THICKNESS_M, "receptor_depth_m": skin.dermis,
                     "material": "stainless_steel (half-space)", "roughness_m": ROUGHNESS_M,
-                    "resistance_m2K_per_W": R, "skin_temperature_C": T_SKIN_C,
+                    "resistance_m2K_per_W": R, "pad_resistance_m2K_per_W": R_pad,
+                    "pad": f"{PAD_MATERIAL}, R_a {PAD_ROUGHNESS_M * 1e6:g} µm (Eq. 5)",
+                    "skin_temperature_C": T_SKIN_C,
                     "material_temperature_C": T_MATERIAL_C,
                     "reference": "mpmath: Talbot inversion at 40 digits (interface), Duhamel sum of "
-                                 "image/eigen series at 30 digits (receptor)",
+                                 "image/eigen series at 30 digits (receptor), of the Robin "
+                                 "eigen series at 30 digits (pad)",
                     "reference_times_s": (idx / RATE_HZ).tolist()},
         "rows": rows, "ratios": ratios, "targets": targets,
     }
     _write(out, result, echo)
     return result
+
+
+def _cheapest_within(rows, tol_K):
+    """The cheapest row within ``tol_K`` (else the most accurate one)."""
+    within = [r for r in rows if r["max_error_K"] <= tol_K]
+    return (min(within, key=lambda r: r["cost_per_point_us"]) if within
+            else min(rows, key=lambda r: r["max_error_K"]))
 
 
 def _format_table(rows) -> list[str]:
@@ -397,12 +502,13 @@ def _plot(path: Path, result: dict) -> None:
     eq7 = result["ratios"]["eq7_cost_per_point_us"]
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     for ax, problem, title in zip(axes, ("interface", "receptor"),
-                                  ("interface temperature (Eq. 7 quantity)", "receptor, display-driven")):
+                                  ("interface temperature (Eq. 7 quantity)",
+                                   "receptor, display-driven (squares: through R_pad)")):
         for r in result["rows"]:
-            if r["problem"] != problem:
+            if r["problem"] != problem and not (problem == "receptor" and r["problem"] == "pad"):
                 continue
             y = max(r["max_error_K"], 1e-16)
-            ax.loglog(r["cost_per_point_us"], y, "o")
+            ax.loglog(r["cost_per_point_us"], y, "s" if r["problem"] == "pad" else "o")
             ax.annotate(f"{r['method']} {r['setting']}", (r["cost_per_point_us"], y), fontsize=6,
                         xytext=(3, 3), textcoords="offset points")
         ax.axvline(3 * eq7, color="k", lw=0.8, ls="--")

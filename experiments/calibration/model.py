@@ -18,9 +18,18 @@ explicit choice (:class:`Sensor`):
     resistance R₁ (glue + half the film) and to the sample by the fitted R (the rough
     contact + the other half of the film); it starts at the skin temperature.
 
-All three are exact: closed forms in the Laplace domain, inverted numerically
-(:mod:`experiments.calibration.laplace`) to about 1e-12 of T_S0 − T_M0.  The same pass gives
-the derivatives with respect to R and L, used as the fit's Jacobian.
+All three are exact: closed forms in the Laplace domain, inverted numerically by
+stimuli's Bromwich inversion (:class:`stimuli.exact.InversionPlan`, the same contour as
+:mod:`stimuli.contact`) to about 1e-12 of T_S0 − T_M0.  A :class:`ResponseGrid` builds the
+plan (contour nodes and exponentials) once per trace's times; each (R, L) then costs one
+transform evaluation on windows × 25 nodes and a matrix-vector product, and the
+derivatives with respect to R and L (the fit's Jacobian) reuse the same nodes.
+
+Why the transforms are written here rather than taken from :class:`stimuli.laplace.ContactTransform`
+(which has the same F(s) for the two massless sides): the fit needs ∂θ/∂R and ∂θ/∂L in the same
+pass, the lumped sensor node, and the sample's impedance and √s kept across thousands of (R, L)
+evaluations on fixed nodes; ContactTransform recomputes everything per call and has none of these.
+The massless sides are checked against stimuli's Contact in the tests.
 """
 from __future__ import annotations
 
@@ -30,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from experiments.calibration.errors import CalibrationError
-from experiments.calibration.laplace import DEFAULT_NODES
+from stimuli.exact import NODES as DEFAULT_NODES
 
 __all__ = ["Sensor", "ContactSetup", "ResponseGrid", "SENSOR_SIDES", "sensor_response", "sensor_temperature",
            "DEFAULT_SENSOR_HEAT_CAPACITY", "DEFAULT_SENSOR_SKIN_RESISTANCE"]
@@ -126,7 +135,7 @@ class ContactSetup:
     skin_properties : tuple of float
         (conductivity W/(m K), density kg/m³, specific heat J/(kg K)); default Table 1.
     nodes : int
-        Talbot nodes of the Laplace inversion.
+        Contour nodes per time window of the Laplace inversion (:mod:`stimuli.exact`).
     """
 
     material: object = field(default_factory=_default_material)
@@ -168,23 +177,21 @@ class ResponseGrid:
     """
 
     def __init__(self, t, setup: ContactSetup):
-        from experiments.calibration.laplace import talbot_nodes
+        from stimuli.exact import InversionPlan
         t = np.asarray(t, dtype=float)
-        if t.ndim != 1 or not np.all(t > 0):
-            raise CalibrationError("model: t: expected a 1-D array of times > 0 s")
+        if t.ndim != 1 or not np.all(np.isfinite(t) & (t > 0)):
+            raise CalibrationError("model: t: expected a 1-D array of finite times > 0 s")
         self.t = t
         self.setup = setup
-        c, w = talbot_nodes(int(setup.nodes))
-        self._wr, self._wi = w.real, w.imag
-        s = c[None, :] / t[:, None]
+        self._plan = InversionPlan(t, nodes=int(setup.nodes))
+        s = self._plan.s
         k_s, rho_s, c_s = setup.skin_properties
         self._beta_s = math.sqrt(k_s * rho_s * c_s)
         self._sqrt_alpha_s = math.sqrt(k_s / (rho_s * c_s))
         mat = setup.material
-        beta_m = math.sqrt(mat.conductivity * mat.density * mat.specific_heat)
-        alpha_m = mat.conductivity / (mat.density * mat.specific_heat)
+        beta_m, alpha_m = mat.effusivity, mat.diffusivity
         self.s = s
-        self.rs = np.sqrt(s)                  # principal branch: Re ≥ 0 on the Talbot contour
+        self.rs = np.sqrt(s)                  # principal branch: Re ≥ 0 on the contour
         if mat.thickness is None:
             self.z_m = np.full_like(s, 1.0 / beta_m)
         else:
@@ -201,9 +208,7 @@ class ResponseGrid:
         return self._z_s, self._dz_s
 
     def _back(self, F):
-        # Re(F @ w) written out: a complex BLAS gemv here was 100x slower on a busy machine
-        # (thread spin-up), and this is the inner loop of every fit.
-        return (F.real * self._wr - F.imag * self._wi).sum(axis=1) / self.t
+        return self._plan.apply(F)
 
     def response(self, resistance: float, skin_thickness: float, derivatives: bool = False):
         """θ on the grid's times, optionally with ∂θ/∂R and ∂θ/∂L (see :func:`sensor_response`)."""

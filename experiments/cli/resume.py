@@ -19,22 +19,19 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    import json
-    from pathlib import Path
-
-    from experiments.cli.run import check_window, responder_options
+    from experiments.cli.run import check_common, check_window, responder_options
     from experiments.errors import SessionError
     from experiments.responders import get_responder
     from experiments.session import open_session
 
+    check_common(ns)
     session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
     name = ns.responder
     if name is None:
-        meta = json.loads((Path(ns.session_dir) / "session.json").read_text(encoding="utf-8"))
-        name = meta.get("responder")
+        name = session.responder_name
         if not name:
-            raise SessionError(f"{ns.session_dir}/session.json: responder: expected a name, got "
-                               f"{name!r} (give --responder)")
+            raise SessionError(f"{session.directory / 'session.json'}: responder: expected a name, "
+                               f"got {name!r} (give --responder)")
     if ns.max_faults is not None:
         session.max_consecutive_faults = ns.max_faults
     session.show_progress = not ns.quiet

@@ -62,6 +62,13 @@ def responder_options(items) -> dict:
     return out
 
 
+def check_common(ns) -> None:
+    """Check the options of :func:`add_common` (UserInputError naming the option)."""
+    from experiments.errors import UserInputError
+    if ns.max_faults is not None and ns.max_faults < 1:
+        raise UserInputError(f"--max-faults: expected an integer ≥ 1, got {ns.max_faults}")
+
+
 def check_window(responder: str) -> None:
     """Refuse the PsychoPy responder up front when there is no display to open a window on."""
     import os
@@ -83,8 +90,7 @@ def _run(ns) -> int:
 
     if ns.seed is not None and ns.seed < 0:
         raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
-    if ns.max_faults is not None and ns.max_faults < 1:
-        raise UserInputError(f"--max-faults: expected an integer ≥ 1, got {ns.max_faults}")
+    check_common(ns)
     check_window(ns.responder)
     responder = get_responder(ns.responder, **responder_options(ns.responder_option))
     session = create_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,

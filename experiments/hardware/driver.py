@@ -107,12 +107,12 @@ class TrialRecording:
 class _Trial:
     """Book-keeping of the armed trial (frames are streamed, not kept)."""
 
-    def __init__(self, mode, profile, counter0):
+    def __init__(self, mode, profile):
         self.mode = mode
         self.dt, self.target = profile if profile else (None, None)
         self.n_target = len(self.target) if self.target else 0
-        self.counter0 = counter0
-        self.last_counter = counter0
+        self.counter0 = 0                # the device's frame counter at ARM (set from its reply)
+        self.last_counter = 0
         self.frames = 0
         self.pending: list = []          # frames before run_trial() attaches a callback
         self.callback = None
@@ -253,9 +253,13 @@ class ThermalDisplay:
         self._seq = 0
         self._last_seq_by_type: dict[int, int] = {}
         self._virtual = getattr(port, "virtual_time_s", None) is not None
+        # the loop's clock, s: device time on a virtual clock, else wall time (read per frame:
+        # chosen once here rather than looked up on the port at every call)
         if self._virtual:
             dev = port.device
             self._clock = lambda: dev.time_us * 1e-6
+        else:
+            self._clock = time.monotonic
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
@@ -267,11 +271,7 @@ class ThermalDisplay:
         self.last_recording: TrialRecording | None = None
         self.last_contact: ContactEvent | None = None
 
-    # ------------------------------------------------------------------ clock & low level
-    def _clock(self) -> float:
-        vt = getattr(self.port, "virtual_time_s", None)
-        return vt if vt is not None else time.monotonic()
-
+    # ------------------------------------------------------------------ low level
     def _next_seq(self, mtype: int) -> int:
         with self._wlock:
             s = (self._seq + 1) & 0xFF
@@ -553,7 +553,7 @@ class ThermalDisplay:
         self._check_link()
         md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
         with self._lock:
-            self._trial = _Trial(mode, self._profile if mode == "playback" else None, 0)
+            self._trial = _Trial(mode, self._profile if mode == "playback" else None)
             self._trial.bad0 = self._parser.bad_frames
             try:
                 p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),

@@ -28,6 +28,9 @@ def test_bench_model_quick_writes_table_json_png(tmp_path, capsys):
     # the exact display-driven response really is within 1e-6 K of the mpmath reference
     assert by[("receptor", "exact", "Duhamel + FFT")]["max_error_K"] < 1e-6
     assert by[("interface", "exact", "default")]["max_error_theta"] < 1e-12
+    # and so is the one through the finger-pad resistance (Robin case, own mpmath eigen reference)
+    assert by[("pad", "exact", "R_pad, Duhamel + Bromwich")]["max_error_K"] < 1e-6
+    assert data["ratios"]["skin_response_pad_exact_over_eq7_cost_ratio"] > 0
     # the printed Eq. 8 prefactor is grossly wrong for a display: the bench must show it
     assert by[("receptor", "paper-as-printed", "Eq. 8 prefactor")]["max_error_K"] > 1.0
     assert data["ratios"]["skin_response_exact_over_eq7_cost_ratio"] > 0

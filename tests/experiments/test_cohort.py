@@ -138,3 +138,15 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
     _note_simulation(report, copy)
     text = report.read_text()
     assert "target side: `compensated`" in text and "copper, R_a 0.4 µm" in text
+
+
+def test_run_participant_names_the_file_of_a_bad_record(tmp_path):
+    # Regression: the record was read with a bare json.loads, so a damaged file surfaced as a
+    # JSONDecodeError naming neither the file nor the field.
+    from experiments.cohort import run_participant
+    from participants_schema import ParticipantError
+    bad = tmp_path / "P99.json"
+    bad.write_text('{"id": "P99", ', encoding="utf-8")
+    with pytest.raises(ParticipantError, match="P99.json"):
+        run_participant(bad, tmp_path / "data", seed=1)
+    assert not (tmp_path / "data").exists()

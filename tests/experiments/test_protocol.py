@@ -69,6 +69,14 @@ def test_display_fields_match_the_driver_safety_limits():
     assert names == ["min_C", "max_C", "max_rate_C_per_s", "neutral_C"]
 
 
+def test_display_settings_build_the_driver_safety_limits():
+    from experiments.hardware.safety import SafetyLimits
+    limits = load_protocol("roughness_recognition").display.safety_limits()
+    # experiments/protocols/roughness_recognition.toml [display]; the window is the driver's default
+    assert limits == SafetyLimits(min_C=15.0, max_C=42.0, max_rate_C_per_s=10.0, neutral_C=32.0)
+    assert limits.rate_window_s == 0.1
+
+
 def test_protocol_is_frozen():
     p = load_protocol("roughness_recognition")
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -81,6 +81,29 @@ def test_a_display_fault_is_written_and_the_trial_run_again(tmp_path):
     assert disp.calls[i + 1:i + 3] == [("abort",), ("set_neutral", 32.0)]
 
 
+def test_a_refused_command_is_written_with_the_devices_code_name(tmp_path):
+    # Regression: DisplayRefused carries the device's numeric code; trials.csv showed "10"
+    # where recorded faults show names (docs/display-protocol.md: 10 is FAULT_LATCHED).
+    from experiments.errors import DisplayRefused
+
+    class Refusing(ScriptedDisplay):
+        def arm(self, **kw):
+            super().arm(**kw)
+            if len([c for c in self.calls if c[0] == "arm"]) == 2:
+                raise DisplayRefused("display: ARM refused: FAULT_LATCHED (clear it)", code=10)
+
+    s = new_session(tmp_path)
+    disp = Refusing()
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    table = rows(s.directory / "trials.csv")
+    assert [(r["trial_index"], r["status"], r["fault_code"]) for r in table[:3]] == [
+        ("1", "ok", ""), ("2", "fault", "FAULT_LATCHED"), ("2", "ok", "")]
+    ev = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "display_fault"]
+    assert ev[0]["fault_code"] == "FAULT_LATCHED" and "ARM refused" in ev[0]["message"]
+    i = [k for k, c in enumerate(disp.calls) if c[0] == "arm"][1]   # the refused arm: neutral next
+    assert disp.calls[i + 1:i + 3] == [("abort",), ("set_neutral", 32.0)]
+
+
 def test_consecutive_faults_stop_cleanly_and_resume_finishes(tmp_path):
     s = new_session(tmp_path)
     disp = ScriptedDisplay(script=["ok", "raise", "timeout", "fault"])
@@ -176,6 +199,18 @@ def test_resume_of_a_missing_or_broken_session_is_exit_2(tmp_path, capsys):
     assert main(["resume", str(tmp_path / "s")]) == 2
     err = capsys.readouterr().err.splitlines()
     assert "nope: expected a session folder" in err[0] and "session.json: expected valid JSON" in err[1]
+
+
+def test_resume_checks_max_faults_and_needs_a_responder(tmp_path, capsys):
+    s = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data",
+                       "scripted://", seed=7, clock="virtual")      # no responder recorded
+    capsys.readouterr()
+    assert main(["resume", str(s.directory), "--max-faults", "0"]) == 2
+    assert main(["resume", str(s.directory)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].endswith("--max-faults: expected an integer ≥ 1, got 0")
+    assert "session.json: responder: expected a name, got ''" in err[1] and len(err) == 2
+    assert not (s.directory / "events.jsonl").exists()    # refused before anything ran
 
 
 def test_existing_session_folder_is_refused(tmp_path):

@@ -107,3 +107,13 @@ def test_no_nan_inf_or_warning_on_the_hard_grid(L, D):
                 for v in vals:
                     assert np.all(np.isfinite(v))
                     assert np.all((v > -1e-12) & (v < 1 + 1e-12))   # theta and psi stay in [0, 1]
+
+
+def test_inversion_plan_is_reusable_across_transforms():
+    # one plan, two transforms with known inverses (erfc(a / 2 sqrt t)), any time order and shape
+    from stimuli.exact import InversionPlan
+    t = np.array([[5.0, 1e-3], [0.2, 40.0]])
+    plan = InversionPlan(t)
+    for a in (0.5, 2.0):
+        f = plan.apply(np.exp(-a * np.sqrt(plan.s)) / plan.s)
+        np.testing.assert_allclose(f, erfc(a / (2 * np.sqrt(t))), rtol=0, atol=1e-13)
