@@ -90,6 +90,20 @@ def test_numerical_method_close_to_exact():
                                c.receptor_temperature(t), atol=0.05)
 
 
+@pytest.mark.parametrize("L,name,R", [(50e-6, "foam", 1e-3), (5e-3, "copper", 0.0),
+                                      (650e-6, "stainless_steel", 7e-4)])
+def test_numerical_method_holds_over_eight_decades_of_time(L, name, R):
+    # Regression: one finite-volume grid for t in [1e-4, 1e4] s (foam, 50 µm skin) was off by
+    # 0.18 in theta at t = 2.6e-4 s; solve_contact now uses one grid per window of times.
+    c = Contact(Skin(L), material(name), R, 1.0, 0.0)
+    t = np.concatenate([[0.0], np.geomspace(1e-4, 1e4, 81)])
+    for side in ("material", "skin"):
+        np.testing.assert_allclose(c.interface_temperature(t, side=side, method="numerical"),
+                                   c.interface_temperature(t, side=side), atol=1e-3)
+    np.testing.assert_allclose(c.receptor_temperature(t, method="numerical"),
+                               c.receptor_temperature(t), atol=2e-3)
+
+
 def test_paper_methods_refuse_slabs():
     c = Contact(Skin(650e-6), material("ss", 3e-3), 0.0, 35.0, 24.0)
     with pytest.raises(ModelInputError, match="half-space"):
