@@ -32,6 +32,15 @@ SKIN_C, MATERIAL_C = 36.0, 20.0
 SKIN_THICKNESS_UM = 650.0
 TIMES_S = np.linspace(0.0, 20.0, 201)
 
+#: Panel titles: what each method is, and what to expect of it (stimuli.paper_forms documents
+#: every printed error; the printed e_SR has no n, so its sum over n warms the receptors above
+#: T_S0 in Fig. 4a, and the printed Eq. 8 prefactor shrinks psi by beta_S / beta_M in Fig. 6).
+METHOD_TITLES = {
+    "paper-as-printed": "paper-as-printed\n(Eqs. 3a/7/8 as printed; see stimuli.paper_forms)",
+    "paper": "paper\n(closed forms, printed errors corrected)",
+    "exact": "exact\n(Laplace inversion, to 1e-12 in θ)",
+}
+
 FIGURES = {
     "fig3": ("Receptor temperature, epidermis thickness varied (SS, R = 0)", "epidermis_um", "receptor_C"),
     "fig4a": ("Receptor temperature, SS roughness varied", "roughness_um", "receptor_C"),
@@ -113,7 +122,7 @@ def _plot(path: Path, name: str, header, rows):
             for value in dict.fromkeys(r[1] for r in rows):
                 pts = [(r[0], r[4]) for r in rows if r[3] == m and r[1] == value]
                 ax.plot(*zip(*pts), label=f"{value:g} µm")
-            ax.set_title(m)
+            ax.set_title(METHOD_TITLES[m], fontsize=9)
             ax.set_xlabel("time (s)")
         axes[0].set_ylabel(label)
         axes[-1].legend(title=param.replace("_um", " (µm)"), fontsize=8)

@@ -30,7 +30,12 @@ def test_cli_table2(tmp_path, capsys):
     with open(tmp_path / "table2.csv") as fh:
         rows = list(csv.DictReader(fh))
     assert len(rows) == 5 and "exact_slab3mm_C" in rows[0]
-    assert (tmp_path / "table2.md").read_text().startswith("# Table 2")
+    md = (tmp_path / "table2.md").read_text()
+    assert md.startswith("# Table 2")
+    # The explanation's bound from Table 1's printed effusivities (1167.36 skin, 7253.71 steel):
+    # 24 + 2 * 1167.36 / (1167.36 + 7253.71) * (35 - 24) = 27.05 degC.
+    assert "## Why the table is not reproduced" in md and "never exceeds 27.05 °C" in md
+    assert "the table's trend is the skin side's" in md
 
 
 def test_cli_rejects_file_as_out(tmp_path, capsys):

@@ -54,6 +54,18 @@ def test_resistance_terms_need_n_dependence_t_to_zero():
     assert pf.eq3b(P, L, t, printed=True)[0] == pytest.approx(P.gamma / 2, abs=1e-3)
 
 
+def test_skin_resistance_term_needs_n_dependence_t_to_zero():
+    # With R > 0 the skin side starts at its own temperature (theta = 1); an n-independent
+    # e_SR summed over n makes it start far above (3.245 for steel at t = 1e-8 s).
+    c, P = _pair(6.5e-4)
+    L = SKIN.thickness
+    for t in ([1e-8], [1e-4]):
+        exact = c.skin_temperature(L, t)[0]
+        assert abs(pf.eq3a(P, L, t)[0] - exact) < 1e-12
+        assert pf.eq3a(P, L, t, printed=True)[0] > 3.0 * exact
+    assert abs(c.skin_temperature(L, [1e-8])[0] - 1.0) < 1e-3
+
+
 def _interface_with_emr_sign(P, t, sign):
     # Corrected Eq. 3b at x = L+ but e_MR,n = E(2nL) + sign * E((2n+2)L), summed here independently.
     a = np.sqrt(P.alpha_s * np.asarray(t))
