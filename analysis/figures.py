@@ -63,14 +63,21 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
                     capsize=3, linewidth=1.4, markersize=6,
                     markerfacecolor=colour if key[1] == "real" else "white")
     ax.axhline(CHANCE, color="0.4", linestyle=":", linewidth=1, label="chance (0.25)")
-    ax.set_xticks([1, 2, 3, 4], ["1#", "2#", "3#", "4#"])
+    ticks = proportions.drop_duplicates("roughness_id").set_index("roughness_id")["roughness_um"]
+    ax.set_xticks([1, 2, 3, 4], [f"{r}#\n{ticks[r]:g} µm" if r in ticks.index else f"{r}#"
+                                 for r in (1, 2, 3, 4)])
     ax.set_xlim(0.5, 4.5)
     ax.set_ylim(0.0, 1.0)
-    ax.set_xlabel("Roughness Number")
+    ax.set_xlabel("Roughness Number (Ra)")
     ax.set_ylabel("Proportions of correct recognition")
-    which = "participant-cluster bootstrap" if interval == "boot" else "Wilson"
-    ax.set_title(title or f"Figure 9: correct recognition (95% {which} intervals)", fontsize=10)
-    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, frameon=False)
+    # (the bootstrap interval is a Wilson interval at the bootstrap's effective sample size:
+    # analysis.proportions; the report says so)
+    which = "participant-cluster bootstrap" if interval == "boot" else "Wilson, trials independent"
+    people = int(proportions["n_participants"].max()) if not proportions.empty else 0
+    trials = int(proportions["n_trials"].max()) if not proportions.empty else 0
+    ax.set_title(title or f"Figure 9: correct recognition\n95% {which} intervals; "
+                          f"≤ {people} participants, ≤ {trials} trials per point", fontsize=9)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, frameon=False)
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path)

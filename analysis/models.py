@@ -300,11 +300,16 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     pandas.DataFrame
         ``model, mode, roughness_id, log_odds_ratio_A_vs_B, se, ci_low, ci_high,
         odds_ratio_A_vs_B, p_value, p_correct_A, p_correct_B,
-        difference_A_minus_B, difference_low, difference_high`` (probabilities
+        difference_A_minus_B, difference_low, difference_high, basis`` (probabilities
         are fractions 0–1; GEE probabilities are population averages). One row
         per mode × roughness, then one per mode averaged over roughness
         (``roughness_id`` 0: the mean log odds over the four samples).
-        Empty if the model has no group term.
+        Empty if the model has no group term. ``basis`` says where a row comes
+        from: the fitted model, or -- when the fitted formula has no group ×
+        roughness term (a fallback after separation) -- a GEE of that sample's
+        trials alone (``correct ~ group``), or "not estimable" when a group
+        answered that sample all right or all wrong (log odds NaN). A Bayes fit
+        without that term gives only the averaged rows.
 
     Notes
     -----
@@ -315,7 +320,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     """
     columns = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low", "ci_high",
                "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
-               "difference_A_minus_B", "difference_low", "difference_high"]
+               "difference_A_minus_B", "difference_low", "difference_high", "basis"]
     if fit.formula is None or "group" not in fit.formula:
         return pd.DataFrame(columns=columns)
     data = model_data(trials)
@@ -325,9 +330,17 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     beta, cov = fit.params, fit.cov
     rows = []
     roughness = sorted(data["roughness_id"].unique())
+    # A fitted formula without the group x roughness interaction gives every sample the same
+    # log odds ratio; per-sample rows then come from a GEE of that sample's trials alone.
+    per_sample = _has_group_by_roughness(fit)
     for mode in sorted(data["mode"].unique()):
         specs = [(r, [r]) for r in roughness] + [(0, roughness)]
         for label, levels in specs:
+            if label != 0 and not per_sample:
+                cell = data[(data["mode"] == mode) & (data["roughness_id"] == label)]
+                if fit.kind == "gee":
+                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z)])
+                continue
             grid = pd.DataFrame({"group": ["A"] * len(levels) + ["B"] * len(levels),
                                  "mode": mode, "roughness_id": list(levels) * 2,
                                  "correct": 0, "participant": "x"})
@@ -340,5 +353,44 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
             dse = float(np.sqrt(grad @ cov @ grad))
             rows.append([fit.kind, mode, label, est, se, est - z * se, est + z * se, np.exp(est),
                          2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
-                         pa - pb, pa - pb - z * dse, pa - pb + z * dse])
+                         pa - pb, pa - pb - z * dse, pa - pb + z * dse, f"model: {fit.formula}"])
     return pd.DataFrame(rows, columns=columns)
+
+
+def _has_group_by_roughness(fit: ModelFit) -> bool:
+    names = [t.name() for t in fit.design_info.terms]
+    return any("group" in n and "roughness_id" in n for n in names)
+
+
+def _sample_gee_contrast(cell: pd.DataFrame, z: float) -> list:
+    """Group A vs B on one sample's trials: ``correct ~ group`` GEE (participant clusters).
+
+    Returns the contrast columns after ``roughness_id`` (see :func:`group_contrasts`). When a
+    group answered all right or all wrong there is no finite log odds ratio: the model columns
+    and intervals are NaN and ``p_correct_A/B`` are the observed proportions.
+    """
+    import statsmodels.api as sm
+
+    pa = float(cell.loc[cell["group"] == "A", "correct"].mean())
+    pb = float(cell.loc[cell["group"] == "B", "correct"].mean())
+    nan = [np.nan] * 6
+    if cell["group"].nunique() < 2 or not np.isfinite(pa + pb):
+        return nan + [pa, pb, pa - pb, np.nan, np.nan, "per-sample GEE: one group missing"]
+    if pa in (0.0, 1.0) or pb in (0.0, 1.0):
+        return nan + [pa, pb, pa - pb, np.nan, np.nan,
+                      "not estimable: a group answered all right or all wrong"]
+    x = pd.DataFrame({"Intercept": 1.0, "group[T.B]": (cell["group"] == "B").astype(float)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = sm.GEE(cell["correct"].to_numpy(float), x, groups=cell["participant"].to_numpy(),
+                     family=sm.families.Binomial(),
+                     cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
+    est, se = -float(res.params.iloc[1]), float(res.bse.iloc[1])
+    cov = np.asarray(res.cov_params())
+    xa, xb = np.array([1.0, 0.0]), np.array([1.0, 1.0])
+    pa, pb = float(special.expit(xa @ res.params)), float(special.expit(xb @ res.params))
+    grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
+    dse = float(np.sqrt(grad @ cov @ grad))
+    return [est, se, est - z * se, est + z * se, np.exp(est),
+            2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
+            pa - pb, pa - pb - z * dse, pa - pb + z * dse, "per-sample GEE: correct ~ group"]

@@ -151,19 +151,35 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
             for r in below.itertuples()) + "; these samples are systematically named as another "
             "one (see the confusion matrices).")
     if not confusion.empty:
-        diag = confusion[confusion["stimulus_roughness_id"] == confusion["response_id"]]
-        worst = diag.groupby("stimulus_roughness_id")["n_trials"].sum() / \
-            confusion.groupby("stimulus_roughness_id")["n_trials"].sum()
-        r = int(worst.idxmin())
-        out.append(f"Sample {r}# was the most often confused with the others "
-                   f"(named correctly in {_pct(worst.min())} of its trials).")
-    sig = contrasts[(contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)
-                    & ((contrasts["ci_low"] > 0) | (contrasts["ci_high"] < 0))]
-    n_tests = int(((contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)).sum()) \
-        if not contrasts.empty else 0
+        worst_by_mode = []
+        for mode in ("real", "simulated"):
+            conf = confusion[confusion["mode"] == mode]
+            if conf.empty:
+                continue
+            diag = conf[conf["stimulus_roughness_id"] == conf["response_id"]]
+            worst = diag.groupby("stimulus_roughness_id")["n_trials"].sum() / \
+                conf.groupby("stimulus_roughness_id")["n_trials"].sum()
+            worst_by_mode.append(f"with {mode} samples {int(worst.idxmin())}# "
+                                 f"(named correctly in {_pct(worst.min())} of its trials)")
+        out.append("The sample most often confused with the others was, "
+                   + "; ".join(worst_by_mode) + ".")
+    per_sample = contrasts[(contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)] \
+        if not contrasts.empty else contrasts
+    estimable = per_sample[per_sample["ci_low"].notna()] if not per_sample.empty else per_sample
+    sig = estimable[(estimable["ci_low"] > 0) | (estimable["ci_high"] < 0)] \
+        if not estimable.empty else estimable
+    n_tests = len(estimable)
+    if len(per_sample) > n_tests:
+        out.append("No group comparison is possible for " + ", ".join(
+            f"{r.roughness_id}# {r.mode}" for r in per_sample[per_sample["ci_low"].isna()].itertuples())
+            + " (a group answered it all right or all wrong).")
+    if n_tests and (per_sample["basis"].str.startswith("per-sample")).any():
+        out.append("Per-sample group comparisons come from a GEE of each sample's trials alone "
+                   "(the full model could not be fitted; see the model notes).")
     if n_tests:
         if sig.empty:
-            out.append("No single sample shows a group difference whose 95 % interval excludes zero.")
+            out.append(f"No single sample shows a group difference whose 95 % interval excludes "
+                       f"zero ({n_tests} comparisons).")
         else:
             out.append("Samples whose group difference excludes zero at 95 %: " + ", ".join(
                 f"{r.roughness_id}# {r.mode} ({'A' if r.log_odds_ratio_A_vs_B > 0 else 'B'} higher)"

@@ -62,7 +62,23 @@ def test_separation_falls_back_to_a_simpler_formula_and_says_so(study):
     assert gee.formula == "correct ~ group * mode + C(roughness_id)"
     assert any("separation" in n and "A/real/4#" in n for n in gee.notes)
     c = group_contrasts(gee, trials)
-    assert len(c) == 10 and np.isfinite(c["se"]).all()
+    assert len(c) == 10
+    # The fallback has no group x roughness term, so per-sample rows come from each sample's
+    # own trials (they used to repeat the averaged contrast for every sample): the model's
+    # probabilities are then the observed cell proportions, and the separated cell has none.
+    observed = trials.groupby(["group", "mode", "roughness_id"])["correct"].mean()
+    per_sample = c[c["roughness_id"] > 0].set_index(["mode", "roughness_id"])
+    bad = per_sample.loc[("real", 4)]
+    assert np.isnan(bad["se"]) and bad["basis"].startswith("not estimable")
+    rest = per_sample.drop(index=("real", 4))
+    assert np.isfinite(rest["se"]).all()
+    assert (rest["basis"] == "per-sample GEE: correct ~ group").all()
+    for (mode, r), row in rest.iterrows():
+        assert row["p_correct_A"] == pytest.approx(observed[("A", mode, r)], abs=1e-6)
+        assert row["p_correct_B"] == pytest.approx(observed[("B", mode, r)], abs=1e-6)
+    assert rest["log_odds_ratio_A_vs_B"].nunique() == len(rest)
+    averaged = c[c["roughness_id"] == 0]
+    assert np.isfinite(averaged["se"]).all() and averaged["basis"].str.startswith("model").all()
 
 
 def test_one_group_only_has_no_contrast(study):
