@@ -18,6 +18,12 @@ A session directory is any folder holding ``trials.csv`` or ``events.jsonl``
    normally the newer file): the table is rebuilt from the events when they hold
    trials (``trial_index``, ``attempt``) that ``trials.csv`` lacks.
 
+Sessions of a protocol that asks for no answers (no block with ``response = true`` in
+``session.json``'s protocol, e.g. Exp. 1's ``interface_temperature``, recorded for calibration
+in the same data folder) are not roughness-recognition sessions: they are skipped with a
+warning and listed in :attr:`TrialLog.sessions` with their ``skipped`` reason.
+Optional columns missing from a session's table are filled with blanks, with a warning.
+
 Rows are then validated (required columns, types, allowed values, duplicate
 ``(participant, session, trial_index, attempt)`` keys, ``correct`` consistent with
 ``response_id == roughness_id``) and marked ``included`` or given an
@@ -44,6 +50,7 @@ __all__ = [
     "load_session",
     "read_trials_csv",
     "read_trial_events",
+    "not_recognition_reason",
     "REQUIRED_COLUMNS",
     "STATUSES",
 ]
@@ -74,8 +81,10 @@ class TrialLog:
         ``source`` (file the row came from), ``line`` (its line in that file),
         ``included`` (bool) and ``exclusion`` (reason, ``""`` when included).
     sessions : pandas.DataFrame
-        One row per session folder: ``participant``, ``group``, ``session``,
-        ``path``, ``source`` (``"trials.csv"`` or ``"events.jsonl"``), ``n_rows``.
+        One row per session folder read or skipped for its protocol: ``participant``,
+        ``group``, ``session``, ``path``, ``source`` (``"trials.csv"`` or
+        ``"events.jsonl"``; ``"session.json"`` for a skipped session), ``n_rows`` and
+        ``skipped`` (why the session was not analysed, ``""`` when it was).
     warnings : list of str
         Every problem that was worked around (also issued as :class:`LogWarning`).
     """
@@ -88,6 +97,11 @@ class TrialLog:
     def analysable(self) -> pd.DataFrame:
         """The rows used for inference (ok, not familiarisation, last ok attempt)."""
         return self.trials[self.trials["included"]].reset_index(drop=True)
+
+    @property
+    def skipped_sessions(self) -> pd.DataFrame:
+        """The session folders not analysed because of their protocol (``skipped`` reason set)."""
+        return self.sessions[self.sessions["skipped"] != ""].reset_index(drop=True)
 
     def exclusion_counts(self) -> pd.DataFrame:
         """Number of rows per exclusion reason (``"included"`` for the kept ones)."""
@@ -279,6 +293,55 @@ def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame,
         key = (_int_text(row.get("trial_index")), _int_text(row.get("attempt")))
         (rows if kind in ("trial_completed", "trial_aborted") else others).setdefault(key, row)
     return pd.DataFrame(list((rows or others).values())), context
+
+
+def _session_meta(folder: Path) -> dict:
+    """``session.json`` as a dict, or ``{}`` when missing or unreadable (reported elsewhere)."""
+    try:
+        data = json.loads((folder / "session.json").read_text("utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def not_recognition_reason(meta: dict) -> str:
+    """Why a session's protocol is not a roughness-recognition protocol (``""`` if it is).
+
+    Parameters
+    ----------
+    meta : dict
+        The session's ``session.json``; its ``protocol`` member is the protocol's TOML as
+        parsed (``[protocol]`` table, ``[[blocks]]`` list).
+
+    Returns
+    -------
+    str
+        ``""`` when any block asks for an answer (``response`` true, the default) or when the
+        protocol cannot be judged (no stored protocol or blocks: loaded as before); otherwise
+        a reason naming the protocol, e.g. Exp. 1's ``interface_temperature``, whose single
+        block records contact traces and asks for no answer.
+
+    Notes
+    -----
+    A block's ``response`` decides rather than ``[protocol] experiment``: the experiment
+    number is informative (0 when a custom protocol leaves it out), whereas a protocol
+    without a block asking for an answer has no recognition trial to analyse.
+    """
+    protocol = meta.get("protocol")
+    if not isinstance(protocol, dict):
+        return ""
+    blocks = protocol.get("blocks")
+    if not isinstance(blocks, list) or not blocks or not all(isinstance(b, dict) for b in blocks):
+        return ""
+    if any(b.get("response", True) is not False for b in blocks):
+        return ""
+    head = protocol.get("protocol") if isinstance(protocol.get("protocol"), dict) else {}
+    name = head.get("name", meta.get("protocol_name", "unnamed"))
+    experiment = f" (experiment {head['experiment']})" if "experiment" in head else ""
+    names = ", ".join(repr(str(b.get("name", "?"))) for b in blocks)
+    which = f"block {names} has" if len(blocks) == 1 else f"blocks {names} have"
+    return (f"expected a roughness-recognition protocol (a block asking for an answer), got "
+            f"{name!r}{experiment}, whose {which} response = false")
 
 
 def _session_context(folder: Path, messages: list) -> dict:
@@ -493,6 +556,11 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
         return pd.DataFrame(), ""
     rows = rows.reset_index(drop=True)
     _require_columns(rows, path)
+    missing = [c for c in OPTIONAL_COLUMNS if c not in rows.columns]
+    if missing:
+        how = "blank" + ("; attempt taken as 1" if "attempt" in missing else "")
+        _warn(messages, f"{path}: {', '.join(missing)}: expected optional column(s) "
+                        f"{', '.join(missing)}, got none; filled with {how}")
     rows["source"] = str(path)
     return rows, path.name
 
@@ -552,7 +620,9 @@ def load_trials(data_dir) -> TrialLog:
     -----
     LogWarning
         A truncated file (read up to the damage), a missing or stale
-        ``trials.csv`` (rebuilt from ``events.jsonl``), an exact duplicate row (dropped).
+        ``trials.csv`` (rebuilt from ``events.jsonl``), an exact duplicate row (dropped),
+        missing optional columns (filled with blanks), a session whose protocol asks for no
+        answers (skipped; see :func:`not_recognition_reason`).
     """
     root = Path(data_dir)
     if not root.is_dir():
@@ -562,23 +632,40 @@ def load_trials(data_dir) -> TrialLog:
         raise LogError(f"{root}: trials.csv: expected session folders holding trials.csv or "
                        f"events.jsonl, got none")
     messages: list = []
-    parts, sessions = [], []
+    parts, sessions, skipped = [], [], []
     for folder in folders:
+        meta = _session_meta(folder)
+        reason = not_recognition_reason(meta)
+        if reason:
+            _warn(messages, f"{folder / 'session.json'}: protocol: {reason}; session {folder} "
+                            f"skipped")
+            context = _session_context(folder, [])
+            skipped.append({"participant": str(context.get("participant", folder.parent.name)),
+                            "group": str(context.get("group", "")),
+                            "session": str(context.get("session", folder.name)),
+                            "path": str(folder), "source": "session.json", "n_rows": 0,
+                            "skipped": reason})
+            continue
         rows, source = load_session(folder, messages)
         if rows.empty:
             continue
         parts.append(rows)
         sessions.append({"path": str(folder), "source": source, "n_rows": len(rows)})
     if not parts:
+        also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
         raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
-                       f"{len(folders)} session folder(s) without any")
+                       f"{len(folders)} session folder(s) without any{also}")
     raw = pd.concat(parts, ignore_index=True)
     trials = _validate(raw)
     first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()
     sessions = pd.DataFrame(sessions)
     sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
     sessions = sessions.join(first, on="file").drop(columns="file")
-    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows"]]
+    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows"]].copy()
+    sessions["skipped"] = ""
+    if skipped:
+        sessions = pd.concat([sessions, pd.DataFrame(skipped)], ignore_index=True)
+        sessions = sessions.sort_values("path", ignore_index=True)
     trials = _drop_duplicates(trials, messages)
     for column in ("participant", "group"):
         per = trials.groupby("participant")["group"].nunique() if column == "group" else None

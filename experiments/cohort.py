@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PAPER_GROUPS", "CohortGroup", "paper_cohort", "write_cohort", "run_figure9_study",
-           "run_participant"]
+__all__ = ["PAPER_GROUPS", "CohortGroup", "paper_cohort", "write_cohort", "alternate_groups",
+           "run_figure9_study", "run_participant"]
 
 
 @dataclass(frozen=True)
@@ -117,6 +117,48 @@ def write_cohort(directory, seed: int = 0) -> list[Path]:
     return paths
 
 
+def alternate_groups(records, n: int) -> list:
+    """The first ``n`` records taking the groups in turn (A, B, A, B, ...), ids unchanged.
+
+    Parameters
+    ----------
+    records : sequence of dict
+        Participant records in cohort order (:func:`paper_cohort`: P01-P15 group A, P16-P30
+        group B); the group is ``x_simulation.group``.
+    n : int
+        How many to take, 1 to ``len(records)``.
+
+    Returns
+    -------
+    list of dict
+        Group A's first, group B's first, A's second, ...: any ``n >= 2`` compares both groups
+        (sizes differing by at most one while both last), and ``n = len(records)`` is every
+        record, in the same interleaved order.
+    """
+    queues: dict = {}
+    for record in records:
+        extra = record.get("x_simulation")
+        group = extra.get("group") if isinstance(extra, dict) else None
+        queues.setdefault(group, []).append(record)
+    queues = [list(q) for q in queues.values()]
+    out = []
+    while len(out) < n and any(queues):
+        for queue in queues:
+            if queue and len(out) < n:
+                out.append(queue.pop(0))
+    return out
+
+
+def _positive_int(value, option: str, high: int | None = None) -> int:
+    """``value`` as an integer ≥ 1 (≤ ``high``), else a UserInputError naming ``option``."""
+    from experiments.errors import UserInputError
+    what = f"an integer from 1 to {high}" if high is not None else "an integer ≥ 1"
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1 \
+            or (high is not None and value > high):
+        raise UserInputError(f"{option}: expected {what}, got {value!r}")
+    return int(value)
+
+
 def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "roughness_recognition",
                     responder_options: dict | None = None) -> dict:
     """Run one participant's session with the emulator (virtual clock) and the simulated responder.
@@ -179,7 +221,8 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     progress : bool
         Print "participant n of N, elapsed, ETA" lines on stderr.
     workers : int, optional
-        Processes running participants in parallel (1: in this process). Default: twice the
+        Processes running participants in parallel (1: in this process; at most one per
+        participant). Default: twice the
         CPU count, because a session spends about half its wall time waiting for ``fsync``
         (every logged event is made durable before the next step): on 2 cores, 4 processes
         take ~30 s where 2 take ~60 s, for ~60 MiB more memory (PSS).
@@ -187,11 +230,13 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         Protocol name or path.
     responder_options : dict, optional
         Options of :class:`experiments.responders.simulated.SimulatedResponder` for everyone
-        (noise parameters...).
+        (noise parameters...); checked before any session runs.
     analyze : bool
         Run :func:`analysis.analyze` on ``out_dir/data`` at the end.
     participants : int, optional
-        Run only the first ``participants`` records (tests).
+        Run only this many participants (1 to 30), taken from the two groups in turn
+        (:func:`alternate_groups`: P01, P16, P02, P17, ...), so that any number ≥ 2 compares
+        both groups; the cohort's ids and records are the same as in the whole study.
     target_side : {"material", "skin", "compensated"}, optional
         Override the protocol's ``[simulation] target_side`` (default: the protocol's, i.e.
         ``"material"``, the paper's Eq. 7, for ``roughness_recognition``); the protocol is then
@@ -205,27 +250,43 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     dict
         ``out_dir``, ``sessions`` (per-participant results), ``seconds`` (wall time of the
         sessions), ``analysis`` (whatever :func:`analysis.analyze` returned), ``analysis_seconds``.
+
+    Raises
+    ------
+    UserInputError
+        ``out_dir`` is a file or holds earlier study data, ``participants`` or ``workers`` not
+        an integer in range, an unknown or bad responder option, an unknown target side or
+        rate limit, or profiles the display would refuse; all before any session runs.
     """
     from experiments.errors import UserInputError
+    from experiments.responders import get_responder
 
     out_dir = Path(out_dir)
     data_dir = out_dir / "data"
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserInputError(f"{out_dir}: --out: expected a folder, got an existing file")
     if data_dir.is_dir() and any(data_dir.iterdir()):
         raise UserInputError(f"{data_dir}: --out: expected a folder without earlier study data "
                              f"(the analysis would pool both runs), got a non-empty data/ folder")
+    records = paper_cohort(seed)
+    n = len(records) if participants is None else _positive_int(participants, "--participants",
+                                                                 len(records))
+    if workers is not None:
+        workers = _positive_int(workers, "--workers")
+    get_responder("simulated", **dict(responder_options or {}))   # bad options: fail now
+    out_dir.mkdir(parents=True, exist_ok=True)      # a target-side protocol copy goes here
     protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit)
     check_simulated_profiles(used)
     data_dir.mkdir(parents=True, exist_ok=True)
-    paths = write_cohort(out_dir / "participants", seed=seed)
-    if participants is not None:
-        paths = paths[:int(participants)]
+    paths = {p.stem: p for p in write_cohort(out_dir / "participants", seed=seed)}
+    paths = [paths[r["id"]] for r in alternate_groups(records, n)]
     jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {})) for p in paths]
     stream = sys.stderr
     start = time.perf_counter()
     results = []
     if workers is None:
         workers = 2 * (os.cpu_count() or 1)
-    workers = max(1, min(int(workers), len(jobs)))
+    workers = min(workers, len(jobs))
     if workers == 1:
         for job in jobs:
             results.append(_run_one(job))

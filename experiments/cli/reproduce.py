@@ -6,7 +6,9 @@
   markdown table is also printed.
 * ``figure9``: the simulated-cohort study (:func:`experiments.cohort.run_figure9_study`);
   ``--target-side`` chooses what the display replays (default: the protocol's, the paper's
-  material side); ``study.json`` and ``report.md`` say which.
+  material side); ``study.json`` and ``report.md`` say which. ``--participants N`` runs N of
+  the 30 (taken from groups A and B in turn), ``--workers N`` sets the parallel processes,
+  ``--responder-option KEY=VALUE`` passes options to every simulated participant.
 """
 from __future__ import annotations
 
@@ -29,6 +31,15 @@ def register(sub) -> None:
                    help="figure9 only: profiles faster than the display's rate limit are refused "
                         "(the study stops before it starts) or slowed to it ('slew'; compensated "
                         "3#/4# need it); default: the protocol's (refuse)")
+    p.add_argument("--participants", type=int, default=None, metavar="N",
+                   help="figure9 only: run N of the 30 participants, taken from groups A and B "
+                        "in turn (P01, P16, P02, ...); default: all 30")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="figure9 only: participants run in N parallel processes (1: in this "
+                        "process); default: twice the CPU count")
+    p.add_argument("--responder-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="figure9 only: option of every simulated participant (repeatable), "
+                        "e.g. lapse_rate=0.1 or drop_noise_C=0.2")
     p.set_defaults(func=_run)
 
 
@@ -56,6 +67,9 @@ def _run(ns) -> int:
         print(md_path)
         return 0
     # figure9: the simulated cohort (owned by experiments/cohort.py)
+    from experiments.cli.run import responder_options
     from experiments.cohort import run_figure9_study
-    run_figure9_study(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit)
+    run_figure9_study(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
+                      participants=ns.participants, workers=ns.workers,
+                      responder_options=responder_options(ns.responder_option))
     return 0

@@ -20,7 +20,12 @@ from experiments.participant_model import (PAD_MATERIAL, PAD_ROUGHNESS_M, Percep
                                            SimulatedPerson, feature_names)
 from experiments.responders.base import RESPONSE_IDS, Responder, Response
 
-__all__ = ["SimulatedResponder"]
+__all__ = ["SimulatedResponder", "HOLD_MARGIN_S"]
+
+#: s: how much longer than the recording a finger that is not asked to answer stays on. The
+#: emulated press rises with a 0.2 s time constant, so 2.5 N crosses a 2 N threshold ~0.32 s
+#: after it starts; contact (and the recording) begins only then.
+HOLD_MARGIN_S = 1.0
 
 _PARAM_FIELDS = {f.name: f for f in dataclasses.fields(PerceptionParameters)}
 
@@ -60,8 +65,13 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         The scripted finger: when it presses after being armed, and how hard (default: the
         protocol's force threshold + 0.5 N, i.e. 2.5 N for the paper's 2 N).
     hold_s : float, s, optional
-        How long the finger stays on (default: the model's feature window + 0.5 s; the paper's
-        participants withdrew after answering, within 20 s).
+        How long the finger stays on, from the start of the press. Default: on trials that ask
+        for an answer, the model's feature window + 0.5 s (the paper's participants withdrew
+        after answering, within 20 s); on trials of a block with ``response = false`` (nothing
+        to answer: Exp. 1's recordings, familiarisation) at least the protocol's recording,
+        ``contact.record_s`` (``max_contact_s`` for played profiles), plus
+        :data:`HOLD_MARGIN_S` for the press to reach the force threshold. Given, it is used
+        on every trial.
     pad_roughness_um : float, µm, optional
         R_a of the display's face the finger touches (default: the protocol's ``[simulation]
         pad_roughness_um``, else 0.4 µm).
@@ -113,6 +123,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         }
         self.press_after_s = _number("press_after_s", press_after_s)
         self.force_N = None if force_N is None else _number("force_N", force_N)
+        self.hold_given = hold_s is not None
         self.hold_s = self.params.duration_s + 0.5 if hold_s is None else _number("hold_s", hold_s)
         self.log_percepts = log_percepts not in (False, "false", "False", "0", 0)
         self.pad_roughness_um = None if pad_roughness_um is None else _number("pad_roughness_um", pad_roughness_um)
@@ -197,7 +208,8 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             sample = _sample_for(self.session, trial, self.params)
             display.sim_sample(material=sample["material"], roughness_m=sample["roughness_m"],
                                thickness_m=sample["thickness_m"], temperature_C=sample["temperature_C"])
-        display.sim_finger(press_after_s=self.press_after_s, force_N=self._force(), hold_s=self.hold_s,
+        display.sim_finger(press_after_s=self.press_after_s, force_N=self._force(),
+                           hold_s=self.hold_for(trial),
                            skin_thickness_m=person.skin_thickness_m,
                            skin_temperature_C=skin_temperature)
         if _is_familiarisation(trial) and trial.mode != "simulated":
@@ -206,6 +218,24 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             from experiments.responders.base import TrialStimulus
             self._learn(trial, TrialStimulus(mode="real", roughness_id=trial.roughness_id,
                                              roughness_um=trial.roughness_um))
+
+    def hold_for(self, trial) -> float:
+        """How long the finger stays on for ``trial``, s (see the ``hold_s`` option).
+
+        A participant asked for an answer feels, answers and lets go (:attr:`hold_s`); one
+        who is not (a block with ``response = false``) keeps the finger on until the display
+        has recorded (real samples: ``contact.record_s``) or played (``max_contact_s``) the
+        whole contact.
+        """
+        if self.hold_given:
+            return self.hold_s
+        protocol = getattr(self.session, "protocol", None)
+        block = _block_of(protocol, trial)
+        contact = getattr(protocol, "contact", None)
+        if block is None or contact is None or getattr(block, "response", True):
+            return self.hold_s
+        needed = contact.max_contact_s if trial.mode == "simulated" else contact.record_s
+        return max(self.hold_s, float(needed) + HOLD_MARGIN_S)
 
     def _force(self) -> float:
         if self.force_N is not None:
@@ -305,6 +335,14 @@ def _played(stimulus) -> bool:
     """Whether the display played a profile (else a real sample was touched)."""
     return stimulus.mode == "simulated" or (
         stimulus.mode == "familiarise" and stimulus.profile_parameters is not None)
+
+
+def _block_of(protocol, trial):
+    """The protocol's block of ``trial`` (None without a protocol or such a block)."""
+    try:
+        return protocol.block(trial.block)
+    except (AttributeError, KeyError, LookupError, ValueError):
+        return None
 
 
 def _is_familiarisation(trial) -> bool:

@@ -253,3 +253,84 @@ def test_empty_csv_falls_back_to_events(study):
                                         rf"events.jsonl instead"):
         log = load_trials(data)
     assert (log.trials["source"] == str(path.parent / "events.jsonl")).sum() == 28
+
+
+# --------------------------------------------------------------------------- mixed protocols
+
+@pytest.fixture(scope="module")
+def mixed_protocols(tmp_path_factory):
+    """A data folder as the README workflow leaves it: one participant's Exp. 2 session
+    (``roughness_recognition``) and an Exp. 1 session (``interface_temperature``, recorded for
+    calibration), both made by the real session runner on the emulated display."""
+    from pathlib import Path
+
+    from experiments.cli import main
+    record = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
+    data = tmp_path_factory.mktemp("mixed") / "data"
+    for protocol, session in (("roughness_recognition", "S01"), ("interface_temperature", "S02")):
+        status = main(["run", protocol, "--participant", str(record), "--display",
+                       "emulator://?clock=virtual", "--responder", "simulated", "--data", str(data),
+                       "--seed", "1", "--session", session, "--quiet"])
+        assert status == 0, protocol
+    return data
+
+
+def test_sessions_of_a_protocol_without_answers_are_skipped(mixed_protocols, tmp_path):
+    import re
+
+    from analysis import analyze
+    exp1 = mixed_protocols / "P01" / "S02"
+    with pytest.warns(LogWarning, match=rf"{re.escape(str(exp1))}/session\.json: protocol: .*"
+                                        rf"'interface_temperature' \(experiment 1\).*"
+                                        rf"session {re.escape(str(exp1))} skipped"):
+        log = load_trials(mixed_protocols)
+    assert set(log.trials["session"]) == {"S01"}
+    assert not log.trials["source"].str.contains("S02").any()
+    skipped = log.skipped_sessions
+    assert list(skipped["path"]) == [str(exp1)] and list(skipped["n_rows"]) == [0]
+    assert "interface_temperature" in skipped["skipped"].iloc[0]
+    assert list(log.sessions.loc[log.sessions["skipped"] == "", "session"]) == ["S01"]
+    # the whole analysis runs, and its report lists the skipped session among the load problems
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        analyze(mixed_protocols, tmp_path / "out", n_boot=20, bayes=False)
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert f"session {exp1} skipped" in report
+    written = pd.read_csv(tmp_path / "out" / "sessions.csv", keep_default_na=False)
+    assert written.loc[written["path"] == str(exp1), "skipped"].str.contains("interface_temperature").all()
+
+
+def test_bad_roughness_id_in_a_recognition_session_is_still_an_error(mixed_protocols, tmp_path):
+    import shutil
+    data = tmp_path / "data"
+    shutil.copytree(mixed_protocols, data)
+    path = data / "P01" / "S01" / "trials.csv"
+    rows = _rows(path)
+    rows[5]["roughness_id"] = "0"
+    _write_rows(path, rows)
+    with pytest.warns(LogWarning, match="interface_temperature"), \
+            pytest.raises(LogError, match=rf"{path}: roughness_id: expected one of 1, 2, 3, 4 "
+                                          rf"\(line 7\), got '0'"):
+        load_trials(data)
+
+
+def test_missing_optional_columns_are_reported(study, tmp_path):
+    from analysis import analyze
+    data, _ = study(n_per_group=2, write_events=False, seed=21)
+    path = sorted(data.rglob("trials.csv"))[0]
+    rows = _rows(path)
+    for row in rows:
+        del row["rt_s"], row["tracking_rms_C"]
+    _write_rows(path, rows)
+    with pytest.warns(LogWarning, match=rf"{path}: rt_s, tracking_rms_C: expected optional "
+                                        rf"column\(s\) rt_s, tracking_rms_C, got none"):
+        log = load_trials(data)
+    assert [w for w in log.warnings if str(path) in w and "rt_s" in w]
+    from_path = log.trials["source"] == str(path)
+    assert log.trials.loc[from_path, "rt_s"].isna().all()
+    assert log.trials.loc[~from_path & log.trials["included"], "rt_s"].notna().all()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        analyze(data, tmp_path / "out", n_boot=20, bayes=False)
+    assert f"{path}: rt_s, tracking_rms_C: expected optional column(s)" in \
+        (tmp_path / "out" / "report.md").read_text()

@@ -6,7 +6,7 @@ from collections import Counter
 
 import pytest
 
-from experiments.cohort import paper_cohort, run_figure9_study, write_cohort
+from experiments.cohort import alternate_groups, paper_cohort, run_figure9_study, write_cohort
 from participants_schema import GroupRule, assign_group, load_participant, validate_participant
 
 
@@ -58,7 +58,72 @@ def _check_study(out, n_participants):
 def test_two_participants_end_to_end(tmp_path):
     summary = run_figure9_study(tmp_path, seed=3, progress=False, workers=2, participants=2)
     assert len(summary["sessions"]) == 2
-    _check_study(tmp_path, 2)
+    scored = _check_study(tmp_path, 2)
+    assert set(scored.groupby("participant")["group"].first()) == {"A", "B"}   # both compared
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 16, 29, 30])
+def test_a_partial_cohort_takes_the_groups_in_turn(n):
+    records = paper_cohort(seed=2)
+    chosen = alternate_groups(records, n)
+    assert len(chosen) == n and len({r["id"] for r in chosen}) == n
+    by_id = {r["id"]: r for r in records}
+    assert all(by_id[r["id"]] is r for r in chosen)                      # ids and records unchanged
+    groups = Counter(r["x_simulation"]["group"] for r in chosen)
+    assert groups["A"] == (n + 1) // 2 and groups["B"] == n // 2          # 15 per group: never runs out
+    for group in "AB":   # each group's members in cohort order, from its first
+        members = [r["id"] for r in records if r["x_simulation"]["group"] == group]
+        taken = [r["id"] for r in chosen if r["x_simulation"]["group"] == group]
+        assert taken == members[:len(taken)]
+    if n == 30:
+        assert sorted(r["id"] for r in chosen) == [r["id"] for r in records]
+
+
+def test_target_side_into_a_folder_that_does_not_exist_yet(tmp_path):
+    out = tmp_path / "new" / "study"
+    summary = run_figure9_study(out, seed=1, progress=False, workers=1, participants=1,
+                                target_side="skin", rate_limit="slew", analyze=False)
+    assert len(summary["sessions"]) == 1
+    text = (out / "protocol.toml").read_text()
+    assert 'target_side = "skin"' in text and 'rate_limit = "slew"' in text
+    study = json.loads((out / "study.json").read_text())
+    assert study["target_side"] == "skin" and study["protocol"] == str(out / "protocol.toml")
+    (session,) = (out / "data").glob("*/*/session.json")
+    assert json.loads(session.read_text())["protocol"]["simulation"]["target_side"] == "skin"
+
+
+def test_reproduce_figure9_cli_options(tmp_path, capsys):
+    from experiments.cli import main
+    out = tmp_path / "fig9"
+    assert main(["reproduce", "figure9", "--out", str(out), "--seed", "4", "--participants", "2",
+                 "--workers", "2", "--responder-option", "lapse_rate=0.25",
+                 "--responder-option", "log_percepts=false"]) == 0, capsys.readouterr().err
+    study = json.loads((out / "study.json").read_text())
+    assert study["workers"] == 2
+    assert study["responder_options"] == {"lapse_rate": 0.25, "log_percepts": False}
+    assert [s["participant"] for s in study["participants"]] == ["P01", "P16"]
+    _check_study(out, 2)
+    events = [json.loads(line) for line in next((out / "data").glob("P16/*/events.jsonl")).open()]
+    (person,) = [e for e in events if e["event"] == "simulated_participant"]
+    assert person["parameters"]["lapse_rate"] == 0.25                    # the option reached it
+    assert not [e for e in events if e["event"] == "simulated_percept"]   # log_percepts=false
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--participants", "0"], "--participants: expected an integer from 1 to 30, got 0"),
+    (["--participants", "31"], "--participants: expected an integer from 1 to 30, got 31"),
+    (["--workers", "0"], "--workers: expected an integer ≥ 1, got 0"),
+    (["--responder-option", "lapse_rate"], "--responder-option: expected KEY=VALUE"),
+    (["--responder-option", "nois=1"], "unknown option(s) ['nois']"),
+    (["--responder-option", "lapse_rate=2"], "lapse_rate"),
+])
+def test_reproduce_figure9_refuses_bad_options_before_running(tmp_path, capsys, args, message):
+    from experiments.cli import main
+    out = tmp_path / "fig9"
+    assert main(["reproduce", "figure9", "--out", str(out), *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("thermocue reproduce: ") and message in err and err.count("\n") == 1
+    assert not (out / "data").exists() and not (out / "participants").exists()
 
 
 def test_refuses_to_pool_with_an_earlier_run(tmp_path):

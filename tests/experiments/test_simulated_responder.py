@@ -218,3 +218,58 @@ def test_bad_pad_options_are_user_errors():
     r = SimulatedResponder(skin_thickness_um=900.0, pad_material="cheese")
     with pytest.raises(UserInputError, match="pad_material"):
         r.pad_resistance()
+
+
+def test_finger_stays_on_for_the_whole_recording_of_an_exp1_session(tmp_path):
+    """Exp. 1 asks for no answer: the finger stays on for record_s (25 s) of contact."""
+    import csv
+    from pathlib import Path
+
+    from experiments.cli import main
+    from experiments.protocol import load_protocol
+
+    protocol = load_protocol("interface_temperature")
+    record_s, threshold_N = protocol.contact.record_s, protocol.contact.force_threshold_N
+    participant = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
+    status = main(["run", "interface_temperature", "--participant", str(participant),
+                   "--display", "emulator://?clock=virtual", "--responder", "simulated",
+                   "--data", str(tmp_path / "data"), "--seed", "1", "--quiet"])
+    assert status == 0
+    (trials,) = Path(tmp_path / "data").glob("*/*/trials.csv")
+    rows = list(csv.DictReader(trials.open()))
+    assert len(rows) == len(protocol.samples) and all(r["status"] == "ok" for r in rows)
+    for row in rows:
+        with open(trials.parent / row["trace_file"], newline="") as fh:
+            trace = list(csv.DictReader(fh))
+        t = np.array([float(f["time_s"]) for f in trace])
+        force = np.array([sum(float(f[f"force{k}_N"]) for k in range(1, 5)) for f in trace])
+        contact = float(row["contact_time_s"])
+        touching = t >= contact
+        assert t[-1] - contact >= record_s - 0.02, (row["trace_file"], t[-1] - contact)
+        assert np.all(force[touching] >= threshold_N), row["trace_file"]   # never let go early
+
+
+def test_hold_depends_on_whether_the_block_asks_for_an_answer():
+    from types import SimpleNamespace
+
+    from experiments.protocol import load_protocol
+    from experiments.responders.simulated import HOLD_MARGIN_S
+
+    protocol = load_protocol("roughness_recognition")
+    r = SimulatedResponder(seed=1, skin_thickness_um=700.0)
+    r.session = SimpleNamespace(protocol=protocol)
+    answered = r.params.duration_s + 0.5          # feels, answers, lets go
+
+    def hold(trial, responder=r):
+        d = FakeDisplay()
+        responder.touch(trial, d)
+        return d.calls[-1][1]["hold_s"]
+
+    assert hold(spec(5, "real", "real", 2)) == pytest.approx(answered)
+    assert hold(spec(6, "simulated", "simulated", 2)) == pytest.approx(answered)
+    assert not protocol.block("familiarise").response
+    assert hold(spec(1, "familiarise", "real", 1)) == pytest.approx(
+        max(answered, protocol.contact.record_s + HOLD_MARGIN_S))
+    given = SimulatedResponder(seed=1, skin_thickness_um=700.0, hold_s="3.0")
+    given.session = SimpleNamespace(protocol=protocol)
+    assert hold(spec(1, "familiarise", "real", 1), given) == 3.0      # an explicit option wins
