@@ -356,8 +356,58 @@ def _note_simulation(report, protocol) -> None:
             f"- profiles faster than the display's {protocol.display.max_rate_C_per_s:g} °C/s: "
             f"`{sim.rate_limit}`\n"
             f"- protocol: `{protocol.path}` (sha256 {protocol.hash[:12]})\n")
+    text += _felt_at_receptors(protocol)
     with open(report, "a", encoding="utf-8") as fh:
         fh.write(text)
+
+
+def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
+    """What the model's receptors feel after ``at_s`` of contact, real against replayed.
+
+    For the group's profile skin (no noise, the protocol's temperatures): the receptor
+    temperature touching each real sample (``stimuli.Contact``), and touching the pad while it
+    plays that sample's target profile through the finger-pad resistance
+    (``stimuli.skin_response``). Markdown lines; they say why simulated samples are named as
+    they are.
+    """
+    import numpy as np
+
+    from stimuli import Contact, Skin, contact_resistance, material, skin_response, target_profile
+    sim = protocol.simulation
+    steel = material(protocol.material.name, protocol.material.thickness_m)
+    lines = [f"\nReceptor temperature after {at_s:g} s of contact (model, no noise; the group's "
+             f"profile skin, {sim.skin_temperature_C:g} °C skin, {sim.material_temperature_C:g} °C "
+             f"samples): real sample / display playing its `{sim.target_side}` profile\n"]
+    spans = {}
+    for group in sorted(sim.group_skin_thickness_um):
+        L = sim.skin_thickness_for(group) * 1e-6
+        skin = Skin(L, dermis=sim.dermis_fraction * L)
+        r_pad = sim.pad_resistance(skin)
+        cells = []
+        for sample in protocol.samples:
+            R = contact_resistance(sample.roughness_m, skin, steel)
+            real = float(Contact(skin, steel, R, sim.skin_temperature_C,
+                                 sim.material_temperature_C).receptor_temperature([at_s])[0])
+            prof = target_profile(material=steel, roughness=sample.roughness_m, skin=skin,
+                                  skin_temperature=sim.skin_temperature_C,
+                                  material_temperature=sim.material_temperature_C,
+                                  duration=at_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
+                                  side=sim.target_side, pad_resistance=r_pad, cache=False)
+            felt = float(skin_response(skin, prof.times, prof.temperature, sim.skin_temperature_C,
+                                       resistance=r_pad)[-1])
+            cells.append(f"{sample.label} {real:.2f} / {felt:.2f} °C")
+            spans.setdefault(group, []).append((real, felt))
+        lines.append(f"- group {group} ({L * 1e6:g} µm): " + ", ".join(cells) + "\n")
+    real_rise = np.mean([v[-1][0] - v[0][0] for v in spans.values()])
+    felt_rise = np.mean([v[-1][1] - v[0][1] for v in spans.values()])
+    if real_rise > 0 and felt_rise < real_rise / 4:
+        lines.append(f"\nThe real samples leave the receptors {real_rise:.2f} K warmer on the "
+                     f"roughest than on the smoothest; the replayed ones {felt_rise:+.2f} K, so the "
+                     f"display's rough samples feel like the smooth real ones and are named so: "
+                     f"the profile leaves out the contact resistance that made the real ones "
+                     f"feel warmer (see README; `--target-side compensated --rate-limit slew` "
+                     f"replays it).\n")
+    return "".join(lines)
 
 
 def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None):

@@ -211,3 +211,31 @@ def test_run_participant_names_the_file_of_a_bad_record(tmp_path):
     with pytest.raises(ParticipantError, match="P99.json"):
         run_participant(bad, tmp_path / "data", seed=1)
     assert not (tmp_path / "data").exists()
+
+
+def test_report_note_says_why_replayed_rough_samples_feel_smooth():
+    # Two independent paths: the real contact (stimuli.Contact) and the pad playing the target
+    # profile through the finger-pad resistance (target_profile + skin_response).
+    import dataclasses
+    import re
+
+    from experiments.cohort import _felt_at_receptors
+    from experiments.protocol import load_protocol
+    p = load_protocol("roughness_recognition")
+
+    def pairs(text):
+        return [(float(a), float(b)) for a, b in re.findall(r"(\d+\.\d+) / (\d+\.\d+) °C", text)]
+
+    material_side = _felt_at_receptors(p)
+    got = pairs(material_side)
+    assert len(got) == 8
+    for group in (got[:4], got[4:]):
+        real, felt = zip(*group)
+        assert list(real) == sorted(real) and real[-1] - real[0] > 1.0   # rough feels warmer
+        assert felt[-1] < felt[0]                                        # replayed: colder
+    assert "feel like the smooth real ones" in material_side
+    compensated = dataclasses.replace(p, simulation=dataclasses.replace(p.simulation,
+                                                                       target_side="compensated"))
+    text = _felt_at_receptors(compensated)
+    assert all(abs(r - f) <= 0.011 for r, f in pairs(text)) and len(pairs(text)) == 8
+    assert "feel like the smooth" not in text
