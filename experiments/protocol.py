@@ -48,6 +48,8 @@ __all__ = [
     "parse_protocol",
     "protocol_names",
     "canonical_hash",
+    "SKIN_SAFE_MIN_C",
+    "SKIN_SAFE_MAX_C",
 ]
 
 #: Folder of the packaged protocols.
@@ -64,6 +66,13 @@ SIM_RATE_LIMITS = ("refuse", "slew")
 #: polished copper, R_a 0.4 µm.  The defaults of ``[simulation] pad_roughness_um`` / ``pad_material``.
 DEFAULT_PAD_ROUGHNESS_UM = 0.4
 DEFAULT_PAD_MATERIAL = "copper"
+#: Skin-safe bounds of ``[display]`` min_C, max_C and neutral_C (°C).  The pad touches a
+#: fingertip for up to ``max_contact_s``: 45 °C is where heat pain begins for most people (the
+#: heat-pain threshold region, ~43-47 °C, and the usual ceiling of thermal testers held against
+#: skin), and below ~5 °C contact cooling turns painful and risks cold injury.  The paper's range
+#: (15-42 °C, the packaged protocols) lies well inside; the device's own hard range may be wider.
+SKIN_SAFE_MIN_C = 5.0
+SKIN_SAFE_MAX_C = 45.0
 _MISSING = object()
 
 
@@ -120,6 +129,8 @@ class DisplaySettings:
     """The Peltier display's safe range, rate limit and neutral setpoint.
 
     Field names match ``experiments.hardware.SafetyLimits``: :meth:`safety_limits` builds them.
+    ``min_C``, ``max_C`` and ``neutral_C`` must lie in the skin-safe
+    [:data:`SKIN_SAFE_MIN_C`, :data:`SKIN_SAFE_MAX_C`] = [5, 45] °C.
     """
 
     min_C: float
@@ -577,10 +588,10 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
 
     d = top.table("display")
     display = DisplaySettings(
-        min_C=d.number("min_C", ge=0, le=60),
-        max_C=d.number("max_C", ge=0, le=60),
+        min_C=d.number("min_C", ge=SKIN_SAFE_MIN_C, le=SKIN_SAFE_MAX_C),
+        max_C=d.number("max_C", ge=SKIN_SAFE_MIN_C, le=SKIN_SAFE_MAX_C),
         max_rate_C_per_s=d.number("max_rate_C_per_s", gt=0, le=100),
-        neutral_C=d.number("neutral_C", ge=0, le=60),
+        neutral_C=d.number("neutral_C", ge=SKIN_SAFE_MIN_C, le=SKIN_SAFE_MAX_C),
     )
     if not display.max_C > display.min_C:
         d.fail("max_C", f"a number > min_C ({_fmt(display.min_C)})", display.max_C)

@@ -61,7 +61,11 @@ from experiments.session_machine import (
 __all__ = [
     "Session",
     "create_session",
+    "plan_session",
+    "SessionPlan",
     "simulated_target_profile",
+    "check_simulated_profiles",
+    "open_session_display",
     "open_session",
     "SessionInterrupted",
     "TransitionError",
@@ -125,7 +129,7 @@ class Session:
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
-                 progress: bool = True, responder_name: str = ""):
+                 progress: bool = True, responder_name: str = "", profiles: dict | None = None):
         self.directory = Path(directory)
         self.protocol = protocol
         self.participant = participant
@@ -145,7 +149,10 @@ class Session:
         self.display = None
         self.machine = StateMachine(on_change=self._on_state)
         self._attempt: _Attempt | None = None
-        self._started = time.monotonic()
+        self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
+        self._profiles = dict(profiles or {})   # (roughness_id, roughness_um) -> checked profile
+        #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
+        self.protocol_source = _protocol_source(protocol)
         self._defer = 0
         self._pending: str | None = None
         self._pause_at = _parse_pause(os.environ.get(PAUSE_ENV, ""))
@@ -234,8 +241,13 @@ class Session:
         self.log_event("state", **{"from": old, "to": new}, **context)
 
     def _say(self, text: str) -> None:
+        """A progress line (silenced by ``--quiet``)."""
         if self.show_progress:
-            print(f"thermocue: {text}", file=self.out or sys.stderr, flush=True)
+            self._report(text)
+
+    def _report(self, text: str) -> None:
+        """An error, a warning or the reason a run stopped: printed even with ``--quiet``."""
+        print(f"thermocue: {text}", file=self.out or sys.stderr, flush=True)
 
     def _pause(self, point: str, spec, attempt: int) -> None:
         if (point, spec.trial_index) in self._pause_at:
@@ -265,6 +277,7 @@ class Session:
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
         progress = replay(events)
+        self._started = time.monotonic() - _seconds_since_first_start(events)
         with EventLog(self.events_path) as log:
             self.log = log
             old_handlers = self._install_signals()
@@ -278,7 +291,7 @@ class Session:
         resumed = progress.session is not None
         kind = "session_resumed" if resumed else "session_started"
         if progress.finished:
-            self._say(f"session {self.directory} is already finished; nothing to do")
+            self._report(f"session {self.directory} is already finished; nothing to do")
             return 0
         try:
             self.log_event(kind, **self._context(), responder=responder.name,
@@ -296,9 +309,11 @@ class Session:
                     try:
                         opened = self._open_display()
                     except DisplayError as exc:
+                        if isinstance(exc, UserInputError):
+                            raise
                         self.log_event("display_error", step="open", message=str(exc))
-                        self._say(f"{exc}; nothing was run: resume with `thermocue resume "
-                                  f"{self.directory} --display URL`")
+                        self._report(f"{exc}; nothing was run: resume with `thermocue resume "
+                                     f"{self.directory} --display URL`")
                         return 1
                     with opened as disp:
                         return self._guarded(disp, todo, progress)
@@ -330,8 +345,32 @@ class Session:
             raise
 
     def _open_display(self):
-        from experiments.hardware import open_display
-        return open_display(self.display_url, limits=self.protocol.display.safety_limits())
+        disp = open_session_display(self.protocol, self.display_url, source=self.protocol_source)
+        try:
+            self.check_display(disp)
+        except BaseException:
+            disp.close()
+            raise
+        return disp
+
+    def check_display(self, display) -> None:
+        """Check the simulated profiles against an open display's capacity (points, step).
+
+        Raises
+        ------
+        ProtocolError
+            Naming the protocol and ``simulation.duration_s`` or ``simulation.rate_Hz``.
+        """
+        _check_capacity(self.protocol, self._profiles, display, self.protocol_source)
+
+    @property
+    def finished(self) -> bool:
+        """Whether ``events.jsonl`` records the session as finished."""
+        from experiments.logbook import read_events, replay
+        if not self.events_path.exists():
+            return False
+        events, _ = read_events(self.events_path, warn=False)
+        return bool(replay(events).finished)
 
     def _run_trials(self, disp, todo, progress) -> int:
         self.display = disp
@@ -358,8 +397,8 @@ class Session:
                 self._neutral(disp)
                 self.log_event("session_stopped", reason=f"{faults} consecutive faults",
                                n_completed=self.n_trials - len(queue))
-                self._say(f"stopped after {faults} consecutive faults; resume with "
-                          f"`thermocue resume {self.directory}`")
+                self._report(f"stopped after {faults} consecutive faults; resume with "
+                             f"`thermocue resume {self.directory}`")
                 return 1
             if queue:
                 self._rewarm()
@@ -368,18 +407,20 @@ class Session:
         self._neutral(disp)
         self.log_event("session_finished", n_completed=self.n_trials)
         self._write_trials()
-        elapsed = time.monotonic() - self._started
-        self._say(f"session finished: {self.n_trials} trials, {elapsed:.1f} s; data in {self.directory}")
+        self._say(f"session finished: {self.n_trials} trials, {_clock_text(self._elapsed())} since "
+                  f"its first start; data in {self.directory}")
         if self.responder is not None:
             self.responder.show_text("Thank you: the session is finished.")
         return 0
 
     # -- one trial --------------------------------------------------------------------------
+    def _elapsed(self) -> float:
+        """Seconds since the session's first start (its first ``session_started`` event)."""
+        return time.monotonic() - self._started
+
     def _progress_text(self, spec) -> str:
-        elapsed = time.monotonic() - self._started
-        m, s = divmod(int(elapsed), 60)
         return (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
-                f"elapsed {m}:{s:02d}")
+                f"elapsed {_clock_text(self._elapsed())}")
 
     def _run_trial(self, disp, spec, attempt: int) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -546,9 +587,14 @@ class Session:
                              sample=sample_info, status=rec.status)
 
     def _target_profile(self, spec):
-        """The target profile of a simulated trial (:func:`simulated_target_profile`)."""
-        return simulated_target_profile(self.protocol, self.participant, self.group,
-                                        self.skin_thickness_um, spec.roughness_id, spec.roughness_um)
+        """The target profile of a simulated trial (:func:`simulated_target_profile`): the one
+        checked when the session was made or reopened (:func:`check_simulated_profiles`)."""
+        key = (spec.roughness_id, spec.roughness_um)
+        if key not in self._profiles:
+            self._profiles[key] = simulated_target_profile(
+                self.protocol, self.participant, self.group, self.skin_thickness_um,
+                spec.roughness_id, spec.roughness_um)
+        return self._profiles[key]
 
     def _complete(self, spec, attempt: int, row: dict) -> None:
         with self._critical():
@@ -580,7 +626,7 @@ class Session:
         row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
                    trace_file=None if kept is None else f"traces/{kept.name}")
         self._complete(spec, attempt, row)
-        self._say(f"trial {spec.trial_index}: display fault {code}: {message}")
+        self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
         return "fault"
 
     def _no_contact(self, disp, spec, attempt, rec) -> str:
@@ -589,8 +635,8 @@ class Session:
         self._neutral(disp)
         self._abort_attempt(spec.trial_index, attempt, reason="no_contact",
                             fault_code=rec.fault_code)
-        self._say(f"trial {spec.trial_index}: no contact within "
-                  f"{self.protocol.contact.trial_timeout_s:g} s; the trial will be run again")
+        self._report(f"trial {spec.trial_index}: no contact within "
+                     f"{self.protocol.contact.trial_timeout_s:g} s; the trial will be run again")
         return "no_contact"
 
     def _abort_attempt(self, trial_index: int, attempt: int, reason: str, fault_code=None) -> None:
@@ -690,8 +736,8 @@ class Session:
         finally:
             self._defer -= 1
             self._pending = None
-        self._say(f"session interrupted ({reason}); display neutral; resume with "
-                  f"`thermocue resume {self.directory}`")
+        self._report(f"session interrupted ({reason}); display neutral; resume with "
+                     f"`thermocue resume {self.directory}`")
 
 
 _STOPS = (SessionInterrupted, KeyboardInterrupt, ResponderClosed)
@@ -813,6 +859,246 @@ def _parse_pause(text: str) -> set:
     return out
 
 
+def _seconds_since_first_start(events) -> float:
+    """Seconds from the log's first ``session_started`` event to now (0 if none)."""
+    import datetime as _dt
+    for e in events:
+        if e.get("event") == "session_started" and isinstance(e.get("time"), str):
+            try:
+                t0 = _dt.datetime.fromisoformat(e["time"].replace("Z", "+00:00"))
+            except ValueError:
+                return 0.0
+            if t0.tzinfo is None:
+                t0 = t0.replace(tzinfo=_dt.timezone.utc)
+            return max(0.0, (_dt.datetime.now(_dt.timezone.utc) - t0).total_seconds())
+    return 0.0
+
+
+def _clock_text(seconds: float) -> str:
+    """``M:SS``, or ``H:MM:SS`` from an hour on."""
+    m, s = divmod(int(seconds), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
+
+
+def _protocol_source(protocol) -> str:
+    """How messages name a protocol: its file (a packaged one by its name), else its name."""
+    from experiments.protocol import PROTOCOLS_DIR
+    if protocol.path is None:
+        return str(protocol.name)
+    path = Path(protocol.path)
+    return path.name if path.parent == PROTOCOLS_DIR else str(path)
+
+
+# --------------------------------------------------------------------------- checking profiles
+def _sample_label(protocol, roughness_id, roughness_um) -> str:
+    try:
+        return f"sample {protocol.sample(roughness_id).label}, {roughness_um:g} µm"
+    except KeyError:
+        return f"sample {roughness_id}, {roughness_um:g} µm"
+
+
+def check_simulated_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
+                             ) -> dict:
+    """Compute the target profile of every simulated trial and check it against the display's
+    safe range and rate limit, before anything is written or played.
+
+    The profiles are :func:`simulated_target_profile`'s (cached by ``stimuli.target_profile``;
+    slowed to the rate limit with ``[simulation] rate_limit = "slew"``) and the check is the
+    display driver's own (:func:`experiments.hardware.safety.check_profile` with the protocol's
+    :class:`~experiments.hardware.safety.SafetyLimits`), so a profile that passes here passes
+    the upload.
+
+    Parameters
+    ----------
+    protocol : Protocol
+    participant : dict
+    group : str
+    schedule : list of TrialSpec
+    source : str, optional
+        How messages name the protocol (default: its file).
+
+    Returns
+    -------
+    dict
+        ``(roughness_id, roughness_um) -> profile``, one per simulated sample of the schedule.
+
+    Raises
+    ------
+    ProtocolError
+        A profile outside ``[display] min_C``-``max_C`` or faster than ``max_rate_C_per_s``, or
+        a step the display cannot play: one line naming the protocol and the field to change
+        (``simulation.material_temperature_C``, ``display.max_rate_C_per_s``, ...).
+    SessionError
+        An unusable calibration, or a compensated profile the pad cannot give.
+    """
+    from experiments.errors import ProtocolError, SafetyLimitError
+    from experiments.hardware.safety import check_profile, profile_max_rate
+
+    src = source or _protocol_source(protocol)
+    keys = sorted({(s.roughness_id, s.roughness_um) for s in schedule if s.mode == "simulated"})
+    if not keys:
+        return {}
+    sim, disp = protocol.simulation, protocol.display
+    limits = disp.safety_limits()
+    try:
+        thickness_um = (participant.get("skin_thickness") or {}).get("total_um")
+        profiles = {}
+        for rid, rum in keys:
+            profiles[(rid, rum)] = simulated_target_profile(protocol, participant, group, thickness_um,
+                                                            rid, rum)
+    except UserInputError:      # SessionError: a calibration, a compensated profile the pad cannot give
+        raise
+    except ValueError as exc:   # limit_rate below the rounding step, a group without a thickness
+        if sim.rate_limit == "slew" and "max_rate_C_per_s" in str(exc):
+            raise ProtocolError(f"{src}: display.max_rate_C_per_s: expected more than "
+                                f"{sim.resolution_C / limits.rate_window_s:g} °C/s with simulation."
+                                f"rate_limit = 'slew' (the profile's {sim.resolution_C:g} °C steps "
+                                f"over {limits.rate_window_s:g} s), got {disp.max_rate_C_per_s!r}") from None
+        raise ProtocolError(f"{src}: simulation: {exc}") from None
+    for (rid, rum), prof in profiles.items():
+        times, temps = np.asarray(prof.times), np.asarray(prof.temperature)
+        try:
+            check_profile(times, temps, limits)
+        except SafetyLimitError:
+            lo = min(float(np.min(p.temperature)) for p in profiles.values())
+            hi = max(float(np.max(p.temperature)) for p in profiles.values())
+            if not (disp.min_C <= lo and hi <= disp.max_C):
+                raise ProtocolError(_range_message(src, protocol, lo, hi)) from None
+            dt = 1.0 / sim.rate_Hz
+            fastest = max(profiles, key=lambda k: profile_max_rate(profiles[k].temperature, dt,
+                                                                   limits.rate_window_s))
+            rate = profile_max_rate(profiles[fastest].temperature, dt, limits.rate_window_s)
+            raise ProtocolError(
+                f"{src}: display.max_rate_C_per_s: expected at least the simulated profiles' "
+                f"{rate:.3g} °C/s over {limits.rate_window_s:g} s "
+                f"({_sample_label(protocol, *fastest)}), or simulation.rate_limit = 'slew', "
+                f"got {disp.max_rate_C_per_s!r}") from None
+        except UserInputError as exc:   # the time step: rate_Hz above the display's 1 kHz
+            raise ProtocolError(f"{src}: simulation.rate_Hz: expected a rate the display can play "
+                                f"({exc}), got {sim.rate_Hz!r}") from None
+    return profiles
+
+
+def _range_message(src, protocol, lo, hi) -> str:
+    """Which field puts the simulated profiles (lo..hi °C) outside the display's range."""
+    sim, disp = protocol.simulation, protocol.display
+    span = f"{disp.min_C:g} ≤ T ≤ {disp.max_C:g} °C (display.min_C, display.max_C)"
+    for field in ("material_temperature_C", "skin_temperature_C"):
+        value = getattr(sim, field)
+        if not disp.min_C <= value <= disp.max_C:
+            return (f"{src}: simulation.{field}: expected a temperature whose simulated profiles "
+                    f"stay within {span}, got {value!r} (the profiles span {lo:.2f} to {hi:.2f} °C)")
+    field, bound = ("max_C", hi) if hi > disp.max_C else ("min_C", lo)
+    return (f"{src}: display.{field}: expected a range holding the simulated profiles "
+            f"({lo:.2f} to {hi:.2f} °C), got {getattr(disp, field)!r}")
+
+
+def _check_capacity(protocol, profiles: dict, display, source: str) -> None:
+    """The profiles against an open display's capacity (``info.max_points``, ``info.min_dt_s``)."""
+    from experiments.errors import ProtocolError
+    info = getattr(display, "info", None)
+    if info is None or not profiles:
+        return
+    sim = protocol.simulation
+    n = max(len(p.times) for p in profiles.values())
+    max_points = getattr(info, "max_points", None)
+    if isinstance(max_points, int) and n > max_points:
+        raise ProtocolError(f"{source}: simulation.duration_s: expected a profile of at most "
+                            f"{max_points} points at {sim.rate_Hz:g} Hz (the display's capacity), "
+                            f"got {sim.duration_s!r} s ({n} points)")
+    min_dt = getattr(info, "min_dt_s", None)
+    if isinstance(min_dt, float) and 1.0 / sim.rate_Hz < min_dt * (1 - 1e-9):
+        raise ProtocolError(f"{source}: simulation.rate_Hz: expected at most {1.0 / min_dt:g} Hz "
+                            f"(the display's {min_dt * 1e3:g} ms step), got {sim.rate_Hz!r}")
+
+
+# --------------------------------------------------------------------------- opening the display
+def open_session_display(protocol, url: str, *, option: str = "--display", source: str | None = None):
+    """Open the display for a session, telling bad input from an unreachable device.
+
+    Parameters
+    ----------
+    protocol : Protocol
+        Supplies the safety limits.
+    url : str
+        pyserial URL or device path.
+    option : str
+        How messages name where the URL came from (``--display``, or ``session.json``'s field).
+    source : str, optional
+        How messages name the protocol.
+
+    Returns
+    -------
+    ThermalDisplay
+        Open (handshake done); close it (``with``).
+
+    Raises
+    ------
+    UserInputError
+        A malformed URL or unknown emulator option, or a path that is not a serial device
+        (``/dev/null``, a file): names ``option``.
+    ProtocolError
+        The protocol's ``[display]`` range is outside the device's own.
+    DisplayError
+        The device cannot be reached (no such device, busy, no answer): a runtime failure.
+    """
+    import errno
+
+    from experiments.errors import ProtocolError, SafetyLimitError
+    from experiments.hardware import open_display
+
+    src = source or _protocol_source(protocol)
+    if url.startswith("emulator:"):
+        from serial import SerialException
+
+        from experiments.hardware.protocol_emulator import parse_url
+        try:
+            parse_url(url)
+        except SerialException as exc:
+            raise UserInputError(f"{option}: expected a display URL, got {url!r}: {exc}") from None
+    try:
+        return open_display(url, limits=protocol.display.safety_limits())
+    except SafetyLimitError as exc:
+        text = str(exc).split(": ", 2)[-1] if str(exc).startswith("display: limits: ") else str(exc)
+        raise ProtocolError(f"{src}: display.min_C, display.max_C: {text}") from None
+    except DisplayError as exc:
+        cause = exc.__cause__
+        if isinstance(cause, ValueError):     # pyserial: an unknown URL scheme or option
+            raise UserInputError(f"{option}: expected a display URL or a serial device path, "
+                                 f"got {url!r} ({cause})") from None
+        if "://" not in url and cause is not None:
+            if not os.path.lexists(url):
+                raise DisplayError(f"display: cannot open {url!r}: no such device (is the display "
+                                   f"connected and the path right?)") from None
+            if not _is_terminal(url):
+                raise UserInputError(f"{option}: expected a serial device (a terminal), got {url!r}, "
+                                     f"which is not one") from None
+            if isinstance(cause, OSError) and cause.errno in (errno.EACCES, errno.EPERM):
+                raise DisplayError(f"display: cannot open {url!r}: permission denied (is the user "
+                                   f"in the serial-port group, e.g. dialout?)") from None
+        raise
+
+
+def _is_terminal(path: str) -> bool:
+    """Whether ``path`` is a terminal (a serial port or a pty); True when it cannot be told."""
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return True
+    if not stat.S_ISCHR(mode):
+        return False
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError:
+        return True   # busy, no permission: the open's own reason stands
+    try:
+        return os.isatty(fd)
+    finally:
+        os.close(fd)
+
+
 # --------------------------------------------------------------------------- making sessions
 def _next_session_name(folder: Path) -> str:
     n = 1
@@ -821,10 +1107,138 @@ def _next_session_name(folder: Path) -> str:
     return f"S{n:02d}"
 
 
+@dataclass
+class SessionPlan:
+    """A new session checked and planned, nothing written yet (:func:`plan_session`).
+
+    Open the display (:func:`open_session_display`), check it (:meth:`check_display`), then
+    :meth:`write` the session folder: a bad ``--display`` leaves no folder behind.
+    """
+
+    protocol: object
+    participant: dict
+    participant_path: str
+    assignment: object
+    seed: int
+    schedule: list
+    directory: Path
+    display_url: str
+    clock: object
+    responder_name: str
+    max_consecutive_faults: int
+    profiles: dict
+    out: object = None
+    progress: bool = True
+
+    @property
+    def name(self) -> str:
+        return self.directory.name
+
+    @property
+    def participant_id(self) -> str:
+        return self.directory.parent.name
+
+    def check_display(self, display) -> None:
+        """The simulated profiles against the open display's capacity (ProtocolError)."""
+        _check_capacity(self.protocol, self.profiles, display, _protocol_source(self.protocol))
+
+    def write(self) -> "Session":
+        """Write ``session.json`` and ``traces/``; return the :class:`Session`.
+
+        Raises
+        ------
+        SessionError
+            The folder has become a session in the meantime.
+        """
+        from experiments.logbook import atomic_write_json, ensure_dir
+
+        directory, protocol, assignment = self.directory, self.protocol, self.assignment
+        _refuse_existing(directory)
+        ensure_dir(directory)   # a folder left by a run killed before session.json is reused
+        atomic_write_json(directory / "session.json", {
+            "format": "thermocue-session/1",
+            "session": self.name,
+            "created_at": _now_iso(),
+            "participant_id": self.participant_id,
+            "participant": self.participant,
+            "participant_file": str(self.participant_path),
+            "group": assignment.group,
+            "group_assignment": assignment.to_dict(),
+            "protocol_name": protocol.name,
+            "protocol_file": None if protocol.path is None else str(protocol.path),
+            "protocol_hash": protocol.hash,
+            "protocol": protocol.data,
+            "seed": self.seed,
+            "schedule": [s.to_dict() for s in self.schedule],
+            "display_url": self.display_url,
+            "responder": self.responder_name,
+            "clock": "virtual" if self.clock.virtual else "real",
+            "max_consecutive_faults": self.max_consecutive_faults,
+            "versions": package_versions(),
+        })
+        ensure_dir(directory / "traces")
+        session = Session(directory, protocol, self.participant, assignment.group, self.seed,
+                          self.schedule, self.name, self.display_url, assignment=assignment,
+                          clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
+                          out=self.out, progress=self.progress, responder_name=self.responder_name,
+                          profiles=self.profiles)
+        for w in assignment.warnings:
+            session._report(f"warning: {w}")
+        session._say(f"{self.participant_id}: {assignment.describe()}")
+        return session
+
+
+def _refuse_existing(directory: Path) -> None:
+    if (directory / "session.json").exists() or (directory / "events.jsonl").exists():
+        raise SessionError(f"{directory}: expected a new session folder, got an existing one "
+                           f"(resume it with `thermocue resume {directory}` or choose --session)")
+
+
+def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
+                 session_name: str | None = None, responder_name: str = "", clock: str = "auto",
+                 max_consecutive_faults: int = 3, out=None, progress: bool = True) -> SessionPlan:
+    """Validate the inputs, plan the schedule and check every simulated profile; write nothing.
+
+    Parameters are those of :func:`create_session`.
+
+    Raises
+    ------
+    ProtocolError, ParticipantError, SessionError
+        Bad files, a simulated profile the display would refuse
+        (:func:`check_simulated_profiles`), or a session folder that already exists.
+    """
+    from experiments.protocol import load_protocol
+    from experiments.schedule import build_schedule
+    from participants_schema import assign_group, load_participant
+
+    if not hasattr(protocol, "hash"):
+        protocol = load_protocol(protocol)
+    participant = load_participant(participant_path)
+    assignment = assign_group(participant, protocol.grouping)   # None: the paper's 800 µm rule
+    if seed is None:
+        seed = secrets.randbelow(2**31)
+    schedule = build_schedule(protocol, str(participant["id"]), seed)
+    pid = _safe_name(str(participant["id"]), f"{participant_path}: id")
+    folder = Path(data_dir) / pid
+    name = _safe_name(session_name, "--session") if session_name else _next_session_name(folder)
+    directory = folder / name
+    _refuse_existing(directory)
+    clock_obj = clock_for_url(display_url, clock)
+    profiles = check_simulated_profiles(protocol, participant, assignment.group, schedule)
+    return SessionPlan(protocol, participant, str(participant_path), assignment, seed, schedule,
+                       directory, display_url, clock_obj, responder_name, max_consecutive_faults,
+                       profiles, out=out, progress=progress)
+
+
 def create_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
                    session_name: str | None = None, responder_name: str = "", clock: str = "auto",
-                   max_consecutive_faults: int = 3, out=None) -> Session:
+                   max_consecutive_faults: int = 3, out=None, progress: bool = True) -> Session:
     """Validate the inputs, plan the schedule and write a new session directory.
+
+    Every simulated profile is computed and checked against the protocol's display limits
+    first (:func:`check_simulated_profiles`): nothing is written for a protocol whose profiles
+    the display would refuse. The display itself is not opened here (``thermocue run`` opens it,
+    :func:`open_session_display`, between :func:`plan_session` and :meth:`SessionPlan.write`).
 
     Parameters
     ----------
@@ -843,6 +1257,8 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     responder_name : str
         Recorded in ``session.json`` (``thermocue resume`` uses it by default).
     clock : {"auto", "real", "virtual"}
+    progress : bool
+        Progress lines on stderr (errors and stop reasons are printed regardless).
 
     Returns
     -------
@@ -851,74 +1267,40 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     Raises
     ------
     ProtocolError, ParticipantError, SessionError
-        Bad files, or a session folder that already exists.
+        Bad files, a simulated profile the display would refuse, or a session folder that
+        already exists.
     """
-    from experiments.logbook import atomic_write_json, ensure_dir
-    from experiments.protocol import load_protocol
-    from experiments.schedule import build_schedule
-    from participants_schema import assign_group, load_participant
-
-    if not hasattr(protocol, "hash"):
-        protocol = load_protocol(protocol)
-    participant = load_participant(participant_path)
-    assignment = assign_group(participant, protocol.grouping)   # None: the paper's 800 µm rule
-    if seed is None:
-        seed = secrets.randbelow(2**31)
-    schedule = build_schedule(protocol, str(participant["id"]), seed)
-    pid = _safe_name(str(participant["id"]), f"{participant_path}: id")
-    folder = Path(data_dir) / pid
-    name = _safe_name(session_name, "--session") if session_name else _next_session_name(folder)
-    directory = folder / name
-    if (directory / "session.json").exists() or (directory / "events.jsonl").exists():
-        raise SessionError(f"{directory}: expected a new session folder, got an existing one "
-                           f"(resume it with `thermocue resume {directory}` or choose --session)")
-    ensure_dir(directory)   # a folder left by a run killed before session.json is reused
-    clock_obj = clock_for_url(display_url, clock)
-    atomic_write_json(directory / "session.json", {
-        "format": "thermocue-session/1",
-        "session": name,
-        "created_at": _now_iso(),
-        "participant_id": pid,
-        "participant": participant,
-        "participant_file": str(participant_path),
-        "group": assignment.group,
-        "group_assignment": assignment.to_dict(),
-        "protocol_name": protocol.name,
-        "protocol_file": None if protocol.path is None else str(protocol.path),
-        "protocol_hash": protocol.hash,
-        "protocol": protocol.data,
-        "seed": seed,
-        "schedule": [s.to_dict() for s in schedule],
-        "display_url": display_url,
-        "responder": responder_name,
-        "clock": "virtual" if clock_obj.virtual else "real",
-        "max_consecutive_faults": max_consecutive_faults,
-        "versions": package_versions(),
-    })
-    ensure_dir(directory / "traces")
-    session = Session(directory, protocol, participant, assignment.group, seed, schedule, name,
-                      display_url, assignment=assignment, clock=clock_obj,
-                      max_consecutive_faults=max_consecutive_faults, out=out,
-                      responder_name=responder_name)
-    for w in assignment.warnings:
-        session._say(f"warning: {w}")
-    session._say(f"{pid}: {assignment.describe()}")
-    return session
+    return plan_session(protocol, participant_path, data_dir, display_url, seed=seed,
+                        session_name=session_name, responder_name=responder_name, clock=clock,
+                        max_consecutive_faults=max_consecutive_faults, out=out,
+                        progress=progress).write()
 
 
 def open_session(session_dir, *, display_url: str | None = None, clock: str | None = None,
-                 out=None) -> Session:
+                 out=None, progress: bool = True) -> Session:
     """Reopen a session directory to resume it (same protocol, participant, seed, schedule).
+
+    ``session.json`` is checked, not trusted: the protocol copy against its hash, the seed (an
+    integer ≥ 0), the schedule against ``build_schedule(protocol, participant id, seed)``, and
+    every simulated profile against the display limits (:func:`check_simulated_profiles`).
+
+    Parameters
+    ----------
+    display_url : str, optional
+        Default: the stored one.
+    clock : {"auto", "real", "virtual"}, optional
+        Default (None or "auto"): from the display URL actually used (virtual iff it says
+        ``clock=virtual``), as for a new session.
 
     Raises
     ------
     SessionError
-        No ``session.json``, a damaged one, or a protocol copy whose hash does not match.
+        No ``session.json``, a damaged or edited one (naming the field).
     """
     import json
 
     from experiments.protocol import parse_protocol
-    from experiments.schedule import TrialSpec
+    from experiments.schedule import TrialSpec, build_schedule
     from participants_schema import validate_participant
 
     directory = Path(session_dir)
@@ -937,19 +1319,47 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
                 "display_url", "group"):
         if key not in meta:
             raise SessionError(f"{path}: {key}: expected a value, got nothing")
-    protocol = parse_protocol(meta["protocol"], source=f"{path}: protocol",
+    source = f"{path}: protocol"
+    protocol = parse_protocol(meta["protocol"], source=source,
                               path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
     if protocol.hash != meta["protocol_hash"]:
         raise SessionError(f"{path}: protocol_hash: expected {protocol.hash} (the stored protocol's "
                            f"hash), got {meta['protocol_hash']!r}")
     participant = validate_participant(meta["participant"], source=f"{path}: participant")
+    seed = meta["seed"]
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise SessionError(f"{path}: seed: expected an integer ≥ 0, got {seed!r}")
+    if not isinstance(meta["schedule"], list):
+        raise SessionError(f"{path}: schedule: expected a list of trials, got "
+                           f"{type(meta['schedule']).__name__}")
     try:
         schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, KeyError, AttributeError) as exc:
         raise SessionError(f"{path}: schedule: expected a list of trials, got {exc}") from None
+    expected = build_schedule(protocol, str(participant["id"]), seed)
+    if schedule != expected:
+        diff = next((i for i, (a, b) in enumerate(zip(schedule, expected)) if a != b),
+                    min(len(schedule), len(expected)))
+        got = meta["schedule"][diff] if diff < len(schedule) else "nothing"
+        want = expected[diff].to_dict() if diff < len(expected) else "nothing"
+        raise SessionError(f"{path}: schedule: expected the schedule of the stored protocol, "
+                           f"participant {participant['id']} and seed {seed} ({len(expected)} "
+                           f"trials; trial {diff + 1}: {want}), got {len(schedule)} trials "
+                           f"(trial {diff + 1}: {got})")
+    group = meta["group"]
+    groups = None if protocol.grouping is None else (protocol.grouping.below, protocol.grouping.above)
+    if not isinstance(group, str) or (groups is not None and group not in groups):
+        raise SessionError(f"{path}: group: expected " + (f"one of {groups}" if groups else "a name")
+                           + f", got {group!r}")
+    if not isinstance(meta["display_url"], str) or not meta["display_url"]:
+        raise SessionError(f"{path}: display_url: expected a URL, got {meta['display_url']!r}")
     url = display_url or meta["display_url"]
-    clock_obj = clock_for_url(url, clock or meta.get("clock", "auto"))
-    return Session(directory, protocol, participant, meta["group"], meta["seed"], schedule,
-                   meta["session"], url, clock=clock_obj,
-                   max_consecutive_faults=meta.get("max_consecutive_faults", 3), out=out,
-                   responder_name=meta.get("responder") or "")
+    clock_obj = clock_for_url(url, clock or "auto")
+    profiles = check_simulated_profiles(protocol, participant, group, schedule, source=source)
+    session = Session(directory, protocol, participant, group, seed, schedule,
+                      meta["session"], url, clock=clock_obj,
+                      max_consecutive_faults=meta.get("max_consecutive_faults", 3), out=out,
+                      progress=progress, responder_name=meta.get("responder") or "",
+                      profiles=profiles)
+    session.protocol_source = source
+    return session

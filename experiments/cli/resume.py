@@ -11,7 +11,8 @@ def register(sub) -> None:
                     "rebuilt from events.jsonl.")
     p.add_argument("session_dir", metavar="SESSION_DIR", help="DATA/<participant>/<session>")
     p.add_argument("--display", default=None, metavar="URL",
-                   help="display URL (default: the one in session.json)")
+                   help="display URL (default: the one in session.json); with --clock auto the "
+                        "clock follows this URL")
     p.add_argument("--responder", default=None, choices=RESPONDERS,
                    help="responder (default: the one in session.json)")
     add_common(p)
@@ -19,13 +20,14 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    from experiments.cli.run import check_common, check_window, responder_options
+    from experiments.cli.run import check_common, check_window, open_display_or_report, responder_options
     from experiments.errors import SessionError
     from experiments.responders import get_responder
     from experiments.session import open_session
 
     check_common(ns)
-    session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
+    session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock,
+                           progress=not ns.quiet)
     name = ns.responder
     if name is None:
         name = session.responder_name
@@ -34,7 +36,17 @@ def _run(ns) -> int:
                                f"got {name!r} (give --responder)")
     if ns.max_faults is not None:
         session.max_consecutive_faults = ns.max_faults
-    session.show_progress = not ns.quiet
     check_window(name)
     responder = get_responder(name, **responder_options(ns.responder_option))
-    return session.run(responder)
+    if session.finished:
+        return session.run(responder)     # says so; the display is not needed
+    option = "--display" if ns.display else f"{session.directory / 'session.json'}: display_url"
+    display = open_display_or_report("resume", session.protocol, session.display_url, option,
+                                     f"nothing was run; resume with `thermocue resume "
+                                     f"{session.directory} --display URL`",
+                                     source=session.protocol_source)
+    if display is None:
+        return 1
+    with display:
+        session.check_display(display)
+        return session.run(responder, display=display)

@@ -32,7 +32,8 @@ def add_common(p) -> None:
                    help="option passed to the responder (repeatable), e.g. fullscr=true")
     p.add_argument("--max-faults", type=int, default=None, metavar="N",
                    help="stop cleanly after N consecutive display faults (default 3)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines on stderr (errors and why a run stopped are still printed)")
 
 
 def responder_options(items) -> dict:
@@ -86,17 +87,46 @@ def _run(ns) -> int:
 
     from experiments.errors import UserInputError
     from experiments.responders import get_responder
-    from experiments.session import create_session
+    from experiments.session import open_session_display, plan_session
 
     if ns.seed is not None and ns.seed < 0:
         raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
     check_common(ns)
     check_window(ns.responder)
     responder = get_responder(ns.responder, **responder_options(ns.responder_option))
-    session = create_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
-                             session_name=ns.session, responder_name=ns.responder,
-                             clock=ns.clock or "auto",
-                             max_consecutive_faults=ns.max_faults or 3)
-    session.show_progress = not ns.quiet
-    print(session.directory, file=sys.stdout, flush=True)
-    return session.run(responder)
+    # Everything is checked (files, schedule, every simulated profile) and the display opened
+    # before the session folder is written: a bad input or an unreachable display leaves nothing.
+    plan = plan_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
+                        session_name=ns.session, responder_name=ns.responder,
+                        clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3,
+                        progress=not ns.quiet)
+    display = open_display_or_report("run", plan.protocol, ns.display, "--display",
+                                     "no session was written")
+    if display is None:
+        return 1
+    with display:
+        plan.check_display(display)
+        session = plan.write()
+        print(session.directory, file=sys.stdout, flush=True)
+        return session.run(responder, display=display)
+
+
+def open_display_or_report(command: str, protocol, url: str, option: str, outcome: str, source=None):
+    """Open the session's display; None (reason printed on stderr) if it cannot be reached.
+
+    Bad input (a malformed URL, an unknown emulator option, a path that is not a serial device,
+    a protocol range the device does not allow) raises a UserInputError naming ``option`` or the
+    protocol field (exit 2).
+    """
+    import sys
+
+    from experiments.errors import DisplayError, UserInputError
+    from experiments.session import open_session_display
+
+    try:
+        return open_session_display(protocol, url, option=option, source=source)
+    except DisplayError as exc:
+        if isinstance(exc, UserInputError):
+            raise
+        print(f"thermocue {command}: {exc}; {outcome}", file=sys.stderr, flush=True)
+        return None

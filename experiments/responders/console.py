@@ -14,10 +14,15 @@ class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
 
     Parameters
     ----------
-    stdin, stdout : file-like, optional
-        Default ``sys.stdin`` and ``sys.stdout`` (read at call time, so pytest's capture works).
+    stdin, stdout, stderr : file-like, optional
+        Default ``sys.stdin``, ``sys.stdout`` and ``sys.stderr`` (read at call time, so pytest's
+        capture works).
     bell : bool
-        Whether :meth:`cue` writes the terminal bell (it is the only cue a terminal has).
+        Whether :meth:`cue` rings the terminal bell (it is the only cue a terminal has).
+
+    The bell is written to the first of ``stdout``, ``stderr`` that is a terminal; when neither
+    is (output piped or redirected to a file, no terminal to ring), :meth:`cue` returns False and
+    logs ``cue_unavailable`` with the reason, so ``cue_played`` says whether a bell could sound.
 
     Notes
     -----
@@ -25,10 +30,11 @@ class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
     makes it coarse (the Enter key ends the answer).
     """
 
-    def __init__(self, stdin=None, stdout=None, bell: bool = True):
+    def __init__(self, stdin=None, stdout=None, bell: bool = True, stderr=None):
         super().__init__()
         self._stdin = stdin
         self._stdout = stdout
+        self._stderr = stderr
         self.bell = bool(bell)
 
     @property
@@ -38,6 +44,20 @@ class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
     @property
     def stdout(self):
         return self._stdout if self._stdout is not None else sys.stdout
+
+    @property
+    def stderr(self):
+        return self._stderr if self._stderr is not None else sys.stderr
+
+    def _terminal(self):
+        """The first of stdout, stderr that is a terminal, or None."""
+        for stream in (self.stdout, self.stderr):
+            try:
+                if stream is not None and stream.isatty():
+                    return stream
+            except (AttributeError, ValueError, OSError):   # no isatty, or a closed stream
+                continue
+        return None
 
     def _print(self, text: str, end: str = "\n") -> None:
         self.stdout.write(text + end)
@@ -57,11 +77,24 @@ class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
         self._readline("Enter")
 
     def cue(self) -> bool:
-        if self.bell:
-            self.stdout.write("\a")
-            self.stdout.flush()
+        """Ring the terminal bell; True only if it was written to a terminal."""
+        played = False
+        if not self.bell:
+            self.log("cue_unavailable", reason="bell turned off (bell=false)")
+        else:
+            term = self._terminal()
+            if term is None:
+                self.log("cue_unavailable", reason="no terminal to ring the bell on (stdout and "
+                                                   "stderr are not terminals)")
+            else:
+                try:
+                    term.write("\a")
+                    term.flush()
+                    played = True
+                except (OSError, ValueError) as exc:
+                    self.log("cue_unavailable", reason=f"bell not written: {type(exc).__name__}: {exc}")
         self._print(">>> Touch now")
-        return self.bell
+        return played
 
     def respond(self, trial, stimulus) -> Response:
         choices = ", ".join(str(i) for i in RESPONSE_IDS)

@@ -131,7 +131,11 @@ def test_name_or_path(tmp_path):
      "display: expected a table, got nothing (the key is required; is 'displays' a misspelling?)"),
     ("[display]", "[screen]", "display: expected a table, got nothing (the key is required)"),
     ("[contact]", "[contact]\nverbose = true", "contact.verbose: expected one of the known keys"),
-    ("neutral_C = 32.0", "neutral_C = 50.0", "display.neutral_C: expected a number from min_C to max_C (15-42), got 50.0"),
+    ("neutral_C = 32.0", "neutral_C = 44.0", "display.neutral_C: expected a number from min_C to max_C (15-42), got 44.0"),
+    # the skin-safe range of the pad: 5-45 °C (heat pain from ~45 °C)
+    ("max_C = 42.0", "max_C = 50.0", "display.max_C: expected a number ≥ 5 and ≤ 45, got 50.0"),
+    ("min_C = 15.0", "min_C = 2.0", "display.min_C: expected a number ≥ 5 and ≤ 45, got 2.0"),
+    ("neutral_C = 32.0", "neutral_C = 50.0", "display.neutral_C: expected a number ≥ 5 and ≤ 45, got 50.0"),
     ("max_rate_C_per_s = 10.0", "max_rate_C_per_s = -1.0", "display.max_rate_C_per_s: expected a number > 0 and ≤ 100, got -1.0"),
     ("max_contact_s = 20.0", "max_contact_s = nan", "contact.max_contact_s: expected a number > 0 and ≤ 600, got nan"),
     ("record_s = 20.0", "record_s = 25.0", "contact.record_s: expected a number ≤ max_contact_s (20), got 25.0"),
@@ -157,6 +161,18 @@ def test_bad_field_gives_one_line_naming_file_and_field(tmp_path, old, new, mess
     msg = str(ei.value)
     assert "\n" not in msg
     assert msg.startswith(f"{path}: {message}")
+
+
+def test_the_skin_safe_bounds_are_inclusive_and_hold_the_packaged_protocols(tmp_path):
+    from experiments.protocol import SKIN_SAFE_MAX_C, SKIN_SAFE_MIN_C
+    assert (SKIN_SAFE_MIN_C, SKIN_SAFE_MAX_C) == (5.0, 45.0)
+    for name in protocol_names():
+        d = load_protocol(name).display
+        assert SKIN_SAFE_MIN_C <= d.min_C < d.max_C <= SKIN_SAFE_MAX_C
+    p = load_protocol(variant(tmp_path, "min_C = 15.0\nmax_C = 42.0", "min_C = 5.0\nmax_C = 45.0"))
+    assert (p.display.min_C, p.display.max_C) == (5.0, 45.0)
+    with pytest.raises(ProtocolError, match=r"display\.max_C: expected a number ≥ 5 and ≤ 45, got 45\.5"):
+        load_protocol(variant(tmp_path, "max_C = 42.0", "max_C = 45.5"))
 
 
 def test_missing_table(tmp_path):

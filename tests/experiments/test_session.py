@@ -304,6 +304,9 @@ def _calibrated_record(tmp_path, resistance=1.2e-3):
 def test_simulated_profile_uses_the_calibrated_resistance_and_the_protocols_side(tmp_path):
     from stimuli import Skin, target_profile
     proto = _side_protocol(tmp_path, "compensated")
+    # This compensated profile starts at 12.3 °C/s over 0.1 s: above the mini protocol's 10 °C/s,
+    # which the display would refuse (and create_session now does, before anything is written).
+    proto.write_text(proto.read_text().replace("max_rate_C_per_s = 10.0", "max_rate_C_per_s = 15.0"))
     s = create_session(proto, _calibrated_record(tmp_path), tmp_path / "data", "scripted://", seed=1,
                        clock="virtual")
     disp = _RecordingDisplay()

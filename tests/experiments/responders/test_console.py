@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import io
+import os
+import select
 
 import pytest
 
@@ -30,12 +32,63 @@ def test_end_of_input_closes_the_responder():
         ConsoleResponder(stdin=io.StringIO(""), stdout=io.StringIO()).prompt_experimenter("place 2#")
 
 
-def test_prompt_waits_for_enter_and_cue_rings_the_bell():
+def test_prompt_waits_for_enter():
     out = io.StringIO()
     stdin = io.StringIO("\n4\n")
     r = ConsoleResponder(stdin=stdin, stdout=out)
     r.prompt_experimenter("place sample 2#")
     assert stdin.tell() == 1                       # exactly the confirmation line was read
     assert "[experimenter] place sample 2#" in out.getvalue()
-    assert r.cue() is True and "\a" in out.getvalue()
-    assert ConsoleResponder(stdin=stdin, stdout=io.StringIO(), bell=False).cue() is False
+
+
+@pytest.fixture
+def terminal():
+    """A real terminal (a pty): the responder writes to its slave end, the test reads the master."""
+    master, slave = os.openpty()
+    tty = open(slave, "w", encoding="utf-8", closefd=True)
+    yield tty, master
+    tty.close()
+    os.close(master)
+
+
+def _read_all(fd) -> str:
+    out = b""
+    while select.select([fd], [], [], 0.2)[0]:
+        chunk = os.read(fd, 4096)
+        if not chunk:
+            break
+        out += chunk
+    return out.decode(errors="replace")
+
+
+def test_cue_rings_the_bell_on_a_terminal(terminal):
+    tty, master = terminal
+    r = ConsoleResponder(stdin=io.StringIO(), stdout=tty, stderr=io.StringIO())
+    assert r.cue() is True
+    text = _read_all(master)
+    assert "\a" in text and "Touch now" in text
+
+
+def test_cue_rings_on_stderr_when_only_stderr_is_a_terminal(terminal):
+    tty, master = terminal
+    out = io.StringIO()
+    r = ConsoleResponder(stdin=io.StringIO(), stdout=out, stderr=tty)
+    assert r.cue() is True
+    assert _read_all(master) == "\a" and "\a" not in out.getvalue() and "Touch now" in out.getvalue()
+
+
+def test_cue_without_a_terminal_is_reported_as_not_played():
+    # Regression: the bell went to a pipe or file and the cue was reported played.  (What the
+    # session logs: test_session_checks.py::test_console_cue_without_a_terminal_is_logged_as_not_played.)
+    out, err = io.StringIO(), io.StringIO()
+    r = ConsoleResponder(stdin=io.StringIO(), stdout=out, stderr=err)
+    assert r.cue() is False
+    assert "\a" not in out.getvalue() + err.getvalue() and "Touch now" in out.getvalue()
+    assert ConsoleResponder(stdin=io.StringIO(), stdout=io.StringIO(), bell=False).cue() is False
+
+
+def test_bell_off_is_not_played_even_on_a_terminal(terminal):
+    tty, master = terminal
+    r = ConsoleResponder(stdin=io.StringIO(), stdout=tty, stderr=tty, bell=False)
+    assert r.cue() is False
+    assert "\a" not in _read_all(master)
