@@ -47,6 +47,7 @@ import numpy as np
 from experiments.errors import DisplayError, SessionError, UserInputError
 from experiments.logbook import now_iso as _now_iso
 from experiments.responders.base import Responder, ResponderClosed, TrialStimulus
+from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
 from experiments.session_files import TraceWriter, aborted_trace_name, package_versions, trace_name
 from experiments.session_machine import (
     TRANSITIONS,
@@ -1170,6 +1171,7 @@ class SessionPlan:
             "protocol": protocol.data,
             "seed": self.seed,
             "schedule": [s.to_dict() for s in self.schedule],
+            "schedule_algorithm": SCHEDULE_ALGORITHM,
             "display_url": self.display_url,
             "responder": self.responder_name,
             "clock": "virtual" if self.clock.virtual else "real",
@@ -1336,8 +1338,16 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
         schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
     except (TypeError, ValueError, KeyError, AttributeError) as exc:
         raise SessionError(f"{path}: schedule: expected a list of trials, got {exc}") from None
+    # Sessions written before the field existed used the first algorithm.
+    made_by = meta.get("schedule_algorithm", "thermocue-schedule-v1")
     expected = build_schedule(protocol, str(participant["id"]), seed)
-    if schedule != expected:
+    if made_by != SCHEDULE_ALGORITHM:
+        # A newer thermocue cannot rebuild an older algorithm's schedule: the stored one is
+        # used (it is what the participant has been given so far), unchecked, and said so.
+        print(f"thermocue: {path}: schedule_algorithm: made by {made_by!r}, this version builds "
+              f"{SCHEDULE_ALGORITHM!r}; resuming with the stored schedule unchecked",
+              file=out or sys.stderr, flush=True)
+    elif schedule != expected:
         diff = next((i for i, (a, b) in enumerate(zip(schedule, expected)) if a != b),
                     min(len(schedule), len(expected)))
         got = meta["schedule"][diff] if diff < len(schedule) else "nothing"

@@ -187,6 +187,23 @@ def test_resume_refuses_an_edited_seed_or_schedule(tmp_path, capsys, change, mes
     assert not (s.directory / "events.jsonl").exists()
 
 
+def test_a_schedule_from_another_algorithm_is_resumed_as_stored_and_said(tmp_path, capsys):
+    # A thermocue whose schedule algorithm changed cannot rebuild an older session's schedule;
+    # it must not refuse to finish that participant's session, but say it did not check it.
+    s = create_session(write_protocol(tmp_path), P01, tmp_path / "data", "scripted://", seed=7,
+                       clock="virtual")
+    path = s.directory / "session.json"
+    meta = json.loads(path.read_text())
+    assert meta["schedule_algorithm"] == "thermocue-schedule-v1"
+    meta["schedule_algorithm"] = "thermocue-schedule-v0"
+    meta["schedule"].reverse()
+    path.write_text(json.dumps(meta))
+    capsys.readouterr()
+    again = open_session(s.directory)
+    assert again.schedule == list(reversed(s.schedule))
+    assert "schedule_algorithm: made by 'thermocue-schedule-v0'" in capsys.readouterr().err
+
+
 def test_an_unedited_session_json_resumes(tmp_path):
     s = create_session(write_protocol(tmp_path), P01, tmp_path / "data", "scripted://", seed=7,
                        clock="virtual")
