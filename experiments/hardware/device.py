@@ -22,7 +22,7 @@ import numpy as np
 
 from . import messages as m
 from .faults import FaultSpec, parse_faults
-from .framing import FrameParser, encode_frame
+from .framing import FrameParser, crc8, encode_frame
 from .messages import Cmd, Err, Event, Mode, State
 from .pad_physics import (CONTACT_AREA_M2, FingerSkin, PadParams, PadPlant, PassiveSample,
                           finger_pad_resistance, normal_stream)
@@ -50,7 +50,8 @@ _IDLE, _ARMED, _PLAYING, _RECORDING, _FAULT = (State.IDLE, State.ARMED, State.PL
 _ACTIVE = (State.ARMED, State.PLAYING, State.RECORDING)
 _PLAYBACK, _RECORD = Mode.PLAYBACK, Mode.RECORD
 _TEL_HEAD = struct.Struct("<HBB")
-_TEL_PREFIX = [_TEL_HEAD.pack(m.TELEMETRY.size, q, m.Msg.TELEMETRY) for q in range(256)]
+_TEL_PREFIX = [h + bytes((crc8(h),)) for h in
+               (_TEL_HEAD.pack(m.TELEMETRY.size, q, m.Msg.TELEMETRY) for q in range(256))]
 _TEL_PACK = m.TELEMETRY.pack
 _CRC = struct.Struct("<H")
 END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
@@ -206,7 +207,8 @@ class Device:
             self.last_rx_us = stamp
             if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":
                 continue                           # silent: no reply, nothing to cache
-            hit = self.cache.get(fr.type)
+            hello = fr.type == Cmd.HELLO           # a new session: always carried out
+            hit = None if hello else self.cache.get(fr.type)
             if hit is not None and hit[0] == fr.seq:
                 self.out += hit[1]                 # a retry: the same answer, not a second action
                 continue
@@ -214,7 +216,8 @@ class Device:
                 reply = self._handle(fr.seq, fr.type, fr.payload)
             except (struct.error, IndexError, ValueError) as exc:
                 reply = self._nak(fr.seq, fr.type, Err.BAD_LENGTH, f"malformed payload: {exc}")
-            self.cache[fr.type] = (fr.seq, reply)
+            if not hello:
+                self.cache[fr.type] = (fr.seq, reply)
 
     def _nak(self, seq, cmd, code, text="") -> bytes:
         return self._send(seq, m.Msg.NAK, m.NAK_HEAD.pack(cmd & 0xFF, int(code)) +
@@ -233,6 +236,11 @@ class Device:
             if ver != m.PROTOCOL_VERSION:
                 return self._nak(seq, cmd, Err.NOT_SUPPORTED,
                                  f"protocol {ver} not supported (device speaks {m.PROTOCOL_VERSION})")
+            # a new host: its numbers say nothing about the last host's, so forget the replies
+            # kept for retries (else its SET_LIMITS, SET_NEUTRAL, UPLOAD_BEGIN, ... could be
+            # answered from the cache and not carried out) and any half-done upload
+            self.cache.clear()
+            self.upload = None
             self.hello = True
             caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
             head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
@@ -266,6 +274,8 @@ class Device:
             self.lim_min, self.lim_max = lo, hi
             self.lim_rate = min(rate / 100.0, HARD_RATE_C_PER_S)
             self.neutral = min(max(self.neutral, lo), hi)
+            self.log("limits", min_C=lo, max_C=hi, rate_C_per_s=self.lim_rate,
+                     neutral_C=self.neutral)
             return self._ack(seq, cmd, m.LIMITS.pack(m.centi(lo), m.centi(hi),
                                                      int(round(self.lim_rate * 100))))
         if cmd == Cmd.UPLOAD_BEGIN:

@@ -2,7 +2,10 @@
 
 One port, one lock, one parser. Commands are request/reply with a sequence number, a timeout and
 bounded retries (every command is safe to retry: the device answers a repeated sequence number
-with its cached reply instead of acting twice). Telemetry and events that arrive while waiting for
+with its cached reply instead of acting twice). Each connection numbers its commands from a random
+start, and HELLO makes the device forget the replies it kept, so a host that reconnects is never
+answered with an earlier host's replies; the handshake checks that the device holds exactly the
+limits and neutral temperature it was sent. Telemetry and events that arrive while waiting for
 a reply are routed to the armed trial, never held in bulk.
 
 Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
@@ -28,6 +31,7 @@ within 100 ms of the host falling silent. A trial that goes wrong ends as a
 from __future__ import annotations
 
 import math
+import secrets
 import threading
 import time
 import zlib
@@ -48,6 +52,10 @@ from .safety import SafetyLimits, check_profile
 __all__ = ["ThermalDisplay", "open_display", "TrialRecording", "ContactEvent"]
 
 CHUNK = 512                    # samples per upload chunk
+# ARM's and ABORT's reply types (0xA0, 0xA1) are also TELEMETRY's and EVENT's, whose frames carry
+# the device's own numbers: a reply of these types is one only with the reply's size (4 and 0
+# bytes; telemetry has 30, an event at least 11)
+_REPLY_SIZE = {Cmd.ARM | m.REPLY_BIT: m.COUNTER.size, Cmd.ABORT | m.REPLY_BIT: 0}
 _ACTIVE = ("ARMED", "PLAYING", "RECORDING")
 _END_NAMES = {0: "complete", 1: "released", 2: "max_duration", 3: "aborted", 4: "fault"}
 
@@ -250,7 +258,8 @@ class ThermalDisplay:
         self.info: DeviceInfo | None = None
         self._lock = threading.RLock()
         self._parser = FrameParser()
-        self._seq = 0
+        # a random start: a host that reconnects must not repeat its predecessor's numbers
+        self._seq = secrets.randbelow(256)
         self._last_seq_by_type: dict[int, int] = {}
         self._virtual = getattr(port, "virtual_time_s", None) is not None
         # the loop's clock, s: device time on a virtual clock, else wall time (read per frame:
@@ -383,6 +392,7 @@ class ThermalDisplay:
             seq = self._next_seq(cmd)
             frame = encode_frame(seq, cmd, payload)
             want = (cmd | m.REPLY_BIT) & 0xFF
+            size = _REPLY_SIZE.get(want)
             for attempt in range(retries + 1):
                 self._write(frame)
                 self._hb_clock, self._hb_dev = self._clock(), self._dev_time  # any frame feeds the watchdog
@@ -391,7 +401,8 @@ class ThermalDisplay:
                     answer = None
                     for fr in self._read_frames():      # dispatch every other frame, even after
                         if answer is None and fr.seq == seq and (
-                                fr.type == want or (fr.type == Msg.NAK and fr.payload[:1] == bytes([cmd]))):
+                                (fr.type == want and (size is None or len(fr.payload) == size))
+                                or (fr.type == Msg.NAK and fr.payload[:1] == bytes([cmd]))):
                             answer = fr
                         else:
                             self._dispatch(fr)
@@ -425,8 +436,18 @@ class ThermalDisplay:
             raise SafetyLimitError(f"display: limits: expected a range inside the device's "
                                    f"[{self.info.hard_min_C}, {self.info.hard_max_C}] °C, got "
                                    f"[{lim.min_C}, {lim.max_C}]")
-        self._transact(Cmd.SET_LIMITS, m.LIMITS.pack(m.centi(lim.min_C), m.centi(lim.max_C),
-                                                     int(round(lim.max_rate_C_per_s * 100))))
+        sent = (m.centi(lim.min_C), m.centi(lim.max_C),
+                min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
+        got = m.LIMITS.unpack(self._transact(Cmd.SET_LIMITS, m.LIMITS.pack(*sent)))
+        # the range lies inside the device's, so it must hold it exactly; the rate may be
+        # lowered to the device's own maximum (a tighter limit, and so not a mismatch)
+        want = (sent[0], sent[1], min(sent[2], rate))
+        if got != want:
+            raise DisplayError(
+                f"display: SET_LIMITS: sent {sent[0] / 100}–{sent[1] / 100} °C at "
+                f"{sent[2] / 100} °C/s, the device acknowledged {got[0] / 100}–{got[1] / 100} °C "
+                f"at {got[2] / 100} °C/s (a stale reply?); not going on with limits it does "
+                f"not hold")
         self.set_neutral(lim.neutral_C)
         return self.info
 
@@ -489,8 +510,14 @@ class ThermalDisplay:
     def set_neutral(self, temperature_C: float) -> float:
         """Set the temperature held between trials; return what the device holds, °C."""
         v = self.limits.check_setpoint(temperature_C, "neutral_C")
-        p = self._transact(Cmd.SET_NEUTRAL, m.CENTI.pack(m.centi(v)))
-        return m.CENTI.unpack(p)[0] / 100
+        sent = m.centi(v)
+        (held,) = m.CENTI.unpack(self._transact(Cmd.SET_NEUTRAL, m.CENTI.pack(sent)))
+        if held != sent:
+            raise DisplayError(f"display: SET_NEUTRAL: sent {sent / 100} °C, the device "
+                               f"acknowledged {held / 100} °C (a stale reply, or limits other "
+                               f"than ours); not going on with a neutral temperature it does "
+                               f"not hold")
+        return held / 100
 
     def upload_profile(self, times_s, target_C) -> CommitAck:
         """Check, upload in CRC-verified chunks, and commit a target profile.

@@ -7,7 +7,7 @@ average of 4-6 on 2 cores can then hold every heartbeat back for 100 ms and more
 driver starts this helper: a second interpreter (``python -I -S``, no imports beyond the
 standard library's built-ins) that shares the port's descriptor and writes one silent heartbeat
 frame every ``period_s``. Each ``write`` of a tty is atomic with respect to other writers, so its
-9-byte frames never split the host's own frames (silent heartbeats are never cached by the device,
+10-byte frames never split the host's own frames (silent heartbeats are never cached by the device,
 so their sequence number does not matter).
 
 Liveness: the host process pings the helper (a byte on its stdin pipe) while its I/O thread makes

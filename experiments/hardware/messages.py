@@ -22,7 +22,7 @@ __all__ = [
     "NAK_HEAD", "encode_strings", "decode_strings", "encode_json", "decode_json",
 ]
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2      # 2: frames carry a CRC-8 of their header (docs/display-protocol.md §1)
 REPLY_BIT = 0x80
 
 

@@ -4,7 +4,8 @@ URL grammar::
 
     emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=DEVICE_ID]
 
-    faults   fault injection, see experiments.hardware.faults (default: none)
+    faults   fault injection, see experiments.hardware.faults (default: none); a "+" is
+             a plus (stall@100+5: from 100 s for 5 s), not a space as in HTML forms
     clock    real: the device ticks every 10 ms of wall time in its own thread (default);
              virtual: the device advances only while the host waits for bytes -- each read that
              finds nothing to return steps it by 10 ms ticks until there is something (and,
@@ -52,7 +53,9 @@ def parse_url(url: str) -> dict:
                               f"emulator:// ({url!r})")
     opts = dict(faults=[], clock="real", seed=0, sim=True, log=None, id="EMU-0001")
     try:
-        for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
+        # parse_qs decodes "+" as a space (HTML forms); here it is the fault SPEC's "+FOR_s"
+        query = parts.query.replace("+", "%2B")
+        for key, values in urllib.parse.parse_qs(query, keep_blank_values=True).items():
             value = values[-1]
             if key not in _OPTIONS:
                 raise ValueError(f"unknown option {key!r}")

@@ -21,6 +21,13 @@ MIN_DT_S = 1e-3
 RESOLUTION_C = 0.01
 
 
+def _num(v) -> str:
+    """A value for a message: numbers (numpy's too) as plain Python numbers, others as repr."""
+    if isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool):
+        return repr(int(v) if isinstance(v, (int, np.integer)) else float(v))
+    return repr(v)
+
+
 @dataclass(frozen=True)
 class SafetyLimits:
     """The safe range and rate of the pad temperature, as the protocol allows them.
@@ -55,13 +62,13 @@ class SafetyLimits:
         for name in ("min_C", "max_C", "max_rate_C_per_s", "neutral_C", "rate_window_s"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise UserInputError(f"SafetyLimits: {name}: expected a finite number, got {v!r}")
+                raise UserInputError(f"SafetyLimits: {name}: expected a finite number, got {_num(v)}")
         if not self.min_C < self.max_C:
             raise UserInputError(f"SafetyLimits: min_C, max_C: expected min_C < max_C, got "
-                                 f"{self.min_C!r}, {self.max_C!r}")
+                                 f"{_num(self.min_C)}, {_num(self.max_C)}")
         if self.max_rate_C_per_s <= 0 or self.rate_window_s <= 0:
             raise UserInputError("SafetyLimits: max_rate_C_per_s, rate_window_s: expected > 0, got "
-                                 f"{self.max_rate_C_per_s!r}, {self.rate_window_s!r}")
+                                 f"{_num(self.max_rate_C_per_s)}, {_num(self.rate_window_s)}")
         self.check_setpoint(self.neutral_C, "neutral_C")
 
     def check_setpoint(self, value_C: float, field: str = "setpoint") -> float:
@@ -79,7 +86,7 @@ class SafetyLimits:
                                    f"{self.max_C} °C, got {value_C!r}") from None
         if not (math.isfinite(v) and self.min_C <= v <= self.max_C):
             raise SafetyLimitError(f"display: {field}: expected {self.min_C} ≤ T ≤ {self.max_C} °C, "
-                                   f"got {value_C!r}")
+                                   f"got {v!r}")
         return v
 
 
@@ -129,18 +136,19 @@ def check_profile(times_s, target_C, limits: SafetyLimits, *, start_C: float | N
         raise UserInputError(f"display: profile: expected at most {max_points} points, got {t.size}")
     if not np.all(np.isfinite(t)) or abs(t[0]) > 1e-9:
         raise UserInputError(f"display: profile.times_s: expected finite times from 0, got first "
-                             f"{t[0]!r}")
+                             f"{float(t[0])!r}")
     dt = (t[-1] - t[0]) / (t.size - 1)
     if dt < MIN_DT_S - 1e-12:
-        raise UserInputError(f"display: profile.times_s: expected a step ≥ {MIN_DT_S} s, got {dt!r}")
+        raise UserInputError(f"display: profile.times_s: expected a step ≥ {MIN_DT_S} s, got "
+                             f"{float(dt):.6g} s")
     if np.max(np.abs(np.diff(t) - dt)) > 1e-6 * max(dt, 1e-3):
         raise UserInputError("display: profile.times_s: expected uniform steps, got steps from "
-                             f"{np.min(np.diff(t))!r} to {np.max(np.diff(t))!r} s")
+                             f"{float(np.min(np.diff(t))):.6g} to {float(np.max(np.diff(t))):.6g} s")
     bad = ~np.isfinite(y) | (y < limits.min_C) | (y > limits.max_C)
     if bad.any():
         i = int(np.argmax(bad))
         raise SafetyLimitError(f"display: profile.target_C[{i}]: expected {limits.min_C} ≤ T ≤ "
-                               f"{limits.max_C} °C, got {y[i]!r}")
+                               f"{limits.max_C} °C, got {float(y[i])!r}")
     rate = profile_max_rate(y, dt, limits.rate_window_s)
     if rate > limits.max_rate_C_per_s * (1 + 1e-9) + RESOLUTION_C / limits.rate_window_s:
         raise SafetyLimitError(f"display: profile.target_C: expected a rate ≤ "

@@ -186,3 +186,49 @@ def test_bytes_stamped_late_feed_the_watchdog_from_then(host):
     for _ in range(2):
         host.dev.step()
     assert host.dev.state == State.IDLE and host.dev.last_fault == Err.WATCHDOG
+
+
+def test_a_new_host_is_a_new_session():
+    # audit 34: every host numbers its commands from where it likes (the old driver: from 1);
+    # the device answered the second host's HELLO, SET_LIMITS and SET_NEUTRAL from the first
+    # host's cached replies without carrying them out, and its UPLOAD_BEGIN too
+    dev = Device(seed=3)
+    first = Host(dev)
+    assert first.send(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)).type == Cmd.HELLO | 0x80
+    assert m.LIMITS.unpack(first.send(Cmd.SET_LIMITS, m.LIMITS.pack(1500, 4200, 1000)).payload) \
+        == (1500, 4200, 1000)
+    assert m.CENTI.unpack(first.send(Cmd.SET_NEUTRAL, m.CENTI.pack(3200)).payload) == (3200,)
+    assert first.send(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(300, 10_000)).type == 0x90
+    second = Host(dev)                                  # same numbers: 1, 2, 3, 4, ...
+    assert second.send(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)).type == Cmd.HELLO | 0x80
+    r = second.send(Cmd.SET_LIMITS, m.LIMITS.pack(2000, 3800, 500))
+    assert m.LIMITS.unpack(r.payload) == (2000, 3800, 500)
+    assert (dev.lim_min, dev.lim_max, dev.lim_rate) == (20.0, 38.0, 5.0)
+    assert m.CENTI.unpack(second.send(Cmd.SET_NEUTRAL, m.CENTI.pack(3000)).payload) == (3000,)
+    assert dev.neutral == 30.0
+    ack = m.COMMIT_ACK.unpack(second.upload(np.full(300, 37.0)).payload)   # begins anew
+    assert ack[0] == 300 and ack[2] == 0
+    # within the new session a retry is still answered, not acted on
+    a = second.send(Cmd.ARM, m.ARM.pack(0, 200, 5000), seq=200)
+    assert second.send(Cmd.ARM, m.ARM.pack(0, 200, 5000), seq=200).payload == a.payload
+    assert dev.state == State.ARMED
+
+
+@pytest.mark.parametrize("bit", range(16))
+def test_a_corrupted_length_does_not_stall_the_device(host, bit):
+    # audit 34: a flipped bit in a heartbeat's length made the device wait for up to 1100 bytes
+    # (~570 ms of heartbeats) before its CRC check; the watchdog fired meanwhile
+    host.upload(np.full(300, 30.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 5000))
+    host.step(5)
+    bad = bytearray(encode_frame(0, Cmd.HEARTBEAT, b"\x00"))
+    bad[2 + bit // 8] ^= 1 << (bit % 8)                 # the length field, little-endian
+    dev = host.dev
+    frames = dev.parser.frames
+    dev.step()
+    dev.receive(bytes(bad))
+    dev.receive(encode_frame(0, Cmd.HEARTBEAT, b"\x00"))   # the next heartbeat is parsed at once
+    assert dev.parser.frames == frames + 1 and dev.last_rx_us == dev.time_us
+    assert dev.parser.buffered == 0
+    tel, ev = host.step(30)
+    assert [e.kind for e in ev if e.kind == "WATCHDOG"] == [] and dev.state == State.ARMED

@@ -3,7 +3,11 @@ import numpy as np
 import pytest
 
 from experiments.errors import DisplayError, DisplayRefused, SafetyLimitError
-from experiments.hardware import Telemetry, open_display
+from experiments.hardware import SafetyLimits, Telemetry, open_display
+from experiments.hardware import messages as m
+from experiments.hardware.device import Device
+from experiments.hardware.framing import HEADER_SIZE
+from experiments.hardware.messages import PROTOCOL_VERSION, Cmd
 
 T = np.arange(0, 3.0001, 0.01)
 PROFILE = np.round(26.0 + 2.0 * np.sqrt(T / 3.0), 2)        # a gentle 3 s profile, °C
@@ -17,7 +21,7 @@ def emulator_only(display):
 
 def test_handshake(display):
     info = display.info
-    assert info.protocol == 1 and info.telemetry_hz >= 100
+    assert info.protocol == PROTOCOL_VERSION and info.telemetry_hz >= 100
     assert info.min_dt_s <= 1e-3 and info.max_points * info.min_dt_s >= 30.0
     assert "playback" in info.capabilities
     st = display.status()
@@ -143,19 +147,22 @@ def test_a_frame_split_by_a_slow_kernel_is_not_lost():
         assert d._read_frames() == []
     d.port.write(fr[20:])
     got = d._read_frames()
-    assert [f.payload for f in got] == [fr[6:-2]] and d._parser.bytes_skipped == 0
+    assert [f.payload for f in got] == [fr[HEADER_SIZE:-2]] and d._parser.bytes_skipped == 0
 
 
 def test_a_garbage_length_is_abandoned_after_stale_s():
     d = _loop_display(stale_s=0.05)
     good = _telemetry_frame(8)
-    d.port.write(b"\xa5\x5a\xf0\x03" + good)             # claims 1008 bytes that never come
+    from experiments.hardware.framing import encode_frame
+    cut = encode_frame(3, 0xA0, bytes(1008))[:HEADER_SIZE + 4]   # 1008 bytes that never come
+    d.port.write(cut + good)
     got = []
     for _ in range(40):                                  # ≥ 0.4 s of empty reads
         got += d._read_frames()
         if got:
             break
-    assert [f.payload for f in got] == [good[6:-2]]
+    assert [f.payload for f in got] == [good[HEADER_SIZE:-2]]
+    assert d._parser.bytes_skipped == len(cut)
 
 
 def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tmp_path):
@@ -191,3 +198,72 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
     assert held > 0.12
     hb = [f for f in frames if f.type == 0x02 and f.payload == b"\x00"]
     assert len(hb) >= 0.5 * held / d.heartbeat_s         # ≥ half the 10 ms ticks got through
+
+
+def test_each_connection_starts_at_a_random_sequence_number():
+    # audit 34: every host started at 1, so a restarted host repeated its predecessor's numbers
+    # and got its cached replies (the device side is fixed too: HELLO clears them)
+    seen = []
+    for _ in range(8):
+        with open_display("emulator://?clock=virtual") as d:
+            seen.append(d.port.device.cache[Cmd.SET_LIMITS][0])   # the number the device saw
+    assert len(set(seen)) > 1                            # all equal: chance 256**-7
+
+
+class StaleFirmware(Device):
+    """A firmware that answers SET_LIMITS or SET_NEUTRAL with an earlier session's reply."""
+
+    stale = {Cmd.SET_LIMITS: m.LIMITS.pack(1500, 4200, 1000), Cmd.SET_NEUTRAL: m.CENTI.pack(3200)}
+
+    def __init__(self, replay, **kw):
+        super().__init__(**kw)
+        self.replay = replay
+
+    def _handle(self, seq, cmd, p):
+        if cmd == self.replay:
+            return self._ack(seq, cmd, self.stale[cmd])     # not carried out
+        return super()._handle(seq, cmd, p)
+
+
+@pytest.mark.parametrize("replay", [Cmd.SET_LIMITS, Cmd.SET_NEUTRAL])
+def test_limits_and_neutral_not_echoed_are_a_display_error(replay):
+    # audit 34: stale acknowledgements were taken as success; the host checks the echo
+    import serial
+
+    from experiments.hardware.driver import ThermalDisplay
+    port = serial.serial_for_url("emulator://?clock=virtual", timeout=0.01)
+    port.device = StaleFirmware(replay)
+    limits = SafetyLimits(min_C=20.0, max_C=38.0, max_rate_C_per_s=10.0, neutral_C=30.0)
+    d = ThermalDisplay(port, limits)
+    try:
+        with pytest.raises(DisplayError, match=replay.name) as e:
+            d.handshake()
+        assert ("20.0" in str(e.value) and "15.0" in str(e.value) if replay == Cmd.SET_LIMITS
+                else "30.0" in str(e.value) and "32.0" in str(e.value))
+    finally:
+        d.close()
+
+
+def test_a_device_rate_below_the_hosts_is_accepted():
+    # the device may lower the rate to its own maximum (100 °C/s): that is not a mismatch
+    limits = SafetyLimits(max_rate_C_per_s=150.0)
+    with open_display("emulator://?clock=virtual", limits=limits) as d:
+        assert d.port.device.lim_rate == 100.0
+
+
+@pytest.mark.parametrize("cmd, frame_type, payload", [
+    (Cmd.ARM, m.Msg.TELEMETRY, _telemetry_frame(5)[HEADER_SIZE:-2]),
+    (Cmd.ABORT, m.Msg.EVENT, m.EVENT_HEAD.pack(3, 10_000, 0) + b"aborted by host"),
+], ids=["ARM", "ABORT"])
+def test_telemetry_and_events_are_not_taken_for_replies(cmd, frame_type, payload):
+    # ARM's and ABORT's reply types (0x20 | 0x80, 0x21 | 0x80) are TELEMETRY's and EVENT's: a
+    # telemetry frame whose number happened to be ARM's was taken for its reply (struct.error
+    # in arm()), an END event for ABORT's acknowledgement (an abort that never happened)
+    from experiments.errors import DisplayTimeout
+    from experiments.hardware.framing import encode_frame
+    d = _loop_display(reply_timeout_s=0.05, retries=0)
+    d._seq = 41                                          # the command goes out as number 42
+    d.port.write(encode_frame(42, frame_type, payload))
+    with pytest.raises(DisplayTimeout, match=cmd.name):  # loop:// answers nothing
+        d._transact(cmd, m.ARM.pack(1, 200, 1000) if cmd == Cmd.ARM else b"")
+    assert d._dev_time == pytest.approx(0.05 if cmd == Cmd.ARM else 0.01)   # routed as telemetry / event

@@ -4,8 +4,8 @@ import struct
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from experiments.hardware.framing import (MAX_PAYLOAD, SOF, Frame, FrameParser, crc16,
-                                          encode_frame)
+from experiments.hardware.framing import (HEADER_SIZE, MAX_PAYLOAD, OVERHEAD, SOF, Frame,
+                                          FrameParser, crc8, crc16, encode_frame)
 
 
 def test_crc16_ccitt_false_check_value():
@@ -28,10 +28,35 @@ def test_crc16_matches_a_bitwise_reference():
 
 def test_layout_of_one_frame():
     f = encode_frame(7, 0x22, b"\x01\x02")
+    assert len(f) == 2 + OVERHEAD and HEADER_SIZE == 7
     assert f[:2] == SOF
     assert struct.unpack("<HBB", f[2:6]) == (2, 7, 0x22)
-    assert f[6:8] == b"\x01\x02"
-    assert struct.unpack("<H", f[8:]) == (binascii.crc_hqx(f[2:8], 0xFFFF),)
+    assert f[6] == crc8(f[2:6])
+    assert f[7:9] == b"\x01\x02"
+    assert struct.unpack("<H", f[9:]) == (binascii.crc_hqx(f[2:9], 0xFFFF),)
+
+
+def test_crc8_matches_a_bitwise_reference():
+    # CRC-8/SMBUS: poly 0x07, init 0, no reflection, no final xor; catalogue check value 0xF4
+    def ref(data):
+        crc = 0
+        for b in data:
+            crc ^= b
+            for _ in range(8):
+                crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+        return crc
+    assert crc8(b"123456789") == ref(b"123456789") == 0xF4
+    for data in (b"", b"\x00", b"\x01\x00\x00\x02", bytes(range(256))):
+        assert crc8(data) == ref(data)
+    # every error of up to 3 bits in a 4-byte header changes the check
+    import itertools
+    head = b"\x01\x00\x07\x02"
+    for k in (1, 2, 3):
+        for bits in itertools.combinations(range(32), k):
+            h = bytearray(head)
+            for b in bits:
+                h[b // 8] ^= 1 << (b % 8)
+            assert crc8(bytes(h)) != crc8(head), bits
 
 
 def test_encode_refuses_bad_fields():
@@ -59,12 +84,27 @@ def test_a_frame_ending_in_the_marker_byte_leaves_nothing_behind():
     assert len(p.feed(f)) == 1 and p.buffered == 0 and p.bytes_skipped == 0
 
 
-def test_garbage_length_field_is_abandoned_on_timeout():
-    # a stray start marker whose "length" is large holds the parser until the driver gives up on it
+def test_a_frame_that_never_completes_is_abandoned_on_timeout():
+    # a frame whose rest never comes (the link dropped it) holds the parser until the driver
+    # gives up on it; what followed is then found in what the parser holds
     real = encode_frame(1, 0x81, b"ok")
+    cut = encode_frame(9, 0x11, bytes(900))[:HEADER_SIZE + 10]
     p = FrameParser()
-    assert p.feed(SOF + struct.pack("<H", 900) + real) == []
+    assert p.feed(cut + real) == []
     assert p.drop_candidate() == [Frame(1, 0x81, b"ok")]
+    assert p.bytes_skipped == len(cut) and p.buffered == 0
+
+
+@pytest.mark.parametrize("bit", range(16, 8 * HEADER_SIZE))     # length, seq, type, hcrc
+def test_a_flipped_header_bit_is_rejected_at_once(bit):
+    # a flipped bit in the length (or seq, type) must not make the receiver wait for up to
+    # 1100 bytes before the CRC check: the device's watchdog fires meanwhile (audit 34)
+    bad = bytearray(encode_frame(0, 0x02, b"\x00"))
+    bad[bit // 8] ^= 1 << (bit % 8)
+    good = encode_frame(0, 0x02, b"\x00")
+    p = FrameParser()
+    assert p.feed(bytes(bad) + good) == [Frame(0, 0x02, b"\x00")]
+    assert p.bytes_skipped == len(bad) and p.buffered == 0 and p.bad_frames >= 1
 
 
 frames_st = st.lists(st.tuples(st.integers(0, 255), st.integers(0, 255), st.binary(max_size=64)),
@@ -92,8 +132,7 @@ def test_never_raises_on_arbitrary_bytes(data):
     for i in range(0, len(data), 97):
         for fr in p.feed(data[i:i + 97]):
             assert 0 <= fr.seq <= 255 and len(fr.payload) <= MAX_PAYLOAD
-            decoded += len(fr.payload) + 8
-        assert p.bytes_skipped >= 0
+            decoded += len(fr.payload) + OVERHEAD
         # every byte fed is in a decoded frame, skipped, or still buffered
         assert decoded + p.bytes_skipped + p.buffered == min(i + 97, len(data))
 
@@ -117,3 +156,38 @@ def test_resynchronises_after_garbage_between_frames(frames, junk):
     want = [Frame(*f) for f in frames] + [Frame(0, 0, b"end")] * 3
     it = iter(got)
     assert all(any(g == w for g in it) for w in want)   # want is a subsequence of got
+
+
+no_marker = st.binary(min_size=1, max_size=40).map(lambda b: b.replace(b"\xa5", b"\x00"))
+
+
+@settings(max_examples=300, deadline=None)
+@given(frames=frames_st, junk=st.lists(st.one_of(no_marker, st.tuples(frames_st, st.integers(0))),
+                                       max_size=12))
+def test_skips_exactly_the_bytes_injected(frames, junk):
+    # between the frames: garbage (no marker byte in it) or a frame with one bit flipped in its
+    # payload or CRC; the parser must skip exactly those bytes and decode every real frame
+    parts, injected = [], 0
+    for i, f in enumerate(frames):
+        if i < len(junk):
+            j = junk[i]
+            if isinstance(j, tuple):
+                fs, k = j
+                seq, typ, pl = fs[0] if fs else (1, 2, b"x")
+                damaged = bytearray(encode_frame(seq, typ, pl))
+                k %= 8 * (len(damaged) - HEADER_SIZE)
+                damaged[HEADER_SIZE + k // 8] ^= 1 << (k % 8)
+                j = bytes(damaged)
+            parts.append(j)
+            injected += len(j)
+        parts.append(encode_frame(*f))
+    parts += [encode_frame(0, 0, b"end")] * 3        # lets a candidate inside the junk finish
+    p = FrameParser()
+    stream = b"".join(parts)
+    got = []
+    for i in range(0, len(stream), 61):
+        got += p.feed(stream[i:i + 61])
+    while p.buffered:
+        got += p.drop_candidate()
+    assert got == [Frame(*f) for f in frames] + [Frame(0, 0, b"end")] * 3
+    assert p.bytes_skipped == injected

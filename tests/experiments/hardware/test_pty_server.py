@@ -204,3 +204,49 @@ def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
     end = read_log(log)[-1]
     assert end["event"] == "stop" and end["dropped_output_bytes"] == 0
     assert end["max_pending_bytes"] > 1024           # the premise: the pty really was full
+
+
+FIRST_HOST = textwrap.dedent("""
+    import os, sys, numpy as np
+    from experiments.hardware import open_display
+    d = open_display(sys.argv[1])
+    t = np.arange(0, 2.0, 0.01)
+    print("upload", d.upload_profile(t, 32 - 1.0 * t).points, flush=True)
+    os._exit(0)                              # like SIGKILL: no close, no ABORT
+""")
+
+
+@pytest.mark.slow
+def test_a_second_host_gets_its_own_limits_and_neutral(tmp_path):
+    # audit 34: a restarted host numbered its commands from 1 again and the device answered its
+    # HELLO, SET_LIMITS and SET_NEUTRAL from the first host's cached replies, without carrying
+    # them out; the first upload after reconnecting failed (UPLOAD_CHUNK: no UPLOAD_BEGIN)
+    from experiments.hardware import SafetyLimits
+    proc, path, log = start_emulator(tmp_path)
+    try:
+        first = subprocess.run([sys.executable, "-c", FIRST_HOST, path], capture_output=True,
+                               text=True, timeout=60)
+        assert first.stdout.strip() == "upload 200", first.stderr
+        limits = SafetyLimits(min_C=20.0, max_C=38.0, max_rate_C_per_s=10.0, neutral_C=30.0)
+        t = np.arange(0, 2.0, 0.01)
+        with open_display(path, limits=limits) as d:
+            st = d.status()
+            assert st.neutral_C == 30.0 and st.state == "IDLE"
+            assert d.upload_profile(t, 32 - 1.0 * t).points == 200
+            d.arm("playback", max_duration_s=5.0)
+            d.sim_finger(press_after_s=0.1, hold_s=5.0)
+            frames = []
+            rec = d.run_trial(timeout_s=10.0, on_telemetry=frames.append)
+            assert rec.status == "ok" and rec.end_reason == "complete", rec
+            d.wait(0.5)
+            st = d.status()
+            assert st.setpoint_C == 30.0 and st.neutral_C == 30.0
+        sp = [f.setpoint_C for f in frames]
+        assert 20.0 <= min(sp) and max(sp) <= 38.0
+    finally:
+        stop(proc)
+    recs = read_log(log)
+    limits_set = [(r["min_C"], r["max_C"], r["rate_C_per_s"]) for r in recs if r["event"] == "limits"]
+    assert limits_set == [(15.0, 42.0, 10.0), (20.0, 38.0, 10.0)]
+    assert [r["neutral_C"] for r in recs if r["event"] == "neutral"] == [32.0, 30.0]
+    assert [r["event"] for r in recs].count("hello") == 2

@@ -56,3 +56,22 @@ def test_the_papers_profiles_pass_the_default_limits():
         R = stimuli.contact_resistance(ra, skin=skin, material=steel)
         c = stimuli.Contact(skin, steel, resistance=R, skin_temperature=36.0, material_temperature=20.0)
         check_profile(t, np.round(c.interface_temperature(t), 2), SafetyLimits())
+
+
+def test_messages_print_plain_numbers():
+    # audit 34: the message read "got np.float64(60.0)"
+    t = np.arange(0, 1.0001, 0.01)
+    y = np.full_like(t, 30.0)
+    y[5] = 60.0
+    with pytest.raises(SafetyLimitError) as e:
+        check_profile(t, y, SafetyLimits())
+    assert str(e.value) == "display: profile.target_C[5]: expected 15.0 ≤ T ≤ 42.0 °C, got 60.0"
+    with pytest.raises(SafetyLimitError) as e:
+        SafetyLimits().check_setpoint(np.float64(60.0), "neutral_C")
+    assert str(e.value) == "display: neutral_C: expected 15.0 ≤ T ≤ 42.0 °C, got 60.0"
+    with pytest.raises(UserInputError) as e:
+        check_profile(np.r_[0.0, 0.01, 0.03, 0.04], np.full(4, 30.0), SafetyLimits())
+    assert "np." not in str(e.value) and "from 0.01 to 0.02 s" in str(e.value)
+    with pytest.raises(UserInputError) as e:
+        check_profile(np.arange(1, 2, 0.01), np.full(100, 30.0), SafetyLimits())
+    assert str(e.value).endswith("got first 1.0")
