@@ -17,6 +17,7 @@ import math
 import struct
 import zlib
 from binascii import crc_hqx
+from collections import deque
 
 import numpy as np
 
@@ -37,6 +38,10 @@ DEFAULT_NEUTRAL_C = 32.0
 WATCHDOG_MS = 90           # host silence that trips the watchdog, checked every 10 ms tick:
                            # the setpoint goes to neutral ≤ WATCHDOG_MS + one tick = 100 ms
                            # after the last host frame (docs/display-protocol.md, timing budget)
+RATE_WINDOW_TICKS = 10     # the rate limit is also held over any 10 ticks (0.1 s), the host's
+                           # window (SafetyLimits.rate_window_s): playback may step faster for a
+                           # tick (a sqrt(t) profile's first samples), never faster over 0.1 s
+RATE_SLACK_C = 0.01        # one setpoint resolution step, as the host's check allows
 MAX_POINTS = 65536         # 65.5 s at 1 ms, 655 s at 10 ms
 MIN_DT_US = 1000
 TICK_US = 10_000
@@ -128,6 +133,7 @@ class Device:
         self.lim_min, self.lim_max, self.lim_rate = HARD_MIN_C, HARD_MAX_C, 10.0
         self.plant = PadPlant(self.params, self.tick_s, self.neutral, seed=seed)
         self.sp = self.neutral
+        self._sp_window = deque([self.sp], maxlen=RATE_WINDOW_TICKS)   # setpoints, last 0.1 s
         self.enabled = True
         self.hello = False
         self.last_rx_us = 0
@@ -404,7 +410,9 @@ class Device:
             self.end_reason = END_FAULT
         self.last_fault = int(code)
         self.enabled = False
-        self.sp = self.neutral
+        self.sp = self.neutral              # the relay is open: no heat is pumped towards it
+        self._sp_window.clear()
+        self._sp_window.append(self.sp)
         self._set_state(State.FAULT, code.name)
         self.log("fault", code=code.name, text=text)
         self._event(Event.FAULT, int(code), text)
@@ -469,7 +477,13 @@ class Device:
         goal = min(max(goal, self.lim_min), self.lim_max)
         d = goal - sp_prev
         sp = goal if -max_step <= d <= max_step else sp_prev + math.copysign(max_step, d)
+        # whatever the profile: the setpoints of any 0.1 s window span at most the rate limit
+        # times the window (so no |T(t + w) - T(t)| beyond it, the host's measure). The last
+        # setpoint is always inside these bounds, so this only ever shortens a step.
+        span = self.lim_rate * self.tick_s * RATE_WINDOW_TICKS + RATE_SLACK_C
+        sp = min(max(sp, max(self._sp_window) - span), min(self._sp_window) + span)
         self.sp = sp = min(max(sp, HARD_MIN_C, self.lim_min), HARD_MAX_C, self.lim_max)
+        self._sp_window.append(sp)
         # physics
         load = 0.0
         skin = self.skin

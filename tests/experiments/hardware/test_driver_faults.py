@@ -168,3 +168,10 @@ def test_a_careless_host_on_a_bad_line_never_gets_an_unsafe_setpoint():
     assert steps.max() <= HARD_RATE_C_PER_S * tick + 1e-9             # 1 °C a tick, ever
     assert steps[~playing].max() <= LIMITS.max_rate_C_per_s * tick + 1e-9   # slews: 0.1 °C
     assert steps[playing].max() > LIMITS.max_rate_C_per_s * tick       # the jumps were there
+    # ... and over any 0.1 s window (the host's rate measure) no setpoint range beyond the rate
+    # limit, playback included (one 0.01 °C resolution step of slack, as the host allows)
+    from experiments.hardware.device import RATE_WINDOW_TICKS
+    track = np.r_[LIMITS.neutral_C, sp]
+    windows = np.lib.stride_tricks.sliding_window_view(track, RATE_WINDOW_TICKS + 1)
+    spans = windows.max(axis=1) - windows.min(axis=1)
+    assert spans.max() <= LIMITS.max_rate_C_per_s * RATE_WINDOW_TICKS * tick + 0.01 + 1e-9
