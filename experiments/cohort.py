@@ -205,6 +205,11 @@ def _progress(done: int, total: int, start: float, label: str, stream) -> None:
     stream.flush()
 
 
+#: Largest default number of worker processes: each holds ~125 MiB (RSS) besides the main
+#: process's ~390 MiB, so 4 keep the study under 1 GB however many cores the machine has.
+MAX_DEFAULT_WORKERS = 4
+
+
 def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: int | None = None, *,
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
                       analyze: bool = True, participants: int | None = None,
@@ -222,10 +227,11 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         Print "participant n of N, elapsed, ETA" lines on stderr.
     workers : int, optional
         Processes running participants in parallel (1: in this process; at most one per
-        participant). Default: twice the
-        CPU count, because a session spends about half its wall time waiting for ``fsync``
-        (every logged event is made durable before the next step): on 2 cores, 4 processes
-        take ~30 s where 2 take ~60 s, for ~60 MiB more memory (PSS).
+        participant). Default: twice the CPU count (a session also waits for ``fsync``: every
+        logged event is made durable before the next step), at most :data:`MAX_DEFAULT_WORKERS`
+        so that the whole study stays under 1 GB on any machine. Measured on 2 cores
+        (``benchmarks/bench_study.py``): 4 workers 53 s of sessions, 889 MiB summed RSS;
+        2 workers 54 s, 641 MiB.
     protocol : str
         Protocol name or path.
     responder_options : dict, optional
@@ -285,7 +291,7 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     start = time.perf_counter()
     results = []
     if workers is None:
-        workers = 2 * (os.cpu_count() or 1)
+        workers = min(2 * (os.cpu_count() or 1), MAX_DEFAULT_WORKERS)
     workers = min(workers, len(jobs))
     if workers == 1:
         for job in jobs:

@@ -62,6 +62,11 @@ def _fmt(value) -> str:
     return str(value)
 
 
+#: The numeric cells of a trace line (time_s .. force4_N): 10 significant digits keep the
+#: device's 10 µs time stamps and 0.01 °C / 0.01 N readings exact.
+_FRAME_FORMAT = ",".join(["%.10g"] * 9)
+
+
 class TraceWriter:
     """Streams telemetry frames of one trial attempt to a CSV file.
 
@@ -91,8 +96,11 @@ class TraceWriter:
         """Append one :class:`~experiments.hardware.Telemetry` frame."""
         forces = tuple(float(f) for f in frame.forces_N)
         t, target, contact = float(frame.device_time_s), float(frame.setpoint_C), float(frame.contact_C)
-        fields = [t, target, contact, float(frame.ambient_C), float(frame.finger_C), *forces]
-        self._fh.write(",".join(_fmt(v) for v in fields) + f",{frame.state}\n")
+        fields = (t, target, contact, float(frame.ambient_C), float(frame.finger_C), *forces)
+        line = _FRAME_FORMAT % fields           # one C-level format: the hot path of a session
+        if "n" in line:                         # nan or inf: blank cells, as _fmt writes them
+            line = ",".join(_fmt(v) for v in fields)
+        self._fh.write(f"{line},{frame.state}\n")
         self.time_s.append(t)
         self.target_C.append(target)
         self.contact_C.append(contact)
