@@ -279,6 +279,11 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
                                                                  len(records))
     if workers is not None:
         workers = _positive_int(workers, "--workers")
+    if "seed" in (responder_options or {}):
+        # each simulated person has their own seed (from the cohort's); one seed for all would
+        # give every participant the same noise draws
+        raise UserInputError(f"--responder-option: seed: expected no seed (each participant's "
+                             f"comes from the study's --seed), got {responder_options['seed']!r}")
     get_responder("simulated", **dict(responder_options or {}))   # bad options: fail now
     out_dir.mkdir(parents=True, exist_ok=True)      # a target-side protocol copy goes here
     protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit)

@@ -43,17 +43,31 @@ def register(sub) -> None:
     p.set_defaults(func=_run)
 
 
-def _out_dir(path: str) -> Path:
+def _out_dir(path: str, create: bool = True) -> Path:
     from experiments.errors import UserInputError
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise UserInputError(f"{path}: --out: expected a folder, got an existing file")
-    out.mkdir(parents=True, exist_ok=True)
+    if create:
+        out.mkdir(parents=True, exist_ok=True)
     return out
 
 
+#: Options that only the figure9 study takes (argparse dest, option).
+_FIGURE9_ONLY = (("target_side", "--target-side"), ("rate_limit", "--rate-limit"),
+                 ("participants", "--participants"), ("workers", "--workers"),
+                 ("responder_option", "--responder-option"))
+
+
 def _run(ns) -> int:
-    out = _out_dir(ns.out)
+    from experiments.errors import UserInputError
+    if ns.target != "figure9":
+        for dest, option in _FIGURE9_ONLY:
+            if getattr(ns, dest) not in (None, []):
+                raise UserInputError(f"{option}: expected only with `reproduce figure9`, got it "
+                                     f"with `reproduce {ns.target}`")
+    # figure9 makes its folder itself, once every option has been checked
+    out = _out_dir(ns.out, create=ns.target != "figure9")
     if ns.target == "figures":
         from analysis.model_figures import write_figures
         for path in write_figures(out):

@@ -116,6 +116,8 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     (["--responder-option", "lapse_rate"], "--responder-option: expected KEY=VALUE"),
     (["--responder-option", "nois=1"], "unknown option(s) ['nois']"),
     (["--responder-option", "lapse_rate=2"], "lapse_rate"),
+    # one seed for every simulated person would give them all the same noise draws
+    (["--responder-option", "seed=3"], "--responder-option: seed: expected no seed"),
 ])
 def test_reproduce_figure9_refuses_bad_options_before_running(tmp_path, capsys, args, message):
     from experiments.cli import main
@@ -123,7 +125,16 @@ def test_reproduce_figure9_refuses_bad_options_before_running(tmp_path, capsys, 
     assert main(["reproduce", "figure9", "--out", str(out), *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("thermocue reproduce: ") and message in err and err.count("\n") == 1
-    assert not (out / "data").exists() and not (out / "participants").exists()
+    assert not out.exists()                 # refused before anything was made
+
+
+@pytest.mark.parametrize("target", ["figures", "table2"])
+def test_figure9_options_are_refused_with_other_targets(tmp_path, capsys, target):
+    from experiments.cli import main
+    out = tmp_path / "x"
+    assert main(["reproduce", target, "--out", str(out), "--participants", "4"]) == 2
+    assert "--participants: expected only with `reproduce figure9`" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_refuses_to_pool_with_an_earlier_run(tmp_path):
