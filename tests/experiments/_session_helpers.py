@@ -184,11 +184,15 @@ class ScriptedDisplay:
     calls: list = field(default_factory=list)
     info: Info = field(default_factory=Info)
     n_runs: int = 0
+    #: The real driver's host-side check, so an engine test cannot upload what a display refuses.
+    limits: object = None
 
     def set_neutral(self, c):
         self.calls.append(("set_neutral", c))
 
     def upload_profile(self, t, y):
+        from experiments.hardware.safety import SafetyLimits, check_profile
+        check_profile(t, y, self.limits or SafetyLimits())
         self.calls.append(("upload", len(t)))
 
     def arm(self, **kw):

@@ -309,7 +309,7 @@ def test_simulated_profile_uses_the_calibrated_resistance_and_the_protocols_side
     proto.write_text(proto.read_text().replace("max_rate_C_per_s = 10.0", "max_rate_C_per_s = 15.0"))
     s = create_session(proto, _calibrated_record(tmp_path), tmp_path / "data", "scripted://", seed=1,
                        clock="virtual")
-    disp = _RecordingDisplay()
+    disp = _RecordingDisplay(limits=s.protocol.display.safety_limits())   # as a real one is opened
     assert s.run(ScriptedResponder(), display=disp) == 0
     up = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "profile_uploaded"]
     assert len(up) == 1
