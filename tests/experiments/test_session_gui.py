@@ -120,9 +120,11 @@ def test_psychopy_session_with_real_keys_against_the_emulator_on_a_pty(tmp_path,
     ok = [r for r in rows if r["status"] == "ok"]
     assert [(r["trial_index"], r["mode"], r["roughness_id"]) for r in ok] == \
         [("1", "real", "2"), ("2", "simulated", "3")]
-    # On a loaded machine the display layer may miss its 60 ms heartbeat or lose 2 of ~150
-    # telemetry frames over the pty: that attempt is written as a fault and run again.
+    # On a loaded machine the display layer may miss its 90 ms watchdog or lose 2 of ~150
+    # telemetry frames over the pty: that attempt is written as a fault and run again (at most
+    # once per trial here: more would be a display layer that does not keep up).
     faults = [r for r in rows if r["status"] != "ok"]
+    assert len(faults) <= len(ok), faults
     assert all(r["status"] == "fault" and r["fault_code"] in ("TELEMETRY_LOSS", "WATCHDOG")
                for r in faults), faults
     # The experimenter confirmed each real attempt; each completed trial was answered with the
