@@ -222,17 +222,20 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     def hold_for(self, trial) -> float:
         """How long the finger stays on for ``trial``, s (see the ``hold_s`` option).
 
-        A participant asked for an answer feels, answers and lets go (:attr:`hold_s`); one
-        who is not (a block with ``response = false``) keeps the finger on until the display
-        has recorded (real samples: ``contact.record_s``) or played (``max_contact_s``) the
-        whole contact.
+        A participant asked for an answer feels, answers and lets go (:attr:`hold_s`), and so
+        does one being familiarised (``feedback = true``: told the sample, learning how it
+        feels, which takes the same feature window). On a recording (a block with
+        ``response = false`` and no feedback, e.g. Exp. 1's) the finger stays on until the
+        display has recorded (real samples: ``contact.record_s``) or played
+        (``max_contact_s``) the whole contact.
         """
         if self.hold_given:
             return self.hold_s
         protocol = getattr(self.session, "protocol", None)
         block = _block_of(protocol, trial)
         contact = getattr(protocol, "contact", None)
-        if block is None or contact is None or getattr(block, "response", True):
+        if (block is None or contact is None or getattr(block, "response", True)
+                or getattr(block, "feedback", False)):
             return self.hold_s
         needed = contact.max_contact_s if trial.mode == "simulated" else contact.record_s
         return max(self.hold_s, float(needed) + HOLD_MARGIN_S)

@@ -267,9 +267,17 @@ def test_hold_depends_on_whether_the_block_asks_for_an_answer():
 
     assert hold(spec(5, "real", "real", 2)) == pytest.approx(answered)
     assert hold(spec(6, "simulated", "simulated", 2)) == pytest.approx(answered)
-    assert not protocol.block("familiarise").response
-    assert hold(spec(1, "familiarise", "real", 1)) == pytest.approx(
-        max(answered, protocol.contact.record_s + HOLD_MARGIN_S))
+    # familiarisation: no answer, but told the sample and learning: the same feature window
+    assert not protocol.block("familiarise").response and protocol.block("familiarise").feedback
+    assert hold(spec(1, "familiarise", "real", 1)) == pytest.approx(answered)
+    # a recording (Exp. 1: no answer, no feedback): the whole recorded contact
+    exp1 = load_protocol("interface_temperature")
+    (block,) = exp1.blocks
+    assert not block.response and not block.feedback
+    r.session = SimpleNamespace(protocol=exp1)
+    assert hold(spec(1, block.name, "real", 1)) == pytest.approx(
+        max(answered, exp1.contact.record_s + HOLD_MARGIN_S))
+    r.session = SimpleNamespace(protocol=protocol)
     given = SimulatedResponder(seed=1, skin_thickness_um=700.0, hold_s="3.0")
     given.session = SimpleNamespace(protocol=protocol)
     assert hold(spec(1, "familiarise", "real", 1), given) == 3.0      # an explicit option wins
