@@ -346,15 +346,22 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
             xa, xb = x[: len(levels)].mean(axis=0), x[len(levels):].mean(axis=0)
-            diff = xa - xb
-            est, se = diff @ beta, float(np.sqrt(diff @ cov @ diff))
-            pa, pb = special.expit(xa @ beta), special.expit(xb @ beta)
-            grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
-            dse = float(np.sqrt(grad @ cov @ grad))
-            rows.append([fit.kind, mode, label, est, se, est - z * se, est + z * se, np.exp(est),
-                         2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
-                         pa - pb, pa - pb - z * dse, pa - pb + z * dse, f"model: {fit.formula}"])
+            rows.append([fit.kind, mode, label, *_contrast(xa, xb, beta, cov, z),
+                         f"model: {fit.formula}"])
     return pd.DataFrame(rows, columns=columns)
+
+
+def _contrast(xa, xb, beta, cov, z) -> list:
+    """Group A (design row ``xa``) vs B (``xb``): log odds ratio, its SE, interval, odds ratio,
+    p-value, both probabilities and their difference with a delta-method interval."""
+    diff = xa - xb
+    est, se = float(diff @ beta), float(np.sqrt(diff @ cov @ diff))
+    pa, pb = float(special.expit(xa @ beta)), float(special.expit(xb @ beta))
+    grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
+    dse = float(np.sqrt(grad @ cov @ grad))
+    return [est, se, est - z * se, est + z * se, np.exp(est),
+            2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
+            pa - pb, pa - pb - z * dse, pa - pb + z * dse]
 
 
 def _has_group_by_roughness(fit: ModelFit) -> bool:
@@ -385,12 +392,6 @@ def _sample_gee_contrast(cell: pd.DataFrame, z: float) -> list:
         res = sm.GEE(cell["correct"].to_numpy(float), x, groups=cell["participant"].to_numpy(),
                      family=sm.families.Binomial(),
                      cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
-    est, se = -float(res.params.iloc[1]), float(res.bse.iloc[1])
-    cov = np.asarray(res.cov_params())
     xa, xb = np.array([1.0, 0.0]), np.array([1.0, 1.0])
-    pa, pb = float(special.expit(xa @ res.params)), float(special.expit(xb @ res.params))
-    grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
-    dse = float(np.sqrt(grad @ cov @ grad))
-    return [est, se, est - z * se, est + z * se, np.exp(est),
-            2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
-            pa - pb, pa - pb - z * dse, pa - pb + z * dse, "per-sample GEE: correct ~ group"]
+    return [*_contrast(xa, xb, np.asarray(res.params), np.asarray(res.cov_params()), z),
+            "per-sample GEE: correct ~ group"]

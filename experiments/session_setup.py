@@ -203,9 +203,10 @@ def check_simulated_profiles(protocol, participant: dict, group, schedule, *, so
             if not (disp.min_C <= lo and hi <= disp.max_C):
                 raise ProtocolError(_range_message(src, protocol, lo, hi)) from None
             dt = 1.0 / sim.rate_Hz
-            fastest = max(profiles, key=lambda k: profile_max_rate(profiles[k].temperature, dt,
-                                                                   limits.rate_window_s))
-            rate = profile_max_rate(profiles[fastest].temperature, dt, limits.rate_window_s)
+            rates = {k: profile_max_rate(p.temperature, dt, limits.rate_window_s)
+                     for k, p in profiles.items()}
+            fastest = max(rates, key=rates.get)
+            rate = rates[fastest]
             raise ProtocolError(
                 f"{src}: display.max_rate_C_per_s: expected at least the simulated profiles' "
                 f"{rate:.3g} °C/s over {limits.rate_window_s:g} s "

@@ -488,7 +488,6 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
     if side not in ("skin", "material"):
         raise ModelInputError(f"{where}: side: expected 'skin' or 'material', got {side!r}")
     Ts0, Tm0 = float(skin_temperature), float(material_temperature)
-    L = skin.thickness
     x = _check_depth(skin, depth, where, allow_material=True, material_extent=material.thickness)
     cells = _check_cells(cells)
     if isinstance(split, bool) or not isinstance(split, (int, np.integer)) or split < 1:

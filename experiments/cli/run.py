@@ -87,7 +87,7 @@ def _run(ns) -> int:
 
     from experiments.errors import UserInputError
     from experiments.responders import get_responder
-    from experiments.session import open_session_display, plan_session
+    from experiments.session import plan_session
 
     if ns.seed is not None and ns.seed < 0:
         raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
