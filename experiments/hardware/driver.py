@@ -729,6 +729,35 @@ class ThermalDisplay:
             exc, self._link_error = self._link_error, None
             raise DisplayError(f"display: link lost: {exc}")
 
+    def poll(self, on_telemetry=None, on_event=None) -> bool:
+        """Route what has arrived, without waiting; return whether the armed trial has ended.
+
+        For a caller with its own loop (PsychoPy's frame loop) in place of :meth:`run_trial`'s:
+        call it often, then :meth:`run_trial` once it returns True (or after :meth:`abort`) to
+        get the :class:`TrialRecording`. The callbacks are attached to the armed trial as
+        :meth:`run_trial` attaches them (telemetry received before is replayed first).
+        """
+        self._check_link()
+        with self._lock:
+            tr = self._trial
+            if tr is not None and on_telemetry is not None and tr.callback is None:
+                for fr in tr.pending:
+                    on_telemetry(fr)
+                tr.pending, tr.callback = [], on_telemetry
+            if tr is not None and on_event is not None:
+                tr.on_event = on_event
+            try:
+                while self._virtual or self.port.in_waiting > 0:
+                    for fr in self._read_frames():
+                        self._dispatch(fr)
+                    if self._virtual:
+                        break
+            except (serial.SerialException, OSError) as exc:
+                self._link_error = exc
+                raise DisplayError(f"display: link lost while reading: {exc}") from exc
+            self._heartbeat_if_due()
+        return tr is not None and tr.ended
+
     # ------------------------------------------------------------------ emulator-only
     def _sim(self, cmd, args: dict) -> dict:
         if self.info is None or "sim" not in self.info.capabilities:
