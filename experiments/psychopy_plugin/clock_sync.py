@@ -1,0 +1,189 @@
+"""Device time ↔ host (PsychoPy) time, from acknowledged heartbeat round trips.
+
+A HEARTBEAT reply carries the device's clock (µs) at the moment it handled the command, which
+lies between the host times ``t0`` (before the write) and ``t1`` (after the reply was read). A
+device clock that counts in steps of ``resolution`` (the emulator's 10 ms tick; 1 µs on a
+device that stamps with its microsecond timer) reports the last step *before* that moment. So
+each round trip bounds the offset ``o = device − host``::
+
+    r − t1  ≤  o  <  r + resolution − t0
+
+and a burst of round trips narrows the interval to about one round trip once it spans a step
+boundary (the samples just after a boundary bound ``o`` from below, those just before one from
+above). This is the bounds intersection of NTP-style clock filters, exact rather than averaged:
+it holds whatever the delays, and an empty intersection says the device's clock jumped.
+
+Two bursts (before a trial and after it) give the offset at each end and the drift between.
+The resolution is learned from the replies themselves (the greatest common divisor of their
+differences), so nothing about the device needs configuring. Standard library only.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+from functools import reduce
+from statistics import median
+
+__all__ = ["SyncBurst", "ClockMap", "sync_burst", "estimate_burst"]
+
+
+@dataclass(frozen=True)
+class SyncBurst:
+    """The device-minus-host offset over one burst of round trips.
+
+    Attributes
+    ----------
+    host_s : float, s
+        Host time the offset refers to (the middle of the burst).
+    offset_s : float, s
+        Device time minus host time (the middle of the bounds).
+    half_width_s : float, s
+        Half the width of the bounds: the offset is within ``offset_s ± half_width_s``.
+    resolution_s : float, s
+        The device clock's step, as learned from the replies.
+    rtt_median_s : float, s
+        Median round trip.
+    n : int
+        Round trips in the burst.
+    consistent : bool
+        False if the bounds did not intersect (a clock that jumped, or a reply stamped outside
+        its round trip); ``offset_s`` is then the middle of the crossed bounds.
+    """
+
+    host_s: float
+    offset_s: float
+    half_width_s: float
+    resolution_s: float
+    rtt_median_s: float
+    n: int
+    consistent: bool = True
+
+
+def _resolution_us(device_us: list[int], fallback_us: int) -> int:
+    diffs = [abs(d - device_us[0]) for d in device_us[1:] if d != device_us[0]]
+    if not diffs:
+        return fallback_us
+    return max(1, reduce(math.gcd, diffs))
+
+
+def estimate_burst(samples, *, fallback_resolution_s: float = 1e-6) -> SyncBurst:
+    """Intersect the bounds of round trips ``(t0_s, device_s, t1_s)``.
+
+    Parameters
+    ----------
+    samples : sequence of (float, float, float)
+        Host time before the request, device time in the reply, host time after the reply (s).
+    fallback_resolution_s : float, s
+        Device clock step to assume when all replies carry the same time.
+
+    Returns
+    -------
+    SyncBurst
+
+    Examples
+    --------
+    A device 100 s ahead of the host whose clock steps every 10 ms, probed every 0.3 ms:
+
+    >>> trips = []
+    >>> for i in range(80):
+    ...     t0 = 1000.0 + i * 0.0003
+    ...     w = t0 + 0.0001                       # the device handles it 0.1 ms later
+    ...     dev = math.floor((w + 100.0) / 0.01) * 0.01
+    ...     trips.append((t0, dev, t0 + 0.0002))
+    >>> b = estimate_burst(trips)
+    >>> round(b.resolution_s, 6), abs(b.offset_s - 100.0) < 2e-4, b.half_width_s < 2e-4
+    (0.01, True, True)
+    """
+    if not samples:
+        raise ValueError("estimate_burst: expected at least one round trip, got none")
+    dev_us = [int(round(d * 1e6)) for _, d, _ in samples]
+    res_us = _resolution_us(dev_us, max(1, int(round(fallback_resolution_s * 1e6))))
+    res = res_us * 1e-6
+    lo = max(d - t1 for t0, d, t1 in samples)
+    hi = min(d + res - t0 for t0, d, t1 in samples)
+    consistent = lo <= hi
+    host = 0.5 * (min(s[0] for s in samples) + max(s[2] for s in samples))
+    return SyncBurst(host_s=host, offset_s=0.5 * (lo + hi), half_width_s=0.5 * abs(hi - lo),
+                     resolution_s=res, rtt_median_s=median(t1 - t0 for t0, _, t1 in samples),
+                     n=len(samples), consistent=consistent)
+
+
+def sync_burst(heartbeat, clock, *, duration_s: float = 0.03, min_samples: int = 8,
+               max_samples: int = 400, spacing_s: float = 1e-4,
+               fallback_resolution_s: float = 1e-6) -> SyncBurst:
+    """Run acknowledged heartbeats back to back for ``duration_s`` and intersect their bounds.
+
+    Parameters
+    ----------
+    heartbeat : callable
+        One acknowledged heartbeat, returning the device time, s
+        (:meth:`experiments.hardware.ThermalDisplay.heartbeat`).
+    clock : callable
+        The host clock, s (PsychoPy's ``psychopy.clock.getTime``).
+    duration_s : float, s
+        How long to keep probing: at least three steps of a 10 ms device clock.
+    min_samples, max_samples : int
+    spacing_s : float, s
+        Least time between the starts of two round trips (an in-process emulator answers in
+        10 µs: unpaced, the burst would end before it spans a step of the device clock).
+
+    Returns
+    -------
+    SyncBurst
+    """
+    samples = []
+    start = clock()
+    while len(samples) < max_samples and (len(samples) < min_samples
+                                          or clock() - start < duration_s):
+        t0 = clock()
+        d = heartbeat()
+        t1 = clock()
+        samples.append((t0, d, t1))
+        while clock() - t0 < spacing_s:
+            time.sleep(spacing_s / 4)
+    return estimate_burst(samples, fallback_resolution_s=fallback_resolution_s)
+
+
+@dataclass(frozen=True)
+class ClockMap:
+    """A linear map from device time to host time, from one or two bursts.
+
+    ``host = device − (offset_s + drift · (host − host_ref_s))``, solved exactly.
+
+    Attributes
+    ----------
+    host_ref_s : float, s
+        Host time of the first burst.
+    offset_s : float, s
+        Device minus host at ``host_ref_s``.
+    drift : float
+        Rate of change of the offset (s per s; 0 with a single burst).
+    uncertainty_s : float, s
+        Largest half-width of the bursts used: the bound on the error of a mapped time between
+        them, if the drift is linear.
+    """
+
+    host_ref_s: float
+    offset_s: float
+    drift: float
+    uncertainty_s: float
+
+    @classmethod
+    def from_bursts(cls, first: SyncBurst, last: SyncBurst | None = None) -> "ClockMap":
+        if last is None or last.host_s - first.host_s < 1e-3:
+            return cls(first.host_s, first.offset_s, 0.0, first.half_width_s)
+        drift = (last.offset_s - first.offset_s) / (last.host_s - first.host_s)
+        return cls(first.host_s, first.offset_s, drift, max(first.half_width_s, last.half_width_s))
+
+    def to_host(self, device_s: float) -> float:
+        """Host time at which the device's clock read ``device_s``."""
+        # device = host + offset + drift (host - ref)  =>  host = (device - offset + drift ref) / (1 + drift)
+        return (device_s - self.offset_s + self.drift * self.host_ref_s) / (1.0 + self.drift)
+
+    def to_device(self, host_s: float) -> float:
+        """Device time at host time ``host_s``."""
+        return host_s + self.offset_s + self.drift * (host_s - self.host_ref_s)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
