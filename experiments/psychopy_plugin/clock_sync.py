@@ -99,7 +99,9 @@ def estimate_burst(samples, *, fallback_resolution_s: float = 1e-6) -> SyncBurst
         raise ValueError("estimate_burst: expected at least one round trip, got none")
     dev_us = [int(round(d * 1e6)) for _, d, _ in samples]
     res_us = _resolution_us(dev_us, max(1, int(round(fallback_resolution_s * 1e6))))
-    res = res_us * 1e-6
+    # a device clock cannot step by more than the burst lasted: a larger step is a jump
+    span = max(s[2] for s in samples) - min(s[0] for s in samples)
+    res = min(res_us * 1e-6, max(span, fallback_resolution_s))
     lo = max(d - t1 for t0, d, t1 in samples)
     hi = min(d + res - t0 for t0, d, t1 in samples)
     consistent = lo <= hi

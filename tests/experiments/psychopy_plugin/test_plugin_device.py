@@ -1,0 +1,155 @@
+"""The thermal display as a PsychoPy device, over the emulator on a real pty.
+
+PsychoPy's own DeviceManager creates it (through the installed entry point and through the
+alias), its responses are PsychoPy ``BaseResponse`` objects with the device's time stamps, and
+their place on PsychoPy's clock is checked against the emulator's own log, stamped with
+PsychoPy's clock in the tick that detected the contact.
+"""
+from __future__ import annotations
+
+import importlib.metadata
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from _plugin_helpers import read_log, serve_stamped
+
+pytest.importorskip("psychopy")
+
+T = np.arange(0, 2.0001, 0.01)
+PROFILE = np.round(32.0 - 3.0 * np.sqrt(T / 2.0), 2)     # 32 -> 29 °C, 8.5 °C/s over 0.1 s
+
+
+@pytest.fixture(scope="module")
+def emulator(tmp_path_factory):
+    with serve_stamped(tmp_path_factory.mktemp("emu")) as (link, log):
+        yield link, log
+
+
+@pytest.fixture
+def manager():
+    from psychopy import plugins
+    from psychopy.hardware import DeviceManager
+    plugins.activatePlugins()
+    yield DeviceManager
+    for name in list(DeviceManager.devices):
+        if name.startswith("thermal"):
+            DeviceManager.removeDevice(name)
+
+
+def test_the_entry_points_are_installed():
+    eps = {(e.group, e.name): e.value
+           for e in importlib.metadata.distribution("thermocue").entry_points}
+    assert eps[("psychopy.hardware", "ThermalCueDevice")] == \
+        "experiments.psychopy_plugin.device:ThermalCueDevice"
+    assert eps[("psychopy.experiment.components", "ThermalCueComponent")] == \
+        "experiments.psychopy_plugin.component:ThermalCueComponent"
+
+
+def test_activated_plugins_expose_device_and_component(manager):
+    import psychopy.hardware
+    from psychopy import plugins
+    from psychopy.experiment.components import getAllComponents
+
+    from experiments.psychopy_plugin.component import ThermalCueComponent
+    from experiments.psychopy_plugin.device import ThermalCueDevice
+    assert "thermocue" in plugins.listPlugins("loaded")
+    assert psychopy.hardware.ThermalCueDevice is ThermalCueDevice
+    assert getAllComponents()["ThermalCueComponent"] is ThermalCueComponent
+    assert "experiments.psychopy_plugin.device.ThermalCueDevice" in manager.deviceClasses
+
+
+def test_device_manager_opens_it_by_entry_point_name_and_by_alias(manager, emulator):
+    from experiments.psychopy_plugin.device import ThermalCueDevice
+    link, _ = emulator
+    dev = manager.addDevice(deviceClass="psychopy.hardware.ThermalCueDevice",
+                            deviceName="thermal", url=link, protocol="roughness_recognition")
+    assert isinstance(dev, ThermalCueDevice) and manager.getDevice("thermal") is dev
+    assert dev.isAwake()
+    assert dev.limits.max_C == 42.0 and dev.display.status().neutral_C == 32.0
+    # the same physical port, named by the pty's real path or as a profile dict
+    assert dev.isSameDevice({"url": os.path.realpath(link)})
+    assert not dev.isSameDevice({"url": "emulator://"})
+    assert dev.getDeviceProfile()["deviceName"] == "Thermal display EMU-0001"
+    manager.removeDevice("thermal")              # closes the port: a second host may open it
+    dev2 = manager.addDevice(deviceClass="thermocue", deviceName="thermal2", url=link)
+    assert dev2.isSameDevice(dev) and dev2.isAwake()
+
+
+def test_a_bad_url_is_reported_by_the_device_manager(manager):
+    from psychopy.hardware.exceptions import ManagedDeviceError
+    with pytest.raises(ManagedDeviceError, match="expected a display URL"):
+        manager.addDevice(deviceClass="thermocue", deviceName="thermal_bad",
+                          url="emulator://?colour=blue", protocol="roughness_recognition")
+
+
+def test_available_devices_lists_without_opening():
+    # importing the device (and activating plugins) must not enumerate, let alone open, ports
+    code = ("import serial.tools.list_ports as lp, serial.tools.list_ports_linux as lpl\n"
+            "def boom(*a, **k):\n    raise SystemExit('ports probed at import')\n"
+            "lp.comports = lpl.comports = boom\n"
+            "from psychopy import plugins\nplugins.activatePlugins()\n"
+            "import experiments.psychopy_plugin.device as d\n"
+            "print(d.ThermalCueDevice.__name__)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-1500:]
+    assert out.stdout.strip().endswith("ThermalCueDevice")
+    from experiments.psychopy_plugin.device import ThermalCueDevice
+    profiles = ThermalCueDevice.getAvailableDevices()
+    assert profiles[0]["url"] == "emulator://"
+    assert all(p["deviceClass"].endswith("ThermalCueDevice") for p in profiles)
+
+
+def test_contact_and_release_are_responses_on_psychopy_time(manager, emulator):
+    link, log = emulator
+    dev = manager.addDevice(deviceClass="thermocue", deviceName="thermal", url=link,
+                            protocol="roughness_recognition")
+    called = []
+    dev.registerCallback(lambda r: r.kind == "contact", called.append, args=["contact!"])
+    dev.uploadProfile(T, PROFILE)
+    dev.resetClockMap()
+    dev.syncClock()
+    dev.arm(forceThreshold_N=2.0, maxDuration_s=10.0)
+    dev.display.sim_finger(press_after_s=0.2, force_N=2.5, hold_s=0.8)   # released before the end
+    deadline = time.monotonic() + 15
+    while not dev.dispatchMessages() and time.monotonic() < deadline:
+        time.sleep(1 / 60)
+    rec = dev.finishTrial()
+    dev.syncClock()
+    assert rec.status == "ok" and rec.end_reason == "released"
+    kinds = [(r.kind, r.value) for r in dev.responses]
+    assert kinds == [("contact", True), ("release", False)]
+    contact, release = dev.responses
+    assert contact.device_time_s == rec.contact_time_s and contact.force_N >= 2.0
+    assert release.device_time_s - contact.device_time_s == pytest.approx(rec.duration_s, abs=1e-6)
+    assert called == ["contact!"]
+    assert '"kind": "contact"' in contact.getJSON()
+    # PsychoPy time of the contact: the emulator logged the tick that saw it on the same clock
+    truth = [r for r in read_log(log) if r.get("why") == "contact"][-1]
+    assert truth["t_s"] == pytest.approx(contact.device_time_s, abs=1e-6)
+    assert math.isfinite(contact.t)
+    assert abs(dev.toPsychopyTime(contact.device_time_s) - truth["host_s"]) < 1e-3
+
+
+def test_neutral_stops_a_profile_that_plays(manager, emulator):
+    link, log = emulator
+    dev = manager.addDevice(deviceClass="thermocue", deviceName="thermal", url=link,
+                            protocol="roughness_recognition")
+    dev.uploadProfile(T, PROFILE)
+    dev.arm(forceThreshold_N=2.0, maxDuration_s=10.0)
+    dev.display.sim_finger(press_after_s=0.1, force_N=2.5, hold_s=5.0)
+    deadline = time.monotonic() + 10
+    while not dev.responses and time.monotonic() < deadline:
+        dev.dispatchMessages()
+        time.sleep(0.01)
+    assert dev.responses and dev.responses[0].kind == "contact"
+    assert dev.neutral() is True
+    assert dev.display.status().state == "IDLE"
+    assert [r for r in read_log(log) if r.get("event") == "state"][-1]["why"] == "abort"
+    rec = dev.finishTrial()
+    assert rec.status == "aborted"
