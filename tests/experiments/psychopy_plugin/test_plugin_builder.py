@@ -1,0 +1,121 @@
+"""A Builder experiment with the Thermal cue component, compiled by PsychoPy and run headless.
+
+``docs/examples/thermal_cue_demo.psyexp`` (two trials, samples 1 and 3 of the packaged protocol
+for participant P01, a text prompt and a keyboard) is compiled by PsychoPy's own compiler
+(``psyexpCompile.compileScript``, plugins activated as the Builder app does), and the script runs
+under Xvfb against the emulator on a real pty. The emulator's scripted finger presses after
+arming (the component's dry-run option); once the emulator's log shows the contact, xdotool
+answers with the sample's number. The PsychoPy data file must hold the thermal columns; the
+emulator's own log must show each profile playing and the pad back at neutral at the end.
+"""
+from __future__ import annotations
+
+import csv
+import shutil
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from _plugin_helpers import P01, REPO, gui_env, read_log, serve_stamped, xdotool_key
+
+pytestmark = [pytest.mark.gui, pytest.mark.slow]
+EXAMPLES = REPO / "docs" / "examples"
+
+
+def _contacts(log):
+    return [r for r in read_log(log) if r.get("event") == "state" and r.get("why") == "contact"]
+
+
+def _answer_after_each_contact(run, env, log, keys, timeout_s=90):
+    """Press each key once the emulator shows that trial's contact; resend once if missed."""
+    sent, resent = [], 0
+    deadline = time.monotonic() + timeout_s
+    for i, key in enumerate(keys):
+        while len(_contacts(log)) <= i and run.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if run.poll() is not None:
+            break
+        time.sleep(0.3)                          # the participant feels the cue, then answers
+        for attempt in range(2):
+            xdotool_key(env, key)
+            t0 = time.monotonic()
+            aborted = lambda: sum(r.get("why") == "abort" for r in read_log(log)) > i  # noqa: E731
+            while not aborted() and time.monotonic() - t0 < 4 and run.poll() is None:
+                time.sleep(0.05)
+            if aborted() or run.poll() is not None:
+                break
+            resent += 1
+        sent.append(key)
+    return sent, resent
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
+    work = tmp_path / "docs" / "examples"
+    work.mkdir(parents=True)
+    for name in ("thermal_cue_demo.psyexp", "conditions.csv"):
+        shutil.copy(EXAMPLES / name, work / name)
+    (tmp_path / "participants" / "examples").mkdir(parents=True)
+    shutil.copy(P01, tmp_path / "participants" / "examples" / "P01.json")
+    env = gui_env(xvfb)
+    script = work / "thermal_cue_demo.py"
+    out = subprocess.run([sys.executable, "-m", "experiments.psychopy_plugin.compile",
+                          str(work / "thermal_cue_demo.psyexp"), "-o", str(script)],
+                         env=env, capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, out.stderr[-2000:]
+    code = script.read_text(encoding="utf-8-sig")
+    assert "Unknown component" not in code
+    assert "thermal.start(routineTimer)" in code and "runAtExit.append(thermal.stop)" in code
+
+    with serve_stamped(tmp_path) as (link, log):
+        run = subprocess.Popen([sys.executable, str(script)], cwd=work,
+                               env={**env, "THERMOCUE_DISPLAY": link},
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            sent, resent = _answer_after_each_contact(run, env, log, ["1", "3"])
+            _, err = run.communicate(timeout=60)
+        finally:
+            if run.poll() is None:
+                run.kill()
+                run.communicate()
+        time.sleep(1.5)      # the pad slews back to neutral at the protocol's 10 °C/s
+    assert run.returncode == 0, err[-3000:]
+    assert sent == ["1", "3"] and resent <= 1
+
+    # --- PsychoPy's own data file
+    (data_file,) = (work / "data").glob("*.csv")
+    with open(data_file, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["sample"], r["answer.keys"]) for r in rows] == [("1", "1"), ("3", "3")]
+    for r in rows:
+        # answered while the profile played: the routine's end put the display to neutral
+        assert (r["thermal.status"], r["thermal.end_reason"]) == ("aborted", "aborted")
+        assert r["thermal.fault_code"] in ("", "None")      # PsychoPy writes None as text
+        armed, contact = float(r["thermal.armed_routine_s"]), float(r["thermal.contact_routine_s"])
+        assert 0 <= armed < contact < float(r["trial.stopped"]) - float(r["trial.started"])
+        assert float(r["thermal.contact_force_N"]) >= 2.0
+        assert float(r["thermal.tracking_rms_C"]) < 0.1
+        assert int(r["thermal.frames"]) > 30
+        assert float(r["thermal.clock_uncertainty_s"]) < 1e-3
+        assert r["thermal.profile_source"].startswith("protocol:roughness_recognition sample")
+        assert float(r["thermal.contact_duration_s"]) > 0.2
+
+    # --- the emulator's own record
+    records = read_log(log)
+    states = [r for r in records if r.get("event") == "state"]
+    assert [s["why"] for s in states] == ["arm playback", "contact", "abort"] * 2
+    assert not any(r.get("event") == "watchdog" for r in records)
+    from experiments.psychopy_plugin.profiles import protocol_profile
+    for k, sample in enumerate((1, 3)):
+        contact, abort = states[3 * k + 1], states[3 * k + 2]
+        # the setpoint when the routine ended is the profile's value at that time from contact
+        prof = protocol_profile("roughness_recognition", P01, sample)
+        expected = np.interp(abort["t_s"] - contact["t_s"], prof.times_s, prof.target_C)
+        assert abort["setpoint_C"] == pytest.approx(expected, abs=0.02)
+        assert contact["setpoint_C"] == pytest.approx(prof.target_C[0], abs=0.02)
+    stop = records[-1]
+    assert stop["event"] == "stop" and stop["state"] == "IDLE"
+    assert stop["setpoint_C"] == 32.0 and abs(stop["pad_C"] - 32.0) < 0.3    # neutral
