@@ -112,9 +112,13 @@ def estimate_burst(samples, *, fallback_resolution_s: float = 1e-6) -> SyncBurst
 
 
 def sync_burst(heartbeat, clock, *, duration_s: float = 0.03, min_samples: int = 8,
-               max_samples: int = 400, spacing_s: float = 1e-4,
-               fallback_resolution_s: float = 1e-6) -> SyncBurst:
-    """Run acknowledged heartbeats back to back for ``duration_s`` and intersect their bounds.
+               max_samples: int = 1000, spacing_s: float = 1e-4, target_half_width_s: float = 2e-4,
+               max_duration_s: float = 0.15, fallback_resolution_s: float = 1e-6) -> SyncBurst:
+    """Run acknowledged heartbeats back to back and intersect their bounds.
+
+    The burst lasts ``duration_s``, and longer (up to ``max_duration_s``) while the bounds are
+    wider than ``2 * target_half_width_s``: on a loaded machine a round trip delayed by the
+    scheduler only loosens its own bounds, so probing on finds the tight ones.
 
     Parameters
     ----------
@@ -124,11 +128,13 @@ def sync_burst(heartbeat, clock, *, duration_s: float = 0.03, min_samples: int =
     clock : callable
         The host clock, s (PsychoPy's ``psychopy.clock.getTime``).
     duration_s : float, s
-        How long to keep probing: at least three steps of a 10 ms device clock.
+        Shortest burst: at least three steps of a 10 ms device clock.
     min_samples, max_samples : int
     spacing_s : float, s
         Least time between the starts of two round trips (an in-process emulator answers in
         10 µs: unpaced, the burst would end before it spans a step of the device clock).
+    target_half_width_s, max_duration_s : float, s
+        Probe on, up to ``max_duration_s``, until the half-width is at most this.
 
     Returns
     -------
@@ -136,8 +142,16 @@ def sync_burst(heartbeat, clock, *, duration_s: float = 0.03, min_samples: int =
     """
     samples = []
     start = clock()
-    while len(samples) < max_samples and (len(samples) < min_samples
-                                          or clock() - start < duration_s):
+    burst = None
+    while len(samples) < max_samples:
+        elapsed = clock() - start
+        if len(samples) >= min_samples and elapsed >= duration_s:
+            if elapsed >= max_duration_s:
+                break
+            if len(samples) % 8 == 0:
+                burst = estimate_burst(samples, fallback_resolution_s=fallback_resolution_s)
+                if burst.half_width_s <= target_half_width_s:
+                    break
         t0 = clock()
         d = heartbeat()
         t1 = clock()

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("psychopy")
 
 DOC = Path(__file__).resolve().parents[3] / "docs" / "psychopy-plugin.md"
 

@@ -15,7 +15,6 @@ from _plugin_helpers import P01
 from experiments.errors import SafetyLimitError, UserInputError
 from experiments.psychopy_plugin.profiles import file_profile, protocol_profile
 
-pytest.importorskip("psychopy")
 
 
 @pytest.fixture(scope="module")

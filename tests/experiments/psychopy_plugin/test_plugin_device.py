@@ -19,7 +19,6 @@ import pytest
 
 from _plugin_helpers import read_log, serve_stamped
 
-pytest.importorskip("psychopy")
 
 T = np.arange(0, 2.0001, 0.01)
 PROFILE = np.round(32.0 - 3.0 * np.sqrt(T / 2.0), 2)     # 32 -> 29 °C, 8.5 °C/s over 0.1 s
