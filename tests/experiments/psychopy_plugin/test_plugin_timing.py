@@ -6,7 +6,7 @@ through the ticks that ran on time (:func:`_plugin_helpers.on_time_host_s`), giv
 PsychoPy time of any device time stamp, as a display's own timer would keep it. The device maps
 the contact's stamp with heartbeat bursts before and after the trial (:mod:`..clock_sync`); the
 error against that truth is printed (``pytest -s``); it must stay within the mapping's own
-stated uncertainty plus 0.2 ms (the emulator stamps inside its tick, replies after it), and
+stated uncertainty plus 0.5 ms (the emulator's own wake-up delay on a loaded machine), and
 below 1 ms in every trial whose stated uncertainty is below 0.8 ms (at least 6 of the 8). The error against the log's stamp of the contact tick itself (late when the emulator
 was starved) is printed too.
 """
@@ -75,9 +75,11 @@ def test_contact_onset_is_placed_on_psychopy_time_within_1_ms(tmp_path):
           f"trip median {statistics.median(rtts) * 1e6:.0f} µs; contact ticks ran up to "
           f"{max(late) * 1e3:.2f} ms late (emulator's worst tick: "
           f"{records[-1].get('max_late_ms')} ms)")
-    # the stated bound holds, always
+    # the stated bound holds, always, up to the emulator's own wake-up delay: on a loaded
+    # machine its loop runs a tick up to a few hundred µs after the schedule, and heartbeat
+    # replies carry the previous tick's time that much longer (a hardware timer does not)
     for e, w in errors:
-        assert abs(e) <= w + 0.2e-3
+        assert abs(e) <= w + 0.5e-3
     # within 1 ms whenever the mapping says it got a tight burst (< 0.8 ms); on a machine loaded
     # to a load average of 8-10 on 2 cores an odd burst stays wide (its rows say so in
     # clock_uncertainty_s), but most must be tight
