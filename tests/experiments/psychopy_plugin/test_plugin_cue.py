@@ -86,7 +86,8 @@ def test_contact_trigger_writes_the_component_columns(device):
     assert cols["thermal.force_threshold_N"] == 2.0
     assert cols["thermal.armed_routine_s"] < cols["thermal.contact_routine_s"] < clock.getTime()
     assert cols["thermal.contact_device_s"] == cue.contact.device_time_s
-    assert cols["thermal.tracking_rms_C"] < 0.1 and cols["thermal.clock_uncertainty_s"] < 1e-3
+    assert cols["thermal.tracking_rms_C"] < 0.1
+    assert 0 <= cols["thermal.clock_uncertainty_s"] < 0.01    # the 1 ms claim: test_plugin_timing
     assert device.display.status().state == "IDLE"
 
 
