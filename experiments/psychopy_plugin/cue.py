@@ -82,6 +82,7 @@ class ThermalCue:
         self.armed_clock_s = None
         self.contact = None            # the ContactResponse of this routine, once seen
         self.ended = False
+        self.link_error = None
 
     # -------------------------------------------------------------- per routine
     def prepare(self, sample=None, participant=None, profile_file=None):
@@ -105,7 +106,7 @@ class ThermalCue:
                 self._cache[key] = file_profile(self.profile_file)
         self.profile = self._cache[key]
         self.device.uploadProfile(self.profile.times_s, self.profile.target_C)
-        self.contact, self.ended, self.armed_clock_s = None, False, None
+        self.contact, self.ended, self.armed_clock_s, self.link_error = None, False, None, None
         return self.profile
 
     def threshold_N(self) -> float:
@@ -137,8 +138,17 @@ class ThermalCue:
                                    hold_s=self.max_duration_s() + 1.0)
 
     def poll(self) -> bool:
-        """Each frame: route the display's messages; True once its trial has ended."""
-        self.ended = self.device.dispatchMessages()
+        """Each frame: route the display's messages; True once its trial has ended.
+
+        A link that fails ends the cue (True); :meth:`end` records the fault, and the device's
+        watchdog has the pad at neutral within 100 ms of the host falling silent.
+        """
+        try:
+            self.ended = self.device.dispatchMessages()
+        except DisplayError as exc:
+            self.link_error = str(exc)
+            self.ended = True
+            return True
         if self.contact is None:
             for r in self.device.responses:
                 if r.kind == "contact":
@@ -178,7 +188,7 @@ class ThermalCue:
         except DisplayError as exc:
             dev.neutral()
             rec = None
-            cols["fault_message"] = str(exc)
+            cols["fault_message"] = self.link_error or str(exc)
         cmap = dev.clockMap
         if rec is not None:
             cols.update(status=rec.status, fault_code=rec.fault_code, end_reason=rec.end_reason,

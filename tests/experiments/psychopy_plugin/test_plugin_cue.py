@@ -131,3 +131,50 @@ def test_a_routine_that_ended_before_the_cue_started(device):
     cue = ThermalCue("thermal", device, participant=str(P01))
     cue.prepare(sample=2)
     assert cue.end(core.Clock()) == {"thermal.status": "not_started"}
+
+
+def test_a_device_fault_during_the_cue_ends_it_and_is_recorded(tmp_path):
+    from psychopy import core
+
+    from experiments.psychopy_plugin import ThermalCue
+    from experiments.psychopy_plugin.device import ThermalCueDevice
+    dev = ThermalCueDevice(url="emulator://?seed=5", protocol="roughness_recognition")
+    try:
+        cue = ThermalCue("thermal", dev, participant=str(P01), simulate_touch=True,
+                         touch_after_s=0.1)
+        clock = core.Clock()
+        cue.prepare(sample=1)
+        cue.start(clock)
+        _run(cue, clock)
+        assert cue.touched
+        dev.display.sim_fault("overtemp")          # the Peltier driver sticks at full heating
+        _run(cue, clock, until_contact=False, timeout_s=5.0)
+        assert cue.ended
+        cols = cue.end(clock)
+        assert (cols["thermal.status"], cols["thermal.fault_code"]) == ("fault", "OVER_TEMPERATURE")
+        assert dev.display.status().state == "FAULT"     # latched: the next arm is refused
+    finally:
+        dev.close()
+
+
+def test_a_lost_link_ends_the_cue_without_an_exception(tmp_path):
+    from psychopy import core
+
+    from experiments.psychopy_plugin import ThermalCue
+    from experiments.psychopy_plugin.device import ThermalCueDevice
+    dev = ThermalCueDevice(url="emulator://?seed=6", protocol="roughness_recognition")
+    try:
+        cue = ThermalCue("thermal", dev, participant=str(P01), simulate_touch=True,
+                         touch_after_s=0.1)
+        clock = core.Clock()
+        cue.prepare(sample=1)
+        cue.start(clock)
+        _run(cue, clock)
+        dev.display.sim_fault("disconnect@0.3")       # 0.3 s from now, after its reply
+        _run(cue, clock, until_contact=False, timeout_s=5.0)
+        assert cue.ended
+        cols = cue.end(clock)
+        assert cols["thermal.status"] == "fault"
+        assert cols["thermal.fault_code"] in ("LINK_LOST", "LINK_TIMEOUT")
+    finally:
+        dev.close()
