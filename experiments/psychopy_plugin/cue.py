@@ -184,11 +184,17 @@ class ThermalCue:
             return {f"{self.name}.status": "not_started"}
         try:
             rec = dev.finishTrial()
-            dev.syncClock()                   # second burst: the drift over the trial
         except DisplayError as exc:
             dev.neutral()
             rec = None
             cols["fault_message"] = self.link_error or str(exc)
+        if rec is not None and rec.fault_code is not None:
+            cols["fault_message"] = rec.fault_message
+        if rec is not None and rec.fault_code not in ("LINK_LOST", "LINK_TIMEOUT"):
+            try:
+                dev.syncClock()               # second burst: the drift over the trial
+            except DisplayError as exc:
+                cols["fault_message"] = str(exc)
         cmap = dev.clockMap
         if rec is not None:
             cols.update(status=rec.status, fault_code=rec.fault_code, end_reason=rec.end_reason,
