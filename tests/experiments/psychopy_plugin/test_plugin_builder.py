@@ -52,20 +52,26 @@ def _answer_after_each_contact(run, env, log, keys, timeout_s=90):
     return sent, resent
 
 
-@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
-def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
+def _compile_demo(tmp_path, env):
+    """The demo (and the participant file it names) copied to tmp_path, compiled by PsychoPy."""
     work = tmp_path / "docs" / "examples"
     work.mkdir(parents=True)
     for name in ("thermal_cue_demo.psyexp", "conditions.csv"):
         shutil.copy(EXAMPLES / name, work / name)
     (tmp_path / "participants" / "examples").mkdir(parents=True)
     shutil.copy(P01, tmp_path / "participants" / "examples" / "P01.json")
-    env = gui_env(xvfb)
     script = work / "thermal_cue_demo.py"
     out = subprocess.run([sys.executable, "-m", "experiments.psychopy_plugin.compile",
                           str(work / "thermal_cue_demo.psyexp"), "-o", str(script)],
                          env=env, capture_output=True, text=True, timeout=180)
     assert out.returncode == 0, out.stderr[-2000:]
+    return work, script
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
+    env = gui_env(xvfb)
+    work, script = _compile_demo(tmp_path, env)
     code = script.read_text(encoding="utf-8-sig")
     assert "Unknown component" not in code
     assert "thermal.start(routineTimer)" in code and "runAtExit.append(thermal.stop)" in code
@@ -119,3 +125,41 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
     stop = records[-1]
     assert stop["event"] == "stop" and stop["state"] == "IDLE"
     assert stop["setpoint_C"] == 32.0 and abs(stop["pad_C"] - 32.0) < 0.3    # neutral
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_escape_during_the_cue_puts_the_display_to_neutral(tmp_path, xvfb):
+    # Esc ends the experiment from inside the frame loop: the routine's end code never runs,
+    # so only the quit handlers (runAtExit, then PsychoPy's device manager at exit) stop the cue.
+    env = gui_env(xvfb)
+    work, script = _compile_demo(tmp_path, env)
+    with serve_stamped(tmp_path) as (link, log):
+        run = subprocess.Popen([sys.executable, str(script)], cwd=work,
+                               env={**env, "THERMOCUE_DISPLAY": link},
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            deadline = time.monotonic() + 60
+            while not _contacts(log) and run.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.05)
+            time.sleep(0.5)
+            for attempt in range(2):
+                xdotool_key(env, "Escape")
+                try:
+                    run.wait(timeout=8)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+            _, err = run.communicate(timeout=30)
+        finally:
+            if run.poll() is None:
+                run.kill()
+                run.communicate()
+        time.sleep(1.5)
+    assert run.returncode == 0, err[-3000:]
+    states = [r for r in read_log(log) if r.get("event") == "state"]
+    # one profile started at contact, stopped by the quit (not by its end or the watchdog)
+    assert [s["why"] for s in states] == ["arm playback", "contact", "abort"]
+    assert states[2]["t_s"] - states[1]["t_s"] < 15.0          # long before the 20 s profile ends
+    records = read_log(log)
+    assert not any(r.get("event") == "watchdog" for r in records)
+    assert records[-1]["event"] == "stop" and records[-1]["setpoint_C"] == 32.0
