@@ -156,3 +156,16 @@ def test_neutral_stops_a_profile_that_plays(manager, emulator):
     assert [r for r in read_log(log) if r.get("event") == "state"][-1]["why"] == "abort"
     rec = dev.finishTrial()
     assert rec.status == "aborted"
+
+
+def test_a_serial_device_path_that_is_not_there(manager, tmp_path):
+    from psychopy.hardware.exceptions import ManagedDeviceError
+    missing = str(tmp_path / "ttyUSB0")          # a device path, as /dev/ttyUSB0 is on a lab PC
+    with pytest.raises(ManagedDeviceError, match="no such device"):
+        manager.addDevice(deviceClass="thermocue", deviceName="thermal_missing", url=missing,
+                          protocol="roughness_recognition")
+    plain = tmp_path / "notes.txt"
+    plain.write_text("not a terminal")
+    with pytest.raises(ManagedDeviceError, match="not one"):
+        manager.addDevice(deviceClass="thermocue", deviceName="thermal_file", url=str(plain),
+                          protocol="roughness_recognition")
