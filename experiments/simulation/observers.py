@@ -43,6 +43,7 @@ import numpy as np
 
 __all__ = ["Observer", "AbsoluteObserver", "RelativeObserver", "RangeFrequencyObserver",
            "DisplayLearnedObserver", "OBSERVERS", "get_observer", "BlockContext", "answer_block",
+           "fit_observer",
            "discrimination_axis"]
 
 
@@ -299,3 +300,40 @@ def answer_block(observer: Observer, percepts: np.ndarray, ctx: BlockContext, la
         choice = observer.choose(percepts[:, :k + 1], answers[:, :k], ctx)
         answers[:, k] = np.where(lapse[:, k], guesses[:, k], choice)
     return answers
+
+
+def fit_observer(name: str, percepts: np.ndarray, answers: np.ndarray, ctx: BlockContext,
+                 grid: dict | None = None) -> dict:
+    """Maximum-likelihood parameters of observer ``name`` from blocks of percepts and answers.
+
+    The likelihood of an answer is ``(1 - lapse) 1[answer = rule's choice] + lapse / C``; for
+    each point of ``grid`` (parameter -> values; default: none, only the lapse rate is fitted)
+    the rule's choices are computed with the *given* earlier answers (as the observer saw
+    them), the lapse rate has the closed-form maximum ``C/(C-1) x disagreement``, and the grid
+    point with the highest log-likelihood wins.
+
+    Returns
+    -------
+    dict
+        The fitted parameters and ``lapse_rate``, plus ``log_likelihood``.
+    """
+    import itertools
+    grid = dict(grid or {})
+    answers = np.asarray(answers, dtype=int)
+    percepts = np.asarray(percepts, dtype=float)
+    n_cls = ctx.n_classes
+    best = None
+    for values in itertools.product(*grid.values()):
+        params = dict(zip(grid, values))
+        obs = get_observer(name, **params)
+        choice = np.stack([obs.choose(percepts[:, :k + 1], answers[:, :k], ctx)
+                           for k in range(percepts.shape[1])], axis=1)
+        agree = float(np.mean(choice == answers))
+        lapse = min(1.0, max(0.0, (1.0 - agree) * n_cls / (n_cls - 1)))
+        p_agree = (1 - lapse) + lapse / n_cls
+        p_other = lapse / n_cls
+        ll = answers.size * (agree * np.log(max(p_agree, 1e-300))
+                             + (1 - agree) * np.log(max(p_other, 1e-300)))
+        if best is None or ll > best["log_likelihood"] + 1e-9:
+            best = {**params, "lapse_rate": lapse, "log_likelihood": float(ll)}
+    return best

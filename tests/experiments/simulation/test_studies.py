@@ -1,0 +1,23 @@
+"""Many simulated studies: agree with the participant model's own Monte Carlo."""
+import numpy as np
+import pytest
+
+from experiments.participant_model import predicted_cell_probabilities
+from experiments.simulation.observers import get_observer
+from experiments.simulation.studies import build_pool, simulate_studies
+
+
+@pytest.mark.slow
+def test_absolute_observer_studies_match_predicted_cell_probabilities():
+    # predicted_cell_probabilities is the older, independent Monte Carlo of the same absolute
+    # observer (person by person, one test presentation per sample)
+    pool = build_pool(hypotheses=("material",), pool_size=40, seed=3)
+    out = simulate_studies(pool, "material", get_observer("absolute"), n_studies=300, seed=1)
+    ours = out.proportions()                                       # (group, mode, sample)
+    ref = predicted_cell_probabilities(n_people=40, n_reps=200, seed=5)
+    for gi, g in enumerate("AB"):
+        for m, mode in enumerate(("real", "simulated")):
+            want = ref[(ref.group == g) & (ref["mode"] == mode)].sort_values("roughness_id")
+            np.testing.assert_allclose(ours[gi, m], want["p_correct"], atol=0.07)
+    assert out.correct.shape == (300, 30, 2, 4)
+    assert np.all(out.answers.sum(axis=-1) == 3)
