@@ -84,10 +84,10 @@ def test_target_side_into_a_folder_that_does_not_exist_yet(tmp_path):
     summary = run_figure9_study(out, seed=1, progress=False, workers=1, participants=1,
                                 target_side="skin", rate_limit="slew", analyze=False)
     assert len(summary["sessions"]) == 1
-    text = (out / "protocol.toml").read_text()
-    assert 'target_side = "skin"' in text and 'rate_limit = "slew"' in text
+    variant = json.loads((out / "protocol.json").read_text())     # the variant's data, recorded
+    assert variant["simulation"]["target_side"] == "skin" and variant["simulation"]["rate_limit"] == "slew"
     study = json.loads((out / "study.json").read_text())
-    assert study["target_side"] == "skin" and study["protocol"] == str(out / "protocol.toml")
+    assert study["target_side"] == "skin" and study["protocol"] == str(out / "protocol.json")
     (session,) = (out / "data").glob("*/*/session.json")
     assert json.loads(session.read_text())["protocol"]["simulation"]["target_side"] == "skin"
 
@@ -177,7 +177,7 @@ def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
     with pytest.raises(UserInputError) as ei:
         run_figure9_study(tmp_path, progress=False, participants=1, target_side="compensated")
     msg = str(ei.value)
-    assert msg.startswith("protocol.toml: simulation.target_side: expected profiles the display accepts; "
+    assert msg.startswith("roughness_recognition: simulation.target_side: expected profiles the display accepts; "
                           "'compensated' for sample 3# (group A) gives profile.target_C: expected a rate ≤ 10.0")
     assert 'rate_limit = "slew"' in msg and "\n" not in msg
     assert not (tmp_path / "data").exists()          # refused before any session ran
@@ -193,9 +193,10 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
     study = json.loads((tmp_path / "study.json").read_text())
     assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
         ("compensated", "slew", 0.4, "copper")
-    copy = load_protocol(tmp_path / "protocol.toml")
+    from experiments.protocol import parse_protocol
+    copy = parse_protocol(json.loads((tmp_path / "protocol.json").read_text()))
     assert study["protocol_hash"] == copy.hash
-    # only the two lines changed: everything else parses to the packaged protocol
+    # built from the data (issue 11: no TOML text edited): only the two fields changed
     packaged = load_protocol("roughness_recognition")
     for key in ("target_side", "rate_limit"):
         packaged.data["simulation"][key] = copy.data["simulation"][key]
