@@ -175,12 +175,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         named = "best matches the paper's evidence" if headline == best else "chosen by --replay/--observer"
         files = plot_figure9_panels(
             predicted, analysis.proportions, out_dir / "figure9.png",
-            left_title=(f"Figure 9 as the paper's method predicts it\nprinted Eq. 7 (material side) "
-                        f"replay, absolute observer: expected over {n_studies} simulated 15+15 "
-                        f"studies; bars: 95 % of single studies"),
-            right_title=(f"Scenario that {named}:\n{REPLAY_HYPOTHESES[headline[0]].label} replay, "
-                         f"{headline[1]} observer: {len(study['sessions'])} emulated sessions; "
-                         f"95 % bootstrap intervals"))
+            left_title=(f"Figure 9 as the paper's method predicts it\nprinted Eq. 7 (material "
+                        f"side) replay, absolute observer\nexpected over {n_studies} simulated "
+                        f"15+15 studies; bars: 95 % of single studies"),
+            right_title=(f"Scenario that {named}\n{headline[0]} replay, {headline[1]} observer\n"
+                         f"{len(study['sessions'])} emulated sessions; 95 % bootstrap intervals"))
     # report opening
     report = out_dir / "report.md"
     screen = claims_screen(result, headline)
