@@ -161,8 +161,11 @@ def _positive_int(value, option: str, high: int | None = None) -> int:
 
 
 def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "roughness_recognition",
-                    responder_options: dict | None = None) -> dict:
+                    responder_options: dict | None = None, durable: bool = True) -> dict:
     """Run one participant's session with the emulator (virtual clock) and the simulated responder.
+
+    ``durable=False`` skips the fsyncs of this session's files (:func:`experiments.logbook.
+    set_durable`; same files, same order, same content) and restores the setting after.
 
     Returns
     -------
@@ -179,13 +182,18 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     extra = record.get("x_simulation")
     options = {"seed": extra.get("seed", seed) if isinstance(extra, dict) else seed}
     options.update(responder_options or {})
+    from experiments.logbook import set_durable
     start = time.perf_counter()
     responder = get_responder("simulated", **options)
-    session = create_session(protocol, participant_path, data_dir,
-                             f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
-                             responder_name="simulated", clock="virtual", out=io.StringIO())
-    session.show_progress = False
-    status = session.run(responder)
+    previous = set_durable(durable)
+    try:
+        session = create_session(protocol, participant_path, data_dir,
+                                 f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
+                                 responder_name="simulated", clock="virtual", out=io.StringIO())
+        session.show_progress = False
+        status = session.run(responder)
+    finally:
+        set_durable(previous)
     if status != 0:
         raise RuntimeError(f"{participant_path}: the session in {session.directory} ended with "
                            f"status {status}; see its events.jsonl")
@@ -194,8 +202,9 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
 
 
 def _run_one(args):
-    path, data_dir, seed, protocol, options = args
-    return run_participant(path, data_dir, seed=seed, protocol=protocol, responder_options=options)
+    path, data_dir, seed, protocol, options, durable = args
+    return run_participant(path, data_dir, seed=seed, protocol=protocol, responder_options=options,
+                           durable=durable)
 
 
 def _progress(done: int, total: int, start: float, label: str, stream) -> None:
@@ -215,7 +224,7 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
                       analyze: bool = True, participants: int | None = None,
                       target_side: str | None = None, rate_limit: str | None = None,
-                      replay: str | None = None) -> dict:
+                      replay: str | None = None, durable: bool = False) -> dict:
     """Run the paper's Figure 9 study end to end with simulated participants.
 
     Parameters
@@ -252,6 +261,11 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     rate_limit : {"refuse", "slew"}, optional
         Override the protocol's ``[simulation] rate_limit`` likewise. Profiles the display
         would refuse stop the study before any session runs.
+    durable : bool
+        fsync every file the sessions write (default False: a simulated study on the virtual
+        clock is recomputed from its seed, so a power cut costs a rerun, not data; fsync was
+        70 % of a session's wall time on the shared 2-core machine). The files, their order and
+        content are the same either way; ``study.json`` records the setting.
     replay : {"material", "skin", "compensated"}, optional
         A replay hypothesis (:mod:`experiments.simulation.replay`): sets both of the above.
         The variant is built from the protocol's data and recorded in ``out_dir/protocol.json``.
@@ -303,7 +317,8 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     data_dir.mkdir(parents=True, exist_ok=True)
     paths = {p.stem: p for p in write_cohort(out_dir / "participants", seed=seed)}
     paths = [paths[r["id"]] for r in alternate_groups(records, n)]
-    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {})) for p in paths]
+    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {}), bool(durable))
+            for p in paths]
     stream = sys.stderr
     start = time.perf_counter()
     results = []
@@ -352,7 +367,7 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers,
         "protocol": protocol_name if isinstance(protocol, str) else str(out_dir / "protocol.json"),
-        "replay": replay, "observer": observer,
+        "replay": replay, "observer": observer, "fsync": bool(durable),
         "responder_options": dict(responder_options or {}),
         "protocol_hash": used.hash,
         "target_side": used.simulation.target_side,
