@@ -12,6 +12,7 @@ name           what the display replays (``[simulation] target_side``)
 =============  =================================================================================
 material       the material side of the interface, T_M(L+): the printed Eq. 7 (the paper's text)
 skin           the skin side of the same interface, T_S(L-): the trend of Table 2's column
+               (needs ``rate_limit = "slew"``: it starts with a jump from the skin temperature)
 compensated    the pad temperature that, through the finger–pad contact resistance, gives the
                skin the real contact's history (needs ``rate_limit = "slew"``: 3# and 4# start
                faster than the display's 10 °C/s)
@@ -57,7 +58,7 @@ REPLAY_HYPOTHESES = {
         "material", "material", "refuse", "printed Eq. 7 (material side)",
         "§3.2: 'the theoretical thermal cues are reproduced from the Equation (7)'"),
     "skin": ReplayHypothesis(
-        "skin", "skin", "refuse", "skin side of the interface",
+        "skin", "skin", "slew", "skin side of the interface",
         "Table 2's simulation column rises with roughness (25.70 -> 28.82 °C) as the skin side "
         "does, while the printed Eq. 7 falls"),
     "compensated": ReplayHypothesis(

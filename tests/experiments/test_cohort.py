@@ -97,15 +97,33 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     out = tmp_path / "fig9"
     assert main(["reproduce", "figure9", "--out", str(out), "--seed", "4", "--participants", "2",
                  "--workers", "2", "--responder-option", "lapse_rate=0.25",
-                 "--responder-option", "log_percepts=false"]) == 0, capsys.readouterr().err
+                 "--responder-option", "log_percepts=false", "--studies", "40",
+                 "--pool-size", "20", "--replay", "skin", "--observer", "relative"]) == 0, \
+        capsys.readouterr().err
     study = json.loads((out / "study.json").read_text())
-    assert study["workers"] == 2
-    assert study["responder_options"] == {"lapse_rate": 0.25, "log_percepts": False}
+    assert study["workers"] == 2 and study["fsync"] is False
+    assert study["headline"] == {"replay": "skin", "observer": "relative"}
+    assert study["responder_options"]["observer"] == "relative"
+    # issue 11: the answer first: terminal ends with the claims table, report opens with the verdict
+    printed = capsys.readouterr().out.strip().splitlines()
+    assert printed[0].startswith("The paper's Figure 9 / Table 2 claims are ")
+    assert printed[1].split()[:2] == ["replay", "observer"] and len(printed) == 16
+    assert "skin        relative" in printed[8] and printed[8].endswith("<- headline")
+    report = (out / "report.md").read_text(encoding="utf-8").splitlines()
+    assert report[0] == "# Figure 9, reproduced" and report[2] == f"**{printed[0]}**"
+    assert "## Sensitivity of the headline scenario" in report
+    for name in ("claims.csv", "scenario_proportions.csv", "sensitivity.csv", "figure9.pdf"):
+        assert (out / name).is_file()
+    assert study["responder_options"] == {"lapse_rate": 0.25, "log_percepts": False,
+                                          "observer": "relative"}
     assert [s["participant"] for s in study["participants"]] == ["P01", "P16"]
     _check_study(out, 2)
     events = [json.loads(line) for line in next((out / "data").glob("P16/*/events.jsonl")).open()]
     (person,) = [e for e in events if e["event"] == "simulated_participant"]
     assert person["parameters"]["lapse_rate"] == 0.25                    # the option reached it
+    assert person["observer"] == {"name": "relative", "parameters": {}}  # recorded in the log
+    session = json.loads(next((out / "data").glob("P16/*/session.json")).read_text())
+    assert session["protocol"]["simulation"]["target_side"] == "skin"
     assert not [e for e in events if e["event"] == "simulated_percept"]   # log_percepts=false
 
 
@@ -118,6 +136,9 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     (["--responder-option", "lapse_rate=2"], "lapse_rate"),
     # one seed for every simulated person would give them all the same noise draws
     (["--responder-option", "seed=3"], "--responder-option: seed: expected no seed"),
+    (["--responder-option", "observer=relative"], "--responder-option: observer: expected --observer"),
+    (["--studies", "0"], "--studies: expected an integer ≥ 1, got 0"),
+    (["--pool-size", "10"], "--pool-size: expected at least 15"),
 ])
 def test_reproduce_figure9_refuses_bad_options_before_running(tmp_path, capsys, args, message):
     from experiments.cli import main
