@@ -87,7 +87,9 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         (range–frequency judgement over the block so far) or ``display_learned`` (absolute,
         with templates learned on a familiarisation block on the display). Logged in the
         ``simulated_participant`` event with its parameters (e.g. ``range_weight``, given as
-        an option like the perception parameters).
+        an option like the perception parameters). The block-relative observers remember the
+        block's percepts in this process only: a resumed session's first answers in a block
+        see only the trials after the resume.
     log_percepts : bool
         Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
         log-likelihood of each sample, answer), so every answer can be traced to the physics.

@@ -33,7 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS"]
+__all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
+           "imposed_features"]
 
 #: The two groups and their skin thickness ranges, µm (§3.2).
 GROUPS = ("A", "B")
@@ -122,15 +123,51 @@ def build_pool(protocol="roughness_recognition", hypotheses=("material", "skin",
             rows = []
             for p in persons:
                 r_pad = p.pad_resistance(sim.pad_roughness_m, sim.pad_material)
-                rows.append([p.features(*p.feel_imposed(pr.times, pr.temperature,
-                                                        pad_resistance=r_pad))
-                             for pr in profiles])
+                rows.append(imposed_features(p, [(pr.times, pr.temperature) for pr in profiles],
+                                             r_pad))
             simulated[(h, group)] = np.array(rows)
     return PersonPool(real=real, simulated=simulated, thickness_um=thickness, params=params,
                       receptor_depth_um=receptor_depth_um,
                       roughness_um=tuple(s.roughness_um for s in samples),
                       settings={"pool_size": int(pool_size), "seed": int(seed),
                                 "dermis_fraction": tuple(dermis_fraction)})
+
+
+def imposed_features(person, surfaces, pad_resistance) -> np.ndarray:
+    """Features of ``person`` touching the pad at each of ``surfaces`` (list of (t, °C)).
+
+    The same as ``person.features(*person.feel_imposed(t, T, pad_resistance=...))`` for each,
+    computed by linear superposition: the skin's response is linear and time-invariant in the
+    surface temperature (linear between uniform samples), so two calls of
+    :func:`stimuli.skin_response` (a unit jump at t = 0 decaying linearly to the first sample,
+    and a unit hat at the first sample) give every profile's response by a convolution; equal
+    to the direct computation to ~1e-12 K (``tests/experiments/simulation/test_studies.py``).
+    """
+    from stimuli import skin_response
+    out = []
+    cache = {}
+    t_s = person.skin_temperature_C
+    skin = person.skin
+    for t, surface in surfaces:
+        t_in = np.asarray(t, dtype=float)
+        g_in = np.asarray(surface, dtype=float)
+        ok = np.isfinite(t_in) & np.isfinite(g_in)
+        t_in, g_in = t_in[ok] - t_in[ok][0], g_in[ok]
+        grid = person.time_grid(min(person.params.duration_s, float(t_in[-1])))
+        n = grid.size
+        if n not in cache:
+            e0 = np.full(n, t_s)
+            e0[0] += 1.0
+            e1 = np.full(n, t_s)
+            e1[1] += 1.0
+            kw = dict(initial_temperature=t_s, depth=skin.dermis, resistance=float(pad_resistance))
+            cache[n] = (np.asarray(skin_response(skin, grid, e0, **kw)) - t_s,
+                        np.asarray(skin_response(skin, grid, e1, **kw)) - t_s)
+        r0, r1 = cache[n]
+        d = np.interp(grid, t_in, g_in) - t_s
+        receptor = t_s + d[0] * r0 + np.convolve(d[1:], r1)[:n]
+        out.append(person.features(grid, receptor))
+    return np.array(out)
 
 
 @dataclass

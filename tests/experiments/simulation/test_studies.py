@@ -21,3 +21,22 @@ def test_absolute_observer_studies_match_predicted_cell_probabilities():
             np.testing.assert_allclose(ours[gi, m], want["p_correct"], atol=0.07)
     assert out.correct.shape == (300, 30, 2, 4)
     assert np.all(out.answers.sum(axis=-1) == 3)
+
+
+def test_superposed_features_equal_the_direct_computation():
+    from experiments.participant_model import draw_person
+    from experiments.protocol import load_protocol
+    from experiments.session_setup import simulated_target_profile
+    from experiments.simulation.replay import protocol_variant
+    from experiments.simulation.studies import imposed_features
+    person = draw_person("B", 20261124)
+    r_pad = person.pad_resistance()
+    for side in ("material", "compensated"):
+        proto = protocol_variant(load_protocol("roughness_recognition"), side)
+        profiles = [simulated_target_profile(proto, {}, "B", None, s.id, s.roughness_um)
+                    for s in proto.samples]
+        fast = imposed_features(person, [(p.times, p.temperature) for p in profiles], r_pad)
+        direct = np.array([person.features(*person.feel_imposed(p.times, p.temperature,
+                                                                 pad_resistance=r_pad))
+                           for p in profiles])
+        np.testing.assert_allclose(fast, direct, rtol=0, atol=1e-9)
