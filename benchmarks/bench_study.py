@@ -11,7 +11,9 @@ prints the wall time per trial of each (median and best).
 Starts ``thermocue reproduce figure9 --out DIR`` as a child process and samples, every 50 ms,
 the resident memory (/proc/PID/smaps_rollup, Linux only) of that process and all its descendants
 (the worker processes).  Reports the machine, the wall time, the study's own split
-(``study.json``: sessions_s, analysis_s), the peak of the *summed* RSS of the process tree (an
+(``study.json``: scenarios_s, sessions_s, analysis_s), the CPU time of the whole process tree
+(user + system: on a shared machine a fairer figure than the wall time; at most 2 x wall on 2
+cores), the peak of the *summed* RSS of the process tree (an
 upper bound: pages the forked workers share are counted once per process) and the peak of the
 summed PSS (shared pages divided among their users: the memory the study really holds).  The
 target (the developers' brief, under 1 GB) is judged on the RSS bound.
@@ -97,6 +99,8 @@ def main(argv=None) -> int:
     print(f"machine: {machine()}")
     cmd = [str(exe), "reproduce", "figure9", "--out", str(out), *ns.extra]
     print("command:", " ".join(cmd))
+    import resource
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     peak, peak_pss, peak_n = 0, 0, 0
@@ -107,13 +111,16 @@ def main(argv=None) -> int:
         peak_pss = max(peak_pss, pss)
         time.sleep(0.05)
     wall = time.perf_counter() - start
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
     err = proc.stderr.read()
     if proc.returncode != 0:
         print(err, file=sys.stderr)
         return proc.returncode
     study = json.loads((out / "study.json").read_text(encoding="utf-8"))
     stages = study.get("reproduction_seconds", {})
-    result = {"wall_s": round(wall, 1), "scenarios_s": round(stages.get("scenarios_s", 0.0), 1),
+    result = {"wall_s": round(wall, 1), "cpu_s": round(cpu, 1),
+              "load_at_end": round(os.getloadavg()[0], 2), "scenarios_s": round(stages.get("scenarios_s", 0.0), 1),
               "sessions_s": round(study["sessions_s"], 1),
               "analysis_s": round(study["analysis_s"], 1), "workers": study["workers"],
               "participants": len(study["participants"]),
