@@ -30,6 +30,16 @@ name                   decision rule
                        :func:`experiments.simulation.replay.with_display_familiarisation`).
 =====================  ========================================================================
 
+Parameters shared by the whole family live in
+:class:`experiments.participant_model.PerceptionParameters`, with their sources there: the
+perceptual noise the observer knows it has (0.3 K per drop feature, 0.3 K/s on the rate, Weber
+fraction 0.1) and ``lapse_rate`` (0.02, the usual allowance for inattention); the familiarisation
+(one touch per real sample) is the protocol's.  Observer-specific parameters are listed by
+:meth:`Observer.parameters` with their source (``range_weight`` of ``range_frequency``); the
+design-aware ``relative`` observer takes the design (``repetitions`` per sample) from the
+protocol's block.  :func:`fit_observer` recovers them from percepts and answers (tests in
+``tests/experiments/simulation/test_observers.py``).
+
 The same code answers in an emulated session (the simulated responder, one trial at a time) and
 in the fast study simulation (:mod:`experiments.simulation.studies`, thousands of blocks at once):
 :meth:`Observer.choose` takes a batch of blocks.
