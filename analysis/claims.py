@@ -142,12 +142,19 @@ def evaluate_claims(correct, groups, repetitions: int, replay_temperatures=None)
     a, b = per[:, groups == "A"], per[:, groups == "B"]
     diff = a.mean(axis=1) - b.mean(axis=1)                          # (S, 2)
     na, nb = a.shape[1], b.shape[1]
-    va, vb = a[:, :, 0].var(axis=1, ddof=1) / na, b[:, :, 0].var(axis=1, ddof=1) / nb
+
+    def _var_of_mean(x, n):   # sample variance / n; undefined (nan) for one participant
+        if n < 2:
+            return np.full(x.shape[0], np.nan)
+        return np.sum((x - x.mean(axis=1, keepdims=True)) ** 2, axis=1) / (n - 1) / n
+    va, vb = _var_of_mean(a[:, :, 0], na), _var_of_mean(b[:, :, 0], nb)
     se = np.sqrt(va + vb)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(se > 0, diff[:, 0] / se, np.sign(diff[:, 0]) * np.inf)
-        df = np.where(se > 0, (va + vb) ** 2 / (va ** 2 / (na - 1) + vb ** 2 / (nb - 1)), na + nb - 2)
-    out["a_above_b_real"] = (diff[:, 0], t > _t_crit(df))
+        t = np.where(np.isnan(se), np.nan,
+                     np.where(se > 0, diff[:, 0] / se, np.sign(diff[:, 0]) * np.inf))
+        df = np.where(se > 0, (va + vb) ** 2 / (va ** 2 / max(na - 1, 1) + vb ** 2 / max(nb - 1, 1)),
+                      na + nb - 2)
+    out["a_above_b_real"] = (diff[:, 0], np.nan_to_num(t, nan=-np.inf) > _t_crit(np.nan_to_num(df, nan=1.0)))
     gap = diff[:, 0] - np.abs(diff[:, 1])
     out["smaller_diff_simulated"] = (gap, gap > 0)
     if replay_temperatures is not None:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["run_reproduction", "claims_screen", "verdict_line", "PRINTED"]
+__all__ = ["run_reproduction", "claims_screen", "verdict_line", "sessions_claims_line", "PRINTED"]
 
 #: The paper's method as printed: Eq. 7's material side, judged as the project's original
 #: absolute observer did.
@@ -189,11 +189,16 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                         f"15+15 studies; bars: 95 % of single studies"),
             right_title=(f"Scenario that {named}\n{headline[0]} replay, {headline[1]} observer\n"
                          f"{len(study['sessions'])} emulated sessions; 95 % bootstrap intervals"))
+    # the headline study's own verdict on each claim
+    sessions_line = ""
+    if analysis is not None:
+        sessions_line = sessions_claims_line(analysis.log.analysable, headline)
     # report opening
     report = out_dir / "report.md"
     screen = claims_screen(result, headline)
     verdict = verdict_line(result, best)
-    opening = _report_opening(verdict, screen, result, sens, headline, best, n_studies)
+    opening = _report_opening(verdict, screen, result, sens, headline, best, n_studies,
+                              sessions_line)
     body = report.read_text(encoding="utf-8") if report.is_file() else ""
     atomic_write_text(report, opening + body)
     seconds["total_s"] = time.perf_counter() - t0
@@ -210,9 +215,25 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         stream.write(f"figure9: results in {out_dir} ({seconds['total_s']:.1f} s)\n")
         stream.flush()
     print(verdict)
+    if sessions_line:
+        print(sessions_line)
     print(screen)
     return {"headline": headline, "best": best, "scenarios": result, "sensitivity": sens,
             "study": study, "seconds": seconds, "files": files, "verdict": verdict}
+
+
+def sessions_claims_line(trials: pd.DataFrame, headline) -> str:
+    """Which claims the emulated study itself shows (one study: ✓ or ✗ with its statistic)."""
+    from analysis.claims import CLAIMS, counts_from_trials, evaluate_claims
+    from experiments.simulation.scenarios import table2_replay_temperatures
+    if trials is None or trials.empty or trials["group"].nunique() < 2:
+        return ""
+    props, groups = counts_from_trials(trials)
+    verdicts = evaluate_claims(props, groups, 1, table2_replay_temperatures(headline[0]))
+    cells = [f"{c.short} {'✓' if verdicts[c.id][1][0] else '✗'} ({verdicts[c.id][0][0]:+.2f})"
+             for c in CLAIMS if c.id in verdicts]
+    return (f"The {groups.size}-participant emulated study ({headline[0]} replay, {headline[1]} "
+            f"observer) shows: " + ", ".join(cells) + " (statistic in brackets).")
 
 
 def _md(df: pd.DataFrame, digits: int = 2) -> str:
@@ -240,7 +261,8 @@ def _expected_table(result) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _report_opening(verdict, screen, result, sens, headline, best, n_studies) -> str:
+def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
+                    sessions_line="") -> str:
     from analysis.claims import CLAIMS
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import __doc__ as studies_doc
@@ -258,6 +280,7 @@ def _report_opening(verdict, screen, result, sens, headline, best, n_studies) ->
     note = studies_doc.split("Where this differs from emulated sessions")[1].split("Everything else")[0]
     note = "\n".join(line for line in note.splitlines() if not set(line.strip()) <= {"-"})
     return (f"# Figure 9, reproduced\n\n**{verdict}**\n\n"
+            + (f"{sessions_line}\n\n" if sessions_line else "") +
             f"## The paper's claims under each scenario\n\n"
             f"Probability that one simulated 15 + 15 study shows the claim ({n_studies} studies "
             f"per scenario, the observer models applied to simulated percepts; 95 % Monte-Carlo "

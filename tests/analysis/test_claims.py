@@ -57,3 +57,28 @@ def test_table2_ordering_and_probability_table():
     assert table.loc["rise_real", "mc_low"] == pytest.approx(lo)
     joint = np.logical_and.reduce([h for _, h in v.values()])
     assert table.loc["all", "probability"] == pytest.approx(joint.mean())
+
+
+def test_counts_from_trials_gives_per_participant_proportions():
+    import pandas as pd
+
+    from analysis.claims import counts_from_trials
+    rows = []
+    for pid, group, hits in (("P01", "A", 1.0), ("P02", "B", 0.0)):
+        for mode in ("real", "simulated"):
+            for rid in (1, 2, 3, 4):
+                for rep in range(3):
+                    rows.append({"participant": pid, "group": group, "mode": mode,
+                                 "roughness_id": rid, "correct": hits if rid > 1 or rep else 1 - hits})
+    props, groups = counts_from_trials(pd.DataFrame(rows))
+    assert list(groups) == ["A", "B"]
+    np.testing.assert_allclose(props[0, 0], [2 / 3, 1, 1, 1])
+    np.testing.assert_allclose(props[1, 1], [1 / 3, 0, 0, 0])
+
+
+def test_one_participant_per_group_shows_no_group_difference():
+    # Welch's test is undefined with one participant per group: the claim is not shown
+    one = np.zeros((2, 2, 4))
+    one[0, 0] = 3
+    stat, holds = evaluate_claims(one, np.array(["A", "B"]), 3)["a_above_b_real"]
+    assert stat[0] == 1.0 and not holds[0]
