@@ -118,7 +118,8 @@ def _draw_panel(ax, table: pd.DataFrame, value: str, low: str, high: str, title:
 
 
 def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_title: str,
-                   right_title: str, interval: str = "boot"):
+                   right_title: str, interval: str = "boot", left_note: str = "",
+                   right_note: str = ""):
     """The two-panel Figure 9: the paper's method as printed, beside the best-matching scenario.
 
     Parameters
@@ -132,6 +133,8 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
     left_title, right_title : str
     interval : {"boot", "wilson"}
         The right panel's interval.
+    left_note, right_note : str
+        Text under each panel (the claims each panel shows).
 
     Returns
     -------
@@ -140,14 +143,21 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
         ``gid`` ``"<group>-<mode>"``.
     """
     plt = _pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(11.5, 5.4), dpi=150, sharey=True)
+    notes = bool(left_note or right_note)
+    fig, axes = plt.subplots(1, 2, figsize=(11.5, 7.0 if notes else 5.4), dpi=150, sharey=True)
     _draw_panel(axes[0], predicted, "expected", "study_low", "study_high", left_title)
     _draw_panel(axes[1], observed, "proportion_correct", f"{interval}_low", f"{interval}_high",
                 right_title)
     axes[0].set_ylabel("Proportions of correct recognition")
     handles, labels = axes[1].get_legend_handles_labels()
     fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=5, frameon=False)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    if notes:
+        fig.subplots_adjust(left=0.06, right=0.99, top=0.88, bottom=0.36, wspace=0.08)
+        for ax, note in ((axes[0], left_note), (axes[1], right_note)):
+            fig.text(ax.get_position().x0, 0.235, note, ha="left", va="top", fontsize=7.5,
+                     family="DejaVu Sans Mono")
+    else:
+        fig.tight_layout(rect=(0, 0.06, 1, 1))
     return fig
 
 

@@ -178,7 +178,9 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     # figure
     analysis = study.get("analysis")
     files = []
+    sessions_verdicts = None
     if analysis is not None:
+        sessions_verdicts = _sessions_verdicts(analysis.log.analysable, headline)
         predicted = result.proportions[(result.proportions.hypothesis == PRINTED[0])
                                        & (result.proportions.observer == PRINTED[1])]
         named = "best matches the paper's evidence" if headline == best else "chosen by --replay/--observer"
@@ -188,7 +190,9 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                         f"side) replay, absolute observer\nexpected over {n_studies} simulated "
                         f"15+15 studies; bars: 95 % of single studies"),
             right_title=(f"Scenario that {named}\n{headline[0]} replay, {headline[1]} observer\n"
-                         f"{len(study['sessions'])} emulated sessions; 95 % bootstrap intervals"))
+                         f"{len(study['sessions'])} emulated sessions; 95 % bootstrap intervals"),
+            left_note=_panel_note(result.wide().loc[PRINTED], "P(a 15+15 study shows it)"),
+            right_note=_panel_note(sessions_verdicts, "this study shows it") if sessions_verdicts else "")
     # the headline study's own verdict on each claim
     sessions_line = ""
     if analysis is not None:
@@ -222,14 +226,37 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
             "study": study, "seconds": seconds, "files": files, "verdict": verdict}
 
 
-def sessions_claims_line(trials: pd.DataFrame, headline) -> str:
-    """Which claims the emulated study itself shows (one study: ✓ or ✗ with its statistic)."""
-    from analysis.claims import CLAIMS, counts_from_trials, evaluate_claims
+def _sessions_verdicts(trials: pd.DataFrame, headline):
+    """``evaluate_claims`` of the emulated study itself (None without both groups)."""
+    from analysis.claims import counts_from_trials, evaluate_claims
     from experiments.simulation.scenarios import table2_replay_temperatures
     if trials is None or trials.empty or trials["group"].nunique() < 2:
-        return ""
+        return None
     props, groups = counts_from_trials(trials)
-    verdicts = evaluate_claims(props, groups, 1, table2_replay_temperatures(headline[0]))
+    return evaluate_claims(props, groups, 1, table2_replay_temperatures(headline[0]))
+
+
+def _panel_note(values, what: str) -> str:
+    """Claims box of a figure panel: probabilities (a Series) or one study's verdicts (a dict)."""
+    from analysis.claims import CLAIMS
+    lines = [what + ":"]
+    for c in CLAIMS:
+        if isinstance(values, dict):
+            if c.id in values:
+                lines.append(f"{'✓' if values[c.id][1][0] else '✗'} {c.text}")
+        elif c.id in values.index:
+            p = float(values[c.id])
+            lines.append(f"{'✓' if p >= MAJORITY else '✗'} {p:4.2f} {c.text}")
+    return "\n".join(lines)
+
+
+def sessions_claims_line(trials: pd.DataFrame, headline) -> str:
+    """Which claims the emulated study itself shows (one study: ✓ or ✗ with its statistic)."""
+    from analysis.claims import CLAIMS, counts_from_trials
+    verdicts = _sessions_verdicts(trials, headline)
+    if verdicts is None:
+        return ""
+    _, groups = counts_from_trials(trials)
     cells = [f"{c.short} {'✓' if verdicts[c.id][1][0] else '✗'} ({verdicts[c.id][0][0]:+.2f})"
              for c in CLAIMS if c.id in verdicts]
     return (f"The {groups.size}-participant emulated study ({headline[0]} replay, {headline[1]} "

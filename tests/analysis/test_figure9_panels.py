@@ -72,3 +72,15 @@ def test_png_and_pdf_written(tmp_path):
     assert pdf.read_bytes()[:5] == b"%PDF-"
     one = plot_figure9(observed, tmp_path / "single.png")
     assert one.with_suffix(".pdf").read_bytes()[:5] == b"%PDF-"
+
+
+def test_claim_notes_under_the_panels():
+    import matplotlib.pyplot as plt
+    predicted, observed = _tables()
+    fig = figure9_panels(predicted, observed, left_title="l", right_title="r",
+                         left_note="✓ 1.00 rise", right_note="✗ rise")
+    texts = [t.get_text() for t in fig.texts]
+    assert "✓ 1.00 rise" in texts and "✗ rise" in texts
+    for ax in fig.axes[:2]:            # under the axes, not over the data
+        assert ax.get_position().y0 > 0.3
+    plt.close(fig)
