@@ -12,7 +12,8 @@ Where this differs from emulated sessions (it is *not* exactly equivalent)
 -------------------------------------------------------------------------------
 * The display tracks the target profile perfectly here; in a session the simulated participant
   feels the emulated pad's recorded contact temperature (controller lag, sensor noise, the
-  finger's heat load), so its features differ by a few hundredths of a kelvin.
+  finger's heat load): its features differ by at most ~0.005 K (K/s for the rate) against a
+  perceptual noise of 0.3 (``test_studies.py`` measures it on two emulated sessions).
 * Persons are drawn without replacement from a pool of ``pool_size`` per group (default 100),
   not afresh for every study: between-study variation of the people is that of 15 of 100.
 * The trial-to-trial skin-temperature jitter (``skin_temperature_sd_C``, 0.1 K against a ~15 K

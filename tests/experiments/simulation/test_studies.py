@@ -40,3 +40,44 @@ def test_superposed_features_equal_the_direct_computation():
                                                                  pad_resistance=r_pad))
                            for p in profiles])
         np.testing.assert_allclose(fast, direct, rtol=0, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
+    """How far the fast studies' features are from what an emulated session's person felt.
+
+    The studies assume a display that tracks the target perfectly; the session's person feels
+    the emulated pad's recorded contact temperature.  Same person, same trial skin temperature
+    (logged), same profile: the features agree to well under the 0.3 perceptual noise.
+    """
+    import csv
+    import json
+
+    from experiments.cohort import run_participant, write_cohort
+    from experiments.participant_model import SimulatedPerson
+    from experiments.protocol import load_protocol
+    from experiments.session_setup import simulated_target_profile
+    from experiments.simulation.studies import imposed_features
+    proto = load_protocol("roughness_recognition")
+    paths = {p.stem: p for p in write_cohort(tmp_path / "people", seed=0)}
+    result = run_participant(paths["P16"], tmp_path / "data", seed=0, durable=False)
+    record = json.loads(paths["P16"].read_text())
+    session = result["session_dir"]
+    with open(f"{session}/trials.csv") as fh:
+        rid = {int(r["trial_index"]): int(r["roughness_id"]) for r in csv.DictReader(fh)}
+    st = record["skin_thickness"]
+    diffs = []
+    with open(f"{session}/events.jsonl") as fh:
+        for e in map(json.loads, fh):
+            if e.get("event") != "simulated_percept" or e["felt_as"] != "simulated":
+                continue
+            person = SimulatedPerson(st["total_um"] * 1e-6, st["dermis_um"] / st["total_um"],
+                                     e["skin_temperature_C"])
+            r = rid[e["trial_index"]]
+            prof = simulated_target_profile(proto, record, "B", None, r, proto.sample(r).roughness_um)
+            ideal = imposed_features(person, [(prof.times, prof.temperature)],
+                                     e["pad_resistance_m2K_W"])[0]
+            diffs.append(np.asarray(e["features"]) - ideal)
+    diffs = np.array(diffs)
+    assert diffs.shape == (12, 4)
+    assert np.abs(diffs).max() < 0.01          # logged features are rounded to 1e-4
