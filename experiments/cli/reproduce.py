@@ -34,9 +34,9 @@ def register(sub) -> None:
                                           "display_learned"), default=None,
                    help="figure9 only: the headline's observer model (the simulated "
                         "participants' decision rule); default: the best match")
-    p.add_argument("--studies", type=int, default=400, metavar="N",
+    p.add_argument("--studies", type=int, default=None, metavar="N",
                    help="figure9 only: simulated 15+15 studies per scenario (default 400)")
-    p.add_argument("--pool-size", type=int, default=100, metavar="N",
+    p.add_argument("--pool-size", type=int, default=None, metavar="N",
                    help="figure9 only: simulated persons per group the studies draw from "
                         "(default 100)")
     p.add_argument("--target-side", choices=("material", "skin", "compensated"), default=None,
@@ -46,7 +46,7 @@ def register(sub) -> None:
     p.add_argument("--rate-limit", choices=("refuse", "slew"), default=None,
                    help="figure9 only: profiles faster than the display's rate limit are refused "
                         "(the study stops before it starts) or slowed to it ('slew'; compensated "
-                        "3#/4# need it); default: the protocol's (refuse)")
+                        "3#/4# need it); default: the replay hypothesis's")
     p.add_argument("--participants", type=int, default=None, metavar="N",
                    help="figure9 only: run N of the 30 participants, taken from groups A and B "
                         "in turn (P01, P16, P02, ...); default: all 30")
@@ -70,7 +70,8 @@ def _out_dir(path: str, create: bool = True) -> Path:
 
 
 #: Options that only the figure9 study takes (argparse dest, option).
-_FIGURE9_ONLY = (("replay", "--replay"), ("observer", "--observer"),
+_FIGURE9_ONLY = (("replay", "--replay"), ("observer", "--observer"), ("studies", "--studies"),
+                 ("pool_size", "--pool-size"),
                  ("target_side", "--target-side"), ("rate_limit", "--rate-limit"),
                  ("participants", "--participants"), ("workers", "--workers"),
                  ("responder_option", "--responder-option"))
@@ -102,6 +103,7 @@ def _run(ns) -> int:
     from experiments.simulation.reproduction import run_reproduction
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
-                     observer=ns.observer, n_studies=ns.studies, pool_size=ns.pool_size,
+                     observer=ns.observer, n_studies=400 if ns.studies is None else ns.studies,
+                     pool_size=100 if ns.pool_size is None else ns.pool_size,
                      responder_options=responder_options(ns.responder_option))
     return 0
