@@ -348,6 +348,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                          percept=[round(float(v), 4) for v in percept],
                          log_likelihoods={str(k): round(v, 3) for k, v in
                                           person.log_likelihoods(percept, kind).items()},
+                         templates=getattr(self, "_judged_against", None),
                          answer=answer)
         self._trial_state.pop(index, None)
         return Response(answer, rt, source="simulated")
@@ -362,6 +363,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         person = self._ensure_person()
         mode = kind if kind == "real" else self.observer.template_mode_for_simulated
         templates = person.template_set(mode)
+        self._judged_against = next((k for k, v in person.templates.items() if v is templates), None)
         lapse = rng.random() < self.params.lapse_rate
         history = self._blocks.setdefault(str(getattr(trial, "block", "")), ([], []))
         if lapse or not templates:

@@ -147,7 +147,9 @@ def _add_display_familiarisation(data: dict) -> dict:
     template = next((b for b in blocks if str(b.get("name", "")).startswith("familiar")), None)
     block = {"name": DISPLAY_FAMILIARISATION_BLOCK, "mode": "simulated", "repetitions":
              int(template.get("repetitions", 1)) if template else 1, "order": "fixed",
-             "scored": False, "feedback": True, "response": False,
+             # the participant repeats the named sample's number (unscored): the simulated
+             # responder perceives a trial, and learns from it, only when asked to answer
+             "scored": False, "feedback": True, "response": True,
              "instructions": "Each sample is named before the display plays it: remember how it "
                              "feels."}
     blocks.insert(first_sim, block)
@@ -158,7 +160,8 @@ def _add_display_familiarisation(data: dict) -> dict:
 def with_display_familiarisation(protocol):
     """``protocol`` with a familiarisation block on the display before its first simulated block.
 
-    The block (``familiarise_display``: mode simulated, unscored, named samples, no answer) has
+    The block (``familiarise_display``: mode simulated, unscored, named samples; the participant
+    repeats the number, so that the simulated responder feels and learns each one) has
     as many repetitions as the protocol's own familiarisation block.  The paper familiarised on
     the real samples only; this variant is the ``display_learned`` observer's protocol.
     """

@@ -29,7 +29,7 @@ def test_display_familiarisation_block_before_the_simulated_block():
     names = [b.name for b in v.blocks]
     assert names == ["familiarise", "real", "familiarise_display", "simulated"]
     block = v.block("familiarise_display")
-    assert block.mode == "simulated" and not block.scored and block.feedback and not block.response
+    assert block.mode == "simulated" and not block.scored and block.feedback and block.response
     again = with_display_familiarisation(v)
     assert [b.name for b in again.blocks] == names
 
@@ -37,3 +37,23 @@ def test_display_familiarisation_block_before_the_simulated_block():
 def test_unknown_hypothesis_is_a_user_error():
     with pytest.raises(UserInputError, match="--replay: expected one of material, skin, compensated"):
         protocol_variant("roughness_recognition", "pad")
+
+
+@pytest.mark.slow
+def test_display_learned_observer_learns_on_the_display_in_a_session(tmp_path):
+    import json
+
+    from experiments.cohort import run_participant, write_cohort
+    (path,) = write_cohort(tmp_path / "people", seed=2)[:1]
+    proto = protocol_variant("roughness_recognition", "compensated", display_familiarisation=True)
+    runs = {}
+    for observer in ("display_learned", "absolute"):
+        res = run_participant(path, tmp_path / observer, seed=2, protocol=proto,
+                              responder_options={"observer": observer}, durable=False)
+        with open(f"{res['session_dir']}/events.jsonl") as fh:
+            runs[observer] = [e for e in map(json.loads, fh) if e.get("event") == "simulated_percept"]
+    # 12 real + 12 simulated answers judged; the display's familiarisation is only learned
+    learned = {e["felt_as"]: e["templates"] for e in runs["display_learned"]}
+    assert learned == {"real": "real", "simulated": "simulated"}
+    assert {e["felt_as"]: e["templates"] for e in runs["absolute"]} == {"real": "real",
+                                                                         "simulated": "real"}
