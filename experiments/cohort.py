@@ -395,7 +395,8 @@ def _note_simulation(report, protocol) -> None:
             f"the simulated participants feel the pad through it\n"
             f"- profiles faster than the display's {protocol.display.max_rate_C_per_s:g} °C/s: "
             f"`{sim.rate_limit}`\n"
-            f"- protocol: `{protocol.path}` (sha256 {protocol.hash[:12]})\n")
+            f"- protocol: `{protocol.path if protocol.path is not None else 'protocol.json'}` "
+            f"(sha256 {protocol.hash[:12]})\n")
     text += _felt_at_receptors(protocol)
     with open(report, "a", encoding="utf-8") as fh:
         fh.write(text)
