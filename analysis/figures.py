@@ -6,7 +6,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["plot_figure9", "plot_confusion"]
+__all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
+           "Y_LIMITS"]
 
 #: Series of Figure 9: (group, mode) -> (label, colour, marker, line style).
 SERIES = {
@@ -16,6 +17,11 @@ SERIES = {
     ("B", "simulated"): ("Group B, simulated", "tab:blue", "D", "--"),
 }
 CHANCE = 0.25
+#: Horizontal offsets of the four series (in roughness-number units): markers 0.12 apart, so
+#: 6-point markers and 3-point caps at the figure's scale never overlap.
+DODGE = dict(zip(SERIES, (-0.18, -0.06, 0.06, 0.18)))
+#: y-axis limits: padded so that points (and error caps) at 0 and 1 are drawn whole.
+Y_LIMITS = (-0.05, 1.05)
 
 
 def _pyplot():
@@ -49,7 +55,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
         raise ValueError(f"plot_figure9: interval: expected 'boot' or 'wilson', got {interval!r}")
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=150)
-    offsets = {key: off for key, off in zip(SERIES, (-0.09, -0.03, 0.03, 0.09))}
+    offsets = DODGE
     for key, (label, colour, marker, style) in SERIES.items():
         sel = proportions[(proportions["group"] == key[0]) & (proportions["mode"] == key[1])]
         if sel.empty:
@@ -67,7 +73,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     ax.set_xticks([1, 2, 3, 4], [f"{r}#\n{ticks[r]:g} µm" if r in ticks.index else f"{r}#"
                                  for r in (1, 2, 3, 4)])
     ax.set_xlim(0.5, 4.5)
-    ax.set_ylim(0.0, 1.0)
+    ax.set_ylim(*Y_LIMITS)
     ax.set_xlabel("Roughness Number (Ra)")
     ax.set_ylabel("Proportions of correct recognition")
     # (the bootstrap interval is a Wilson interval at the bootstrap's effective sample size:
@@ -81,8 +87,90 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path)
+    fig.savefig(path.with_suffix(".pdf"))          # vector copy beside the PNG
     plt.close(fig)
     return path
+
+
+def _draw_panel(ax, table: pd.DataFrame, value: str, low: str, high: str, title: str) -> None:
+    """Four dodged series of ``table`` (group, mode, roughness_id, value, low, high) on ``ax``."""
+    for key, (label, colour, marker, style) in SERIES.items():
+        sel = table[(table["group"] == key[0]) & (table["mode"] == key[1])].sort_values("roughness_id")
+        if sel.empty:
+            continue
+        x = sel["roughness_id"].to_numpy(float) + DODGE[key]
+        y = sel[value].to_numpy(float)
+        yerr = np.vstack([np.clip(y - sel[low].to_numpy(float), 0, None),
+                          np.clip(sel[high].to_numpy(float) - y, 0, None)])
+        ax.errorbar(x, y, yerr=yerr, label=label, color=colour, marker=marker, linestyle=style,
+                    capsize=3, linewidth=1.4, markersize=6, gid=f"{key[0]}-{key[1]}",
+                    markerfacecolor=colour if key[1] == "real" else "white")
+    ax.axhline(CHANCE, color="0.4", linestyle=":", linewidth=1, label="chance (0.25)")
+    ticks = table.drop_duplicates("roughness_id").set_index("roughness_id")["roughness_um"]
+    ax.set_xticks([1, 2, 3, 4], [f"{r}#\n{ticks[r]:g} µm" if r in ticks.index else f"{r}#"
+                                 for r in (1, 2, 3, 4)])
+    ax.set_xlim(0.5, 4.5)
+    ax.set_ylim(*Y_LIMITS)
+    ax.set_yticks(np.linspace(0, 1, 6))
+    ax.grid(axis="y", color="0.9", linewidth=0.8)
+    ax.set_xlabel("Roughness Number (Ra)")
+    ax.set_title(title, fontsize=9)
+
+
+def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_title: str,
+                   right_title: str, interval: str = "boot", left_note: str = "",
+                   right_note: str = ""):
+    """The two-panel Figure 9: the paper's method as printed, beside the best-matching scenario.
+
+    Parameters
+    ----------
+    predicted : pandas.DataFrame
+        Left panel: columns group, mode, roughness_id, roughness_um, expected, study_low,
+        study_high (expected proportion correct over many simulated studies and the 95 % range
+        of a single study's; :class:`experiments.simulation.scenarios.ScenarioResult`).
+    observed : pandas.DataFrame
+        Right panel: :func:`analysis.cell_proportions` of the emulated sessions.
+    left_title, right_title : str
+    interval : {"boot", "wilson"}
+        The right panel's interval.
+    left_note, right_note : str
+        Text under each panel (the claims each panel shows).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Axes 0 (left) and 1 (right); each series is an errorbar container whose line has the
+        ``gid`` ``"<group>-<mode>"``.
+    """
+    plt = _pyplot()
+    notes = bool(left_note or right_note)
+    fig, axes = plt.subplots(1, 2, figsize=(11.5, 7.0 if notes else 5.4), dpi=150, sharey=True)
+    _draw_panel(axes[0], predicted, "expected", "study_low", "study_high", left_title)
+    _draw_panel(axes[1], observed, "proportion_correct", f"{interval}_low", f"{interval}_high",
+                right_title)
+    axes[0].set_ylabel("Proportions of correct recognition")
+    handles, labels = axes[1].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=5, frameon=False)
+    if notes:
+        fig.subplots_adjust(left=0.06, right=0.99, top=0.88, bottom=0.36, wspace=0.08)
+        for ax, note in ((axes[0], left_note), (axes[1], right_note)):
+            fig.text(ax.get_position().x0, 0.235, note, ha="left", va="top", fontsize=7.5,
+                     family="DejaVu Sans Mono")
+    else:
+        fig.tight_layout(rect=(0, 0.06, 1, 1))
+    return fig
+
+
+def plot_figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, path, **titles) -> list:
+    """Write :func:`figure9_panels` as ``path`` (PNG) and the same name ``.pdf``; return both."""
+    plt = _pyplot()
+    fig = figure9_panels(predicted, observed, **titles)
+    path = Path(path)
+    out = [path, path.with_suffix(".pdf")]
+    for p in out:
+        fig.savefig(p)
+    plt.close(fig)
+    return out
 
 
 def plot_confusion(confusion: pd.DataFrame, path) -> Path:

@@ -16,6 +16,7 @@ group, which is what the analysis compares.
 """
 from __future__ import annotations
 
+import copy
 import json
 import os
 import sys
@@ -160,8 +161,11 @@ def _positive_int(value, option: str, high: int | None = None) -> int:
 
 
 def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "roughness_recognition",
-                    responder_options: dict | None = None) -> dict:
+                    responder_options: dict | None = None, durable: bool = True) -> dict:
     """Run one participant's session with the emulator (virtual clock) and the simulated responder.
+
+    ``durable=False`` skips the fsyncs of this session's files (:func:`experiments.logbook.
+    set_durable`; same files, same order, same content) and restores the setting after.
 
     Returns
     -------
@@ -178,13 +182,18 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     extra = record.get("x_simulation")
     options = {"seed": extra.get("seed", seed) if isinstance(extra, dict) else seed}
     options.update(responder_options or {})
+    from experiments.logbook import set_durable
     start = time.perf_counter()
     responder = get_responder("simulated", **options)
-    session = create_session(protocol, participant_path, data_dir,
-                             f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
-                             responder_name="simulated", clock="virtual", out=io.StringIO())
-    session.show_progress = False
-    status = session.run(responder)
+    previous = set_durable(durable)
+    try:
+        session = create_session(protocol, participant_path, data_dir,
+                                 f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
+                                 responder_name="simulated", clock="virtual", out=io.StringIO())
+        session.show_progress = False
+        status = session.run(responder)
+    finally:
+        set_durable(previous)
     if status != 0:
         raise RuntimeError(f"{participant_path}: the session in {session.directory} ended with "
                            f"status {status}; see its events.jsonl")
@@ -193,8 +202,9 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
 
 
 def _run_one(args):
-    path, data_dir, seed, protocol, options = args
-    return run_participant(path, data_dir, seed=seed, protocol=protocol, responder_options=options)
+    path, data_dir, seed, protocol, options, durable = args
+    return run_participant(path, data_dir, seed=seed, protocol=protocol, responder_options=options,
+                           durable=durable)
 
 
 def _progress(done: int, total: int, start: float, label: str, stream) -> None:
@@ -213,7 +223,8 @@ MAX_DEFAULT_WORKERS = 4
 def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: int | None = None, *,
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
                       analyze: bool = True, participants: int | None = None,
-                      target_side: str | None = None, rate_limit: str | None = None) -> dict:
+                      target_side: str | None = None, rate_limit: str | None = None,
+                      replay: str | None = None, durable: bool = False) -> dict:
     """Run the paper's Figure 9 study end to end with simulated participants.
 
     Parameters
@@ -250,6 +261,16 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     rate_limit : {"refuse", "slew"}, optional
         Override the protocol's ``[simulation] rate_limit`` likewise. Profiles the display
         would refuse stop the study before any session runs.
+    durable : bool
+        fsync every file the sessions write (default False: a simulated study on the virtual
+        clock is recomputed from its seed, so a power cut costs a rerun, not data; fsync was
+        70 % of a session's wall time on the shared 2-core machine). The files, their order and
+        content are the same either way; ``study.json`` records the setting.
+    replay : {"material", "skin", "compensated"}, optional
+        A replay hypothesis (:mod:`experiments.simulation.replay`): sets both of the above.
+        The variant is built from the protocol's data and recorded in ``out_dir/protocol.json``.
+        A responder option ``observer=display_learned`` also adds a familiarisation block on
+        the display.
 
     Returns
     -------
@@ -286,12 +307,18 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
                              f"comes from the study's --seed), got {responder_options['seed']!r}")
     get_responder("simulated", **dict(responder_options or {}))   # bad options: fail now
     out_dir.mkdir(parents=True, exist_ok=True)      # a target-side protocol copy goes here
-    protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit)
+    from experiments.simulation.observers import OBSERVERS
+    observer = (responder_options or {}).get("observer", "absolute")
+    on_display = observer in OBSERVERS and OBSERVERS[observer].familiarise_on_display
+    protocol_name = str(protocol)
+    protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit, replay,
+                                        display_familiarisation=on_display)
     check_simulated_profiles(used)
     data_dir.mkdir(parents=True, exist_ok=True)
     paths = {p.stem: p for p in write_cohort(out_dir / "participants", seed=seed)}
     paths = [paths[r["id"]] for r in alternate_groups(records, n)]
-    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {})) for p in paths]
+    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {}), bool(durable))
+            for p in paths]
     stream = sys.stderr
     start = time.perf_counter()
     results = []
@@ -338,7 +365,9 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
             stream.flush()
     from experiments.logbook import atomic_write_json
     atomic_write_json(out_dir / "study.json", {
-        "study": "figure9", "seed": int(seed), "workers": workers, "protocol": str(protocol),
+        "study": "figure9", "seed": int(seed), "workers": workers,
+        "protocol": protocol_name if isinstance(protocol, str) else str(out_dir / "protocol.json"),
+        "replay": replay, "observer": observer, "fsync": bool(durable),
         "responder_options": dict(responder_options or {}),
         "protocol_hash": used.hash,
         "target_side": used.simulation.target_side,
@@ -366,7 +395,8 @@ def _note_simulation(report, protocol) -> None:
             f"the simulated participants feel the pad through it\n"
             f"- profiles faster than the display's {protocol.display.max_rate_C_per_s:g} °C/s: "
             f"`{sim.rate_limit}`\n"
-            f"- protocol: `{protocol.path}` (sha256 {protocol.hash[:12]})\n")
+            f"- protocol: `{protocol.path if protocol.path is not None else 'protocol.json'}` "
+            f"(sha256 {protocol.hash[:12]})\n")
     text += _felt_at_receptors(protocol)
     with open(report, "a", encoding="utf-8") as fh:
         fh.write(text)
@@ -421,58 +451,50 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
     return "".join(lines)
 
 
-def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None):
-    """``(protocol to run, parsed Protocol)``; with overrides, a copy in ``out_dir``.
+def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=None,
+                       display_familiarisation: bool = False):
+    """``(protocol to run, parsed Protocol)``; with overrides, a variant built from its data.
 
-    The copy (``out_dir/protocol.toml``) keeps the TOML text (comments, layout) and changes or
-    adds only the ``target_side`` / ``rate_limit`` lines of ``[simulation]``.
+    ``replay`` names a replay hypothesis (:data:`experiments.simulation.replay.REPLAY_HYPOTHESES`,
+    which sets ``target_side`` and ``rate_limit``); ``target_side`` / ``rate_limit`` override
+    single fields.  A variant is parsed from a modified copy of the protocol's data
+    (:func:`experiments.protocol.parse_protocol`, never by editing TOML text) and its content is
+    written to ``out_dir/protocol.json`` for the record; the sessions get the parsed protocol
+    (each session.json holds it whole).
     """
-    import re
-
     from experiments.errors import UserInputError
-    from experiments.protocol import SIM_RATE_LIMITS, SIM_TARGET_SIDES, load_protocol
+    from experiments.logbook import atomic_write_json
+    from experiments.protocol import SIM_RATE_LIMITS, SIM_TARGET_SIDES, load_protocol, parse_protocol
+    from experiments.simulation.replay import _add_display_familiarisation, replay_hypothesis
     base = load_protocol(protocol)
     sim = base.simulation
     if sim is None:
         raise UserInputError(f"{protocol}: simulation: expected a [simulation] table for the "
                              f"Figure 9 study, got nothing")
     changes = {}
+    if replay is not None:
+        hyp = replay_hypothesis(replay)
+        changes = {"target_side": hyp.target_side, "rate_limit": hyp.rate_limit}
     for key, value, choices, option in (("target_side", target_side, SIM_TARGET_SIDES, "--target-side"),
                                         ("rate_limit", rate_limit, SIM_RATE_LIMITS, "--rate-limit")):
-        if value is None or value == getattr(sim, key):
+        if value is None:
             continue
         if value not in choices:
             raise UserInputError(f"{option}: expected one of {', '.join(choices)}, got {value!r}")
         changes[key] = value
-    if not changes:
+    changes = {k: v for k, v in changes.items() if v != getattr(sim, k)}
+    if not changes and not display_familiarisation:
         return str(protocol), base
-    lines = base.path.read_text(encoding="utf-8").splitlines(keepends=True)
-    section, start, end = None, None, len(lines)
-    for i, line in enumerate(lines):
-        head = re.match(r"\s*\[\[?([^\[\]]+)\]\]?\s*(#.*)?$", line)
-        if head:
-            if section == "simulation":
-                end = i
-                break
-            section = head.group(1).strip()
-            if section == "simulation":
-                start = i
-    for key, value in changes.items():
-        for i in range(start + 1, end):
-            if re.match(rf"\s*{key}\s*=", lines[i]):
-                lines[i] = f'{key} = "{value}"\n'
-                break
-        else:
-            lines.insert(start + 1, f'{key} = "{value}"\n')
-            end += 1
-    path = Path(out_dir) / "protocol.toml"
-    path.write_text("".join(lines), encoding="utf-8")
-    used = load_protocol(path)
-    for key, value in changes.items():
-        if getattr(used.simulation, key) != value:   # pragma: no cover - a TOML we could not edit
-            raise UserInputError(f"{path}: simulation.{key}: expected {value!r}, "
-                                 f"got {getattr(used.simulation, key)!r}")
-    return str(path), used
+    data = copy.deepcopy(base.data)
+    data["simulation"] = {**data["simulation"], **changes}
+    if display_familiarisation:
+        data = _add_display_familiarisation(data)
+    where = base.path.name if base.path is not None else base.name
+    variant = parse_protocol(data, source=f"{where} (variant: " + ", ".join(
+        [f"{k} = {v!r}" for k, v in changes.items()] +
+        (["familiarised on the display"] if display_familiarisation else [])) + ")")
+    atomic_write_json(Path(out_dir) / "protocol.json", variant.data)
+    return variant, variant
 
 
 def check_simulated_profiles(protocol) -> None:

@@ -25,7 +25,10 @@ trial is answered with
 the templates of the trial's kind if it has them, else the real samples'; with probability
 ``lapse_rate`` it guesses uniformly. A Thurstonian (Case V-like, unequal variance) observer.
 Nothing about the paper's Figure 9 is built in: the pattern of correct answers follows from the
-physics and the noise parameters, all in :class:`PerceptionParameters`.
+physics and the noise parameters, all in :class:`PerceptionParameters`.  This decision rule is the
+``absolute`` member of a named family of observer models (:mod:`experiments.simulation.observers`:
+``absolute``, ``relative``, ``range_frequency``, ``display_learned``), which the simulated
+responder selects with its ``observer`` option.
 
 The sample is a 3 mm steel slab with an insulated back (the paper's samples are 3 mm thick,
 §3.1), not a half-space; :class:`PerceptionParameters` has ``sample_thickness_m=None`` for a

@@ -14,7 +14,7 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
-from experiments.logbook import fsync_dir
+from experiments.logbook import fsync, fsync_dir
 
 __all__ = [
     "EXTRA_TRIAL_COLUMNS",
@@ -118,7 +118,7 @@ class TraceWriter:
         if self._fh.closed:
             return
         self._fh.flush()
-        os.fsync(self._fh.fileno())
+        fsync(self._fh.fileno())
         self._fh.close()
         fsync_dir(self.path.parent)
 

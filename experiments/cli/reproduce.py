@@ -4,9 +4,12 @@
   printed, corrected, and the exact solution side by side (:mod:`analysis.model_figures`).
 * ``table2``: Table 2 beside our models, with residuals (:mod:`analysis.table2`); the
   markdown table is also printed.
-* ``figure9``: the simulated-cohort study (:func:`experiments.cohort.run_figure9_study`);
-  ``--target-side`` chooses what the display replays (default: the protocol's, the paper's
-  material side); ``study.json`` and ``report.md`` say which. ``--participants N`` runs N of
+* ``figure9``: the paper's claims under every (replay hypothesis x observer) scenario from
+  many simulated 15 + 15 studies, then the 30-participant study on the emulated display for the
+  headline scenario (:func:`experiments.simulation.reproduction.run_reproduction`): by default
+  the scenario that best matches the paper's evidence; ``--replay`` and ``--observer`` choose
+  it (``--target-side`` / ``--rate-limit`` override single fields); ``study.json`` and
+  ``report.md`` say which. ``--participants N`` runs N of
   the 30 (taken from groups A and B in turn), ``--workers N`` sets the parallel processes,
   ``--responder-option KEY=VALUE`` passes options to every simulated participant.
 """
@@ -23,6 +26,19 @@ def register(sub) -> None:
     p.add_argument("target", choices=TARGETS, help="what to reproduce")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing)")
     p.add_argument("--seed", type=int, default=0, help="figure9 only: cohort seed (default 0)")
+    p.add_argument("--replay", choices=("material", "skin", "compensated"), default=None,
+                   help="figure9 only: the headline's replay hypothesis: 'material' (the printed "
+                        "Eq. 7), 'skin' (skin side) or 'compensated'; default: the best match "
+                        "to the paper's evidence")
+    p.add_argument("--observer", choices=("absolute", "relative", "range_frequency",
+                                          "display_learned"), default=None,
+                   help="figure9 only: the headline's observer model (the simulated "
+                        "participants' decision rule); default: the best match")
+    p.add_argument("--studies", type=int, default=None, metavar="N",
+                   help="figure9 only: simulated 15+15 studies per scenario (default 400)")
+    p.add_argument("--pool-size", type=int, default=None, metavar="N",
+                   help="figure9 only: simulated persons per group the studies draw from "
+                        "(default 100)")
     p.add_argument("--target-side", choices=("material", "skin", "compensated"), default=None,
                    help="figure9 only: what the display replays on simulated trials: 'material' "
                         "(the paper's Eq. 7), 'skin' or 'compensated' (through the finger-pad "
@@ -30,7 +46,7 @@ def register(sub) -> None:
     p.add_argument("--rate-limit", choices=("refuse", "slew"), default=None,
                    help="figure9 only: profiles faster than the display's rate limit are refused "
                         "(the study stops before it starts) or slowed to it ('slew'; compensated "
-                        "3#/4# need it); default: the protocol's (refuse)")
+                        "3#/4# need it); default: the replay hypothesis's")
     p.add_argument("--participants", type=int, default=None, metavar="N",
                    help="figure9 only: run N of the 30 participants, taken from groups A and B "
                         "in turn (P01, P16, P02, ...); default: all 30")
@@ -54,7 +70,9 @@ def _out_dir(path: str, create: bool = True) -> Path:
 
 
 #: Options that only the figure9 study takes (argparse dest, option).
-_FIGURE9_ONLY = (("target_side", "--target-side"), ("rate_limit", "--rate-limit"),
+_FIGURE9_ONLY = (("replay", "--replay"), ("observer", "--observer"), ("studies", "--studies"),
+                 ("pool_size", "--pool-size"),
+                 ("target_side", "--target-side"), ("rate_limit", "--rate-limit"),
                  ("participants", "--participants"), ("workers", "--workers"),
                  ("responder_option", "--responder-option"))
 
@@ -82,8 +100,10 @@ def _run(ns) -> int:
         return 0
     # figure9: the simulated cohort (owned by experiments/cohort.py)
     from experiments.cli.run import responder_options
-    from experiments.cohort import run_figure9_study
-    run_figure9_study(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
-                      participants=ns.participants, workers=ns.workers,
-                      responder_options=responder_options(ns.responder_option))
+    from experiments.simulation.reproduction import run_reproduction
+    run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
+                     participants=ns.participants, workers=ns.workers, replay=ns.replay,
+                     observer=ns.observer, n_studies=400 if ns.studies is None else ns.studies,
+                     pool_size=100 if ns.pool_size is None else ns.pool_size,
+                     responder_options=responder_options(ns.responder_option))
     return 0

@@ -80,6 +80,16 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     pad_contact : bool
         Feel the display's pad through the finger–pad contact resistance (default); false
         imposes the pad temperature on the skin directly.
+    observer : str
+        The decision rule, by name (:data:`experiments.simulation.observers.OBSERVERS`):
+        ``absolute`` (default: maximum likelihood against the real samples' templates),
+        ``relative`` (within-block rank, knowing the 4 x 3 design), ``range_frequency``
+        (range–frequency judgement over the block so far) or ``display_learned`` (absolute,
+        with templates learned on a familiarisation block on the display). Logged in the
+        ``simulated_participant`` event with its parameters (e.g. ``range_weight``, given as
+        an option like the perception parameters). The block-relative observers remember the
+        block's percepts in this process only: a resumed session's first answers in a block
+        see only the trials after the resume.
     log_percepts : bool
         Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
         log-likelihood of each sample, answer), so every answer can be traced to the physics.
@@ -93,14 +103,25 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     def __init__(self, seed=None, skin_thickness_um=None, dermis_fraction=None,
                  skin_temperature_C=None, press_after_s=0.3, force_N=None, hold_s=None,
                  log_percepts=True, pad_roughness_um=None, pad_material=None, pad_contact=True,
-                 **perception):
+                 observer="absolute", **perception):
         super().__init__()
+        from experiments.simulation.observers import OBSERVERS, get_observer
+        if observer not in OBSERVERS:
+            raise UserInputError(f"responder 'simulated': observer: expected one of "
+                                 f"{', '.join(OBSERVERS)}, got {observer!r}")
+        observer_params = {k: _number(k, perception.pop(k))
+                           for k in list(perception) if k in OBSERVERS[observer].defaults()}
+        try:
+            self.observer = get_observer(observer, **observer_params)
+        except ValueError as exc:
+            raise UserInputError(f"responder 'simulated': {exc}") from None
+        self._blocks: dict = {}
         unknown = sorted(set(perception) - set(_PARAM_FIELDS))
         if unknown:
             raise UserInputError(f"responder 'simulated': unknown option(s) {unknown}; expected "
                                  f"seed, skin_thickness_um, dermis_fraction, skin_temperature_C, "
                                  f"press_after_s, force_N, hold_s, log_percepts, pad_roughness_um, "
-                                 f"pad_material, pad_contact or one of "
+                                 f"pad_material, pad_contact, observer (and its parameters) or one of "
                                  f"{sorted(_PARAM_FIELDS)}")
         values = {}
         for key, value in perception.items():
@@ -144,7 +165,8 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         self.person = self.make_person(record)
         if self.seed is None:
             self.seed = _stable_seed(f"{record.get('id', 'anonymous')}:{getattr(session, 'seed', '')}")
-        self.log("simulated_participant", seed=self.seed, **self.person.describe())
+        self.log("simulated_participant", seed=self.seed, observer=self.observer.describe(),
+                 **self.person.describe())
         self._relearn_opening_familiarisation(getattr(session, "schedule", ()) or ())
 
     def _relearn_opening_familiarisation(self, schedule) -> None:
@@ -316,7 +338,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             features = person.features(t, rec, skin_temperature)
             percept = person.perceive(features, rng)
             kind = "simulated" if _played(stimulus) else "real"
-            answer = person.decide(percept, rng, choices=RESPONSE_IDS, mode=kind)
+            answer = self._decide(trial, percept, rng, kind)
             if self.log_percepts:
                 self.log("simulated_percept", trial_index=index, felt_as=kind,
                          pad_resistance_m2K_W=self.pad_resistance() if kind == "simulated" else None,
@@ -326,9 +348,39 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                          percept=[round(float(v), 4) for v in percept],
                          log_likelihoods={str(k): round(v, 3) for k, v in
                                           person.log_likelihoods(percept, kind).items()},
+                         templates=getattr(self, "_judged_against", None),
                          answer=answer)
         self._trial_state.pop(index, None)
         return Response(answer, rt, source="simulated")
+
+    def _decide(self, trial, percept, rng, kind: str) -> int:
+        """The observer's answer to this trial (lapse first, as :meth:`SimulatedPerson.decide`).
+
+        The block's earlier percepts and answers are kept (per block name) for the observers
+        that judge within the block; the absolute observer ignores them.
+        """
+        from experiments.simulation.observers import BlockContext
+        person = self._ensure_person()
+        mode = kind if kind == "real" else self.observer.template_mode_for_simulated
+        templates = person.template_set(mode)
+        self._judged_against = next((k for k, v in person.templates.items() if v is templates), None)
+        lapse = rng.random() < self.params.lapse_rate
+        history = self._blocks.setdefault(str(getattr(trial, "block", "")), ([], []))
+        if lapse or not templates:
+            answer = int(rng.choice(RESPONSE_IDS))
+        else:
+            ids = sorted(templates)
+            means = np.array([templates[k][0] / templates[k][1] for k in ids])[None]
+            counts = np.array([[float(templates[k][1]) for k in ids]])
+            block = _block_of(getattr(self.session, "protocol", None), trial)
+            ctx = BlockContext(means, counts, self.params.noise_sd,
+                               int(getattr(block, "repetitions", 3) or 3))
+            seen = np.array(history[0] + [np.asarray(percept, dtype=float)])[None]
+            given = np.array([[ids.index(a) if a in ids else -1 for a in history[1]]], dtype=int)
+            answer = int(ids[int(self.observer.choose(seen, given.reshape(1, -1), ctx)[0])])
+        history[0].append(np.asarray(percept, dtype=float))
+        history[1].append(answer)
+        return answer
 
     def rewarm(self, seconds: float) -> None:
         self.sleep(seconds)

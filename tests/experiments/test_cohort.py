@@ -84,10 +84,10 @@ def test_target_side_into_a_folder_that_does_not_exist_yet(tmp_path):
     summary = run_figure9_study(out, seed=1, progress=False, workers=1, participants=1,
                                 target_side="skin", rate_limit="slew", analyze=False)
     assert len(summary["sessions"]) == 1
-    text = (out / "protocol.toml").read_text()
-    assert 'target_side = "skin"' in text and 'rate_limit = "slew"' in text
+    variant = json.loads((out / "protocol.json").read_text())     # the variant's data, recorded
+    assert variant["simulation"]["target_side"] == "skin" and variant["simulation"]["rate_limit"] == "slew"
     study = json.loads((out / "study.json").read_text())
-    assert study["target_side"] == "skin" and study["protocol"] == str(out / "protocol.toml")
+    assert study["target_side"] == "skin" and study["protocol"] == str(out / "protocol.json")
     (session,) = (out / "data").glob("*/*/session.json")
     assert json.loads(session.read_text())["protocol"]["simulation"]["target_side"] == "skin"
 
@@ -97,15 +97,35 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     out = tmp_path / "fig9"
     assert main(["reproduce", "figure9", "--out", str(out), "--seed", "4", "--participants", "2",
                  "--workers", "2", "--responder-option", "lapse_rate=0.25",
-                 "--responder-option", "log_percepts=false"]) == 0, capsys.readouterr().err
+                 "--responder-option", "log_percepts=false", "--studies", "40",
+                 "--pool-size", "20", "--replay", "skin", "--observer", "relative"]) == 0, \
+        capsys.readouterr().err
     study = json.loads((out / "study.json").read_text())
-    assert study["workers"] == 2
-    assert study["responder_options"] == {"lapse_rate": 0.25, "log_percepts": False}
+    assert study["workers"] == 2 and study["fsync"] is False
+    assert study["headline"] == {"replay": "skin", "observer": "relative"}
+    assert study["responder_options"]["observer"] == "relative"
+    # issue 11: the answer first: terminal ends with the claims table, report opens with the verdict
+    printed = capsys.readouterr().out.strip().splitlines()
+    assert printed[0].startswith("The paper's Figure 9 / Table 2 claims are ")
+    assert printed[1].startswith("The 2-participant emulated study (skin replay, relative observer) shows: rise R ")
+    assert printed[2].split()[:2] == ["replay", "observer"] and len(printed) == 17
+    assert "skin        relative" in printed[9] and printed[9].endswith("<- headline")
+    report = (out / "report.md").read_text(encoding="utf-8").splitlines()
+    assert report[0] == "# Figure 9, reproduced" and report[2] == f"**{printed[0]}**"
+    assert report[4] == printed[1]
+    assert "## Sensitivity of the headline scenario" in report
+    for name in ("claims.csv", "scenario_proportions.csv", "sensitivity.csv", "figure9.pdf"):
+        assert (out / name).is_file()
+    assert study["responder_options"] == {"lapse_rate": 0.25, "log_percepts": False,
+                                          "observer": "relative"}
     assert [s["participant"] for s in study["participants"]] == ["P01", "P16"]
     _check_study(out, 2)
     events = [json.loads(line) for line in next((out / "data").glob("P16/*/events.jsonl")).open()]
     (person,) = [e for e in events if e["event"] == "simulated_participant"]
     assert person["parameters"]["lapse_rate"] == 0.25                    # the option reached it
+    assert person["observer"] == {"name": "relative", "parameters": {}}  # recorded in the log
+    session = json.loads(next((out / "data").glob("P16/*/session.json")).read_text())
+    assert session["protocol"]["simulation"]["target_side"] == "skin"
     assert not [e for e in events if e["event"] == "simulated_percept"]   # log_percepts=false
 
 
@@ -118,6 +138,9 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     (["--responder-option", "lapse_rate=2"], "lapse_rate"),
     # one seed for every simulated person would give them all the same noise draws
     (["--responder-option", "seed=3"], "--responder-option: seed: expected no seed"),
+    (["--responder-option", "observer=relative"], "--responder-option: observer: expected --observer"),
+    (["--studies", "0"], "--studies: expected an integer ≥ 1, got 0"),
+    (["--pool-size", "10"], "--pool-size: expected at least 15"),
 ])
 def test_reproduce_figure9_refuses_bad_options_before_running(tmp_path, capsys, args, message):
     from experiments.cli import main
@@ -177,7 +200,7 @@ def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
     with pytest.raises(UserInputError) as ei:
         run_figure9_study(tmp_path, progress=False, participants=1, target_side="compensated")
     msg = str(ei.value)
-    assert msg.startswith("protocol.toml: simulation.target_side: expected profiles the display accepts; "
+    assert msg.startswith("roughness_recognition: simulation.target_side: expected profiles the display accepts; "
                           "'compensated' for sample 3# (group A) gives profile.target_C: expected a rate ≤ 10.0")
     assert 'rate_limit = "slew"' in msg and "\n" not in msg
     assert not (tmp_path / "data").exists()          # refused before any session ran
@@ -193,9 +216,10 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
     study = json.loads((tmp_path / "study.json").read_text())
     assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
         ("compensated", "slew", 0.4, "copper")
-    copy = load_protocol(tmp_path / "protocol.toml")
+    from experiments.protocol import parse_protocol
+    copy = parse_protocol(json.loads((tmp_path / "protocol.json").read_text()))
     assert study["protocol_hash"] == copy.hash
-    # only the two lines changed: everything else parses to the packaged protocol
+    # built from the data (issue 11: no TOML text edited): only the two fields changed
     packaged = load_protocol("roughness_recognition")
     for key in ("target_side", "rate_limit"):
         packaged.data["simulation"][key] = copy.data["simulation"][key]

@@ -1,0 +1,219 @@
+"""The paper's claims about Figure 9 and Table 2, as data, each with the statistic that tests it.
+
+§3.2 of the paper says of Figure 9: the proportion correct "goes up slowly" with roughness, for
+real and simulated samples; 1# "is often confused with other samples, both for the real and
+simulated samples"; with real samples group A is "higher than that of the group B to a certain
+extent", and "for simulated material ... this difference becomes less".  Its Table 2
+"simulation" column rises with roughness (25.70 -> 28.82 °C).  :data:`CLAIMS` states each with
+a statistic and the criterion under which one study "shows" it; :func:`evaluate_claims` applies
+them to the correct-answer counts of one study or of thousands at once (no experiment runtime is
+imported: counts come from logs via :func:`counts_from_trials`, or from simulated studies).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["Claim", "CLAIMS", "evaluate_claims", "counts_from_trials", "claim_probabilities",
+           "wilson_interval", "ALPHA"]
+
+#: One-sided level of the claims that are tests.
+ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One claim of the paper.
+
+    Parameters
+    ----------
+    id : str
+        Column name in claims tables.
+    short : str
+        Column header (a few characters).
+    text : str
+        The claim in one line.
+    quote : str
+        Where the paper makes it.
+    statistic : str
+        The statistic computed from one study.
+    criterion : str
+        When a study shows the claim.
+    """
+
+    id: str
+    short: str
+    text: str
+    quote: str
+    statistic: str
+    criterion: str
+
+
+CLAIMS = (
+    Claim("rise_real", "rise R", "proportion correct rises with roughness (real)",
+          "§3.2 'the correct proportion ... goes up slowly'",
+          "mean over participants of each one's least-squares slope of proportion correct on "
+          "sample number 1-4 (per step), and its one-sample t",
+          f"t > t(0.95, P-1): one-sided test at {ALPHA:g}"),
+    Claim("rise_simulated", "rise S", "proportion correct rises with roughness (simulated)",
+          "§3.2, as above, 'for both real and simulated'",
+          "as rise_real, simulated trials", f"as rise_real"),
+    Claim("confused_1_real", "1# low R", "1# is the most confused sample (real)",
+          "§3.2 '1# ... is often confused with other samples, both for the real and simulated'",
+          "proportion correct of 1# minus the lowest of 2#-4# (all participants pooled)",
+          "< 0: 1# strictly the lowest"),
+    Claim("confused_1_simulated", "1# low S", "1# is the most confused sample (simulated)",
+          "§3.2, as above", "as confused_1_real, simulated trials", "as confused_1_real"),
+    Claim("a_above_b_real", "A>B R", "group A above group B with real samples",
+          "§3.2 'the proportion of the group A is higher than that of the group B'",
+          "difference of the groups' mean per-participant proportion correct (real), A - B, and "
+          "Welch's t", f"t > t(0.95, Welch df): one-sided test at {ALPHA:g}"),
+    Claim("smaller_diff_simulated", "A-B S<R", "smaller A - B difference with simulated samples",
+          "§3.2 'For simulated material, however, this difference becomes less'",
+          "(A - B) real minus |A - B| simulated (mean per-participant proportions)",
+          "> 0: a positive real difference larger than the simulated one's size"),
+    Claim("table2_rises", "T2 rise", "Table 2's simulated interface temperature rises with roughness",
+          "Table 2, 'simulation' column 25.70 -> 28.82 °C",
+          "Spearman correlation of the replayed temperature at 20 s (35 °C skin, 24 °C steel, "
+          "650 µm) with roughness 0.4-100 µm",
+          "= +1: strictly increasing (a property of the replay, not of a study)"),
+)
+
+
+def wilson_interval(k, n, z: float = 1.959963984540054):
+    """95 % Wilson score interval of ``k`` successes in ``n`` (arrays allowed)."""
+    k = np.asarray(k, dtype=float)
+    n = np.asarray(n, dtype=float)
+    p = k / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return centre - half, centre + half
+
+
+def _t_crit(df):
+    from scipy.stats import t
+    return t.ppf(1 - ALPHA, df)
+
+
+def evaluate_claims(correct, groups, repetitions: int, replay_temperatures=None) -> dict:
+    """Statistic and verdict of each claim for each study.
+
+    Parameters
+    ----------
+    correct : array_like of int, shape (S, P, 2, C) or (P, 2, C)
+        Correct answers per study, participant, mode (0 real, 1 simulated) and sample
+        (1# first), out of ``repetitions`` trials.
+    groups : array_like of str, shape (P,)
+        "A" or "B" per participant.
+    repetitions : int
+    replay_temperatures : array_like, °C, optional
+        The replayed interface temperature at Table 2's conditions, one per roughness in
+        increasing order; without it ``table2_rises`` is left out.
+
+    Returns
+    -------
+    dict
+        claim id -> (statistic, holds), arrays of shape (S,) (one study: shape (1,)).
+    """
+    c = np.asarray(correct, dtype=float)
+    if c.ndim == 3:
+        c = c[None]
+    groups = np.asarray(groups)
+    prop = c / float(repetitions)                                  # (S, P, 2, C)
+    S, P, _, C = prop.shape
+    out = {}
+    x = np.arange(1, C + 1, dtype=float)
+    xc = x - x.mean()
+    for m, mode in enumerate(("real", "simulated")):
+        slope = np.sum(prop[:, :, m, :] * xc, axis=-1) / np.sum(xc ** 2)   # (S, P)
+        mean = slope.mean(axis=1)
+        sd = slope.std(axis=1, ddof=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(sd > 0, mean / (sd / math.sqrt(P)), np.sign(mean) * np.inf)
+        out[f"rise_{mode}"] = (mean, t > _t_crit(P - 1))
+        pooled = prop[:, :, m, :].mean(axis=1)                      # (S, C)
+        gap = pooled[:, 0] - pooled[:, 1:].min(axis=1)
+        out[f"confused_1_{mode}"] = (gap, gap < 0)
+    per = prop.mean(axis=3)                                         # (S, P, 2)
+    a, b = per[:, groups == "A"], per[:, groups == "B"]
+    diff = a.mean(axis=1) - b.mean(axis=1)                          # (S, 2)
+    na, nb = a.shape[1], b.shape[1]
+
+    def _var_of_mean(x, n):   # sample variance / n; undefined (nan) for one participant
+        if n < 2:
+            return np.full(x.shape[0], np.nan)
+        return np.sum((x - x.mean(axis=1, keepdims=True)) ** 2, axis=1) / (n - 1) / n
+    va, vb = _var_of_mean(a[:, :, 0], na), _var_of_mean(b[:, :, 0], nb)
+    se = np.sqrt(va + vb)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(np.isnan(se), np.nan,
+                     np.where(se > 0, diff[:, 0] / se, np.sign(diff[:, 0]) * np.inf))
+        df = np.where(se > 0, (va + vb) ** 2 / (va ** 2 / max(na - 1, 1) + vb ** 2 / max(nb - 1, 1)),
+                      na + nb - 2)
+    out["a_above_b_real"] = (diff[:, 0], np.nan_to_num(t, nan=-np.inf) > _t_crit(np.nan_to_num(df, nan=1.0)))
+    gap = diff[:, 0] - np.abs(diff[:, 1])
+    out["smaller_diff_simulated"] = (gap, gap > 0)
+    if replay_temperatures is not None:
+        from scipy.stats import spearmanr
+        temps = np.asarray(replay_temperatures, dtype=float)
+        rho = float(spearmanr(np.arange(temps.size), temps).statistic)
+        strictly = bool(np.all(np.diff(temps) > 0))
+        out["table2_rises"] = (np.full(S, rho), np.full(S, strictly))
+    return out
+
+
+def counts_from_trials(trials: pd.DataFrame, roughness_ids=(1, 2, 3, 4)):
+    """Correct counts of one study from its analysable trials.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Columns participant, group, mode, roughness_id, correct (one row per scored trial,
+        e.g. :attr:`analysis.TrialLog.analysable`).
+
+    Returns
+    -------
+    correct : ndarray, shape (P, 2, C)
+        Proportion correct (not counts) per participant, mode, sample; ``repetitions`` is then 1.
+    groups : ndarray of str, shape (P,)
+    """
+    people = trials.drop_duplicates("participant").sort_values("participant")
+    out = np.full((len(people), 2, len(roughness_ids)), np.nan)
+    table = trials.groupby(["participant", "mode", "roughness_id"])["correct"].mean()
+    for i, pid in enumerate(people["participant"]):
+        for m, mode in enumerate(("real", "simulated")):
+            for j, rid in enumerate(roughness_ids):
+                out[i, m, j] = table.get((pid, mode, rid), np.nan)
+    return out, people["group"].to_numpy()
+
+
+def claim_probabilities(verdicts: dict) -> pd.DataFrame:
+    """Probability (with its 95 % Monte-Carlo interval) that a study shows each claim.
+
+    Parameters
+    ----------
+    verdicts : dict
+        From :func:`evaluate_claims` on many simulated studies.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns claim, probability, mc_low, mc_high, n_studies, mean_statistic; a last row
+        ``all``: the probability that one study shows every claim at once (the likelihood of
+        the paper's evidence under the scenario).
+    """
+    rows = []
+    shown = [(c.id, *verdicts[c.id]) for c in CLAIMS if c.id in verdicts]
+    joint = np.logical_and.reduce([h for _, _, h in shown])
+    for cid, stat, holds in shown + [("all", joint.astype(float), joint)]:
+        n = holds.size
+        k = int(np.sum(holds))
+        lo, hi = wilson_interval(k, n)
+        rows.append({"claim": cid, "probability": k / n, "mc_low": float(lo),
+                     "mc_high": float(hi), "n_studies": n,
+                     "mean_statistic": float(np.mean(stat[np.isfinite(stat)])) if np.any(np.isfinite(stat)) else float("nan")})
+    return pd.DataFrame(rows)

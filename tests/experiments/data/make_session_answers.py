@@ -1,0 +1,66 @@
+"""Regenerate ``session_answers_seed0.json`` (the reference answers of emulated sessions).
+
+Run from the repository root:  .venv/bin/python tests/experiments/data/make_session_answers.py
+
+It runs P01 (group A) and P16 (group B) of ``experiments.cohort.paper_cohort(0)`` through
+``roughness_recognition.toml`` on ``emulator://?clock=virtual&seed=0`` with the simulated
+responder (default options) and stores, per trial, the logged answer, response time, the
+contact trace's last temperature and the percept.  The stored file was produced by the code
+*before* the emulator was made faster (issue 11): tests/experiments/test_session_answers.py
+checks that the current code still logs exactly these answers.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+PARTICIPANTS = ("P01", "P16")
+SEED = 0
+
+
+def session_answers(participants=PARTICIPANTS, seed: int = SEED) -> dict:
+    """participant -> list of {block, trial_index, roughness_id, response_id, rt_s, percept}."""
+    from experiments.cohort import run_participant, write_cohort
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = {p.stem: p for p in write_cohort(Path(tmp) / "participants", seed=seed)}
+        for pid in participants:
+            res = run_participant(paths[pid], Path(tmp) / "data", seed=seed)
+            session = Path(res["session_dir"])
+            percepts = {}
+            for line in (session / "events.jsonl").read_text(encoding="utf-8").splitlines():
+                ev = json.loads(line)
+                if ev.get("event", ev.get("type")) == "simulated_percept" or "percept" in ev and "features" in ev:
+                    percepts[int(ev["trial_index"])] = ev["percept"]
+            rows = []
+            with open(session / "trials.csv", newline="", encoding="utf-8") as fh:
+                for row in csv.DictReader(fh):
+                    idx = int(row["trial_index"])
+                    rows.append({"block": row["block"], "trial_index": idx,
+                                 "roughness_id": int(row["roughness_id"]),
+                                 "response_id": row["response_id"], "rt_s": row["rt_s"],
+                                 "percept": percepts.get(idx)})
+            out[pid] = rows
+    return out
+
+
+def git_commit() -> str:
+    return subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                          cwd=HERE).stdout.strip()
+
+
+if __name__ == "__main__":
+    data = {"_comment": ("Reference answers of emulated sessions (P01, P16 of paper_cohort(0), "
+                         "roughness_recognition, emulator://?clock=virtual&seed=0, simulated "
+                         "responder with default options), produced by "
+                         "tests/experiments/data/make_session_answers.py at commit "
+                         f"{git_commit()}, before the emulator speed-up of issue 11."),
+            "answers": session_answers()}
+    (HERE / "session_answers_seed0.json").write_text(json.dumps(data, indent=1) + "\n",
+                                                      encoding="utf-8")
+    sys.exit(0)
