@@ -1,0 +1,77 @@
+"""The scene planner: the planned model against the full model over a grid of scenes."""
+import itertools
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from stimuli.planner import plan
+from stimuli.scene import Model, Scene, evaluate
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+GRID = list(itertools.product(
+    ["receptor", "interface_material", "interface_skin"],
+    ["half-space", "slab", "slab-on-support"],
+    [False, True],                      # layered
+    [0.0, 1.25e-3, 2e-2],               # perfusion
+    [0.02, 0.3, 2.0],                   # tolerance, K
+    [1.6e-6, 100e-6],                   # roughness
+))
+
+
+@pytest.mark.parametrize("quantity,geometry,layered,w,tol,ra", GRID)
+def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, layered, w, tol, ra):
+    scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
+                  tolerance_K=tol, roughness_m=ra, support="wood" if geometry == "slab-on-support" else None,
+                  duration_s=20.0, rate_Hz=200.0)
+    p = plan(scene)
+    full = evaluate(scene, scene.full_model())
+    got = p.evaluate()
+    err = float(np.max(np.abs(got - full)))
+    assert err <= tol, (p.lines(), err)
+    assert err <= p.bound_K + 1e-9          # the reported bound is a bound at every sample
+    json.dumps(p.to_dict())                 # the decisions are JSON-ready (session events)
+
+
+@pytest.mark.parametrize("quantity", ["interface_material", "interface_skin"])
+@pytest.mark.parametrize("tau,tol", [(0.001, 0.3), (0.05, 0.3), (0.05, 5.0), (0.3, 2.0)])
+def test_sensor_lag_bound_holds(quantity, tau, tol):
+    scene = Scene(quantity=quantity, sensor_time_constant_s=tau, tolerance_K=tol, rate_Hz=100.0,
+                  geometry="half-space")
+    p = plan(scene)
+    full = evaluate(scene, scene.full_model())
+    lag = [d for d in p.decisions if d.effect == "sensor"][0]
+    unlagged = evaluate(scene, Model("exact", "half-space"))
+    assert np.max(np.abs(full - unlagged)) <= lag.bound_K + 1e-12     # tau max|dT/dt| is a bound
+    assert np.max(np.abs(p.evaluate() - full)) <= tol
+
+
+def test_decisions_name_what_matters_at_the_papers_scene():
+    # 3 mm steel at 20 s: the slab is kept (K-sized), perfusion neglected (~0.01 K)
+    p = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3))
+    d = {x.effect: x for x in p.decisions}
+    assert d["slab"].included and d["slab"].bound_K > 1.0
+    assert not d["perfusion"].included and d["perfusion"].bound_K < 0.05
+    # a half-space interface at a loose tolerance: the paper's printed Eq. 7 is enough ...
+    p = plan(Scene(quantity="interface_material", geometry="half-space", tolerance_K=2.0))
+    assert p.model.method == "eq7"
+    # ... and not at a tight one
+    assert plan(Scene(quantity="interface_material", geometry="half-space", tolerance_K=0.01)).model.method == "exact"
+
+
+def test_range_checks_at_the_edge_of_the_model():
+    from stimuli import ModelInputError
+    from stimuli.errors import ModelRangeWarning
+    with pytest.raises(ModelInputError, match="skin_temperature_C"):
+        Scene(skin_temperature_C=-300.0)
+    with pytest.raises(ModelInputError, match="material_temperature_C"):
+        Scene(material_temperature_C=1000.0)
+    with pytest.raises(ModelInputError, match="skin_thickness_m"):
+        Scene(skin_thickness_m=1e-9)
+    with pytest.warns(ModelRangeWarning, match="skin_temperature_C"):
+        Scene(skin_temperature_C=44.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Scene(skin_temperature_C=33.0)
