@@ -297,7 +297,7 @@ class LayeredContact:
     >>> from stimuli import Skin, material
     >>> c = LayeredContact(skin_layers(Skin(650e-6)), material("stainless_steel"), 6.5e-4, 35.5, 20.0)
     >>> c.temperature("receptor", [1.0, 8.0], x=390e-6).round(2).tolist()
-    [28.8, 28.67]
+    [32.46, 31.1]
     """
 
     def __init__(self, layers, material: Material, resistance: float, skin_temperature: float,

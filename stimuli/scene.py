@@ -116,7 +116,7 @@ def lateral_effective_thickness(thickness_m: float, alpha_m: float, time_s: floa
     Examples
     --------
     >>> round(lateral_effective_thickness(3e-3, 4.2e-6, 20.0) * 1e3, 1)   # 3 mm steel, 20 s
-    16.5
+    17.3
     """
     a = math.sqrt(area_m2 / math.pi)
     return thickness_m * (1.0 + math.sqrt(alpha_m * time_s) / a) ** 2
