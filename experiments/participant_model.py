@@ -292,7 +292,7 @@ class SimulatedPerson:
         t : ndarray, s
         receptor_C : ndarray, °C
         """
-        from stimuli import Contact, contact_resistance
+        from stimuli import contact_resistance
         from stimuli import material as make_material
         thickness = self.params.sample_thickness_m if sample_thickness_m == "default" \
             else sample_thickness_m
@@ -306,9 +306,10 @@ class SimulatedPerson:
             skin = self.skin
             steel = make_material(material, thickness=thickness)
             resistance = contact_resistance(roughness=float(roughness_m), skin=skin, material=steel)
-            contact = Contact(skin, steel, resistance=resistance, skin_temperature=1.0,
-                              material_temperature=0.0)
-            theta = np.asarray(contact.receptor_temperature(t[1:]), dtype=float)
+            # through the scene planner (stimuli.planner), at the target profiles' temperatures
+            from stimuli.planner import planned_temperature
+            T, _ = planned_temperature("receptor", skin, steel, resistance, 35.5, 20.0, t[1:])
+            theta = (np.asarray(T, dtype=float) - 20.0) / 15.5
             self._real_cache[key] = np.concatenate(([1.0], theta))
         theta = self._real_cache[key]
         return t, t_m + theta * (t_s - t_m)

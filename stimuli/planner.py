@@ -35,7 +35,7 @@ import numpy as np
 from .exact import INVERSION_ERROR, InversionPlan
 from .scene import Model, Scene, evaluate
 
-__all__ = ["plan", "Plan", "Decision", "SAFETY", "EFFECTS"]
+__all__ = ["plan", "planned_temperature", "Plan", "Decision", "SAFETY", "EFFECTS"]
 
 #: Factor on the probe error for the times between probes (checked by the planner's grid test).
 SAFETY = 1.5
@@ -211,3 +211,55 @@ def _plan(scene: Scene) -> Plan:
     model = replace(current, sensor=full.sensor and sensor_bound == 0.0 and scene.quantity != "receptor")
     bound = max(current_err, sensor_bound + inv)
     return Plan(scene, model, full, tuple(decisions), float(bound), probes)
+
+
+def planned_temperature(quantity: str, skin, material, resistance: float, skin_temperature: float,
+                        material_temperature: float, t, *, tolerance: float | None = None,
+                        **physics):
+    """One production call: the scene of a contact, planned, then evaluated at times ``t``.
+
+    The chokepoint the simulated participant and the emulator's finger use instead of building a
+    :class:`stimuli.Contact` themselves, so that every production temperature is computed by the
+    planned model (:func:`plan`).
+
+    Parameters
+    ----------
+    quantity : {"receptor", "interface_material", "interface_skin"}
+    skin : Skin
+        Thickness L and receptor depth (``L - skin.dermis`` below the surface).
+    material : Material
+        A half-space or a slab (insulated back; ``physics`` may say ``geometry="slab-on-support"``).
+    resistance : float, m^2 K/W
+    skin_temperature, material_temperature : float, °C
+    t : array_like, s
+        Times >= 0 (any grid: the plan is made for the scene ``0..max(t)`` at the grid's rate).
+    tolerance : float or None, K
+        Default :data:`stimuli.scene.PERCEPTUAL_FLOOR_K`.
+    **physics
+        More :class:`stimuli.scene.Scene` options (``layered``, ``perfusion_per_s``, ...).
+
+    Returns
+    -------
+    T : ndarray, °C
+    plan : Plan
+    """
+    from .scene import PERCEPTUAL_FLOOR_K
+    t = np.asarray(t, dtype=float)
+    tmax = float(np.max(t)) if t.size else 1.0
+    pos = np.unique(t[t > 0])
+    dt = float(np.min(np.diff(np.concatenate([[0.0], pos])))) if pos.size else tmax
+    rate = 1.0 / dt
+    duration = round(tmax * rate) / rate if tmax > 0 else dt
+    geometry = physics.pop("geometry", "half-space" if material.thickness is None else "slab")
+    scene = Scene(quantity=quantity, duration_s=max(duration, dt), rate_Hz=rate,
+                  tolerance_K=PERCEPTUAL_FLOOR_K if tolerance is None else tolerance,
+                  material=material.with_thickness(None), resistance=float(resistance),
+                  skin_thickness_m=skin.thickness, receptor_depth_m=skin.epidermis,
+                  skin_temperature_C=skin_temperature, material_temperature_C=material_temperature,
+                  geometry=geometry,
+                  sample_thickness_m=3e-3 if material.thickness is None else material.thickness,
+                  **physics)
+    p = plan(scene)
+    if p.model.sensor:
+        return evaluate(p.scene, p.model, scene.times)[np.round(t * rate).astype(int)], p
+    return evaluate(p.scene, p.model, t), p

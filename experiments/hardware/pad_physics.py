@@ -213,14 +213,17 @@ class PassiveSample:
 
 @lru_cache(maxsize=256)
 def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n):
-    from stimuli import Contact, Skin, contact_resistance, material
+    from stimuli import Skin, contact_resistance, material
     skin = Skin(skin_th)
     m = material(mat, thickness=thickness)
     R = contact_resistance(roughness, skin=skin, material=m)
-    c = Contact(skin, m, resistance=R, skin_temperature=t_skin, material_temperature=t_mat)
     t = np.arange(n) * dt
-    tm = np.asarray(c.interface_temperature(t, side="material"), dtype=float)
-    ts = np.asarray(c.interface_temperature(t, side="skin"), dtype=float)
+    # through the scene planner (stimuli.planner) to half the display's 0.01 K resolution
+    from stimuli.planner import planned_temperature
+    tm = np.asarray(planned_temperature("interface_material", skin, m, R, t_skin, t_mat, t,
+                                        tolerance=0.005)[0], dtype=float)
+    ts = np.asarray(planned_temperature("interface_skin", skin, m, R, t_skin, t_mat, t,
+                                        tolerance=0.005)[0], dtype=float)
     tm.setflags(write=False); ts.setflags(write=False)
     return tm, ts
 
