@@ -216,6 +216,11 @@ def receptor_features(t, receptor_C, initial_C, params: PerceptionParameters) ->
     if t[0] > 0:
         t = np.concatenate(([0.0], t))
         y = np.concatenate(([initial_C], y))
+    rise = float(np.max(y)) - float(initial_C)
+    if rise > 0.2:   # the features are drops and a rate of fall: a cooling observer (issue 12)
+        raise ValueError(f"receptor_features: receptor_C: expected a cooling trace (a material "
+                         f"colder than the skin), got a rise of {rise:.3g} K above {initial_C!r} °C; "
+                         f"this observer's features assume cooling and do not describe warm materials")
     drops = initial_C - np.interp(params.drop_times_s, t, y)
     window = (t > 0) & (t <= params.rate_window_s)
     rate = -np.diff(y) / np.diff(t)

@@ -341,3 +341,11 @@ def test_emulated_compensated_trial_feels_like_the_real_sample_and_material_side
         felt[side] = p.features(tt, rr)
     np.testing.assert_allclose(felt["compensated"][:3], f_real[:3], atol=0.03)
     assert np.all(felt["material"][:3] > f_real[:3] + 1.0)
+
+
+def test_cooling_features_refuse_a_warm_material():
+    # issue 12: the observer's features are drops and a rate of fall; a warming trace is refused
+    t = np.linspace(0.0, 8.0, 81)
+    warm = 35.0 + 3.0 * (1.0 - np.exp(-t))
+    with pytest.raises(ValueError, match="expected a cooling trace"):
+        receptor_features(t, warm, 35.0, PerceptionParameters())

@@ -75,3 +75,31 @@ def test_range_checks_at_the_edge_of_the_model():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         Scene(skin_temperature_C=33.0)
+
+
+def test_absurd_inputs_refused_where_they_enter():
+    import numpy as np
+    from stimuli import Contact, ModelInputError, Skin, contact_resistance, material, skin_response
+    from stimuli.errors import ModelRangeWarning
+    with pytest.raises(ModelInputError, match="thickness"):
+        Skin(1e-9)                                                     # 1 nm skin
+    with pytest.raises(ModelInputError, match="absolute zero"):
+        Contact(Skin(650e-6), material("steel"), 0.0, -300.0, 1000.0)
+    t = np.arange(11) * 0.1
+    with pytest.raises(ModelInputError, match="surface_temperature"):
+        skin_response(Skin(650e-6), t, np.full(11, 200.0), 35.0)      # a 200 °C display
+    with pytest.raises(ModelInputError, match="P/H"):
+        contact_resistance(1.6e-6, force=20.0)                         # P > H
+    with pytest.warns(ModelRangeWarning, match="P/H"):
+        contact_resistance(1.6e-6, force=6.0)                          # P/H = 0.36
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        contact_resistance(1.6e-6, force=2.5)                          # the emulated finger
+
+
+def test_target_profile_refuses_absurd_temperatures():
+    from stimuli import ModelInputError, target_profile
+    with pytest.raises(ModelInputError, match="material_temperature_C"):
+        target_profile(material_temperature=1000.0, cache=False)
+    with pytest.raises(ModelInputError, match="skin_temperature_C"):
+        target_profile(skin_temperature=-300.0, cache=False)
