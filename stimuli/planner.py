@@ -105,6 +105,14 @@ def _probe_times(scene: Scene) -> np.ndarray:
     return t[(t > 0) & (t <= T)]
 
 
+@lru_cache(maxsize=32)
+def _probes(duration_s: float, rate_Hz: float):
+    """Probe times and their inversion plan, shared by every scene of that duration and rate."""
+    t = _probe_times(Scene(duration_s=duration_s, rate_Hz=rate_Hz))
+    t.setflags(write=False)
+    return t, InversionPlan(t)
+
+
 def _drop(model: Model, effect: str, scene: Scene) -> Model | None:
     """The model without ``effect``, or None when it does not hold it."""
     if effect == "perfusion" and model.perfusion:
@@ -163,8 +171,7 @@ def _resolved(scene: Scene) -> Scene:
 @lru_cache(maxsize=256)
 def _plan(scene: Scene) -> Plan:
     full = scene.full_model()
-    probes = _probe_times(scene)
-    ip = InversionPlan(probes)
+    probes, ip = _probes(scene.duration_s, scene.rate_Hz)
     dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
     inv = INVERSION_ERROR * dT
     base = replace(full, sensor=False)
