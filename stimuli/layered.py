@@ -50,6 +50,7 @@ from .exact import INVERSION_ERROR, InversionPlan
 from .properties import Material, Skin, check_positive
 
 __all__ = ["Tissue", "TISSUES", "BLOOD_HEAT_CAPACITY", "LayeredTransform", "LayeredContact",
+           "layered_skin_response",
            "skin_layers"]
 
 #: rho_b c_b of blood, J/(m^3 K) (1060 kg/m^3 x 3770 J/(kg K), Jiang et al. [2]_).
@@ -355,3 +356,59 @@ class LayeredContact:
     def error_bound(self) -> float:
         """Bound on the inversion's absolute error, K."""
         return INVERSION_ERROR * abs(self.skin_initial - self.material_initial)
+
+
+def layered_skin_response(layers, t, surface_temperature, initial_temperature: float, depth: float,
+                          resistance: float = 0.0):
+    """Temperature at ``depth`` of a layered, perfused skin while a display imposes its surface.
+
+    The display-driven counterpart of :class:`LayeredContact` (and of
+    :func:`stimuli.skin_response` for homogeneous skin): the surface history g(t) (piecewise
+    linear between the samples, jumping from T_S0 to g(0) at t = 0) drives the skin through
+    ``resistance`` (0: imposed on the skin). The step response and its integral come from the
+    exact transform u(x)/g = K(s) (:meth:`LayeredTransform.display_kernel`) inverted on the
+    Bromwich contour, and are superposed by FFT (:mod:`stimuli._duhamel`), exactly as for
+    homogeneous skin.
+
+    Parameters
+    ----------
+    layers : sequence of Tissue
+        Core to surface.
+    t : array_like, s
+        Uniform times from 0.
+    surface_temperature : array_like, °C
+    initial_temperature : float, °C
+        T_S0 (core, arterial blood, initial skin).
+    depth : float, m
+        From the core, 0 <= depth <= L.
+    resistance : float, m^2 K/W
+
+    Returns
+    -------
+    ndarray, °C
+    """
+    from ._duhamel import superpose
+    from .materials import material
+    t = np.asarray(t, dtype=float)
+    g = np.asarray(surface_temperature, dtype=float)
+    if t.ndim != 1 or g.shape != t.shape or t.size < 2 or t[0] != 0.0:
+        raise ModelInputError("layered_skin_response: t: expected uniform 1-D times from 0, one per "
+                              "surface temperature")
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    if not np.allclose(np.diff(t), dt, rtol=1e-9, atol=0):
+        raise ModelInputError("layered_skin_response: t: expected uniform times")
+    tr = LayeredTransform(layers, material("copper"), 0.0)      # the material is not used
+    if not 0.0 <= depth <= tr.L:
+        raise ModelInputError(f"layered_skin_response: depth: expected 0 <= depth <= {tr.L!r} m, got {depth!r}")
+    h = g - float(initial_temperature)
+    if depth == 0.0:
+        return np.full(t.shape, float(initial_temperature))
+    R = float(resistance)
+    gain = float(tr.display_kernel(np.array([1e-200 + 0j]), depth, R)[0].real)
+    S = np.zeros_like(t)
+    Rr = np.zeros_like(t)
+    plan = InversionPlan(t[1:])
+    k = tr.display_kernel(plan.s, depth, R)
+    S[1:] = plan.apply(k / plan.s)
+    Rr[1:] = plan.apply((k - gain) / (plan.s * plan.s))
+    return float(initial_temperature) + superpose(h, dt, S, Rr, gain)

@@ -204,19 +204,21 @@ class PassiveSample:
         self.thickness_m = None if thickness_m is None else float(thickness_m)
         self.temperature_C = float(temperature_C)
 
-    def curves(self, skin_thickness_m, skin_temperature_C, dt, n):
-        """``(material_side_C, skin_side_C)`` at ``t = k dt``, k = 0..n-1, from first touch."""
+    def curves(self, skin_thickness_m, skin_temperature_C, dt, n, force_N=2.0):
+        """``(material_side_C, skin_side_C)`` at ``t = k dt``, k = 0..n-1, from first touch;
+        the contact resistance is Eq. 5 at the finger's ``force_N``."""
         return _interface_curves(self.material, self.roughness_m, self.thickness_m,
                                  self.temperature_C, round(float(skin_thickness_m), 9),
-                                 round(float(skin_temperature_C), 3), dt, n)
+                                 round(float(skin_temperature_C), 3), dt, n,
+                                 round(float(force_N), 3))
 
 
 @lru_cache(maxsize=256)
-def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n):
+def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n, force_N=2.0):
     from stimuli import Skin, contact_resistance, material
     skin = Skin(skin_th)
     m = material(mat, thickness=thickness)
-    R = contact_resistance(roughness, skin=skin, material=m)
+    R = contact_resistance(roughness, skin=skin, material=m, force=force_N)
     t = np.arange(n) * dt
     # through the scene planner (stimuli.planner) to half the display's 0.01 K resolution
     from stimuli.planner import planned_temperature

@@ -125,3 +125,34 @@ def test_no_nan_inf_or_warning_on_the_hard_grid_with_layers_and_perfusion(L, D, 
                     for v in vals:
                         assert np.all(np.isfinite(v))
                         assert np.all((v > -1e-12) & (v < 1 + 1e-12))
+
+
+def test_display_driven_layered_response_matches_homogeneous_and_finite_volumes():
+    from stimuli import skin_response
+    from stimuli.layered import layered_skin_response
+    skin = Skin(650e-6)
+    t = np.arange(20001) * 1e-3
+    g = 22.0 + 3.0 * (1.0 - np.exp(-t / 5.0))
+    dermis, epi = skin_layers(skin)
+    derm_skin = Skin(650e-6, conductivity=dermis.conductivity, density=dermis.density,
+                     specific_heat=dermis.specific_heat)
+    for R in (0.0, 6e-4):
+        one = layered_skin_response(skin_layers(skin, layered=False), t, g, 35.5, skin.dermis, resistance=R)
+        np.testing.assert_allclose(one, skin_response(skin, t, g, 35.5, resistance=R), rtol=0, atol=1e-11)
+        two = layered_skin_response((dermis, epi), t, g, 35.5, skin.dermis, resistance=R)
+        fv = skin_response(derm_skin, t, g, 35.5, method="numerical", resistance=R, cells=64,
+                           epidermis_properties=Layer(epi.conductivity, epi.density, epi.specific_heat))
+        np.testing.assert_allclose(two, fv, rtol=0, atol=1e-6)
+
+
+def test_display_driven_perfused_steady_state_is_the_pennes_profile():
+    # constant surface for a long time: u(x) = h sinh(q x) / sinh(q L), q = sqrt(w rho_b c_b / k)
+    from stimuli.layered import layered_skin_response
+    w = 2e-2
+    layer = (Tissue(1e-3, 0.45, 1200.0, 3300.0, w),)
+    t = np.arange(2001) * 1.0                              # 2000 s >> L^2 / alpha
+    x = 0.4e-3
+    got = layered_skin_response(layer, t, np.full(t.size, 25.0), 35.0, x)[-1]
+    q = np.sqrt(w * BLOOD_HEAT_CAPACITY / 0.45)
+    want = 35.0 - 10.0 * np.sinh(q * x) / np.sinh(q * 1e-3)
+    assert abs(got - want) < 1e-9
