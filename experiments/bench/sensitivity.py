@@ -26,7 +26,7 @@ VARIANTS = (
     ("half-space sample", {"geometry": "half-space"}),
     ("3 mm slab on wood", {"geometry": "slab-on-support", "support": "wood"}),
     ("3 mm slab on aluminium", {"geometry": "slab-on-support", "support": "aluminium"}),
-    ("lateral spreading: 16.5 mm effective slab", {"effective_thickness_m": 16.5e-3}),
+    ("lateral spreading: 17.3 mm effective slab (20 s)", {"effective_thickness_m": 17.3e-3}),
     ("force 1.5 N", {"force_N": 1.5}),
     ("force 2.5 N (the emulated finger)", {"force_N": 2.5}),
     ("receptors at 160 µm (Hensel)", {"receptor_depth_m": 160e-6}),
