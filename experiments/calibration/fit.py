@@ -492,3 +492,35 @@ def _check_misspecification(fit, skin_temperature_sd_C):
                                 f"{c['size']}) would move {moved}, beyond the interval: the "
                                 f"intervals do not include the model's own uncertainty")
     fit.diagnostics["misspecification"] = shifts
+    fit.diagnostics["plan"] = _plan_calibration_scene(fit)
+
+
+def _plan_calibration_scene(fit):
+    """The scene planner's view of the calibration's contact (issue 12): which effects matter at
+    the traces' own noise level (tolerance = the residual SD), for a massless sensor."""
+    import warnings as _warnings
+
+    from stimuli import ModelInputError
+    from stimuli.planner import plan
+    from stimuli.scene import Scene
+    prob = fit.problem
+    side = prob.setup.sensor.side
+    if side == "lumped":
+        return {"note": "lumped sensor: not a scene quantity"}
+    tr = max(prob.traces, key=lambda x: x.duration_s)
+    R = fit.resistances()[0].value
+    mat = prob.setup.material
+    try:
+        with _warnings.catch_warnings():
+            _warnings.simplefilter("ignore")            # range warnings belong to the traces' loader
+            scene = Scene(quantity=f"interface_{side}", duration_s=round(tr.duration_s, 6),
+                          rate_Hz=round(tr.n / tr.duration_s, 6), tolerance_K=max(fit.sigma_C, 1e-6),
+                          material=mat.with_thickness(None), resistance=R,
+                          skin_thickness_m=fit.skin_thickness.value,
+                          skin_temperature_C=tr.skin_temperature_C,
+                          material_temperature_C=tr.material_temperature_C,
+                          geometry="half-space" if mat.thickness is None else "slab",
+                          sample_thickness_m=mat.thickness or 3e-3)
+            return plan(scene).to_dict()
+    except ModelInputError as exc:
+        return {"note": f"not planned: {exc}"}

@@ -83,6 +83,7 @@ def calibration_record(fit: CalibrationFit, *, session: str | None = None, date:
                               "beyond_interval": c["beyond"]}
                              for c in fit.diagnostics.get("misspecification", [])],
         "warnings": list(fit.warnings),
+        "plan": fit.diagnostics.get("plan"),
     }
     if setup.sensor.side == "lumped":
         rec["sensor"] = setup.sensor.to_dict()

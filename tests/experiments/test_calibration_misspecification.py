@@ -80,3 +80,12 @@ def test_correlations_and_effective_core_depth_in_report_and_record(fits, tmp_pa
     np.testing.assert_allclose(np.diag(C), 1.0)
     assert C[0, 2] < -0.5                               # R and L trade off on these traces
     assert "isothermal core" in rec["skin_thickness_meaning"]
+
+
+def test_the_calibration_scene_is_planned_at_the_traces_noise(fits):
+    right = fits[0]
+    plan = right.diagnostics["plan"]
+    assert plan["quantity"] == "interface_material" and plan["tolerance_K"] == pytest.approx(right.sigma_C)
+    d = {x["effect"]: x for x in plan["decisions"]}
+    assert d["slab"]["included"]                        # 3 mm steel over 25 s: kelvins
+    assert calibration_record(right)["plan"] == plan
