@@ -138,12 +138,17 @@ _NOTES = {
 }
 
 
-def plan(scene: Scene) -> Plan:
+def plan(scene: Scene, *, screen: bool = True) -> Plan:
     """The cheapest model of ``scene`` within its tolerance (see the module docstring).
 
     Parameters
     ----------
     scene : Scene
+    screen : bool
+        Keep, without evaluating it, a slab that is certainly warmed through over the scene
+        (D < sqrt(alpha_M t_end) / 2: its back is felt within the scene, by kelvins on metals);
+        keeping an effect is always safe, so this only saves the planner's time. Its decision then
+        has ``bound_K = nan``. ``False`` evaluates every effect (``thermocue explain``).
 
     Returns
     -------
@@ -158,7 +163,7 @@ def plan(scene: Scene) -> Plan:
     >>> [(d.effect, d.included) for d in p.decisions]
     [('sensor', False), ('perfusion', False), ('slab', True)]
     """
-    return _plan(_resolved(scene))
+    return _plan(_resolved(scene), bool(screen))
 
 
 def _resolved(scene: Scene) -> Scene:
@@ -168,16 +173,31 @@ def _resolved(scene: Scene) -> Scene:
                          support=None if scene.support is None else scene.support_object())
 
 
+def _warmed_through(scene: Scene) -> str | None:
+    """Why the scene's slab certainly matters (screen), or None."""
+    D = scene.material_object("slab").thickness
+    reach = math.sqrt(scene.material_object("half-space").diffusivity * scene.duration_s)
+    if D < 0.5 * reach:
+        return (f"kept without evaluation: the {D * 1e3:.3g} mm slab is warmed through "
+                f"(sqrt(alpha t) = {reach * 1e3:.3g} mm at {scene.duration_s:g} s)")
+    return None
+
+
 @lru_cache(maxsize=256)
-def _plan(scene: Scene) -> Plan:
+def _plan(scene: Scene, screen: bool = True) -> Plan:
     full = scene.full_model()
     probes, ip = _probes(scene.duration_s, scene.rate_Hz)
     dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
     inv = INVERSION_ERROR * dT
     base = replace(full, sensor=False)
-    ref = evaluate(scene, base, probes, plan=ip)
     tol = scene.tolerance_K
     decisions = []
+    cache = {}
+
+    def reference():
+        if "ref" not in cache:
+            cache["ref"] = evaluate(scene, base, probes, plan=ip)
+        return cache["ref"]
 
     # the sensor: tau sup|dT/dt|, analytic
     sensor_bound = 0.0
@@ -188,7 +208,7 @@ def _plan(scene: Scene) -> Plan:
         else:
             tt = np.concatenate([[0.0], probes])
             T0 = evaluate(scene, base, np.array([0.0]))
-            vals = np.concatenate([T0, ref])
+            vals = np.concatenate([T0, reference()])
             rate = float(np.max(np.abs(np.diff(vals) / np.diff(tt))))
             b = scene.sensor_time_constant_s * rate
             keep = b + inv > tol
@@ -199,13 +219,19 @@ def _plan(scene: Scene) -> Plan:
     else:
         decisions.append(Decision("sensor", False, 0.0, "no sensor lag stated"))
 
-    current, current_err, prev = base, 0.0, ref
+    current, current_err, prev = base, 0.0, None
     for effect in EFFECTS[1:]:
         cand = _drop(current, effect, scene)
         if cand is None:
             if effect == "slab" and current.geometry == "slab-on-support":
                 decisions.append(Decision("slab", True, math.nan, "kept with its support"))
             continue
+        why = _warmed_through(scene) if (screen and effect == "slab") else None
+        if why is not None:
+            decisions.append(Decision(effect, True, math.nan, why))
+            continue
+        ref = reference()
+        prev = ref if prev is None else prev
         val = evaluate(scene, cand, probes, plan=ip if cand.method == "exact" else None)
         step = float(np.max(np.abs(val - prev)))
         cand_inv = inv if cand.method == "exact" else 0.0

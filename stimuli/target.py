@@ -28,7 +28,7 @@ __all__ = ["TargetProfile", "target_profile", "MODEL_REVISION", "SIDES"]
 SIDES = ("material", "skin", "compensated")
 
 #: Bumped when a change in the model would change a cached profile (part of the hash).
-MODEL_REVISION = 1
+MODEL_REVISION = 2   # 2: profiles planned (issue 12), the plan stored with them
 _KIND = "target"
 
 

@@ -62,7 +62,7 @@ def _run(ns) -> int:
                   effective_thickness_m=_um(ns.effective_thickness_um), layered=ns.layered,
                   hypodermis_m=_um(ns.hypodermis_um), perfusion_per_s=ns.perfusion_per_s,
                   sensor_time_constant_s=ns.sensor_time_constant_s)
-    p = plan(scene)
+    p = plan(scene, screen=False)         # every effect evaluated, for the reader
     if ns.json:
         out = p.to_dict()
         out["scene"] = p.scene.to_dict()

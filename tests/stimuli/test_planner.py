@@ -26,13 +26,14 @@ def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, la
     scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
                   tolerance_K=tol, roughness_m=ra, support="wood" if geometry == "slab-on-support" else None,
                   duration_s=20.0, rate_Hz=200.0)
-    p = plan(scene)
     full = evaluate(scene, scene.full_model())
-    got = p.evaluate()
-    err = float(np.max(np.abs(got - full)))
-    assert err <= tol, (p.lines(), err)
-    assert err <= p.bound_K + 1e-9          # the reported bound is a bound at every sample
-    json.dumps(p.to_dict())                 # the decisions are JSON-ready (session events)
+    for screen in (True, False):
+        p = plan(scene, screen=screen)
+        got = p.evaluate()
+        err = float(np.max(np.abs(got - full)))
+        assert err <= tol, (p.lines(), err)
+        assert err <= p.bound_K + 1e-9      # the reported bound is a bound at every sample
+        json.dumps(p.to_dict())             # the decisions are JSON-ready (session events)
 
 
 @pytest.mark.parametrize("quantity", ["interface_material", "interface_skin"])
@@ -50,10 +51,15 @@ def test_sensor_lag_bound_holds(quantity, tau, tol):
 
 def test_decisions_name_what_matters_at_the_papers_scene():
     # 3 mm steel at 20 s: the slab is kept (K-sized), perfusion neglected (~0.01 K)
-    p = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3))
+    p = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3), screen=False)
     d = {x.effect: x for x in p.decisions}
     assert d["slab"].included and d["slab"].bound_K > 1.0
     assert not d["perfusion"].included and d["perfusion"].bound_K < 0.05
+    # screened (the production default): the warmed-through slab is kept without evaluating it
+    q = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3))
+    assert q.model == p.model
+    slab = [x for x in q.decisions if x.effect == "slab"][0]
+    assert slab.included and "warmed through" in slab.note
     # a half-space interface at a loose tolerance: the paper's printed Eq. 7 is enough ...
     p = plan(Scene(quantity="interface_material", geometry="half-space", tolerance_K=2.0))
     assert p.model.method == "eq7"
