@@ -156,3 +156,22 @@ def test_display_driven_perfused_steady_state_is_the_pennes_profile():
     q = np.sqrt(w * BLOOD_HEAT_CAPACITY / 0.45)
     want = 35.0 - 10.0 * np.sinh(q * x) / np.sinh(q * 1e-3)
     assert abs(got - want) < 1e-9
+
+
+@pytest.mark.parametrize("L", [50e-6, 650e-6, 5e-3])
+def test_display_driven_layered_response_on_the_hard_grid(L):
+    # finite, warning-free, and within the extremes of the surface history and T_S0 (maximum principle)
+    from stimuli.layered import layered_skin_response
+    skin = Skin(L)
+    t = np.arange(2001) * 0.01
+    g = 22.0 + 8.0 * np.sin(t) ** 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for R in (0.0, 1e-12, 1e-3, 1e-1):
+            for w, hypo in ((0.0, None), (2e-2, 2e-3)):
+                layers = skin_layers(skin, perfusion=w, hypodermis=hypo)
+                top = sum(x.thickness for x in layers)
+                for x in (top - skin.epidermis, top):
+                    u = layered_skin_response(layers, t, g, 35.0, x, resistance=R)
+                    assert np.all(np.isfinite(u))
+                    assert np.all((u >= 22.0 - 1e-9) & (u <= 35.0 + 1e-9))
