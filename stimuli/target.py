@@ -310,6 +310,13 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
     params = _parameters(mat, skin, rough, R, Ts, Tm, duration, rate, res,
                          None if tol is not None else str(method), tol, side, R_pad)
     physics = _check_physics(physics)
+    if physics and (method != "exact" or tol is not None):
+        raise ModelInputError(f"target_profile: physics: expected method='exact' without a tolerance "
+                              f"(the planner computes these effects), got method={method!r}, "
+                              f"tolerance={tolerance!r}")
+    if physics.get("geometry", "slab") != "half-space" and mat.thickness is None and physics.get("geometry"):
+        raise ModelInputError(f"target_profile: sample_thickness: expected the slab's thickness for "
+                              f"physics geometry {physics['geometry']!r}, got None")
     params["force_N"] = F
     if physics:
         params["physics"] = dict(physics)

@@ -61,3 +61,13 @@ def test_unknown_physics_option_names_the_field():
     from stimuli import ModelInputError
     with pytest.raises(ModelInputError, match="physics"):
         target_profile(physics={"colour": "red"}, cache=False)
+
+
+def test_physics_needs_the_planner_and_a_slab_thickness():
+    from stimuli import ModelInputError
+    with pytest.raises(ModelInputError, match="physics"):
+        target_profile(physics={"layered": True}, method="paper", cache=False)
+    with pytest.raises(ModelInputError, match="physics"):
+        target_profile(physics={"layered": True}, tolerance=0.1, cache=False)
+    with pytest.raises(ModelInputError, match="sample_thickness"):
+        target_profile(physics={"geometry": "slab-on-support", "support": "wood"}, cache=False)
