@@ -55,8 +55,9 @@ class Decision:
     note: str
 
     def to_dict(self) -> dict:
-        return {"effect": self.effect, "included": self.included, "bound_K": self.bound_K,
-                "note": self.note}
+        # JSON has no NaN (caches and session events are strict): an unevaluated bound is None
+        return {"effect": self.effect, "included": self.included,
+                "bound_K": None if math.isnan(self.bound_K) else self.bound_K, "note": self.note}
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,7 @@ def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, la
         err = float(np.max(np.abs(got - full)))
         assert err <= tol, (p.lines(), err)
         assert err <= p.bound_K + 1e-9      # the reported bound is a bound at every sample
-        json.dumps(p.to_dict())             # the decisions are JSON-ready (session events)
+        json.dumps(p.to_dict(), allow_nan=False)   # strict JSON: caches, session events
 
 
 @pytest.mark.parametrize("quantity", ["interface_material", "interface_skin"])
