@@ -109,3 +109,37 @@ def test_target_profile_refuses_absurd_temperatures():
         target_profile(material_temperature=1000.0, cache=False)
     with pytest.raises(ModelInputError, match="skin_temperature_C"):
         target_profile(skin_temperature=-300.0, cache=False)
+
+
+def test_planned_model_within_tolerance_on_random_hard_scenes():
+    # beyond steel: copper, glass, foam, thin and thick skin, any roughness, any perfusion
+    rng = np.random.default_rng(20261124)
+    for _ in range(60):
+        scene = Scene(quantity=str(rng.choice(["receptor", "interface_material", "interface_skin"])),
+                      material=str(rng.choice(["copper", "glass", "polystyrene_foam", "stainless_steel"])),
+                      geometry=str(rng.choice(["half-space", "slab", "slab-on-support"])),
+                      support="wood", sample_thickness_m=float(rng.uniform(0.5e-3, 10e-3)),
+                      skin_thickness_m=float(rng.uniform(300e-6, 2e-3)),
+                      roughness_m=float(rng.uniform(0.0, 100e-6)), layered=bool(rng.integers(2)),
+                      perfusion_per_s=float(rng.choice([0.0, 1.25e-3, 2e-2])),
+                      tolerance_K=float(rng.choice([0.01, 0.1, 0.3, 1.0])),
+                      material_temperature_C=float(rng.uniform(5.0, 30.0)),
+                      duration_s=float(rng.choice([2.0, 20.0])), rate_Hz=100.0)
+        full = evaluate(scene, scene.full_model())
+        p = plan(scene)
+        err = float(np.max(np.abs(p.evaluate() - full)))
+        assert err <= scene.tolerance_K, (p.lines(), err)
+
+
+def test_planned_temperature_is_the_contact_for_the_default_scene():
+    from stimuli import Contact, Skin, contact_resistance, material
+    from stimuli.planner import planned_temperature
+    skin, steel = Skin(1e-3), material("stainless_steel", 3e-3)
+    R = contact_resistance(50e-6, skin=skin, material=steel)
+    t = np.arange(2001) * 0.01
+    T, p = planned_temperature("receptor", skin, steel, R, 35.5, 20.0, t)
+    np.testing.assert_allclose(T, Contact(skin, steel, R, 35.5, 20.0).receptor_temperature(t), atol=1e-11)
+    assert p.model.geometry == "slab" and p.scene.tolerance_K == 0.3
+    # with layered skin the planner keeps the layers (about 1 K at the receptor)
+    T2, p2 = planned_temperature("receptor", skin, steel, R, 35.5, 20.0, t, layered=True)
+    assert p2.model.layered and np.max(np.abs(T2 - T)) > 0.3
