@@ -193,19 +193,22 @@ class LayeredTransform:
 
     # -- pieces ------------------------------------------------------------------
     def _layer_nodes(self, s):
+        """Per layer: q, z, tanh(q h), exp(-2 q h), exp(-q h) (computed once per evaluation)."""
         out = []
         for t in self.layers:
             q = np.sqrt((s + t.sink_rate) / t.diffusivity)
-            out.append((q, 1.0 / (t.conductivity * q)))
+            qh = q * t.thickness
+            eh = np.exp(-qh)
+            e = eh * eh
+            out.append((q, 1.0 / (t.conductivity * q), -np.expm1(-2.0 * qh) / (1.0 + e), e, eh))
         return out
 
     def _impedances(self, s, nodes):
         """Z at the bottom of each layer and at the surface (core Z = 0)."""
         Z = np.zeros_like(s)
         bottoms = []
-        for t, (q, z) in zip(self.layers, nodes):
+        for q, z, th, _e, _eh in nodes:
             bottoms.append(Z)
-            th = _tanh(2.0 * q * t.thickness)[0]
             Z = (Z + z * th) / (1.0 + (Z / z) * th)
         return bottoms, Z
 
@@ -231,14 +234,11 @@ class LayeredTransform:
         j = min(j, len(self.layers) - 1)
         ratio = np.ones_like(s)
         for i in range(len(self.layers) - 1, j, -1):          # layers above j, top down
-            q, z = nodes[i]
-            h = self.layers[i].thickness
-            th, e = _tanh(2.0 * q * h)
-            ratio = ratio * 2.0 * np.exp(-q * h) / (1.0 + e) / (1.0 + (bottoms[i] / z) * th)
-        q, z = nodes[j]
+            q, z, th, e, eh = nodes[i]
+            ratio = ratio * 2.0 * eh / (1.0 + e) / (1.0 + (bottoms[i] / z) * th)
+        q, z, th, e, _eh = nodes[j]
         h = self.layers[j].thickness
         xi = x - (self.tops[j] - h)
-        th, e = _tanh(2.0 * q * h)
         th_xi, exi = _tanh(2.0 * q * xi)
         cosh_ratio = np.exp(-q * (h - xi)) * (1.0 + exi) / (1.0 + e)
         return ratio * cosh_ratio * (bottoms[j] + z * th_xi) / (1.0 + (bottoms[j] / z) * th)
