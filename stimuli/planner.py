@@ -275,10 +275,13 @@ def planned_temperature(quantity: str, skin, material, resistance: float, skin_t
     Returns
     -------
     T : ndarray, °C
-    plan : Plan
+    plan : Plan or None
+        None when the two temperatures are equal (the temperature then stays put).
     """
     from .scene import PERCEPTUAL_FLOOR_K
     t = np.asarray(t, dtype=float)
+    if float(skin_temperature) == float(material_temperature):   # nothing flows: nothing to plan
+        return np.full(t.shape, float(skin_temperature)), None
     tmax = float(np.max(t)) if t.size else 1.0
     pos = np.unique(t[t > 0])
     dt = float(np.min(np.diff(np.concatenate([[0.0], pos])))) if pos.size else tmax

@@ -143,3 +143,11 @@ def test_planned_temperature_is_the_contact_for_the_default_scene():
     # with layered skin the planner keeps the layers (about 1 K at the receptor)
     T2, p2 = planned_temperature("receptor", skin, steel, R, 35.5, 20.0, t, layered=True)
     assert p2.model.layered and np.max(np.abs(T2 - T)) > 0.3
+
+
+def test_planned_temperature_with_no_temperature_difference_stays_put():
+    from stimuli import Skin, material
+    from stimuli.planner import planned_temperature
+    T, p = planned_temperature("interface_material", Skin(650e-6), material("steel", 3e-3), 1e-3,
+                               30.0, 30.0, np.arange(11) * 0.1)
+    assert p is None and np.all(T == 30.0)
