@@ -278,7 +278,7 @@ class SimulatedPerson:
     def feel_real(self, roughness_m: float, *, material: str = "stainless_steel",
                   sample_thickness_m: float | None | str = "default",
                   material_temperature_C: float | None = None,
-                  skin_temperature_C: float | None = None):
+                  skin_temperature_C: float | None = None, force_N: float = 2.0):
         """Receptor temperature on touching a real sample.
 
         Parameters
@@ -291,6 +291,9 @@ class SimulatedPerson:
             Default ``params.sample_thickness_m``; None is a half-space.
         material_temperature_C, skin_temperature_C : float, °C
             Default ``params.material_temperature_C`` and the person's skin temperature.
+        force_N : float, N
+            Contact force: R is Eq. 5 at this force (the paper's 2 N by default; pass the force
+            the display measured in the trial).
 
         Returns
         -------
@@ -304,13 +307,14 @@ class SimulatedPerson:
         t_m = self.params.material_temperature_C if material_temperature_C is None \
             else float(material_temperature_C)
         t_s = self.skin_temperature_C if skin_temperature_C is None else float(skin_temperature_C)
-        key = (float(roughness_m), material, thickness)
+        key = (float(roughness_m), material, thickness, float(force_N))
         t = self.time_grid()
         if key not in self._real_cache:
             # The solution is linear in (T_S0 - T_M0): compute theta once per sample, scale after.
             skin = self.skin
             steel = make_material(material, thickness=thickness)
-            resistance = contact_resistance(roughness=float(roughness_m), skin=skin, material=steel)
+            resistance = contact_resistance(roughness=float(roughness_m), skin=skin, material=steel,
+                                            force=float(force_N))
             # through the scene planner (stimuli.planner), at the target profiles' temperatures
             from stimuli.planner import planned_temperature
             T, _ = planned_temperature("receptor", skin, steel, resistance, 35.5, 20.0, t[1:])
