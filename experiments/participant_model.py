@@ -219,6 +219,11 @@ def receptor_features(t, receptor_C, initial_C, params: PerceptionParameters) ->
     if t[0] > 0:
         t = np.concatenate(([0.0], t))
         y = np.concatenate(([initial_C], y))
+    rise = float(np.max(y)) - float(initial_C)
+    if rise > 0.2:   # the features are drops and a rate of fall: a cooling observer (issue 12)
+        raise ValueError(f"receptor_features: receptor_C: expected a cooling trace (a material "
+                         f"colder than the skin), got a rise of {rise:.3g} K above {initial_C!r} °C; "
+                         f"this observer's features assume cooling and do not describe warm materials")
     drops = initial_C - np.interp(params.drop_times_s, t, y)
     window = (t > 0) & (t <= params.rate_window_s)
     rate = -np.diff(y) / np.diff(t)
@@ -276,7 +281,7 @@ class SimulatedPerson:
     def feel_real(self, roughness_m: float, *, material: str = "stainless_steel",
                   sample_thickness_m: float | None | str = "default",
                   material_temperature_C: float | None = None,
-                  skin_temperature_C: float | None = None):
+                  skin_temperature_C: float | None = None, force_N: float = 2.0):
         """Receptor temperature on touching a real sample.
 
         Parameters
@@ -289,29 +294,34 @@ class SimulatedPerson:
             Default ``params.sample_thickness_m``; None is a half-space.
         material_temperature_C, skin_temperature_C : float, °C
             Default ``params.material_temperature_C`` and the person's skin temperature.
+        force_N : float, N
+            Contact force: R is Eq. 5 at this force (the paper's 2 N by default; pass the force
+            the display measured in the trial).
 
         Returns
         -------
         t : ndarray, s
         receptor_C : ndarray, °C
         """
-        from stimuli import Contact, contact_resistance
+        from stimuli import contact_resistance
         from stimuli import material as make_material
         thickness = self.params.sample_thickness_m if sample_thickness_m == "default" \
             else sample_thickness_m
         t_m = self.params.material_temperature_C if material_temperature_C is None \
             else float(material_temperature_C)
         t_s = self.skin_temperature_C if skin_temperature_C is None else float(skin_temperature_C)
-        key = (float(roughness_m), material, thickness)
+        key = (float(roughness_m), material, thickness, float(force_N))
         t = self.time_grid()
         if key not in self._real_cache:
             # The solution is linear in (T_S0 - T_M0): compute theta once per sample, scale after.
             skin = self.skin
             steel = make_material(material, thickness=thickness)
-            resistance = contact_resistance(roughness=float(roughness_m), skin=skin, material=steel)
-            contact = Contact(skin, steel, resistance=resistance, skin_temperature=1.0,
-                              material_temperature=0.0)
-            theta = np.asarray(contact.receptor_temperature(t[1:]), dtype=float)
+            resistance = contact_resistance(roughness=float(roughness_m), skin=skin, material=steel,
+                                            force=float(force_N))
+            # through the scene planner (stimuli.planner), at the target profiles' temperatures
+            from stimuli.planner import planned_temperature
+            T, _ = planned_temperature("receptor", skin, steel, resistance, 35.5, 20.0, t[1:])
+            theta = (np.asarray(T, dtype=float) - 20.0) / 15.5
             self._real_cache[key] = np.concatenate(([1.0], theta))
         theta = self._real_cache[key]
         return t, t_m + theta * (t_s - t_m)

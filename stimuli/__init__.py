@@ -5,7 +5,7 @@ The contract (DESIGN.md, docs/internal-contracts.md): :class:`Skin`,
 :class:`Contact` (methods "exact", "paper", "paper-as-printed", "numerical"),
 :func:`skin_response` and :func:`target_profile` (display-driven model).
 """
-from .errors import ModelInputError
+from .errors import ModelInputError, ModelRangeWarning
 from .properties import Material, Skin
 from .materials import MATERIALS, MATERIAL_SOURCES, PAPER_SAMPLE_THICKNESS, material
 from .roughness import contact_resistance
@@ -15,7 +15,7 @@ from .display_response import skin_response
 from .target import TargetProfile, target_profile
 
 __all__ = [
-    "ModelInputError", "Skin", "Material", "MATERIALS", "MATERIAL_SOURCES",
+    "ModelInputError", "ModelRangeWarning", "Skin", "Material", "MATERIALS", "MATERIAL_SOURCES",
     "PAPER_SAMPLE_THICKNESS", "material", "contact_resistance", "Contact", "MethodInfo", "METHODS",
     "skin_response", "TargetProfile", "target_profile",
 ]

@@ -120,6 +120,10 @@ class Contact:
         self.resistance = r
         self.skin_initial = _finite("skin_temperature", skin_temperature)
         self.material_initial = _finite("material_temperature", material_temperature)
+        for name, v in (("skin_temperature", self.skin_initial),
+                        ("material_temperature", self.material_initial)):
+            if v < -273.15:   # Contact is also used in theta units (1, 0): only the impossible is refused
+                raise ModelInputError(f"Contact: {name}: expected >= -273.15 °C (absolute zero), got {v!r}")
         self.last_info: MethodInfo | None = None
         self._transform = ContactTransform.from_contact(skin, material, r)
 

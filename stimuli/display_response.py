@@ -67,7 +67,20 @@ def _history(t, surface_temperature, initial_temperature, where):
         T0 = float("nan")
     if not math.isfinite(T0):
         raise ModelInputError(f"{where}: initial_temperature: expected a finite °C, got {initial_temperature!r}")
+    lo, hi = SURFACE_ABSURD_C
+    if g.size and (float(np.min(g)) < lo or float(np.max(g)) > hi):
+        raise ModelInputError(f"{where}: surface_temperature: expected a display surface within "
+                              f"{lo:g}-{hi:g} °C (no thermal display touching skin goes beyond; the "
+                              f"protocol's own safe range is checked by the session), got "
+                              f"{float(np.min(g)):g}-{float(np.max(g)):g} °C")
+    if not lo <= T0 <= hi:
+        raise ModelInputError(f"{where}: initial_temperature: expected a skin temperature within "
+                              f"{lo:g}-{hi:g} °C, got {initial_temperature!r}")
     return t, dt, g - T0, T0
+
+
+#: Surface and skin temperatures skin_response refuses as absurd, °C (a display touching skin).
+SURFACE_ABSURD_C = (-20.0, 80.0)
 
 
 def _variation(h):

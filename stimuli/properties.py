@@ -70,6 +70,9 @@ class Skin:
         L = check_positive(w, "thickness", self.thickness)
         if L > 0.05:
             raise ModelInputError(f"{w}: thickness: expected metres (a few 1e-4), got {self.thickness!r}")
+        if L < 10e-6:
+            raise ModelInputError(f"{w}: thickness: expected at least 10 µm (1e-5 m; the stratum "
+                                  f"corneum alone is thicker), got {self.thickness!r}")
         object.__setattr__(self, "thickness", L)
         d = 0.6 * L if self.dermis is None else check_positive(w, "dermis", self.dermis)
         if not d < L:

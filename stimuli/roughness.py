@@ -2,16 +2,23 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
-from .errors import ModelInputError
+from .errors import ModelInputError, ModelRangeWarning
 from .properties import Material, Skin
 
-__all__ = ["contact_resistance", "GRAM_FORCE_PER_MM2", "PAPER_HARDNESS"]
+__all__ = ["contact_resistance", "GRAM_FORCE_PER_MM2", "PAPER_HARDNESS", "P_OVER_H_WARN"]
 
 #: 1 gram-force per square millimetre in pascal: 1e-3 kg * 9.80665 m/s^2 / 1e-6 m^2.
 GRAM_FORCE_PER_MM2 = 1e-3 * 9.80665 / 1e-6
+
+#: Eq. 5 (a plastic-contact correlation, h ~ (P/H)^0.95) is a light-load law: the real contact
+#: area fraction is about P/H, and the asperity contacts stop being independent as it grows.
+#: The paper's 2 N over 135 mm^2 is P/H = 0.12; a warning is given above 0.3 (5 N), and
+#: P >= H (a real contact area larger than the apparent one) is refused.
+P_OVER_H_WARN = 0.3
 
 #: The paper's skin microhardness H = 12.5 gf/mm^2, in Pa (= 122583.125 Pa).
 PAPER_HARDNESS = 12.5 * GRAM_FORCE_PER_MM2
@@ -49,7 +56,12 @@ def contact_resistance(roughness, skin: Skin | None = None, material: Material |
     Raises
     ------
     ModelInputError
-        Negative roughness, non-positive force/area/slope/hardness.
+        Negative roughness, non-positive force/area/slope/hardness, a pressure F / A >= H.
+
+    Warns
+    -----
+    ModelRangeWarning
+        P/H above :data:`P_OVER_H_WARN` (Eq. 5 assumes P << H).
 
     Notes
     -----
@@ -105,6 +117,15 @@ def contact_resistance(roughness, skin: Skin | None = None, material: Material |
     lam_s, lam_a = skin.conductivity, material.conductivity
     lam_sf = 2.0 * lam_s * lam_a / (lam_s + lam_a)
     pressure = force / area
+    ratio = pressure / hardness
+    if ratio >= 1.0:
+        raise ModelInputError(f"{where}: force: expected a pressure F / A below the skin's "
+                              f"hardness H = {hardness:.4g} Pa (Eq. 5 needs P << H), got "
+                              f"{force!r} N over {area!r} m^2 = {pressure:.4g} Pa (P/H = {ratio:.3g})")
+    if ratio > P_OVER_H_WARN:
+        warnings.warn(f"{where}: force: P/H = {ratio:.3g} (F = {force!r} N over {area!r} m^2) "
+                      f"approaches the limit of Eq. 5's light-load correlation (P << H; warned "
+                      f"above {P_OVER_H_WARN:g})", ModelRangeWarning, stacklevel=2)
     rq = np.hypot(skin_roughness, ra)
     r = 0.8 * rq / (lam_sf * slope) * (hardness / pressure) ** 0.95
     return float(r) if r.ndim == 0 else r

@@ -28,7 +28,7 @@ __all__ = ["TargetProfile", "target_profile", "MODEL_REVISION", "SIDES"]
 SIDES = ("material", "skin", "compensated")
 
 #: Bumped when a change in the model would change a cached profile (part of the hash).
-MODEL_REVISION = 1
+MODEL_REVISION = 2   # 2: profiles planned (issue 12), the plan stored with them
 _KIND = "target"
 
 
@@ -176,7 +176,8 @@ def _side_temperature(contact, times, side, pad_resistance, method, tol):
 def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin_temperature=35.5,
                    material_temperature=20.0, duration=20.0, rate=100.0, resolution=0.01,
                    sample_thickness=None, method="exact", *, tolerance=None, resistance=None,
-                   cache=True, cache_dir=None, side="material", pad_resistance=None):
+                   cache=True, cache_dir=None, side="material", pad_resistance=None,
+                   force=None, physics=None):
     """The target interface temperature profile of a simulated trial.
 
     Parameters
@@ -214,10 +215,22 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
     pad_resistance : float or None, m^2 K/W, keyword-only
         The finger-pad contact resistance R_pad of the display (``None``: 0); used by
         ``side="compensated"`` (must be <= R), recorded for every side.
+    force : float or None, N, keyword-only
+        Contact force for Eq. 5 (``None``: the paper's 2 N); recorded as ``force_N``.
+    physics : dict or None, keyword-only
+        More :class:`stimuli.scene.Scene` options for the effects this function has no argument
+        for (``geometry``, ``support``, ``effective_thickness_m``, ``layered``,
+        ``hypodermis_m``, ``perfusion_per_s``); recorded.
 
     Returns
     -------
     TargetProfile
+        ``parameters["plan"]`` holds the scene planner's decisions (:func:`stimuli.planner.plan`):
+        with ``method="exact"`` (the default) the profile's scene -- the side asked for, the
+        sample's geometry, ``physics`` -- is planned to ``tolerance`` or, without one, to half
+        the display's ``resolution`` (a coarser model would waste the display's precision), and
+        the planned model computes the profile; any other ``method`` is used as asked and the
+        plan is recorded for information.
 
     Raises
     ------
@@ -280,7 +293,8 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
                               f"{rate!r} Hz, got duration {duration!r} s")
     n = int(round(n))
     tol = None if tolerance is None else _positive("tolerance", tolerance)
-    R = (float(contact_resistance(rough, skin=skin, material=mat)) if resistance is None
+    F = 2.0 if force is None else _positive("force", force)
+    R = (float(contact_resistance(rough, skin=skin, material=mat, force=F)) if resistance is None
          else _finite("resistance", resistance))
     if side not in SIDES:
         raise ModelInputError(f"target_profile: side: expected one of {', '.join(SIDES)}, got {side!r}")
@@ -295,6 +309,17 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
             f"compensated pad temperature T_M(L+) + (R - R_pad) q needs R_pad <= R), got {pad_resistance!r}")
     params = _parameters(mat, skin, rough, R, Ts, Tm, duration, rate, res,
                          None if tol is not None else str(method), tol, side, R_pad)
+    physics = _check_physics(physics)
+    if physics and (method != "exact" or tol is not None):
+        raise ModelInputError(f"target_profile: physics: expected method='exact' without a tolerance "
+                              f"(the planner computes these effects), got method={method!r}, "
+                              f"tolerance={tolerance!r}")
+    if physics.get("geometry", "slab") != "half-space" and mat.thickness is None and physics.get("geometry"):
+        raise ModelInputError(f"target_profile: sample_thickness: expected the slab's thickness for "
+                              f"physics geometry {physics['geometry']!r}, got None")
+    params["force_N"] = F
+    if physics:
+        params["physics"] = dict(physics)
     key = _cache.content_hash({"parameters": params, "version": _package_version(),
                                "revision": MODEL_REVISION, "kind": _KIND})
     times = np.arange(n + 1) / rate
@@ -305,11 +330,26 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
         if hit is not None and len(hit.get("counts", ())) == n + 1:
             temp = np.asarray(hit["counts"], dtype=float) * res
             temp.setflags(write=False)
+            if "plan" in hit:
+                params["plan"] = hit["plan"]
             return TargetProfile(times, temp, hit["method"], float(hit["error_bound_K"]), key,
                                  params, cached=True)
 
-    contact = Contact(skin, mat, resistance=R, skin_temperature=Ts, material_temperature=Tm)
-    T, used, model_err = _side_temperature(contact, times, side, R_pad, method, tol)
+    planned = _plan_profile(mat, skin, R, Ts, Tm, duration, rate, res, tol, side, physics)
+    params["plan"] = planned if isinstance(planned, dict) else planned.to_dict()
+    model = None if isinstance(planned, dict) or method != "exact" or tol is not None else planned.model
+    if model is not None and _needs_scene(model):
+        T, used, model_err = _scene_side_temperature(planned, times, side, R_pad)
+    else:
+        if model is not None:            # the planned model, through Contact (bit-identical)
+            if model.geometry == "half-space":
+                mat = mat.with_thickness(None)
+            if model.method == "eq7":
+                method = "paper-as-printed"
+        contact = Contact(skin, mat, resistance=R, skin_temperature=Ts, material_temperature=Tm)
+        T, used, model_err = _side_temperature(contact, times, side, R_pad, method, tol)
+        if model is not None and model != planned.full_model:
+            model_err += planned.bound_K     # what the neglected effects may cost
     if not np.all(np.isfinite(T)):
         raise ModelInputError(f"target_profile: method: {used!r} gave non-finite temperatures")  # pragma: no cover
     counts = np.round(T / res)
@@ -318,6 +358,86 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
     bound = model_err + 0.5 * res
     if cache:
         _cache.store(_KIND, key, {"content_hash": key, "method": used, "error_bound_K": bound,
-                                  "parameters": params, "counts": [int(c) for c in counts]},
+                                  "parameters": params, "plan": params["plan"],
+                                  "counts": [int(c) for c in counts]},
                      cache_dir)
     return TargetProfile(times, temp, used, bound, key, params, cached=False)
+
+
+_PHYSICS = ("geometry", "support", "effective_thickness_m", "layered", "hypodermis_m",
+            "perfusion_per_s", "receptor_depth_m")
+
+
+def _check_physics(physics):
+    if physics is None:
+        return {}
+    if not isinstance(physics, dict) or any(k not in _PHYSICS for k in physics):
+        raise ModelInputError(f"target_profile: physics: expected a dict with keys among "
+                              f"{', '.join(_PHYSICS)}, got {physics!r}")
+    return dict(physics)
+
+
+def _profile_scenes(mat, skin, R, Ts, Tm, duration, rate, res, tol, side, physics):
+    from .scene import Scene
+    quantities = {"material": ("interface_material",), "skin": ("interface_skin",),
+                  "compensated": ("interface_material", "interface_skin")}[side]
+    opts = dict(physics)
+    geometry = opts.pop("geometry", "half-space" if mat.thickness is None else "slab")
+    base = dict(duration_s=duration, rate_Hz=rate, tolerance_K=tol if tol is not None else 0.5 * res,
+                material=mat.with_thickness(None), resistance=R, skin_thickness_m=skin.thickness,
+                receptor_depth_m=opts.pop("receptor_depth_m", skin.epidermis),
+                skin_temperature_C=Ts, material_temperature_C=Tm, geometry=geometry,
+                sample_thickness_m=mat.thickness if mat.thickness is not None else 3e-3, **opts)
+    return [Scene(quantity=q, **base) for q in quantities]
+
+
+def _plan_profile(mat, skin, R, Ts, Tm, duration, rate, res, tol, side, physics):
+    """The planner's decisions for the profile's scene(s); one model for both sides when two."""
+    from .planner import plan
+    if Ts == Tm:
+        return {"model": "none", "note": "no temperature difference: nothing to model"}
+    plans = [plan(s) for s in _profile_scenes(mat, skin, R, Ts, Tm, duration, rate, res, tol, side,
+                                              physics)]
+    if len(plans) == 1 or plans[0].model == plans[1].model:
+        return plans[0]
+    return _Both(plans)
+
+
+class _Both:
+    """Two sides planned to different models: the union of what they keep (the full model)."""
+
+    def __init__(self, plans):
+        self.plans = plans
+        self.model = plans[0].full_model
+        self.bound_K = 0.0
+
+    def to_dict(self):
+        return {"model": self.model.describe(), "bound_K": 0.0,
+                "sides": [p.to_dict() for p in self.plans]}
+
+
+def _needs_scene(model) -> bool:
+    """Whether the planned model needs stimuli.scene (layers, perfusion, a support)."""
+    return model.layered or model.perfusion or model.geometry == "slab-on-support" or model.sensor
+
+
+def _scene_side_temperature(planned, times, side, pad_resistance):
+    """Like :func:`_side_temperature` with the planned (layered, perfused, supported) model."""
+    from .scene import evaluate
+    plans = planned.plans if isinstance(planned, _Both) else [planned]
+    scenes = {p.scene.quantity: p.scene for p in plans}
+    if side == "compensated" and len(scenes) == 1:
+        raise ModelInputError("target_profile: side: internal: compensated needs both sides")  # pragma: no cover
+    err = planned.bound_K
+
+    def one(q):
+        sc = scenes[q]
+        return evaluate(sc, planned.model, times), sc
+
+    if side in ("material", "skin"):
+        T, sc = one("interface_material" if side == "material" else "interface_skin")
+        return T, "exact", err + 1e-12 * abs(sc.skin_temperature_C - sc.material_temperature_C)
+    (Tm, sc), (Ts, _) = one("interface_material"), one("interface_skin")
+    R = sc.resistance
+    w = 0.0 if R == 0.0 else 1.0 - pad_resistance / R
+    return Tm + w * (Ts - Tm), "exact", err + 1e-12 * abs(sc.skin_temperature_C - sc.material_temperature_C)

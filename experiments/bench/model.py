@@ -390,11 +390,14 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
                   lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical",
                                                     cells=cells, resistance=R_pad))
 
+    layered = _bench_layered(rows, t, idx, R, steel, repeat, quick, echo)
+
     # the targets' ratios: interleaved runs of the three, best of each (robust to a shared machine)
     pair = {"eq7": lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
             "exact": lambda: contact.interface_temperature(t, side="material", method="exact"),
             "skin_response": lambda: skin_response(skin, t, g, T_SKIN_C),
-            "skin_response_pad": lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad)}
+            "skin_response_pad": lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad),
+            **layered["timed"]}
     best = {k: math.inf for k in pair}
     for _ in range(8 if quick else 40):
         for k, fn in pair.items():
@@ -431,12 +434,33 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
         "skin_response_pad_numerical_over_eq7_cost_ratio": pad_num_best["cost_per_point_us"] / eq7,
         "skin_response_pad_numerical_setting": pad_num_best["setting"],
         "skin_response_pad_numerical_max_error_K": pad_num_best["max_error_K"],
+        "layered_exact_over_eq7_cost_ratio": best["layered"] / best["eq7"],
+        "layered_exact_max_error_K": layered["errors"]["layered"],
+        "perfusion_exact_over_eq7_cost_ratio": best["perfusion"] / best["eq7"],
+        "perfusion_exact_max_error_K": layered["errors"]["perfusion"],
+        "planner_cold_over_exact_cost_ratio": best["planner_cold"] / best["perfusion"],
+        "planner_repeated_over_exact_cost_ratio": best["planner_repeated"] / best["perfusion"],
+        "planner_profile_scene_cold_over_exact_cost_ratio":
+            best["planner_profile_cold"] / best["exact_slab_interface"],
+        "planned_model": layered["planned_model"],
+        "planned_over_full_cost_ratio": best["planned"] / best["perfusion"],
+        "planned_max_error_K": layered["errors"]["planned"],
+        "planner_tolerance_K": layered["tolerance_K"],
     }
     targets = {
         "exact_within_1e-12_theta_at_3x_eq7": bool(exact_if["max_error_theta"] <= 1e-12
                                                     and ratios["exact_over_eq7_cost_ratio"] <= 3.0),
         "skin_response_within_1e-6_K_at_3x_eq7": bool(sr_exact["max_error_K"] <= 1e-6
                                                        and ratios["skin_response_exact_over_eq7_cost_ratio"] <= 3.0),
+        "layered_within_1e-9_K_at_3x_eq7": bool(ratios["layered_exact_max_error_K"] <= 1e-9
+                                                and ratios["layered_exact_over_eq7_cost_ratio"] <= 3.0),
+        "perfusion_within_1e-9_K_at_3x_eq7": bool(ratios["perfusion_exact_max_error_K"] <= 1e-9
+                                                  and ratios["perfusion_exact_over_eq7_cost_ratio"] <= 3.0),
+        "planned_within_tolerance": bool(ratios["planned_max_error_K"] <= ratios["planner_tolerance_K"]),
+        "planner_overhead_within_10pct_cold": bool(ratios["planner_cold_over_exact_cost_ratio"] <= 0.10),
+        "planner_overhead_within_10pct_repeated": bool(ratios["planner_repeated_over_exact_cost_ratio"] <= 0.10),
+        "planner_overhead_within_10pct_profile_scene": bool(
+            ratios["planner_profile_scene_cold_over_exact_cost_ratio"] <= 0.10),
     }
     result = {
         "machine": machine_info(),
@@ -455,6 +479,95 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     }
     _write(out, result, echo)
     return result
+
+
+def _layered_reference(layers, steel, R, idx, dps=30):
+    """theta_S at the receptor (the dermis-epidermis boundary) of a layered, perfused skin on a
+    steel half-space: 2 x 2 transfer matrices in mpmath (plain cosh/sinh, from the core up; not
+    stimuli.layered's impedance recursion) inverted by mpmath's Talbot method."""
+    import mpmath as mp
+    from stimuli.layered import BLOOD_HEAT_CAPACITY
+    with mp.workdps(dps):
+        rows = [(mp.mpf(l.thickness), mp.mpf(l.conductivity), mp.mpf(l.density) * mp.mpf(l.specific_heat),
+                 mp.mpf(l.perfusion) * mp.mpf(BLOOD_HEAT_CAPACITY)) for l in layers]
+        b_m = mp.sqrt(mp.mpf(steel.conductivity) * mp.mpf(steel.density) * mp.mpf(steel.specific_heat))
+        Rm = mp.mpf(R)
+
+        def stack(s, n):
+            M = mp.eye(2)
+            for h, k, rc, wb in rows[:n]:
+                q = mp.sqrt((s * rc + wb) / k)
+                z = 1 / (k * q)
+                M = mp.matrix([[mp.cosh(q * h), z * mp.sinh(q * h)],
+                               [mp.sinh(q * h) / z, mp.cosh(q * h)]]) * M
+            return M
+
+        def fhat(s):
+            M = stack(s, len(rows))
+            F = 1 / (s * (Rm + M[0, 1] / M[1, 1] + 1 / (b_m * mp.sqrt(s))))
+            return 1 / s - F * stack(s, len(rows) - 1)[0, 1] / M[1, 1]
+
+        return np.array([float(mp.invertlaplace(fhat, mp.mpf(int(i)) / int(RATE_HZ), method="talbot"))
+                         for i in idx])
+
+
+def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
+    """Rows "layered": the exact layered and perfused contact (receptor) and the scene planner."""
+    from stimuli.layered import LayeredContact, skin_layers
+    from stimuli.planner import _plan, plan
+    from stimuli.properties import Skin
+    from stimuli.scene import Scene, evaluate
+
+    skin = Skin(SKIN_THICKNESS_M)
+    dT = T_SKIN_C - T_MATERIAL_C
+    ridx = idx[:: (3 if quick else 2)]
+    ridx = ridx[ridx > 0]
+    errors, timed = {}, {}
+    for key, w, setting in (("layered", None, "epidermis + dermis"),
+                            ("perfusion", 1.25e-3, "epidermis + dermis, Pennes 1.25e-3 /s")):
+        layers = skin_layers(skin, perfusion=w)
+        c = LayeredContact(layers, steel, R, T_SKIN_C, T_MATERIAL_C)
+        echo(f"  layered reference ({setting}, mpmath transfer matrices, {ridx.size} times) ...")
+        ref = T_MATERIAL_C + dT * _layered_reference(layers, steel, R, ridx)   # theta -> °C
+
+        def fn(c=c):
+            return c.temperature("receptor", t, skin.dermis)
+        vals = fn()
+        err = float(np.max(np.abs(vals[ridx] - ref)))
+        rows.append(_row("layered", "exact", setting, _best_seconds(fn, repeat), err, err / abs(dT),
+                         int(ridx.size), "receptor in contact with a steel half-space"))
+        errors[key], timed[key] = err, fn
+    # the planner on the perfused scene: it neglects perfusion, keeps the layers
+    scene = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3,
+                  resistance=R, receptor_depth_m=skin.epidermis, duration_s=DURATION_S,
+                  rate_Hz=RATE_HZ, skin_temperature_C=T_SKIN_C, material_temperature_C=T_MATERIAL_C)
+    p = plan(scene)
+    planned = p.evaluate()
+    errors["planned"] = float(np.max(np.abs(planned[ridx] - ref)))   # ref: the perfused model
+
+    def cold():
+        _plan.cache_clear()
+        return plan(scene)
+    # the production scene (a target profile: the material-side interface of the 3 mm slab, to half
+    # the display's 0.01 K resolution), planned from cold; compared with the exact slab interface
+    prod = Scene(quantity="interface_material", geometry="slab", sample_thickness_m=3e-3,
+                 resistance=R, tolerance_K=0.005, duration_s=DURATION_S, rate_Hz=RATE_HZ,
+                 skin_temperature_C=T_SKIN_C, material_temperature_C=T_MATERIAL_C)
+    from stimuli import Contact
+    slab_contact = Contact(skin, steel.with_thickness(3e-3), R, T_SKIN_C, T_MATERIAL_C)
+
+    def prod_cold():
+        _plan.cache_clear()
+        return plan(prod)
+    timed.update({"planner_cold": cold, "planner_repeated": lambda: plan(scene),
+                  "planned": lambda: p.evaluate(), "planner_profile_cold": prod_cold,
+                  "exact_slab_interface": lambda: slab_contact.interface_temperature(t)})
+    rows.append(_row("layered", "planner", f"plan -> {p.model.describe()}", _best_seconds(cold, repeat),
+                     errors["planned"], errors["planned"] / abs(dT), int(ridx.size),
+                     f"cost: the planner alone (cold); error: the planned model against the "
+                     f"perfused reference, tolerance {scene.tolerance_K:g} K"))
+    return {"errors": errors, "timed": timed, "planned_model": p.model.describe(),
+            "tolerance_K": scene.tolerance_K}
 
 
 def _cheapest_within(rows, tol_K):

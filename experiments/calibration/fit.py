@@ -355,7 +355,7 @@ _BLAS_CONTROLLER = None
 def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperature="none",
                skin_thickness_guess: float | None = None, interval: str = "profile",
                level: float = 0.95, bootstrap_samples: int = 200, seed: int = 0,
-               max_nfev: int = 200) -> CalibrationFit:
+               max_nfev: int = 200, skin_temperature_sd_C: float | None = None) -> CalibrationFit:
     """Fit R_k per sample and a shared L (and T_S0) to contact traces; refuse if not identifiable.
 
     Parameters
@@ -378,6 +378,12 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
         Seed of the bootstrap's noise.
     max_nfev : int
         Evaluation budget of each least-squares run (exhausting it is non-convergence).
+    skin_temperature_sd_C : float, K, optional
+        With ``fit_skin_temperature="none"``: the measurement uncertainty (SD) of the given
+        skin temperatures, propagated into the intervals (first order, in quadrature). Without
+        it, a given T_S0 0.3 K off that would move an estimate beyond its interval is warned
+        about (:mod:`experiments.calibration.misspecification`, with the geometry and sensor-lag
+        checks).
 
     Returns
     -------
@@ -394,11 +400,12 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
     with _single_threaded_blas():
         return _fit_traces(traces, setup, fit_skin_temperature=fit_skin_temperature,
                            skin_thickness_guess=skin_thickness_guess, interval=interval, level=level,
-                           bootstrap_samples=bootstrap_samples, seed=seed, max_nfev=max_nfev)
+                           bootstrap_samples=bootstrap_samples, seed=seed, max_nfev=max_nfev,
+                           skin_temperature_sd_C=skin_temperature_sd_C)
 
 
 def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
-                bootstrap_samples, seed, max_nfev):
+                bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None):
     from experiments.calibration.intervals import bootstrap_intervals, profile_intervals
 
     if interval not in ("profile", "bootstrap"):
@@ -452,6 +459,68 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
             f"model misses something systematic, so the intervals (which assume white noise) are "
             f"too narrow")
     diag["correlation"] = (cov / np.outer(se, se)).round(4).tolist()
+    diag["correlation_parameters"] = list(problem.names)
+    fit = CalibrationFit(problem, best.x, params, sigma, interval, level, diag, warnings)
+    _check_misspecification(fit, skin_temperature_sd_C)
     diag["elapsed_s"] = time.perf_counter() - t_start
     diag["model_evaluations"] = problem.n_evaluations
-    return CalibrationFit(problem, best.x, params, sigma, interval, level, diag, warnings)
+    return fit
+
+
+def _check_misspecification(fit, skin_temperature_sd_C):
+    """Warn when a plausible misspecification moves an estimate beyond its interval (issue 12);
+    with ``skin_temperature_sd_C`` (T_S0 given, not fitted) widen the intervals by its effect."""
+    from experiments.calibration.misspecification import (MISSPECIFICATIONS, misspecification_shifts,
+                                                          propagate_skin_temperature)
+    shifts = misspecification_shifts(fit)
+    if skin_temperature_sd_C is not None:
+        fit.parameters[:] = propagate_skin_temperature(
+            fit, shifts, float(skin_temperature_sd_C), MISSPECIFICATIONS["skin_temperature_error_C"])
+        fit.diagnostics["skin_temperature_sd_C_propagated"] = float(skin_temperature_sd_C)
+        for c in shifts:
+            if c["name"] == "skin_temperature":
+                c["beyond"] = [p.name for p, d in zip(fit.parameters, c["_dp"])
+                               if not (p.low <= (p.value + d if p.kind == "skin_temperature"
+                                                 else p.value * math.exp(d)) <= p.high)]
+    for c in shifts:
+        dp = c.pop("_dp")
+        del dp
+        if c["beyond"]:
+            moved = ", ".join(f"{n} by {c['shift'][n]:+.1%}" if not n.startswith("T_S0")
+                              else f"{n} by {c['shift'][n]:+.2f} K" for n in c["beyond"])
+            fit.warnings.append(f"a plausible misspecification ({c['name'].replace('_', ' ')}: "
+                                f"{c['size']}) would move {moved}, beyond the interval: the "
+                                f"intervals do not include the model's own uncertainty")
+    fit.diagnostics["misspecification"] = shifts
+    fit.diagnostics["plan"] = _plan_calibration_scene(fit)
+
+
+def _plan_calibration_scene(fit):
+    """The scene planner's view of the calibration's contact (issue 12): which effects matter at
+    the traces' own noise level (tolerance = the residual SD), for a massless sensor."""
+    import warnings as _warnings
+
+    from stimuli import ModelInputError
+    from stimuli.planner import plan
+    from stimuli.scene import Scene
+    prob = fit.problem
+    side = prob.setup.sensor.side
+    if side == "lumped":
+        return {"note": "lumped sensor: not a scene quantity"}
+    tr = max(prob.traces, key=lambda x: x.duration_s)
+    R = fit.resistances()[0].value
+    mat = prob.setup.material
+    try:
+        with _warnings.catch_warnings():
+            _warnings.simplefilter("ignore")            # range warnings belong to the traces' loader
+            scene = Scene(quantity=f"interface_{side}", duration_s=round(tr.duration_s, 6),
+                          rate_Hz=round(tr.n / tr.duration_s, 6), tolerance_K=max(fit.sigma_C, 1e-6),
+                          material=mat.with_thickness(None), resistance=R,
+                          skin_thickness_m=fit.skin_thickness.value,
+                          skin_temperature_C=tr.skin_temperature_C,
+                          material_temperature_C=tr.material_temperature_C,
+                          geometry="half-space" if mat.thickness is None else "slab",
+                          sample_thickness_m=mat.thickness or 3e-3)
+            return plan(scene).to_dict()
+    except ModelInputError as exc:
+        return {"note": f"not planned: {exc}"}

@@ -164,7 +164,8 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
         f"residual SD {summary['residual_sd_C'] * 1e3:.2f} mK over "
         f"{summary['diagnostics']['n_observations']} samples in {len(summary['traces'])} traces.", "",
         f"| parameter | estimate | {lvl} interval |", "|---|---|---|",
-        f"| skin thickness L (µm) | {_fmt(L['value'], 1e6)} | {_fmt(L['low'], 1e6)} – {_fmt(L['high'], 1e6)} |",
+        f"| skin thickness L (µm), the effective core depth | {_fmt(L['value'], 1e6)} | "
+        f"{_fmt(L['low'], 1e6)} – {_fmt(L['high'], 1e6)} |",
     ]
     if T:
         lines.append(f"| initial skin temperature T_S0 (°C) | {_fmt(T['value'], digits=5)} | "
@@ -187,8 +188,13 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
               f"{d['jacobian_rank']} of {len(fit.parameters)}, condition number {d['condition_number']:.3g}; "
               "every profile closes within the bounds.",
               f"Residual lag-1 autocorrelation: {d['residual_lag1_autocorrelation']:.3f}."]
+    lines += _correlation_lines(summary["diagnostics"])
+    lines += _misspecification_lines(summary["diagnostics"])
     for wmsg in summary["warnings"]:
         lines.append(f"\n**Warning:** {wmsg}")
+    lines += ["", "L is the *effective depth of the isothermal core* of the model (the depth at which the "
+              "skin is held at T_S0), not an anatomical skin thickness: it absorbs the layers' "
+              "properties and perfusion the model leaves out (docs/scene-physics.md)."]
     lines += ["", "R is the *effective* resistance between the sensor's side and the sample for this "
               "sensor placement; it is what simulated trials of this participant should use.", ""]
     (out / "parameters.md").write_text("\n".join(lines), encoding="utf-8")
@@ -197,6 +203,35 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
         json.dump(summary, fh, indent=2, default=_json_default)
         fh.write("\n")
     return summary
+
+
+def _correlation_lines(diag) -> list:
+    """The estimates' correlation matrix as a Markdown table (in the fit's log coordinates)."""
+    names, C = diag.get("correlation_parameters"), diag.get("correlation")
+    if not names or not C:
+        return []
+    lines = ["", "Correlation of the estimates (log R, log L; T_S0 in °C): strongly correlated "
+             "estimates are not separately determined by these traces.", "",
+             "| | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    for n, row in zip(names, C):
+        lines.append(f"| {n} | " + " | ".join(f"{v:+.3f}" for v in row) + " |")
+    return lines
+
+
+def _misspecification_lines(diag) -> list:
+    cases = diag.get("misspecification") or []
+    if not cases:
+        return []
+    lines = ["", "Plausible misspecifications (first-order shift of each estimate; * = beyond its "
+             "interval):", "", "| misspecification | size | " + " | ".join(cases[0]["shift"]) + " |",
+             "|---|---|" + "---|" * len(cases[0]["shift"])]
+    for c in cases:
+        cells = []
+        for n, v in c["shift"].items():
+            txt = f"{v:+.2f} K" if n.startswith("T_S0") else f"{v:+.1%}"
+            cells.append(txt + (" *" if n in c["beyond"] else ""))
+        lines.append(f"| {c['name'].replace('_', ' ')} | {c['size']} | " + " | ".join(cells) + " |")
+    return lines
 
 
 def _json_default(o):

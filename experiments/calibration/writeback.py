@@ -74,6 +74,16 @@ def calibration_record(fit: CalibrationFit, *, session: str | None = None, date:
         "sample_thickness_um": None if d is None else d * 1e6,
         "material": getattr(setup.material, "name", "") or None,
         "residual_sd_C": fit.sigma_C,
+        "skin_thickness_meaning": "effective depth of the isothermal core of the model (where the "
+                                  "skin is held at T_S0), not an anatomical thickness",
+        "correlation": {"parameters": list(fit.diagnostics.get("correlation_parameters", [])),
+                        "coordinates": "log R, log L, T_S0 (°C)",
+                        "matrix": fit.diagnostics.get("correlation", [])},
+        "misspecification": [{"name": c["name"], "size": c["size"], "shift": c["shift"],
+                              "beyond_interval": c["beyond"]}
+                             for c in fit.diagnostics.get("misspecification", [])],
+        "warnings": list(fit.warnings),
+        "plan": fit.diagnostics.get("plan"),
     }
     if setup.sensor.side == "lumped":
         rec["sensor"] = setup.sensor.to_dict()

@@ -25,6 +25,7 @@ SUBCOMMANDS = {
     "bench": "bench",
     "power": "power",
     "calibrate": "calibrate",
+    "explain": "explain",
 }
 
 

@@ -49,6 +49,10 @@ def register(sub) -> None:
                         "rewarmed between touches, and a radiation thermometer sees the surface, a "
                         "little cooler than the tissue), one shared by all traces, or none (use the "
                         "measured values as they are)")
+    p.add_argument("--skin-temperature-sd-C", type=float, default=None,
+                   help="with --fit-skin-temperature none: the thermometer's uncertainty (SD, K), "
+                        "propagated into the intervals (default: not propagated; a 0.3 K error that "
+                        "would move an estimate beyond its interval is warned about)")
     p.add_argument("--contact-threshold-N", type=float, default=None,
                    help="summed force that marks the first touch, t = 0 (default 0.1 N)")
     p.add_argument("--interval", choices=("profile", "bootstrap"), default="profile",
@@ -124,7 +128,8 @@ def run(ns) -> int:
     try:
         fit = fit_traces(st.traces, setup, fit_skin_temperature=ns.fit_skin_temperature,
                          skin_thickness_guess=guess, interval=ns.interval, level=ns.level,
-                         bootstrap_samples=ns.bootstrap_samples, seed=ns.seed)
+                         bootstrap_samples=ns.bootstrap_samples, seed=ns.seed,
+                         skin_temperature_sd_C=ns.skin_temperature_sd_C)
     except CalibrationRefused as exc:
         out.mkdir(parents=True, exist_ok=True)
         for name in REPORT_FILES:          # no stale report from an earlier run next to a refusal

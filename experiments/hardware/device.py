@@ -571,7 +571,7 @@ class Device:
         if self.curves is None or self.curves[0] != self.touch_us:
             n = int(self.max_duration_us / TICK_US) + 200
             tm, ts = s.curves(self.finger.skin_thickness_m, self.finger.skin_temperature_C,
-                              self.tick_s, n)
+                              self.tick_s, n, force_N=self.finger.force_N)
             self.curves = (self.touch_us, tm, ts)
         _, tm, ts = self.curves
         k = min((t_us - self.touch_us) // TICK_US, len(tm) - 1)

@@ -204,23 +204,28 @@ class PassiveSample:
         self.thickness_m = None if thickness_m is None else float(thickness_m)
         self.temperature_C = float(temperature_C)
 
-    def curves(self, skin_thickness_m, skin_temperature_C, dt, n):
-        """``(material_side_C, skin_side_C)`` at ``t = k dt``, k = 0..n-1, from first touch."""
+    def curves(self, skin_thickness_m, skin_temperature_C, dt, n, force_N=2.0):
+        """``(material_side_C, skin_side_C)`` at ``t = k dt``, k = 0..n-1, from first touch;
+        the contact resistance is Eq. 5 at the finger's ``force_N``."""
         return _interface_curves(self.material, self.roughness_m, self.thickness_m,
                                  self.temperature_C, round(float(skin_thickness_m), 9),
-                                 round(float(skin_temperature_C), 3), dt, n)
+                                 round(float(skin_temperature_C), 3), dt, n,
+                                 round(float(force_N), 3))
 
 
 @lru_cache(maxsize=256)
-def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n):
-    from stimuli import Contact, Skin, contact_resistance, material
+def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n, force_N=2.0):
+    from stimuli import Skin, contact_resistance, material
     skin = Skin(skin_th)
     m = material(mat, thickness=thickness)
-    R = contact_resistance(roughness, skin=skin, material=m)
-    c = Contact(skin, m, resistance=R, skin_temperature=t_skin, material_temperature=t_mat)
+    R = contact_resistance(roughness, skin=skin, material=m, force=force_N)
     t = np.arange(n) * dt
-    tm = np.asarray(c.interface_temperature(t, side="material"), dtype=float)
-    ts = np.asarray(c.interface_temperature(t, side="skin"), dtype=float)
+    # through the scene planner (stimuli.planner) to half the display's 0.01 K resolution
+    from stimuli.planner import planned_temperature
+    tm = np.asarray(planned_temperature("interface_material", skin, m, R, t_skin, t_mat, t,
+                                        tolerance=0.005)[0], dtype=float)
+    ts = np.asarray(planned_temperature("interface_skin", skin, m, R, t_skin, t_mat, t,
+                                        tolerance=0.005)[0], dtype=float)
     tm.setflags(write=False); ts.setflags(write=False)
     return tm, ts
 

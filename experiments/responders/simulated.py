@@ -282,7 +282,8 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
             t, rec = person.feel_real(sample["roughness_m"], material=sample["material"],
                                       sample_thickness_m=sample["thickness_m"],
                                       material_temperature_C=sample["temperature_C"],
-                                      skin_temperature_C=skin_temperature)
+                                      skin_temperature_C=skin_temperature,
+                                      force_N=self._force())   # Eq. 5 at the finger's press (issue 12)
         return t, rec, skin_temperature
 
     def pad_resistance(self) -> float | None:

@@ -35,6 +35,14 @@ def test_bench_model_quick_writes_table_json_png(tmp_path, capsys):
     assert by[("receptor", "paper-as-printed", "Eq. 8 prefactor")]["max_error_K"] > 1.0
     assert data["ratios"]["skin_response_exact_over_eq7_cost_ratio"] > 0
     assert data["profile"]["points"] == 20001 and data["profile"]["rate_Hz"] == 1000.0
+    # issue 12: layered and perfused skin exact, against mpmath transfer matrices, and the planner
+    assert by[("layered", "exact", "epidermis + dermis")]["max_error_K"] < 1e-9
+    assert by[("layered", "exact", "epidermis + dermis, Pennes 1.25e-3 /s")]["max_error_K"] < 1e-9
+    planner = [r for r in data["rows"] if r["problem"] == "layered" and r["method"] == "planner"]
+    assert len(planner) == 1 and planner[0]["max_error_K"] <= data["ratios"]["planner_tolerance_K"]
+    for key in ("layered_exact_over_eq7_cost_ratio", "perfusion_exact_over_eq7_cost_ratio",
+                "planner_cold_over_exact_cost_ratio", "planner_profile_scene_cold_over_exact_cost_ratio"):
+        assert data["ratios"][key] > 0
 
 
 def test_bench_out_must_be_a_folder(tmp_path, capsys):

@@ -341,3 +341,26 @@ def test_emulated_compensated_trial_feels_like_the_real_sample_and_material_side
         felt[side] = p.features(tt, rr)
     np.testing.assert_allclose(felt["compensated"][:3], f_real[:3], atol=0.03)
     assert np.all(felt["material"][:3] > f_real[:3] + 1.0)
+
+
+def test_cooling_features_refuse_a_warm_material():
+    # issue 12: the observer's features are drops and a rate of fall; a warming trace is refused
+    t = np.linspace(0.0, 8.0, 81)
+    warm = 35.0 + 3.0 * (1.0 - np.exp(-t))
+    with pytest.raises(ValueError, match="expected a cooling trace"):
+        receptor_features(t, warm, 35.0, PerceptionParameters())
+
+
+def test_feel_real_uses_eq5_at_the_given_force():
+    # issue 12: R is Eq. 5 at the contact force; a firmer press lowers R, the smooth sample
+    # feels colder (1.5 -> 2.5 N moves the 1# receptor by ~0.5 K at 5 s)
+    from stimuli import Contact, contact_resistance, material
+    p = person(650.0)
+    t, soft = p.feel_real(1.6e-6, force_N=1.5)
+    _, firm = p.feel_real(1.6e-6, force_N=2.5)
+    i = int(np.argmin(np.abs(t - 5.0)))
+    assert 0.3 < soft[i] - firm[i] < 0.8
+    steel = material("stainless_steel", p.params.sample_thickness_m)
+    R = contact_resistance(1.6e-6, skin=p.skin, material=steel, force=2.5)
+    want = Contact(p.skin, steel, R, p.skin_temperature_C, p.params.material_temperature_C)
+    np.testing.assert_allclose(firm[1:], want.receptor_temperature(t[1:]), atol=1e-9)

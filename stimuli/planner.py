@@ -1,0 +1,302 @@
+r"""The scene planner: the cheapest model whose every neglected effect stays within the tolerance.
+
+:func:`plan` starts from the scene's full model (every effect it states, :meth:`Scene.full_model`)
+and drops effects one at a time, most expensive first (the pad's sensor lag, perfusion, the
+slab's support, the slab itself, the skin's layers), then tries the paper's closed form (Eq. 7,
+when the question is the material-side interface of homogeneous skin on a half-space). A drop is
+kept when the model without it still agrees with the full model within the tolerance.
+
+How the error is bounded (cheaply, and checked)
+-----------------------------------------------
+* The full model and each candidate are evaluated at ~20 probe times (the first three samples,
+  geometric and uniform times to the end) with one shared :class:`stimuli.exact.InversionPlan`;
+  the candidate's error is ``SAFETY`` (1.5) x its largest difference from the full model there,
+  plus both inversions' bounds. Between probes the temperatures are smooth, monotone or
+  single-humped; the factor covers the probes missing the worst time. The test
+  ``tests/stimuli/test_planner.py`` evaluates planned and full models at every sample of a grid of
+  scenes and asserts the error is within the tolerance -- a bound that is wrong fails there.
+* The sensor lag is not evaluated: a first-order lag of tau changes a signal by at most
+  tau sup |dT/dt|, with the sup over the profile's sampled slopes (a jump at contact counts as
+  its slope over the first sample); it applies to the interface quantities (what a sensor reads)
+  and is "not applicable" to the receptor.
+
+The decisions (each effect: kept or neglected, the error its neglect causes, why) travel with
+every profile (``TargetProfile.parameters["plan"]``, hence the session's events) and are
+printed by ``thermocue explain``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from functools import lru_cache
+
+import numpy as np
+
+from .exact import INVERSION_ERROR, InversionPlan
+from .scene import Model, Scene, evaluate
+
+__all__ = ["plan", "planned_temperature", "Plan", "Decision", "SAFETY", "EFFECTS"]
+
+#: Factor on the probe error for the times between probes (checked by the planner's grid test).
+SAFETY = 1.5
+
+#: Effects, in the order they are tried for dropping.
+EFFECTS = ("sensor", "perfusion", "support", "slab", "layered", "closed_form")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One effect: ``included`` or neglected, ``bound_K`` = the error neglecting it causes (or
+    would cause) at this scene, ``note`` = why, in words."""
+
+    effect: str
+    included: bool
+    bound_K: float
+    note: str
+
+    def to_dict(self) -> dict:
+        # JSON has no NaN (caches and session events are strict): an unevaluated bound is None
+        return {"effect": self.effect, "included": self.included,
+                "bound_K": None if math.isnan(self.bound_K) else self.bound_K, "note": self.note}
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The planner's answer: the model, each decision, and the planned model's error bound (K)."""
+
+    scene: Scene
+    model: Model
+    full_model: Model
+    decisions: tuple
+    bound_K: float
+    probe_times: np.ndarray
+
+    def evaluate(self, t=None):
+        """The scene's quantity with the planned model, °C."""
+        return evaluate(self.scene, self.model, t)
+
+    def to_dict(self) -> dict:
+        """JSON-ready: the model, every decision, the bound and the tolerance."""
+        return {"model": self.model.describe(), "method": self.model.method,
+                "geometry": self.model.geometry, "layered": self.model.layered,
+                "perfusion": self.model.perfusion, "sensor": self.model.sensor,
+                "bound_K": self.bound_K, "tolerance_K": self.scene.tolerance_K,
+                "quantity": self.scene.quantity,
+                "decisions": [d.to_dict() for d in self.decisions]}
+
+    def lines(self) -> list:
+        """Human-readable explanation, one line each."""
+        s = self.scene
+        out = [f"scene: {s.quantity} over {s.duration_s:g} s at {s.rate_Hz:g} Hz, tolerance "
+               f"{s.tolerance_K:g} K",
+               f"model: {self.model.describe()} (bound {self.bound_K:.3g} K against the full "
+               f"model: {self.full_model.describe()})"]
+        for d in self.decisions:
+            state = "kept     " if d.included else "neglected"
+            out.append(f"  {state} {d.effect:<11s} {d.bound_K:10.3g} K  {d.note}")
+        return out
+
+
+def _probe_times(scene: Scene) -> np.ndarray:
+    T, dt = scene.duration_s, 1.0 / scene.rate_Hz
+    first = dt * np.arange(1, 4)
+    geo = np.geomspace(min(4 * dt, T), T, 10)
+    uni = np.linspace(T / 8, T, 8)
+    t = np.unique(np.concatenate([first, geo, uni]))
+    return t[(t > 0) & (t <= T)]
+
+
+@lru_cache(maxsize=32)
+def _probes(duration_s: float, rate_Hz: float):
+    """Probe times and their inversion plan, shared by every scene of that duration and rate."""
+    t = _probe_times(Scene(duration_s=duration_s, rate_Hz=rate_Hz))
+    t.setflags(write=False)
+    return t, InversionPlan(t)
+
+
+def _drop(model: Model, effect: str, scene: Scene) -> Model | None:
+    """The model without ``effect``, or None when it does not hold it."""
+    if effect == "perfusion" and model.perfusion:
+        return replace(model, perfusion=False)
+    if effect == "support" and model.geometry == "slab-on-support":
+        return replace(model, geometry="slab")
+    if effect == "slab" and model.geometry == "slab":
+        return replace(model, geometry="half-space")
+    if effect == "layered" and model.layered:
+        return replace(model, layered=False)
+    if effect == "closed_form" and model.method == "exact" and model.geometry == "half-space" \
+            and not model.layered and not model.perfusion and scene.quantity == "interface_material":
+        return replace(model, method="eq7")
+    return None
+
+
+_NOTES = {
+    "perfusion": "Pennes perfusion of the dermis",
+    "support": "the half-space the slab rests on",
+    "slab": "the sample's finite thickness (else a half-space)",
+    "layered": "epidermis and dermis properties (else Table 1's homogeneous skin)",
+    "closed_form": "exact inversion (else the paper's printed Eq. 7)",
+}
+
+
+def plan(scene: Scene, *, screen: bool = True) -> Plan:
+    """The cheapest model of ``scene`` within its tolerance (see the module docstring).
+
+    Parameters
+    ----------
+    scene : Scene
+    screen : bool
+        Keep, without evaluating it, a slab that is certainly warmed through over the scene
+        (D < sqrt(alpha_M t_end) / 2: its back is felt within the scene, by kelvins on metals);
+        keeping an effect is always safe, so this only saves the planner's time. Its decision then
+        has ``bound_K = nan``. ``False`` evaluates every effect (``thermocue explain``).
+
+    Returns
+    -------
+    Plan
+
+    Examples
+    --------
+    >>> from stimuli.scene import Scene
+    >>> p = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3, tolerance_K=0.3))
+    >>> p.model.describe()                  # the 3 mm slab matters, perfusion does not
+    'exact, slab, homogeneous skin'
+    >>> [(d.effect, d.included) for d in p.decisions]
+    [('sensor', False), ('perfusion', False), ('slab', True)]
+    """
+    return _plan(_resolved(scene), bool(screen))
+
+
+def _resolved(scene: Scene) -> Scene:
+    """The scene with Eq. 5 and the material names resolved once (evaluations repeat them)."""
+    return scene.replace(resistance=scene.contact_resistance,
+                         material=scene.material_object("half-space"),
+                         support=None if scene.support is None else scene.support_object())
+
+
+def _warmed_through(scene: Scene) -> str | None:
+    """Why the scene's slab certainly matters (screen), or None."""
+    D = scene.material_object("slab").thickness
+    reach = math.sqrt(scene.material_object("half-space").diffusivity * scene.duration_s)
+    if D < 0.5 * reach:
+        return (f"kept without evaluation: the {D * 1e3:.3g} mm slab is warmed through "
+                f"(sqrt(alpha t) = {reach * 1e3:.3g} mm at {scene.duration_s:g} s)")
+    return None
+
+
+@lru_cache(maxsize=256)
+def _plan(scene: Scene, screen: bool = True) -> Plan:
+    full = scene.full_model()
+    probes, ip = _probes(scene.duration_s, scene.rate_Hz)
+    dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
+    inv = INVERSION_ERROR * dT
+    base = replace(full, sensor=False)
+    tol = scene.tolerance_K
+    decisions = []
+    cache = {}
+
+    def reference():
+        if "ref" not in cache:
+            cache["ref"] = evaluate(scene, base, probes, plan=ip)
+        return cache["ref"]
+
+    # the sensor: tau sup|dT/dt|, analytic
+    sensor_bound = 0.0
+    if scene.sensor_time_constant_s > 0:
+        if scene.quantity == "receptor":
+            decisions.append(Decision("sensor", False, 0.0, "not applicable: the receptor is not "
+                                      "read by the pad's sensor"))
+        else:
+            tt = np.concatenate([[0.0], probes])
+            T0 = evaluate(scene, base, np.array([0.0]))
+            vals = np.concatenate([T0, reference()])
+            rate = float(np.max(np.abs(np.diff(vals) / np.diff(tt))))
+            b = scene.sensor_time_constant_s * rate
+            keep = b + inv > tol
+            if not keep:
+                sensor_bound = b
+            decisions.append(Decision("sensor", keep, b, f"tau {scene.sensor_time_constant_s:g} s x "
+                                      f"max |dT/dt| {rate:.3g} K/s"))
+    else:
+        decisions.append(Decision("sensor", False, 0.0, "no sensor lag stated"))
+
+    current, current_err, prev = base, 0.0, None
+    for effect in EFFECTS[1:]:
+        cand = _drop(current, effect, scene)
+        if cand is None:
+            if effect == "slab" and current.geometry == "slab-on-support":
+                decisions.append(Decision("slab", True, math.nan, "kept with its support"))
+            continue
+        why = _warmed_through(scene) if (screen and effect == "slab") else None
+        if why is not None:
+            decisions.append(Decision(effect, True, math.nan, why))
+            continue
+        ref = reference()
+        prev = ref if prev is None else prev
+        val = evaluate(scene, cand, probes, plan=ip if cand.method == "exact" else None)
+        step = float(np.max(np.abs(val - prev)))
+        cand_inv = inv if cand.method == "exact" else 0.0
+        err = SAFETY * float(np.max(np.abs(val - ref))) + inv + cand_inv + sensor_bound
+        if err <= tol:
+            decisions.append(Decision(effect, False, SAFETY * step, _NOTES[effect]))
+            current, current_err, prev = cand, err, val
+        else:
+            decisions.append(Decision(effect, True, SAFETY * step, _NOTES[effect]))
+    model = replace(current, sensor=full.sensor and sensor_bound == 0.0 and scene.quantity != "receptor")
+    bound = max(current_err, sensor_bound + inv)
+    return Plan(scene, model, full, tuple(decisions), float(bound), probes)
+
+
+def planned_temperature(quantity: str, skin, material, resistance: float, skin_temperature: float,
+                        material_temperature: float, t, *, tolerance: float | None = None,
+                        **physics):
+    """One production call: the scene of a contact, planned, then evaluated at times ``t``.
+
+    The chokepoint the simulated participant and the emulator's finger use instead of building a
+    :class:`stimuli.Contact` themselves, so that every production temperature is computed by the
+    planned model (:func:`plan`).
+
+    Parameters
+    ----------
+    quantity : {"receptor", "interface_material", "interface_skin"}
+    skin : Skin
+        Thickness L and receptor depth (``L - skin.dermis`` below the surface).
+    material : Material
+        A half-space or a slab (insulated back; ``physics`` may say ``geometry="slab-on-support"``).
+    resistance : float, m^2 K/W
+    skin_temperature, material_temperature : float, °C
+    t : array_like, s
+        Times >= 0 (any grid: the plan is made for the scene ``0..max(t)`` at the grid's rate).
+    tolerance : float or None, K
+        Default :data:`stimuli.scene.PERCEPTUAL_FLOOR_K`.
+    **physics
+        More :class:`stimuli.scene.Scene` options (``layered``, ``perfusion_per_s``, ...).
+
+    Returns
+    -------
+    T : ndarray, °C
+    plan : Plan or None
+        None when the two temperatures are equal (the temperature then stays put).
+    """
+    from .scene import PERCEPTUAL_FLOOR_K
+    t = np.asarray(t, dtype=float)
+    if float(skin_temperature) == float(material_temperature):   # nothing flows: nothing to plan
+        return np.full(t.shape, float(skin_temperature)), None
+    tmax = float(np.max(t)) if t.size else 1.0
+    pos = np.unique(t[t > 0])
+    dt = float(np.min(np.diff(np.concatenate([[0.0], pos])))) if pos.size else tmax
+    rate = 1.0 / dt
+    duration = round(tmax * rate) / rate if tmax > 0 else dt
+    geometry = physics.pop("geometry", "half-space" if material.thickness is None else "slab")
+    scene = Scene(quantity=quantity, duration_s=max(duration, dt), rate_Hz=rate,
+                  tolerance_K=PERCEPTUAL_FLOOR_K if tolerance is None else tolerance,
+                  material=material.with_thickness(None), resistance=float(resistance),
+                  skin_thickness_m=skin.thickness, receptor_depth_m=skin.epidermis,
+                  skin_temperature_C=skin_temperature, material_temperature_C=material_temperature,
+                  geometry=geometry,
+                  sample_thickness_m=3e-3 if material.thickness is None else material.thickness,
+                  **physics)
+    p = plan(scene)
+    if p.model.sensor:
+        return evaluate(p.scene, p.model, scene.times)[np.round(t * rate).astype(int)], p
+    return evaluate(p.scene, p.model, t), p

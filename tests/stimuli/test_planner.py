@@ -1,0 +1,153 @@
+"""The scene planner: the planned model against the full model over a grid of scenes."""
+import itertools
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from stimuli.planner import plan
+from stimuli.scene import Model, Scene, evaluate
+
+pytestmark = pytest.mark.filterwarnings("error")
+
+GRID = list(itertools.product(
+    ["receptor", "interface_material", "interface_skin"],
+    ["half-space", "slab", "slab-on-support"],
+    [False, True],                      # layered
+    [0.0, 1.25e-3, 2e-2],               # perfusion
+    [0.02, 0.3, 2.0],                   # tolerance, K
+    [1.6e-6, 100e-6],                   # roughness
+))
+
+
+@pytest.mark.parametrize("quantity,geometry,layered,w,tol,ra", GRID)
+def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, layered, w, tol, ra):
+    scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
+                  tolerance_K=tol, roughness_m=ra, support="wood" if geometry == "slab-on-support" else None,
+                  duration_s=20.0, rate_Hz=200.0)
+    full = evaluate(scene, scene.full_model())
+    for screen in (True, False):
+        p = plan(scene, screen=screen)
+        got = p.evaluate()
+        err = float(np.max(np.abs(got - full)))
+        assert err <= tol, (p.lines(), err)
+        assert err <= p.bound_K + 1e-9      # the reported bound is a bound at every sample
+        json.dumps(p.to_dict(), allow_nan=False)   # strict JSON: caches, session events
+
+
+@pytest.mark.parametrize("quantity", ["interface_material", "interface_skin"])
+@pytest.mark.parametrize("tau,tol", [(0.001, 0.3), (0.05, 0.3), (0.05, 5.0), (0.3, 2.0)])
+def test_sensor_lag_bound_holds(quantity, tau, tol):
+    scene = Scene(quantity=quantity, sensor_time_constant_s=tau, tolerance_K=tol, rate_Hz=100.0,
+                  geometry="half-space")
+    p = plan(scene)
+    full = evaluate(scene, scene.full_model())
+    lag = [d for d in p.decisions if d.effect == "sensor"][0]
+    unlagged = evaluate(scene, Model("exact", "half-space"))
+    assert np.max(np.abs(full - unlagged)) <= lag.bound_K + 1e-12     # tau max|dT/dt| is a bound
+    assert np.max(np.abs(p.evaluate() - full)) <= tol
+
+
+def test_decisions_name_what_matters_at_the_papers_scene():
+    # 3 mm steel at 20 s: the slab is kept (K-sized), perfusion neglected (~0.01 K)
+    p = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3), screen=False)
+    d = {x.effect: x for x in p.decisions}
+    assert d["slab"].included and d["slab"].bound_K > 1.0
+    assert not d["perfusion"].included and d["perfusion"].bound_K < 0.05
+    # screened (the production default): the warmed-through slab is kept without evaluating it
+    q = plan(Scene(quantity="receptor", perfusion_per_s=1.25e-3))
+    assert q.model == p.model
+    slab = [x for x in q.decisions if x.effect == "slab"][0]
+    assert slab.included and "warmed through" in slab.note
+    # a half-space interface at a loose tolerance: the paper's printed Eq. 7 is enough ...
+    p = plan(Scene(quantity="interface_material", geometry="half-space", tolerance_K=2.0))
+    assert p.model.method == "eq7"
+    # ... and not at a tight one
+    assert plan(Scene(quantity="interface_material", geometry="half-space", tolerance_K=0.01)).model.method == "exact"
+
+
+def test_range_checks_at_the_edge_of_the_model():
+    from stimuli import ModelInputError
+    from stimuli.errors import ModelRangeWarning
+    with pytest.raises(ModelInputError, match="skin_temperature_C"):
+        Scene(skin_temperature_C=-300.0)
+    with pytest.raises(ModelInputError, match="material_temperature_C"):
+        Scene(material_temperature_C=1000.0)
+    with pytest.raises(ModelInputError, match="skin_thickness_m"):
+        Scene(skin_thickness_m=1e-9)
+    with pytest.warns(ModelRangeWarning, match="skin_temperature_C"):
+        Scene(skin_temperature_C=44.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Scene(skin_temperature_C=33.0)
+
+
+def test_absurd_inputs_refused_where_they_enter():
+    import numpy as np
+    from stimuli import Contact, ModelInputError, Skin, contact_resistance, material, skin_response
+    from stimuli.errors import ModelRangeWarning
+    with pytest.raises(ModelInputError, match="thickness"):
+        Skin(1e-9)                                                     # 1 nm skin
+    with pytest.raises(ModelInputError, match="absolute zero"):
+        Contact(Skin(650e-6), material("steel"), 0.0, -300.0, 1000.0)
+    t = np.arange(11) * 0.1
+    with pytest.raises(ModelInputError, match="surface_temperature"):
+        skin_response(Skin(650e-6), t, np.full(11, 200.0), 35.0)      # a 200 °C display
+    with pytest.raises(ModelInputError, match="P/H"):
+        contact_resistance(1.6e-6, force=20.0)                         # P > H
+    with pytest.warns(ModelRangeWarning, match="P/H"):
+        contact_resistance(1.6e-6, force=6.0)                          # P/H = 0.36
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        contact_resistance(1.6e-6, force=2.5)                          # the emulated finger
+
+
+def test_target_profile_refuses_absurd_temperatures():
+    from stimuli import ModelInputError, target_profile
+    with pytest.raises(ModelInputError, match="material_temperature_C"):
+        target_profile(material_temperature=1000.0, cache=False)
+    with pytest.raises(ModelInputError, match="skin_temperature_C"):
+        target_profile(skin_temperature=-300.0, cache=False)
+
+
+def test_planned_model_within_tolerance_on_random_hard_scenes():
+    # beyond steel: copper, glass, foam, thin and thick skin, any roughness, any perfusion
+    rng = np.random.default_rng(20261124)
+    for _ in range(60):
+        scene = Scene(quantity=str(rng.choice(["receptor", "interface_material", "interface_skin"])),
+                      material=str(rng.choice(["copper", "glass", "polystyrene_foam", "stainless_steel"])),
+                      geometry=str(rng.choice(["half-space", "slab", "slab-on-support"])),
+                      support="wood", sample_thickness_m=float(rng.uniform(0.5e-3, 10e-3)),
+                      skin_thickness_m=float(rng.uniform(300e-6, 2e-3)),
+                      roughness_m=float(rng.uniform(0.0, 100e-6)), layered=bool(rng.integers(2)),
+                      perfusion_per_s=float(rng.choice([0.0, 1.25e-3, 2e-2])),
+                      tolerance_K=float(rng.choice([0.01, 0.1, 0.3, 1.0])),
+                      material_temperature_C=float(rng.uniform(5.0, 30.0)),
+                      duration_s=float(rng.choice([2.0, 20.0])), rate_Hz=100.0)
+        full = evaluate(scene, scene.full_model())
+        p = plan(scene)
+        err = float(np.max(np.abs(p.evaluate() - full)))
+        assert err <= scene.tolerance_K, (p.lines(), err)
+
+
+def test_planned_temperature_is_the_contact_for_the_default_scene():
+    from stimuli import Contact, Skin, contact_resistance, material
+    from stimuli.planner import planned_temperature
+    skin, steel = Skin(1e-3), material("stainless_steel", 3e-3)
+    R = contact_resistance(50e-6, skin=skin, material=steel)
+    t = np.arange(2001) * 0.01
+    T, p = planned_temperature("receptor", skin, steel, R, 35.5, 20.0, t)
+    np.testing.assert_allclose(T, Contact(skin, steel, R, 35.5, 20.0).receptor_temperature(t), atol=1e-11)
+    assert p.model.geometry == "slab" and p.scene.tolerance_K == 0.3
+    # with layered skin the planner keeps the layers (about 1 K at the receptor)
+    T2, p2 = planned_temperature("receptor", skin, steel, R, 35.5, 20.0, t, layered=True)
+    assert p2.model.layered and np.max(np.abs(T2 - T)) > 0.3
+
+
+def test_planned_temperature_with_no_temperature_difference_stays_put():
+    from stimuli import Skin, material
+    from stimuli.planner import planned_temperature
+    T, p = planned_temperature("interface_material", Skin(650e-6), material("steel", 3e-3), 1e-3,
+                               30.0, 30.0, np.arange(11) * 0.1)
+    assert p is None and np.all(T == 30.0)
