@@ -4,10 +4,10 @@ Run from the repository root:  .venv/bin/python tests/experiments/data/make_sess
 
 It runs P01 (group A) and P16 (group B) of ``experiments.cohort.paper_cohort(0)`` through
 ``roughness_recognition.toml`` on ``emulator://?clock=virtual&seed=0`` with the simulated
-responder (default options) and stores, per trial, the logged answer, response time, the
-contact trace's last temperature and the percept.  The stored file was produced by the code
-*before* the emulator was made faster (issue 11): tests/experiments/test_session_answers.py
-checks that the current code still logs exactly these answers.
+responder (default options) on the durable path (fsync per event) and stores, per trial, the
+logged answer, response time and the percept. tests/experiments/test_session_answers.py checks
+that a simulated study's fast path (no fsync) logs exactly these answers. Regenerate it only when
+the model or what a trial logs changes on purpose, and say so in the commit.
 """
 from __future__ import annotations
 
@@ -23,14 +23,19 @@ PARTICIPANTS = ("P01", "P16")
 SEED = 0
 
 
-def session_answers(participants=PARTICIPANTS, seed: int = SEED) -> dict:
-    """participant -> list of {block, trial_index, roughness_id, response_id, rt_s, percept}."""
+def session_answers(participants=PARTICIPANTS, seed: int = SEED, durable: bool = True) -> dict:
+    """participant -> list of {block, trial_index, roughness_id, response_id, rt_s, percept}.
+
+    ``durable=True`` is the slow path every real session takes (fsync per event); a simulated
+    study runs with ``durable=False`` (no fsync, issue 11's speed-up). The reference is made
+    with the former and the test checks the latter against it.
+    """
     from experiments.cohort import run_participant, write_cohort
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         paths = {p.stem: p for p in write_cohort(Path(tmp) / "participants", seed=seed)}
         for pid in participants:
-            res = run_participant(paths[pid], Path(tmp) / "data", seed=seed)
+            res = run_participant(paths[pid], Path(tmp) / "data", seed=seed, durable=durable)
             session = Path(res["session_dir"])
             percepts = {}
             for line in (session / "events.jsonl").read_text(encoding="utf-8").splitlines():
@@ -59,8 +64,8 @@ if __name__ == "__main__":
                          "roughness_recognition, emulator://?clock=virtual&seed=0, simulated "
                          "responder with default options), produced by "
                          "tests/experiments/data/make_session_answers.py at commit "
-                         f"{git_commit()}, before the emulator speed-up of issue 11."),
-            "answers": session_answers()}
+                         f"{git_commit()} on the durable path (fsync per event, durable=True)."),
+            "answers": session_answers(durable=True)}
     (HERE / "session_answers_seed0.json").write_text(json.dumps(data, indent=1) + "\n",
                                                       encoding="utf-8")
     sys.exit(0)
