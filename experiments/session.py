@@ -78,6 +78,7 @@ __all__ = [
     "VirtualClock",
     "clock_for_url",
     "PAUSE_ENV",
+    "block_roles",
 ]
 
 #: Environment variable naming test pause points, e.g. ``"playback:5"`` or
@@ -132,7 +133,8 @@ class Session:
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
-                 progress: bool = True, responder_name: str = "", profiles: dict | None = None):
+                 progress: bool = True, responder_name: str = "", profiles: dict | None = None,
+                 experimenter=None):
         self.directory = Path(directory)
         self.protocol = protocol
         self.participant = participant
@@ -147,6 +149,13 @@ class Session:
         self.max_consecutive_faults = int(max_consecutive_faults)
         self.out = out
         self.show_progress = progress
+        #: The experimenter's channel (terminal by default): everything the participant must
+        #: not see (:mod:`experiments.responders.experimenter`).
+        if experimenter is None:
+            from experiments.responders.experimenter import TerminalExperimenter
+            experimenter = TerminalExperimenter(out)
+        self.experimenter = experimenter
+        self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
         self.log = None
         self.responder: Responder | None = None
         self.display = None
@@ -249,8 +258,10 @@ class Session:
             self._report(text)
 
     def _report(self, text: str) -> None:
-        """An error, a warning or the reason a run stopped: printed even with ``--quiet``."""
-        print(f"thermocue: {text}", file=self.out or sys.stderr, flush=True)
+        """An error, a warning or the reason a run stopped: printed even with ``--quiet``.
+
+        Goes to the experimenter's channel (never to the participant's screen)."""
+        self.experimenter.tell(text)
 
     def _pause(self, point: str, spec, attempt: int) -> None:
         if (point, spec.trial_index) in self._pause_at:
@@ -422,8 +433,13 @@ class Session:
         return time.monotonic() - self._started
 
     def _progress_text(self, spec) -> str:
-        return (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
+        text = (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
                 f"elapsed {_clock_text(self._elapsed())}")
+        if self._trial_seconds:   # the mean trial of this run so far, times the trials left
+            left = self.n_trials - spec.trial_index + 1
+            eta = left * sum(self._trial_seconds) / len(self._trial_seconds)
+            text += f" | about {_clock_text(eta)} left"
+        return text
 
     def _run_trial(self, disp, spec, attempt: int) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -434,22 +450,33 @@ class Session:
                                                  if k != "trial_index"})
         started_at = _now_iso()
         self._pause("trial_started", spec, attempt)
+        t_trial = time.monotonic()
         text = self._progress_text(spec)
         self._say(text + (f" | attempt {attempt}" if attempt > 1 else ""))
-        self.responder.progress(text)
+        self.responder.progress(text)   # the experimenter's; responders do not show it
         block = self.protocol.block(spec.block)
         sample = self.protocol.sample(spec.roughness_id)
+        shown = self.protocol.presentation
         if spec.block != self._last_block and block.instructions:
-            self.responder.show_text(block.instructions)
+            self.responder.show_instructions(block.instructions, shown.instructions_min_s,
+                                             shown.instructions_key)
         self._last_block = spec.block
         real = spec.mode != "simulated"
+        # Two audiences: the sample to place is the experimenter's (terminal or their screen);
+        # the participant's screen only says "please wait" (or names the sample where the
+        # block gives feedback before an unanswered touch: familiarisation).
+        labelled = block.feedback and not block.response
         if real:
-            self.responder.prompt_experimenter(
-                f"Trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
-                f"(Ra {sample.roughness_um:g} µm)")
+            ask = (f"trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
+                   f"(Ra {sample.roughness_um:g} µm), then confirm on the participant's keyboard")
+            self.experimenter.tell(ask)
+            self.responder.please_wait()
+            self.responder.prompt_experimenter(ask)
             self.log_event("sample_placed", **ctx, sample=sample.label)
-        if block.feedback:
-            self.responder.show_text(f"This is sample {sample.label}")
+        if labelled:
+            self.responder.show_label(f"This is sample {sample.label}")
+        elif not real:
+            self.responder.please_wait()
         row = {"started_at": started_at, "protocol_hash": self.protocol.hash,
                "mode": spec.mode, "block": spec.block}
         self.machine.go("prepare", **ctx)
@@ -533,6 +560,8 @@ class Session:
         if self.machine.state == "wait_contact":   # contact seen by the device only
             self.machine.go(active, **ctx, device_time_s=rec.contact_time_s)
         self.machine.go("respond", **ctx)
+        if labelled:
+            self.responder.show_label(None)
         if block.response:
             stimulus = self._stimulus(spec, writer, rec, profile, sample)
             response = self.responder.respond(spec, stimulus)
@@ -540,6 +569,12 @@ class Session:
             row.update(response_id=response.response_id, rt_s=response.rt_s,
                        correct=int(response.response_id == spec.roughness_id),
                        response_source=response.source)
+            if block.feedback:   # only where the protocol's block says so
+                right = response.response_id == spec.roughness_id
+                self.responder.feedback(("Correct" if right else "Not correct")
+                                        + f": it was sample {sample.label}", shown.feedback_s)
+                self.log_event("feedback", **ctx, correct=int(right))
+        self._trial_seconds.append(time.monotonic() - t_trial)
         self._pause("after_response", spec, attempt)
         self.machine.go("write", **ctx)
         row.update(status="ok", trace_file=f"traces/{trace.name}", finished_at=_now_iso())
@@ -561,10 +596,23 @@ class Session:
             return
         value = round(float(finger_C), 2)
         row["skin_temperature_C"] = value
-        if not env.skin_temperature_min_C <= value <= env.skin_temperature_max_C:
+        inside = env.skin_temperature_min_C <= value <= env.skin_temperature_max_C
+        row["skin_temperature_in_range"] = int(inside)
+        if not inside:
             self.log_event("skin_temperature_out_of_range", **ctx, skin_temperature_C=value,
                            expected_min_C=env.skin_temperature_min_C,
                            expected_max_C=env.skin_temperature_max_C)
+            # Shown to the experimenter at the time, who must confirm to go on (asked on the
+            # terminal; with none to ask, logged as unconfirmed and listed by the report).
+            self._report(f"warning: trial {ctx['trial_index']}: skin temperature {value:.2f} °C, "
+                         f"outside {env.skin_temperature_min_C:g}-{env.skin_temperature_max_C:g} °C")
+            answer = self.experimenter.confirm(
+                f"trial {ctx['trial_index']}: skin temperature {value:.2f} °C is out of range; "
+                "keep this trial and go on?")
+            self.log_event("skin_temperature_confirmation", **ctx,
+                           answer={True: "yes", False: "no", None: "unasked (no terminal)"}[answer])
+            if answer is False:
+                raise SessionInterrupted("experimenter stopped: skin temperature out of range")
 
     def _recording_fields(self, rec) -> dict:
         return {"tracking_rms_C": rec.tracking_rms_C, "tracking_max_C": rec.tracking_max_C,
@@ -605,10 +653,10 @@ class Session:
             self._attempt.logged_end = True
             self._write_trials()
         if row.get("status") == "ok":
+            # Never whether the answer was right: on the console responder the participant reads
+            # this terminal (feedback is the block's, through the responder).
             answer = row.get("response_id")
-            self._say(f"trial {spec.trial_index}: ok" + (
-                "" if answer is None else
-                f", answer {answer} ({'correct' if row.get('correct') else 'wrong'})"))
+            self._say(f"trial {spec.trial_index}: ok" + ("" if answer is None else ", answer logged"))
 
     def _fault(self, disp, spec, attempt, row, exc, rec=None) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -855,6 +903,8 @@ class SessionPlan:
             "seed": self.seed,
             "schedule": [s.to_dict() for s in self.schedule],
             "schedule_algorithm": SCHEDULE_ALGORITHM,
+            # What each block is (analysis reads this, not block names).
+            "blocks": block_roles(protocol),
             "display_url": self.display_url,
             "responder": self.responder_name,
             "clock": "virtual" if self.clock.virtual else "real",
@@ -871,6 +921,12 @@ class SessionPlan:
             session._report(f"warning: {w}")
         session._say(f"{self.participant_id}: {assignment.describe()}")
         return session
+
+
+def block_roles(protocol) -> list[dict]:
+    """Per block: ``name``, ``mode``, ``scored``, ``response``, ``feedback`` (session.json)."""
+    return [{"name": b.name, "mode": b.mode, "scored": bool(b.scored), "response": bool(b.response),
+             "feedback": bool(b.feedback)} for b in protocol.blocks]
 
 
 def _refuse_existing(directory: Path) -> None:
