@@ -317,7 +317,12 @@ class Session:
             self._say(f"{self.participant_id}/{self.name}: {len(todo)} of {self.n_trials} trials to run"
                       + (" (resumed)" if resumed else ""))
             self.responder = responder
-            responder.begin_session(self)
+            self.experimenter.open()
+            try:
+                responder.begin_session(self)
+            except BaseException:
+                self.experimenter.close()
+                raise
             try:
                 if display is None:
                     try:
@@ -333,7 +338,10 @@ class Session:
                         return self._guarded(disp, todo, progress)
                 return self._guarded(display, todo, progress)
             finally:
-                responder.end_session()
+                try:
+                    responder.end_session()
+                finally:
+                    self.experimenter.close()
         except _STOPS as exc:
             self._interrupted(_reason(exc))
             return 1

@@ -32,6 +32,9 @@ def add_common(p) -> None:
                    help="option passed to the responder (repeatable), e.g. fullscr=true")
     p.add_argument("--max-faults", type=int, default=None, metavar="N",
                    help="stop cleanly after N consecutive display faults (default 3)")
+    p.add_argument("--experimenter-screen", type=int, default=None, metavar="N",
+                   help="show the experimenter's lines (sample to place, progress, warnings) in "
+                        "a PsychoPy window on screen N too (default: the terminal only)")
     p.add_argument("--quiet", action="store_true",
                    help="no progress lines on stderr (errors and why a run stopped are still printed)")
 
@@ -68,9 +71,20 @@ def check_common(ns) -> None:
     from experiments.errors import UserInputError
     if ns.max_faults is not None and ns.max_faults < 1:
         raise UserInputError(f"--max-faults: expected an integer ≥ 1, got {ns.max_faults}")
+    if ns.experimenter_screen is not None:
+        if ns.experimenter_screen < 0:
+            raise UserInputError(f"--experimenter-screen: expected a screen number ≥ 0, got "
+                                 f"{ns.experimenter_screen}")
+        check_window("psychopy", option="--experimenter-screen")
 
 
-def check_window(responder: str) -> None:
+def experimenter_for(ns):
+    """The experimenter's channel the options ask for (terminal, or a window on a screen)."""
+    from experiments.responders.experimenter import make_experimenter
+    return make_experimenter(ns.experimenter_screen)
+
+
+def check_window(responder: str, option: str = "--responder psychopy") -> None:
     """Refuse the PsychoPy responder up front when there is no display to open a window on."""
     import os
     import sys
@@ -78,7 +92,7 @@ def check_window(responder: str) -> None:
     from experiments.errors import UserInputError
     if responder == "psychopy" and sys.platform.startswith("linux") \
             and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        raise UserInputError("--responder psychopy: expected a display for the window (DISPLAY), "
+        raise UserInputError(f"{option}: expected a display for the window (DISPLAY), "
                              "got none set (start Xvfb, or use --responder console)")
 
 
@@ -107,6 +121,7 @@ def _run(ns) -> int:
     with display:
         plan.check_display(display)
         session = plan.write()
+        session.experimenter = experimenter_for(ns)
         print(session.directory, file=sys.stdout, flush=True)
         return session.run(responder, display=display)
 

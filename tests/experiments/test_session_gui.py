@@ -40,7 +40,7 @@ def _events(path: Path) -> list[dict]:
 
 
 def _key(env, key: str) -> None:
-    subprocess.run(["xdotool", "search", "--sync", "--name", "thermocue", "windowfocus", "--sync",
+    subprocess.run(["xdotool", "search", "--sync", "--name", "^thermocue$", "windowfocus", "--sync",
                     "key", "--delay", "30", key], env=env, timeout=15, check=True,
                    capture_output=True)
 
@@ -271,3 +271,26 @@ def test_whole_session_the_participant_window_never_shows_a_test_trials_sample(t
         if keep:
             Path(keep).mkdir(parents=True, exist_ok=True)
             shutil.copyfile(shot, Path(keep) / f"{state}.png")
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_experimenter_screen_is_a_second_window_with_what_the_participant_must_not_see(tmp_path, xvfb):
+    proto = write_protocol(tmp_path, contact_s=0.5, rewarm_s=0.0, real_samples=(2,), sim_samples=(3,))
+    data, shots = tmp_path / "data", tmp_path / "shots"
+    shots.mkdir()
+    record = tmp_path / "drawn.jsonl"
+    events_path = data / "P01" / "S01" / "events.jsonl"
+    run, sent, _, err = _run_answering(
+        [sys.executable, str(RECORDER), str(record), str(events_path), str(shots), "--",
+         "run", str(proto), "--participant", str(P01), "--display", "emulator://?clock=virtual",
+         "--responder", "psychopy", "--data", str(data), "--session", "S01",
+         "--experimenter-screen", "0", "--responder-option", "max_wait_s=40"], {**os.environ, **xvfb},
+        events_path)
+    assert run.returncode == 0, err[-2000:]
+    drawn = [json.loads(line) for line in record.read_text().splitlines()]
+    experimenter = [d["text"] for d in drawn if d["window"] == "thermocue experimenter"]
+    participant = [d["text"] for d in drawn if d["window"] == "thermocue"]
+    assert any("place sample 2# (Ra 12.5 µm)" in t for t in experimenter)
+    assert any("trial 2 of 2 | block simulated" in t for t in experimenter)
+    assert participant and not any("2#" in t or "trial" in t.lower() for t in participant)
+    assert "place sample 2#" in err           # and on the terminal too
