@@ -27,8 +27,15 @@ Optional columns missing from a session's table are filled with blanks, with a w
 Rows are then validated (required columns, types, allowed values, duplicate
 ``(participant, session, trial_index, attempt)`` keys, ``correct`` consistent with
 ``response_id == roughness_id``) and marked ``included`` or given an
-``exclusion`` reason: familiarisation, a non-ok status, or an ok attempt
-superseded by a later ok attempt of the same trial.
+``exclusion`` reason: an unscored block ("familiarisation" for a block named ``familiarise``,
+"unscored block" for any other, e.g. the protocol's ``review``), a non-ok status, or an ok
+attempt superseded by a later ok attempt of the same trial.
+
+Which blocks are scored and answered is read from each session's ``session.json``
+(``blocks``: ``name``, ``scored``, ``response``, ``feedback``, written by the session), else from
+its stored protocol's ``[[blocks]]`` (``response`` defaults to true, ``scored`` to
+``response``), else, for logs with neither, a block named ``familiarise`` is the one unscored
+block. Any block name works.
 """
 from __future__ import annotations
 
@@ -51,6 +58,7 @@ __all__ = [
     "read_trials_csv",
     "read_trial_events",
     "not_recognition_reason",
+    "block_roles",
     "REQUIRED_COLUMNS",
     "STATUSES",
 ]
@@ -344,6 +352,27 @@ def not_recognition_reason(meta: dict) -> str:
             f"{name!r}{experiment}, whose {which} response = false")
 
 
+def block_roles(meta: dict) -> dict:
+    """Block name -> ``{"scored": bool, "response": bool}`` from a session's ``session.json``.
+
+    ``blocks`` (written by the session) first, else the stored protocol's ``[[blocks]]`` with
+    their defaults (``response`` true, ``scored`` = ``response``); ``{}`` when neither is there.
+    """
+    listed = meta.get("blocks")
+    if not isinstance(listed, list):
+        protocol = meta.get("protocol")
+        listed = protocol.get("blocks") if isinstance(protocol, dict) else None
+    if not isinstance(listed, list):
+        return {}
+    roles = {}
+    for b in listed:
+        if not isinstance(b, dict) or not isinstance(b.get("name"), str):
+            continue
+        response = b.get("response", True) is not False
+        roles[b["name"]] = {"scored": b.get("scored", response) is not False, "response": response}
+    return roles
+
+
 def _session_context(folder: Path, messages: list) -> dict:
     """participant/session/group/sex from ``session.json`` (tolerant); ``{}`` if unreadable."""
     meta = folder / "session.json"
@@ -435,18 +464,26 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
             i = (out[column] == "").idxmax()
             raise LogError(f"{df.at[i, 'source']}: {column}: expected a non-empty value (line {df.at[i, 'line']}), got ''")
     _check_allowed(out["status"], STATUSES, df, "status")
-    familiar = (out["block"] == FAMILIARISE) | (out["mode"] == FAMILIARISE)
+    named = (out["block"] == FAMILIARISE) | (out["mode"] == FAMILIARISE)
+    if "_scored" in df.columns:   # the session's own block roles (session.json), else the name
+        known = df["_scored"].notna()
+        scored = df["_scored"].where(known, ~named).astype(bool)
+        answered = df["_answered"].where(known, ~named).astype(bool)
+    else:
+        scored, answered = ~named, ~named
+    familiar = ~scored.to_numpy()
     _check_allowed(out["mode"], MODES, df, "mode")
     _check_allowed(out["group"], GROUPS, df, "group")
     ok = out["status"] == "ok"
     out["trial_index"] = _as_number(df, "trial_index", integer=True, allow_blank=False).astype("int64")
     out["roughness_id"] = _as_number(df, "roughness_id", integer=True, allow_blank=False).astype("int64")
     _check_allowed(out["roughness_id"], range(1, N_ROUGHNESS + 1), df, "roughness_id")
-    response = _as_number(df, "response_id", integer=True, allow_blank=~ok | familiar)
+    unanswered = ~ok | ~answered.to_numpy() | familiar
+    response = _as_number(df, "response_id", integer=True, allow_blank=unanswered)
     _check_allowed(response, list(range(1, N_ROUGHNESS + 1)), df, "response_id",
                    mask=response.notna())
     out["response_id"] = response.astype("Int64")
-    correct = _as_number(df, "correct", integer=True, allow_blank=~ok | familiar)
+    correct = _as_number(df, "correct", integer=True, allow_blank=unanswered)
     _check_allowed(correct, [0, 1], df, "correct", mask=correct.notna())
     out["correct"] = correct.astype("Int64")
     both = correct.notna() & response.notna()
@@ -583,7 +620,9 @@ def _session_folders(root: Path) -> list[Path]:
 def _mark_inclusion(trials: pd.DataFrame) -> pd.DataFrame:
     exclusion = pd.Series("", index=trials.index, dtype=object)
     exclusion[trials["status"] != "ok"] = "status " + trials["status"]
-    exclusion[trials["familiarisation"]] = "familiarisation"
+    unscored = trials["familiarisation"]
+    exclusion[unscored] = np.where(trials.loc[unscored, "block"] == FAMILIARISE, "familiarisation",
+                                   "unscored block")
     ok = exclusion == ""
     key = ["participant", "session", "trial_index"]
     last = trials[ok].groupby(key)["attempt"].transform("max")
@@ -649,6 +688,11 @@ def load_trials(data_dir) -> TrialLog:
         rows, source = load_session(folder, messages)
         if rows.empty:
             continue
+        roles = block_roles(meta)
+        if roles:
+            blocks = rows["block"].astype(str)
+            rows["_scored"] = blocks.map(lambda b: roles[b]["scored"] if b in roles else None)
+            rows["_answered"] = blocks.map(lambda b: roles[b]["response"] if b in roles else None)
         parts.append(rows)
         sessions.append({"path": str(folder), "source": source, "n_rows": len(rows)})
     if not parts:
