@@ -27,6 +27,8 @@ def _run(ns) -> int:
     from analysis import LogWarning, analyze
     from experiments.errors import UserInputError
 
+    from experiments.cli.paths import check_writable_dir
+    check_writable_dir(ns.out, "--out")      # before any computation
     if ns.bootstrap < 0:
         raise UserInputError(f"--bootstrap: expected an integer >= 0, got {ns.bootstrap!r}")
     start = time.monotonic()

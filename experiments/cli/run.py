@@ -94,6 +94,33 @@ def check_window(responder: str, option: str = "--responder psychopy") -> None:
             and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         raise UserInputError(f"{option}: expected a display for the window (DISPLAY), "
                              "got none set (start Xvfb, or use --responder console)")
+    if responder == "psychopy" and os.environ.get("DISPLAY") and not _x_display_opens():
+        raise UserInputError(f"{option}: expected a display to open the window on, got "
+                             f"DISPLAY={os.environ['DISPLAY']!r}, which does not answer (is the X "
+                             f"server running?)")
+
+
+def _x_display_opens() -> bool:
+    """Whether Xlib can connect to ``$DISPLAY`` (True when Xlib itself is not found: PsychoPy
+    will then say what is wrong)."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("X11")
+    if name is None:
+        return True
+    try:
+        xlib = ctypes.CDLL(name)
+    except OSError:
+        return True
+    xlib.XOpenDisplay.restype = ctypes.c_void_p
+    xlib.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    xlib.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = xlib.XOpenDisplay(None)
+    if not handle:
+        return False
+    xlib.XCloseDisplay(handle)
+    return True
 
 
 def _run(ns) -> int:
@@ -103,10 +130,13 @@ def _run(ns) -> int:
     from experiments.responders import get_responder
     from experiments.session import plan_session
 
+    from experiments.cli.paths import check_writable_dir
+
     if ns.seed is not None and ns.seed < 0:
         raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
     check_common(ns)
     check_window(ns.responder)
+    check_writable_dir(ns.data, "--data")      # before the display and the window are opened
     responder = get_responder(ns.responder, **responder_options(ns.responder_option))
     # Everything is checked (files, schedule, every simulated profile) and the display opened
     # before the session folder is written: a bad input or an unreachable display leaves nothing.
@@ -123,7 +153,47 @@ def _run(ns) -> int:
         session = plan.write()
         session.experimenter = experimenter_for(ns)
         print(session.directory, file=sys.stdout, flush=True)
-        return session.run(responder, display=display)
+        try:
+            return session.run(responder, display=display)
+        finally:
+            remove_if_unused(session.directory)
+
+
+def remove_if_unused(directory) -> bool:
+    """Remove a session folder in which no trial was started (e.g. the window did not open).
+
+    Only the files a new session writes are removed (``session.json``, ``events.jsonl``,
+    ``trials.csv`` with no rows, an empty ``traces/``), then the folder and an emptied participant folder: a failure before the
+    first trial leaves no empty session behind. Returns whether it was removed.
+    """
+    from pathlib import Path
+
+    directory = Path(directory)
+    events = directory / "events.jsonl"
+    try:
+        text = events.read_text(encoding="utf-8", errors="replace") if events.exists() else ""
+    except OSError:
+        return False
+    import json
+    for line in text.splitlines():
+        try:
+            started = json.loads(line).get("event") == "trial_started"
+        except (ValueError, AttributeError):
+            return False          # a log it cannot read: keep everything
+        if started:
+            return False
+    known = {"session.json", "events.jsonl", "trials.csv", "traces"}
+    if any(p.name not in known for p in directory.iterdir()) or \
+            ((directory / "traces").is_dir() and any((directory / "traces").iterdir())):
+        return False
+    for name in ("session.json", "events.jsonl", "trials.csv"):
+        (directory / name).unlink(missing_ok=True)
+    for folder in (directory / "traces", directory, directory.parent):
+        try:
+            folder.rmdir()
+        except OSError:
+            break
+    return True
 
 
 def open_display_or_report(command: str, protocol, url: str, option: str, outcome: str, source=None):
