@@ -964,9 +964,9 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
         protocol = load_protocol(protocol)
     participant = load_participant(participant_path)
     from experiments.calibration.writeback import check_calibration_samples
-    simulated = sorted({spec.roughness_um for b in protocol.blocks if b.mode == "simulated"
-                        for spec in [protocol.sample(i) for i in b.samples]})
-    check_calibration_samples(participant, simulated, source=str(participant_path))
+    if any(b.mode == "simulated" for b in protocol.blocks):
+        check_calibration_samples(participant, [s.roughness_um for s in protocol.samples],
+                                  source=str(participant_path))
     assignment = assign_group(participant, protocol.grouping)   # None: the paper's 800 µm rule
     if seed is None:
         seed = secrets.randbelow(2**31)

@@ -53,15 +53,15 @@ def check_calibration_samples(record, roughness_um, source: str = "participant r
     record : dict
         A validated participant record.
     roughness_um : iterable of float, µm
-        The roughness of each sample the session simulates.
+        The roughness of each sample of the protocol.
     source : str
         The record's file, for the message.
 
     Raises
     ------
     CalibrationError
-        The record has fitted resistances and no key is the Ra of a simulated sample (they
-        would all be ignored, and every profile silently fall back to Eq. 5).
+        The record has fitted resistances and no key is the Ra of a sample of the protocol
+        (they would all be ignored, and every profile silently fall back to Eq. 5).
     """
     cal = (record or {}).get("calibration")
     table = cal.get("contact_resistance_m2K_W") if isinstance(cal, dict) else None
@@ -71,7 +71,7 @@ def check_calibration_samples(record, roughness_um, source: str = "participant r
     if wanted and not set(table) & set(wanted):
         raise CalibrationError(
             f"{source}: calibration.contact_resistance_m2K_W: expected keys naming the protocol's "
-            f"simulated samples by Ra in µm ({', '.join(repr(w) for w in wanted)}), got "
+            f"samples by Ra in µm ({', '.join(repr(w) for w in wanted)}), got "
             f"{', '.join(repr(k) for k in table)}: no fitted resistance would be used")
 
 

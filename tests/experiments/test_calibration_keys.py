@@ -54,8 +54,8 @@ def test_a_calibration_for_no_sample_of_the_protocol_is_refused(tmp_path):
         plan_session(proto, path, tmp_path / "data", "emulator://?clock=virtual", seed=1)
     assert str(err.value) == (
         f"{path}: calibration.contact_resistance_m2K_W: expected keys naming the protocol's "
-        "simulated samples by Ra in µm ('1.6', '12.5'), got '2.5', '25': no fitted resistance "
-        "would be used")
+        "samples by Ra in µm ('1.6', '12.5', '50', '100'), got '2.5', '25': no fitted "
+        "resistance would be used")
     assert not (tmp_path / "data").exists()
     # One matching key is enough (the other samples use Eq. 5, as documented).
     check_calibration_samples({"calibration": {"contact_resistance_m2K_W": {"12.5": 1e-4}}},
