@@ -197,6 +197,10 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> Path:
+    # Booleans one way, as in trials.csv: 1/0 (not True/False next to 0/1 columns).
+    flags = [c for c in df.columns if df[c].dtype == bool]
+    if flags:
+        df = df.assign(**{c: df[c].astype(int) for c in flags})
     df.to_csv(path, index=False, float_format="%.6g")
     return path
 

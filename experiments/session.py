@@ -169,6 +169,7 @@ class Session:
         self._pending: str | None = None
         self._pause_at = _parse_pause(os.environ.get(PAUSE_ENV, ""))
         self._last_block = None
+        self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
 
     # -- paths and context ------------------------------------------------------------------
     @property
@@ -196,10 +197,14 @@ class Session:
         return self.directory / "traces"
 
     def _context(self) -> dict:
+        from experiments.cli import thermocue_version
         return {"session": self.name, "participant": self.participant_id, "group": self.group,
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,
-                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex")}
+                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
+                # PsychoPy-style identity of every trial row (date: the session's first start)
+                "date": self._date, "expName": self.protocol.name,
+                "protocol_version": self.protocol.version, "thermocue_version": thermocue_version()}
 
     def sample_for(self, spec) -> dict:
         """The physical sample of a trial: material, roughness (m), thickness (m), temperature (°C)."""
@@ -291,7 +296,9 @@ class Session:
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
         progress = replay(events)
-        self._started = time.monotonic() - _seconds_since_first_start(events)
+        since = _seconds_since_first_start(events)
+        self._started = time.monotonic() - since
+        self._date = _psychopy_date(time.time() - since)
         with EventLog(self.events_path) as log:
             self.log = log
             old_handlers = self._install_signals()
@@ -486,7 +493,8 @@ class Session:
         elif not real:
             self.responder.please_wait()
         row = {"started_at": started_at, "protocol_hash": self.protocol.hash,
-               "mode": spec.mode, "block": spec.block}
+               "mode": spec.mode, "block": spec.block,
+               "psychopyVersion": getattr(self.responder, "psychopy_version", None)}
         self.machine.go("prepare", **ctx)
         profile = None
         try:
@@ -623,9 +631,13 @@ class Session:
                 raise SessionInterrupted("experimenter stopped: skin temperature out of range")
 
     def _recording_fields(self, rec) -> dict:
+        # contact_onset_s: the display's clock at contact (a time stamp, not a duration);
+        # contact_duration_s: from contact to the end of the recording.
+        touched = rec.contact_time_s is not None
         return {"tracking_rms_C": rec.tracking_rms_C, "tracking_max_C": rec.tracking_max_C,
-                "contact_time_s": rec.contact_time_s, "frames": rec.frames,
-                "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
+                "contact_onset_s": rec.contact_time_s,
+                "contact_duration_s": float(getattr(rec, "duration_s", 0.0)) if touched else None,
+                "frames": rec.frames, "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
 
     def _stimulus(self, spec, writer, rec, profile, sample) -> TrialStimulus:
         t = np.asarray(writer.time_s, dtype=float)
@@ -830,6 +842,12 @@ def _seconds_since_first_start(events) -> float:
                 t0 = t0.replace(tzinfo=_dt.timezone.utc)
             return max(0.0, (_dt.datetime.now(_dt.timezone.utc) - t0).total_seconds())
     return 0.0
+
+
+def _psychopy_date(epoch_s: float) -> str:
+    """PsychoPy's ``data.getDateStr()`` form of a time, e.g. ``2026-11-22_14h05.09.123`` (local)."""
+    t = time.localtime(epoch_s)
+    return time.strftime("%Y-%m-%d_%Hh%M.%S", t) + f".{int((epoch_s % 1) * 1000):03d}"
 
 
 def _clock_text(seconds: float) -> str:

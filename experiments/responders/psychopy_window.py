@@ -93,14 +93,18 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self._state = ""
         self._label = None
         self._on = None            # (state, text, flip time) of the text on screen
+        self.psychopy_version = None
 
     # -- life cycle -----------------------------------------------------------------------
     def begin_session(self, session) -> None:
         super().begin_session(session)
         from psychopy import prefs
         prefs.hardware["audioLib"] = [self.audio_lib]
+        import psychopy
         from psychopy import core
         from psychopy.hardware import keyboard
+
+        self.psychopy_version = psychopy.__version__   # the trials table's psychopyVersion
 
         self._core = core
         try:

@@ -12,6 +12,8 @@ import io
 import json
 import re
 
+import pytest
+
 from _session_helpers import P01, write_protocol
 from experiments.responders import ConsoleResponder
 from experiments.session import create_session
@@ -96,3 +98,42 @@ def test_participant_terminal_never_names_a_test_trials_sample(tmp_path):
     ]
     events = [json.loads(line) for line in (s.directory / "events.jsonl").read_text().splitlines()]
     assert [e["trial_index"] for e in events if e["event"] == "feedback"] == [3, 4]
+
+
+def test_trials_csv_has_its_whole_header_from_the_first_row(tmp_path):
+    """issue 10: the header grew during a session (28 -> 29 -> 35 columns); contact_time_s was
+    the device clock at contact, read as a duration."""
+    import csv
+
+    from experiments.logbook import TRIAL_COLUMNS
+    from experiments.responders.simulated import SimulatedResponder  # noqa: F401 (registers it)
+    from experiments.responders import get_responder
+
+    proto = _protocol(tmp_path)
+    s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&seed=3", seed=11,
+                       responder_name="simulated", clock="virtual", progress=False)
+    headers = []
+
+    class Watch(type(get_responder("simulated"))):
+        def touch(self, trial, display):
+            if (s.directory / "trials.csv").exists():
+                headers.append((s.directory / "trials.csv").read_text().splitlines()[0])
+            super().touch(trial, display)
+
+    assert s.run(Watch()) == 0
+    assert len(headers) == 12 and set(headers) == {",".join(TRIAL_COLUMNS)}
+    with open(s.directory / "trials.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0]) == list(TRIAL_COLUMNS)
+    for r in rows:
+        assert (r["expName"], r["protocol_version"], r["thermocue_version"]) == ("mini", "1", "0.1.0")
+        assert re.fullmatch(r"\d{4}-\d\d-\d\d_\d\dh\d\d\.\d\d\.\d{3}", r["date"])
+        assert r["psychopyVersion"] == ""          # no PsychoPy window ran
+        # the contact lasted the protocol's 0.5 s; its onset is a device-clock time stamp
+        assert float(r["contact_duration_s"]) == pytest.approx(0.5, abs=0.03)
+        assert re.fullmatch(r"\d+(\.\d{1,3})?", r["contact_onset_s"])
+        assert r["skin_temperature_in_range"] == "1" and r["status"] == "ok"
+        for column in ("rt_s", "tracking_rms_C", "skin_temperature_C"):
+            assert len(r[column].partition(".")[2]) <= 4, (column, r[column])
+    onsets = [float(r["contact_onset_s"]) for r in rows]
+    assert onsets == sorted(onsets) and onsets[-1] > onsets[0] + 5 * 0.5
