@@ -542,14 +542,24 @@ class Session:
 
         contact = []
         finger_before = [None]   # the radiation thermometer's last reading before contact, °C
+        # [presentation] answer_during_contact: the question goes up at contact and the answer
+        # is taken as soon as it is given (the recording runs on to its end regardless).
+        early = block.response and shown.answer_during_contact
+        answered = []
 
         def on_frame(frame):
             # Runs at the telemetry rate inside the driver's read loop: no fsync here (a slow
             # callback lets the serial buffer overrun); contact is logged once the trial ends.
             writer.write(frame)
+            if early and contact and not answered:
+                got = self.responder.poll_answer(spec)
+                if got is not None:
+                    answered.append(got)
             if not contact:
                 if frame.state in _ACTIVE_STATES:
                     contact.append(float(frame.device_time_s))
+                    if early:
+                        self.responder.begin_answer(spec)
                     self._pause("playback", spec, attempt)
                 elif sum(frame.forces_N) < _TOUCH_N:   # not yet touching: the IR reads bare skin
                     finger_before[0] = frame.finger_C
@@ -580,8 +590,9 @@ class Session:
             self.responder.show_label(None)
         if block.response:
             stimulus = self._stimulus(spec, writer, rec, profile, sample)
-            response = self.responder.respond(spec, stimulus)
-            self.log_event("response", **ctx, **response.to_dict())
+            response = answered[0] if answered else self.responder.respond(spec, stimulus)
+            self.log_event("response", **ctx, **response.to_dict(),
+                           during_contact=bool(answered))
             row.update(response_id=response.response_id, rt_s=response.rt_s,
                        correct=int(response.response_id == spec.roughness_id),
                        response_source=response.source)

@@ -226,8 +226,22 @@ class Responder:
             self.session.emulated_touch(trial, display)
 
     def respond(self, trial, stimulus: TrialStimulus) -> Response:
-        """Collect the answer to ``trial`` (1..4) and its response time."""
+        """Collect the answer to ``trial`` (1..4) and its response time.
+
+        ``rt_s`` runs from the question's first appearance (its first frame in a window) to
+        the answer. After :meth:`begin_answer` the question is already up: the answer may
+        already have been given (:meth:`poll_answer`) and the time still counts from then."""
         raise NotImplementedError
+
+    def begin_answer(self, trial) -> None:
+        """Put the question up now, during the contact (``[presentation]
+        answer_during_contact``); the default does nothing (the question comes after)."""
+
+    def poll_answer(self, trial) -> Response | None:
+        """An answer already given to the question put up by :meth:`begin_answer`, or None.
+
+        Called from the display's telemetry loop: must not block."""
+        return None
 
     def rewarm(self, seconds: float) -> None:
         """Inter-trial rewarming of the finger for ``seconds`` s (no wait on a virtual clock)."""

@@ -157,10 +157,10 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             return 0.0
         return shown.instructions_min_s if state == "instructions" else shown.text_min_s
 
-    def _show(self, state: str, text: str) -> None:
-        """Replace the text on screen by ``text`` once the old one has been up its minimum."""
-        if self._on is not None and (self._on[0], self._on[1]) != (state, text) \
-                and self._on[0] != state:
+    def _show(self, state: str, text: str, wait: bool = True) -> None:
+        """Replace the text on screen by ``text`` once the old one has been up its minimum
+        (``wait=False``: at once, e.g. the question replacing the cue at contact)."""
+        if wait and self._on is not None and self._on[0] != state:
             left = self._on[2] + self._min_s(self._on[0]) - self._core.getTime()
             if left > 0:
                 self._core.wait(left, hogCPUperiod=0)
@@ -281,12 +281,39 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
                 raise ResponderClosed("escape pressed in the PsychoPy window")
             self._core.wait(min(0.25, left), hogCPUperiod=0)
 
-    def respond(self, trial, stimulus) -> Response:
+    def _ask(self, wait: bool = True) -> None:
         choices = [str(i) for i in RESPONSE_IDS]
         # rt_s runs from the first frame showing the question: the keyboard clock is reset
         # by that flip (keys pressed before it have rt < 0 and are ignored).
         self.kb.clearEvents()
         self.win.callOnFlip(self.kb.clock.reset)
-        self._show("question", TEXTS["question"].format(choices=", ".join(choices)))
-        key = self._wait(choices)
+        self._show("question", TEXTS["question"].format(choices=", ".join(choices)), wait=wait)
+
+    def begin_answer(self, trial) -> None:
+        """The question from the moment of contact (the trace is still being recorded)."""
+        self._early = None
+        self._ask(wait=False)      # runs in the telemetry loop: never wait here
+        self._asked = trial.trial_index
+        self.log("awaiting_key", keys=[str(i) for i in RESPONSE_IDS], during_contact=True)
+
+    def poll_answer(self, trial):
+        if getattr(self, "_asked", None) != trial.trial_index:
+            return None
+        if getattr(self, "_early", None) is None:
+            keys = [str(i) for i in RESPONSE_IDS]
+            for key in self.kb.getKeys(keyList=keys + _QUIT_KEYS, waitRelease=True):
+                if key.rt is not None and key.rt >= 0 and key.name in keys:
+                    self._early = Response(int(key.name), float(key.rt),
+                                           source=f"keyboard:{self.keyboard_backend}")
+                    break
+        return self._early
+
+    def respond(self, trial, stimulus) -> Response:
+        early = self.poll_answer(trial)
+        asked, self._asked = getattr(self, "_asked", None) == trial.trial_index, None
+        if early is not None:
+            return early
+        if not asked:
+            self._ask()
+        key = self._wait([str(i) for i in RESPONSE_IDS])
         return Response(int(key.name), float(key.rt), source=f"keyboard:{self.keyboard_backend}")

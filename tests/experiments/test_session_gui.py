@@ -294,3 +294,28 @@ def test_experimenter_screen_is_a_second_window_with_what_the_participant_must_n
     assert any("trial 2 of 2 | block simulated" in t for t in experimenter)
     assert participant and not any("2#" in t or "trial" in t.lower() for t in participant)
     assert "place sample 2#" in err           # and on the terminal too
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_answer_during_contact_takes_the_key_while_the_trace_is_still_recorded(tmp_path, xvfb):
+    """``[presentation] answer_during_contact = true`` (the paper: participants judged the sample
+    while touching it): the question goes up at contact and a key pressed during the contact is
+    the answer, its rt_s from the question's first frame."""
+    proto = write_protocol(tmp_path, contact_s=4.0, rewarm_s=0.0, real_samples=(), sim_samples=(2,))
+    text = proto.read_text().replace("[[blocks]]", "[presentation]\ntext_min_s = 0.2\n"
+                                     "answer_during_contact = true\n\n[[blocks]]", 1)
+    proto.write_text(text)
+    data = tmp_path / "data"
+    events_path = data / "P01" / "S01" / "events.jsonl"
+    run, sent, _, err = _run_answering(
+        THERMOCUE + ["run", str(proto), "--participant", str(P01), "--display", "emulator://?seed=2",
+                     "--responder", "psychopy", "--data", str(data), "--session", "S01",
+                     "--responder-option", "max_wait_s=40"], {**os.environ, **xvfb}, events_path)
+    assert run.returncode == 0, err[-2000:]
+    events = _events(events_path)
+    response, = [e for e in events if e["event"] == "response"]
+    assert response["during_contact"] is True and response["response_id"] == 2
+    with open(data / "P01" / "S01" / "trials.csv", newline="") as fh:
+        row, = [r for r in csv.DictReader(fh) if r["status"] == "ok"]
+    assert 0 < float(row["rt_s"]) < float(row["contact_duration_s"])
+    assert float(row["contact_duration_s"]) == pytest.approx(4.0, abs=0.1)
