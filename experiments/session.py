@@ -79,6 +79,7 @@ __all__ = [
     "clock_for_url",
     "PAUSE_ENV",
     "block_roles",
+    "finished_sessions",
 ]
 
 #: Environment variable naming test pause points, e.g. ``"playback:5"`` or
@@ -966,6 +967,19 @@ def block_roles(protocol) -> list[dict]:
              "feedback": bool(b.feedback)} for b in protocol.blocks]
 
 
+def finished_sessions(folder: Path) -> list[Path]:
+    """The finished sessions (``session_finished`` logged) in a participant's folder."""
+    from experiments.logbook import read_events, replay
+    out = []
+    for events in sorted(Path(folder).glob("*/events.jsonl")):
+        try:
+            if replay(read_events(events, warn=False)[0]).finished:
+                out.append(events.parent)
+        except (OSError, ValueError, SessionError):
+            continue
+    return out
+
+
 def _refuse_existing(directory: Path) -> None:
     if (directory / "session.json").exists() or (directory / "events.jsonl").exists():
         raise SessionError(f"{directory}: expected a new session folder, got an existing one "
@@ -1001,6 +1015,10 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
         seed = secrets.randbelow(2**31)
     schedule = build_schedule(protocol, str(participant["id"]), seed)
     pid = _safe_name(str(participant["id"]), f"{participant_path}: id")
+    stem = Path(participant_path).stem
+    if stem != pid:   # P09.json holding "id": "P01" would write into P01's folder
+        raise SessionError(f"{participant_path}: id: expected {stem!r} (the file's name), got "
+                           f"{pid!r}: rename the file or correct the id")
     folder = Path(data_dir) / pid
     name = _safe_name(session_name, "--session") if session_name else _next_session_name(folder)
     directory = folder / name

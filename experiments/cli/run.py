@@ -144,6 +144,8 @@ def _run(ns) -> int:
                         session_name=ns.session, responder_name=ns.responder,
                         clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3,
                         progress=not ns.quiet)
+    if not confirm_another_session(plan, experimenter_for(ns)):
+        return 1
     display = open_display_or_report("run", plan.protocol, ns.display, "--display",
                                      "no session was written")
     if display is None:
@@ -157,6 +159,25 @@ def _run(ns) -> int:
             return session.run(responder, display=display)
         finally:
             remove_if_unused(session.directory)
+
+
+def confirm_another_session(plan, experimenter) -> bool:
+    """Tell the experimenter when the participant already has a finished session, and ask
+    (on a terminal) whether to run another; False when they say no (nothing is written)."""
+    from experiments.session import finished_sessions
+
+    done = finished_sessions(plan.directory.parent)
+    if not done:
+        return True
+    names = ", ".join(str(d) for d in done)
+    experimenter.tell(f"warning: participant {plan.participant_id} already has "
+                      f"{len(done)} finished session(s): {names}; this one would be "
+                      f"{plan.directory} (analysis uses the first complete session by default)")
+    answer = experimenter.confirm(f"run another session for {plan.participant_id}?")
+    if answer is False:
+        experimenter.tell("no session was written")
+        return False
+    return True
 
 
 def remove_if_unused(directory) -> bool:

@@ -45,16 +45,22 @@ class Experimenter:
         decides (it logs that the question went unanswered).
         """
         try:
-            tty = open("/dev/tty", "r+", encoding="utf-8")
+            fd = os.open("/dev/tty", os.O_RDWR | os.O_NOCTTY)
         except OSError:
             return None
-        with tty:
-            if not tty.isatty():
+        try:
+            if not os.isatty(fd):
                 return None
-            tty.write(f"thermocue: {question} [y/N] ")
-            tty.flush()
-            answer = tty.readline().strip().lower()
-        return answer in ("y", "yes")
+            os.write(fd, f"thermocue: {question} [y/N] ".encode())
+            line = b""
+            while not line.endswith((b"\n", b"\r")):
+                chunk = os.read(fd, 1)
+                if not chunk:
+                    break
+                line += chunk
+        finally:
+            os.close(fd)
+        return line.decode(errors="replace").strip().lower() in ("y", "yes")
 
 
 class TerminalExperimenter(Experimenter):
