@@ -437,6 +437,7 @@ class Session:
         self._neutral(disp)
         self.log_event("session_finished", n_completed=self.n_trials)
         self._write_trials()
+        self._export_bids()
         self._say(f"session finished: {self.n_trials} trials, {_clock_text(self._elapsed())} since "
                   f"its first start; data in {self.directory}")
         if self.responder is not None:
@@ -485,7 +486,7 @@ class Session:
         if real:
             ask = (f"trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
                    f"(Ra {sample.roughness_um:g} µm), then confirm on the participant's keyboard")
-            self.experimenter.tell(ask)
+            (self.experimenter.tell if self.responder.human else self._say)(ask)
             self.responder.please_wait()
             self.responder.prompt_experimenter(ask)
             self.log_event("sample_placed", **ctx, sample=sample.label)
@@ -762,6 +763,19 @@ class Session:
             else:
                 row.setdefault("trace_file", None)
         write_trials_csv(self.trials_path, rows)
+
+    def _export_bids(self) -> None:
+        """The finished session as BIDS behavioural data in ``DATA/bids/`` (:mod:`experiments.bids`).
+
+        A failure is reported and logged, never fatal: ``trials.csv`` is the session's record."""
+        from experiments.bids import export_session
+        try:
+            path = export_session(self.directory)
+        except (OSError, ValueError, KeyError) as exc:
+            self.log_event("bids_export_failed", message=f"{type(exc).__name__}: {exc}")
+            self._report(f"warning: BIDS export failed ({exc}); run `thermocue export-bids` later")
+            return
+        self.log_event("bids_exported", path=str(path))
 
     def _rewarm(self) -> None:
         self.machine.go("rewarm")

@@ -27,6 +27,7 @@ SUBCOMMANDS = {
     "bench": "bench",
     "power": "power",
     "calibrate": "calibrate",
+    "export-bids": "export_bids",
 }
 
 
