@@ -319,3 +319,42 @@ def test_answer_during_contact_takes_the_key_while_the_trace_is_still_recorded(t
         row, = [r for r in csv.DictReader(fh) if r["status"] == "ok"]
     assert 0 < float(row["rt_s"]) < float(row["contact_duration_s"])
     assert float(row["contact_duration_s"]) == pytest.approx(4.0, abs=0.1)
+
+
+@pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
+def test_feedback_only_after_the_answer_in_a_feedback_block_and_the_rewarm_countdown(tmp_path, xvfb):
+    """A practice block with ``feedback = true``: "Correct: it was sample 2#" is drawn only after the
+    answer is logged; between trials (real clock) the rewarming countdown."""
+    proto = write_protocol(tmp_path, contact_s=0.5, rewarm_s=1.5, real_samples=(), sim_samples=(2, 3))
+    text = proto.read_text().replace('name = "simulated"', 'name = "practice"\nfeedback = true\nscored = false')
+    proto.write_text(text.replace("[[blocks]]", "[presentation]\ntext_min_s = 0.2\nfeedback_s = 0.5\n\n"
+                                  "[[blocks]]", 1))
+    data, shots = tmp_path / "data", tmp_path / "shots"
+    shots.mkdir()
+    record = tmp_path / "drawn.jsonl"
+    events_path = data / "P01" / "S01" / "events.jsonl"
+    run, sent, _, err = _run_answering(
+        [sys.executable, str(RECORDER), str(record), str(events_path), str(shots), "--",
+         "run", str(proto), "--participant", str(P01), "--display", "emulator://?seed=3",
+         "--responder", "psychopy", "--data", str(data), "--session", "S01",
+         "--responder-option", "max_wait_s=40"], {**os.environ, **xvfb}, events_path)
+    assert run.returncode == 0, err[-2000:]
+    events = _events(events_path)
+    drawn = [json.loads(line) for line in record.read_text().splitlines()]
+    for d in drawn:
+        d["after"] = _events_before(events_path, d["events_bytes"])
+    responses = [e for e in events if e["event"] == "response"]
+    assert [e["trial_index"] for e in events if e["event"] == "feedback"] == [1, 2]
+    for r in responses:
+        sample = {2: "2#", 3: "3#"}[r["response_id"]]
+        said = [d for d in drawn if d["text"] == f"Correct: it was sample {sample}"]
+        assert said and all(d["after"] >= r["seq"] for d in said)       # never before the answer
+    rewarm = [d for d in drawn if d["text"].startswith("Rewarm your finger on the hot-water bag")]
+    assert rewarm and rewarm[0]["shot"]
+    ons = {e["state"] for e in events if e["event"] == "text_on"}
+    assert {"feedback", "rewarm"} <= ons
+    keep = os.environ.get(SCREENS_ENV)
+    if keep:
+        feedback = next(d["shot"] for d in drawn if d["text"].startswith("Correct") and d["shot"])
+        shutil.copyfile(feedback, Path(keep) / "feedback.png")
+        shutil.copyfile(rewarm[0]["shot"], Path(keep) / "rewarm.png")
