@@ -435,9 +435,10 @@ class Session:
             self.machine.go("idle")
         self.machine.go("finished")
         self._neutral(disp)
+        self._write_trials()
+        self._export_bids()          # (before session_finished: that stays the log's last event)
         self.log_event("session_finished", n_completed=self.n_trials)
         self._write_trials()
-        self._export_bids()
         self._say(f"session finished: {self.n_trials} trials, {_clock_text(self._elapsed())} since "
                   f"its first start; data in {self.directory}")
         if self.responder is not None:
