@@ -139,7 +139,21 @@ def _describe_dataset(root: Path) -> None:
 
 
 def _participants(root: Path, records: dict) -> None:
-    """Write participants.tsv/json from ``records`` (label -> row), merged with the old file."""
+    """Write participants.tsv/json from ``records`` (label -> row), merged with the old file.
+
+    Sessions finishing at once (``reproduce --workers``) take turns: an exclusive lock on
+    ``.participants.lock`` around the read-merge-write, so that no participant is lost."""
+    import fcntl
+    import os
+    fd = os.open(root / ".participants.lock", os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        _merge_participants(root, records)
+    finally:
+        os.close(fd)
+
+
+def _merge_participants(root: Path, records: dict) -> None:
     path = root / "participants.tsv"
     rows = {}
     if path.exists():

@@ -636,11 +636,16 @@ class Session:
             # terminal; with none to ask, logged as unconfirmed and listed by the report).
             self._report(f"warning: trial {ctx['trial_index']}: skin temperature {value:.2f} °C, "
                          f"outside {env.skin_temperature_min_C:g}-{env.skin_temperature_max_C:g} °C")
-            answer = self.experimenter.confirm(
-                f"trial {ctx['trial_index']}: skin temperature {value:.2f} °C is out of range; "
-                "keep this trial and go on?")
-            self.log_event("skin_temperature_confirmation", **ctx,
-                           answer={True: "yes", False: "no", None: "unasked (no terminal)"}[answer])
+            # Asked when a person answers; a simulated participant's session (a cohort, the
+            # paper's reproduction) is never held up by a question nobody is there to answer.
+            if self.responder is None or getattr(self.responder, "human", True):
+                answer = self.experimenter.confirm(
+                    f"trial {ctx['trial_index']}: skin temperature {value:.2f} °C is out of "
+                    "range; keep this trial and go on?")
+                said = {True: "yes", False: "no", None: "unasked (no terminal)"}[answer]
+            else:
+                answer, said = None, "unasked (simulated participant)"
+            self.log_event("skin_temperature_confirmation", **ctx, answer=said)
             if answer is False:
                 raise SessionInterrupted("experimenter stopped: skin temperature out of range")
 

@@ -43,7 +43,7 @@ def _on_a_terminal(argv, answer: str):
         fcntl.ioctl(slave, termios.TIOCSCTTY, 0)
 
     proc = subprocess.Popen([sys.executable, "-m", "experiments", *argv], stdin=slave,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            stdout=slave, stderr=subprocess.PIPE, text=True,
                             preexec_fn=claim_terminal, pass_fds=(slave,))
     os.close(slave)
     seen = b""
@@ -58,6 +58,8 @@ def _on_a_terminal(argv, answer: str):
                 seen += chunk
                 for _ in range(chunk.count(b"[y/N]")):
                     os.write(master, answer.encode() + b"\n")
+                for _ in range(chunk.count(b"Which roughness")):   # the console responder
+                    os.write(master, b"1\n")
         out, err = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:
@@ -91,10 +93,16 @@ def _cold_finger(tmp_path):
     return path
 
 
+def _console_args(proto, data, participant):
+    args = _run_args(proto, data, participant)
+    args[args.index("simulated")] = "console"
+    return args + ["--responder-option", "bell=false"]
+
+
 def test_an_out_of_range_skin_temperature_must_be_confirmed_to_go_on(tmp_path):
     proto = write_protocol(tmp_path, real_samples=(), sim_samples=(4, 2), contact_s=0.5)
     data = tmp_path / "data"
-    status, asked, err = _on_a_terminal(_run_args(proto, data, _cold_finger(tmp_path)), "n")
+    status, asked, err = _on_a_terminal(_console_args(proto, data, _cold_finger(tmp_path)), "n")
     assert status == 1, err
     # (the emulated thermometer reads the 30 °C finger with its noise)
     assert re.search(r"thermocue: warning: trial 1: skin temperature (29|30)\.\d\d °C, outside 35\.5-36 °C", err)
@@ -106,7 +114,7 @@ def test_an_out_of_range_skin_temperature_must_be_confirmed_to_go_on(tmp_path):
     assert "session_interrupted" in kinds and "trial_completed" not in kinds    # resumable
     # Confirmed: the trials are kept, flagged in trials.csv.
     data2 = tmp_path / "data2"
-    status, asked, err = _on_a_terminal(_run_args(proto, data2, _cold_finger(tmp_path)), "y")
+    status, asked, err = _on_a_terminal(_console_args(proto, data2, _cold_finger(tmp_path)), "y")
     assert status == 0, err
     rows = (data2 / "P01" / "S01" / "trials.csv").read_text().splitlines()
     header = rows[0].split(",")
@@ -117,11 +125,22 @@ def test_an_out_of_range_skin_temperature_must_be_confirmed_to_go_on(tmp_path):
 def test_without_a_terminal_the_warning_is_logged_as_unanswered(tmp_path, capsys):
     proto = write_protocol(tmp_path, real_samples=(), sim_samples=(4,), contact_s=0.5)
     data = tmp_path / "data"
-    argv = _run_args(proto, data, _cold_finger(tmp_path))
+    argv = _console_args(proto, data, _cold_finger(tmp_path))
     run = subprocess.run([sys.executable, "-m", "experiments", *argv], capture_output=True,
-                         text=True, timeout=120, stdin=subprocess.DEVNULL, start_new_session=True)
+                         text=True, timeout=120, input="1\n", start_new_session=True)
     assert run.returncode == 0, run.stderr
     assert re.search(r"skin temperature (29|30)\.\d\d °C, outside 35\.5-36 °C", run.stderr)
     events = [json.loads(line) for line in (data / "P01" / "S01" / "events.jsonl").read_text().splitlines()]
     assert [e["answer"] for e in events if e["event"] == "skin_temperature_confirmation"] == \
         ["unasked (no terminal)"]
+
+
+def test_a_simulated_participant_is_never_held_up_by_the_question(tmp_path):
+    """On a terminal, the paper's reproduction (simulated participants) must not wait for y/N."""
+    proto = write_protocol(tmp_path, real_samples=(), sim_samples=(4,), contact_s=0.5)
+    data = tmp_path / "data"
+    status, asked, err = _on_a_terminal(_run_args(proto, data, _cold_finger(tmp_path)), "n")
+    assert status == 0 and "[y/N]" not in asked, err
+    events = [json.loads(line) for line in (data / "P01" / "S01" / "events.jsonl").read_text().splitlines()]
+    assert [e["answer"] for e in events if e["event"] == "skin_temperature_confirmation"] == \
+        ["unasked (simulated participant)"]
