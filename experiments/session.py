@@ -198,7 +198,7 @@ class Session:
         return self.directory / "traces"
 
     def _context(self) -> dict:
-        from experiments.cli import thermocue_version
+        from experiments import thermocue_version
         return {"session": self.name, "participant": self.participant_id, "group": self.group,
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,

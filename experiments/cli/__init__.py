@@ -15,6 +15,8 @@ import argparse
 import importlib
 import sys
 
+from experiments import thermocue_version
+
 __all__ = ["main", "SUBCOMMANDS", "USER_ERRORS", "thermocue_version"]
 
 #: Subcommand name -> module (in this package) that registers it.
@@ -54,15 +56,6 @@ def _user_errors():
 
 
 USER_ERRORS = None  # filled lazily by main()
-
-
-def thermocue_version() -> str:
-    """The installed package's version (``"unknown"`` when run from an uninstalled tree)."""
-    from importlib import metadata
-    try:
-        return metadata.version("thermocue")
-    except metadata.PackageNotFoundError:   # pragma: no cover - the package is installed
-        return "unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:
