@@ -40,10 +40,15 @@ class Experimenter:
     def confirm(self, question: str) -> bool | None:
         """Ask a yes/no question; True or False, or None when nobody can be asked.
 
-        Asked on the controlling terminal (``/dev/tty``) so that it works whatever stdin is;
-        with no terminal (a pipeline, a test, a batch job) the answer is None and the caller
-        decides (it logs that the question went unanswered).
+        Asked on the controlling terminal (``/dev/tty``) when stdin is a terminal (someone
+        typed the command); with none (a pipeline, a test under pytest, a batch job) the answer
+        is None and the caller decides (it logs that the question went unanswered).
         """
+        try:
+            if not os.isatty(0):
+                return None
+        except OSError:
+            return None
         try:
             fd = os.open("/dev/tty", os.O_RDWR | os.O_NOCTTY)
         except OSError:
