@@ -27,8 +27,21 @@ Optional columns missing from a session's table are filled with blanks, with a w
 Rows are then validated (required columns, types, allowed values, duplicate
 ``(participant, session, trial_index, attempt)`` keys, ``correct`` consistent with
 ``response_id == roughness_id``) and marked ``included`` or given an
-``exclusion`` reason: familiarisation, a non-ok status, or an ok attempt
-superseded by a later ok attempt of the same trial.
+``exclusion`` reason: an unscored block ("familiarisation" for a block named ``familiarise``,
+"unscored block" for any other, e.g. the protocol's ``review``), a non-ok status, or an ok
+attempt superseded by a later ok attempt of the same trial.
+
+Which sessions are analysed is an explicit policy (``sessions``): by default the first
+complete session of each participant (``session_finished`` in its log), or ``"latest"`` (the
+last complete one) or ``"all"`` (every session, complete or not). Rows of the other sessions are
+kept, with the exclusion ``"session not analysed"``; :attr:`TrialLog.sessions` lists every
+session with ``complete``, ``n_done``/``n_planned``, ``analysed`` and the ``reason``.
+
+Which blocks are scored and answered is read from each session's ``session.json``
+(``blocks``: ``name``, ``scored``, ``response``, ``feedback``, written by the session), else from
+its stored protocol's ``[[blocks]]`` (``response`` defaults to true, ``scored`` to
+``response``), else, for logs with neither, a block named ``familiarise`` is the one unscored
+block. Any block name works.
 """
 from __future__ import annotations
 
@@ -51,6 +64,7 @@ __all__ = [
     "read_trials_csv",
     "read_trial_events",
     "not_recognition_reason",
+    "block_roles",
     "REQUIRED_COLUMNS",
     "STATUSES",
 ]
@@ -83,8 +97,11 @@ class TrialLog:
     sessions : pandas.DataFrame
         One row per session folder read or skipped for its protocol: ``participant``,
         ``group``, ``session``, ``path``, ``source`` (``"trials.csv"`` or
-        ``"events.jsonl"``; ``"session.json"`` for a skipped session), ``n_rows`` and
-        ``skipped`` (why the session was not analysed, ``""`` when it was).
+        ``"events.jsonl"``; ``"session.json"`` for a skipped session), ``n_rows``,
+        ``skipped`` (why the session was skipped for its protocol, ``""`` otherwise),
+        ``complete`` (its log says it finished), ``n_done`` and ``n_planned`` (trials completed
+        ok, trials in its schedule), ``analysed`` and ``reason`` (why it is, or is not, analysed
+        under the inclusion policy).
     warnings : list of str
         Every problem that was worked around (also issued as :class:`LogWarning`).
     """
@@ -92,6 +109,8 @@ class TrialLog:
     trials: pd.DataFrame
     sessions: pd.DataFrame
     warnings: list = field(default_factory=list)
+    #: The inclusion policy the sessions were chosen by ("first", "latest" or "all").
+    policy: str = "first"
 
     @property
     def analysable(self) -> pd.DataFrame:
@@ -344,6 +363,27 @@ def not_recognition_reason(meta: dict) -> str:
             f"{name!r}{experiment}, whose {which} response = false")
 
 
+def block_roles(meta: dict) -> dict:
+    """Block name -> ``{"scored": bool, "response": bool}`` from a session's ``session.json``.
+
+    ``blocks`` (written by the session) first, else the stored protocol's ``[[blocks]]`` with
+    their defaults (``response`` true, ``scored`` = ``response``); ``{}`` when neither is there.
+    """
+    listed = meta.get("blocks")
+    if not isinstance(listed, list):
+        protocol = meta.get("protocol")
+        listed = protocol.get("blocks") if isinstance(protocol, dict) else None
+    if not isinstance(listed, list):
+        return {}
+    roles = {}
+    for b in listed:
+        if not isinstance(b, dict) or not isinstance(b.get("name"), str):
+            continue
+        response = b.get("response", True) is not False
+        roles[b["name"]] = {"scored": b.get("scored", response) is not False, "response": response}
+    return roles
+
+
 def _session_context(folder: Path, messages: list) -> dict:
     """participant/session/group/sex from ``session.json`` (tolerant); ``{}`` if unreadable."""
     meta = folder / "session.json"
@@ -435,18 +475,26 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
             i = (out[column] == "").idxmax()
             raise LogError(f"{df.at[i, 'source']}: {column}: expected a non-empty value (line {df.at[i, 'line']}), got ''")
     _check_allowed(out["status"], STATUSES, df, "status")
-    familiar = (out["block"] == FAMILIARISE) | (out["mode"] == FAMILIARISE)
+    named = (out["block"] == FAMILIARISE) | (out["mode"] == FAMILIARISE)
+    if "_scored" in df.columns:   # the session's own block roles (session.json), else the name
+        known = df["_scored"].notna()
+        scored = df["_scored"].where(known, ~named).astype(bool)
+        answered = df["_answered"].where(known, ~named).astype(bool)
+    else:
+        scored, answered = ~named, ~named
+    familiar = ~scored.to_numpy()
     _check_allowed(out["mode"], MODES, df, "mode")
     _check_allowed(out["group"], GROUPS, df, "group")
     ok = out["status"] == "ok"
     out["trial_index"] = _as_number(df, "trial_index", integer=True, allow_blank=False).astype("int64")
     out["roughness_id"] = _as_number(df, "roughness_id", integer=True, allow_blank=False).astype("int64")
     _check_allowed(out["roughness_id"], range(1, N_ROUGHNESS + 1), df, "roughness_id")
-    response = _as_number(df, "response_id", integer=True, allow_blank=~ok | familiar)
+    unanswered = ~ok | ~answered.to_numpy() | familiar
+    response = _as_number(df, "response_id", integer=True, allow_blank=unanswered)
     _check_allowed(response, list(range(1, N_ROUGHNESS + 1)), df, "response_id",
                    mask=response.notna())
     out["response_id"] = response.astype("Int64")
-    correct = _as_number(df, "correct", integer=True, allow_blank=~ok | familiar)
+    correct = _as_number(df, "correct", integer=True, allow_blank=unanswered)
     _check_allowed(correct, [0, 1], df, "correct", mask=correct.notna())
     out["correct"] = correct.astype("Int64")
     both = correct.notna() & response.notna()
@@ -471,6 +519,13 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
             if column == "attempt":
                 values = values.fillna(1)
             out[column] = values.astype("Int64") if kind == "int" else values.astype(float)
+    # Written by sessions since issue 10; older logs lack them (blank, without a warning).
+    # (Floats: 1/0/NaN for the flag, blank where no thermometer reading was taken.)
+    for column, integer in (("skin_temperature_C", False), ("skin_temperature_in_range", True)):
+        if column in df.columns:
+            out[column] = _as_number(df, column, integer=integer, allow_blank=True).astype(float)
+        else:
+            out[column] = pd.Series(np.nan, index=df.index, dtype=float)
     out["familiarisation"] = familiar
     out["source"] = df["source"].astype(str).to_numpy()
     out["line"] = df["line"].astype("int64").to_numpy()
@@ -575,6 +630,77 @@ def _int_text(value) -> str:
         return str(value)
 
 
+#: Inclusion policies of :func:`load_trials` (``thermocue analyze --sessions``).
+SESSION_POLICIES = ("first", "latest", "all")
+
+
+def _session_state(folder: Path, meta: dict) -> dict:
+    """``complete``, ``n_done``, ``n_planned`` and ``created_at`` of one session folder."""
+    done, finished = set(), False
+    try:
+        lines = (folder / "events.jsonl").read_text("utf-8", errors="replace").splitlines()
+    except OSError:
+        lines = []
+    for line in lines:
+        try:
+            ev = json.loads(line)
+        except ValueError:
+            continue
+        if not isinstance(ev, dict):
+            continue
+        if ev.get("event") == "session_finished":
+            finished = True
+        elif ev.get("event") == "trial_completed" and isinstance(ev.get("row"), dict) \
+                and ev["row"].get("status", "ok") == "ok":
+            done.add(ev.get("trial_index"))
+    planned = meta.get("schedule")
+    n_planned = len(planned) if isinstance(planned, list) else np.nan
+    if not lines:
+        # No event log (a trials table alone, e.g. exported elsewhere): complete when it holds
+        # every planned trial, or when nothing says how many were planned.
+        try:
+            with open(folder / "trials.csv", newline="", encoding="utf-8") as fh:
+                table = [r for r in csv.DictReader(fh) if r.get("status", "ok") == "ok"]
+        except (OSError, UnicodeDecodeError, csv.Error):
+            table = []
+        done = {r.get("trial_index") for r in table}
+        finished = bool(table) and (np.isnan(n_planned) or len(done) >= n_planned)
+    return {"complete": finished, "n_done": len(done), "n_planned": n_planned,
+            "created_at": str(meta.get("created_at", ""))}
+
+
+def _apply_policy(sessions: pd.DataFrame, policy: str) -> pd.DataFrame:
+    """Mark each session ``analysed`` (bool) with its ``reason`` under ``policy``."""
+    analysed, reasons = [], []
+    for _, row in sessions.iterrows():
+        if row["skipped"]:
+            analysed.append(False)
+            reasons.append(f"skipped: {row['skipped']}")
+            continue
+        if policy == "all":
+            analysed.append(True)
+            reasons.append("analysed (--sessions all)" + ("" if row["complete"] else
+                           f"; incomplete: {row['n_done']} of {_int_text(row['n_planned'])} trials"))
+            continue
+        mine = sessions[(sessions["participant"] == row["participant"]) & (sessions["skipped"] == "")
+                        & sessions["complete"]].sort_values(["created_at", "session"])
+        chosen = None if mine.empty else (mine.iloc[0] if policy == "first" else mine.iloc[-1])
+        if chosen is not None and chosen["path"] == row["path"]:
+            analysed.append(True)
+            reasons.append(f"analysed: the {policy} complete session of {row['participant']}")
+        elif not row["complete"]:
+            analysed.append(False)
+            reasons.append(f"incomplete: {row['n_done']} of {_int_text(row['n_planned'])} trials")
+        else:
+            analysed.append(False)
+            reasons.append(f"repeated session: {row['participant']}'s {policy} complete session "
+                           f"is {chosen['session']}")
+    out = sessions.copy()
+    out["analysed"] = analysed
+    out["reason"] = reasons
+    return out
+
+
 def _session_folders(root: Path) -> list[Path]:
     found = {p.parent for name in ("trials.csv", "events.jsonl") for p in root.rglob(name)}
     return sorted(found)
@@ -583,7 +709,9 @@ def _session_folders(root: Path) -> list[Path]:
 def _mark_inclusion(trials: pd.DataFrame) -> pd.DataFrame:
     exclusion = pd.Series("", index=trials.index, dtype=object)
     exclusion[trials["status"] != "ok"] = "status " + trials["status"]
-    exclusion[trials["familiarisation"]] = "familiarisation"
+    unscored = trials["familiarisation"]
+    exclusion[unscored] = np.where(trials.loc[unscored, "block"] == FAMILIARISE, "familiarisation",
+                                   "unscored block")
     ok = exclusion == ""
     key = ["participant", "session", "trial_index"]
     last = trials[ok].groupby(key)["attempt"].transform("max")
@@ -595,7 +723,7 @@ def _mark_inclusion(trials: pd.DataFrame) -> pd.DataFrame:
     return trials
 
 
-def load_trials(data_dir) -> TrialLog:
+def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     """Load, validate and combine every session under ``data_dir``.
 
     Parameters
@@ -603,6 +731,9 @@ def load_trials(data_dir) -> TrialLog:
     data_dir : str or Path
         A data directory (``DATA/<participant>/<session>/...``); any folder that
         holds ``trials.csv`` or ``events.jsonl`` below it is a session.
+    sessions : {"first", "latest", "all"}
+        Which sessions are analysed: each participant's first complete session (default),
+        the latest complete one, or all of them (incomplete ones included).
 
     Returns
     -------
@@ -624,6 +755,9 @@ def load_trials(data_dir) -> TrialLog:
         missing optional columns (filled with blanks), a session whose protocol asks for no
         answers (skipped; see :func:`not_recognition_reason`).
     """
+    if sessions not in SESSION_POLICIES:
+        raise LogError(f"--sessions: expected one of {SESSION_POLICIES}, got {sessions!r}")
+    policy = sessions
     root = Path(data_dir)
     if not root.is_dir():
         raise LogError(f"{root}: data directory: expected an existing directory, got {str(root)!r}")
@@ -644,13 +778,19 @@ def load_trials(data_dir) -> TrialLog:
                             "group": str(context.get("group", "")),
                             "session": str(context.get("session", folder.name)),
                             "path": str(folder), "source": "session.json", "n_rows": 0,
-                            "skipped": reason})
+                            "skipped": reason, **_session_state(folder, meta)})
             continue
         rows, source = load_session(folder, messages)
         if rows.empty:
             continue
+        roles = block_roles(meta)
+        if roles:
+            blocks = rows["block"].astype(str)
+            rows["_scored"] = blocks.map(lambda b: roles[b]["scored"] if b in roles else None)
+            rows["_answered"] = blocks.map(lambda b: roles[b]["response"] if b in roles else None)
         parts.append(rows)
-        sessions.append({"path": str(folder), "source": source, "n_rows": len(rows)})
+        sessions.append({"path": str(folder), "source": source, "n_rows": len(rows),
+                         **_session_state(folder, meta)})
     if not parts:
         also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
         raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
@@ -661,11 +801,13 @@ def load_trials(data_dir) -> TrialLog:
     sessions = pd.DataFrame(sessions)
     sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
     sessions = sessions.join(first, on="file").drop(columns="file")
-    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows"]].copy()
+    state = ["complete", "n_done", "n_planned", "created_at"]
+    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows", *state]].copy()
     sessions["skipped"] = ""
     if skipped:
         sessions = pd.concat([sessions, pd.DataFrame(skipped)], ignore_index=True)
         sessions = sessions.sort_values("path", ignore_index=True)
+    sessions = _apply_policy(sessions, policy).drop(columns="created_at")
     trials = _drop_duplicates(trials, messages)
     for column in ("participant", "group"):
         per = trials.groupby("participant")["group"].nunique() if column == "group" else None
@@ -676,13 +818,18 @@ def load_trials(data_dir) -> TrialLog:
                            f"{sorted(trials.loc[trials['participant'] == who, 'group'].unique())!r} "
                            f"for participant {who!r}")
     trials = _mark_inclusion(trials)
+    left_out = set(sessions.loc[~sessions["analysed"], "path"])
+    out_of_policy = trials["source"].map(lambda f: str(Path(f).parent) in left_out)
+    trials.loc[out_of_policy, "exclusion"] = "session not analysed"
+    trials.loc[out_of_policy, "included"] = False
     order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
              "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
              "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
+             "skin_temperature_C", "skin_temperature_in_range",
              "familiarisation", "included", "exclusion", "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
                                        ignore_index=True)
-    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages)
+    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy)
 
 
 def _drop_duplicates(trials: pd.DataFrame, messages: list) -> pd.DataFrame:

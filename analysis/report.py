@@ -197,12 +197,17 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> Path:
+    # Booleans one way, as in trials.csv: 1/0 (not True/False next to 0/1 columns).
+    flags = [c for c in df.columns if df[c].dtype == bool]
+    if flags:
+        df = df.assign(**{c: df[c].astype(int) for c in flags})
     df.to_csv(path, index=False, float_format="%.6g")
     return path
 
 
 def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed: int = 20261122,
-            bayes: bool = True, progress: Callable[[str], None] | None = None) -> AnalysisResult:
+            bayes: bool = True, progress: Callable[[str], None] | None = None,
+            sessions: str = "first") -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -226,6 +231,9 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         Fit the Bayesian mixed model too.
     progress : callable, optional
         Called with a short message before each step.
+    sessions : {"first", "latest", "all"}
+        Inclusion policy (:func:`analysis.load.load_trials`): each participant's first complete
+        session (default), the latest complete one, or every session.
 
     Returns
     -------
@@ -240,7 +248,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     say(f"loading sessions under {data_dir}")
-    log = load_trials(data_dir)
+    log = load_trials(data_dir, sessions=sessions)
     trials = log.analysable
     if trials.empty:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "
@@ -287,6 +295,36 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     return result
 
 
+def _sessions_markdown(log) -> list:
+    """Every session and why it was or was not analysed; trials with the skin out of range."""
+    cols = ["participant", "session", "complete", "n_done", "n_planned", "analysed", "reason"]
+    table = log.sessions[[c for c in cols if c in log.sessions.columns]].copy()
+    for c in ("complete", "analysed"):
+        if c in table.columns:
+            table[c] = table[c].map({True: "yes", False: "no"})
+    for c in ("n_done", "n_planned"):
+        if c in table.columns:
+            table[c] = table[c].map(lambda v: "" if pd.isna(v) else str(int(v)))
+    policy = {"first": "each participant's first complete session",
+              "latest": "each participant's latest complete session",
+              "all": "every session, complete or not"}.get(getattr(log, "policy", "first"), "")
+    parts = ["### Sessions", "", f"Inclusion policy (`--sessions {getattr(log, 'policy', 'first')}`): "
+             f"{policy}. Every session found is listed, with why it was or was not analysed.", "",
+             _md_table(table), ""]
+    t = log.trials
+    if "skin_temperature_in_range" in t.columns:
+        cold = t[t["skin_temperature_in_range"] == 0]
+        parts += ["### Skin temperature out of the protocol's range", ""]
+        if cold.empty:
+            parts += ["None of the measured trials.", ""]
+        else:
+            parts += [f"{len(cold)} trial(s) were run with the fingertip outside the protocol's "
+                      "range (each confirmed by the experimenter, or logged unanswered):", "",
+                      _md_table(cold[["participant", "session", "trial_index", "attempt", "block",
+                                      "skin_temperature_C", "included"]]), ""]
+    return parts
+
+
 def _report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed: int) -> str:
     log = r.log
     a = log.analysable
@@ -307,6 +345,7 @@ def _report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, see
         "## Counts", "", _md_table(counts), "",
         "### Excluded from inference", "", _md_table(log.exclusion_counts()), "",
     ]
+    parts += _sessions_markdown(log)
     if log.warnings:
         parts += ["### Problems in the logs (worked around)", ""]
         parts += [f"- {w}" for w in log.warnings] + [""]

@@ -1,1 +1,10 @@
 """Protocols, schedules, sessions, the thermal display and responders."""
+
+
+def thermocue_version() -> str:
+    """The installed package's version (``"unknown"`` when run from an uninstalled tree)."""
+    from importlib import metadata
+    try:
+        return metadata.version("thermocue")
+    except metadata.PackageNotFoundError:   # pragma: no cover - the package is installed
+        return "unknown"

@@ -82,19 +82,45 @@ __all__ = [
     "replay",
     "SessionProgress",
     "TRIAL_COLUMNS",
+    "COLUMN_DECIMALS",
     "CONTEXT_KEYS",
     "REQUIRED_FIELDS",
 ]
 
-#: Columns of ``trials.csv``, in this order; extra keys of the rows follow, sorted.
+#: Columns of ``trials.csv``, in this order, all of them from the first row on (docs/session.md,
+#: "The trial table"): identity, design, stimulus, response, timing, quality. A key a row has
+#: beyond these (none written by this version) follows, sorted.
 TRIAL_COLUMNS = (
-    "participant", "group", "session", "block", "trial_index", "mode", "roughness_id",
-    "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
-    "tracking_rms_C", "skin_thickness_um", "sex", "attempt", "started_at", "fault_code",
+    # identity (PsychoPy's names where PsychoPy has one: date, expName, psychopyVersion)
+    "participant", "session", "group", "sex", "skin_thickness_um", "date", "expName",
+    "protocol_version", "protocol_hash", "thermocue_version", "psychopyVersion",
+    # design
+    "block", "trial_index", "attempt", "repetition", "mode", "roughness_id", "roughness_um",
+    # stimulus
+    "target_side", "profile_skin_thickness_um", "profile_resistance_m2K_W",
+    "profile_resistance_source", "pad_resistance_m2K_W", "rate_limited_max_change_C", "cue_played",
+    # response
+    "response_id", "correct", "rt_s", "response_source",
+    # timing
+    "started_at", "finished_at", "contact_onset_s", "contact_duration_s",
+    # quality
+    "status", "fault_code", "abort_reason", "skin_temperature_C", "skin_temperature_in_range",
+    "tracking_rms_C", "tracking_max_C", "frames", "frames_lost", "trace_file",
 )
 
+#: Decimals each float column is written with: the resolution of what measured it (the
+#: display's 0.01 °C and 1 ms device clock, the keyboard's 0.1 ms), or 4 significant digits
+#: for modelled resistances ("sig4"). Unlisted floats keep their shortest round-trip form.
+COLUMN_DECIMALS = {
+    "skin_thickness_um": 1, "roughness_um": 3, "profile_skin_thickness_um": 1,
+    "profile_resistance_m2K_W": "sig4", "pad_resistance_m2K_W": "sig4",
+    "rate_limited_max_change_C": 3, "rt_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
+    "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3,
+}
+
 #: Keys of ``session_started`` / ``session_resumed`` copied onto every trial row.
-CONTEXT_KEYS = ("participant", "group", "session", "skin_thickness_um", "sex")
+CONTEXT_KEYS = ("participant", "group", "session", "skin_thickness_um", "sex", "date", "expName",
+                "protocol_version", "thermocue_version")
 
 #: Required fields per event type (other types: none).
 REQUIRED_FIELDS = {
@@ -613,13 +639,21 @@ def trials_from_events(events: Iterable[Mapping[str, Any]]) -> list[dict]:
     return rows
 
 
-def _cell(v: Any) -> str:
+def _cell(v: Any, column: str = "") -> str:
     if v is None:
         return ""
     if isinstance(v, bool):
         return "1" if v else "0"
     if isinstance(v, float):
-        return repr(v) if math.isfinite(v) else ""
+        if not math.isfinite(v):
+            return ""
+        decimals = COLUMN_DECIMALS.get(column)
+        if decimals == "sig4":
+            return f"{v:.4g}"
+        if decimals is not None:
+            text = f"{v:.{decimals}f}".rstrip("0").rstrip(".")
+            return "0" if text in ("-0", "") else text
+        return repr(v)
     if isinstance(v, (dict, list, tuple)):
         return _dumps(v)
     return str(v)
@@ -644,9 +678,10 @@ def write_trials_csv(path: str | Path, rows: Iterable[Mapping[str, Any]],
 
     Notes
     -----
-    PsychoPy-style wide CSV: one row per trial, participant and session on every row.
-    Missing values and non-finite floats are empty cells; booleans are 1/0; floats use
-    the shortest round-trip form.
+    PsychoPy-style wide CSV: one row per trial, participant and session on every row, every
+    column of :data:`TRIAL_COLUMNS` from the first row on. Missing values and non-finite
+    floats are empty cells; booleans are 1/0; floats are rounded as :data:`COLUMN_DECIMALS`
+    says (else the shortest round-trip form).
     """
     rows = list(rows)
     if columns is None:
@@ -657,7 +692,7 @@ def write_trials_csv(path: str | Path, rows: Iterable[Mapping[str, Any]],
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(columns)
     for r in rows:
-        w.writerow([_cell(r.get(c)) for c in columns])
+        w.writerow([_cell(r.get(c), c) for c in columns])
     atomic_write_text(path, buf.getvalue())
     return columns
 

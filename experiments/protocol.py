@@ -44,6 +44,7 @@ __all__ = [
     "ContactSettings",
     "Simulation",
     "Block",
+    "Presentation",
     "load_protocol",
     "parse_protocol",
     "protocol_names",
@@ -172,6 +173,36 @@ class ContactSettings:
 
 
 @dataclass(frozen=True)
+class Presentation:
+    """What the participant's screen does (optional ``[presentation]`` table).
+
+    Attributes
+    ----------
+    instructions_key : bool
+        Block instructions stay on screen until the participant presses a key (space), accepted
+        once they have been shown ``instructions_min_s``; false: shown for ``instructions_min_s``.
+    instructions_min_s : float, s
+        Shortest time block instructions are on screen.
+    text_min_s : float, s
+        Shortest time any other text (please wait, label, cue, question, feedback) is on
+        screen before the next one replaces it.
+    answer_during_contact : bool
+        The question is asked from the moment of contact, while the participant still touches
+        (the paper: "when making contact with a sample they were instructed to judge it");
+        false: after the contact trace has been recorded.
+    feedback_s : float, s
+        How long the feedback text of a block with ``feedback = true`` and ``response = true``
+        stays on screen.
+    """
+
+    instructions_key: bool = True
+    instructions_min_s: float = 2.0
+    text_min_s: float = 1.0
+    answer_during_contact: bool = False
+    feedback_s: float = 1.5
+
+
+@dataclass(frozen=True)
 class Simulation:
     """How the target profiles of simulated trials are computed.
 
@@ -269,7 +300,9 @@ class Block:
     scored : bool
         Counted in the analysis (default: same as ``response``).
     feedback : bool
-        The participant is told the sample's label (familiarisation).
+        The participant is told the sample's label: before the touch when ``response`` is
+        false (familiarisation, the label stays up for the whole touch), after the answer when
+        it is true (correct or not, and which sample it was).
     response : bool
         A response (1..n) is asked for.
     no_immediate_repeats : bool
@@ -315,6 +348,8 @@ class Protocol:
     block_order : {"fixed", "counterbalanced", "random"}
         How scored blocks are ordered per participant (unscored blocks keep their place).
     blocks : tuple of Block
+    presentation : Presentation
+        The participant's screen: minimum text durations, instructions, answer timing.
     hash : str
         SHA-256 hex of the canonical JSON of :attr:`data`.
     path : Path or None
@@ -341,6 +376,7 @@ class Protocol:
     hash: str
     path: Path | None
     data: dict
+    presentation: Presentation = Presentation()
 
     def sample(self, sample_id: int) -> Sample:
         """The sample with this id (KeyError if none)."""
@@ -650,6 +686,18 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
         block_order = sch.string("block_order", "fixed", choices=BLOCK_ORDERS)
         sch.done()
 
+    presentation = Presentation()
+    pr = top.table("presentation", required=False)
+    if pr is not None:
+        presentation = Presentation(
+            instructions_key=pr.boolean("instructions_key", True),
+            instructions_min_s=pr.number("instructions_min_s", 2.0, ge=0, le=600),
+            text_min_s=pr.number("text_min_s", 1.0, ge=0, le=60),
+            answer_during_contact=pr.boolean("answer_during_contact", False),
+            feedback_s=pr.number("feedback_s", 1.5, ge=0, le=60),
+        )
+        pr.done()
+
     blocks = _read_blocks(top, samples)
     if simulation is None:
         for i, b in enumerate(blocks):
@@ -662,7 +710,7 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
     return Protocol(name=name, title=title, description=description, experiment=experiment,
                     version=version, samples=samples, environment=env, material=mat,
                     contact=contact, display=display, grouping=grouping, simulation=simulation,
-                    block_order=block_order, blocks=blocks,
+                    block_order=block_order, blocks=blocks, presentation=presentation,
                     hash=hashlib.sha256(canonical).hexdigest(), path=path,
                     data=copy.deepcopy(dict(data)))
 

@@ -78,6 +78,8 @@ __all__ = [
     "VirtualClock",
     "clock_for_url",
     "PAUSE_ENV",
+    "block_roles",
+    "finished_sessions",
 ]
 
 #: Environment variable naming test pause points, e.g. ``"playback:5"`` or
@@ -132,7 +134,8 @@ class Session:
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
-                 progress: bool = True, responder_name: str = "", profiles: dict | None = None):
+                 progress: bool = True, responder_name: str = "", profiles: dict | None = None,
+                 experimenter=None):
         self.directory = Path(directory)
         self.protocol = protocol
         self.participant = participant
@@ -147,6 +150,13 @@ class Session:
         self.max_consecutive_faults = int(max_consecutive_faults)
         self.out = out
         self.show_progress = progress
+        #: The experimenter's channel (terminal by default): everything the participant must
+        #: not see (:mod:`experiments.responders.experimenter`).
+        if experimenter is None:
+            from experiments.responders.experimenter import TerminalExperimenter
+            experimenter = TerminalExperimenter(out)
+        self.experimenter = experimenter
+        self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
         self.log = None
         self.responder: Responder | None = None
         self.display = None
@@ -160,6 +170,7 @@ class Session:
         self._pending: str | None = None
         self._pause_at = _parse_pause(os.environ.get(PAUSE_ENV, ""))
         self._last_block = None
+        self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
 
     # -- paths and context ------------------------------------------------------------------
     @property
@@ -187,10 +198,14 @@ class Session:
         return self.directory / "traces"
 
     def _context(self) -> dict:
+        from experiments import thermocue_version
         return {"session": self.name, "participant": self.participant_id, "group": self.group,
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,
-                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex")}
+                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
+                # PsychoPy-style identity of every trial row (date: the session's first start)
+                "date": self._date, "expName": self.protocol.name,
+                "protocol_version": self.protocol.version, "thermocue_version": thermocue_version()}
 
     def sample_for(self, spec) -> dict:
         """The physical sample of a trial: material, roughness (m), thickness (m), temperature (°C)."""
@@ -249,8 +264,10 @@ class Session:
             self._report(text)
 
     def _report(self, text: str) -> None:
-        """An error, a warning or the reason a run stopped: printed even with ``--quiet``."""
-        print(f"thermocue: {text}", file=self.out or sys.stderr, flush=True)
+        """An error, a warning or the reason a run stopped: printed even with ``--quiet``.
+
+        Goes to the experimenter's channel (never to the participant's screen)."""
+        self.experimenter.tell(text)
 
     def _pause(self, point: str, spec, attempt: int) -> None:
         if (point, spec.trial_index) in self._pause_at:
@@ -280,7 +297,9 @@ class Session:
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
         progress = replay(events)
-        self._started = time.monotonic() - _seconds_since_first_start(events)
+        since = _seconds_since_first_start(events)
+        self._started = time.monotonic() - since
+        self._date = _psychopy_date(time.time() - since)
         with EventLog(self.events_path) as log:
             self.log = log
             old_handlers = self._install_signals()
@@ -306,7 +325,12 @@ class Session:
             self._say(f"{self.participant_id}/{self.name}: {len(todo)} of {self.n_trials} trials to run"
                       + (" (resumed)" if resumed else ""))
             self.responder = responder
-            responder.begin_session(self)
+            self.experimenter.open()
+            try:
+                responder.begin_session(self)
+            except BaseException:
+                self.experimenter.close()
+                raise
             try:
                 if display is None:
                     try:
@@ -322,7 +346,10 @@ class Session:
                         return self._guarded(disp, todo, progress)
                 return self._guarded(display, todo, progress)
             finally:
-                responder.end_session()
+                try:
+                    responder.end_session()
+                finally:
+                    self.experimenter.close()
         except _STOPS as exc:
             self._interrupted(_reason(exc))
             return 1
@@ -408,6 +435,8 @@ class Session:
             self.machine.go("idle")
         self.machine.go("finished")
         self._neutral(disp)
+        self._write_trials()
+        self._export_bids()          # (before session_finished: that stays the log's last event)
         self.log_event("session_finished", n_completed=self.n_trials)
         self._write_trials()
         self._say(f"session finished: {self.n_trials} trials, {_clock_text(self._elapsed())} since "
@@ -422,8 +451,13 @@ class Session:
         return time.monotonic() - self._started
 
     def _progress_text(self, spec) -> str:
-        return (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
+        text = (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
                 f"elapsed {_clock_text(self._elapsed())}")
+        if self._trial_seconds:   # the mean trial of this run so far, times the trials left
+            left = self.n_trials - spec.trial_index + 1
+            eta = left * sum(self._trial_seconds) / len(self._trial_seconds)
+            text += f" | about {_clock_text(eta)} left"
+        return text
 
     def _run_trial(self, disp, spec, attempt: int) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -434,24 +468,36 @@ class Session:
                                                  if k != "trial_index"})
         started_at = _now_iso()
         self._pause("trial_started", spec, attempt)
+        t_trial = time.monotonic()
         text = self._progress_text(spec)
         self._say(text + (f" | attempt {attempt}" if attempt > 1 else ""))
-        self.responder.progress(text)
+        self.responder.progress(text)   # the experimenter's; responders do not show it
         block = self.protocol.block(spec.block)
         sample = self.protocol.sample(spec.roughness_id)
+        shown = self.protocol.presentation
         if spec.block != self._last_block and block.instructions:
-            self.responder.show_text(block.instructions)
+            self.responder.show_instructions(block.instructions, shown.instructions_min_s,
+                                             shown.instructions_key)
         self._last_block = spec.block
         real = spec.mode != "simulated"
+        # Two audiences: the sample to place is the experimenter's (terminal or their screen);
+        # the participant's screen only says "please wait" (or names the sample where the
+        # block gives feedback before an unanswered touch: familiarisation).
+        labelled = block.feedback and not block.response
         if real:
-            self.responder.prompt_experimenter(
-                f"Trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
-                f"(Ra {sample.roughness_um:g} µm)")
+            ask = (f"trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
+                   f"(Ra {sample.roughness_um:g} µm), then confirm on the participant's keyboard")
+            (self.experimenter.tell if self.responder.human else self._say)(ask)
+            self.responder.please_wait()
+            self.responder.prompt_experimenter(ask)
             self.log_event("sample_placed", **ctx, sample=sample.label)
-        if block.feedback:
-            self.responder.show_text(f"This is sample {sample.label}")
+        if labelled:
+            self.responder.show_label(f"This is sample {sample.label}")
+        elif not real:
+            self.responder.please_wait()
         row = {"started_at": started_at, "protocol_hash": self.protocol.hash,
-               "mode": spec.mode, "block": spec.block}
+               "mode": spec.mode, "block": spec.block,
+               "psychopyVersion": getattr(self.responder, "psychopy_version", None)}
         self.machine.go("prepare", **ctx)
         profile = None
         try:
@@ -499,14 +545,24 @@ class Session:
 
         contact = []
         finger_before = [None]   # the radiation thermometer's last reading before contact, °C
+        # [presentation] answer_during_contact: the question goes up at contact and the answer
+        # is taken as soon as it is given (the recording runs on to its end regardless).
+        early = block.response and shown.answer_during_contact
+        answered = []
 
         def on_frame(frame):
             # Runs at the telemetry rate inside the driver's read loop: no fsync here (a slow
             # callback lets the serial buffer overrun); contact is logged once the trial ends.
             writer.write(frame)
+            if early and contact and not answered:
+                got = self.responder.poll_answer(spec)
+                if got is not None:
+                    answered.append(got)
             if not contact:
                 if frame.state in _ACTIVE_STATES:
                     contact.append(float(frame.device_time_s))
+                    if early:
+                        self.responder.begin_answer(spec)
                     self._pause("playback", spec, attempt)
                 elif sum(frame.forces_N) < _TOUCH_N:   # not yet touching: the IR reads bare skin
                     finger_before[0] = frame.finger_C
@@ -533,13 +589,22 @@ class Session:
         if self.machine.state == "wait_contact":   # contact seen by the device only
             self.machine.go(active, **ctx, device_time_s=rec.contact_time_s)
         self.machine.go("respond", **ctx)
+        if labelled:
+            self.responder.show_label(None)
         if block.response:
             stimulus = self._stimulus(spec, writer, rec, profile, sample)
-            response = self.responder.respond(spec, stimulus)
-            self.log_event("response", **ctx, **response.to_dict())
+            response = answered[0] if answered else self.responder.respond(spec, stimulus)
+            self.log_event("response", **ctx, **response.to_dict(),
+                           during_contact=bool(answered))
             row.update(response_id=response.response_id, rt_s=response.rt_s,
                        correct=int(response.response_id == spec.roughness_id),
                        response_source=response.source)
+            if block.feedback:   # only where the protocol's block says so
+                right = response.response_id == spec.roughness_id
+                self.responder.feedback(("Correct" if right else "Not correct")
+                                        + f": it was sample {sample.label}", shown.feedback_s)
+                self.log_event("feedback", **ctx, correct=int(right))
+        self._trial_seconds.append(time.monotonic() - t_trial)
         self._pause("after_response", spec, attempt)
         self.machine.go("write", **ctx)
         row.update(status="ok", trace_file=f"traces/{trace.name}", finished_at=_now_iso())
@@ -561,15 +626,37 @@ class Session:
             return
         value = round(float(finger_C), 2)
         row["skin_temperature_C"] = value
-        if not env.skin_temperature_min_C <= value <= env.skin_temperature_max_C:
+        inside = env.skin_temperature_min_C <= value <= env.skin_temperature_max_C
+        row["skin_temperature_in_range"] = int(inside)
+        if not inside:
             self.log_event("skin_temperature_out_of_range", **ctx, skin_temperature_C=value,
                            expected_min_C=env.skin_temperature_min_C,
                            expected_max_C=env.skin_temperature_max_C)
+            # Shown to the experimenter at the time, who must confirm to go on (asked on the
+            # terminal; with none to ask, logged as unconfirmed and listed by the report).
+            self._report(f"warning: trial {ctx['trial_index']}: skin temperature {value:.2f} °C, "
+                         f"outside {env.skin_temperature_min_C:g}-{env.skin_temperature_max_C:g} °C")
+            # Asked when a person answers; a simulated participant's session (a cohort, the
+            # paper's reproduction) is never held up by a question nobody is there to answer.
+            if self.responder is None or getattr(self.responder, "human", True):
+                answer = self.experimenter.confirm(
+                    f"trial {ctx['trial_index']}: skin temperature {value:.2f} °C is out of "
+                    "range; keep this trial and go on?")
+                said = {True: "yes", False: "no", None: "unasked (no terminal)"}[answer]
+            else:
+                answer, said = None, "unasked (simulated participant)"
+            self.log_event("skin_temperature_confirmation", **ctx, answer=said)
+            if answer is False:
+                raise SessionInterrupted("experimenter stopped: skin temperature out of range")
 
     def _recording_fields(self, rec) -> dict:
+        # contact_onset_s: the display's clock at contact (a time stamp, not a duration);
+        # contact_duration_s: from contact to the end of the recording.
+        touched = rec.contact_time_s is not None
         return {"tracking_rms_C": rec.tracking_rms_C, "tracking_max_C": rec.tracking_max_C,
-                "contact_time_s": rec.contact_time_s, "frames": rec.frames,
-                "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
+                "contact_onset_s": rec.contact_time_s,
+                "contact_duration_s": float(getattr(rec, "duration_s", 0.0)) if touched else None,
+                "frames": rec.frames, "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
 
     def _stimulus(self, spec, writer, rec, profile, sample) -> TrialStimulus:
         t = np.asarray(writer.time_s, dtype=float)
@@ -605,10 +692,10 @@ class Session:
             self._attempt.logged_end = True
             self._write_trials()
         if row.get("status") == "ok":
+            # Never whether the answer was right: on the console responder the participant reads
+            # this terminal (feedback is the block's, through the responder).
             answer = row.get("response_id")
-            self._say(f"trial {spec.trial_index}: ok" + (
-                "" if answer is None else
-                f", answer {answer} ({'correct' if row.get('correct') else 'wrong'})"))
+            self._say(f"trial {spec.trial_index}: ok" + ("" if answer is None else ", answer logged"))
 
     def _fault(self, disp, spec, attempt, row, exc, rec=None) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -682,6 +769,19 @@ class Session:
             else:
                 row.setdefault("trace_file", None)
         write_trials_csv(self.trials_path, rows)
+
+    def _export_bids(self) -> None:
+        """The finished session as BIDS behavioural data in ``DATA/bids/`` (:mod:`experiments.bids`).
+
+        A failure is reported and logged, never fatal: ``trials.csv`` is the session's record."""
+        from experiments.bids import export_session
+        try:
+            path = export_session(self.directory)
+        except (OSError, ValueError, KeyError) as exc:
+            self.log_event("bids_export_failed", message=f"{type(exc).__name__}: {exc}")
+            self._report(f"warning: BIDS export failed ({exc}); run `thermocue export-bids` later")
+            return
+        self.log_event("bids_exported", path=str(path))
 
     def _rewarm(self) -> None:
         self.machine.go("rewarm")
@@ -776,6 +876,12 @@ def _seconds_since_first_start(events) -> float:
     return 0.0
 
 
+def _psychopy_date(epoch_s: float) -> str:
+    """PsychoPy's ``data.getDateStr()`` form of a time, e.g. ``2026-11-22_14h05.09.123`` (local)."""
+    t = time.localtime(epoch_s)
+    return time.strftime("%Y-%m-%d_%Hh%M.%S", t) + f".{int((epoch_s % 1) * 1000):03d}"
+
+
 def _clock_text(seconds: float) -> str:
     """``M:SS``, or ``H:MM:SS`` from an hour on."""
     m, s = divmod(int(seconds), 60)
@@ -855,6 +961,8 @@ class SessionPlan:
             "seed": self.seed,
             "schedule": [s.to_dict() for s in self.schedule],
             "schedule_algorithm": SCHEDULE_ALGORITHM,
+            # What each block is (analysis reads this, not block names).
+            "blocks": block_roles(protocol),
             "display_url": self.display_url,
             "responder": self.responder_name,
             "clock": "virtual" if self.clock.virtual else "real",
@@ -871,6 +979,25 @@ class SessionPlan:
             session._report(f"warning: {w}")
         session._say(f"{self.participant_id}: {assignment.describe()}")
         return session
+
+
+def block_roles(protocol) -> list[dict]:
+    """Per block: ``name``, ``mode``, ``scored``, ``response``, ``feedback`` (session.json)."""
+    return [{"name": b.name, "mode": b.mode, "scored": bool(b.scored), "response": bool(b.response),
+             "feedback": bool(b.feedback)} for b in protocol.blocks]
+
+
+def finished_sessions(folder: Path) -> list[Path]:
+    """The finished sessions (``session_finished`` logged) in a participant's folder."""
+    from experiments.logbook import read_events, replay
+    out = []
+    for events in sorted(Path(folder).glob("*/events.jsonl")):
+        try:
+            if replay(read_events(events, warn=False)[0]).finished:
+                out.append(events.parent)
+        except (OSError, ValueError, SessionError):
+            continue
+    return out
 
 
 def _refuse_existing(directory: Path) -> None:
@@ -899,11 +1026,19 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     if not hasattr(protocol, "hash"):
         protocol = load_protocol(protocol)
     participant = load_participant(participant_path)
+    from experiments.calibration.writeback import check_calibration_samples
+    if any(b.mode == "simulated" for b in protocol.blocks):
+        check_calibration_samples(participant, [s.roughness_um for s in protocol.samples],
+                                  source=str(participant_path))
     assignment = assign_group(participant, protocol.grouping)   # None: the paper's 800 µm rule
     if seed is None:
         seed = secrets.randbelow(2**31)
     schedule = build_schedule(protocol, str(participant["id"]), seed)
     pid = _safe_name(str(participant["id"]), f"{participant_path}: id")
+    stem = Path(participant_path).stem
+    if stem != pid:   # P09.json holding "id": "P01" would write into P01's folder
+        raise SessionError(f"{participant_path}: id: expected {stem!r} (the file's name), got "
+                           f"{pid!r}: rename the file or correct the id")
     folder = Path(data_dir) / pid
     name = _safe_name(session_name, "--session") if session_name else _next_session_name(folder)
     directory = folder / name

@@ -147,6 +147,10 @@ def _translate(err) -> list[tuple[str, str]]:
         allowed = ", ".join(sorted(k for k in known if not k.startswith("$")))
         hint = " or an x_... field" if patterns else ""
         return [(_join(field, name), f"expected a known field (one of {allowed}{hint}), got an unknown field {name!r}")]
+    if kind == "pattern" and field.endswith("contact_resistance_m2K_W"):
+        return [(field, f"expected keys naming samples by their roughness Ra in µm, as `thermocue "
+                        f"calibrate` writes them (e.g. '1.6', '12.5', '50', '100'), got "
+                        f"{err.instance!r}")]
     if kind == "type" and field == "":
         return [("(record)", f"expected a JSON object, got {err.instance!r}")]
     return [(field or "(record)", f"expected {_describe(err.schema)}, got {err.instance!r}")]

@@ -32,11 +32,47 @@ from pathlib import Path
 from experiments.calibration.errors import CalibrationError
 from experiments.calibration.fit import CalibrationFit
 
-__all__ = ["calibration_record", "write_participant_calibration", "calibrated_profile_parameters"]
+__all__ = ["calibration_record", "write_participant_calibration", "calibrated_profile_parameters",
+           "calibration_key", "check_calibration_samples"]
 
 
 def _key(roughness_um) -> str:
     return f"{float(roughness_um):g}"
+
+
+#: The one key convention of ``calibration.contact_resistance_m2K_W`` (writer, schema, reader):
+#: the sample's roughness Ra in µm, formatted with ``%g`` ("1.6", "12.5", "50", "100").
+calibration_key = _key
+
+
+def check_calibration_samples(record, roughness_um, source: str = "participant record") -> None:
+    """Refuse a calibration none of whose resistances belongs to a sample of the protocol.
+
+    Parameters
+    ----------
+    record : dict
+        A validated participant record.
+    roughness_um : iterable of float, µm
+        The roughness of each sample of the protocol.
+    source : str
+        The record's file, for the message.
+
+    Raises
+    ------
+    CalibrationError
+        The record has fitted resistances and no key is the Ra of a sample of the protocol
+        (they would all be ignored, and every profile silently fall back to Eq. 5).
+    """
+    cal = (record or {}).get("calibration")
+    table = cal.get("contact_resistance_m2K_W") if isinstance(cal, dict) else None
+    if not table:
+        return
+    wanted = [_key(r) for r in roughness_um]
+    if wanted and not set(table) & set(wanted):
+        raise CalibrationError(
+            f"{source}: calibration.contact_resistance_m2K_W: expected keys naming the protocol's "
+            f"samples by Ra in µm ({', '.join(repr(w) for w in wanted)}), got "
+            f"{', '.join(repr(k) for k in table)}: no fitted resistance would be used")
 
 
 def calibration_record(fit: CalibrationFit, *, session: str | None = None, date: str | None = None) -> dict:

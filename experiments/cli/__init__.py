@@ -5,7 +5,9 @@ and exposes ``register(subparsers)`` (adds its parser, sets ``func``) and keeps
 heavy imports inside the function that runs it, so ``thermocue --help`` stays fast.
 
 Exit status: 0 on success, 2 on bad input (one line naming the file and the
-field, no traceback), 1 otherwise.
+field, no traceback), 1 otherwise; a file-system failure is one line naming the path
+(``thermocue run: /data/P01: Permission denied``), exit 1, or exit 2 when it is caught before
+any work (a ``--data`` or ``--out`` that cannot be written, :mod:`experiments.cli.paths`).
 """
 from __future__ import annotations
 
@@ -13,7 +15,9 @@ import argparse
 import importlib
 import sys
 
-__all__ = ["main", "SUBCOMMANDS", "USER_ERRORS"]
+from experiments import thermocue_version
+
+__all__ = ["main", "SUBCOMMANDS", "USER_ERRORS", "thermocue_version"]
 
 #: Subcommand name -> module (in this package) that registers it.
 SUBCOMMANDS = {
@@ -26,6 +30,7 @@ SUBCOMMANDS = {
     "power": "power",
     "calibrate": "calibrate",
     "explain": "explain",
+    "export-bids": "export_bids",
 }
 
 
@@ -59,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="thermocue",
         description="Thermal-tactile roughness perception: model, display, sessions, analysis.",
     )
+    parser.add_argument("--version", action="version", version=f"thermocue {thermocue_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module in SUBCOMMANDS.items():
         mod = importlib.import_module(f"{__name__}.{module}")
@@ -78,5 +84,14 @@ def main(args: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         print(f"thermocue {ns.command}: interrupted", file=sys.stderr)
+        return 1
+    except OSError as exc:
+        # A file-system failure (not a device fault: those are DisplayError and handled by
+        # the subcommands): one line naming the path, exit 1.
+        from experiments.errors import DisplayError
+        if isinstance(exc, DisplayError) or exc.filename is None:
+            raise
+        from experiments.cli.paths import os_error_line
+        print(f"thermocue {ns.command}: {os_error_line(exc)}", file=sys.stderr)
         return 1
     return int(status or 0)

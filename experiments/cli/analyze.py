@@ -18,6 +18,10 @@ def register(sub) -> None:
                    help="participant-bootstrap resamples (default 2000)")
     p.add_argument("--seed", type=int, default=20261122, help="seed of the bootstrap (default 20261122)")
     p.add_argument("--no-bayes", action="store_true", help="skip the Bayesian mixed logit")
+    p.add_argument("--sessions", choices=("first", "latest", "all"), default="first",
+                   help="which sessions of a participant are analysed: the first complete one "
+                        "(default), the latest complete one, or all (incomplete ones included); "
+                        "the report lists every session and why")
     p.set_defaults(func=_run)
 
 
@@ -27,6 +31,8 @@ def _run(ns) -> int:
     from analysis import LogWarning, analyze
     from experiments.errors import UserInputError
 
+    from experiments.cli.paths import check_writable_dir
+    check_writable_dir(ns.out, "--out")      # before any computation
     if ns.bootstrap < 0:
         raise UserInputError(f"--bootstrap: expected an integer >= 0, got {ns.bootstrap!r}")
     start = time.monotonic()
@@ -37,7 +43,7 @@ def _run(ns) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LogWarning)     # listed in the report and below
         result = analyze(ns.data_dir, ns.out, n_boot=ns.bootstrap, seed=ns.seed,
-                         bayes=not ns.no_bayes, progress=progress)
+                         bayes=not ns.no_bayes, progress=progress, sessions=ns.sessions)
     for message in result.log.warnings:
         print(f"warning: {message}", file=sys.stderr)
     progress(f"done: {result.files['report']}")

@@ -93,7 +93,9 @@ def run(ns) -> int:
     from experiments.calibration.model import (DEFAULT_SENSOR_HEAT_CAPACITY,
                                                DEFAULT_SENSOR_SKIN_RESISTANCE)
     from experiments.calibration.errors import CalibrationError
+    from experiments.cli.paths import check_writable_dir
 
+    check_writable_dir(ns.out, "--out")      # before the fit (minutes), nothing written
     if ns.sensor_side != "lumped" and (ns.sensor_heat_capacity_J_m2K is not None
                                        or ns.sensor_skin_resistance_m2K_W is not None):
         raise CalibrationError("--sensor-heat-capacity-J-m2K: expected only with --sensor-side lumped, "

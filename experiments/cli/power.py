@@ -60,6 +60,8 @@ def _run(ns) -> int:
     from analysis.power import plot_power, power_curve, read_cells
     from experiments.errors import UserInputError
 
+    from experiments.cli.paths import check_writable_dir
+    check_writable_dir(ns.out, "--out")      # before any computation
     sizes = _sizes(ns.n_per_group)
     if ns.simulations < 1:
         raise UserInputError(f"--simulations: expected an integer >= 1, got {ns.simulations!r}")

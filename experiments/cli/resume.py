@@ -20,7 +20,8 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    from experiments.cli.run import check_common, check_window, open_display_or_report, responder_options
+    from experiments.cli.run import (check_common, check_window, experimenter_for,
+                                     open_display_or_report, responder_options)
     from experiments.errors import SessionError
     from experiments.responders import get_responder
     from experiments.session import open_session
@@ -36,6 +37,7 @@ def _run(ns) -> int:
                                f"got {name!r} (give --responder)")
     if ns.max_faults is not None:
         session.max_consecutive_faults = ns.max_faults
+    session.experimenter = experimenter_for(ns)
     check_window(name)
     responder = get_responder(name, **responder_options(ns.responder_option))
     if session.finished:

@@ -32,6 +32,9 @@ def add_common(p) -> None:
                    help="option passed to the responder (repeatable), e.g. fullscr=true")
     p.add_argument("--max-faults", type=int, default=None, metavar="N",
                    help="stop cleanly after N consecutive display faults (default 3)")
+    p.add_argument("--experimenter-screen", type=int, default=None, metavar="N",
+                   help="show the experimenter's lines (sample to place, progress, warnings) in "
+                        "a PsychoPy window on screen N too (default: the terminal only)")
     p.add_argument("--quiet", action="store_true",
                    help="no progress lines on stderr (errors and why a run stopped are still printed)")
 
@@ -68,9 +71,20 @@ def check_common(ns) -> None:
     from experiments.errors import UserInputError
     if ns.max_faults is not None and ns.max_faults < 1:
         raise UserInputError(f"--max-faults: expected an integer ≥ 1, got {ns.max_faults}")
+    if ns.experimenter_screen is not None:
+        if ns.experimenter_screen < 0:
+            raise UserInputError(f"--experimenter-screen: expected a screen number ≥ 0, got "
+                                 f"{ns.experimenter_screen}")
+        check_window("psychopy", option="--experimenter-screen")
 
 
-def check_window(responder: str) -> None:
+def experimenter_for(ns):
+    """The experimenter's channel the options ask for (terminal, or a window on a screen)."""
+    from experiments.responders.experimenter import make_experimenter
+    return make_experimenter(ns.experimenter_screen)
+
+
+def check_window(responder: str, option: str = "--responder psychopy") -> None:
     """Refuse the PsychoPy responder up front when there is no display to open a window on."""
     import os
     import sys
@@ -78,8 +92,35 @@ def check_window(responder: str) -> None:
     from experiments.errors import UserInputError
     if responder == "psychopy" and sys.platform.startswith("linux") \
             and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        raise UserInputError("--responder psychopy: expected a display for the window (DISPLAY), "
+        raise UserInputError(f"{option}: expected a display for the window (DISPLAY), "
                              "got none set (start Xvfb, or use --responder console)")
+    if responder == "psychopy" and os.environ.get("DISPLAY") and not _x_display_opens():
+        raise UserInputError(f"{option}: expected a display to open the window on, got "
+                             f"DISPLAY={os.environ['DISPLAY']!r}, which does not answer (is the X "
+                             f"server running?)")
+
+
+def _x_display_opens() -> bool:
+    """Whether Xlib can connect to ``$DISPLAY`` (True when Xlib itself is not found: PsychoPy
+    will then say what is wrong)."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("X11")
+    if name is None:
+        return True
+    try:
+        xlib = ctypes.CDLL(name)
+    except OSError:
+        return True
+    xlib.XOpenDisplay.restype = ctypes.c_void_p
+    xlib.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    xlib.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = xlib.XOpenDisplay(None)
+    if not handle:
+        return False
+    xlib.XCloseDisplay(handle)
+    return True
 
 
 def _run(ns) -> int:
@@ -89,10 +130,13 @@ def _run(ns) -> int:
     from experiments.responders import get_responder
     from experiments.session import plan_session
 
+    from experiments.cli.paths import check_writable_dir
+
     if ns.seed is not None and ns.seed < 0:
         raise UserInputError(f"--seed: expected an integer ≥ 0, got {ns.seed}")
     check_common(ns)
     check_window(ns.responder)
+    check_writable_dir(ns.data, "--data")      # before the display and the window are opened
     responder = get_responder(ns.responder, **responder_options(ns.responder_option))
     # Everything is checked (files, schedule, every simulated profile) and the display opened
     # before the session folder is written: a bad input or an unreachable display leaves nothing.
@@ -100,6 +144,8 @@ def _run(ns) -> int:
                         session_name=ns.session, responder_name=ns.responder,
                         clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3,
                         progress=not ns.quiet)
+    if not confirm_another_session(plan, experimenter_for(ns)):
+        return 1
     display = open_display_or_report("run", plan.protocol, ns.display, "--display",
                                      "no session was written")
     if display is None:
@@ -107,8 +153,68 @@ def _run(ns) -> int:
     with display:
         plan.check_display(display)
         session = plan.write()
+        session.experimenter = experimenter_for(ns)
         print(session.directory, file=sys.stdout, flush=True)
-        return session.run(responder, display=display)
+        try:
+            return session.run(responder, display=display)
+        finally:
+            remove_if_unused(session.directory)
+
+
+def confirm_another_session(plan, experimenter) -> bool:
+    """Tell the experimenter when the participant already has a finished session, and ask
+    (on a terminal) whether to run another; False when they say no (nothing is written)."""
+    from experiments.session import finished_sessions
+
+    done = finished_sessions(plan.directory.parent)
+    if not done:
+        return True
+    names = ", ".join(str(d) for d in done)
+    experimenter.tell(f"warning: participant {plan.participant_id} already has "
+                      f"{len(done)} finished session(s): {names}; this one would be "
+                      f"{plan.directory} (analysis uses the first complete session by default)")
+    answer = experimenter.confirm(f"run another session for {plan.participant_id}?")
+    if answer is False:
+        experimenter.tell("no session was written")
+        return False
+    return True
+
+
+def remove_if_unused(directory) -> bool:
+    """Remove a session folder in which no trial was started (e.g. the window did not open).
+
+    Only the files a new session writes are removed (``session.json``, ``events.jsonl``,
+    ``trials.csv`` with no rows, an empty ``traces/``), then the folder and an emptied participant folder: a failure before the
+    first trial leaves no empty session behind. Returns whether it was removed.
+    """
+    from pathlib import Path
+
+    directory = Path(directory)
+    events = directory / "events.jsonl"
+    try:
+        text = events.read_text(encoding="utf-8", errors="replace") if events.exists() else ""
+    except OSError:
+        return False
+    import json
+    for line in text.splitlines():
+        try:
+            started = json.loads(line).get("event") == "trial_started"
+        except (ValueError, AttributeError):
+            return False          # a log it cannot read: keep everything
+        if started:
+            return False
+    known = {"session.json", "events.jsonl", "trials.csv", "traces"}
+    if any(p.name not in known for p in directory.iterdir()) or \
+            ((directory / "traces").is_dir() and any((directory / "traces").iterdir())):
+        return False
+    for name in ("session.json", "events.jsonl", "trials.csv"):
+        (directory / name).unlink(missing_ok=True)
+    for folder in (directory / "traces", directory, directory.parent):
+        try:
+            folder.rmdir()
+        except OSError:
+            break
+    return True
 
 
 def open_display_or_report(command: str, protocol, url: str, option: str, outcome: str, source=None):

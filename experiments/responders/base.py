@@ -130,9 +130,19 @@ class TrialStimulus:
 class Responder:
     """Base class of responders; subclass with ``name=`` (and optional ``aliases=``) to register.
 
-    The session calls, in order: :meth:`begin_session`; per trial :meth:`show_text` (progress),
-    :meth:`prompt_experimenter` (real trials), :meth:`cue`, :meth:`touch`, :meth:`respond`,
-    :meth:`rewarm`; finally :meth:`end_session` (also after an interruption).
+    The session calls, in order: :meth:`begin_session`; at a block's start
+    :meth:`show_instructions`; per trial :meth:`progress` (experimenter only),
+    :meth:`prompt_experimenter` (real trials), :meth:`show_label` (familiarisation) or
+    :meth:`please_wait`, :meth:`touch`, :meth:`cue`, :meth:`respond`, :meth:`feedback`
+    (blocks with ``feedback = true``), :meth:`rewarm`; finally :meth:`end_session` (also after
+    an interruption).
+
+    Two audiences: whatever a responder shows is seen by the participant. Only
+    :meth:`show_instructions`, :meth:`please_wait`, :meth:`show_label`, :meth:`cue`,
+    :meth:`respond` (the question), :meth:`feedback`, :meth:`rewarm` and :meth:`show_text`
+    (the session's welcome and goodbye) put text there; the sample to place, trial numbers,
+    faults, warnings and progress go to the session's experimenter channel
+    (:class:`experiments.responders.experimenter.Experimenter`), never through a responder.
     """
 
     #: The registered name (set by ``__init_subclass__``).
@@ -167,13 +177,37 @@ class Responder:
 
     # -- experimenter and participant -------------------------------------------------------
     def show_text(self, text: str) -> None:
-        """Show instructions or progress (no waiting)."""
+        """Show ``text`` to the participant (no waiting)."""
+
+    def show_instructions(self, text: str, min_s: float = 0.0, until_key: bool = False) -> None:
+        """A block's instructions: on screen at least ``min_s`` s, then until a key if
+        ``until_key`` (a person's responder waits; the default just shows them)."""
+        self.show_text(text)
+
+    def please_wait(self) -> None:
+        """Tell the participant to wait (the experimenter is preparing the trial)."""
+
+    def show_label(self, text: str | None) -> None:
+        """Name the sample about to be touched (familiarisation); it stays up, with the cue,
+        for the whole touch; ``None`` takes it down."""
+        if text:
+            self.show_text(text)
+
+    def feedback(self, text: str, seconds: float = 0.0) -> None:
+        """Tell the participant whether the answer was right (blocks with ``feedback = true``)."""
+        self.show_text(text)
 
     def progress(self, text: str) -> None:
-        """Show the experimenter's progress line (trial n of N, block, elapsed)."""
+        """The experimenter's progress line (trial n of N, block, elapsed, ETA).
+
+        Already printed on the experimenter channel; a responder must not show it to the
+        participant (the default ignores it)."""
 
     def prompt_experimenter(self, text: str) -> None:
-        """Show ``text`` to the experimenter and block until they confirm."""
+        """Block until the experimenter confirms they have done ``text`` (place a sample).
+
+        ``text`` has already been shown on the experimenter channel; the participant's screen
+        says "please wait" and never ``text`` (it names the sample)."""
 
     def cue(self) -> bool:
         """Play the sound cue; return False (and log it) if no audio is available."""
@@ -192,8 +226,22 @@ class Responder:
             self.session.emulated_touch(trial, display)
 
     def respond(self, trial, stimulus: TrialStimulus) -> Response:
-        """Collect the answer to ``trial`` (1..4) and its response time."""
+        """Collect the answer to ``trial`` (1..4) and its response time.
+
+        ``rt_s`` runs from the question's first appearance (its first frame in a window) to
+        the answer. After :meth:`begin_answer` the question is already up: the answer may
+        already have been given (:meth:`poll_answer`) and the time still counts from then."""
         raise NotImplementedError
+
+    def begin_answer(self, trial) -> None:
+        """Put the question up now, during the contact (``[presentation]
+        answer_during_contact``); the default does nothing (the question comes after)."""
+
+    def poll_answer(self, trial) -> Response | None:
+        """An answer already given to the question put up by :meth:`begin_answer`, or None.
+
+        Called from the display's telemetry loop: must not block."""
+        return None
 
     def rewarm(self, seconds: float) -> None:
         """Inter-trial rewarming of the finger for ``seconds`` s (no wait on a virtual clock)."""

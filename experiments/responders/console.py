@@ -26,8 +26,13 @@ class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
 
     Notes
     -----
-    ``rt_s`` runs from the response prompt to the line being read; terminal line buffering
-    makes it coarse (the Enter key ends the answer).
+    ``rt_s`` runs from the question being printed to the line being read; terminal line
+    buffering makes it coarse (the Enter key ends the answer).
+
+    This terminal is the participant's: it shows instructions, the cue, the question and, only
+    for blocks with ``feedback = true``, whether the answer was right. The experimenter's lines
+    (which sample to place, progress, warnings) go to stderr: in a lab, send them to another
+    terminal (``2>/dev/pts/N``) or use the PsychoPy window.
     """
 
     def __init__(self, stdin=None, stdout=None, bell: bool = True, stderr=None):
@@ -73,8 +78,18 @@ class ConsoleResponder(Responder, name="console", aliases=("terminal",)):
         self._print(text)
 
     def prompt_experimenter(self, text: str) -> None:
-        self._print(f"[experimenter] {text} -- press Enter when ready")
+        """Wait for the experimenter's Enter; ``text`` (it names the sample) is not printed here:
+        the session has put it on the experimenter's channel (stderr, or their screen)."""
+        self._print("Please wait (experimenter: press Enter when ready)")
         self._readline("Enter")
+
+    def show_label(self, text: str | None) -> None:
+        if text:
+            self._print(text)
+
+    def feedback(self, text: str, seconds: float = 0.0) -> None:
+        """Correct or not, printed only for blocks with ``feedback = true``."""
+        self._print(text)
 
     def cue(self) -> bool:
         """Ring the terminal bell; True only if it was written to a terminal."""

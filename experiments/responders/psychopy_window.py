@@ -7,6 +7,13 @@ psychopy.visual`` takes about 3 s and needs an X display). Answers come from
 ``waitKeys(keyList=...)`` never matches, so the backend in use is logged and a fallback is
 refused (``require_ptb=True``). The cue uses ``psychopy.sound`` with the ``sounddevice`` library;
 with no audio device it becomes a logged no-op.
+
+The window is the participant's: it shows only instructions, "please wait", the sample's name
+where the protocol's block gives it (familiarisation), the cue, the question, feedback where the
+block says ``feedback = true``, the rewarming countdown and the goodbye. Each text stays up at
+least the protocol's ``[presentation] text_min_s`` (instructions ``instructions_min_s``, then
+until a key), and every text's first and last frame are logged (``text_on`` / ``text_off``
+events with PsychoPy's flip times, ``core.getTime()`` seconds).
 """
 from __future__ import annotations
 
@@ -24,6 +31,16 @@ WINDOW_TITLE = "thermocue"
 
 _CONFIRM_KEYS = ["space", "return"]
 _QUIT_KEYS = ["escape"]
+
+#: What the participant's window shows, state by state (docs/session.md, docs/screens/).
+TEXTS = {
+    "welcome": "The session will start in a moment.",
+    "please_wait": "Please wait",
+    "cue": "Touch now",
+    "question": "Which sample? Press {choices}",
+    "instructions_key": "Press space to continue",
+    "finished": "Thank you: the session is finished.",
+}
 
 
 class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
@@ -73,15 +90,21 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self.keyboard_backend = None
         self._sound = None
         self._main_text = ""
-        self._progress_text = ""
+        self._state = ""
+        self._label = None
+        self._on = None            # (state, text, flip time) of the text on screen
+        self.psychopy_version = None
 
     # -- life cycle -----------------------------------------------------------------------
     def begin_session(self, session) -> None:
         super().begin_session(session)
         from psychopy import prefs
         prefs.hardware["audioLib"] = [self.audio_lib]
+        import psychopy
         from psychopy import core
         from psychopy.hardware import keyboard
+
+        self.psychopy_version = psychopy.__version__   # the trials table's psychopyVersion
 
         self._core = core
         try:
@@ -94,8 +117,6 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
                                f"(DISPLAY={os.environ.get('DISPLAY')!r}), got "
                                f"{type(exc).__name__}: {exc}") from None
         self._stim = visual.TextStim(self.win, text="", height=0.045, wrapWidth=1.2, pos=(0, 0.05))
-        self._footer = visual.TextStim(self.win, text="", height=0.03, wrapWidth=1.3,
-                                       pos=(0, -0.43), color=(0.3, 0.3, 0.3))
         self.kb = keyboard.Keyboard(backend="ptb")
         self.keyboard_backend = self.kb.getBackend()
         self.log("keyboard", backend=self.keyboard_backend)
@@ -107,10 +128,11 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
                 self.end_session()
                 raise SessionError(f"--responder psychopy: {msg}")
         self._make_sound()
-        self.show_text("thermocue\n\nThe session will start in a moment.")
+        self._show("welcome", TEXTS["welcome"])
 
     def end_session(self) -> None:
         if self.win is not None:
+            self._log_off()
             try:
                 self.win.close()
             finally:
@@ -128,12 +150,44 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             print(f"thermocue: warning: {reason}; the sound cue is off", file=sys.stderr)
 
     # -- drawing and keys -------------------------------------------------------------------
-    def _draw(self) -> None:
+    def _min_s(self, state: str) -> float:
+        """The protocol's shortest time on screen for a text in ``state``."""
+        shown = getattr(getattr(self.session, "protocol", None), "presentation", None)
+        if shown is None:
+            return 0.0
+        return shown.instructions_min_s if state == "instructions" else shown.text_min_s
+
+    def _show(self, state: str, text: str, wait: bool = True) -> None:
+        """Replace the text on screen by ``text`` once the old one has been up its minimum
+        (``wait=False``: at once, e.g. the question replacing the cue at contact)."""
+        if wait and self._on is not None and self._on[0] != state:
+            left = self._on[2] + self._min_s(self._on[0]) - self._core.getTime()
+            if left > 0:
+                self._core.wait(left, hogCPUperiod=0)
+        self._state, self._main_text = state, text
+        self._draw()
+
+    def _draw(self) -> float:
+        """Draw the current text and flip; log a new text's first frame; return the flip time."""
         self._stim.text = self._main_text
-        self._footer.text = self._progress_text
         self._stim.draw()
-        self._footer.draw()
-        self.win.flip()
+        t = self.win.flip()
+        t = float(t) if t is not None else self._core.getTime()
+        if self._on is None or self._on[0] != self._state:
+            self._log_off(t)
+            self._on = (self._state, self._main_text, t)
+            self.log("text_on", state=self._state, text=self._main_text, flip_s=round(t, 4))
+        return t
+
+    def _log_off(self, t: float | None = None) -> None:
+        """Log that the text on screen left it (at flip time ``t``)."""
+        if self._on is None:
+            return
+        if t is None:
+            t = self._core.getTime()
+        state, text, t_on = self._on
+        self._on = None
+        self.log("text_off", state=state, flip_s=round(t, 4), shown_s=round(t - t_on, 4))
 
     def _wait(self, keys: list[str]):
         """Wait for one of ``keys`` (or escape); return the key press.
@@ -156,23 +210,53 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
 
     # -- the Responder interface -------------------------------------------------------------
     def show_text(self, text: str) -> None:
-        self._main_text = text
-        self._draw()
+        state = "finished" if text == TEXTS["finished"] else "text"
+        self._show(state, text)
+
+    def show_instructions(self, text: str, min_s: float = 0.0, until_key: bool = False) -> None:
+        """The block's instructions: up at least ``min_s`` s, then (``until_key``) until space."""
+        self._show("instructions", text)
+        t_on = self._on[2]
+        left = t_on + min_s - self._core.getTime()
+        if left > 0:
+            self._core.wait(left, hogCPUperiod=0)
+        if until_key:
+            self._state = "instructions"
+            self._main_text = f"{text}\n\n{TEXTS['instructions_key']}"
+            self.kb.clearEvents()
+            self.win.callOnFlip(self.kb.clock.reset)
+            self._draw()
+            self._wait(_CONFIRM_KEYS)
+
+    def please_wait(self) -> None:
+        if self._label is None:
+            self._show("please_wait", TEXTS["please_wait"])
+
+    def show_label(self, text: str | None) -> None:
+        self._label = text
+        if text:
+            self._show("label", text)
+
+    def feedback(self, text: str, seconds: float = 0.0) -> None:
+        self._show("feedback", text)
+        if seconds > 0:
+            self._core.wait(seconds, hogCPUperiod=0)
 
     def progress(self, text: str) -> None:
-        self._progress_text = text
-        self._draw()
+        """The experimenter's line: never drawn in the participant's window."""
 
     def prompt_experimenter(self, text: str) -> None:
-        self._main_text = f"{text}\n\n(experimenter: press space when ready)"
+        """Wait for the experimenter's space (the window keeps saying "please wait")."""
+        if self._state != "please_wait":
+            self._show("please_wait", TEXTS["please_wait"])
         self.kb.clearEvents()
         self.win.callOnFlip(self.kb.clock.reset)
         self._draw()
         self._wait(_CONFIRM_KEYS)
 
     def cue(self) -> bool:
-        self._main_text = "Touch now"
-        self._draw()
+        # A familiarisation label stays up with the cue for the whole touch.
+        self._show("cue", TEXTS["cue"] if not self._label else f"{self._label}\n\n{TEXTS['cue']}")
         if self._sound is None:
             self.log("cue_unavailable", reason="no audio device")
             return False
@@ -190,17 +274,46 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         end = time.monotonic() + seconds
         self.kb.clearEvents()
         while (left := end - time.monotonic()) > 0:
+            self._state = "rewarm"
             self._main_text = f"Rewarm your finger on the hot-water bag\n\n{left:.0f} s"
             self._draw()
             if self.kb.getKeys(keyList=_QUIT_KEYS, waitRelease=False):
                 raise ResponderClosed("escape pressed in the PsychoPy window")
             self._core.wait(min(0.25, left), hogCPUperiod=0)
 
-    def respond(self, trial, stimulus) -> Response:
+    def _ask(self, wait: bool = True) -> None:
         choices = [str(i) for i in RESPONSE_IDS]
-        self._main_text = f"Which roughness? Press {', '.join(choices)}"
+        # rt_s runs from the first frame showing the question: the keyboard clock is reset
+        # by that flip (keys pressed before it have rt < 0 and are ignored).
         self.kb.clearEvents()
-        self.win.callOnFlip(self.kb.clock.reset)  # rt_s from the flip showing the question
-        self._draw()
-        key = self._wait(choices)
+        self.win.callOnFlip(self.kb.clock.reset)
+        self._show("question", TEXTS["question"].format(choices=", ".join(choices)), wait=wait)
+
+    def begin_answer(self, trial) -> None:
+        """The question from the moment of contact (the trace is still being recorded)."""
+        self._early = None
+        self._ask(wait=False)      # runs in the telemetry loop: never wait here
+        self._asked = trial.trial_index
+        self.log("awaiting_key", keys=[str(i) for i in RESPONSE_IDS], during_contact=True)
+
+    def poll_answer(self, trial):
+        if getattr(self, "_asked", None) != trial.trial_index:
+            return None
+        if getattr(self, "_early", None) is None:
+            keys = [str(i) for i in RESPONSE_IDS]
+            for key in self.kb.getKeys(keyList=keys + _QUIT_KEYS, waitRelease=True):
+                if key.rt is not None and key.rt >= 0 and key.name in keys:
+                    self._early = Response(int(key.name), float(key.rt),
+                                           source=f"keyboard:{self.keyboard_backend}")
+                    break
+        return self._early
+
+    def respond(self, trial, stimulus) -> Response:
+        early = self.poll_answer(trial)
+        asked, self._asked = getattr(self, "_asked", None) == trial.trial_index, None
+        if early is not None:
+            return early
+        if not asked:
+            self._ask()
+        key = self._wait([str(i) for i in RESPONSE_IDS])
         return Response(int(key.name), float(key.rt), source=f"keyboard:{self.keyboard_backend}")

@@ -274,3 +274,16 @@ def test_bad_simulation_fields_name_file_and_field(tmp_path, old, new, message):
     msg = str(ei.value)
     assert "\n" not in msg
     assert msg.startswith(f"{path}: {message}"), msg
+
+
+def test_presentation_table_defaults_and_values(tmp_path):
+    from experiments.protocol import Presentation
+    assert load_protocol("roughness_recognition").presentation == Presentation()
+    p = variant(tmp_path, "[schedule]", "[presentation]\ninstructions_key = false\n"
+                "instructions_min_s = 5.0\ntext_min_s = 0.5\nanswer_during_contact = true\n\n[schedule]")
+    shown = load_protocol(p).presentation
+    assert (shown.instructions_key, shown.instructions_min_s, shown.text_min_s,
+            shown.answer_during_contact) == (False, 5.0, 0.5, True)
+    bad = variant(tmp_path, "[schedule]", "[presentation]\ntext_min_s = -1\n\n[schedule]", name="bad.toml")
+    with pytest.raises(ProtocolError, match=r"bad\.toml: presentation\.text_min_s: expected a number ≥ 0"):
+        load_protocol(bad)

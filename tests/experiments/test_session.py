@@ -335,7 +335,8 @@ def test_simulated_profile_uses_the_calibrated_resistance_and_the_protocols_side
     assert abs(y[0] - mat.temperature[0]) > 1.0     # 12.5 µm: the pad starts > 1 K warmer
     sim = [r for r in rows(s.directory / "trials.csv") if r["mode"] == "simulated"]
     assert sim[0]["target_side"] == "compensated"
-    assert float(sim[0]["pad_resistance_m2K_W"]) == pytest.approx(r_pad, rel=1e-12)
+    # trials.csv gives modelled resistances to 4 significant digits (the event log in full)
+    assert sim[0]["pad_resistance_m2K_W"] == f"{r_pad:.4g}"
     assert float(sim[0]["profile_resistance_m2K_W"]) == 1.2e-3
     assert sim[0]["profile_resistance_source"] == "calibration"
 
@@ -368,7 +369,8 @@ def test_slew_rate_limit_slows_a_fast_compensated_profile_and_logs_the_change(tm
     ev, = [e for e in read_json_lines(s.directory / "events.jsonl") if e["event"] == "profile_uploaded"]
     assert 0.05 < ev["rate_limited_max_change_C"] < 0.5
     row, = [r for r in rows(s.directory / "trials.csv") if r["mode"] == "simulated"]
-    assert float(row["rate_limited_max_change_C"]) == ev["rate_limited_max_change_C"]
+    # trials.csv: to the display's resolution (3 decimals); the event log in full
+    assert float(row["rate_limited_max_change_C"]) == round(ev["rate_limited_max_change_C"], 3)
 
 
 def test_a_compensated_profile_the_pad_cannot_give_names_protocol_and_field(tmp_path):

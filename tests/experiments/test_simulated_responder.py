@@ -243,7 +243,7 @@ def test_finger_stays_on_for_the_whole_recording_of_an_exp1_session(tmp_path):
             trace = list(csv.DictReader(fh))
         t = np.array([float(f["time_s"]) for f in trace])
         force = np.array([sum(float(f[f"force{k}_N"]) for k in range(1, 5)) for f in trace])
-        contact = float(row["contact_time_s"])
+        contact = float(row["contact_onset_s"])
         touching = t >= contact
         assert t[-1] - contact >= record_s - 0.02, (row["trace_file"], t[-1] - contact)
         assert np.all(force[touching] >= threshold_N), row["trace_file"]   # never let go early

@@ -107,8 +107,8 @@ def test_brief_example_message_exactly(tmp_path):
     ({"skin_thickness__epidermis_um": 800}, "skin_thickness.epidermis_um", "expected less than total_um (700), got 800"),
     ({"skin_thickness__dermis_um": 100}, "skin_thickness",
      "expected epidermis_um + dermis_um to equal total_um (700) within 25%, got 400"),
-    ({"calibration": {"contact_resistance_m2K_W": {"1#": -1e-4}}},
-     "calibration.contact_resistance_m2K_W.1#", "expected a number ≥ 0, got -0.0001"),
+    ({"calibration": {"contact_resistance_m2K_W": {"1.6": -1e-4}}},
+     "calibration.contact_resistance_m2K_W.1.6", "expected a number ≥ 0, got -0.0001"),
 ])
 def test_bad_field_gives_one_line_naming_file_and_field(tmp_path, change, field, fragment):
     path = write(tmp_path, changed(**change))
@@ -150,7 +150,7 @@ def test_not_an_object(tmp_path):
 def test_calibration_block_is_permissive():
     rec = changed(calibration={
         "method": "fit", "date": "2026-11-21", "skin_thickness_um": 690,
-        "contact_resistance_m2K_W": {"1#": 2e-4, "2#": 3e-4, "3#": 7e-4, "4#": 1.2e-3},
+        "contact_resistance_m2K_W": {"1.6": 2e-4, "12.5": 3e-4, "50": 7e-4, "100": 1.2e-3},
         "intervals": {"skin_thickness_um": [650, 730]}, "residual_rms_C": 0.05, "software": "x"})
     assert validate_participant(rec) is rec
 

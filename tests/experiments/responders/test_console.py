@@ -38,7 +38,18 @@ def test_prompt_waits_for_enter():
     r = ConsoleResponder(stdin=stdin, stdout=out)
     r.prompt_experimenter("place sample 2#")
     assert stdin.tell() == 1                       # exactly the confirmation line was read
-    assert "[experimenter] place sample 2#" in out.getvalue()
+    # The console is the participant's terminal: the sample to place is the experimenter's
+    # (the session prints it on stderr), never printed here (issue 10: it leaked the answer).
+    assert out.getvalue() == "Please wait (experimenter: press Enter when ready)\n"
+
+
+def test_feedback_and_label_are_printed_for_the_participant():
+    out = io.StringIO()
+    r = ConsoleResponder(stdin=io.StringIO(""), stdout=out)
+    r.show_label("This is sample 2#")
+    r.feedback("Correct: it was sample 2#")
+    r.show_label(None)
+    assert out.getvalue() == "This is sample 2#\nCorrect: it was sample 2#\n"
 
 
 @pytest.fixture

@@ -1,0 +1,95 @@
+"""An explicit session-inclusion policy (issue 10, item 6): on the old code a participant's
+repeated and interrupted sessions were all pooled, unflagged."""
+from __future__ import annotations
+
+import json
+import re
+from importlib.resources import files
+from pathlib import Path
+
+import pytest
+
+from analysis.load import load_trials
+from analysis.report import _sessions_markdown
+from experiments.responders.base import Responder, ResponderClosed, Response
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class Answers(Responder, name="answers-until-test"):
+    human = False
+
+    def __init__(self, stop_at=None):
+        super().__init__()
+        self.stop_at = stop_at
+
+    def respond(self, trial, stimulus):
+        if self.stop_at is not None and trial.trial_index >= self.stop_at:
+            raise ResponderClosed("the participant left")
+        return Response(trial.roughness_id, 0.4, source="test")
+
+
+def _protocol(folder: Path) -> Path:
+    text = (files("experiments") / "protocols" / "roughness_recognition.toml").read_text("utf-8")
+    for key in ("max_contact_s", "record_s", "duration_s"):
+        text = re.sub(rf"^{key} = 20\.0", f"{key} = 0.5", text, flags=re.M)
+    text = re.sub(r"^repetitions = 3", "repetitions = 1", text, flags=re.M)
+    path = folder / "short.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    from experiments.session import create_session
+    tmp = tmp_path_factory.mktemp("sessions")
+    proto = _protocol(tmp)
+    record = json.loads((ROOT / "participants" / "examples" / "P02.json").read_text())
+    record["initial_skin_temperature_C"] = 31.0       # a cold finger: every trial out of range
+    (tmp / "P02.json").write_text(json.dumps(record))
+    data = tmp / "data"
+    plan = [(ROOT / "participants" / "examples" / "P01.json", None),
+            (ROOT / "participants" / "examples" / "P01.json", None),
+            (tmp / "P02.json", 7), (tmp / "P02.json", None)]
+    for i, (record_path, stop_at) in enumerate(plan):
+        s = create_session(proto, record_path, data, "emulator://?clock=virtual&seed=1", seed=i,
+                           responder_name="answers-until-test", clock="virtual", progress=False)
+        assert s.run(Answers(stop_at)) == (1 if stop_at else 0)
+    return data
+
+
+def _table(log):
+    return {(r.participant, r.session): (r.analysed, r.reason) for r in log.sessions.itertuples()}
+
+
+def test_first_complete_session_per_participant_by_default(data):
+    log = load_trials(data)
+    assert _table(log) == {
+        ("P01", "S01"): (True, "analysed: the first complete session of P01"),
+        ("P01", "S02"): (False, "repeated session: P01's first complete session is S01"),
+        ("P02", "S01"): (False, "incomplete: 6 of 12 trials"),
+        ("P02", "S02"): (True, "analysed: the first complete session of P02"),
+    }
+    used = log.analysable.groupby(["participant", "session"]).size().to_dict()
+    assert used == {("P01", "S01"): 8, ("P02", "S02"): 8}
+    t = log.trials
+    assert (t.loc[t["session"].eq("S02") & t["participant"].eq("P01"), "exclusion"]
+            == "session not analysed").all()
+
+
+def test_latest_and_all(data):
+    assert {k for k, v in _table(load_trials(data, sessions="latest")).items() if v[0]} == \
+        {("P01", "S02"), ("P02", "S02")}
+    log = load_trials(data, sessions="all")
+    assert all(v[0] for v in _table(log).values())
+    assert _table(log)[("P02", "S01")][1] == "analysed (--sessions all); incomplete: 6 of 12 trials"
+    assert len(log.analysable) == 8 * 3 + 2
+
+
+def test_the_report_lists_every_session_and_the_cold_trials(data):
+    text = "\n".join(_sessions_markdown(load_trials(data)))
+    assert "Inclusion policy (`--sessions first`): each participant's first complete session." in text
+    assert "| P02 | S01 | no | 6 | 12 | no | incomplete: 6 of 12 trials |" in text
+    assert "| P01 | S02 | yes | 12 | 12 | no | repeated session: P01's first complete session is S01 |" in text
+    cold = re.search(r"(\d+) trial\(s\) were run with the fingertip outside", text)
+    assert cold and int(cold.group(1)) == 6 + 12      # every P02 trial, both sessions
