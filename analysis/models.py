@@ -300,10 +300,14 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     pandas.DataFrame
         ``model, mode, roughness_id, log_odds_ratio_A_vs_B, se, ci_low, ci_high,
         odds_ratio_A_vs_B, p_value, p_correct_A, p_correct_B,
-        difference_A_minus_B, difference_low, difference_high, basis`` (probabilities
-        are fractions 0–1; GEE probabilities are population averages). One row
+        difference_A_minus_B, difference_low, difference_high, basis, compares``
+        (probabilities are fractions 0–1; GEE probabilities are population averages,
+        GLMM ones those of a typical participant). ``compares`` says in words what
+        each row compares. One row
         per mode × roughness, then one per mode averaged over roughness
-        (``roughness_id`` 0: the mean log odds over the four samples).
+        (``roughness_id`` 0: the mean log odds over the four samples; its
+        ``p_correct_A/B`` are the mean of the four samples' probabilities, so
+        ``difference_A_minus_B`` is a difference of mean proportions).
         Empty if the model has no group term. ``basis`` says where a row comes
         from: the fitted model, or -- when the fitted formula has no group ×
         roughness term (a fallback after separation) -- a GEE of that sample's
@@ -318,14 +322,12 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     the probability difference uses the delta method with gradient
     :math:`p_A(1-p_A)x_A - p_B(1-p_B)x_B`.
     """
-    columns = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low", "ci_high",
-               "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
-               "difference_A_minus_B", "difference_low", "difference_high", "basis"]
+    columns = CONTRAST_COLUMNS
     if fit.formula is None or "group" not in fit.formula:
-        return pd.DataFrame(columns=columns)
+        return pd.DataFrame(columns=columns + ["compares"])
     data = model_data(trials)
     if set(data["group"]) != {"A", "B"}:
-        return pd.DataFrame(columns=columns)
+        return pd.DataFrame(columns=columns + ["compares"])
     z = stats.norm.ppf(0.5 + level / 2)
     beta, cov = fit.params, fit.cov
     rows = []
@@ -345,19 +347,43 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                                  "mode": mode, "roughness_id": list(levels) * 2,
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
-            xa, xb = x[: len(levels)].mean(axis=0), x[len(levels):].mean(axis=0)
-            rows.append([fit.kind, mode, label, *_contrast(xa, xb, beta, cov, z),
+            rows.append([fit.kind, mode, label,
+                         *_contrast(x[: len(levels)], x[len(levels):], beta, cov, z),
                          f"model: {fit.formula}"])
-    return pd.DataFrame(rows, columns=columns)
+    out = pd.DataFrame(rows, columns=columns)
+    out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
+    return out
+
+
+#: Columns of :func:`group_contrasts`.
+CONTRAST_COLUMNS = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low",
+                    "ci_high", "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
+                    "difference_A_minus_B", "difference_low", "difference_high", "basis"]
+
+
+def _compares(mode: str, roughness_id: int, kind: str) -> str:
+    scale = ("population-averaged" if kind == "gee" else "for a typical participant (u = 0)")
+    if roughness_id == 0:
+        return (f"group A - group B, {mode} samples: mean over 1#-4# of the log odds "
+                f"(log odds ratio); difference of the mean {scale} proportions correct")
+    return (f"group A - group B, {mode} sample {roughness_id}#: log odds ratio; "
+            f"difference of {scale} proportions correct")
 
 
 def _contrast(xa, xb, beta, cov, z) -> list:
-    """Group A (design row ``xa``) vs B (``xb``): log odds ratio, its SE, interval, odds ratio,
-    p-value, both probabilities and their difference with a delta-method interval."""
-    diff = xa - xb
+    """Group A vs B: log odds ratio, its SE, interval, odds ratio, p-value, both probabilities
+    and their difference with a delta-method interval.
+
+    ``xa``, ``xb`` are design rows (1-D) or matrices with one row per sample to average over:
+    the log odds ratio is that of the mean log odds, the probabilities are the mean of the
+    samples' probabilities (a difference of mean proportions, not of expit(mean log odds)).
+    """
+    xa, xb = np.atleast_2d(xa), np.atleast_2d(xb)
+    diff = xa.mean(axis=0) - xb.mean(axis=0)
     est, se = float(diff @ beta), float(np.sqrt(diff @ cov @ diff))
-    pa, pb = float(special.expit(xa @ beta)), float(special.expit(xb @ beta))
-    grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
+    qa, qb = special.expit(xa @ beta), special.expit(xb @ beta)
+    pa, pb = float(qa.mean()), float(qb.mean())
+    grad = (qa * (1 - qa)) @ xa / len(xa) - (qb * (1 - qb)) @ xb / len(xb)
     dse = float(np.sqrt(grad @ cov @ grad))
     return [est, se, est - z * se, est + z * se, np.exp(est),
             2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
