@@ -199,18 +199,24 @@ def cell_counts(trials: pd.DataFrame) -> pd.DataFrame:
 def codebook(files: dict) -> dict:
     """The codebook of the CSVs in ``files`` (name -> Path): every column's unit and meaning.
 
-    Columns named ``p_<mode>_<r>`` (the wide table) are described by pattern.
+    Columns named ``p_<mode>_<r>`` (the wide table) and ``proportion_correct_r<r>``
+    (participants.csv) are described by pattern.
     """
     book = {}
     for path in files.values():
         path = Path(path)
         if path.suffix != ".csv":
             continue
-        columns = pd.read_csv(path, nrows=0).columns
+        try:
+            columns = pd.read_csv(path, nrows=0).columns
+        except pd.errors.EmptyDataError:          # a table with no columns (model not fitted)
+            columns = []
         entry = {}
         for c in columns:
             if c in COLUMNS:
                 unit, meaning = COLUMNS[c]
+            elif c.startswith("proportion_correct_r") and c[20:].isdigit():
+                unit, meaning = _F, f"participant's proportion correct on sample {c[20:]}#"
             elif c.startswith("p_") and c.count("_") >= 2:
                 _, mode, which = c.split("_", 2)
                 unit, meaning = _F, (f"participant's proportion correct, {mode} samples, "
