@@ -32,7 +32,7 @@ from scipy import special, stats
 from .models import ModelFit, _has_group_by_roughness, model_data
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",
-           "CHANCE"]
+           "averaged_contrast", "CHANCE"]
 
 #: Chance level of a four-alternative identification.
 CHANCE = 0.25
@@ -81,6 +81,27 @@ def primary_test(contrasts: pd.DataFrame) -> pd.Series | None:
     row = contrasts[(contrasts["model"] == "gee") & (contrasts["mode"] == "real")
                     & (contrasts["roughness_id"] == 0)]
     return None if row.empty else row.iloc[0]
+
+
+def averaged_contrast(fit: ModelFit, mode: str = "real", samples=(1, 2, 3, 4),
+                      level: float = 0.95) -> dict | None:
+    """The primary test's contrast straight from a fit: A - B in ``mode``, averaged over samples.
+
+    The same computation as :func:`analysis.group_contrasts`' ``roughness_id`` 0 row (used by
+    :func:`analysis.power_curve`, which needs only this row).
+
+    Returns
+    -------
+    dict or None
+        ``log_odds_ratio, se, p_value, difference`` (None without a group term).
+    """
+    from .models import _contrast
+    if fit.formula is None or "group" not in fit.formula:
+        return None
+    z = stats.norm.ppf(0.5 + level / 2)
+    xa, xb = _rows(fit, ["A"], [mode], samples), _rows(fit, ["B"], [mode], samples)
+    v = _contrast(xa, xb, fit.params, fit.cov, z)
+    return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8]}
 
 
 def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
