@@ -243,24 +243,43 @@ def _hessian_fd(theta, data, n_agq):
     return hess
 
 
-def _profile_sigma(data, theta, dev_min, n_agq, level):
-    """Profile-likelihood interval of sigma: where the deviance has risen by chi2_1(level)."""
+def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan):
+    """Profile-likelihood interval of sigma: where the deviance has risen by chi2_1(level).
+
+    Each profile point re-maximises over the fixed effects (warm-started from the nearest
+    point already computed); the ends are found by Brent's method, bracketed first by the
+    Wald interval on log sigma.
+    """
     cut = stats.chi2.ppf(level, 1)
-    sigma_hat, beta_hat = theta[-1], theta[:-1]
+    sigma_hat, beta_hat = float(theta[-1]), theta[:-1]
+    done: dict = {}
 
     def excess(s):
-        res = _minimise(data, beta_hat, n_agq, fixed_sigma=s)
-        return res.fun - dev_min - cut
+        s = float(s)
+        if s not in done:
+            near = min(done, key=lambda v: abs(v - s)) if done else None
+            start = done[near][1] if near is not None else beta_hat
+            res = _minimise(data, start, n_agq, fixed_sigma=s)
+            done[s] = (res.fun - dev_min - cut, res.x)
+        return done[s][0]
 
+    z = stats.norm.ppf(0.5 + level / 2)
+    spread = np.exp(z * se_sigma / sigma_hat) if sigma_hat > 1e-6 and np.isfinite(se_sigma) \
+        else 2.0
+    spread = min(max(spread, 1.2), 10.0)
     if sigma_hat <= 1e-6 or excess(0.0) <= 0:
         low = 0.0
     else:
-        low = optimize.brentq(excess, 0.0, sigma_hat, xtol=1e-4)
-    hi_try = max(2 * sigma_hat, 0.5)
+        lo_try = sigma_hat / spread
+        while excess(lo_try) < 0 and lo_try > 1e-3:
+            lo_try /= 2
+        low = 0.0 if excess(lo_try) < 0 else \
+            optimize.brentq(excess, lo_try, sigma_hat, xtol=2e-5, rtol=1e-6)
+    hi_try = max(sigma_hat * spread, 0.3)
     while excess(hi_try) < 0 and hi_try < _SIGMA_MAX:
-        hi_try *= 2
-    high = optimize.brentq(excess, sigma_hat, min(hi_try, _SIGMA_MAX), xtol=1e-4) \
-        if excess(min(hi_try, _SIGMA_MAX)) > 0 else np.inf
+        hi_try = min(2 * hi_try, _SIGMA_MAX)
+    high = optimize.brentq(excess, sigma_hat, hi_try, xtol=2e-5, rtol=1e-6) \
+        if excess(hi_try) > 0 else np.inf
     return low, high
 
 
@@ -332,7 +351,8 @@ def fit_glmm(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.9
         sigma = float(theta[-1])
         if profile:
             with np.errstate(all="ignore"):
-                low, high = _profile_sigma(data, theta, res.fun, n_agq, level)
+                low, high = _profile_sigma(data, theta, res.fun, n_agq, level,
+                                           np.sqrt(cov_full[-1, -1]))
             how = "profile likelihood"
         else:
             sd_log = np.sqrt(cov_full[-1, -1]) / max(sigma, 1e-12)
