@@ -27,14 +27,20 @@ def effect_cells():
     return cells
 
 
-def generate(cells, *, n_a=13, n_b=17, reps=3, sigma=0.8, missing=0.03, seed=0) -> pd.DataFrame:
-    """Analysable trials of one simulated study (columns as ``TrialLog.analysable``)."""
+def generate(cells, *, n_a=13, n_b=17, reps=3, sigma=0.8, missing=0.03, seed=0,
+             slope_sd=0.0) -> pd.DataFrame:
+    """Analysable trials of one simulated study (columns as ``TrialLog.analysable``).
+
+    ``slope_sd`` > 0 adds a participant effect of simulated vs real samples,
+    ``N(0, slope_sd²)``, independent of the intercept.
+    """
     rng = np.random.default_rng(seed)
     rows = []
     for group, n in (("A", n_a), ("B", n_b)):
         for i in range(n):
             pid = f"{group}{i:02d}"
             u = rng.normal(0.0, sigma)
+            u_sim = rng.normal(0.0, slope_sd) if slope_sd > 0 else 0.0
             thickness = rng.uniform(600, 750) if group == "A" else rng.uniform(900, 1200)
             index = 0
             for mode in ("real", "simulated"):
@@ -44,7 +50,9 @@ def generate(cells, *, n_a=13, n_b=17, reps=3, sigma=0.8, missing=0.03, seed=0) 
                     index += 1
                     if rng.random() < missing:
                         continue
-                    p = 1 / (1 + np.exp(-(np.log(cells[(group, mode, r)] / (1 - cells[(group, mode, r)])) + u)))
+                    q = cells[(group, mode, r)]
+                    shift = u + (u_sim if mode == "simulated" else 0.0)
+                    p = 1 / (1 + np.exp(-(np.log(q / (1 - q)) + shift)))
                     correct = rng.random() < p
                     if correct:
                         response = r
