@@ -88,8 +88,9 @@ COLUMNS = {
     "q75_rt_s": ("s", "third quartile of response time"),
     # models
     "term": (_C, "model term (patsy name; treatment coding: group A, real, 1# are the reference)"),
-    "log_odds": (_L, "estimate on the log-odds scale (participant_sd: SD of the random "
-                     "intercepts, log odds; icc_latent: fraction 0-1)"),
+    "log_odds": (_L, "estimate on the log-odds scale (participant_sd, sd_*: SDs of the random "
+                     "effects, log odds; icc_latent: fraction 0-1; corr_*: correlation; "
+                     "lrt_slope: likelihood-ratio statistic)"),
     "se": (_L, "standard error of the estimate"),
     "z": ("ratio", "estimate / se"),
     "p_value": (_P, "two-sided p-value, unadjusted"),

@@ -36,6 +36,7 @@ import warnings
 import numpy as np
 import pandas as pd
 from scipy import optimize, special, stats
+from threadpoolctl import threadpool_limits
 
 from .errors import ModelWarning
 from .glmm import GLMMData, _fd_gradient
@@ -88,8 +89,9 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq):
     nodes = b[:, None, :] + np.sqrt(2.0) * np.einsum("mab,qb->mqa", linv_t, tt)
     eta_q = x_eta[:, None] + np.einsum("rk,rqk->rq", zt, nodes[person])
     ll_rows = k[:, None] * eta_q - n[:, None] * np.logaddexp(0.0, eta_q)
-    ll = np.zeros((m, len(ww)))
-    np.add.at(ll, person, ll_rows)
+    onehot = np.zeros((m, len(person)))
+    onehot[person, np.arange(len(person))] = 1.0
+    ll = onehot @ ll_rows
     log_terms = ll - 0.5 * np.sum(nodes ** 2, axis=2) + np.sum(tt ** 2, axis=1)[None, :] \
         + np.log(ww)[None, :]
     log_det_l = np.log(chol[:, 0, 0]) + np.log(chol[:, 1, 1])
@@ -148,7 +150,7 @@ def _hessian(theta, data, z, n_agq):
 
 
 def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-                   n_agq: int = 5, intercept_loglik: float | None = None) -> ModelFit:
+                   n_agq: int = 5, intercept_fit: ModelFit | None = None) -> ModelFit:
     """Mixed logit with participant random intercepts and random mode slopes (ML).
 
     Parameters
@@ -161,19 +163,28 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
         Confidence level of the fixed effects' Wald intervals.
     n_agq : int
         Gauss-Hermite nodes per axis (1 = Laplace, as lme4 for vector random effects).
-    intercept_loglik : float, optional
-        Log-likelihood of the intercept-only model with the same fixed effects (from
-        :func:`analysis.glmm.fit_glmm`); gives the likelihood-ratio test of the slope.
+    intercept_fit : ModelFit, optional
+        The intercept-only model (:func:`analysis.glmm.fit_glmm`); when its fixed effects
+        are the same as this fit's, gives the likelihood-ratio test of the slope.
 
     Returns
     -------
     ModelFit
         ``kind`` ``"glmm-slope"``; ``table``: fixed effects (Wald) then
         ``sd_intercept``, ``sd_mode_slope``, ``corr_intercept_slope`` (point
-        estimates) and, with ``intercept_loglik``, ``lrt_slope`` (statistic in
+        estimates) and, with ``intercept_fit``, ``lrt_slope`` (statistic in
         ``log_odds``, mixture p-value in ``p_value``); ``result`` holds the
         convergence details.
     """
+    # one BLAS thread: L-BFGS-B's small BLAS calls spin threads, 10x slower on a busy machine
+    with threadpool_limits(1):
+        return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq, intercept_fit=intercept_fit)
+
+
+def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
+                   n_agq: int = 5, intercept_fit: ModelFit | None = None) -> ModelFit:
+    """See the public function."""
+
     data_t = model_data(trials)
     notes: list = []
     columns = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
@@ -237,8 +248,8 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
             table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, np.nan, np.nan,
                                      "point estimate"]
         loglik = float(-res.fun / 2)
-        if intercept_loglik is not None:
-            lrt = max(0.0, 2 * (loglik - intercept_loglik))
+        if intercept_fit is not None and intercept_fit.formula == candidate:
+            lrt = max(0.0, 2 * (loglik - intercept_fit.result["log_likelihood"]))
             pv = 0.5 * stats.chi2.sf(lrt, 1) + 0.5 * stats.chi2.sf(lrt, 2)
             table.loc[len(table)] = ["lrt_slope", lrt, np.nan, np.nan, pv, np.nan, np.nan,
                                      "LR test vs intercept only, 50:50 chi2(1)/chi2(2)"]

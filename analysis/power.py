@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy import special, stats
+from threadpoolctl import threadpool_limits
 
 from .errors import LogError
 from .proportions import wilson_interval
@@ -279,6 +280,7 @@ def _gee_primary(trials, mode, alpha, samples):
     return bool(row["p_value"] < alpha), row["log_odds_ratio"], fallback
 
 
+@threadpool_limits.wrap(limits=1)   # small BLAS calls per cohort: threads only spin
 def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: int = 400,
                 repetitions: int = 3, participant_sd: float = 0.5, mode: str = "real",
                 alpha: float = 0.05, test: str = "gee", cells_scale: str = "conditional",
