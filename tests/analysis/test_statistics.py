@@ -112,3 +112,32 @@ def test_ordinal_slope_is_positive_when_answers_follow_the_order():
     assert (table["spearman_pooled"] > 0.3).all() and (table["po_ci_low"] > 0).all()
     shuffled = trials.assign(response_id=np.random.default_rng(1).permutation(trials["response_id"]))
     assert (ordinal_table(shuffled)["spearman_pooled"].abs() < 0.2).all()
+
+
+def test_summary_names_only_holm_adjusted_results():
+    from analysis.report import _tests_summary
+    def table(p_holm):
+        rows = [{"role": "per-sample", "model": "gee", "p_value": 0.02, "p_holm": p_holm,
+                 "compares": "group A - group B, real sample 2#: log odds ratio", "basis": "model"}]
+        rows += [{"role": "per-sample", "model": "gee", "p_value": 0.5, "p_holm": 1.0,
+                  "compares": f"group A - group B, real sample {r}#: log odds ratio",
+                  "basis": "model"} for r in (1, 3, 4)]
+        return pd.DataFrame(rows)
+    text = " ".join(_tests_summary(pd.DataFrame(), table(0.08)))
+    assert "no single sample shows a group difference" in text and "2#" not in text
+    text = " ".join(_tests_summary(pd.DataFrame(), table(0.03)))
+    assert "remains for: group A - group B, real sample 2# (adjusted p = 0.030)" in text
+
+
+def test_cli_bayes_is_opt_in_and_the_mixed_model_can_be_skipped(study, tmp_path):
+    from experiments.cli import main
+    data, _ = study(n_per_group=5, sigma=0.5, seed=63, write_events=False)
+    assert main(["analyze", str(data), "--out", str(tmp_path / "a"), "--bootstrap", "50",
+                 "--bayes-vb"]) == 0
+    report = (tmp_path / "a" / "report.md").read_text()
+    assert (tmp_path / "a" / "bayes.csv").exists() and "comparison only" in report
+    assert "## Mixed logit" in report and "(1 + mode | participant)" in report
+    assert main(["analyze", str(data), "--out", str(tmp_path / "b"), "--bootstrap", "50",
+                 "--no-mixed"]) == 0
+    report = (tmp_path / "b" / "report.md").read_text()
+    assert not (tmp_path / "b" / "bayes.csv").exists() and "## Mixed logit" not in report
