@@ -508,7 +508,10 @@ def _report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, see
         _md_table(props.drop(columns=["boot_se"])), "",
         "## GEE: logit, participant clusters, exchangeable, bias-reduced covariance", "",
         f"Formula: `{r.gee.formula}`" + (f" (requested `{r.gee.requested}`)" if r.gee.simplified
-                                          else ""), "",
+                                          else "")
+        + ". Treatment coding: each coefficient is relative to group A, real samples, 1#; "
+          "`group[T.B]` is group B - A with real sample 1# only. The group comparisons the "
+          "paper asks about are the contrasts and named tests below.", "",
         _md_table(r.gee.table) if not r.gee.table.empty else "_not estimable_", "",
         *_statistics_sections(r, pct),
         "## Confusion matrices", "", "![confusion](confusion.png)", "",
