@@ -160,6 +160,8 @@ COLUMNS = {
     "alpha": (_P, "two-sided significance level"),
     "missing_rate": (_F, "share of scheduled trials dropped at random"),
     "fallbacks": (_F, "share of cohorts fitted with a fallback formula"),
+    "cells_scale": (_C, "conditional: cells are a typical participant's; marginal: population "
+                        "averages converted to a typical participant's"),
     "p_correct": (_P, "probability of a correct answer for a typical participant (u = 0)"),
 }
 

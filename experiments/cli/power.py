@@ -129,6 +129,10 @@ def _run(ns) -> int:
     (out / "power_summary.json").write_text(json.dumps(
         {**result.settings, "cells_source": source, "n_per_group_grid": [
             list(s) if isinstance(s, tuple) else s for s in sizes]}, indent=2), "utf-8")
+    from analysis.exports import codebook
+    (out / "codebook.json").write_text(json.dumps(codebook(
+        {"power": out / "power.csv", "cells": out / "cells.csv"}), indent=2, ensure_ascii=False),
+        "utf-8")
     plot_power(result, out / "power.png")
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
     print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))

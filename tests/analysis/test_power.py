@@ -85,6 +85,9 @@ def test_cli_power_with_cells_file(tmp_path, capsys):
     assert (table["alpha"] == 0.05).all() and (table["cells_scale"] == "marginal").all()
     summary = json.loads((out / "power_summary.json").read_text())
     assert {"n_for_80", "n_for_90", "test_description", "cells_source"} <= set(summary)
+    from analysis.exports import check_codebook
+    book = json.loads((out / "codebook.json").read_text())
+    assert set(book) == {"power.csv", "cells.csv"} and check_codebook(book) == []
     assert (out / "power.png").stat().st_size > 10_000
     err = capsys.readouterr().err
     assert "n = 5 per group" in err and "n = 15 per group" in err
