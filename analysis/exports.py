@@ -116,7 +116,7 @@ COLUMNS = {
     "test": (_C, "name of the test"),
     "role": (_C, "primary, omnibus, per-sample, interaction"),
     "hypothesis": (_C, "null hypothesis in words"),
-    "statistic": ("see test", "test statistic (z or chi2)"),
+    "statistic": ("see test", "test statistic (z, or F for the omnibus test)"),
     "df": (_N, "degrees of freedom"),
     "estimate": ("see compares", "estimate of the compared quantity (log odds unless stated)"),
     "difference": (_F, "the compared quantity as a difference of proportions"),

@@ -4,8 +4,11 @@
   samples, averaged over the four samples (mean log odds), from the GEE
   (population-averaged; bias-reduced sandwich covariance), two-sided Wald.
 - **Omnibus test** before any per-sample test: all per-sample A - B log odds
-  ratios zero at once (Wald :math:`\\chi^2`, one degree of freedom per sample and
-  mode the model separates).
+  ratios zero at once: the Wald :math:`\\chi^2` (q = 8 degrees of freedom) with
+  the Hotelling-type small-sample correction for a sandwich covariance from
+  m clusters [2]_, :math:`F = \\chi^2 (m - q) / (q (m - 1)) \\sim F(q, m - q)`.
+  Uncorrected, the 8-df Wald test rejected 18-21 % of null datasets with 30
+  participants; corrected, 3.5 % (benchmarks/bench_recovery.py).
 - **Per-sample tests**: the per-sample A - B rows with Holm-adjusted p-values
   [1]_ (the family is all per-sample rows of both modes).
 - **Group × mode interaction**: the A - B difference with real samples minus
@@ -21,6 +24,8 @@ References
 ----------
 .. [1] S. Holm, "A simple sequentially rejective multiple test procedure",
    Scand. J. Statist. 6 (1979) 65-70.
+.. [2] W. Pan, M. M. Wall, "Small-sample adjustments in using the sandwich variance
+   estimator in generalized estimating equations", Stat. Med. 21 (2002) 1429-1441.
 """
 from __future__ import annotations
 
@@ -117,10 +122,12 @@ def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
     Returns
     -------
     dict
-        ``test, hypothesis, chi2, df, p_value`` (NaN when the model has no group term).
+        ``test, hypothesis, chi2, df, f, df_denominator, p_value`` (``p_value`` from
+        the small-sample F; NaN when the model has no group term).
     """
     data = model_data(trials)
-    out = {"test": f"Wald chi2 ({fit.kind})", "chi2": np.nan, "df": 0, "p_value": np.nan,
+    out = {"test": f"Wald F, small-sample ({fit.kind})", "chi2": np.nan, "df": 0, "f": np.nan,
+           "df_denominator": 0, "p_value": np.nan,
            "hypothesis": "no A - B difference on any sample in either mode"}
     if fit.formula is None or "group" not in fit.formula or set(data["group"]) != {"A", "B"}:
         return out
@@ -136,7 +143,13 @@ def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
     v = lmat @ fit.cov @ lmat.T
     rank = np.linalg.matrix_rank(v)
     chi2 = float(est @ np.linalg.pinv(v) @ est)
-    out.update(chi2=chi2, df=int(rank), p_value=float(stats.chi2.sf(chi2, rank)))
+    m = data["participant"].nunique()
+    if m <= rank:
+        out.update(chi2=chi2, df=int(rank))
+        return out
+    f = chi2 * (m - rank) / (rank * (m - 1))
+    out.update(chi2=chi2, df=int(rank), f=f, df_denominator=int(m - rank),
+               p_value=float(stats.f.sf(f, rank, m - rank)))
     return out
 
 

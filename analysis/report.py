@@ -222,8 +222,8 @@ def _tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[
                    f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
     if "omnibus" in by_role:
         r = by_role["omnibus"].iloc[0]
-        out.append(f"Omnibus test of any group difference on any sample (Wald chi2 = "
-                   f"{r.statistic:.2f}, df {int(r.df)}): p = {r.p_value:.3f}.")
+        out.append(f"Omnibus test of any group difference on any sample ({r.test.split(': ')[1]}"
+                   f", small-sample F = {r.statistic:.2f}): p = {r.p_value:.3f}.")
     per = by_role.get("per-sample")
     if per is not None and not per.empty:
         missing = per[per["p_value"].isna()]
@@ -233,7 +233,13 @@ def _tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[
                 + " (a group answered it all right or all wrong).")
         sig = per[per["p_holm"] < 0.05]
         n_tests = int(per["p_value"].notna().sum())
-        if sig.empty:
+        omnibus = by_role.get("omnibus")
+        gate = None if omnibus is None else float(omnibus["p_value"].iloc[0])
+        if gate is not None and not gate < 0.05:
+            out.append(f"The omnibus test does not reject (p = {gate:.3f}), so no single sample "
+                       f"is claimed to differ between the groups (Holm-adjusted per-sample "
+                       f"p-values are in tests.csv; the smallest is {per['p_holm'].min():.3f}).")
+        elif sig.empty:
             out.append(f"After Holm's adjustment for the {n_tests} per-sample comparisons, no "
                        f"single sample shows a group difference (all adjusted p >= 0.05).")
         else:
@@ -294,8 +300,9 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
     if gee.formula is not None:
         omni = omnibus_group_test(gee, trials)
         if omni["df"]:
-            rows.append({"role": "omnibus", "test": omni["test"], "model": "gee",
-                         "compares": omni["hypothesis"], "statistic": omni["chi2"],
+            rows.append({"role": "omnibus", "test": omni["test"] + f": F({omni['df']}, "
+                         f"{omni['df_denominator']}) from Wald chi2 = {omni['chi2']:.3f}",
+                         "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
                          "df": omni["df"], "p_value": omni["p_value"],
                          "basis": f"model: {gee.formula}"})
     if not contrasts.empty:

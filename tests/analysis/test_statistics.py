@@ -37,7 +37,12 @@ def test_omnibus_wald_equals_statsmodels_wald_test():
     lmat[np.arange(len(rows)), rows] = 1
     ref = gee.result.wald_test(lmat, scalar=True)
     assert omni["chi2"] == pytest.approx(float(ref.statistic), rel=1e-8)
-    assert omni["p_value"] == pytest.approx(float(ref.pvalue), rel=1e-6)
+    # small-sample (Hotelling-type) F with m = 30 participants: F(8, 22)
+    m = trials["participant"].nunique()
+    assert (omni["df"], omni["df_denominator"]) == (8, m - 8)
+    f = float(ref.statistic) * (m - 8) / (8 * (m - 1))
+    assert omni["p_value"] == pytest.approx(stats.f.sf(f, 8, m - 8), rel=1e-8)
+    assert omni["p_value"] > float(ref.pvalue)        # the correction only makes it stricter
 
 
 def test_averaged_contrast_is_a_difference_of_mean_proportions():
@@ -127,6 +132,13 @@ def test_summary_names_only_holm_adjusted_results():
     assert "no single sample shows a group difference" in text and "2#" not in text
     text = " ".join(_tests_summary(pd.DataFrame(), table(0.03)))
     assert "remains for: group A - group B, real sample 2# (adjusted p = 0.030)" in text
+    # the omnibus test comes first: when it does not reject, no sample is named
+    gated = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.2,
+                                      "statistic": 1.3, "df": 8, "basis": "model",
+                                      "test": "Wald F: F(8, 22) from Wald chi2 = 11",
+                                      "compares": "no A - B difference"}]), table(0.03)])
+    text = " ".join(_tests_summary(pd.DataFrame(), gated))
+    assert "omnibus test does not reject (p = 0.200)" in text and "remains for" not in text
 
 
 def test_cli_bayes_is_opt_in_and_the_mixed_model_can_be_skipped(study, tmp_path):
