@@ -46,7 +46,8 @@ from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
 from .errors import ModelWarning
-from .models import FORMULA, ModelFit, _candidates, _design, _fit_ok, _separated_cells, model_data
+from .models import (FORMULA, ModelFit, _candidates, _design, _fit_ok, _separated_cells,
+                     model_data, reference_df, reference_p, reference_quantile)
 
 __all__ = ["fit_glmm", "GLMMData", "glmm_deviance", "ICC_LATENT_VARIANCE"]
 
@@ -334,7 +335,9 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
 
     data_t = model_data(trials)
     notes: list = []
-    z = stats.norm.ppf(0.5 + level / 2)
+    z = stats.norm.ppf(0.5 + level / 2)          # log-SD Wald interval (profile=False)
+    df = reference_df(data_t)
+    zt = reference_quantile(level, df)           # fixed effects: t(participants - 2)
     columns = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
     for candidate in _candidates(data_t, formula, notes, "GLMM"):
         if candidate == FORMULA:
@@ -380,9 +383,9 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
             low, high = sigma * np.exp(-z * sd_log), sigma * np.exp(z * sd_log)
             how = "Wald on log SD"
         table = pd.DataFrame({"term": x.columns, "log_odds": beta, "se": se, "z": beta / se,
-                              "p_value": 2 * stats.norm.sf(np.abs(beta / se)),
-                              "ci_low": beta - z * se, "ci_high": beta + z * se,
-                              "interval": "Wald"})
+                              "p_value": reference_p(beta / se, df),
+                              "ci_low": beta - zt * se, "ci_high": beta + zt * se,
+                              "interval": f"Wald, t({df:g})" if df else "Wald"})
         icc = lambda s: s ** 2 / (s ** 2 + ICC_LATENT_VARIANCE)
         table.loc[len(table)] = ["participant_sd", sigma, np.sqrt(cov_full[-1, -1]), np.nan,
                                  np.nan, low, high, how]
@@ -399,7 +402,7 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
                        "n_participants": int(data.m), "n_trials": int(data.n.sum()),
                        "hessian_positive_definite": bool(np.all(np.linalg.eigvalsh(hess) > 0))}
         fit = ModelFit("glmm", candidate, formula, table[columns], notes, beta, cov,
-                       x.design_info, convergence)
+                       x.design_info, convergence, df)
         fit.theta, fit.cov_full = theta, cov_full
         return fit
     notes.append("GLMM: no formula could be fitted")

@@ -40,7 +40,8 @@ from threadpoolctl import threadpool_limits
 
 from .errors import ModelWarning
 from .glmm import GLMMData, _fd_gradient
-from .models import FORMULA, ModelFit, _candidates, _design, _fit_ok, _separated_cells, model_data
+from .models import (FORMULA, ModelFit, _candidates, _design, _fit_ok, _separated_cells,
+                     model_data, reference_df, reference_p, reference_quantile)
 
 __all__ = ["fit_glmm_slope", "slope_deviance"]
 
@@ -188,7 +189,8 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
     data_t = model_data(trials)
     notes: list = []
     columns = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
-    zq = stats.norm.ppf(0.5 + level / 2)
+    df = reference_df(data_t)
+    zq = reference_quantile(level, df)
     if data_t["mode"].nunique() < 2:
         notes.append("GLMM slope: one mode only: no mode slope to fit")
         return ModelFit("glmm-slope", None, formula, pd.DataFrame(columns=columns), notes)
@@ -240,9 +242,9 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])
         corr = sigma[0, 1] / (sd0 * sd1) if sd0 > 0 and sd1 > 0 else np.nan
         table = pd.DataFrame({"term": x.columns, "log_odds": beta, "se": se, "z": beta / se,
-                              "p_value": 2 * stats.norm.sf(np.abs(beta / se)),
+                              "p_value": reference_p(beta / se, df),
                               "ci_low": beta - zq * se, "ci_high": beta + zq * se,
-                              "interval": "Wald"})
+                              "interval": f"Wald, t({df:g})" if df else "Wald"})
         for term, value in (("sd_intercept", sd0), ("sd_mode_slope", sd1),
                             ("corr_intercept_slope", corr)):
             table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, np.nan, np.nan,
@@ -260,7 +262,7 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                 "theta": theta[-3:].tolist(),
                 "hessian_positive_definite": bool(np.all(np.linalg.eigvalsh(hess) > 0))}
         fit = ModelFit("glmm-slope", candidate, formula, table[columns], notes, beta, cov,
-                       x.design_info, conv)
+                       x.design_info, conv, df)
         fit.theta, fit.cov_full = theta, cov_full
         return fit
     notes.append("GLMM slope: no formula could be fitted")

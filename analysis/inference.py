@@ -103,9 +103,8 @@ def averaged_contrast(fit: ModelFit, mode: str = "real", samples=(1, 2, 3, 4),
     from .models import _contrast
     if fit.formula is None or "group" not in fit.formula:
         return None
-    z = stats.norm.ppf(0.5 + level / 2)
     xa, xb = _rows(fit, ["A"], [mode], samples), _rows(fit, ["B"], [mode], samples)
-    v = _contrast(xa, xb, fit.params, fit.cov, z)
+    v = _contrast(xa, xb, fit.params, fit.cov, fit.quantile(level), fit.df)
     return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8]}
 
 
@@ -164,7 +163,7 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
         dd_low, dd_high`` (difference of the two differences of mean
         proportions, 0-1, delta method). NaN without both modes and groups.
     """
-    z = stats.norm.ppf(0.5 + level / 2)
+    z = fit.quantile(level)
     out = {"model": fit.kind, "compares": "(A - B, real) - (A - B, simulated), averaged over samples",
            "log_odds": np.nan, "se": np.nan, "ci_low": np.nan, "ci_high": np.nan,
            "p_value": np.nan, "difference_of_differences": np.nan, "dd_low": np.nan,
@@ -186,7 +185,7 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
         grad += s * (q * (1 - q)) @ x[k] / len(q)
     dse = float(np.sqrt(grad @ fit.cov @ grad))
     out.update(log_odds=est, se=se, ci_low=est - z * se, ci_high=est + z * se,
-               p_value=float(2 * stats.norm.sf(abs(est / se))) if se > 0 else np.nan,
+               p_value=float(fit.p_value(est / se)) if se > 0 else np.nan,
                difference_of_differences=dd, dd_low=dd - z * dse, dd_high=dd + z * dse)
     return out
 
