@@ -42,8 +42,11 @@ COLUMN_MEANINGS = {
                      "effective sample size), 0-1",
     "boot_se": "bootstrap standard error of proportion_correct, 0-1",
     "design_effect": "bootstrap variance x m/(m-1) over binomial variance, floored at 1 (ratio)",
-    "log_odds, se, ci_low/high": "GEE coefficient (log odds), its bias-reduced SE and 95% CI",
-    "posterior_mean/sd, cri_low/high": "variational posterior mean, SD, 95% credible interval (log odds)",
+    "log_odds, se, ci_low/high": "model coefficient (log odds), its SE (GEE: bias-reduced "
+                                 "sandwich) and 95% CI with t(participants - 2) quantiles",
+    "posterior_mean/sd, cri_low/high": "mean-field VB posterior (only with --bayes-vb; too narrow)",
+    "p_holm": "Holm-adjusted p-value within its family of tests",
+    "compares": "what a contrast or test compares, in words",
     "log_odds_ratio_A_vs_B": "log odds of correct, group A minus group B",
     "odds_ratio_A_vs_B": "exp(log_odds_ratio_A_vs_B)",
     "p_correct_A/B": "model probability of a correct answer, 0-1",
