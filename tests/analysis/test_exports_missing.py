@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from analysis import analyze
 from analysis.exports import check_codebook
@@ -94,3 +95,20 @@ def test_exports_are_full_precision_with_a_complete_codebook(study, tmp_path):
     conv = json.loads((out / "glmm_convergence.json").read_text())
     assert conv["optimiser_success"] and conv["iterations"] > 0 and 0 < conv["icc_latent"] < 1
     assert np.isfinite(conv["log_likelihood"])
+
+
+def test_abort_reason_is_read_from_the_event_log(study):
+    from analysis import LogWarning, load_trials
+    data, _ = study(n_per_group=1, seed=64, write_csv=False)
+    log_file = data / "A00" / "S1" / "events.jsonl"
+    with open(log_file, "a") as fh:       # a re-run attempt that got no touch (logbook's format)
+        fh.write(json.dumps({"event": "trial_started", "trial_index": 5, "attempt": 2,
+                             "block": "real", "mode": "real", "roughness_id": 1}) + "\n")
+        fh.write(json.dumps({"event": "trial_aborted", "trial_index": 5, "attempt": 2,
+                             "reason": "no_contact", "fault_code": None}) + "\n")
+    with pytest.warns(LogWarning, match="rebuilt"):      # no trials.csv: read from the events
+        trials = load_trials(data).trials
+    row = trials[(trials["participant"] == "A00") & (trials["trial_index"] == 5)
+                 & (trials["attempt"] == 2)].iloc[0]
+    assert row["status"] == "aborted" and row["abort_reason"] == "no_contact"
+    assert (trials.loc[trials["status"] == "ok", "abort_reason"] == "").all()
