@@ -256,14 +256,17 @@ def _hessian_fd(theta, data, n_agq):
     return hess
 
 
-def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan):
-    """Profile-likelihood interval of sigma: where the deviance has risen by chi2_1(level).
+def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan, df=None):
+    """Profile-likelihood interval of sigma: where the deviance has risen by the cut-off.
+
+    The cut-off is chi2_1(level), or with ``df`` its small-sample analogue F(1, df)(level)
+    (the square of the t(df) quantile the Wald intervals use).
 
     Each profile point re-maximises over the fixed effects (warm-started from the nearest
     point already computed); the ends are found by Brent's method, bracketed first by the
     Wald interval on log sigma.
     """
-    cut = stats.chi2.ppf(level, 1)
+    cut = stats.f.ppf(level, 1, df) if df else stats.chi2.ppf(level, 1)
     sigma_hat, beta_hat = float(theta[-1]), theta[:-1]
     done: dict = {}
 
@@ -297,7 +300,7 @@ def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan):
 
 
 def fit_glmm(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-             n_agq: int = 11, profile: bool = True) -> ModelFit:
+             n_agq: int = 11, profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """Maximum-likelihood mixed logit with a random intercept per participant.
 
     Parameters
@@ -313,6 +316,11 @@ def fit_glmm(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.9
         Adaptive Gauss-Hermite nodes (1 = Laplace).
     profile : bool
         Profile-likelihood interval for the participant SD (else Wald on log SD).
+    sd_cutoff : {"F", "chi2"}
+        The profile interval's cut-off: ``"F"`` (default) F(1, m - 2) at ``level``, m
+        participants, the small-sample analogue of ``"chi2"``, chi2_1 (lme4's
+        ``confint(method = "profile")``). Measured coverage over 200 datasets of 30
+        participants per scenario: chi2 0.92 and 0.96, F 0.93 and 0.965 (docs/analysis.md).
 
     Returns
     -------
@@ -326,11 +334,12 @@ def fit_glmm(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.9
     """
     # one BLAS thread: L-BFGS-B's small BLAS calls spin threads, 10x slower on a busy machine
     with threadpool_limits(1):
-        return _fit_glmm_impl(trials, formula, level=level, n_agq=n_agq, profile=profile)
+        return _fit_glmm_impl(trials, formula, level=level, n_agq=n_agq, profile=profile,
+                              sd_cutoff=sd_cutoff)
 
 
 def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-             n_agq: int = 11, profile: bool = True) -> ModelFit:
+             n_agq: int = 11, profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)
@@ -375,9 +384,11 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
         sigma = float(theta[-1])
         if profile:
             with np.errstate(all="ignore"):
+                cut_df = df if sd_cutoff == "F" else None
                 low, high = _profile_sigma(data, theta, res.fun, n_agq, level,
-                                           np.sqrt(cov_full[-1, -1]))
-            how = "profile likelihood"
+                                           np.sqrt(cov_full[-1, -1]), cut_df)
+            how = ("profile likelihood, F(1, %g) cut-off" % cut_df if cut_df
+                   else "profile likelihood, chi2(1) cut-off")
         else:
             sd_log = np.sqrt(cov_full[-1, -1]) / max(sigma, 1e-12)
             low, high = sigma * np.exp(-z * sd_log), sigma * np.exp(z * sd_log)

@@ -572,7 +572,8 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
             f"{conv['log_likelihood']:.3f}, Hessian "
             f"{'positive definite' if conv['hessian_positive_definite'] else 'NOT positive definite'}. "
             f"Fixed effects: Wald {pct} intervals (log odds, for a typical participant); "
-            f"participant SD: profile-likelihood interval; ICC on the latent (logistic) scale "
+            f"participant SD: profile-likelihood interval (cut-off F(1, participants - 2), the "
+            f"small-sample analogue of chi2(1)); ICC on the latent (logistic) scale "
             f"sigma^2 / (sigma^2 + pi^2/3). Coverage of these intervals was measured "
             f"(docs/analysis.md); the estimates agree with R's lme4::glmer (tests).", "",
             _md_table(r.glmm.table), ""]
