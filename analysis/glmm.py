@@ -339,7 +339,7 @@ def fit_glmm(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.9
 
 
 def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-             n_agq: int = 11, profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
+                   n_agq: int = 11, profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)

@@ -179,11 +179,12 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     """
     # one BLAS thread: L-BFGS-B's small BLAS calls spin threads, 10x slower on a busy machine
     with threadpool_limits(1):
-        return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq, intercept_fit=intercept_fit)
+        return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq,
+                                    intercept_fit=intercept_fit)
 
 
 def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-                   n_agq: int = 5, intercept_fit: ModelFit | None = None) -> ModelFit:
+                         n_agq: int = 5, intercept_fit: ModelFit | None = None) -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)
