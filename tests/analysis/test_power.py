@@ -174,3 +174,14 @@ def test_cells_from_the_analysis_mixed_model(study, tmp_path):
     cell = cells.set_index(["group", "mode", "roughness_id"])["p_correct"]
     assert cell[("A", "real", 2)] == pytest.approx(row["p_correct_A"], rel=1e-10)
     assert cell[("B", "real", 2)] == pytest.approx(row["p_correct_B"], rel=1e-10)
+
+
+def test_cli_power_bad_analysis_folder_and_sizes_exit_2(tmp_path, capsys):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["power", "--from-analysis", str(empty), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"thermocue power: {empty / 'glmm.csv'}: term: expected") and "\n" not in err
+    assert main(["power", "--n-per-group", "13:17:4", "--out", str(tmp_path / "o")]) == 2
+    assert "A:B pairs" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
