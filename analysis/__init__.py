@@ -12,6 +12,8 @@ from .load import TrialLog, load_trials
 from .proportions import cell_proportions, cluster_bootstrap, participant_summary, wilson_interval
 from .confusion import confusion_matrices, confusion_matrix
 from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
+from .glmm import fit_glmm
+from .inference import chance_tests, holm, interaction_test, omnibus_group_test
 from .figures import plot_confusion, plot_figure9
 from .report import AnalysisResult, analyze
 from .power import PowerResult, power_curve
@@ -21,7 +23,8 @@ __all__ = [
     "load_trials", "TrialLog",
     "cell_proportions", "cluster_bootstrap", "wilson_interval", "participant_summary",
     "confusion_matrices", "confusion_matrix",
-    "fit_gee", "fit_bayes", "group_contrasts", "ModelFit", "FORMULA",
+    "fit_gee", "fit_glmm", "fit_bayes", "group_contrasts", "ModelFit", "FORMULA",
+    "holm", "omnibus_group_test", "interaction_test", "chance_tests",
     "plot_figure9", "plot_confusion",
     "power_curve", "PowerResult",
     "LogError", "LogWarning", "ModelWarning",

@@ -300,6 +300,8 @@ def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame,
                     row["correct"] = int(str(row["response_id"]) == str(row["roughness_id"]))
             else:
                 row["status"] = "aborted"
+                if event.get("reason") is not None:
+                    row["abort_reason"] = event["reason"]
                 if event.get("fault_code") is not None:
                     row["fault_code"] = event["fault_code"]
         else:
@@ -526,6 +528,8 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
             out[column] = _as_number(df, column, integer=integer, allow_blank=True).astype(float)
         else:
             out[column] = pd.Series(np.nan, index=df.index, dtype=float)
+    # why an attempt was aborted (experiments.logbook: trial_aborted's reason); kept, not required
+    out["abort_reason"] = _as_str(df["abort_reason"]) if "abort_reason" in df.columns else ""
     out["familiarisation"] = familiar
     out["source"] = df["source"].astype(str).to_numpy()
     out["line"] = df["line"].astype("int64").to_numpy()
@@ -826,7 +830,7 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
              "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
              "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
              "skin_temperature_C", "skin_temperature_in_range",
-             "familiarisation", "included", "exclusion", "source", "line"]
+             "abort_reason", "familiarisation", "included", "exclusion", "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
                                        ignore_index=True)
     return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy)

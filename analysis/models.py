@@ -69,6 +69,9 @@ class ModelFit:
         For building design rows of new data (contrasts).
     result : object
         The statsmodels result.
+    df : float or None
+        Degrees of freedom of the Wald intervals and p-values (participants - 2,
+        :func:`reference_df`); None: normal.
     """
 
     kind: str
@@ -80,11 +83,46 @@ class ModelFit:
     cov: np.ndarray | None = None
     design_info: object = None
     result: object = None
+    df: float | None = None
+
+    def quantile(self, level: float) -> float:
+        """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""
+        return reference_quantile(level, self.df)
+
+    def p_value(self, ratio) -> np.ndarray:
+        """Two-sided p-value of estimate / SE against t(:attr:`df`) (normal if None)."""
+        return reference_p(ratio, self.df)
 
     @property
     def simplified(self) -> bool:
         """True if a simpler formula than the requested one was fitted."""
         return self.formula != self.requested
+
+
+def reference_df(data: pd.DataFrame) -> float | None:
+    """Degrees of freedom of the Wald intervals and tests: participants - 2.
+
+    Notes
+    -----
+    The group comparisons are between participants: with m participants in two groups a
+    sandwich or likelihood SE carries about m - 2 degrees of freedom, and Wald intervals with
+    normal quantiles covered 0.92-0.94 (interaction, averaged contrasts) over 200 datasets of
+    30 participants; with t(m - 2) quantiles 0.94-0.97 for every contrast family
+    (benchmarks/bench_recovery.py, docs/analysis.md).
+    """
+    m = data["participant"].nunique()
+    return float(m - 2) if m > 2 else None
+
+
+def reference_quantile(level: float, df: float | None) -> float:
+    """``t_{df}`` (or normal) quantile for a two-sided interval at ``level``."""
+    return float(stats.t.ppf(0.5 + level / 2, df) if df else stats.norm.ppf(0.5 + level / 2))
+
+
+def reference_p(ratio, df: float | None):
+    """Two-sided p-value of ``ratio`` against ``t_{df}`` (or normal)."""
+    ratio = np.abs(np.asarray(ratio, float))
+    return 2 * (stats.t.sf(ratio, df) if df else stats.norm.sf(ratio))
 
 
 def model_data(trials: pd.DataFrame) -> pd.DataFrame:
@@ -169,7 +207,8 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
 
     data = model_data(trials)
     notes: list = []
-    z = stats.norm.ppf(0.5 + level / 2)
+    df = reference_df(data)
+    z = reference_quantile(level, df)
     for candidate in _candidates(data, formula, notes, "GEE"):
         if candidate == FORMULA:
             cells = _separated_cells(data)
@@ -205,10 +244,10 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
             notes.append(f"GEE: fitted the simpler {candidate!r} instead of {formula!r}")
             warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
         table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
-                              "z": params / se, "p_value": 2 * stats.norm.sf(np.abs(params / se)),
+                              "z": params / se, "p_value": reference_p(params / se, df),
                               "ci_low": params - z * se, "ci_high": params + z * se})
         return ModelFit("gee", candidate, formula, table, notes, params,
-                        np.asarray(res.cov_params()), x.design_info, res)
+                        np.asarray(res.cov_params()), x.design_info, res, df)
     notes.append("GEE: no formula could be fitted")
     warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
     return ModelFit("gee", None, formula, pd.DataFrame(
@@ -300,10 +339,14 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     pandas.DataFrame
         ``model, mode, roughness_id, log_odds_ratio_A_vs_B, se, ci_low, ci_high,
         odds_ratio_A_vs_B, p_value, p_correct_A, p_correct_B,
-        difference_A_minus_B, difference_low, difference_high, basis`` (probabilities
-        are fractions 0–1; GEE probabilities are population averages). One row
+        difference_A_minus_B, difference_low, difference_high, basis, compares``
+        (probabilities are fractions 0–1; GEE probabilities are population averages,
+        GLMM ones those of a typical participant). ``compares`` says in words what
+        each row compares. One row
         per mode × roughness, then one per mode averaged over roughness
-        (``roughness_id`` 0: the mean log odds over the four samples).
+        (``roughness_id`` 0: the mean log odds over the four samples; its
+        ``p_correct_A/B`` are the mean of the four samples' probabilities, so
+        ``difference_A_minus_B`` is a difference of mean proportions).
         Empty if the model has no group term. ``basis`` says where a row comes
         from: the fitted model, or -- when the fitted formula has no group ×
         roughness term (a fallback after separation) -- a GEE of that sample's
@@ -318,15 +361,13 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     the probability difference uses the delta method with gradient
     :math:`p_A(1-p_A)x_A - p_B(1-p_B)x_B`.
     """
-    columns = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low", "ci_high",
-               "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
-               "difference_A_minus_B", "difference_low", "difference_high", "basis"]
+    columns = CONTRAST_COLUMNS
     if fit.formula is None or "group" not in fit.formula:
-        return pd.DataFrame(columns=columns)
+        return pd.DataFrame(columns=columns + ["compares"])
     data = model_data(trials)
     if set(data["group"]) != {"A", "B"}:
-        return pd.DataFrame(columns=columns)
-    z = stats.norm.ppf(0.5 + level / 2)
+        return pd.DataFrame(columns=columns + ["compares"])
+    z = fit.quantile(level)
     beta, cov = fit.params, fit.cov
     rows = []
     roughness = sorted(data["roughness_id"].unique())
@@ -339,28 +380,52 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
             if label != 0 and not per_sample:
                 cell = data[(data["mode"] == mode) & (data["roughness_id"] == label)]
                 if fit.kind == "gee":
-                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z)])
+                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z, fit.df)])
                 continue
             grid = pd.DataFrame({"group": ["A"] * len(levels) + ["B"] * len(levels),
                                  "mode": mode, "roughness_id": list(levels) * 2,
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
-            xa, xb = x[: len(levels)].mean(axis=0), x[len(levels):].mean(axis=0)
-            rows.append([fit.kind, mode, label, *_contrast(xa, xb, beta, cov, z),
+            rows.append([fit.kind, mode, label,
+                         *_contrast(x[: len(levels)], x[len(levels):], beta, cov, z, fit.df),
                          f"model: {fit.formula}"])
-    return pd.DataFrame(rows, columns=columns)
+    out = pd.DataFrame(rows, columns=columns)
+    out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
+    return out
 
 
-def _contrast(xa, xb, beta, cov, z) -> list:
-    """Group A (design row ``xa``) vs B (``xb``): log odds ratio, its SE, interval, odds ratio,
-    p-value, both probabilities and their difference with a delta-method interval."""
-    diff = xa - xb
+#: Columns of :func:`group_contrasts`.
+CONTRAST_COLUMNS = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low",
+                    "ci_high", "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
+                    "difference_A_minus_B", "difference_low", "difference_high", "basis"]
+
+
+def _compares(mode: str, roughness_id: int, kind: str) -> str:
+    scale = ("population-averaged" if kind == "gee" else "for a typical participant (u = 0)")
+    if roughness_id == 0:
+        return (f"group A - group B, {mode} samples: mean over 1#-4# of the log odds "
+                f"(log odds ratio); difference of the mean {scale} proportions correct")
+    return (f"group A - group B, {mode} sample {roughness_id}#: log odds ratio; "
+            f"difference of {scale} proportions correct")
+
+
+def _contrast(xa, xb, beta, cov, z, df=None) -> list:
+    """Group A vs B: log odds ratio, its SE, interval, odds ratio, p-value, both probabilities
+    and their difference with a delta-method interval.
+
+    ``xa``, ``xb`` are design rows (1-D) or matrices with one row per sample to average over:
+    the log odds ratio is that of the mean log odds, the probabilities are the mean of the
+    samples' probabilities (a difference of mean proportions, not of expit(mean log odds)).
+    """
+    xa, xb = np.atleast_2d(xa), np.atleast_2d(xb)
+    diff = xa.mean(axis=0) - xb.mean(axis=0)
     est, se = float(diff @ beta), float(np.sqrt(diff @ cov @ diff))
-    pa, pb = float(special.expit(xa @ beta)), float(special.expit(xb @ beta))
-    grad = pa * (1 - pa) * xa - pb * (1 - pb) * xb
+    qa, qb = special.expit(xa @ beta), special.expit(xb @ beta)
+    pa, pb = float(qa.mean()), float(qb.mean())
+    grad = (qa * (1 - qa)) @ xa / len(xa) - (qb * (1 - qb)) @ xb / len(xb)
     dse = float(np.sqrt(grad @ cov @ grad))
     return [est, se, est - z * se, est + z * se, np.exp(est),
-            2 * stats.norm.sf(abs(est / se)) if se > 0 else np.nan, pa, pb,
+            float(reference_p(est / se, df)) if se > 0 else np.nan, pa, pb,
             pa - pb, pa - pb - z * dse, pa - pb + z * dse]
 
 
@@ -369,7 +434,7 @@ def _has_group_by_roughness(fit: ModelFit) -> bool:
     return any("group" in n and "roughness_id" in n for n in names)
 
 
-def _sample_gee_contrast(cell: pd.DataFrame, z: float) -> list:
+def _sample_gee_contrast(cell: pd.DataFrame, z: float, df=None) -> list:
     """Group A vs B on one sample's trials: ``correct ~ group`` GEE (participant clusters).
 
     Returns the contrast columns after ``roughness_id`` (see :func:`group_contrasts`). When a
@@ -393,5 +458,5 @@ def _sample_gee_contrast(cell: pd.DataFrame, z: float) -> list:
                      family=sm.families.Binomial(),
                      cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
     xa, xb = np.array([1.0, 0.0]), np.array([1.0, 1.0])
-    return [*_contrast(xa, xb, np.asarray(res.params), np.asarray(res.cov_params()), z),
+    return [*_contrast(xa, xb, np.asarray(res.params), np.asarray(res.cov_params()), z, df),
             "per-sample GEE: correct ~ group"]

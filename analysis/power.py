@@ -1,26 +1,37 @@
-"""Power to detect the group difference (A vs B) by simulating cohorts of varying size.
+"""Power to detect the group difference (A vs B) by simulating cohorts and running the analysis.
 
-Each simulated participant gets a random intercept ``u ~ N(0, participant_sd²)``
-on the log-odds scale; in each cell (group × mode × roughness) they answer
-``repetitions`` trials correctly with probability ``expit(logit(p_cell) + u)``
-(``p_cell`` is thus the probability for a typical participant, ``u = 0``).
+Cohorts are drawn from the participant-level model the report fits: participant
+``i`` answers a trial of cell ``c`` (group × mode × sample) correctly with
+probability ``expit(logit(p_c) + u_i)``, ``u_i ~ N(0, participant_sd²)``, where
+``p_c`` is the probability for a *typical* participant (``u = 0``; the GLMM's
+cells, see :func:`glmm_cells`). Observed or population-averaged proportions
+(the simulated-participant model's predictions, ``proportions.csv``) already
+contain the spread between participants: with ``cells_scale="marginal"`` they
+are converted to typical-participant probabilities first (solving
+``E[expit(c + u)] = p`` by 60-node Gauss-Hermite), so the spread is not counted twice.
+
+Each simulated participant answers every cell of both modes ``repetitions``
+times; each trial is lost at random with probability ``missing_rate`` (faults,
+time-outs, no contact), and groups may differ in size (``(n_A, n_B)`` entries).
 
 Tests (``test=``):
 
-``"cluster-t"`` (default)
-    Welch's t-test on the per-participant proportion correct in the chosen
-    mode (all samples pooled). Participants are the units, so the clustering
-    is respected by construction; it targets the same quantity as the GEE's
-    group effect averaged over roughness, at a thousandth of the cost, so
-    thousands of cohorts take seconds.
-``"gee"``
-    The report's own test: a logit GEE ``correct ~ group + C(roughness_id)``
-    on that mode's trials, participant clusters, exchangeable, bias-reduced
-    covariance, two-sided Wald test of the group term. Slower (~20 ms a cohort).
+``"gee"`` (default: the report's primary test)
+    Exactly what ``analyze`` does: :func:`analysis.fit_gee` with the report's
+    formula and fallbacks (``correct ~ group * mode * C(roughness_id)``,
+    participant clusters, exchangeable, bias-reduced covariance) on both modes'
+    trials, then the A - B log odds ratio in ``mode`` averaged over the samples,
+    two-sided Wald test. A cohort whose fit fails counts as not rejecting.
+    About 50-100 ms a cohort.
+``"cluster-t"``
+    Welch's t-test on the per-participant proportion correct in ``mode``: a
+    fast approximation (not the report's test).
 
 Power is the share of cohorts rejecting "no group difference" at ``alpha``
 (two-sided), with a Wilson interval for the Monte Carlo error;
-``power_right_sign`` counts only rejections with group A higher.
+``power_right_sign`` counts only rejections with group A higher;
+``fallbacks`` the share fitted with a simpler formula (separation).
+:func:`n_for_power` interpolates the n per group reaching a target power.
 """
 from __future__ import annotations
 
@@ -31,11 +42,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy import special, stats
+from threadpoolctl import threadpool_limits
 
 from .errors import LogError
 from .proportions import wilson_interval
 
-__all__ = ["PowerResult", "power_curve", "read_cells", "cells_frame", "plot_power"]
+__all__ = ["PowerResult", "power_curve", "read_cells", "cells_frame", "plot_power", "n_for_power",
+           "to_conditional", "glmm_cells"]
 
 _CELL_COLUMNS = ("group", "mode", "roughness_id", "p_correct")
 
@@ -47,12 +60,12 @@ class PowerResult:
     Attributes
     ----------
     table : pandas.DataFrame
-        ``n_per_group, simulations, power, power_low, power_high, power_right_sign,
-        mean_difference_A_minus_B, expected_difference_A_minus_B`` (fractions 0–1).
+        One row per cohort size (see :func:`power_curve`), fractions 0–1.
     cells : pandas.DataFrame
         The per-cell probabilities used.
     settings : dict
-        Mode, test, alpha, participant_sd, repetitions, seed.
+        Mode, test, alpha, participant_sd, repetitions, seed, missing rate, cells scale,
+        ``n_for_80`` and ``n_for_90``.
     """
 
     table: pd.DataFrame
@@ -130,86 +143,203 @@ def read_cells(path) -> pd.DataFrame:
     return cells_frame(table, str(path))
 
 
-def _simulate_counts(p_a, p_b, n, sims, reps, sd, rng):
-    """Correct counts, shape (sims, n, cells), for both groups."""
-    out = []
-    for p in (p_a, p_b):
-        u = rng.normal(0.0, sd, size=(sims, n, 1)) if sd > 0 else np.zeros((sims, n, 1))
-        prob = special.expit(special.logit(p)[None, None, :] + u)
-        out.append(rng.binomial(reps, prob))
-    return out
+def _marginal(c, sd, z, w):
+    return float(w @ special.expit(c + sd * z))
 
 
-def _gee_reject(k_a, k_b, reps, alpha):
-    import statsmodels.api as sm
-    n, cells = k_a.shape
-    rows = []
-    for g, k in (("A", k_a), ("B", k_b)):
-        for i in range(n):
-            for c in range(cells):
-                ones = int(k[i, c])
-                rows += [(f"{g}{i}", g, c, 1)] * ones + [(f"{g}{i}", g, c, 0)] * (reps - ones)
-    data = pd.DataFrame(rows, columns=["participant", "group", "roughness", "correct"])
-    x = np.column_stack([np.ones(len(data)), (data["group"] == "A").to_numpy(float)] +
-                        [(data["roughness"] == c).to_numpy(float) for c in range(1, cells)])
+def to_conditional(p, participant_sd: float) -> np.ndarray:
+    """Typical-participant probabilities whose population average is ``p``.
+
+    Parameters
+    ----------
+    p : array_like
+        Population-averaged probabilities, 0-1 (clipped to [1e-6, 1 - 1e-6]).
+    participant_sd : float
+        SD of the random intercepts, log odds.
+
+    Returns
+    -------
+    ndarray
+        ``q`` with ``E[expit(logit(q) + u)] = p``, ``u ~ N(0, participant_sd²)``.
+    """
+    from scipy import optimize
+    p = np.clip(np.asarray(p, float), 1e-6, 1 - 1e-6)
+    if participant_sd == 0:
+        return p
+    z, w = np.polynomial.hermite_e.hermegauss(60)
+    w = w / w.sum()
+    out = [special.expit(optimize.brentq(lambda c: _marginal(c, participant_sd, z, w) - q, -30, 30))
+           for q in p]
+    return np.array(out)
+
+
+def glmm_cells(analysis_dir) -> tuple[pd.DataFrame, float]:
+    """Typical-participant cell probabilities and the participant SD from an ``analyze`` output.
+
+    Reads ``glmm.csv`` and ``glmm_convergence.json`` (the fitted formula).
+
+    Parameters
+    ----------
+    analysis_dir : str or Path
+
+    Returns
+    -------
+    cells : pandas.DataFrame
+        ``group, mode, roughness_id, p_correct`` (u = 0).
+    participant_sd : float
+
+    Raises
+    ------
+    LogError
+        Missing or unreadable files.
+    """
+    import json
+    import patsy
+    folder = Path(analysis_dir)
+    try:
+        table = pd.read_csv(folder / "glmm.csv").set_index("term")
+        formula = json.loads((folder / "glmm_convergence.json").read_text("utf-8"))["formula"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise LogError(f"{folder / 'glmm.csv'}: term: expected the mixed-model table and "
+                       f"glmm_convergence.json of `thermocue analyze`, got {exc}") from None
+    grid = pd.DataFrame([(g, m, r, 0) for g in ("A", "B") for m in ("real", "simulated")
+                         for r in (1, 2, 3, 4)], columns=["group", "mode", "roughness_id", "correct"])
+    rhs = formula.split("~", 1)[1]
+    x = patsy.dmatrix(rhs, grid, return_type="dataframe")
+    beta = table.loc[list(x.columns), "log_odds"].to_numpy(float)
+    grid["p_correct"] = special.expit(x.to_numpy() @ beta)
+    return grid.drop(columns="correct"), float(table.loc["participant_sd", "log_odds"])
+
+
+def _sizes(entry) -> tuple[int, int]:
+    if isinstance(entry, (tuple, list)):
+        n_a, n_b = (int(v) for v in entry)
+    else:
+        n_a = n_b = int(entry)
+    if min(n_a, n_b) < 2:
+        raise ValueError(f"power_curve: n_per_group: expected sizes >= 2, got {entry!r}")
+    return n_a, n_b
+
+
+def _simulate(q, keys, n_a, n_b, reps, sd, missing_rate, rng):
+    """Per participant × cell counts (k correct of n answered) of one cohort, as a table."""
+    k, n, groups = _simulate_arrays(q, keys, n_a, n_b, reps, sd, missing_rate, rng)
+    return _counts_table(k, n, groups, keys)
+
+
+def _simulate_arrays(q, keys, n_a, n_b, reps, sd, missing_rate, rng):
+    """Counts ``k``, ``n`` of shape (people, cells of the person's group) and the groups."""
+    out_k, out_n, groups = [], [], []
+    for g, size in (("A", n_a), ("B", n_b)):
+        cols = [j for j, key in enumerate(keys) if key[0] == g]
+        u = rng.normal(0.0, sd, size=(size, 1)) if sd > 0 else np.zeros((size, 1))
+        n = rng.binomial(reps, 1 - missing_rate, size=(size, len(cols))) if missing_rate > 0 \
+            else np.full((size, len(cols)), reps)
+        k = rng.binomial(n, special.expit(special.logit(q[cols])[None, :] + u))
+        out_k.append(k)
+        out_n.append(n)
+        groups.append(g)
+    return out_k, out_n, groups
+
+
+def _counts_table(k, n, groups, keys) -> pd.DataFrame:
+    parts = []
+    for kg, ng, g in zip(k, n, groups):
+        cells = [key for key in keys if key[0] == g]
+        people, cols = kg.shape
+        parts.append(pd.DataFrame({
+            "participant": np.repeat([f"{g}{i:03d}" for i in range(people)], cols),
+            "group": g, "mode": [c[1] for c in cells] * people,
+            "roughness_id": [c[2] for c in cells] * people,
+            "k": kg.ravel(), "n": ng.ravel()}))
+    return pd.concat(parts, ignore_index=True)
+
+
+def _as_trials(counts: pd.DataFrame) -> pd.DataFrame:
+    """One row per trial (``correct`` 0/1) from per participant × cell counts."""
+    n = counts["n"].to_numpy()
+    rep = counts.loc[counts.index.repeat(n)].reset_index(drop=True)
+    within = np.concatenate([np.arange(v) for v in n]) if len(n) else np.array([], int)
+    rep["correct"] = (within < np.repeat(counts["k"].to_numpy(), n)).astype(int)
+    return rep.drop(columns=["k", "n"])
+
+
+def _gee_primary(trials, mode, alpha, samples):
+    from .inference import averaged_contrast
+    from .models import FORMULA, fit_gee
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = sm.GEE(data["correct"].to_numpy(float), x, groups=data["participant"],
-                         family=sm.families.Binomial(),
-                         cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
-            est, se = float(res.params[1]), float(res.bse[1])
+            fit = fit_gee(trials)
         except (np.linalg.LinAlgError, ValueError, ZeroDivisionError):
-            return False, 0.0
-    if not (np.isfinite(est) and np.isfinite(se) and se > 0 and abs(est) < 10):
-        return False, 0.0
-    return 2 * stats.norm.sf(abs(est / se)) < alpha, est
+            return False, 0.0, True
+        row = averaged_contrast(fit, mode, samples)
+    fallback = fit.formula != FORMULA
+    if row is None or not np.isfinite(row["p_value"]):
+        return False, 0.0, fallback
+    return bool(row["p_value"] < alpha), row["log_odds_ratio"], fallback
 
 
-def power_curve(cells, n_per_group=(5, 10, 15, 20, 30), *, simulations: int = 2000,
+@threadpool_limits.wrap(limits=1)   # small BLAS calls per cohort: threads only spin
+def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: int = 400,
                 repetitions: int = 3, participant_sd: float = 0.5, mode: str = "real",
-                alpha: float = 0.05, test: str = "cluster-t", seed: int = 20261122,
-                progress=None) -> PowerResult:
-    """Estimate the power to detect the group difference for each cohort size.
+                alpha: float = 0.05, test: str = "gee", cells_scale: str = "conditional",
+                missing_rate: float = 0.0, seed: int = 20261122, progress=None) -> PowerResult:
+    """Estimate the power of the report's primary test for each cohort size.
 
     Parameters
     ----------
     cells : pandas.DataFrame or dict
-        Per-cell probabilities of a correct answer (see :func:`cells_frame`);
-        must cover groups A and B in ``mode``.
-    n_per_group : sequence of int
-        Participants per group.
+        Per-cell probabilities of a correct answer (see :func:`cells_frame`) for
+        groups A and B in both modes.
+    n_per_group : sequence of int or (int, int)
+        Participants per group, or ``(n_A, n_B)`` for unequal groups.
     simulations : int
         Simulated cohorts per size.
     repetitions : int
-        Trials per participant and cell (the protocol's 3).
+        Scheduled trials per participant and cell (the protocol's 3).
     participant_sd : float
-        SD of the participants' random intercepts, log-odds.
+        SD of the participants' random intercepts, log odds.
     mode : {"real", "simulated"}
-        The mode whose group difference is tested.
+        The mode whose averaged group difference is tested (the primary test: real).
     alpha : float
         Two-sided significance level.
-    test : {"cluster-t", "gee"}
+    test : {"gee", "cluster-t"}
         See the module notes.
+    cells_scale : {"conditional", "marginal"}
+        Whether ``cells`` are typical-participant probabilities (the GLMM's) or
+        population averages (observed proportions, the simulated-participant
+        model's predictions), converted with :func:`to_conditional`.
+    missing_rate : float
+        Probability that a scheduled trial yields no answer, 0-1.
     seed : int
-        Seed of the simulation.
     progress : callable, optional
         Called with a message per cohort size.
 
     Returns
     -------
     PowerResult
+        ``table`` columns: ``n_group_A, n_group_B, n_per_group`` (their mean),
+        ``simulations, power, power_low, power_high, power_right_sign, fallbacks,
+        mean_difference_A_minus_B, expected_difference_A_minus_B, test, mode,
+        participant_sd, alpha, missing_rate, cells_scale``; ``settings`` also holds
+        ``n_for_80`` and ``n_for_90`` (:func:`n_for_power`).
 
     Raises
     ------
     LogError
-        Cells missing for a group or sample.
+        Cells missing for a group, mode or sample.
     ValueError
-        An unknown ``test`` or a non-positive size.
+        An unknown ``test`` or ``cells_scale``, a size below 2, a rate outside [0, 1).
     """
     table = cells_frame(cells)
     if test not in ("cluster-t", "gee"):
-        raise ValueError(f"power_curve: test: expected 'cluster-t' or 'gee', got {test!r}")
+        raise ValueError(f"power_curve: test: expected 'gee' or 'cluster-t', got {test!r}")
+    if cells_scale not in ("conditional", "marginal"):
+        raise ValueError(f"power_curve: cells_scale: expected 'conditional' or 'marginal', "
+                         f"got {cells_scale!r}")
+    if not 0 <= missing_rate < 1:
+        raise ValueError(f"power_curve: missing_rate: expected 0 <= rate < 1, got {missing_rate!r}")
     sel = table[table["mode"] == mode]
     pa = sel[sel["group"] == "A"].set_index("roughness_id")["p_correct"]
     pb = sel[sel["group"] == "B"].set_index("roughness_id")["p_correct"]
@@ -217,49 +347,110 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30), *, simulations: int = 20
         raise LogError(f"cells: group: expected probabilities for groups A and B on the same samples "
                        f"in mode {mode!r}, got A {sorted(pa.index)!r}, B {sorted(pb.index)!r}")
     ids = sorted(pa.index)
-    # 0 and 1 have no log odds: nudge them inside by 1e-6 (no visible change in the simulation)
-    p_a = np.clip(pa.loc[ids].to_numpy(float), 1e-6, 1 - 1e-6)
-    p_b = np.clip(pb.loc[ids].to_numpy(float), 1e-6, 1 - 1e-6)
-    rng = np.random.default_rng(seed)
-    # the difference the model implies, averaged over participants (Gauss-Hermite, 40 nodes)
-    z, w = np.polynomial.hermite_e.hermegauss(40)
+    if test == "gee":
+        full = table.set_index(["group", "mode", "roughness_id"])["p_correct"]
+        keys = [k for k in full.index if k[2] in ids]
+        missing_cells = [(g, m, r) for g in ("A", "B") for m in sorted(table["mode"].unique())
+                         for r in ids if (g, m, r) not in full.index]
+        if missing_cells:
+            raise LogError(f"cells: group: expected every group x mode x sample, got none for "
+                           f"{missing_cells[0]!r}")
+    else:
+        keys = [(g, mode, r) for g in ("A", "B") for r in ids]
+        full = table.set_index(["group", "mode", "roughness_id"])["p_correct"]
+    p = np.clip(np.array([full[k] for k in keys], float), 1e-6, 1 - 1e-6)
+    q = to_conditional(p, participant_sd) if cells_scale == "marginal" else p
+    z, w = np.polynomial.hermite_e.hermegauss(60)
     w = w / w.sum()
-    def marginal(p):
-        return float(np.mean([w @ special.expit(special.logit(q) + participant_sd * z) for q in p]))
-
-    expected = marginal(p_a) - marginal(p_b)
+    marg = {k: _marginal(special.logit(v), participant_sd, z, w) for k, v in zip(keys, q)}
+    expected = float(np.mean([marg[("A", mode, r)] for r in ids])
+                     - np.mean([marg[("B", mode, r)] for r in ids]))
+    rng = np.random.default_rng(seed)
     rows = []
-    for n in n_per_group:
-        n = int(n)
-        if n < 2:
-            raise ValueError(f"power_curve: n_per_group: expected integers >= 2, got {n!r}")
+    for entry in n_per_group:
+        n_a, n_b = _sizes(entry)
         if progress:
-            progress(f"n = {n} per group: {simulations} cohorts ({test})")
-        k_a, k_b = _simulate_counts(p_a, p_b, n, simulations, repetitions, participant_sd, rng)
-        prop_a = k_a.sum(axis=2) / (repetitions * len(ids))
-        prop_b = k_b.sum(axis=2) / (repetitions * len(ids))
-        diff = prop_a.mean(axis=1) - prop_b.mean(axis=1)
-        if test == "cluster-t":
-            with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)   # identical proportions: p = nan
-                res = stats.ttest_ind(prop_a, prop_b, axis=1, equal_var=False)
-            pvals = np.nan_to_num(np.asarray(res.pvalue, float), nan=1.0)
-            reject = pvals < alpha
-            sign = diff > 0
-        else:
-            out = [_gee_reject(k_a[s], k_b[s], repetitions, alpha) for s in range(simulations)]
-            reject = np.array([o[0] for o in out])
-            sign = np.array([o[1] > 0 for o in out])
+            label = f"n = {n_a} per group" if n_a == n_b else f"n = {n_a}:{n_b} (A:B)"
+            progress(f"{label}: {simulations} cohorts ({test})")
+        reject, sign, fallback, diffs = [], [], [], []
+        in_mode = {g: [j for j, key in enumerate([kk for kk in keys if kk[0] == g])
+                       if key[1] == mode] for g in ("A", "B")}
+        for _ in range(simulations):
+            k, n, groups = _simulate_arrays(q, keys, n_a, n_b, repetitions, participant_sd,
+                                            missing_rate, rng)
+            prop = {}
+            for kg, ng, g in zip(k, n, groups):
+                kk, nn = kg[:, in_mode[g]].sum(axis=1), ng[:, in_mode[g]].sum(axis=1)
+                prop[g] = kk[nn > 0] / nn[nn > 0]
+            diffs.append(prop["A"].mean() - prop["B"].mean())
+            if test == "gee":
+                r, est, fb = _gee_primary(_as_trials(_counts_table(k, n, groups, keys)), mode,
+                                          alpha, ids)
+            else:
+                with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    res = stats.ttest_ind(prop["A"], prop["B"], equal_var=False)
+                pv = float(res.pvalue) if np.isfinite(res.pvalue) else 1.0
+                r, est, fb = pv < alpha, diffs[-1], False
+            reject.append(r)
+            sign.append(est > 0)
+            fallback.append(fb)
+        reject, sign = np.array(reject), np.array(sign)
         hits = int(reject.sum())
         low, high = wilson_interval(hits, simulations)
-        rows.append({"n_per_group": n, "simulations": simulations, "power": hits / simulations,
+        rows.append({"n_group_A": n_a, "n_group_B": n_b, "n_per_group": (n_a + n_b) / 2,
+                     "simulations": simulations, "power": hits / simulations,
                      "power_low": float(low), "power_high": float(high),
                      "power_right_sign": float((reject & sign).mean()),
-                     "mean_difference_A_minus_B": float(diff.mean()),
-                     "expected_difference_A_minus_B": expected})
+                     "fallbacks": float(np.mean(fallback)),
+                     "mean_difference_A_minus_B": float(np.nanmean(diffs)),
+                     "expected_difference_A_minus_B": expected, "test": test, "mode": mode,
+                     "participant_sd": participant_sd, "alpha": alpha,
+                     "missing_rate": missing_rate, "cells_scale": cells_scale})
+    out = pd.DataFrame(rows)
     settings = {"mode": mode, "test": test, "alpha": alpha, "participant_sd": participant_sd,
-                "repetitions": repetitions, "seed": seed, "samples": ids}
-    return PowerResult(pd.DataFrame(rows), table, settings)
+                "repetitions": repetitions, "seed": seed, "samples": ids,
+                "missing_rate": missing_rate, "cells_scale": cells_scale,
+                "simulations": simulations,
+                "test_description": ("GEE correct ~ group * mode * C(roughness_id) (report's "
+                                     "fallbacks), Wald z of the A-B log odds ratio averaged over "
+                                     "samples" if test == "gee" else
+                                     "Welch t on per-participant proportions (approximation)"),
+                "n_for_80": n_for_power(out, 0.8), "n_for_90": n_for_power(out, 0.9)}
+    return PowerResult(out, table, settings)
+
+
+def n_for_power(table: pd.DataFrame, target: float) -> float | None:
+    """Participants per group at which power first reaches ``target`` (linear interpolation).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        ``PowerResult.table`` (``n_per_group``, ``power``), sizes increasing.
+    target : float
+        Power, 0-1.
+
+    Returns
+    -------
+    float or None
+        The interpolated n per group (mean of the two groups), rounded up to an
+        integer; ``None`` if the grid never reaches the target.
+
+    Examples
+    --------
+    >>> n_for_power(pd.DataFrame({"n_per_group": [10, 20], "power": [0.6, 0.9]}), 0.8)
+    17.0
+    """
+    t = table.sort_values("n_per_group")
+    n, pw = t["n_per_group"].to_numpy(float), t["power"].to_numpy(float)
+    above = np.flatnonzero(pw >= target)
+    if not len(above):
+        return None
+    i = above[0]
+    if i == 0:
+        return float(np.ceil(n[0]))
+    frac = (target - pw[i - 1]) / (pw[i] - pw[i - 1])
+    return float(np.ceil(n[i - 1] + frac * (n[i] - n[i - 1]) - 1e-9))
 
 
 def plot_power(result: PowerResult, path) -> Path:

@@ -7,25 +7,40 @@ import time
 
 def register(sub) -> None:
     p = sub.add_parser(
-        "power", help="power to detect the group A-B difference vs participants per group",
-        description="Simulate cohorts of each size with participant random intercepts and the "
-                    "per-cell probabilities of a correct answer, test the group difference, and "
-                    "write power.csv, power.png and cells.csv to --out. The probabilities come "
-                    "from --cells FILE, else from the simulated-participant model "
+        "power", help="power of the report's primary test (group A-B, real samples) vs cohort size",
+        description="Simulate cohorts of each size from the participant-level model (random "
+                    "intercepts, per-cell probabilities for a typical participant), run the "
+                    "report's own test on each (GEE with its formula and fallbacks; A-B averaged "
+                    "over samples), and write power.csv, power_summary.json (n per group for 80 "
+                    "and 90 %% power), power.png and cells.csv to --out. The probabilities come "
+                    "from --from-analysis DIR (the mixed model of `thermocue analyze`), --cells "
+                    "FILE, else the simulated-participant model "
                     "(experiments.participant_model.predicted_cell_probabilities).")
-    p.add_argument("--n-per-group", default="5,10,15,20,30", metavar="N,N,...",
-                   help="participants per group, comma-separated (default 5,10,15,20,30)")
-    p.add_argument("--simulations", type=int, default=2000, metavar="N",
-                   help="cohorts per size (default 2000)")
+    p.add_argument("--n-per-group", default="5,10,15,20,30,40,60", metavar="N,N,A:B,...",
+                   help="participants per group, comma-separated; A:B for unequal groups "
+                        "(default 5,10,15,20,30,40,60)")
+    p.add_argument("--simulations", type=int, default=400, metavar="N",
+                   help="cohorts per size (default 400)")
     p.add_argument("--cells", metavar="FILE",
                    help="CSV with columns group, mode, roughness_id, p_correct (probability 0-1)")
-    p.add_argument("--participant-sd", type=float, default=0.5, metavar="SD",
-                   help="SD of participant random intercepts, log-odds (default 0.5)")
+    p.add_argument("--from-analysis", metavar="DIR",
+                   help="output folder of `thermocue analyze`: cells and participant SD from its "
+                        "mixed model (glmm.csv)")
+    p.add_argument("--cells-scale", choices=("marginal", "conditional"),
+                   help="marginal: the cells are population averages (observed proportions, the "
+                        "participant model) and are converted to a typical participant's; "
+                        "conditional: they already are (default: conditional with "
+                        "--from-analysis, else marginal)")
+    p.add_argument("--participant-sd", type=float, metavar="SD",
+                   help="SD of participant random intercepts, log-odds (default: the mixed "
+                        "model's with --from-analysis, else 0.5)")
+    p.add_argument("--missing-rate", type=float, default=0.0, metavar="P",
+                   help="probability that a scheduled trial gives no answer (default 0)")
     p.add_argument("--mode", choices=("real", "simulated"), default="real",
-                   help="mode whose group difference is tested (default real)")
-    p.add_argument("--test", choices=("cluster-t", "gee"), default="cluster-t",
-                   help="cluster-t: Welch t on per-participant proportions (fast); gee: the "
-                        "report's GEE Wald test (slow)")
+                   help="mode whose group difference is tested (default real: the primary test)")
+    p.add_argument("--test", choices=("gee", "cluster-t"), default="gee",
+                   help="gee: the report's primary test (default); cluster-t: Welch t on "
+                        "per-participant proportions (fast approximation)")
     p.add_argument("--alpha", type=float, default=0.05, help="two-sided level (default 0.05)")
     p.add_argument("--repetitions", type=int, default=3, help="trials per participant and cell (default 3)")
     p.add_argument("--seed", type=int, default=20261122)
@@ -35,12 +50,19 @@ def register(sub) -> None:
 
 def _sizes(text: str):
     from experiments.errors import UserInputError
+    sizes = []
     try:
-        sizes = [int(v) for v in text.split(",") if v.strip()]
+        for v in text.split(","):
+            v = v.strip()
+            if not v:
+                continue
+            sizes.append(tuple(int(x) for x in v.split(":")) if ":" in v else int(v))
     except ValueError:
         sizes = []
-    if not sizes or min(sizes) < 2:
-        raise UserInputError(f"--n-per-group: expected comma-separated integers >= 2, got {text!r}")
+    flat = [x for s in sizes for x in (s if isinstance(s, tuple) else (s,))]
+    if not sizes or min(flat) < 2 or any(isinstance(s, tuple) and len(s) != 2 for s in sizes):
+        raise UserInputError(f"--n-per-group: expected comma-separated integers >= 2 (or A:B "
+                             f"pairs), got {text!r}")
     return sizes
 
 
@@ -55,9 +77,10 @@ def _model_cells(progress):
 
 
 def _run(ns) -> int:
+    import json
     from pathlib import Path
 
-    from analysis.power import plot_power, power_curve, read_cells
+    from analysis.power import glmm_cells, plot_power, power_curve, read_cells
     from experiments.errors import UserInputError
 
     from experiments.cli.paths import check_writable_dir
@@ -65,16 +88,27 @@ def _run(ns) -> int:
     sizes = _sizes(ns.n_per_group)
     if ns.simulations < 1:
         raise UserInputError(f"--simulations: expected an integer >= 1, got {ns.simulations!r}")
-    if ns.participant_sd < 0:
+    if ns.participant_sd is not None and ns.participant_sd < 0:
         raise UserInputError(f"--participant-sd: expected a number >= 0, got {ns.participant_sd!r}")
     if not 0 < ns.alpha < 1:
         raise UserInputError(f"--alpha: expected a number between 0 and 1, got {ns.alpha!r}")
+    if not 0 <= ns.missing_rate < 1:
+        raise UserInputError(f"--missing-rate: expected a number in [0, 1), got {ns.missing_rate!r}")
     start = time.monotonic()
 
     def progress(message: str) -> None:
         print(f"[{time.monotonic() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
 
-    if ns.cells:
+    sd, scale = ns.participant_sd, ns.cells_scale
+    if ns.from_analysis:
+        if not Path(ns.from_analysis).is_dir():
+            raise UserInputError(f"--from-analysis: expected an output folder of thermocue "
+                                 f"analyze, got {ns.from_analysis!r}")
+        cells, model_sd = glmm_cells(ns.from_analysis)
+        source = f"{ns.from_analysis} (mixed model)"
+        sd = model_sd if sd is None else sd
+        scale = scale or "conditional"
+    elif ns.cells:
         if not Path(ns.cells).is_file():
             raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
         cells, source = read_cells(ns.cells), ns.cells
@@ -84,14 +118,30 @@ def _run(ns) -> int:
             raise UserInputError("--cells: expected a CSV of per-cell probabilities (group, mode, "
                                  "roughness_id, p_correct), got none, and the simulated-participant "
                                  "model is not available")
+    sd = 0.5 if sd is None else sd
+    scale = scale or "marginal"
     result = power_curve(cells, sizes, simulations=ns.simulations, repetitions=ns.repetitions,
-                         participant_sd=ns.participant_sd, mode=ns.mode, alpha=ns.alpha,
-                         test=ns.test, seed=ns.seed, progress=progress)
+                         participant_sd=sd, mode=ns.mode, alpha=ns.alpha, test=ns.test,
+                         cells_scale=scale, missing_rate=ns.missing_rate, seed=ns.seed,
+                         progress=progress)
     out = Path(ns.out)
     out.mkdir(parents=True, exist_ok=True)
-    result.table.to_csv(out / "power.csv", index=False, float_format="%.6g")
-    result.cells.to_csv(out / "cells.csv", index=False, float_format="%.6g")
+    result.table.to_csv(out / "power.csv", index=False)
+    result.cells.to_csv(out / "cells.csv", index=False)
+    (out / "power_summary.json").write_text(json.dumps(
+        {**result.settings, "cells_source": source, "n_per_group_grid": [
+            list(s) if isinstance(s, tuple) else s for s in sizes]}, indent=2), "utf-8")
+    from analysis.exports import codebook
+    (out / "codebook.json").write_text(json.dumps(codebook(
+        {"power": out / "power.csv", "cells": out / "cells.csv"}), indent=2, ensure_ascii=False),
+        "utf-8")
     plot_power(result, out / "power.png")
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
-    print(result.table.to_string(index=False))
+    print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))
+    grid_max = max(max(s) if isinstance(s, tuple) else s for s in sizes)
+    for target, key in ((80, "n_for_80"), (90, "n_for_90")):
+        n = result.settings[key]
+        print(f"n per group for {target} % power: "
+              + (f"{n:.0f} (interpolated on the grid; Monte Carlo error in power.csv)"
+                 if n is not None else f"not reached up to {grid_max} per group"))
     return 0

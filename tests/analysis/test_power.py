@@ -1,6 +1,7 @@
 """Power simulation: size under no effect, power under a large one, the CLI."""
 from __future__ import annotations
 
+import json
 import sys
 import types
 
@@ -25,7 +26,8 @@ def _cells(delta):
 
 
 def test_no_group_difference_rejects_at_about_alpha():
-    res = power_curve(_cells(0.0), (10, 30), simulations=4000, participant_sd=0.6, seed=3)
+    res = power_curve(_cells(0.0), (10, 30), simulations=4000, participant_sd=0.6, seed=3,
+                      test="cluster-t")
     # 4000 cohorts: the rejection rate's SE is sqrt(0.05*0.95/4000) = 0.0034; Welch's t on
     # per-participant proportions is close to exact here (measured 0.044-0.049); band +-4.5 SE
     assert ((res.table["power"] > 0.035) & (res.table["power"] < 0.065)).all(), res.table
@@ -34,7 +36,8 @@ def test_no_group_difference_rejects_at_about_alpha():
 
 
 def test_power_grows_with_cohort_size_and_matches_the_expected_difference():
-    res = power_curve(_cells(0.25), (5, 10, 30), simulations=2000, participant_sd=0.0, seed=4)
+    res = power_curve(_cells(0.25), (5, 10, 30), simulations=2000, participant_sd=0.0, seed=4,
+                      test="cluster-t")
     t = res.table
     assert t["power"].is_monotonic_increasing and t["power"].iloc[-1] > 0.99
     assert t["power"].iloc[0] < 0.9
@@ -46,7 +49,7 @@ def test_power_grows_with_cohort_size_and_matches_the_expected_difference():
 
 
 def test_gee_test_agrees_with_the_cluster_t_on_a_clear_effect():
-    res = power_curve(_cells(0.3), (12,), simulations=30, participant_sd=0.3, test="gee", seed=5)
+    res = power_curve(_cells(0.3), (12,), simulations=15, participant_sd=0.3, test="gee", seed=5)
     assert res.table["power"].iloc[0] > 0.8 and res.settings["test"] == "gee"
 
 
@@ -73,10 +76,18 @@ def test_cli_power_with_cells_file(tmp_path, capsys):
     _write_cells(cells, _cells(0.2))
     out = tmp_path / "power"
     status = main(["power", "--cells", str(cells), "--n-per-group", "5,15",
-                   "--simulations", "300", "--out", str(out)])
+                   "--simulations", "15", "--out", str(out)])
     assert status == 0
     table = pd.read_csv(out / "power.csv")
-    assert list(table["n_per_group"]) == [5, 15] and (table["simulations"] == 300).all()
+    assert list(table["n_per_group"]) == [5, 15] and (table["simulations"] == 15).all()
+    # the test, SD, alpha, missing rate and scale travel with the numbers
+    assert (table["test"] == "gee").all() and (table["participant_sd"] == 0.5).all()
+    assert (table["alpha"] == 0.05).all() and (table["cells_scale"] == "marginal").all()
+    summary = json.loads((out / "power_summary.json").read_text())
+    assert {"n_for_80", "n_for_90", "test_description", "cells_source"} <= set(summary)
+    from analysis.exports import check_codebook
+    book = json.loads((out / "codebook.json").read_text())
+    assert set(book) == {"power.csv", "cells.csv"} and check_codebook(book) == []
     assert (out / "power.png").stat().st_size > 10_000
     err = capsys.readouterr().err
     assert "n = 5 per group" in err and "n = 15 per group" in err
@@ -88,7 +99,8 @@ def test_cli_power_uses_the_participant_model_when_no_cells(tmp_path, monkeypatc
         [(g, m, r, p) for (g, m, r), p in _cells(0.1).items()],
         columns=["group", "mode", "roughness_id", "p_correct"])
     monkeypatch.setitem(sys.modules, "experiments.participant_model", fake)
-    status = main(["power", "--n-per-group", "6", "--simulations", "100", "--out", str(tmp_path)])
+    status = main(["power", "--n-per-group", "6", "--simulations", "20", "--test", "cluster-t",
+                   "--out", str(tmp_path)])
     assert status == 0
     assert "simulated-participant model" in capsys.readouterr().err
     cells = pd.read_csv(tmp_path / "cells.csv")
@@ -102,3 +114,74 @@ def test_cli_power_bad_input_exits_2(tmp_path, monkeypatch, capsys):
     assert main(["power", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("thermocue power: --cells: expected a CSV") and "\n" not in err
+
+
+def test_power_runs_the_reports_primary_test():
+    # the averaged contrast power computes per cohort is the report's primary row exactly
+    from analysis import fit_gee, group_contrasts
+    from analysis.inference import averaged_contrast
+    from analysis.power import _as_trials, _simulate
+    rng = np.random.default_rng(6)
+    keys = [(g, m, r) for g in "AB" for m in ("real", "simulated") for r in (1, 2, 3, 4)]
+    q = np.array([_cells(0.15)[k] for k in keys])
+    trials = _as_trials(_simulate(q, keys, 13, 17, 3, 0.5, 0.1, rng))
+    assert trials["participant"].nunique() == 30
+    assert trials.groupby("participant").size().max() <= 24 and len(trials) < 30 * 24
+    fit = fit_gee(trials)
+    row = group_contrasts(fit, trials).set_index(["mode", "roughness_id"]).loc[("real", 0)]
+    mine = averaged_contrast(fit, "real")
+    assert mine["p_value"] == pytest.approx(row["p_value"], rel=1e-12)
+    assert mine["log_odds_ratio"] == pytest.approx(row["log_odds_ratio_A_vs_B"], rel=1e-12)
+
+
+def test_unequal_groups_missing_trials_and_n_for_80_and_90():
+    res = power_curve(_cells(0.25), [(4, 6), (10, 14), (26, 34)], simulations=300,
+                      participant_sd=0.3, test="cluster-t", missing_rate=0.2, seed=7)
+    t = res.table
+    assert list(zip(t["n_group_A"], t["n_group_B"])) == [(4, 6), (10, 14), (26, 34)]
+    assert list(t["n_per_group"]) == [5, 12, 30] and (t["missing_rate"] == 0.2).all()
+    assert t["power"].iloc[-1] > 0.9
+    n80 = res.settings["n_for_80"]
+    assert n80 is not None and 5 <= n80 <= 30
+    assert res.settings["n_for_90"] >= n80
+
+
+def test_marginal_cells_are_converted_to_a_typical_participant():
+    from scipy import integrate, special
+    from analysis.power import to_conditional
+    p = np.array([0.1, 0.4, 0.8])
+    q = to_conditional(p, 1.2)
+    for pi, qi in zip(p, q):
+        avg = integrate.quad(lambda u: special.expit(special.logit(qi) + u)
+                             * np.exp(-u * u / (2 * 1.44)) / np.sqrt(2 * np.pi * 1.44), -12, 12)[0]
+        assert avg == pytest.approx(pi, abs=1e-7)
+    # counting the spread twice would understate the difference the model implies
+    res_m = power_curve(_cells(0.2), (10,), simulations=10, participant_sd=1.2,
+                        cells_scale="marginal", test="cluster-t")
+    assert res_m.table["expected_difference_A_minus_B"].iloc[0] == pytest.approx(0.2, abs=1e-6)
+
+
+def test_cells_from_the_analysis_mixed_model(study, tmp_path):
+    from analysis import analyze
+    from analysis.power import glmm_cells
+    data, _ = study(n_per_group=6, sigma=0.5, seed=8)
+    analyze(data, tmp_path / "out", n_boot=20)
+    cells, sd = glmm_cells(tmp_path / "out")
+    glmm = pd.read_csv(tmp_path / "out" / "glmm.csv").set_index("term")
+    assert sd == glmm.loc["participant_sd", "log_odds"] and len(cells) == 16
+    c = pd.read_csv(tmp_path / "out" / "contrasts.csv")
+    row = c[(c["model"] == "glmm") & (c["mode"] == "real") & (c["roughness_id"] == 2)].iloc[0]
+    cell = cells.set_index(["group", "mode", "roughness_id"])["p_correct"]
+    assert cell[("A", "real", 2)] == pytest.approx(row["p_correct_A"], rel=1e-10)
+    assert cell[("B", "real", 2)] == pytest.approx(row["p_correct_B"], rel=1e-10)
+
+
+def test_cli_power_bad_analysis_folder_and_sizes_exit_2(tmp_path, capsys):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["power", "--from-analysis", str(empty), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"thermocue power: {empty / 'glmm.csv'}: term: expected") and "\n" not in err
+    assert main(["power", "--n-per-group", "13:17:4", "--out", str(tmp_path / "o")]) == 2
+    assert "A:B pairs" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

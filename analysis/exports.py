@@ -1,0 +1,251 @@
+"""Tidy exports for R/JASP: full-precision CSVs, a JSON codebook, wide and count tables, settings.
+
+Machine tables are written with every float at full precision (Python's shortest
+round-trip ``repr``), never rounded; ``report.md`` rounds for reading.
+``codebook.json`` gives, for every CSV written, every column's unit and meaning;
+:func:`check_codebook` fails when a column lacks an entry (tests call it).
+"""
+from __future__ import annotations
+
+import json
+import platform
+import sys
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
+           "run_settings", "COLUMNS"]
+
+_C = "category"
+_N = "count"
+_F = "fraction 0-1"
+_L = "log odds"
+_P = "probability 0-1"
+#: Unit and meaning of every column any machine table may hold (one vocabulary for all files).
+COLUMNS = {
+    # identifiers and design
+    "participant": (_C, "participant id"),
+    "group": (_C, "skin-thickness group: A thin (600-750 um), B thick (900-1200 um)"),
+    "session": (_C, "session name"),
+    "block": (_C, "protocol block name"),
+    "trial_index": ("index", "trial number within the session (1-based)"),
+    "attempt": ("index", "attempt number of the trial (re-runs after faults are 2, 3, ...)"),
+    "mode": (_C, "real = steel sample touched; simulated = thermal display replay"),
+    "roughness_id": (_C, "sample number 1-4 (1# smoothest); 0 = averaged over the samples"),
+    "roughness_um": ("um", "sample roughness Ra"),
+    "repetition": ("index", "repetition of the sample within the block"),
+    "response_id": (_C, "sample named by the participant (1-4)"),
+    "stimulus_roughness_id": (_C, "sample presented (1-4)"),
+    "correct": ("0/1", "1 if response_id equals roughness_id"),
+    "rt_s": ("s", "response time (from the answer prompt)"),
+    "status": (_C, "attempt outcome: ok, fault, aborted"),
+    "tracking_rms_C": ("degC", "RMS tracking error of the display"),
+    "skin_thickness_um": ("um", "skin thickness of the participant"),
+    "sex": (_C, "participant's sex as recorded"),
+    "started_at": ("ISO 8601 UTC", "time the attempt started"),
+    "fault_code": (_C, "display fault code of the attempt, if any"),
+    "abort_reason": (_C, "why the attempt was aborted (no_contact, interrupted, killed, error)"),
+    "familiarisation": ("bool", "row of a familiarisation (unscored) block"),
+    "included": ("bool", "row used in the analysis"),
+    "exclusion": (_C, "why the row is not used (familiarisation, status, superseded attempt)"),
+    "source": ("path", "file the row was read from"),
+    "line": ("index", "line of that file"),
+    "path": ("path", "session folder"),
+    "n_rows": (_N, "rows read from the session"),
+    "skipped": (_C, "why the session was skipped (empty if used)"),
+    "reason": (_C, "why a scheduled trial has no answer: time-out, no contact, fault, session ended"),
+    "detail": (_C, "the logged detail behind the reason"),
+    "attempts": (_N, "attempts logged for the trial"),
+    "sessions": (_N, "session folders of the participant"),
+    "scheduled": (_N, "scored trials scheduled"),
+    "answered": (_N, "scheduled scored trials with an analysable answer"),
+    "missing": (_N, "scheduled scored trials without an analysable answer"),
+    "time-out": (_N, "missing trials: time-out"),
+    "no contact": (_N, "missing trials: no touch within the trial time-out"),
+    "fault": (_N, "missing trials: display or software fault on the last attempt"),
+    "session ended": (_N, "missing trials: the session stopped before or during the trial"),
+    "other": (_N, "missing trials: another reason (see missing_trials.csv)"),
+    "schedule_source": (_C, "where the schedule came from: session.json or the logged trials"),
+    # counts and proportions
+    "n_participants": (_N, "participants contributing"),
+    "n_trials": (_N, "trials"),
+    "n_correct": (_N, "correct answers"),
+    "k": (_N, "correct answers of the participant in the cell"),
+    "n": (_N, "answered trials of the participant in the cell"),
+    "proportion_correct": (_F, "fraction of trials answered correctly"),
+    "proportion_of_stimulus": (_F, "share of the stimulus's trials given this response"),
+    "wilson_low": (_F, "Wilson score interval, lower end (trials independent)"),
+    "wilson_high": (_F, "Wilson score interval, upper end"),
+    "boot_low": (_F, "participant-cluster bootstrap interval, lower end"),
+    "boot_high": (_F, "participant-cluster bootstrap interval, upper end"),
+    "boot_se": (_F, "bootstrap standard error of proportion_correct"),
+    "design_effect": ("ratio", "bootstrap variance x m/(m-1) over binomial variance, floored at 1"),
+    "median_rt_s": ("s", "median response time"),
+    "q25_rt_s": ("s", "first quartile of response time"),
+    "q75_rt_s": ("s", "third quartile of response time"),
+    # models
+    "term": (_C, "model term (patsy name; treatment coding: group A, real, 1# are the reference)"),
+    "log_odds": (_L, "estimate on the log-odds scale (participant_sd, sd_*: SDs of the random "
+                     "effects, log odds; icc_latent: fraction 0-1; corr_*: correlation; "
+                     "lrt_slope: likelihood-ratio statistic)"),
+    "se": (_L, "standard error of the estimate"),
+    "z": ("ratio", "estimate / se"),
+    "p_value": (_P, "two-sided p-value, unadjusted"),
+    "p_holm": (_P, "Holm-adjusted p-value within the table's family of tests"),
+    "ci_low": (_L, "confidence interval, lower end (same scale as the estimate)"),
+    "ci_high": (_L, "confidence interval, upper end"),
+    "interval": (_C, "how the interval was computed (Wald, profile likelihood)"),
+    "posterior_mean": (_L, "variational posterior mean (demoted mean-field VB)"),
+    "posterior_sd": (_L, "variational posterior SD (too small: mean-field)"),
+    "cri_low": (_L, "variational credible interval, lower end"),
+    "cri_high": (_L, "variational credible interval, upper end"),
+    "model": (_C, "model the row comes from"),
+    "log_odds_ratio_A_vs_B": (_L, "log odds of correct, group A minus group B"),
+    "odds_ratio_A_vs_B": ("ratio", "exp(log_odds_ratio_A_vs_B)"),
+    "p_correct_A": (_P, "model probability of a correct answer, group A (averaged row: mean of "
+                        "the samples' probabilities)"),
+    "p_correct_B": (_P, "same for group B"),
+    "difference_A_minus_B": (_F, "p_correct_A - p_correct_B (difference of mean proportions)"),
+    "difference_low": (_F, "delta-method interval of the difference, lower end"),
+    "difference_high": (_F, "delta-method interval of the difference, upper end"),
+    "basis": (_C, "where the row comes from (fitted model, per-sample GEE, not estimable)"),
+    "compares": (_C, "in words: what the row compares"),
+    "test": (_C, "name of the test"),
+    "role": (_C, "primary, omnibus, per-sample, interaction"),
+    "hypothesis": (_C, "null hypothesis in words"),
+    "statistic": ("see test", "test statistic (z, or F for the omnibus test)"),
+    "df": (_N, "degrees of freedom"),
+    "estimate": ("see compares", "estimate of the compared quantity (log odds unless stated)"),
+    "difference": (_F, "the compared quantity as a difference of proportions"),
+    "difference_ci_low": (_F, "its interval, lower end"),
+    "difference_ci_high": (_F, "its interval, upper end"),
+    "family": (_C, "family of tests within which p_holm adjusts"),
+    "mean_participant_proportion": (_F, "mean over participants of their proportion correct"),
+    "t_low": (_F, "t interval of mean_participant_proportion, lower end"),
+    "t_high": (_F, "t interval of mean_participant_proportion, upper end"),
+    "t": ("ratio", "(mean - 0.25) / standard error"),
+    # psychophysics
+    "it_bits": ("bits", "information transfer, plug-in estimate"),
+    "it_bits_corrected": ("bits", "information transfer, Miller-Madow bias-corrected"),
+    "stimulus_entropy_bits": ("bits", "entropy of the stimulus distribution"),
+    "relative_it": (_F, "it_bits_corrected / stimulus_entropy_bits"),
+    "kappa": ("ratio", "Cohen's kappa of stimulus vs response"),
+    "mean_hu": (_F, "mean of Wagner's unbiased hit rates over the samples"),
+    "hit_rate": (_F, "proportion of the sample's trials named correctly"),
+    "hu": (_F, "Wagner's unbiased hit rate"),
+    "hu_chance": (_F, "chance value of hu for these marginals"),
+    "spearman_pooled": ("ratio", "Spearman rank correlation of stimulus and response, all trials"),
+    "mean_participant_spearman": ("ratio", "mean (Fisher z) of the participants' own Spearman rho"),
+    "t_p_value": (_P, "one-sample t-test of the participants' Fisher z against 0"),
+    "po_slope": (_L, "proportional-odds log odds of a higher answer per sample step"),
+    "po_se": (_L, "its participant-cluster-robust standard error"),
+    "po_ci_low": (_L, "interval, lower end"),
+    "po_ci_high": (_L, "interval, upper end"),
+    "meaning": (_C, "what the coefficient means"),
+    # power
+    "n_per_group": (_N, "participants per group (group A when groups differ)"),
+    "n_group_A": (_N, "participants in group A"),
+    "n_group_B": (_N, "participants in group B"),
+    "simulations": (_N, "simulated cohorts"),
+    "power": (_F, "share of cohorts rejecting no group difference"),
+    "power_low": (_F, "Wilson interval of power (Monte Carlo error), lower end"),
+    "power_high": (_F, "Wilson interval of power, upper end"),
+    "power_right_sign": (_F, "share rejecting with group A higher"),
+    "mean_difference_A_minus_B": (_F, "mean observed A - B proportion difference"),
+    "expected_difference_A_minus_B": (_F, "A - B difference of mean proportions the model implies"),
+    "participant_sd": (_L, "SD of participant random intercepts"),
+    "alpha": (_P, "two-sided significance level"),
+    "missing_rate": (_F, "share of scheduled trials dropped at random"),
+    "fallbacks": (_F, "share of cohorts fitted with a fallback formula"),
+    "cells_scale": (_C, "conditional: cells are a typical participant's; marginal: population "
+                        "averages converted to a typical participant's"),
+    "p_correct": (_P, "probability of a correct answer for a typical participant (u = 0)"),
+}
+
+
+def write_csv(df: pd.DataFrame, path: Path) -> Path:
+    """Write a machine table at full precision (no rounding)."""
+    df.to_csv(path, index=False)
+    return path
+
+
+def wide_table(trials: pd.DataFrame) -> pd.DataFrame:
+    """One row per participant, one column per condition (proportion correct).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``participant, group, skin_thickness_um`` then ``p_<mode>_<r>`` for each
+        mode and sample and ``p_<mode>_all`` (fractions 0-1; blank when the
+        participant has no trial in that condition).
+    """
+    base = trials.groupby("participant").agg(group=("group", "first"),
+                                             skin_thickness_um=("skin_thickness_um", "first"))
+    cell = trials.pivot_table(index="participant", columns=["mode", "roughness_id"],
+                              values="correct", aggfunc="mean")
+    cell.columns = [f"p_{m}_{r}" for m, r in cell.columns]
+    mode = trials.pivot_table(index="participant", columns="mode", values="correct",
+                              aggfunc="mean")
+    mode.columns = [f"p_{m}_all" for m in mode.columns]
+    return base.join(cell).join(mode).reset_index()
+
+
+def cell_counts(trials: pd.DataFrame) -> pd.DataFrame:
+    """Per participant × cell: correct answers ``k`` of ``n`` (for binomial GLMMs in R/JASP)."""
+    g = trials.groupby(["participant", "group", "mode", "roughness_id"])["correct"]
+    return pd.DataFrame({"k": g.sum().astype(int), "n": g.size()}).reset_index()
+
+
+def codebook(files: dict) -> dict:
+    """The codebook of the CSVs in ``files`` (name -> Path): every column's unit and meaning.
+
+    Columns named ``p_<mode>_<r>`` (the wide table) and ``proportion_correct_r<r>``
+    (participants.csv) are described by pattern.
+    """
+    book = {}
+    for path in files.values():
+        path = Path(path)
+        if path.suffix != ".csv":
+            continue
+        try:
+            columns = pd.read_csv(path, nrows=0).columns
+        except pd.errors.EmptyDataError:          # a table with no columns (model not fitted)
+            columns = []
+        entry = {}
+        for c in columns:
+            if c in COLUMNS:
+                unit, meaning = COLUMNS[c]
+            elif c.startswith("proportion_correct_r") and c[20:].isdigit():
+                unit, meaning = _F, f"participant's proportion correct on sample {c[20:]}#"
+            elif c.startswith("p_") and c.count("_") >= 2:
+                _, mode, which = c.split("_", 2)
+                unit, meaning = _F, (f"participant's proportion correct, {mode} samples, "
+                                     + ("all samples" if which == "all" else f"sample {which}#"))
+            else:
+                unit, meaning = None, None
+            entry[c] = {"unit": unit, "meaning": meaning}
+        book[path.name] = entry
+    return book
+
+
+def check_codebook(book: dict) -> list[str]:
+    """Columns of the codebook without a unit or meaning (``file: column``)."""
+    return [f"{f}: {c}" for f, cols in book.items() for c, v in cols.items()
+            if v["unit"] is None or v["meaning"] is None]
+
+
+def run_settings(**settings) -> dict:
+    """The run's settings plus Python, platform and package versions (JSON-ready)."""
+    versions = {}
+    for name in ("thermocue", "numpy", "scipy", "pandas", "statsmodels", "patsy", "matplotlib"):
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = None
+    out = {k: (str(v) if isinstance(v, Path) else v) for k, v in settings.items()}
+    out.update(python=sys.version.split()[0], platform=platform.platform(), versions=versions)
+    return json.loads(json.dumps(out, default=lambda v: v.item() if isinstance(v, np.generic)
+                                 else str(v)))

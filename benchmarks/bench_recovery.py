@@ -1,0 +1,207 @@
+"""Recovery suite: coverage of every 95 % interval the report prints, and the tests' type-I error.
+
+Not a test (a smaller version runs in tests/analysis/test_recovery_models.py). Run:
+
+    .venv/bin/python benchmarks/bench_recovery.py --datasets 200 --scenario null --out DIR
+    .venv/bin/python benchmarks/bench_recovery.py --datasets 200 --scenario effect --out DIR
+
+Datasets come from ``tests/analysis/generator.py`` (independent of the code under test and of the
+simulated participant): a random-intercept logistic model with known typical-participant cell
+probabilities, SD ``--sigma`` (default 0.8), groups of 13 and 17, 3 repetitions, 3 % of trials
+lost at random, wrong answers biased to neighbouring samples. ``null``: no group effect
+anywhere; ``effect``: group A 0.15 above B with real samples only.
+
+Each dataset is analysed with the functions ``thermocue analyze`` calls (cell_proportions,
+fit_gee, group_contrasts, fit_glmm, the named tests, chance_tests). For each interval family the
+share of intervals covering the truth is printed with its binomial SE (intervals within a
+dataset are correlated, so the SE is a lower bound); for each test the rejection rate at 0.05.
+Truths: population-averaged quantities (GEE, cells, chance) by 80-node Gauss-Hermite over the
+random intercept; typical-participant ones (GLMM) from the cells directly.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import patsy
+from scipy.special import expit, logit
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "analysis"))
+
+from analysis import cell_proportions, fit_gee, group_contrasts  # noqa: E402
+from analysis.glmm import fit_glmm  # noqa: E402
+from analysis.inference import chance_tests  # noqa: E402
+from analysis.models import FORMULA  # noqa: E402
+from analysis.report import tests_table  # noqa: E402
+from generator import effect_cells, generate, null_cells  # noqa: E402
+
+MODES = ("real", "simulated")
+
+
+def truths(cells: dict, sigma: float) -> dict:
+    z, w = np.polynomial.hermite_e.hermegauss(80)
+    w = w / w.sum()
+    marg = {k: float(w @ expit(logit(p) + sigma * z)) for k, p in cells.items()}
+    out = {"marg": marg, "cond": dict(cells)}
+    for scale, table in (("gee", marg), ("glmm", cells)):
+        for m in MODES:
+            for r in range(1, 5):
+                a, b = table[("A", m, r)], table[("B", m, r)]
+                out[(scale, m, r)] = (logit(a) - logit(b), a - b)
+            lor = np.mean([out[(scale, m, r)][0] for r in range(1, 5)])
+            diff = np.mean([table[("A", m, r)] for r in range(1, 5)]) - \
+                np.mean([table[("B", m, r)] for r in range(1, 5)])
+            out[(scale, m, 0)] = (lor, diff)
+        out[(scale, "interaction")] = tuple(out[(scale, "real", 0)][i] - out[(scale, "simulated", 0)][i]
+                                            for i in (0, 1))
+    return out
+
+
+class Tally:
+    def __init__(self):
+        self.hits, self.total, self.missing = {}, {}, {}
+
+    def add(self, family, low, high, truth):
+        if not (np.isfinite(low) and np.isfinite(high)):
+            self.missing[family] = self.missing.get(family, 0) + 1
+            return
+        self.hits[family] = self.hits.get(family, 0) + int(low <= truth <= high)
+        self.total[family] = self.total.get(family, 0) + 1
+
+    def table(self):
+        rows = []
+        for f in self.total:
+            c = self.hits[f] / self.total[f]
+            rows.append({"interval": f, "coverage": c, "n_intervals": self.total[f],
+                         "binomial_se": np.sqrt(c * (1 - c) / self.total[f]),
+                         "not_estimable": self.missing.get(f, 0)})
+        return pd.DataFrame(rows)
+
+
+def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True):
+    cells = null_cells() if scenario == "null" else effect_cells()
+    truth = truths(cells, sigma)
+    grid = pd.DataFrame([(g, m, r, 0, "x") for (g, m, r) in cells],
+                        columns=["group", "mode", "roughness_id", "correct", "participant"])
+    cond_logit = logit(np.array([cells[k] for k in cells]))
+    tally = Tally()
+    rejections = {k: 0 for k in ("primary (GEE averaged A-B, real)", "omnibus (GEE, 8 df)",
+                                 "any per-sample, unadjusted", "any per-sample, Holm",
+                                 "interaction (GEE)", "interaction (GLMM)",
+                                 "GLMM group[T.B] (real 1#)")}
+    fallbacks = {"gee": 0, "glmm": 0}
+    glmm_fail = 0
+    start = time.process_time()
+    for i in range(n):
+        trials = generate(cells, sigma=sigma, seed=seed0 + i)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            props = cell_proportions(trials, n_boot=n_boot, seed=i)
+            gee = fit_gee(trials)
+            glmm = fit_glmm(trials, profile=profile)
+        fallbacks["gee"] += gee.formula != FORMULA
+        fallbacks["glmm"] += glmm.formula != FORMULA
+        for row in props.itertuples():
+            t = truth["marg"][(row.group, row.mode, row.roughness_id)]
+            tally.add("cell: participant bootstrap", row.boot_low, row.boot_high, t)
+            tally.add("cell: Wilson (trials independent)", row.wilson_low, row.wilson_high, t)
+        contrasts = group_contrasts(gee, trials)
+        if glmm.formula is not None:
+            gc = group_contrasts(glmm, trials)
+            gc["model"] = "glmm"
+            contrasts = pd.concat([contrasts, gc], ignore_index=True)
+        for row in contrasts.itertuples():
+            scale = "gee" if row.model == "gee" else "glmm"
+            lor, diff = truth[(scale, row.mode, row.roughness_id)]
+            which = "averaged" if row.roughness_id == 0 else "per-sample"
+            tally.add(f"{scale} contrast {which}: log odds ratio", row.ci_low, row.ci_high, lor)
+            tally.add(f"{scale} contrast {which}: proportion difference", row.difference_low,
+                      row.difference_high, diff)
+        tests = tests_table(gee, glmm if glmm.formula else None, contrasts[contrasts["model"] == "gee"],
+                            trials)
+        for row in tests.itertuples():
+            if row.role == "interaction":
+                lor, dd = truth[(row.model, "interaction")]
+                tally.add(f"{row.model} interaction: log odds", row.ci_low, row.ci_high, lor)
+                tally.add(f"{row.model} interaction: proportions", row.difference_ci_low,
+                          row.difference_ci_high, dd)
+        roles = tests.groupby("role")
+        p = {role: sel["p_value"].to_numpy(float) for role, sel in roles}
+        rejections["primary (GEE averaged A-B, real)"] += bool(p.get("primary", [1])[0] < 0.05)
+        rejections["omnibus (GEE, 8 df)"] += bool(p.get("omnibus", [1])[0] < 0.05)
+        per = tests[tests["role"] == "per-sample"]
+        rejections["any per-sample, unadjusted"] += bool((per["p_value"] < 0.05).any())
+        rejections["any per-sample, Holm"] += bool((per["p_holm"] < 0.05).any())
+        inter = tests[tests["role"] == "interaction"].set_index("model")["p_value"]
+        rejections["interaction (GEE)"] += bool(inter.get("gee", 1) < 0.05)
+        rejections["interaction (GLMM)"] += bool(inter.get("glmm", 1) < 0.05)
+        if glmm.formula == FORMULA:
+            x = np.asarray(patsy.build_design_matrices([glmm.design_info], grid)[0])
+            beta_true = np.linalg.lstsq(x, cond_logit, rcond=None)[0]
+            fixed = glmm.table.iloc[: len(beta_true)]
+            for row, b in zip(fixed.itertuples(), beta_true):
+                tally.add("glmm fixed effects (Wald)", row.ci_low, row.ci_high, b)
+            g = fixed.set_index("term").loc["group[T.B]"]
+            rejections["GLMM group[T.B] (real 1#)"] += bool(g["p_value"] < 0.05)
+        if glmm.formula is not None:
+            t = glmm.table.set_index("term")
+            how = "profile" if profile else "Wald on log SD"
+            tally.add(f"glmm participant SD ({how})", t.loc["participant_sd", "ci_low"],
+                      t.loc["participant_sd", "ci_high"], sigma)
+            tally.add(f"glmm ICC latent ({how})", t.loc["icc_latent", "ci_low"],
+                      t.loc["icc_latent", "ci_high"], sigma ** 2 / (sigma ** 2 + np.pi ** 2 / 3))
+        else:
+            glmm_fail += 1
+        chance = chance_tests(trials)
+        for row in chance.itertuples():
+            if row.family == "cell":
+                t = truth["marg"][(row.group, row.mode, row.roughness_id)]
+            else:
+                t = np.mean([truth["marg"][(row.group, row.mode, r)] for r in range(1, 5)])
+            tally.add(f"chance t interval ({row.family})", row.t_low, row.t_high, t)
+        if progress and (i + 1) % 10 == 0:
+            print(f"  {i + 1}/{n} datasets, {time.process_time() - start:.0f} s CPU",
+                  file=sys.stderr, flush=True)
+    cpu = time.process_time() - start
+    rej = pd.DataFrame([{"test": k, "rejections": v, "datasets": n, "rate": v / n,
+                         "binomial_se": np.sqrt(max(v / n * (1 - v / n), 1e-12) / n)}
+                        for k, v in rejections.items()])
+    return tally.table(), rej, {"fallbacks": fallbacks, "glmm_failed": glmm_fail,
+                                "cpu_s": cpu, "datasets": n, "scenario": scenario,
+                                "sigma": sigma, "seed0": seed0, "n_boot": n_boot,
+                                "load_average": os.getloadavg()}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--datasets", type=int, default=200)
+    ap.add_argument("--scenario", choices=("null", "effect"), default="null")
+    ap.add_argument("--sigma", type=float, default=0.8)
+    ap.add_argument("--seed", type=int, default=20261124)
+    ap.add_argument("--bootstrap", type=int, default=1000)
+    ap.add_argument("--out", type=Path)
+    ns = ap.parse_args(argv)
+    cov, rej, info = run(ns.datasets, ns.scenario, ns.sigma, ns.seed, ns.bootstrap)
+    pd.set_option("display.width", 200)
+    print(f"scenario {ns.scenario}, {ns.datasets} datasets, sigma {ns.sigma}: "
+          f"{info['cpu_s']:.0f} s CPU; fallbacks {info['fallbacks']}")
+    print(cov.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    print(rej.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    if ns.out:
+        ns.out.mkdir(parents=True, exist_ok=True)
+        cov.to_csv(ns.out / f"coverage_{ns.scenario}.csv", index=False)
+        rej.to_csv(ns.out / f"rejections_{ns.scenario}.csv", index=False)
+        (ns.out / f"info_{ns.scenario}.json").write_text(json.dumps(info, indent=2))
+
+
+if __name__ == "__main__":
+    main()

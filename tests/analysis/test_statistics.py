@@ -1,0 +1,155 @@
+"""Named tests (primary, omnibus, Holm, interaction, chance), mean-proportion contrasts and the
+psychophysics measures, each against a reference computed another way."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from analysis import fit_gee, group_contrasts, load_trials
+from analysis.inference import chance_tests, holm, interaction_test, omnibus_group_test
+from analysis.psychophysics import agreement_table, hu_values, information_transfer, ordinal_table
+
+from generator import effect_cells, generate, null_cells
+
+
+def test_holm_matches_statsmodels_multipletests():
+    from statsmodels.stats.multitest import multipletests
+    p = np.random.default_rng(20261124).uniform(0, 0.2, size=8)
+    np.testing.assert_allclose(holm(p), multipletests(p, method="holm")[1], rtol=1e-12)
+    with_nan = np.append(p, np.nan)
+    out = holm(with_nan)
+    assert np.isnan(out[-1])
+    np.testing.assert_allclose(out[:-1], multipletests(p, method="holm")[1], rtol=1e-12)
+
+
+def test_omnibus_wald_equals_statsmodels_wald_test():
+    trials = generate(effect_cells(), seed=11)
+    gee = fit_gee(trials)
+    omni = omnibus_group_test(gee, trials)
+    assert omni["df"] == 8
+    # the same hypothesis through statsmodels: all group and group:* terms zero
+    # (A - B at every mode x sample is a full-rank recoding of these 8 coefficients)
+    names = gee.table["term"].tolist()
+    rows = [i for i, n in enumerate(names) if n.startswith("group[T.B]")]
+    lmat = np.zeros((len(rows), len(names)))
+    lmat[np.arange(len(rows)), rows] = 1
+    ref = gee.result.wald_test(lmat, scalar=True)
+    assert omni["chi2"] == pytest.approx(float(ref.statistic), rel=1e-8)
+    # small-sample (Hotelling-type) F with m = 30 participants: F(8, 22)
+    m = trials["participant"].nunique()
+    assert (omni["df"], omni["df_denominator"]) == (8, m - 8)
+    f = float(ref.statistic) * (m - 8) / (8 * (m - 1))
+    assert omni["p_value"] == pytest.approx(stats.f.sf(f, 8, m - 8), rel=1e-8)
+    assert omni["p_value"] > float(ref.pvalue)        # the correction only makes it stricter
+
+
+def test_averaged_contrast_is_a_difference_of_mean_proportions():
+    # saturated GEE on balanced data: per-sample probabilities are the observed proportions;
+    # the averaged row must be their mean (expit of the mean log odds, the old value, is not)
+    trials = generate(effect_cells(), n_a=15, n_b=15, missing=0.0, seed=12)
+    gee = fit_gee(trials)
+    c = group_contrasts(gee, trials)
+    for mode in ("real", "simulated"):
+        sel = c[c["mode"] == mode].set_index("roughness_id")
+        observed = trials[trials["mode"] == mode].groupby(["group", "roughness_id"])["correct"].mean()
+        assert sel.loc[0, "p_correct_A"] == pytest.approx(observed["A"].mean(), abs=1e-6)
+        assert sel.loc[0, "p_correct_B"] == pytest.approx(observed["B"].mean(), abs=1e-6)
+        assert sel.loc[0, "difference_A_minus_B"] == pytest.approx(
+            observed["A"].mean() - observed["B"].mean(), abs=1e-6)
+        assert "mean over 1#-4#" in sel.loc[0, "compares"]
+        assert all(f"sample {r}#" in sel.loc[r, "compares"] for r in range(1, 5))
+
+
+def test_interaction_is_the_difference_of_the_two_averaged_contrasts():
+    trials = generate(effect_cells(), n_a=25, n_b=25, sigma=0.3, seed=13)
+    gee = fit_gee(trials)
+    c = group_contrasts(gee, trials).set_index(["mode", "roughness_id"])
+    it = interaction_test(gee, trials)
+    real, sim = c.loc[("real", 0)], c.loc[("simulated", 0)]
+    assert it["log_odds"] == pytest.approx(real["log_odds_ratio_A_vs_B"]
+                                           - sim["log_odds_ratio_A_vs_B"], abs=1e-10)
+    assert it["difference_of_differences"] == pytest.approx(
+        real["difference_A_minus_B"] - sim["difference_A_minus_B"], abs=1e-10)
+    assert it["ci_low"] < it["log_odds"] < it["ci_high"]
+
+
+def test_chance_tests_are_one_sample_t_tests_on_participant_proportions():
+    trials = generate(null_cells(), seed=14)
+    table = chance_tests(trials)
+    assert set(table["family"]) == {"cell", "group x mode"}
+    assert (table["family"] == "cell").sum() == 16 and (table["family"] == "group x mode").sum() == 4
+    row = table[(table["family"] == "cell") & (table["group"] == "B") & (table["mode"] == "real")
+                & (table["roughness_id"] == 3)].iloc[0]
+    sel = trials[(trials["group"] == "B") & (trials["mode"] == "real") & (trials["roughness_id"] == 3)]
+    props = sel.groupby("participant")["correct"].mean()
+    ref = stats.ttest_1samp(props, 0.25)
+    assert row["p_value"] == pytest.approx(ref.pvalue, rel=1e-10)
+    assert row["mean_participant_proportion"] == pytest.approx(props.mean())
+    cells = table[table["family"] == "cell"]
+    np.testing.assert_allclose(cells["p_holm"], holm(cells["p_value"]), rtol=1e-12)
+
+
+def test_information_transfer_equals_entropy_identity_and_kappa_matches_statsmodels():
+    from statsmodels.stats.inter_rater import cohens_kappa
+    n = np.array([[20, 5, 3, 2], [6, 15, 6, 3], [2, 7, 14, 7], [1, 3, 6, 20]], float)
+    h = lambda v: stats.entropy(v.ravel() / v.sum(), base=2)
+    it = information_transfer(n)
+    assert it["it_bits"] == pytest.approx(h(n.sum(axis=1)) + h(n.sum(axis=0)) - h(n), rel=1e-12)
+    assert it["it_bits_corrected"] == pytest.approx(it["it_bits"] - 9 / (2 * n.sum() * np.log(2)))
+    independent = np.full((4, 4), 10.0)
+    assert information_transfer(independent)["it_bits_corrected"] == 0.0
+    rows = [(s, r) for s in range(4) for r in range(4) for _ in range(int(n[s, r]))]
+    trials = pd.DataFrame({"group": "A", "mode": "real", "participant": "p",
+                           "roughness_id": [s + 1 for s, _ in rows],
+                           "response_id": [r + 1 for _, r in rows]})
+    table = agreement_table(trials)
+    assert table["kappa"].iloc[0] == pytest.approx(cohens_kappa(n).kappa, rel=1e-12)
+    hu, chance = hu_values(n)
+    assert hu[0] == pytest.approx(20 ** 2 / (30 * 29))
+    assert chance[0] == pytest.approx(30 * 29 / n.sum() ** 2)
+
+
+def test_ordinal_slope_is_positive_when_answers_follow_the_order():
+    trials = generate(effect_cells(), seed=15)
+    table = ordinal_table(trials)
+    assert (table["spearman_pooled"] > 0.3).all() and (table["po_ci_low"] > 0).all()
+    shuffled = trials.assign(response_id=np.random.default_rng(1).permutation(trials["response_id"]))
+    assert (ordinal_table(shuffled)["spearman_pooled"].abs() < 0.2).all()
+
+
+def test_summary_names_only_holm_adjusted_results():
+    from analysis.report import _tests_summary
+    def table(p_holm):
+        rows = [{"role": "per-sample", "model": "gee", "p_value": 0.02, "p_holm": p_holm,
+                 "compares": "group A - group B, real sample 2#: log odds ratio", "basis": "model"}]
+        rows += [{"role": "per-sample", "model": "gee", "p_value": 0.5, "p_holm": 1.0,
+                  "compares": f"group A - group B, real sample {r}#: log odds ratio",
+                  "basis": "model"} for r in (1, 3, 4)]
+        return pd.DataFrame(rows)
+    text = " ".join(_tests_summary(pd.DataFrame(), table(0.08)))
+    assert "no single sample shows a group difference" in text and "2#" not in text
+    text = " ".join(_tests_summary(pd.DataFrame(), table(0.03)))
+    assert "remains for: group A - group B, real sample 2# (adjusted p = 0.030)" in text
+    # the omnibus test comes first: when it does not reject, no sample is named
+    gated = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.2,
+                                      "statistic": 1.3, "df": 8, "basis": "model",
+                                      "test": "Wald F: F(8, 22) from Wald chi2 = 11",
+                                      "compares": "no A - B difference"}]), table(0.03)])
+    text = " ".join(_tests_summary(pd.DataFrame(), gated))
+    assert "omnibus test does not reject (p = 0.200)" in text and "remains for" not in text
+
+
+def test_cli_bayes_is_opt_in_and_the_mixed_model_can_be_skipped(study, tmp_path):
+    from experiments.cli import main
+    data, _ = study(n_per_group=5, sigma=0.5, seed=63, write_events=False)
+    assert main(["analyze", str(data), "--out", str(tmp_path / "a"), "--bootstrap", "50",
+                 "--bayes-vb"]) == 0
+    report = (tmp_path / "a" / "report.md").read_text()
+    assert (tmp_path / "a" / "bayes.csv").exists() and "comparison only" in report
+    assert "## Mixed logit" in report and "(1 + mode | participant)" in report
+    assert main(["analyze", str(data), "--out", str(tmp_path / "b"), "--bootstrap", "50",
+                 "--no-mixed"]) == 0
+    report = (tmp_path / "b" / "report.md").read_text()
+    assert not (tmp_path / "b" / "bayes.csv").exists() and "## Mixed logit" not in report
