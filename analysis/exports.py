@@ -56,7 +56,8 @@ COLUMNS = {
     "path": ("path", "session folder"),
     "n_rows": (_N, "rows read from the session"),
     "skipped": (_C, "why the session was skipped (empty if used)"),
-    "reason": (_C, "why a scheduled trial has no answer: time-out, no contact, fault, session ended"),
+    "reason": (_C, "missing_trials.csv: why a scheduled trial has no answer (time-out, no contact, "
+                   "fault, session ended); sessions.csv: why the session is or is not analysed"),
     "detail": (_C, "the logged detail behind the reason"),
     "attempts": (_N, "attempts logged for the trial"),
     "sessions": (_N, "session folders of the participant"),
@@ -69,6 +70,13 @@ COLUMNS = {
     "session ended": (_N, "missing trials: the session stopped before or during the trial"),
     "other": (_N, "missing trials: another reason (see missing_trials.csv)"),
     "schedule_source": (_C, "where the schedule came from: session.json or the logged trials"),
+    "complete": ("bool", "the session's log says it finished (session_finished)"),
+    "n_done": (_N, "trials the session completed"),
+    "n_planned": (_N, "trials the session's schedule planned"),
+    "created_at": ("ISO 8601 UTC", "time the session was created"),
+    "analysed": ("bool", "the session's rows are analysed under the --sessions policy"),
+    "skin_temperature_C": ("degC", "fingertip temperature measured just before the touch"),
+    "skin_temperature_in_range": ("0/1", "1 if skin_temperature_C was within the protocol's range"),
     # counts and proportions
     "n_participants": (_N, "participants contributing"),
     "n_trials": (_N, "trials"),
