@@ -203,6 +203,10 @@ class Simulation:
         A profile faster than ``[display] max_rate_C_per_s``: ``"refuse"`` (default) leaves it to
         the display's check, which refuses it (the trial faults); ``"slew"`` slows it to the limit
         (:func:`experiments.profile_rate.limit_rate`) and logs the largest change.
+    max_tracking_error_C : float, °C
+        Largest |contact − target| of a delivered playback (default 1): a trial the display
+        tracked worse is a flagged attempt, run again (the participant did not feel the
+        profile asked for).
     """
 
     skin_thickness: str
@@ -218,6 +222,7 @@ class Simulation:
     pad_roughness_um: float = DEFAULT_PAD_ROUGHNESS_UM
     pad_material: str = DEFAULT_PAD_MATERIAL
     rate_limit: str = "refuse"
+    max_tracking_error_C: float = 1.0
 
     @property
     def pad_roughness_m(self) -> float:
@@ -641,6 +646,7 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
             pad_roughness_um=s.number("pad_roughness_um", DEFAULT_PAD_ROUGHNESS_UM, ge=0, le=1000),
             pad_material=_pad_material(s),
             rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
+            max_tracking_error_C=s.number("max_tracking_error_C", 1.0, gt=0, le=10),
         )
         s.done()
 

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.errors import DisplayError, SessionError, UserInputError
+from experiments.errors import DisplayError, DisplayRestarted, SessionError, UserInputError
 from experiments.logbook import now_iso as _now_iso
 from experiments.responders.base import Responder, ResponderClosed, TrialStimulus
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
@@ -91,6 +91,13 @@ _ACTIVE_STATES = {"PLAYING", "RECORDING"}
 _TOUCH_N = 0.1   # N: summed force below which the finger is not yet touching
 #: Recording fault codes that mean "nobody touched" (the attempt is aborted and re-run).
 _NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
+#: End reasons of a delivered trial (``TrialRecording.end_reason``).
+_DELIVERED_ENDS = {"complete", "released", "max_duration"}
+#: Faults after which the session stops at once instead of re-running the trial: the display
+#: restarted (it lost the session's limits and neutral; a resume shakes hands again). A latched
+#: fault (over-temperature, sensor) makes the device refuse ARM (FAULT_LATCHED) until an operator
+#: resets it, so the consecutive-fault rule stops the session without heating again.
+_FATAL_CODES = {"DEVICE_RESTARTED", "DisplayRestarted", "NO_HELLO"}
 
 
 def _safe_name(text: str, what: str) -> str:
@@ -157,6 +164,7 @@ class Session:
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
         self.protocol_source = _protocol_source(protocol)
         self._defer = 0
+        self._fatal = None          # (code, message) of a fault that stops the session
         self._pending: str | None = None
         self._pause_at = _parse_pause(os.environ.get(PAUSE_ENV, ""))
         self._last_block = None
@@ -394,6 +402,8 @@ class Session:
                 queue.pop(0)
             else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again
                 faults += 1
+            if self._fatal is not None:
+                return self._stop_fatal(disp, queue)
             if faults >= self.max_consecutive_faults:
                 self.machine.go("idle")
                 self.machine.go("stopped")
@@ -528,6 +538,8 @@ class Session:
                        frames_lost=rec.frames_lost, tracking_rms_C=rec.tracking_rms_C)
         if rec.contact_time_s is None and (rec.status == "aborted" or rec.fault_code in _NO_CONTACT_CODES):
             return self._no_contact(disp, spec, attempt, rec)
+        if rec.status == "ok":
+            rec = self._check_delivered(rec, real)
         if rec.status != "ok":
             return self._fault(disp, spec, attempt, row, None, rec=rec)
         if self.machine.state == "wait_contact":   # contact seen by the device only
@@ -546,6 +558,35 @@ class Session:
         self._complete(spec, attempt, row)
         self._pause("after_write", spec, attempt)
         return "ok"
+
+    def _check_delivered(self, rec, real: bool):
+        """The recording as a flagged attempt unless the display delivered the trial.
+
+        A trial is ``ok`` only with a contact, an end by completion, release or the maximum
+        duration, and (playback) a tracking error within ``[simulation] max_tracking_error_C``;
+        anything else is written as a fault and run again (the driver already checks the
+        device's own account; this holds every display to the same rule).
+        """
+        import dataclasses
+        end = getattr(rec, "end_reason", "complete")
+        why = None
+        if rec.contact_time_s is None:
+            why = "NOT_DELIVERED", "ok without a contact"
+        elif end is not None and end not in _DELIVERED_ENDS:
+            why = "NOT_DELIVERED", f"ok with end reason {end!r}"
+        elif not real:
+            err = rec.tracking_max_C
+            limit = self.protocol.simulation.max_tracking_error_C
+            if err is not None and np.isfinite(err) and err > limit:
+                why = ("TRACKING_ERROR", f"contact temperature {err:.3g} °C off the target "
+                       f"(simulation.max_tracking_error_C = {limit:g})")
+        if why is None:
+            return rec
+        try:
+            return dataclasses.replace(rec, status="fault", fault_code=why[0], fault_message=why[1])
+        except TypeError:   # a display's own recording type: same fields, set in place
+            rec.status, rec.fault_code, rec.fault_message = "fault", why[0], why[1]
+            return rec
 
     def _skin_temperature(self, row: dict, ctx: dict, finger_C) -> None:
         """Log the skin temperature measured just before touching (§3.2 of the paper).
@@ -621,6 +662,8 @@ class Session:
                 code = error_name(code)
             elif code is None:
                 code = type(exc).__name__
+        if isinstance(exc, DisplayRestarted) or str(code) in _FATAL_CODES:
+            self._fatal = (str(code), message)
         self.machine.go("fault", **ctx)
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
         self._neutral(disp)
@@ -631,6 +674,18 @@ class Session:
         self._complete(spec, attempt, row)
         self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
         return "fault"
+
+    def _stop_fatal(self, disp, queue) -> int:
+        """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
+        code, message = self._fatal
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        self._neutral(disp)
+        advice = "the display restarted: resume to shake hands with it again"
+        self.log_event("session_stopped", reason=f"display fault {code}", message=message,
+                       n_completed=self.n_trials - len(queue))
+        self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
+        return 1
 
     def _no_contact(self, disp, spec, attempt, rec) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}

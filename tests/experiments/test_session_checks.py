@@ -156,7 +156,9 @@ def test_quiet_still_says_why_the_session_stopped(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 1
     assert "stopped after 3 consecutive faults; resume with `thermocue resume" in err
-    assert err.count("trial 1: display fault SENSOR_FAILURE") == 3
+    # the sensor fault latches (issue 16): ABORT does not clear it, the next ARMs are refused
+    assert err.count("trial 1: display fault SENSOR_FAILURE") == 1
+    assert err.count("trial 1: display fault FAULT_LATCHED") == 2
     assert "trial 1 of 2" not in err and "group A" not in err     # progress stays quiet
 
 
