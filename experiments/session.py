@@ -50,7 +50,8 @@ from experiments.responders.base import Responder, ResponderClosed, TrialStimulu
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
 from experiments.session_setup import (_check_capacity, _protocol_source, check_simulated_profiles,
                                        open_session_display, simulated_target_profile)
-from experiments.session_files import TraceWriter, aborted_trace_name, package_versions, trace_name
+from experiments.session_files import (TraceWriter, aborted_trace_name, claim_session_folder,
+                                       package_versions, schedule_sha256, trace_name)
 from experiments.session_machine import (
     TRANSITIONS,
     RealClock,
@@ -198,6 +199,7 @@ class Session:
         return {"session": self.name, "participant": self.participant_id, "group": self.group,
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,
+                "schedule_sha256": schedule_sha256(self.schedule),
                 "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex")}
 
     def sample_for(self, spec) -> dict:
@@ -839,8 +841,10 @@ def _clock_text(seconds: float) -> str:
 
 
 # --------------------------------------------------------------------------- making sessions
-def _next_session_name(folder: Path) -> str:
+def _next_session_name(folder: Path, after: str | None = None) -> str:
     n = 1
+    if after is not None and after[1:].isdigit():
+        n = int(after[1:]) + 1
     while (folder / f"S{n:02d}").exists():
         n += 1
     return f"S{n:02d}"
@@ -868,6 +872,7 @@ class SessionPlan:
     profiles: dict
     out: object = None
     progress: bool = True
+    auto_name: bool = False       # the name was chosen here (S01, S02, ...): take the next if taken
 
     @property
     def name(self) -> str:
@@ -889,11 +894,39 @@ class SessionPlan:
         SessionError
             The folder has become a session in the meantime.
         """
+        protocol, assignment = self.protocol, self.assignment
+        # claimed atomically, log locked, before session.json is written (issue 16): of two
+        # runs for one participant, one gets the folder; an automatic name moves on to the next
+        while True:
+            try:
+                log = claim_session_folder(self.directory)
+                break
+            except SessionError:
+                if not self.auto_name:
+                    raise
+                self.directory = self.directory.parent / _next_session_name(
+                    self.directory.parent, after=self.directory.name)
+        directory = self.directory
+        try:
+            self._write_meta(directory, log)
+        finally:
+            # written under the lock; once session.json exists no other run claims the folder,
+            # and Session.run takes the lock again
+            log.close()
+        session = Session(directory, protocol, self.participant, assignment.group, self.seed,
+                          self.schedule, self.name, self.display_url, assignment=assignment,
+                          clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
+                          out=self.out, progress=self.progress, responder_name=self.responder_name,
+                          profiles=self.profiles)
+        for w in assignment.warnings:
+            session._report(f"warning: {w}")
+        session._say(f"{self.participant_id}: {assignment.describe()}")
+        return session
+
+    def _write_meta(self, directory, log) -> None:
         from experiments.logbook import atomic_write_json, ensure_dir
 
-        directory, protocol, assignment = self.directory, self.protocol, self.assignment
-        _refuse_existing(directory)
-        ensure_dir(directory)   # a folder left by a run killed before session.json is reused
+        protocol, assignment = self.protocol, self.assignment
         atomic_write_json(directory / "session.json", {
             "format": "thermocue-session/1",
             "session": self.name,
@@ -917,19 +950,11 @@ class SessionPlan:
             "versions": package_versions(),
         })
         ensure_dir(directory / "traces")
-        session = Session(directory, protocol, self.participant, assignment.group, self.seed,
-                          self.schedule, self.name, self.display_url, assignment=assignment,
-                          clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
-                          out=self.out, progress=self.progress, responder_name=self.responder_name,
-                          profiles=self.profiles)
-        for w in assignment.warnings:
-            session._report(f"warning: {w}")
-        session._say(f"{self.participant_id}: {assignment.describe()}")
-        return session
 
 
 def _refuse_existing(directory: Path) -> None:
-    if (directory / "session.json").exists() or (directory / "events.jsonl").exists():
+    events = directory / "events.jsonl"
+    if (directory / "session.json").exists() or (events.exists() and events.stat().st_size > 0):
         raise SessionError(f"{directory}: expected a new session folder, got an existing one "
                            f"(resume it with `thermocue resume {directory}` or choose --session)")
 
@@ -967,7 +992,7 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     profiles = check_simulated_profiles(protocol, participant, assignment.group, schedule)
     return SessionPlan(protocol, participant, str(participant_path), assignment, seed, schedule,
                        directory, display_url, clock_obj, responder_name, max_consecutive_faults,
-                       profiles, out=out, progress=progress)
+                       profiles, out=out, progress=progress, auto_name=not session_name)
 
 
 def create_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
@@ -1099,6 +1124,7 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     if not isinstance(group, str) or (groups is not None and group not in groups):
         raise SessionError(f"{path}: group: expected " + (f"one of {groups}" if groups else "a name")
                            + f", got {group!r}")
+    _check_against_log(directory, path, meta, participant, schedule)
     if not isinstance(meta["display_url"], str) or not meta["display_url"]:
         raise SessionError(f"{path}: display_url: expected a URL, got {meta['display_url']!r}")
     url = display_url or meta["display_url"]
@@ -1111,3 +1137,29 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
                       profiles=profiles)
     session.protocol_source = source
     return session
+
+
+def _check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
+    """Refuse a ``session.json`` that differs from the log's ``session_started`` (issue 16).
+
+    The log is the source of truth: a session.json replaced by another run, or edited by hand
+    (seed, schedule, protocol, group, participant, name), must not steer a resume.
+    """
+    from experiments.logbook import read_events
+
+    events_path = directory / "events.jsonl"
+    if not events_path.exists():
+        return
+    events, _ = read_events(events_path, warn=False)
+    started = next((e for e in events if e.get("event") == "session_started"), None)
+    if started is None:
+        return
+    stored = {"session": meta["session"], "participant": str(participant["id"]),
+              "group": meta["group"], "seed": meta["seed"],
+              "protocol_hash": meta["protocol_hash"], "schedule_sha256": schedule_sha256(schedule)}
+    for key, value in stored.items():
+        if key in started and started[key] != value:
+            raise SessionError(f"{path}: {key}: expected {started[key]!r} as in {events_path.name}'s "
+                               f"session_started (line {started.get('seq', '?')}), got {value!r}; "
+                               f"the log is the session's record: restore session.json")
+
