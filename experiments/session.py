@@ -284,14 +284,23 @@ class Session:
             0 when every trial is done; 1 when interrupted or stopped after repeated faults
             (the session can be resumed).
         """
-        from experiments.logbook import EventLog, read_events, replay
+        from experiments.logbook import EventLog, log_shortfall, read_events, replay
 
         events = []
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
+        missing = log_shortfall(events, self.trials_path, self.traces_dir)
+        if missing:
+            more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+            raise SessionError(
+                f"{self.events_path}: expected the record of everything in trials.csv and "
+                f"traces/, got a log without {'; '.join(missing[:3])}{more}: it was cut or "
+                f"replaced by an older copy; restore it from a backup (nothing was changed)")
         progress = replay(events)
         self._started = time.monotonic() - _seconds_since_first_start(events)
         with EventLog(self.events_path) as log:
+            if log.repaired:
+                self._report(f"repaired: {log.repaired}")
             self.log = log
             old_handlers = self._install_signals()
             try:
@@ -506,6 +515,12 @@ class Session:
         if not self.traces_dir.is_dir():
             from experiments.logbook import ensure_dir
             ensure_dir(self.traces_dir)
+        if trace.exists():   # never overwritten: the log cannot explain it, so keep it aside
+            aside = _unused(trace.with_name(f"{trace.stem}.replaced-before-attempt-{attempt}.csv"))
+            os.replace(trace, aside)
+            self.log_event("trace_kept_aside", **ctx, trace_file=f"traces/{aside.name}")
+            self._report(f"repaired: {trace} existed before trial {spec.trial_index} attempt "
+                         f"{attempt} started; kept as {aside.name}")
         writer = TraceWriter(trace)
         active = "record" if real else "playback"
 
@@ -801,6 +816,15 @@ class Session:
 
 
 _STOPS = (SessionInterrupted, KeyboardInterrupt, ResponderClosed)
+
+
+def _unused(path: Path) -> Path:
+    """``path``, or ``path`` with ``.2``, ``.3``, ... before the suffix: a name not taken."""
+    n, out = 1, path
+    while out.exists():
+        n += 1
+        out = path.with_name(f"{path.stem}.{n}{path.suffix}")
+    return out
 
 
 def _reason(exc) -> str:

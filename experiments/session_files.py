@@ -78,7 +78,7 @@ class TraceWriter:
     Parameters
     ----------
     path : path-like
-        The CSV file (created or truncated).
+        The CSV file (created; an existing file is never overwritten: FileExistsError).
     flush_every : int
         Frames between flushes (default 50: 0.5 s of telemetry at 100 Hz).
     """
@@ -86,7 +86,8 @@ class TraceWriter:
     def __init__(self, path, flush_every: int = 50):
         self.path = Path(path)
         self.flush_every = int(flush_every)
-        self._fh = open(self.path, "w", encoding="utf-8", newline="")
+        # "x": a trace is never overwritten (the session moves an old one aside first)
+        self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
         self._n = 0
         self.time_s: list[float] = []
