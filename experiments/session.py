@@ -298,16 +298,38 @@ class Session:
                 f"replaced by an older copy; restore it from a backup (nothing was changed)")
         progress = replay(events)
         self._started = time.monotonic() - _seconds_since_first_start(events)
-        with EventLog(self.events_path) as log:
-            if log.repaired:
-                self._report(f"repaired: {log.repaired}")
-            self.log = log
-            old_handlers = self._install_signals()
-            try:
-                return self._run(responder, display, progress)
-            finally:
-                self._restore_signals(old_handlers)
-                self.log = None
+        try:
+            with EventLog(self.events_path) as log:
+                if log.repaired:
+                    self._report(f"repaired: {log.repaired}")
+                self.log = log
+                old_handlers = self._install_signals()
+                try:
+                    return self._run(responder, display, progress)
+                finally:
+                    self._restore_signals(old_handlers)
+                    self.log = None
+        except OSError as exc:
+            if isinstance(exc, DisplayError):
+                raise
+            return self._write_failed(exc)
+
+    def _write_failed(self, exc: OSError) -> int:
+        """A file of the session could not be written (disk full, read-only): one line, exit 1.
+
+        The display was put to neutral where the error was caught (:meth:`_guarded`); what
+        could be logged was logged; every file is as a crash would leave it, so the session
+        resumes once the cause is fixed.
+        """
+        import errno
+        cause = {errno.ENOSPC: "disk full", errno.EROFS: "read-only file system",
+                 errno.EDQUOT: "disk quota exceeded", errno.EFBIG: "file too large",
+                 errno.EACCES: "permission denied", errno.EPERM: "permission denied",
+                 errno.EIO: "I/O error"}.get(exc.errno, exc.strerror or type(exc).__name__)
+        where = exc.filename or self.directory
+        self._report(f"{where}: cannot write ({cause}); display neutral, session stopped; "
+                     f"free the disk and resume with `thermocue resume {self.directory}`")
+        return 1
 
     def _run(self, responder, display, progress) -> int:
         resumed = progress.session is not None
@@ -357,10 +379,14 @@ class Session:
             self._defer += 1
             try:
                 self._neutral(disp)
+                # best effort: the error may be the disk itself (full, read-only), and the
+                # clean-up must not raise in its turn and hide it
                 a = self._attempt
                 if a is not None and not a.logged_end:
-                    self._abort_attempt(a.spec.trial_index, a.attempt, reason="error")
-                self.log_event("session_error", message=f"{type(exc).__name__}: {exc}")
+                    _best_effort(lambda: self._abort_attempt(a.spec.trial_index, a.attempt,
+                                                             reason="error"))
+                _best_effort(lambda: self.log_event("session_error",
+                                                    message=f"{type(exc).__name__}: {exc}"))
             finally:
                 self._defer -= 1
                 self._pending = None
@@ -767,9 +793,10 @@ class Session:
             try:
                 call()
             except DisplayError as exc:
-                self.log_event("display_error", step=step, message=str(exc))
+                _best_effort(lambda: self.log_event("display_error", step=step, message=str(exc)))
             except Exception as exc:  # an interrupted driver may be in any state
-                self.log_event("display_error", step=step, message=f"{type(exc).__name__}: {exc}")
+                _best_effort(lambda: self.log_event("display_error", step=step,
+                                                    message=f"{type(exc).__name__}: {exc}"))
 
     # -- interruption -------------------------------------------------------------------------
     def _install_signals(self):
@@ -816,6 +843,15 @@ class Session:
 
 
 _STOPS = (SessionInterrupted, KeyboardInterrupt, ResponderClosed)
+
+
+def _best_effort(call) -> None:
+    """Run a clean-up write; a failing disk (OSError) must not raise over the first error."""
+    try:
+        call()
+    except OSError as exc:
+        if isinstance(exc, DisplayError):
+            raise
 
 
 def _unused(path: Path) -> Path:
