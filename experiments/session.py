@@ -1144,6 +1144,19 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
                 "display_url", "group"):
         if key not in meta:
             raise SessionError(f"{path}: {key}: expected a value, got nothing")
+    # the scalar fields through the protocol's own table reader (typed, bounded, one line)
+    from experiments.errors import ProtocolError
+    from experiments.protocol import TableReader
+    table = TableReader(str(path), meta, "")
+    try:
+        table.string("session")
+        table.string("protocol_hash")
+        table.integer("seed", ge=0)
+        table.integer("max_consecutive_faults", 3, ge=1, le=1000,
+                      why="faults in a row before a session stops")
+        table.string("responder", "", nonempty=False)
+    except ProtocolError as exc:
+        raise SessionError(str(exc)) from None
     source = f"{path}: protocol"
     protocol = parse_protocol(meta["protocol"], source=source,
                               path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
