@@ -252,6 +252,13 @@ class Serial(SerialBase):
         timeout = self._timeout
         with self._cond:
             if self._disconnected():
+                if self.virtual:
+                    # time goes on while the link is dead (a read that waits its timeout for
+                    # nothing), so a timed disconnect@T+D ends and the device's watchdog acts
+                    budget = 1 if not timeout else max(1, int(timeout * 1e6 / TICK_US + 0.5))
+                    for _ in range(budget):
+                        self._tick()
+                    self._rx.clear()           # what the device said meanwhile was lost
                 raise SerialException("emulator: device disconnected (injected fault)")
             if self.virtual:
                 if not self._rx and timeout != 0:
@@ -286,6 +293,9 @@ class Serial(SerialBase):
         data = to_bytes(data)
         with self._cond:
             if self._disconnected():
+                if self.virtual:
+                    self._tick()                   # a write to a dead link takes time too
+                    self._rx.clear()
                 raise SerialException("emulator: device disconnected (injected fault)")
             dev = self.device
             if self.link.specs:
