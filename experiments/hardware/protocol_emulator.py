@@ -10,7 +10,9 @@ URL grammar::
              virtual: the device advances only while the host waits for bytes -- each read that
              finds nothing to return steps it by 10 ms ticks until there is something (and,
              during a trial, up to two ticks more while the read wants more bytes) or the
-             read's timeout (counted in device time) is used up
+             read's timeout (counted in device time) is used up; while an injected
+             disconnect lasts, each failing read (its timeout) and write (one tick) still
+             advances it, so a timed disconnect@T+D ends
     seed     seeds sensor noise and link faults (default 0)
     sim      offer the emulator-only "sim" commands (default 1)
     log      append the device's state changes, faults and watchdog trips as JSON lines to PATH
