@@ -308,8 +308,10 @@ def fault_spec(kind: str, rng: random.Random, horizon_s: float) -> str:
         return ",".join(f"disconnect@{a}+{rng.choice((0.05, 0.2, 0.5))}" for a in at)
     if kind == "stall":
         return ",".join(f"stall@{a}+{rng.choice((0.05, 0.3, 1.0))}" for a in at)
-    if kind in ("stuck_sensor", "sensor_range", "overtemp"):
+    if kind in ("stuck_sensor", "sensor_range"):
         return f"{kind}@{at[0]}+{rng.choice((0.05, 0.3))}"
+    if kind == "overtemp":              # long enough for the pad to reach the 45 °C trip
+        return f"overtemp@{at[0]}" + rng.choice(("+0.3", "+2", ""))
     if kind == "reboot":
         return f"reboot@{at[0]}"
     raise ValueError(kind)
