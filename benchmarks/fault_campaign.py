@@ -252,26 +252,34 @@ def device_trials(log: Path):
 
 
 def ok_rows_by_run(session: Path):
-    """[(run number, trial_index, attempt, contact_time_s)] of every ok trial, from the log."""
+    """[(device log of the run, trial_index, attempt, contact_time_s)] of every ok trial.
+
+    Each run's ``session_started``/``session_resumed`` event names its display URL, and so the
+    emulator's log (``log=PATH``) that holds the device's account of that run.
+    """
+    import urllib.parse
     from experiments.logbook import read_events
     events, _ = read_events(session / "events.jsonl", warn=False)
-    run, out = 0, []
+    log, out = None, []
     for e in events:
         if e["event"] in ("session_started", "session_resumed"):
-            run += 1
+            query = urllib.parse.urlsplit(e.get("display_url", "")).query.replace("+", "%2B")
+            log = urllib.parse.parse_qs(query).get("log", [None])[-1]
         elif e["event"] == "trial_completed" and e["row"].get("status") == "ok":
-            out.append((run, e["trial_index"], e["attempt"], e["row"].get("contact_time_s")))
+            out.append((log, e["trial_index"], e["attempt"], e["row"].get("contact_time_s")))
     return out
 
 
 def check_session(session: Path, logs: list, T: Totals, n_trials: int, label: str):
     """Compare the session's ok trials with the device logs of its runs; check completeness."""
     from experiments.logbook import log_shortfall, read_events
-    truth = [device_trials(p) for p in logs]
+    truth = {}
     rows = ok_rows_by_run(session)
     T.c["ok_trials"] += len(rows)
-    for run, ti, att, t in rows:
-        ends = truth[run - 1] if 0 < run <= len(truth) else {}
+    for log, ti, att, t in rows:
+        if log not in truth:
+            truth[log] = device_trials(Path(log)) if log else {}
+        ends = truth[log]
         end = None if t is None else ends.get(round(float(t), 2))
         if end is None and t is not None:          # rounding at the boundary
             end = ends.get(round(float(t) + 0.005, 2)) or ends.get(round(float(t) - 0.005, 2))
@@ -408,7 +416,7 @@ def part_kills(out: Path, T: Totals, scale: float, rng: random.Random):
         for step in range(30):
             log = folder / f"dev-{step + 1}.jsonl"
             url = f"emulator://?clock=virtual&seed={rng.randrange(1000)}&log={log}"
-            if step == 0:
+            if not (session / "session.json").exists():   # killed before the session was written
                 argv = ["run", proto, "--participant", P01, "--display", url, "--responder",
                         "simulated", "--data", data, "--seed", 5, "--quiet"]
             else:
@@ -422,8 +430,6 @@ def part_kills(out: Path, T: Totals, scale: float, rng: random.Random):
             if code == 0:
                 break
             T.note(f"kills {i}: exit {code}: {err.strip()[:200]}")
-            if not session.exists():
-                break
         if session.exists():
             check_session(session, logs, T, 12, f"kills {i}")
             T.c["sessions"] += 1

@@ -905,9 +905,23 @@ def _next_session_name(folder: Path, after: str | None = None) -> str:
     n = 1
     if after is not None and after[1:].isdigit():
         n = int(after[1:]) + 1
-    while (folder / f"S{n:02d}").exists():
+    while _taken(folder / f"S{n:02d}"):
         n += 1
     return f"S{n:02d}"
+
+
+def _taken(directory: Path) -> bool:
+    """Whether a folder is (or may be) a session: anything but the leftover of a claim that
+    was killed before ``session.json`` (nothing, or only an empty ``events.jsonl``), which
+    :func:`~experiments.session_files.claim_session_folder` claims again."""
+    if not directory.exists():
+        return False
+    if not directory.is_dir():
+        return True
+    for entry in directory.iterdir():
+        if entry.name != "events.jsonl" or entry.stat().st_size > 0:
+            return True
+    return False
 
 
 @dataclass

@@ -333,3 +333,18 @@ def test_resume_refuses_a_session_json_that_differs_from_the_log(tmp_path, capsy
     assert main(["resume", str(s.directory), "--display", EMU, "--responder", "simulated"]) == 2
     err = capsys.readouterr().err
     assert f"{path}: {field}: expected" in err and "session_started" in err, err
+
+
+def test_a_claim_killed_before_session_json_is_taken_again_by_the_next_run(tmp_path):
+    # a run killed between claiming S01 and writing session.json leaves S01 with an empty,
+    # unlocked log: the next run takes S01 (not S02), and resume is not needed
+    (tmp_path / "data" / "P01" / "S01").mkdir(parents=True)
+    (tmp_path / "data" / "P01" / "S01" / "events.jsonl").write_bytes(b"")
+    s = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data",
+                       "scripted://", seed=7, clock="virtual")
+    assert s.directory.name == "S01"
+    (tmp_path / "data" / "P01" / "S02").mkdir()
+    (tmp_path / "data" / "P01" / "S02" / "notes.txt").write_text("not ours")
+    s3 = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data",
+                        "scripted://", seed=8, clock="virtual")
+    assert s3.directory.name == "S03"
