@@ -982,7 +982,7 @@ class SessionPlan:
                     self.directory.parent, after=self.directory.name)
         directory = self.directory
         try:
-            self._write_meta(directory, log)
+            self._write_meta(directory)
         finally:
             # written under the lock; once session.json exists no other run claims the folder,
             # and Session.run takes the lock again
@@ -997,7 +997,7 @@ class SessionPlan:
         session._say(f"{self.participant_id}: {assignment.describe()}")
         return session
 
-    def _write_meta(self, directory, log) -> None:
+    def _write_meta(self, directory) -> None:
         from experiments.logbook import atomic_write_json, ensure_dir
 
         protocol, assignment = self.protocol, self.assignment
