@@ -15,6 +15,7 @@ __all__ = [
     "DisplayError",
     "DisplayTimeout",
     "DisplayRefused",
+    "DisplayRestarted",
     "SafetyLimitError",
     "FrameError",
 ]
@@ -46,6 +47,11 @@ class DisplayRefused(DisplayError):
     def __init__(self, message: str, code: int | None = None):
         super().__init__(message)
         self.code = code
+
+
+class DisplayRestarted(DisplayError):
+    """The display restarted since the handshake (boot id changed, time went back, NO_HELLO):
+    it no longer holds the session's limits, neutral or profile; the session stops."""
 
 
 class SafetyLimitError(DisplayError, UserInputError):

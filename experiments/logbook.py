@@ -85,6 +85,7 @@ __all__ = [
     "COLUMN_DECIMALS",
     "CONTEXT_KEYS",
     "REQUIRED_FIELDS",
+    "log_shortfall",
 ]
 
 #: Columns of ``trials.csv``, in this order, all of them from the first row on (docs/session.md,
@@ -463,6 +464,7 @@ class EventLog:
                     raise SessionError(f"{self.path}: expected no other process writing this log, "
                                        f"got it locked (is the session running elsewhere?)") from None
             self._seq = 0
+            self.repaired: str | None = None    # what reopening repaired (to be printed)
             torn = None
             if existed:
                 torn = self._open_existing()
@@ -472,6 +474,9 @@ class EventLog:
             if torn is not None:
                 self.append("log_repaired", torn_bytes=len(torn),
                             torn_tail=torn.decode("utf-8", errors="replace"))
+                self.repaired = (f"{self.path}: cut a torn last line ({len(torn)} bytes, the "
+                                 f"trace of a crash during an append); its bytes are kept in "
+                                 f"the log_repaired event (seq {self._seq})")
         except BaseException:
             os.close(self._fd)
             self._fd = -1
@@ -496,6 +501,7 @@ class EventLog:
             return report.torn_tail
         if report.missing_newline:
             self._write(b"\n")
+            self.repaired = f"{self.path}: added the newline missing after the last event"
         return None
 
     @property
@@ -767,3 +773,57 @@ def replay(events: Iterable[Mapping[str, Any]]) -> SessionProgress:
             p.finished = True
     p.open_attempts = list(open_)
     return p
+
+
+_TRACE_NAME = re.compile(r"^trial-(\d+)(?:\.attempt-(\d+)\.[a-z]+)?\.csv$")
+
+
+def log_shortfall(events: Iterable[Mapping[str, Any]], trials_path: str | Path,
+                  traces_dir: str | Path | None = None) -> list[str]:
+    """What the session's other files record and its event log does not (damage, not a crash).
+
+    A crash during an append can lose only the log's last line, and ``trials.csv`` and the
+    traces are written *after* the events they follow from. So a row of ``trials.csv`` whose
+    attempt the log does not end, or a trace of a trial the log never started, means the log
+    was cut or replaced by an older copy: resuming would re-run completed trials and overwrite
+    their traces.
+
+    Parameters
+    ----------
+    events : iterable of dict
+    trials_path : path-like
+        ``trials.csv`` (missing: nothing to compare).
+    traces_dir : path-like, optional
+        ``traces/``.
+
+    Returns
+    -------
+    list of str
+        One item per missing record (empty: the log holds everything).
+    """
+    ended, started = set(), set()
+    for ev in events:
+        kind = ev.get("event")
+        if kind in ("trial_completed", "trial_aborted"):
+            ended.add((str(ev.get("trial_index")), str(ev.get("attempt"))))
+        elif kind == "trial_started":
+            started.add(str(ev.get("trial_index")))
+    missing = []
+    trials_path = Path(trials_path)
+    if trials_path.exists():
+        with open(trials_path, newline="", encoding="utf-8", errors="replace") as fh:
+            try:
+                for row in csv.DictReader(fh):
+                    key = (row.get("trial_index") or "", row.get("attempt") or "")
+                    if all(key) and key not in ended:
+                        missing.append(f"trial {key[0]} attempt {key[1]} "
+                                       f"({row.get('status') or 'no status'}) of {trials_path.name}")
+            except csv.Error as exc:
+                missing.append(f"{trials_path.name} unreadable ({exc})")
+    if traces_dir is not None and Path(traces_dir).is_dir():
+        for f in sorted(Path(traces_dir).iterdir()):
+            m = _TRACE_NAME.match(f.name)
+            if m and str(int(m.group(1))) not in started:
+                missing.append(f"the start of trial {int(m.group(1))} (traces/{f.name} exists)")
+    return missing
+

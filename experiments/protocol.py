@@ -49,6 +49,7 @@ __all__ = [
     "parse_protocol",
     "protocol_names",
     "canonical_hash",
+    "TableReader",
     "SKIN_SAFE_MIN_C",
     "SKIN_SAFE_MAX_C",
 ]
@@ -234,6 +235,10 @@ class Simulation:
         A profile faster than ``[display] max_rate_C_per_s``: ``"refuse"`` (default) leaves it to
         the display's check, which refuses it (the trial faults); ``"slew"`` slows it to the limit
         (:func:`experiments.profile_rate.limit_rate`) and logs the largest change.
+    max_tracking_error_C : float, °C
+        Largest |contact − target| of a delivered playback (default 1): a trial the display
+        tracked worse is a flagged attempt, run again (the participant did not feel the
+        profile asked for).
     """
 
     skin_thickness: str
@@ -249,6 +254,7 @@ class Simulation:
     pad_roughness_um: float = DEFAULT_PAD_ROUGHNESS_UM
     pad_material: str = DEFAULT_PAD_MATERIAL
     rate_limit: str = "refuse"
+    max_tracking_error_C: float = 1.0
 
     @property
     def pad_roughness_m(self) -> float:
@@ -399,6 +405,17 @@ class Protocol:
 
 
 # --------------------------------------------------------------------------- validation
+#: Upper bounds, so that no value can hang or overflow a session (issue 16): ids and versions,
+MAX_ID = 1_000_000
+#: presentations of one sample in a block, trials in a whole session,
+MAX_REPETITIONS = 1000
+MAX_TRIALS = 5000
+#: and any wait (contact time-out, rewarming), s.
+MAX_WAIT_S = 3600.0
+_WAIT_WHY = "at most an hour: longer is a typo, and a real clock cannot wait it"
+_SKIN_WHY = "µm of fingertip skin: at most 1 cm"
+
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
@@ -443,7 +460,8 @@ class _Table:
             self._fail(self._name(key), what, _Note(f"nothing (the key is required; is {near[0]!r} a misspelling?)"))
         self.fail(key, what)
 
-    def number(self, key, default=_MISSING, *, gt=None, ge=None, le=None, lt=None) -> float | None:
+    def number(self, key, default=_MISSING, *, gt=None, ge=None, le=None, lt=None,
+               why: str = "") -> float | None:
         bounds = []
         if gt is not None:
             bounds.append(f"> {_fmt(gt)}")
@@ -451,22 +469,28 @@ class _Table:
             bounds.append(f"≥ {_fmt(ge)}")
         if lt is not None:
             bounds.append(f"< {_fmt(lt)}")
-        if le is not None:
-            bounds.append(f"≤ {_fmt(le)}")
+        # an upper bound given with its reason is stated when it is the one broken
+        upper = f"≤ {_fmt(le)}" if le is not None else None
+        if upper and not why:
+            bounds.append(upper)
         what = "a number" + (" " + " and ".join(bounds) if bounds else "")
         v = self._get(key, default, what)
         if v is None and default is None and key not in self.data:
             return None
         if not _is_number(v) or (gt is not None and not v > gt) or (ge is not None and not v >= ge) \
-                or (lt is not None and not v < lt) or (le is not None and not v <= le):
+                or (lt is not None and not v < lt) or (le is not None and not why and not v <= le):
             self.fail(key, what, v)
+        if le is not None and not v <= le:
+            self.fail(key, f"{what} and {upper} ({why})", v)
         return float(v)
 
-    def integer(self, key, default=_MISSING, *, ge=None) -> int:
+    def integer(self, key, default=_MISSING, *, ge=None, le=None, why: str = "") -> int:
         what = "an integer" + (f" ≥ {ge}" if ge is not None else "")
         v = self._get(key, default, what)
         if isinstance(v, bool) or not isinstance(v, int) or (ge is not None and v < ge):
             self.fail(key, what, v)
+        if le is not None and v > le:     # the upper bound and its reason, when broken
+            self.fail(key, f"{what} and ≤ {le}" + (f" ({why})" if why else ""), v)
         return v
 
     def string(self, key, default=_MISSING, *, choices=None, nonempty=True) -> str:
@@ -508,6 +532,11 @@ class _Table:
                        _Unknown(unknown[0]))
 
 
+#: The typed table reader (one line naming the source and field per problem), for other files
+#: than protocols that are read the same way (``session.json``).
+TableReader = _Table
+
+
 class _Note(str):
     def __repr__(self):
         return str(self)
@@ -532,9 +561,9 @@ def _pad_material(s: _Table) -> str:
 def _read_samples(top: _Table) -> tuple[Sample, ...]:
     out, ids, labels = [], set(), set()
     for t in top.tables("samples"):
-        sid = t.integer("id", ge=0)
+        sid = t.integer("id", ge=0, le=MAX_ID)
         label = t.string("label", str(sid))
-        r = t.number("roughness_um", gt=0)
+        r = t.number("roughness_um", gt=0, le=10_000, why="Ra beyond 1 cm is no surface finish")
         t.done()
         if sid in ids:
             t.fail("id", "an id not used by another sample", sid)
@@ -555,7 +584,8 @@ def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
             t.fail("name", "a name not used by another block", name)
         names.add(name)
         mode = t.string("mode", choices=MODES)
-        reps = t.integer("repetitions", ge=1)
+        reps = t.integer("repetitions", ge=1, le=MAX_REPETITIONS,
+                         why="a session is at most a few hundred trials")
         order = t.string("order", "random", choices=ORDERS)
         chosen = t._get("samples", list(ids), "a list of sample ids")
         if not isinstance(chosen, list) or not chosen or any(
@@ -587,8 +617,8 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
     name = p.string("name")
     title = p.string("title", name)
     description = p.string("description", "", nonempty=False).strip()
-    experiment = p.integer("experiment", 0, ge=0)
-    version = p.integer("version", 1, ge=1)
+    experiment = p.integer("experiment", 0, ge=0, le=MAX_ID)
+    version = p.integer("version", 1, ge=1, le=MAX_ID)
     p.done()
 
     e = top.table("environment")
@@ -605,7 +635,8 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
     e.done()
 
     m = top.table("material")
-    mat = SampleMaterial(m.string("name"), m.number("thickness_mm", None, gt=0))
+    mat = SampleMaterial(m.string("name"), m.number("thickness_mm", None, gt=0, le=1000,
+                                                    why="a sample a finger can touch"))
     m.done()
 
     samples = _read_samples(top)
@@ -615,8 +646,8 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
         force_threshold_N=c.number("force_threshold_N", gt=0, le=50),
         max_contact_s=c.number("max_contact_s", gt=0, le=600),
         record_s=c.number("record_s", gt=0, le=600),
-        trial_timeout_s=c.number("trial_timeout_s", gt=0),
-        rewarm_s=c.number("rewarm_s", ge=0),
+        trial_timeout_s=c.number("trial_timeout_s", gt=0, le=MAX_WAIT_S, why=_WAIT_WHY),
+        rewarm_s=c.number("rewarm_s", ge=0, le=MAX_WAIT_S, why=_WAIT_WHY),
     )
     if contact.record_s > contact.max_contact_s:
         c.fail("record_s", f"a number ≤ max_contact_s ({_fmt(contact.max_contact_s)})", contact.record_s)
@@ -643,8 +674,9 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
         above = g.string("above", "B")
         if above == below:
             g.fail("above", "a group name different from below", above)
-        grouping = GroupRule(threshold_um=g.number("threshold_um", gt=0),
-                             margin_um=g.number("margin_um", 50.0, ge=0), below=below, above=above)
+        grouping = GroupRule(threshold_um=g.number("threshold_um", gt=0, le=10_000, why=_SKIN_WHY),
+                             margin_um=g.number("margin_um", 50.0, ge=0, le=10_000, why=_SKIN_WHY),
+                             below=below, above=above)
         g.done()
 
     simulation = None
@@ -655,7 +687,7 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
         per_group = {}
         if gst is not None:
             for key in list(gst.data):
-                per_group[key] = gst.number(key, gt=0)
+                per_group[key] = gst.number(key, gt=0, le=10_000, why=_SKIN_WHY)
             gst.done()
         if how == "group":
             if grouping is None:
@@ -677,6 +709,7 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
             pad_roughness_um=s.number("pad_roughness_um", DEFAULT_PAD_ROUGHNESS_UM, ge=0, le=1000),
             pad_material=_pad_material(s),
             rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
+            max_tracking_error_C=s.number("max_tracking_error_C", 1.0, gt=0, le=10),
         )
         s.done()
 
@@ -699,6 +732,10 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
         pr.done()
 
     blocks = _read_blocks(top, samples)
+    n_trials = sum(b.n_trials for b in blocks)
+    if n_trials > MAX_TRIALS:
+        top.fail("blocks", f"at most {MAX_TRIALS} trials in all (samples × repetitions; a session "
+                           f"is hours, not days)", _Note(f"{n_trials} trials"))
     if simulation is None:
         for i, b in enumerate(blocks):
             if b.mode == "simulated":
@@ -774,7 +811,12 @@ def load_protocol(path_or_name: str | Path) -> Protocol:
     path, source = _resolve(path_or_name)
     try:
         with open(path, "rb") as fh:
-            data = tomllib.load(fh)
+            raw = fh.read()
+        text = raw.decode("utf-8")
+        data = tomllib.loads(text)
+    except UnicodeDecodeError as exc:
+        raise ProtocolError(f"{source}: expected UTF-8 text, got byte 0x{raw[exc.start]:02x} at "
+                            f"offset {exc.start}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ProtocolError(f"{source}: expected valid TOML, got {exc}") from None
     except OSError as exc:

@@ -44,13 +44,14 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.errors import DisplayError, SessionError, UserInputError
+from experiments.errors import DisplayError, DisplayRestarted, SessionError, UserInputError
 from experiments.logbook import now_iso as _now_iso
 from experiments.responders.base import Responder, ResponderClosed, TrialStimulus
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
 from experiments.session_setup import (_check_capacity, _protocol_source, check_simulated_profiles,
                                        open_session_display, simulated_target_profile)
-from experiments.session_files import TraceWriter, aborted_trace_name, package_versions, trace_name
+from experiments.session_files import (TraceWriter, aborted_trace_name, claim_session_folder,
+                                       package_versions, schedule_sha256, trace_name)
 from experiments.session_machine import (
     TRANSITIONS,
     RealClock,
@@ -93,6 +94,13 @@ _ACTIVE_STATES = {"PLAYING", "RECORDING"}
 _TOUCH_N = 0.1   # N: summed force below which the finger is not yet touching
 #: Recording fault codes that mean "nobody touched" (the attempt is aborted and re-run).
 _NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
+#: End reasons of a delivered trial (``TrialRecording.end_reason``).
+_DELIVERED_ENDS = {"complete", "released", "max_duration"}
+#: Faults after which the session stops at once instead of re-running the trial: the display
+#: restarted (it lost the session's limits and neutral; a resume shakes hands again). A latched
+#: fault (over-temperature, sensor) makes the device refuse ARM (FAULT_LATCHED) until an operator
+#: resets it, so the consecutive-fault rule stops the session without heating again.
+_FATAL_CODES = {"DEVICE_RESTARTED", "DisplayRestarted", "NO_HELLO"}
 
 
 def _safe_name(text: str, what: str) -> str:
@@ -167,6 +175,7 @@ class Session:
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
         self.protocol_source = _protocol_source(protocol)
         self._defer = 0
+        self._fatal = None          # (code, message) of a fault that stops the session
         self._pending: str | None = None
         self._pause_at = _parse_pause(os.environ.get(PAUSE_ENV, ""))
         self._last_block = None
@@ -202,6 +211,7 @@ class Session:
         return {"session": self.name, "participant": self.participant_id, "group": self.group,
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,
+                "schedule_sha256": schedule_sha256(self.schedule),
                 "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
                 # PsychoPy-style identity of every trial row (date: the session's first start)
                 "date": self._date, "expName": self.protocol.name,
@@ -291,23 +301,54 @@ class Session:
             0 when every trial is done; 1 when interrupted or stopped after repeated faults
             (the session can be resumed).
         """
-        from experiments.logbook import EventLog, read_events, replay
+        from experiments.logbook import EventLog, log_shortfall, read_events, replay
 
         events = []
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
+        missing = log_shortfall(events, self.trials_path, self.traces_dir)
+        if missing:
+            more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+            raise SessionError(
+                f"{self.events_path}: expected the record of everything in trials.csv and "
+                f"traces/, got a log without {'; '.join(missing[:3])}{more}: it was cut or "
+                f"replaced by an older copy; restore it from a backup (nothing was changed)")
         progress = replay(events)
         since = _seconds_since_first_start(events)
         self._started = time.monotonic() - since
         self._date = _psychopy_date(time.time() - since)
-        with EventLog(self.events_path) as log:
-            self.log = log
-            old_handlers = self._install_signals()
-            try:
-                return self._run(responder, display, progress)
-            finally:
-                self._restore_signals(old_handlers)
-                self.log = None
+        try:
+            with EventLog(self.events_path) as log:
+                if log.repaired:
+                    self._report(f"repaired: {log.repaired}")
+                self.log = log
+                old_handlers = self._install_signals()
+                try:
+                    return self._run(responder, display, progress)
+                finally:
+                    self._restore_signals(old_handlers)
+                    self.log = None
+        except OSError as exc:
+            if isinstance(exc, DisplayError):
+                raise
+            return self._write_failed(exc)
+
+    def _write_failed(self, exc: OSError) -> int:
+        """A file of the session could not be written (disk full, read-only): one line, exit 1.
+
+        The display was put to neutral where the error was caught (:meth:`_guarded`); what
+        could be logged was logged; every file is as a crash would leave it, so the session
+        resumes once the cause is fixed.
+        """
+        import errno
+        cause = {errno.ENOSPC: "disk full", errno.EROFS: "read-only file system",
+                 errno.EDQUOT: "disk quota exceeded", errno.EFBIG: "file too large",
+                 errno.EACCES: "permission denied", errno.EPERM: "permission denied",
+                 errno.EIO: "I/O error"}.get(exc.errno, exc.strerror or type(exc).__name__)
+        where = exc.filename or self.directory
+        self._report(f"{where}: cannot write ({cause}); display neutral, session stopped; "
+                     f"free the disk and resume with `thermocue resume {self.directory}`")
+        return 1
 
     def _run(self, responder, display, progress) -> int:
         resumed = progress.session is not None
@@ -365,10 +406,14 @@ class Session:
             self._defer += 1
             try:
                 self._neutral(disp)
+                # best effort: the error may be the disk itself (full, read-only), and the
+                # clean-up must not raise in its turn and hide it
                 a = self._attempt
                 if a is not None and not a.logged_end:
-                    self._abort_attempt(a.spec.trial_index, a.attempt, reason="error")
-                self.log_event("session_error", message=f"{type(exc).__name__}: {exc}")
+                    _best_effort(lambda: self._abort_attempt(a.spec.trial_index, a.attempt,
+                                                             reason="error"))
+                _best_effort(lambda: self.log_event("session_error",
+                                                    message=f"{type(exc).__name__}: {exc}"))
             finally:
                 self._defer -= 1
                 self._pending = None
@@ -421,6 +466,8 @@ class Session:
                 queue.pop(0)
             else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again
                 faults += 1
+            if self._fatal is not None:
+                return self._stop_fatal(disp, queue)
             if faults >= self.max_consecutive_faults:
                 self.machine.go("idle")
                 self.machine.go("stopped")
@@ -540,6 +587,12 @@ class Session:
         if not self.traces_dir.is_dir():
             from experiments.logbook import ensure_dir
             ensure_dir(self.traces_dir)
+        if trace.exists():   # never overwritten: the log cannot explain it, so keep it aside
+            aside = _unused(trace.with_name(f"{trace.stem}.replaced-before-attempt-{attempt}.csv"))
+            os.replace(trace, aside)
+            self.log_event("trace_kept_aside", **ctx, trace_file=f"traces/{aside.name}")
+            self._report(f"repaired: {trace} existed before trial {spec.trial_index} attempt "
+                         f"{attempt} started; kept as {aside.name}")
         writer = TraceWriter(trace)
         active = "record" if real else "playback"
 
@@ -584,6 +637,8 @@ class Session:
                        frames_lost=rec.frames_lost, tracking_rms_C=rec.tracking_rms_C)
         if rec.contact_time_s is None and (rec.status == "aborted" or rec.fault_code in _NO_CONTACT_CODES):
             return self._no_contact(disp, spec, attempt, rec)
+        if rec.status == "ok":
+            rec = self._check_delivered(rec, real)
         if rec.status != "ok":
             return self._fault(disp, spec, attempt, row, None, rec=rec)
         if self.machine.state == "wait_contact":   # contact seen by the device only
@@ -611,6 +666,35 @@ class Session:
         self._complete(spec, attempt, row)
         self._pause("after_write", spec, attempt)
         return "ok"
+
+    def _check_delivered(self, rec, real: bool):
+        """The recording as a flagged attempt unless the display delivered the trial.
+
+        A trial is ``ok`` only with a contact, an end by completion, release or the maximum
+        duration, and (playback) a tracking error within ``[simulation] max_tracking_error_C``;
+        anything else is written as a fault and run again (the driver already checks the
+        device's own account; this holds every display to the same rule).
+        """
+        import dataclasses
+        end = getattr(rec, "end_reason", "complete")
+        why = None
+        if rec.contact_time_s is None:
+            why = "NOT_DELIVERED", "ok without a contact"
+        elif end is not None and end not in _DELIVERED_ENDS:
+            why = "NOT_DELIVERED", f"ok with end reason {end!r}"
+        elif not real:
+            err = rec.tracking_max_C
+            limit = self.protocol.simulation.max_tracking_error_C
+            if err is not None and np.isfinite(err) and err > limit:
+                why = ("TRACKING_ERROR", f"contact temperature {err:.3g} °C off the target "
+                       f"(simulation.max_tracking_error_C = {limit:g})")
+        if why is None:
+            return rec
+        try:
+            return dataclasses.replace(rec, status="fault", fault_code=why[0], fault_message=why[1])
+        except TypeError:   # a display's own recording type: same fields, set in place
+            rec.status, rec.fault_code, rec.fault_message = "fault", why[0], why[1]
+            return rec
 
     def _skin_temperature(self, row: dict, ctx: dict, finger_C) -> None:
         """Log the skin temperature measured just before touching (§3.2 of the paper).
@@ -708,6 +792,8 @@ class Session:
                 code = error_name(code)
             elif code is None:
                 code = type(exc).__name__
+        if isinstance(exc, DisplayRestarted) or str(code) in _FATAL_CODES:
+            self._fatal = (str(code), message)
         self.machine.go("fault", **ctx)
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
         self._neutral(disp)
@@ -718,6 +804,18 @@ class Session:
         self._complete(spec, attempt, row)
         self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
         return "fault"
+
+    def _stop_fatal(self, disp, queue) -> int:
+        """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
+        code, message = self._fatal
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        self._neutral(disp)
+        advice = "the display restarted: resume to shake hands with it again"
+        self.log_event("session_stopped", reason=f"display fault {code}", message=message,
+                       n_completed=self.n_trials - len(queue))
+        self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
+        return 1
 
     def _no_contact(self, disp, spec, attempt, rec) -> str:
         ctx = {"trial_index": spec.trial_index, "attempt": attempt}
@@ -795,9 +893,10 @@ class Session:
             try:
                 call()
             except DisplayError as exc:
-                self.log_event("display_error", step=step, message=str(exc))
+                _best_effort(lambda: self.log_event("display_error", step=step, message=str(exc)))
             except Exception as exc:  # an interrupted driver may be in any state
-                self.log_event("display_error", step=step, message=f"{type(exc).__name__}: {exc}")
+                _best_effort(lambda: self.log_event("display_error", step=step,
+                                                    message=f"{type(exc).__name__}: {exc}"))
 
     # -- interruption -------------------------------------------------------------------------
     def _install_signals(self):
@@ -846,6 +945,24 @@ class Session:
 _STOPS = (SessionInterrupted, KeyboardInterrupt, ResponderClosed)
 
 
+def _best_effort(call) -> None:
+    """Run a clean-up write; a failing disk (OSError) must not raise over the first error."""
+    try:
+        call()
+    except OSError as exc:
+        if isinstance(exc, DisplayError):
+            raise
+
+
+def _unused(path: Path) -> Path:
+    """``path``, or ``path`` with ``.2``, ``.3``, ... before the suffix: a name not taken."""
+    n, out = 1, path
+    while out.exists():
+        n += 1
+        out = path.with_name(f"{path.stem}.{n}{path.suffix}")
+    return out
+
+
 def _reason(exc) -> str:
     return getattr(exc, "reason", None) or str(exc) or type(exc).__name__
 
@@ -890,11 +1007,27 @@ def _clock_text(seconds: float) -> str:
 
 
 # --------------------------------------------------------------------------- making sessions
-def _next_session_name(folder: Path) -> str:
+def _next_session_name(folder: Path, after: str | None = None) -> str:
     n = 1
-    while (folder / f"S{n:02d}").exists():
+    if after is not None and after[1:].isdigit():
+        n = int(after[1:]) + 1
+    while _taken(folder / f"S{n:02d}"):
         n += 1
     return f"S{n:02d}"
+
+
+def _taken(directory: Path) -> bool:
+    """Whether a folder is (or may be) a session: anything but the leftover of a claim that
+    was killed before ``session.json`` (nothing, or only an empty ``events.jsonl``), which
+    :func:`~experiments.session_files.claim_session_folder` claims again."""
+    if not directory.exists():
+        return False
+    if not directory.is_dir():
+        return True
+    for entry in directory.iterdir():
+        if entry.name != "events.jsonl" or entry.stat().st_size > 0:
+            return True
+    return False
 
 
 @dataclass
@@ -919,6 +1052,7 @@ class SessionPlan:
     profiles: dict
     out: object = None
     progress: bool = True
+    auto_name: bool = False       # the name was chosen here (S01, S02, ...): take the next if taken
 
     @property
     def name(self) -> str:
@@ -940,11 +1074,39 @@ class SessionPlan:
         SessionError
             The folder has become a session in the meantime.
         """
+        protocol, assignment = self.protocol, self.assignment
+        # claimed atomically, log locked, before session.json is written (issue 16): of two
+        # runs for one participant, one gets the folder; an automatic name moves on to the next
+        while True:
+            try:
+                log = claim_session_folder(self.directory)
+                break
+            except SessionError:
+                if not self.auto_name:
+                    raise
+                self.directory = self.directory.parent / _next_session_name(
+                    self.directory.parent, after=self.directory.name)
+        directory = self.directory
+        try:
+            self._write_meta(directory)
+        finally:
+            # written under the lock; once session.json exists no other run claims the folder,
+            # and Session.run takes the lock again
+            log.close()
+        session = Session(directory, protocol, self.participant, assignment.group, self.seed,
+                          self.schedule, self.name, self.display_url, assignment=assignment,
+                          clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
+                          out=self.out, progress=self.progress, responder_name=self.responder_name,
+                          profiles=self.profiles)
+        for w in assignment.warnings:
+            session._report(f"warning: {w}")
+        session._say(f"{self.participant_id}: {assignment.describe()}")
+        return session
+
+    def _write_meta(self, directory) -> None:
         from experiments.logbook import atomic_write_json, ensure_dir
 
-        directory, protocol, assignment = self.directory, self.protocol, self.assignment
-        _refuse_existing(directory)
-        ensure_dir(directory)   # a folder left by a run killed before session.json is reused
+        protocol, assignment = self.protocol, self.assignment
         atomic_write_json(directory / "session.json", {
             "format": "thermocue-session/1",
             "session": self.name,
@@ -970,15 +1132,6 @@ class SessionPlan:
             "versions": package_versions(),
         })
         ensure_dir(directory / "traces")
-        session = Session(directory, protocol, self.participant, assignment.group, self.seed,
-                          self.schedule, self.name, self.display_url, assignment=assignment,
-                          clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
-                          out=self.out, progress=self.progress, responder_name=self.responder_name,
-                          profiles=self.profiles)
-        for w in assignment.warnings:
-            session._report(f"warning: {w}")
-        session._say(f"{self.participant_id}: {assignment.describe()}")
-        return session
 
 
 def block_roles(protocol) -> list[dict]:
@@ -1001,7 +1154,8 @@ def finished_sessions(folder: Path) -> list[Path]:
 
 
 def _refuse_existing(directory: Path) -> None:
-    if (directory / "session.json").exists() or (directory / "events.jsonl").exists():
+    events = directory / "events.jsonl"
+    if (directory / "session.json").exists() or (events.exists() and events.stat().st_size > 0):
         raise SessionError(f"{directory}: expected a new session folder, got an existing one "
                            f"(resume it with `thermocue resume {directory}` or choose --session)")
 
@@ -1047,7 +1201,7 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     profiles = check_simulated_profiles(protocol, participant, assignment.group, schedule)
     return SessionPlan(protocol, participant, str(participant_path), assignment, seed, schedule,
                        directory, display_url, clock_obj, responder_name, max_consecutive_faults,
-                       profiles, out=out, progress=progress)
+                       profiles, out=out, progress=progress, auto_name=not session_name)
 
 
 def create_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
@@ -1139,6 +1293,19 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
                 "display_url", "group"):
         if key not in meta:
             raise SessionError(f"{path}: {key}: expected a value, got nothing")
+    # the scalar fields through the protocol's own table reader (typed, bounded, one line)
+    from experiments.errors import ProtocolError
+    from experiments.protocol import TableReader
+    table = TableReader(str(path), meta, "")
+    try:
+        table.string("session")
+        table.string("protocol_hash")
+        table.integer("seed", ge=0)
+        table.integer("max_consecutive_faults", 3, ge=1, le=1000,
+                      why="faults in a row before a session stops")
+        table.string("responder", "", nonempty=False)
+    except ProtocolError as exc:
+        raise SessionError(str(exc)) from None
     source = f"{path}: protocol"
     protocol = parse_protocol(meta["protocol"], source=source,
                               path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
@@ -1179,6 +1346,7 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     if not isinstance(group, str) or (groups is not None and group not in groups):
         raise SessionError(f"{path}: group: expected " + (f"one of {groups}" if groups else "a name")
                            + f", got {group!r}")
+    _check_against_log(directory, path, meta, participant, schedule)
     if not isinstance(meta["display_url"], str) or not meta["display_url"]:
         raise SessionError(f"{path}: display_url: expected a URL, got {meta['display_url']!r}")
     url = display_url or meta["display_url"]
@@ -1191,3 +1359,29 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
                       profiles=profiles)
     session.protocol_source = source
     return session
+
+
+def _check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
+    """Refuse a ``session.json`` that differs from the log's ``session_started`` (issue 16).
+
+    The log is the source of truth: a session.json replaced by another run, or edited by hand
+    (seed, schedule, protocol, group, participant, name), must not steer a resume.
+    """
+    from experiments.logbook import read_events
+
+    events_path = directory / "events.jsonl"
+    if not events_path.exists():
+        return
+    events, _ = read_events(events_path, warn=False)
+    started = next((e for e in events if e.get("event") == "session_started"), None)
+    if started is None:
+        return
+    stored = {"session": meta["session"], "participant": str(participant["id"]),
+              "group": meta["group"], "seed": meta["seed"],
+              "protocol_hash": meta["protocol_hash"], "schedule_sha256": schedule_sha256(schedule)}
+    for key, value in stored.items():
+        if key in started and started[key] != value:
+            raise SessionError(f"{path}: {key}: expected {started[key]!r} as in {events_path.name}'s "
+                               f"session_started (line {started.get('seq', '?')}), got {value!r}; "
+                               f"the log is the session's record: restore session.json")
+

@@ -23,6 +23,8 @@ __all__ = [
     "package_versions",
     "trace_name",
     "aborted_trace_name",
+    "claim_session_folder",
+    "schedule_sha256",
 ]
 
 #: Columns the session adds to :data:`experiments.logbook.TRIAL_COLUMNS` in ``trials.csv``.
@@ -76,7 +78,7 @@ class TraceWriter:
     Parameters
     ----------
     path : path-like
-        The CSV file (created or truncated).
+        The CSV file (created; an existing file is never overwritten: FileExistsError).
     flush_every : int
         Frames between flushes (default 50: 0.5 s of telemetry at 100 Hz).
     """
@@ -84,7 +86,8 @@ class TraceWriter:
     def __init__(self, path, flush_every: int = 50):
         self.path = Path(path)
         self.flush_every = int(flush_every)
-        self._fh = open(self.path, "w", encoding="utf-8", newline="")
+        # "x": a trace is never overwritten (the session moves an old one aside first)
+        self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
         self._n = 0
         self.time_s: list[float] = []
@@ -133,3 +136,61 @@ def package_versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[name] = None
     return out
+
+
+def schedule_sha256(schedule) -> str:
+    """SHA-256 of a schedule (a list of TrialSpec or their dicts) in canonical JSON.
+
+    ``session_started`` records it, so a resume can tell an edited ``session.json`` schedule.
+    """
+    import hashlib
+    import json
+    items = [s if isinstance(s, dict) else s.to_dict() for s in schedule]
+    text = json.dumps(items, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def claim_session_folder(directory):
+    """Claim a new session folder for this process; return its locked, empty event log.
+
+    The folder is made with ``mkdir`` and ``events.jsonl`` with an exclusive create, then locked
+    (:class:`~experiments.logbook.EventLog`) *before* anything else is written: of two runs
+    claiming one folder, exactly one gets it, and ``session.json`` is only ever written by the
+    holder of the log's lock. A folder left by a run killed while claiming (no ``session.json``,
+    an empty unlocked log) is claimed again.
+
+    Raises
+    ------
+    SessionError
+        The folder is a session already, or another run is claiming it right now.
+    """
+    from experiments.errors import SessionError
+    from experiments.logbook import EventLog, ensure_dir, fsync_dir
+
+    directory = Path(directory)
+    ensure_dir(directory.parent)
+    try:
+        os.mkdir(directory)
+        fsync_dir(directory.parent)
+    except FileExistsError:
+        if not directory.is_dir():
+            raise SessionError(f"{directory}: expected a new session folder, got a file") from None
+    events = directory / "events.jsonl"
+    existing = SessionError(f"{directory}: expected a new session folder, got an existing one "
+                            f"(resume it with `thermocue resume {directory}` or choose --session)")
+    try:
+        os.close(os.open(events, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o644))
+        fsync_dir(directory)
+    except FileExistsError:
+        if (directory / "session.json").exists() or events.stat().st_size > 0:
+            raise existing from None
+    try:
+        log = EventLog(events)
+    except SessionError:
+        raise SessionError(f"{directory}: expected a new session folder, got one another run is "
+                           f"creating right now (choose --session)") from None
+    if (directory / "session.json").exists() or log.seq > 0:
+        log.close()                       # the other run finished its claim before our lock
+        raise existing
+    return log
+

@@ -11,6 +11,7 @@ reports them with the group.
 from __future__ import annotations
 
 import json
+import math
 import re
 from functools import lru_cache
 from pathlib import Path
@@ -196,6 +197,17 @@ def _semantic_errors(record: Mapping[str, Any]) -> list[tuple[str, str]]:
     return out
 
 
+def _non_finite(value: Any, path: tuple = ()) -> list[tuple[str, str]]:
+    """Every NaN or infinity in a record, as (field, message): no field may hold one."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return [(_field(path) or "(record)", f"expected a finite number, got {value!r}")]
+    if isinstance(value, Mapping):
+        return [p for k, v in value.items() for p in _non_finite(v, path + (k,))]
+    if isinstance(value, (list, tuple)):
+        return [p for i, v in enumerate(value) for p in _non_finite(v, path + (i,))]
+    return []
+
+
 def validate_participant(record: Any, source: str = "<participant>") -> dict:
     """Validate a participant record against the schema and the semantic checks.
 
@@ -228,7 +240,9 @@ def validate_participant(record: Any, source: str = "<participant>") -> dict:
     ...
     participants_schema.errors.ParticipantError: P01.json: skin_thickness: expected an object, got nothing (the field is required)
     """
-    problems = _schema_errors(record)
+    problems = _non_finite(record)   # JSON Schema's bounds let NaN through (NaN > 0 is False)
+    if not problems:
+        problems = _schema_errors(record)
     if not problems:
         problems = _semantic_errors(record)
     if problems:
@@ -297,7 +311,11 @@ def load_participant(path: str | Path) -> dict:
     except FileNotFoundError:
         raise ParticipantError(f"{source}: expected a participant file, got no such file",
                                source=source) from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise ParticipantError(f"{source}: expected UTF-8 text, got byte "
+                               f"0x{exc.object[exc.start]:02x} at offset {exc.start}",
+                               source=source) from None
+    except OSError as exc:
         raise ParticipantError(f"{source}: expected a readable UTF-8 file, got {exc}",
                                source=source) from None
     try:

@@ -9,7 +9,14 @@ States and transitions (``docs/display-protocol.md`` has the full table)::
 
     IDLE --ARM--> ARMED --(ready, force >= threshold)--> PLAYING | RECORDING --(end)--> IDLE
     any --ABORT--> IDLE;  ARMED/PLAYING/RECORDING --(watchdog)--> IDLE (neutral, fault latched)
-    any --(over-temperature, sensor failure)--> FAULT (Peltier relay open) --ABORT--> IDLE
+    any --(over-temperature, sensor failure)--> FAULT (Peltier relay open, latched)
+    FAULT --CLEAR_FAULT (operator reset)--> IDLE;  ABORT leaves a latched fault latched
+
+Safe on its own (docs/display-protocol.md §6, firmware requirements): the watchdog runs whenever
+the device is armed, playing or recording, HELLO or not; every command but HELLO, HEARTBEAT,
+STATUS and ABORT is refused (NO_HELLO) until a HELLO; the over-temperature cut acts inside the
+5 ms control loop at :data:`OVERTEMP_C` < :data:`HARD_MAX_C`; each power-up draws a new boot id
+(HELLO and STATUS) and restarts device time at 0, so a host can tell a restart.
 """
 from __future__ import annotations
 
@@ -28,11 +35,13 @@ from .messages import Cmd, Err, Event, Mode, State
 from .pad_physics import (CONTACT_AREA_M2, FingerSkin, PadParams, PadPlant, PassiveSample,
                           finger_pad_resistance, normal_stream)
 
-__all__ = ["Device", "FingerScript", "FIRMWARE", "HARD_MIN_C", "HARD_MAX_C", "HARD_RATE_C_PER_S"]
+__all__ = ["Device", "FingerScript", "FIRMWARE", "HARD_MIN_C", "HARD_MAX_C", "SETPOINT_MAX_C",
+           "OVERTEMP_C", "HARD_RATE_C_PER_S", "LATCHED_FAULTS"]
 
 FIRMWARE = "thermocue-emu 1.0.0"
 HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to it, always
-HARD_MAX_C = 45.0
+HARD_MAX_C = 45.0          # the skin-safe maximum: the pad is never above it for a tick
+SETPOINT_MAX_C = 44.5      # highest setpoint (HELLO's hard_max): a margin below the trip
 HARD_RATE_C_PER_S = 100.0  # largest setpoint step per second the firmware ever makes
 DEFAULT_NEUTRAL_C = 32.0
 WATCHDOG_MS = 90           # host silence that trips the watchdog, checked every 10 ms tick:
@@ -47,7 +56,9 @@ MIN_DT_US = 1000
 TICK_US = 10_000
 READY_BAND_C = 0.1         # |contact - first sample| to declare READY
 RELEASE_MS = 50            # force below half the threshold this long ends a trial
-OVERTEMP_C = HARD_MAX_C + 3.0
+OVERTEMP_C = HARD_MAX_C - 0.2   # contact sensor reading that cuts the Peltier current within
+                                # the same 5 ms control step (PadPlant.trip_C): the sensor's lag
+                                # and one step of a stuck full-current heater stay below 45 °C
 HEATSINK_MAX_C = 70.0
 STUCK_SAMPLES = 20         # identical raw readings in a row (100 ms at 200 Hz)
 _IDLE, _ARMED, _PLAYING, _RECORDING, _FAULT = (State.IDLE, State.ARMED, State.PLAYING,
@@ -60,6 +71,16 @@ _TEL_PREFIX = [h + bytes((crc8(h),)) for h in
 _TEL_PACK = m.TELEMETRY.pack
 _CRC = struct.Struct("<H")
 END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
+#: Faults that stay latched through ABORT until an operator reset (CLEAR_FAULT).
+LATCHED_FAULTS = (Err.OVER_TEMPERATURE, Err.SENSOR_FAILURE, Err.SENSOR_STUCK)
+#: Commands a device carries out before any HELLO (everything else: NAK NO_HELLO).
+_BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT,
+                 Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT)
+
+
+def _boot_id(seed: int, boots: int) -> int:
+    """A power-up's boot id (non-zero, different at every power-up of one device)."""
+    return (zlib.crc32(f"{seed}:{boots}".encode()) or 1) & 0xFFFFFFFF
 
 
 class FingerScript:
@@ -130,8 +151,14 @@ class Device:
         self.state = State.IDLE
         self.last_fault = 0
         self.neutral = DEFAULT_NEUTRAL_C
-        self.lim_min, self.lim_max, self.lim_rate = HARD_MIN_C, HARD_MAX_C, 10.0
+        self.lim_min, self.lim_max, self.lim_rate = HARD_MIN_C, SETPOINT_MAX_C, 10.0
         self.plant = PadPlant(self.params, self.tick_s, self.neutral, seed=seed)
+        self.plant.trip_C = OVERTEMP_C
+        self.seed = seed
+        self.boots = 0
+        self.boot_us = 0                   # device time counts from the last power-up
+        self.boot_id = _boot_id(seed, 0)
+        self._reboots_done = set()
         self.sp = self.neutral
         self._sp_window = deque([self.sp], maxlen=RATE_WINDOW_TICKS)   # setpoints, last 0.1 s
         self.enabled = True
@@ -145,6 +172,7 @@ class Device:
         self.max_duration_us = 20_000_000
         self.ready = False
         self.ready_count = 0
+        self.fresh = False
         self.contact_us = 0
         self.touch_us = None
         self.release_count = 0
@@ -178,7 +206,8 @@ class Device:
     def _event(self, kind: Event, arg: int = 0, text: str = "") -> None:
         self.tx_seq = (self.tx_seq + 1) & 0xFF
         self._send(self.tx_seq, m.Msg.EVENT,
-                   m.EVENT_HEAD.pack(kind, self.time_us, arg) + text.encode("utf-8")[:200])
+                   m.EVENT_HEAD.pack(kind, self.time_us - self.boot_us, arg)
+                   + text.encode("utf-8")[:200])
 
     def take_output(self) -> bytes:
         """Bytes waiting to go to the host (and forget them)."""
@@ -233,10 +262,12 @@ class Device:
         return self._send(seq, (cmd | m.REPLY_BIT) & 0xFF, payload)
 
     def _handle(self, seq: int, cmd: int, p: bytes) -> bytes:
+        if not self.hello and cmd not in _BEFORE_HELLO:
+            return self._nak(seq, cmd, Err.NO_HELLO, "no HELLO since power-up")
         if cmd == Cmd.HEARTBEAT:
             if p == b"\x00":
                 return b""                         # a silent heartbeat: no reply wanted
-            return self._ack(seq, cmd, m.TIME.pack(self.time_us))
+            return self._ack(seq, cmd, m.TIME.pack(self.time_us - self.boot_us))
         if cmd == Cmd.HELLO:
             (ver,) = m.HELLO_REQ.unpack(p)
             if ver != m.PROTOCOL_VERSION:
@@ -250,8 +281,9 @@ class Device:
             self.hello = True
             caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
             head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
-                                           m.centi(HARD_MAX_C), int(HARD_RATE_C_PER_S * 100),
-                                           m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US)
+                                           m.centi(SETPOINT_MAX_C), int(HARD_RATE_C_PER_S * 100),
+                                           m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US,
+                                           self.boot_id)
             self.log("hello")
             return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps))
         if cmd == Cmd.STATUS:
@@ -260,8 +292,20 @@ class Device:
             if self.state in (State.ARMED, State.PLAYING, State.RECORDING):
                 self.end_reason = END_ABORTED
                 self._event(Event.END, END_ABORTED, "aborted by host")
+            if self.state == State.FAULT and self.last_fault in LATCHED_FAULTS:
+                self.log("abort_latched", code=m.error_name(self.last_fault))
+                return self._ack(seq, cmd)         # stopped already; the latch stays (relay open)
             self._set_state(State.IDLE, "abort")
             self.enabled = True
+            return self._ack(seq, cmd)
+        if cmd == Cmd.CLEAR_FAULT:
+            if p != m.CLEAR_FAULT_MAGIC:
+                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "CLEAR_FAULT needs the operator's payload")
+            if self.state == State.FAULT:
+                self.log("fault_cleared", code=m.error_name(self.last_fault))
+                self._set_state(State.IDLE, "operator reset")
+                self.enabled = True
+                self.plant.tripped = False
             return self._ack(seq, cmd)
         if cmd == Cmd.SET_NEUTRAL:
             (v,) = m.CENTI.unpack(p)
@@ -272,7 +316,7 @@ class Device:
             return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.neutral)))
         if cmd == Cmd.SET_LIMITS:
             lo, hi, rate = m.LIMITS.unpack(p)
-            lo, hi = max(lo / 100.0, HARD_MIN_C), min(hi / 100.0, HARD_MAX_C)
+            lo, hi = max(lo / 100.0, HARD_MIN_C), min(hi / 100.0, SETPOINT_MAX_C)
             if self.state != State.IDLE:
                 return self._nak(seq, cmd, Err.BAD_STATE, f"SET_LIMITS in state {self.state.name}")
             if not lo < hi or rate <= 0:
@@ -337,7 +381,8 @@ class Device:
             self.max_duration_us = maxdur * 1000
             self.ready = False
             self.ready_count = 0
-            self.contact_us = 0
+            self.fresh = False             # contact only after the force fell below half the
+            self.contact_us = 0            # threshold since ARM: a fresh touch, not the last one
             self.touch_us = None
             self.end_reason = END_COMPLETE
             self._set_state(State.ARMED, f"arm {self.arm_mode.name.lower()}")
@@ -390,11 +435,13 @@ class Device:
     def _status(self) -> bytes:
         f = self.forces
         return m.STATUS_REPLY.pack(
-            self.state, self.last_fault, self.time_us, m.centi(self.sp), m.centi(self.contact_C),
+            self.state, self.last_fault, self.time_us - self.boot_us, m.centi(self.sp),
+            m.centi(self.contact_C),
             m.centi(self.ambient_C), m.centi(self.finger_C), m.centi(self.plant.hs),
             m.centi(f[0]), m.centi(f[1]), m.centi(f[2]), m.centi(f[3]), m.centi(self.neutral),
-            0 if self.profile is None else len(self.profile[0]), self.contact_us, self.end_reason,
-            self.counter, self.trials)
+            0 if self.profile is None else len(self.profile[0]),
+            0 if not self.contact_us else self.contact_us - self.boot_us, self.end_reason,
+            self.counter, self.trials, self.boot_id)
 
     # ------------------------------------------------------------------ faults & safety
     def _fault_active(self, name: str) -> bool:
@@ -417,6 +464,40 @@ class Device:
         self.log("fault", code=code.name, text=text)
         self._event(Event.FAULT, int(code), text)
 
+    def _maybe_reboot(self) -> None:
+        """The ``reboot`` fault: a power cycle (a USB brown-out) at its time, once per spec."""
+        t = self.time_us * 1e-6
+        for i, spec in enumerate(self.faults):
+            if spec.name == "reboot" and i not in self._reboots_done and spec.active(t):
+                self._reboots_done.add(i)
+                self._reboot()
+
+    def _reboot(self) -> None:
+        """Power-up state again: no HELLO, firmware limits, no profile, new boot id, time 0."""
+        self.boots += 1
+        self.boot_us = self.time_us
+        self.boot_id = _boot_id(self.seed, self.boots)
+        self.parser = FrameParser()
+        self.out.clear()
+        self.state = State.IDLE
+        self.last_fault = 0
+        self.neutral = DEFAULT_NEUTRAL_C
+        self.lim_min, self.lim_max, self.lim_rate = HARD_MIN_C, SETPOINT_MAX_C, 10.0
+        self.sp = self.neutral
+        self._sp_window.clear()
+        self._sp_window.append(self.sp)
+        self.enabled = True
+        self.plant.tripped = False
+        self.hello = False
+        self.last_rx_us = self.time_us
+        self.cache = {}
+        self.upload = self.profile = None
+        self.ready, self.ready_count, self.fresh = False, 0, False
+        self.contact_us, self.touch_us, self.release_count = 0, None, 0
+        self.end_reason = END_COMPLETE
+        self.counter = self.tx_seq = self.trials = 0
+        self.log("reboot", boot_id=self.boot_id)
+
     # ------------------------------------------------------------------ the tick
     def step(self) -> None:
         """Advance 10 ms of device time."""
@@ -431,13 +512,15 @@ class Device:
             pl.sensor_frozen = self._fault_active("stuck_sensor")
             pl.sensor_override = 150.0 if self._fault_active("sensor_range") else None
             pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
+        if self.faults and not self.stalled:
+            self._maybe_reboot()
         if self.stalled:
             # firmware hung: the hardware watchdog has opened the relay; only physics goes on
             self.plant.step(self.sp, self.sp, 0.0, False)
             return
         state = prev_state = self.state
-        # watchdog: host silent while the pad is doing something
-        if (self.hello and state in _ACTIVE
+        # watchdog: host silent while the pad is doing something (HELLO or not)
+        if (state in _ACTIVE
                 and t_us - self.last_rx_us > WATCHDOG_MS * 1000):
             ms = (t_us - self.last_rx_us) // 1000
             self.last_fault = int(Err.WATCHDOG)
@@ -482,7 +565,7 @@ class Device:
         # setpoint is always inside these bounds, so this only ever shortens a step.
         span = self.lim_rate * self.tick_s * RATE_WINDOW_TICKS + RATE_SLACK_C
         sp = min(max(sp, max(self._sp_window) - span), min(self._sp_window) + span)
-        self.sp = sp = min(max(sp, HARD_MIN_C, self.lim_min), HARD_MAX_C, self.lim_max)
+        self.sp = sp = min(max(sp, HARD_MIN_C, self.lim_min), SETPOINT_MAX_C, self.lim_max)
         self._sp_window.append(sp)
         # physics
         load = 0.0
@@ -508,12 +591,16 @@ class Device:
                 self._trip(Err.SENSOR_FAILURE, f"contact sensor reads {y:.2f} °C")
             elif self.enabled and self.plant.same_count >= STUCK_SAMPLES:
                 self._trip(Err.SENSOR_STUCK, f"contact sensor stuck at {y:.3f} °C")
-            elif y > OVERTEMP_C or self.plant.hs > HEATSINK_MAX_C:
+            elif self.plant.tripped or y > OVERTEMP_C or self.plant.hs > HEATSINK_MAX_C:
                 self._trip(Err.OVER_TEMPERATURE,
                            f"pad {y:.2f} °C, heat sink {self.plant.hs:.2f} °C")
         state = self.state
         # trial logic
         if state == _ARMED:
+            # a finger still pressing from the last trial is not a new contact: contact only
+            # once the force has dropped below half the threshold since ARM (a fresh touch)
+            if not self.fresh and Fsum < 0.5 * self.threshold:
+                self.fresh = True
             if not self.ready:
                 near = (self.arm_mode == _RECORD or
                         (abs(y - self.profile[0][0]) < READY_BAND_C and sp == goal))
@@ -524,7 +611,7 @@ class Device:
                     self.log("ready")
                     if fin is not None and fin.start_us is None:
                         fin.start_us = t_us
-            elif Fsum >= self.threshold:
+            elif Fsum >= self.threshold and self.fresh:
                 self.contact_us = t_us
                 self.trials += 1
                 self.release_count = 0
@@ -553,13 +640,13 @@ class Device:
             fault = self.last_fault if self.state == _FAULT else 0
             try:
                 body = _TEL_PREFIX[seq] + _TEL_PACK(
-                    self.counter, t_us, round(sp * 100), round(self.contact_C * 100),
+                    self.counter, t_us - self.boot_us, round(sp * 100), round(self.contact_C * 100),
                     round(self.ambient_C * 100), round(self.finger_C * 100), round(f[0] * 100),
                     round(f[1] * 100), round(f[2] * 100), round(f[3] * 100), self.state, fault)
             except struct.error:                   # a reading beyond ±327.67: saturate
                 c = m.centi
                 body = _TEL_PREFIX[seq] + _TEL_PACK(
-                    self.counter, t_us, c(sp), c(self.contact_C), c(self.ambient_C),
+                    self.counter, t_us - self.boot_us, c(sp), c(self.contact_C), c(self.ambient_C),
                     c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]), self.state, fault)
             self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
 

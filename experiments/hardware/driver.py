@@ -40,8 +40,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import serial
 
-from experiments.errors import (DisplayError, DisplayRefused, DisplayTimeout, SafetyLimitError,
-                                UserInputError)
+from experiments.errors import (DisplayError, DisplayRefused, DisplayRestarted, DisplayTimeout,
+                                SafetyLimitError, UserInputError)
 
 from . import messages as m
 from .framing import FrameParser, encode_frame
@@ -204,6 +204,28 @@ class _Trial:
             self.on_event(ev)
 
 
+#: How a delivered trial ends (the device's end reasons other than aborted and fault).
+DELIVERED_ENDS = ("complete", "released", "max_duration")
+
+
+def _not_delivered(st: Status | None, tr: _Trial) -> str | None:
+    """Why the device's own account does not show the armed trial delivered (None: it does).
+
+    Delivered means: the device is idle again, it saw a contact since ARM, and it ended the
+    trial by completion, release or the maximum duration (never by a fault, a watchdog trip
+    or an abort) -- docs/display-protocol.md §5, "A delivered trial".
+    """
+    if st is None:
+        return "no STATUS from the device after the trial"
+    if st.state in _ACTIVE:
+        return f"the device is still {st.state} after the trial's end"
+    if st.contact_time_s is None:
+        return "the device saw no contact since ARM"
+    if tr.end_reason not in DELIVERED_ENDS:
+        return f"the device ended the trial with reason {tr.end_reason!r}"
+    return None
+
+
 class ThermalDisplay:
     """A Peltier thermal display (or its emulator) on an open pyserial port.
 
@@ -277,6 +299,7 @@ class ThermalDisplay:
         self._hb_thread = None
         self._hb_stop = threading.Event()
         self._link_error: Exception | None = None
+        self._restart: str | None = None       # why we think the device restarted
         self.last_recording: TrialRecording | None = None
         self.last_contact: ContactEvent | None = None
 
@@ -367,6 +390,9 @@ class ThermalDisplay:
             except Exception:        # a frame with a good CRC but a wrong layout: count, go on
                 self._parser.bad_frames += 1
                 return
+            if tel.device_time_s < self._dev_time - 0.05:      # telemetry is never a cached reply
+                self._restarted(f"its time went back from {self._dev_time:.3f} s to "
+                                f"{tel.device_time_s:.3f} s")
             self._dev_time = tel.device_time_s
             if self._trial is not None:
                 self._trial.last_frame_clock = self._clock()
@@ -381,7 +407,16 @@ class ThermalDisplay:
             if self._trial is not None:
                 self._trial.event(ev)
         elif t == (Cmd.HEARTBEAT | m.REPLY_BIT) and len(fr.payload) == m.TIME.size:
+            # not a restart test: a retried heartbeat is answered from the device's cache
             self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
+
+    def _restarted(self, why: str) -> None:
+        """Note a device restart: the next command raises :class:`DisplayRestarted`."""
+        if self._restart is None:
+            self._restart = why
+        if self._trial is not None and self._trial.fault is None:
+            self._trial.fault, self._trial.fault_msg = "DEVICE_RESTARTED", f"display restarted: {why}"
+            self._trial.ended = True
 
     def _transact(self, cmd: int, payload: bytes = b"", *, timeout_s: float | None = None,
                   retries: int | None = None) -> bytes:
@@ -411,6 +446,12 @@ class ThermalDisplay:
                             return answer.payload
                         _, code = m.NAK_HEAD.unpack_from(answer.payload)
                         text = answer.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
+                        if code == m.Err.NO_HELLO and cmd != Cmd.HELLO and self.info is not None:
+                            self._restarted(f"{Cmd(cmd).name} refused with NO_HELLO")
+                            raise DisplayRestarted(
+                                f"display: restarted since the handshake ({Cmd(cmd).name} "
+                                f"refused: NO_HELLO); it no longer holds this session's "
+                                f"limits and neutral: stop, and resume to shake hands again")
                         raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
                                              f"{m.error_name(code)} ({text})", code=code)
                     self._heartbeat_if_due()
@@ -426,11 +467,14 @@ class ThermalDisplay:
             pass
         self._parser.reset()
         p = self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
-        (ver, hz, hmin, hmax, rate, neutral, wd, npts, mindt) = m.HELLO_REPLY_HEAD.unpack_from(p)
+        (ver, hz, hmin, hmax, rate, neutral, wd, npts, mindt,
+         boot) = m.HELLO_REPLY_HEAD.unpack_from(p)
         dev_id, fw, caps = m.decode_strings(p[m.HELLO_REPLY_HEAD.size:], 3)
         self.info = DeviceInfo(dev_id, fw, tuple(c for c in caps.split(",") if c), ver, hz,
                                hmin / 100, hmax / 100, rate / 100, neutral / 100, wd, npts,
-                               mindt * 1e-6)
+                               mindt * 1e-6, boot)
+        self._restart = None
+        self._dev_time = 0.0
         lim = self.limits
         if lim.min_C < self.info.hard_min_C or lim.max_C > self.info.hard_max_C:
             raise SafetyLimitError(f"display: limits: expected a range inside the device's "
@@ -649,17 +693,26 @@ class ThermalDisplay:
 
     def _finish(self, tr: _Trial, host_fault) -> TrialRecording:
         status, code, msg = "ok", None, None
+        st = None
         if host_fault is None:
             # frames still in flight belong to this trial (the END event can overtake nothing,
-            # but a last telemetry frame may follow it): drain briefly, then ask for the truth
+            # but a last telemetry frame may follow it): drain briefly, then ask for the truth.
+            # STATUS is the device's own account of the trial (it survives a burst that ate the
+            # events and telemetry): its end reason and contact time decide, not what we saw.
             try:
                 st = self.status()
-                if st.contact_time_s is not None and tr.active_seen:
+                if st.contact_time_s is not None:
                     tr.contact_s = st.contact_time_s
-                if tr.end_reason is None:
-                    tr.end_reason = _END_NAMES.get(st.end_reason)
+                    tr.active_seen = True
+                if st.state not in _ACTIVE:
+                    tr.end_reason = _END_NAMES.get(st.end_reason, str(st.end_reason))
                 if st.state == "FAULT" and tr.fault is None:
-                    tr.fault = st.last_fault
+                    tr.fault = st.last_fault or "FAULT"
+                elif tr.end_reason == "fault" and tr.fault is None:
+                    # the WATCHDOG or FAULT event was lost: the device still says why
+                    tr.fault = st.last_fault or "FAULT"
+                    tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
+                                    f"its event was lost on the link")
             except DisplayError as exc:
                 host_fault = ("LINK_TIMEOUT", str(exc))
         if tr.fault is not None:
@@ -669,6 +722,11 @@ class ThermalDisplay:
             self._safe_abort()
         elif tr.end_reason == "aborted":
             status = "aborted"
+        else:
+            why = _not_delivered(st, tr)
+            if why is not None:
+                status, code, msg = "fault", "NOT_DELIVERED", why
+                self._safe_abort()
         expected = tr.last_counter - tr.counter0
         lost = max(0, expected - tr.frames)
         if status == "ok" and expected > 0 and lost > self.max_frame_loss * expected:
@@ -695,8 +753,28 @@ class ThermalDisplay:
             pass                 # link gone: the device's watchdog takes the pad to neutral
 
     def status(self) -> Status:
-        """The device's state, sensors and last trial (one STATUS round trip)."""
-        return Status.decode(self._transact(Cmd.STATUS))
+        """The device's state, sensors and last trial (one STATUS round trip).
+
+        Raises
+        ------
+        DisplayRestarted
+            If the boot id differs from the handshake's (the device restarted).
+        """
+        st = Status.decode(self._transact(Cmd.STATUS))
+        if self.info is not None and st.boot_id != self.info.boot_id:
+            self._restarted(f"boot id {st.boot_id:08x}, not {self.info.boot_id:08x} as at HELLO")
+        if self._restart is not None:
+            raise DisplayRestarted(f"display: restarted since the handshake ({self._restart}); "
+                                   f"it no longer holds this session's limits and neutral: "
+                                   f"stop, and resume to shake hands again")
+        return st
+
+    def clear_fault(self) -> None:
+        """Operator reset of a latched fault (over-temperature, sensor): FAULT -> IDLE.
+
+        Never called by a session: a latched fault stops it, and a person decides.
+        """
+        self._transact(Cmd.CLEAR_FAULT, m.CLEAR_FAULT_MAGIC)
 
     def heartbeat(self) -> float:
         """One acknowledged heartbeat; return the device time, s."""

@@ -15,6 +15,8 @@ Grammar (also quoted in every error message)::
     stuck_sensor    the contact sensor's reading freezes
     sensor_range    the contact sensor reads 150 °C (open circuit)
     overtemp        the Peltier driver sticks at full heating current
+    reboot          the device restarts (a power cycle, e.g. a USB brown-out) once at AT_s:
+                    power-up state, no HELLO, a new boot id, device time from 0
 
 ``@AT_s`` is the device time (s) the fault starts (since power-up for a URL or command-line SPEC,
 since the command for ``sim_fault``); default 0. ``+FOR_s`` is how long it lasts; default for ever.
@@ -30,7 +32,7 @@ from experiments.errors import UserInputError
 __all__ = ["FaultSpec", "parse_faults", "LinkFaults", "GRAMMAR", "FAULT_NAMES"]
 
 GRAMMAR = 'SPEC := NAME["="VALUE]["@"AT_s]["+"FOR_s] ("," ...)*, NAME one of ' \
-          "drop, corrupt, garbage, delay, disconnect, stall, stuck_sensor, sensor_range, overtemp"
+          "drop, corrupt, garbage, delay, disconnect, stall, stuck_sensor, sensor_range, overtemp, reboot"
 
 #: name -> (needs a value, value range)
 FAULT_NAMES = {
@@ -43,6 +45,7 @@ FAULT_NAMES = {
     "stuck_sensor": (False, None),
     "sensor_range": (False, None),
     "overtemp": (False, None),
+    "reboot": (False, None),
 }
 LINK_FAULTS = ("drop", "corrupt", "garbage", "delay", "disconnect")
 

@@ -17,7 +17,7 @@ __all__ = [
     "PROTOCOL_VERSION", "Cmd", "Msg", "Err", "State", "Event", "Mode", "REPLY_BIT",
     "DeviceInfo", "Status", "Telemetry", "DeviceEvent", "UploadAck", "CommitAck",
     "centi", "from_centi", "error_name",
-    "HELLO_REQ", "HELLO_REPLY_HEAD", "TIME", "CENTI", "LIMITS", "UPLOAD_BEGIN", "UPLOAD_CHUNK_HEAD",
+    "HELLO_REQ", "CLEAR_FAULT_MAGIC", "HELLO_REPLY_HEAD", "TIME", "CENTI", "LIMITS", "UPLOAD_BEGIN", "UPLOAD_CHUNK_HEAD",
     "UPLOAD_CHUNK_ACK", "COMMIT", "COMMIT_ACK", "ARM", "COUNTER", "STATUS_REPLY", "TELEMETRY", "EVENT_HEAD",
     "NAK_HEAD", "encode_strings", "decode_strings", "encode_json", "decode_json",
 ]
@@ -39,6 +39,7 @@ class Cmd(enum.IntEnum):
     ARM = 0x20
     ABORT = 0x21
     STATUS = 0x22
+    CLEAR_FAULT = 0x23     # operator reset of a latched fault (never sent by a session)
     SIM_SAMPLE = 0x30      # emulator only (capability "sim")
     SIM_FINGER = 0x31
     SIM_FAULT = 0x32
@@ -87,7 +88,8 @@ class State(enum.IntEnum):
     ARMED = 1       # moving to / holding the profile's first value; contact detection once ready
     PLAYING = 2     # profile running since contact
     RECORDING = 3   # record mode: Peltier idle, sensors streamed since contact
-    FAULT = 4       # safe state after a fault: Peltier off (or neutral), until ABORT clears it
+    FAULT = 4       # safe state after a fault: Peltier relay open; over-temperature and sensor
+    #                 faults stay latched until CLEAR_FAULT (an operator reset), ABORT keeps them
 
 
 class Mode(enum.IntEnum):
@@ -109,9 +111,10 @@ class Event(enum.IntEnum):
 
 # --- payload layouts -------------------------------------------------------------------------
 HELLO_REQ = struct.Struct("<B")                 # host protocol version
-HELLO_REPLY_HEAD = struct.Struct("<BHhhHhHII")  # version, telemetry_hz, hard_min, hard_max,
+HELLO_REPLY_HEAD = struct.Struct("<BHhhHhHIII")  # version, telemetry_hz, hard_min, hard_max,
 #                                                 max_rate (c°C/s), neutral, watchdog_ms,
-#                                                 max_points, min_dt_us; then 3 length-prefixed strings
+#                                                 max_points, min_dt_us, boot_id; then 3
+#                                                 length-prefixed strings
 TIME = struct.Struct("<Q")                      # device time, µs
 CENTI = struct.Struct("<h")
 LIMITS = struct.Struct("<hhH")                  # min, max (c°C), max rate (c°C/s)
@@ -122,13 +125,14 @@ COMMIT = struct.Struct("<I")                    # crc32 of the whole profile's b
 COMMIT_ACK = struct.Struct("<IIH")              # n points, crc32, samples clamped by the device
 ARM = struct.Struct("<BHI")                     # mode, threshold (cN), max duration (ms)
 COUNTER = struct.Struct("<I")                   # ARM's reply: telemetry counter at arming
-STATUS_REPLY = struct.Struct("<BBQhhhhhhhhhhIQBII")
+STATUS_REPLY = struct.Struct("<BBQhhhhhhhhhhIQBIII")
 #   state, last fault, time, setpoint, contact, ambient, finger, heat sink, forces x4, neutral,
-#   profile points, contact time (µs, 0 = none), end reason, telemetry counter, trials
+#   profile points, contact time (µs, 0 = none), end reason, telemetry counter, trials, boot id
 TELEMETRY = struct.Struct("<IQhhhhhhhhBB")
 #   counter, time µs, setpoint, contact, ambient, finger, forces x4 (cN), state, fault
 EVENT_HEAD = struct.Struct("<BQh")              # kind, time µs, arg; then utf-8 text
 NAK_HEAD = struct.Struct("<BB")                 # refused command type, error code; then utf-8 text
+CLEAR_FAULT_MAGIC = b"OPERATOR-RESET"           # CLEAR_FAULT's payload: no stray frame is one
 
 
 def centi(value: float) -> int:
@@ -193,6 +197,8 @@ class DeviceInfo(_Response):
     watchdog_ms : int, ms
     max_points : int
     min_dt_s : float, s
+    boot_id : int
+        Drawn afresh at every power-up: a different one means the device restarted.
     """
 
     device_id: str
@@ -207,6 +213,7 @@ class DeviceInfo(_Response):
     watchdog_ms: int
     max_points: int
     min_dt_s: float
+    boot_id: int = 0
 
 
 @dataclass(frozen=True)
@@ -228,14 +235,15 @@ class Status(_Response):
     end_reason: int
     telemetry_counter: int
     trials: int
+    boot_id: int = 0
 
     @classmethod
     def decode(cls, payload: bytes) -> "Status":
         (st, fault, t, sp, ct, amb, fin, hs, f1, f2, f3, f4, neu, npts, tc, endr, cnt,
-         trials) = STATUS_REPLY.unpack(payload)
+         trials, boot) = STATUS_REPLY.unpack(payload)
         return cls(State(st).name, None if fault == 0 else error_name(fault), t * 1e-6, sp / 100,
                    ct / 100, amb / 100, fin / 100, hs / 100, (f1 / 100, f2 / 100, f3 / 100, f4 / 100),
-                   neu / 100, npts, None if tc == 0 else tc * 1e-6, endr, cnt, trials)
+                   neu / 100, npts, None if tc == 0 else tc * 1e-6, endr, cnt, trials, boot)
 
 
 class Telemetry(NamedTuple):

@@ -256,6 +256,8 @@ class PadPlant:
         self.stuck_current = None
         self.sensor_override = None
         self.sensor_frozen = False
+        self.trip_C = None               # over-temperature cut: a reading above it opens the relay
+        self.tripped = False             # ... within the same control step, until reset
         self.same_count = 0
         e = params.model_error
         self._c_hat = params.capacity * (1 + e)
@@ -277,6 +279,9 @@ class PadPlant:
         pad, hs, s_state, y_prev, q_prev, d_hat = (self.pad, self.hs, self.sensor_state,
                                                    self._y_prev, self._q_prev, self.d_hat)
         override, frozen, stuck = self.sensor_override, self.sensor_frozen, self.stuck_current
+        trip = self.trip_C if self.trip_C is not None else math.inf
+        if self.tripped:
+            enabled = False
         dsp = (sp1 - sp0) / n
         y = self.sensor
         i = 0.0
@@ -292,6 +297,9 @@ class PadPlant:
             self.same_count = self.same_count + 1 if y_new == y else 0
             y = y_new
             r = sp0 + dsp * k
+            if enabled and y > trip:             # the firmware's over-temperature cut: now
+                enabled = False
+                self.tripped = True
             if enabled:
                 # disturbance observer: measured minus modelled heat flow
                 d_meas = ch * (y - y_prev) / dtc - q_prev - kh * (hs - y_prev)

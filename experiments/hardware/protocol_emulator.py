@@ -10,7 +10,9 @@ URL grammar::
              virtual: the device advances only while the host waits for bytes -- each read that
              finds nothing to return steps it by 10 ms ticks until there is something (and,
              during a trial, up to two ticks more while the read wants more bytes) or the
-             read's timeout (counted in device time) is used up
+             read's timeout (counted in device time) is used up; while an injected
+             disconnect lasts, each failing read (its timeout) and write (one tick) still
+             advances it, so a timed disconnect@T+D ends
     seed     seeds sensor noise and link faults (default 0)
     sim      offer the emulator-only "sim" commands (default 1)
     log      append the device's state changes, faults and watchdog trips as JSON lines to PATH
@@ -252,6 +254,13 @@ class Serial(SerialBase):
         timeout = self._timeout
         with self._cond:
             if self._disconnected():
+                if self.virtual:
+                    # time goes on while the link is dead (a read that waits its timeout for
+                    # nothing), so a timed disconnect@T+D ends and the device's watchdog acts
+                    budget = 1 if not timeout else max(1, int(timeout * 1e6 / TICK_US + 0.5))
+                    for _ in range(budget):
+                        self._tick()
+                    self._rx.clear()           # what the device said meanwhile was lost
                 raise SerialException("emulator: device disconnected (injected fault)")
             if self.virtual:
                 if not self._rx and timeout != 0:
@@ -286,6 +295,9 @@ class Serial(SerialBase):
         data = to_bytes(data)
         with self._cond:
             if self._disconnected():
+                if self.virtual:
+                    self._tick()                   # a write to a dead link takes time too
+                    self._rx.clear()
                 raise SerialException("emulator: device disconnected (injected fault)")
             dev = self.device
             if self.link.specs:

@@ -91,7 +91,14 @@ class SafetyLimits:
 
 
 def profile_max_rate(target_C, dt_s: float, window_s: float) -> float:
-    """Largest ``|T(t + w) - T(t)| / w`` of a uniformly sampled profile, °C/s.
+    """Largest span of the profile over any window of length ``w``, divided by ``w``, °C/s.
+
+    The span of a window is ``max T - min T`` over all its samples, i.e. the largest
+    ``|T(t + k dt) - T(t)|`` for every lag ``0 < k dt ≤ w``, not only at the lag ``w``: a
+    profile alternating 15↔42 °C every 10 ms has equal ends on every 0.1 s window and is still
+    27 °C/0.1 s fast. The device limits its setpoints exactly so (the setpoints of any
+    ``RATE_WINDOW_TICKS`` + 1 ticks span at most the rate times the window), so a profile this
+    check passes is one the device plays as uploaded.
 
     ``w`` is ``window_s`` rounded to a whole number (≥ 1) of samples; a profile shorter than the
     window is measured over its full length.
@@ -100,7 +107,8 @@ def profile_max_rate(target_C, dt_s: float, window_s: float) -> float:
     if y.size < 2:
         return 0.0
     w = max(1, min(int(round(window_s / dt_s)), y.size - 1))
-    return float(np.max(np.abs(y[w:] - y[:-w])) / (w * dt_s))
+    span = max(float(np.max(np.abs(y[k:] - y[:-k]))) for k in range(1, w + 1))
+    return span / (w * dt_s)
 
 
 def check_profile(times_s, target_C, limits: SafetyLimits, *, start_C: float | None = None,

@@ -210,7 +210,7 @@ def test_resume_checks_max_faults_and_needs_a_responder(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert err[0].endswith("--max-faults: expected an integer ≥ 1, got 0")
     assert "session.json: responder: expected a name, got ''" in err[1] and len(err) == 2
-    assert not (s.directory / "events.jsonl").exists()    # refused before anything ran
+    assert _nothing_logged(s.directory)    # refused before anything ran
 
 
 def test_existing_session_folder_is_refused(tmp_path):
@@ -383,3 +383,9 @@ def test_a_compensated_profile_the_pad_cannot_give_names_protocol_and_field(tmp_
     with pytest.raises(SessionError, match=r"mini\.toml: simulation\.target_side: 'compensated' "
                                            r"for sample 12\.5 µm \(calibration resistance\)"):
         simulated_target_profile(proto, record, "A", 680.0, 2, 12.5)
+
+
+def _nothing_logged(directory):
+    """No event written: the claimed log (issue 16: claimed with the folder) is empty."""
+    log = directory / "events.jsonl"
+    return not log.exists() or log.read_bytes() == b""

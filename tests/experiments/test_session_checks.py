@@ -10,6 +10,7 @@ import csv
 import datetime as dt
 import io
 import json
+from pathlib import Path
 
 import pytest
 
@@ -143,7 +144,7 @@ def test_resume_with_a_bad_display_runs_and_logs_nothing(tmp_path, capsys):
     assert err[0].startswith("thermocue resume: --display: expected a display URL")
     assert err[1].startswith(f"thermocue resume: display: cannot open '{tmp_path / 'gone'}'")
     assert "nothing was run" in err[1] and len(err) == 2
-    assert not (s.directory / "events.jsonl").exists()
+    assert _nothing_logged(s.directory)
 
 
 # --------------------------------------------------------------------------- 4. --quiet
@@ -156,7 +157,9 @@ def test_quiet_still_says_why_the_session_stopped(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 1
     assert "stopped after 3 consecutive faults; resume with `thermocue resume" in err
-    assert err.count("trial 1: display fault SENSOR_FAILURE") == 3
+    # the sensor fault latches (issue 16): ABORT does not clear it, the next ARMs are refused
+    assert err.count("trial 1: display fault SENSOR_FAILURE") == 1
+    assert err.count("trial 1: display fault FAULT_LATCHED") == 2
     assert "trial 1 of 2" not in err and "group A" not in err     # progress stays quiet
 
 
@@ -184,7 +187,7 @@ def test_resume_refuses_an_edited_seed_or_schedule(tmp_path, capsys, change, mes
     assert main(["resume", str(s.directory), "--display", EMU]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"thermocue resume: {path}: {message}") and err.count("\n") == 1
-    assert not (s.directory / "events.jsonl").exists()
+    assert _nothing_logged(s.directory)
 
 
 def test_a_schedule_from_another_algorithm_is_resumed_as_stored_and_said(tmp_path, capsys):
@@ -264,3 +267,84 @@ def test_console_cue_without_a_terminal_is_logged_as_not_played(tmp_path, monkey
     reasons = [e["reason"] for e in events if e["event"] == "cue_unavailable"]
     assert len(reasons) == 2 and "not terminals" in reasons[0]
     assert "\a" not in capsys.readouterr().out
+
+
+def _nothing_logged(directory):
+    """No event written: the claimed log (issue 16: claimed with the folder) is empty."""
+    log = directory / "events.jsonl"
+    return not log.exists() or log.read_bytes() == b""
+
+
+# --------------------------------------------------------------------------- issue 16: claims
+def test_two_runs_claiming_one_session_folder_never_mix(tmp_path):
+    # Regression: two concurrent `thermocue run` of one participant: S01/session.json ended up
+    # holding the losing process's seed and schedule under the winner's log.
+    import multiprocessing
+    proto = write_protocol(tmp_path, sim_samples=())
+    data = tmp_path / "data"
+    ctx = multiprocessing.get_context("fork")
+    with ctx.Pool(2) as pool:
+        results = pool.starmap(_claim, [(proto, data, seed) for seed in (11, 12, 13, 14)])
+    dirs = [d for d, _ in results if d is not None]
+    assert len(dirs) == 4 and len(set(dirs)) == 4        # four folders, S01..S04, one each
+    for d, seed in results:
+        assert json.loads((Path(d) / "session.json").read_text())["seed"] == seed
+
+
+def _claim(proto, data, seed):
+    s = create_session(proto, P01, data, "scripted://", seed=seed, clock="virtual")
+    return str(s.directory), seed
+
+
+def test_a_second_claim_of_a_named_folder_is_refused(tmp_path):
+    from experiments.errors import SessionError
+    from experiments.session_files import claim_session_folder
+    first = claim_session_folder(tmp_path / "P01" / "S01")
+    try:
+        with pytest.raises(SessionError, match="another run is creating right now"):
+            claim_session_folder(tmp_path / "P01" / "S01")
+    finally:
+        first.close()
+    # a claim killed before session.json (empty, unlocked log) is taken again
+    claim_session_folder(tmp_path / "P01" / "S01").close()
+    (tmp_path / "P01" / "S01" / "session.json").write_text("{}")
+    with pytest.raises(SessionError, match="got an existing one"):
+        claim_session_folder(tmp_path / "P01" / "S01")
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda m: m.update(seed=8, schedule=None), "seed"),
+    (lambda m: m.update(group="B"), "group"),
+    (lambda m: m.update(session="S07"), "session"),
+])
+def test_resume_refuses_a_session_json_that_differs_from_the_log(tmp_path, capsys, change, field):
+    from experiments.schedule import build_schedule
+    proto = write_protocol(tmp_path, sim_samples=())
+    s = create_session(proto, P01, tmp_path / "data", "scripted://", seed=7, clock="virtual")
+    assert s.run(ScriptedResponder(), display=ScriptedDisplay(script=["ok", "raise", "raise",
+                                                                      "raise"])) == 1
+    path = s.directory / "session.json"
+    meta = json.loads(path.read_text())
+    change(meta)
+    if meta["schedule"] is None:          # a consistent seed + schedule pair, from another run
+        meta["schedule"] = [t.to_dict() for t in build_schedule(s.protocol, "P01", 8)]
+    path.write_text(json.dumps(meta))
+    capsys.readouterr()
+    assert main(["resume", str(s.directory), "--display", EMU, "--responder", "simulated"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: {field}: expected" in err and "session_started" in err, err
+
+
+def test_a_claim_killed_before_session_json_is_taken_again_by_the_next_run(tmp_path):
+    # a run killed between claiming S01 and writing session.json leaves S01 with an empty,
+    # unlocked log: the next run takes S01 (not S02), and resume is not needed
+    (tmp_path / "data" / "P01" / "S01").mkdir(parents=True)
+    (tmp_path / "data" / "P01" / "S01" / "events.jsonl").write_bytes(b"")
+    s = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data",
+                       "scripted://", seed=7, clock="virtual")
+    assert s.directory.name == "S01"
+    (tmp_path / "data" / "P01" / "S02").mkdir()
+    (tmp_path / "data" / "P01" / "S02" / "notes.txt").write_text("not ours")
+    s3 = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data",
+                        "scripted://", seed=8, clock="virtual")
+    assert s3.directory.name == "S03"

@@ -232,3 +232,107 @@ def test_a_corrupted_length_does_not_stall_the_device(host, bit):
     assert dev.parser.buffered == 0
     tel, ev = host.step(30)
     assert [e.kind for e in ev if e.kind == "WATCHDOG"] == [] and dev.state == State.ARMED
+
+
+# --------------------------------------------------------------------------- issue 16: safe alone
+def test_nothing_but_hello_status_heartbeat_abort_before_a_hello():
+    # Regression: a device restarted mid-session took ARM, uploads and raw profiles without a
+    # HELLO, with its watchdog off and the firmware's limits, and played on with a silent host.
+    h = Host(Device(seed=3))
+    for cmd, payload in ((Cmd.ARM, m.ARM.pack(1, 200, 1000)),
+                         (Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(100, 10_000)),
+                         (Cmd.SET_LIMITS, m.LIMITS.pack(1500, 4200, 1000)),
+                         (Cmd.SET_NEUTRAL, m.CENTI.pack(3000))):
+        assert nak_code(h.send(cmd, payload)) == Err.NO_HELLO
+    assert h.send(Cmd.STATUS).type == Cmd.STATUS | 0x80
+    assert h.send(Cmd.ABORT).type == Cmd.ABORT | 0x80
+    assert h.send(Cmd.HEARTBEAT).type == Cmd.HEARTBEAT | 0x80
+
+
+def test_the_watchdog_does_not_depend_on_a_hello(host):
+    host.upload(np.full(3000, 25.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    host.dev.hello = False          # whatever forgot the HELLO, an armed device guards itself
+    tel, ev = host.step(20, heartbeat=False)
+    assert [e.kind for e in ev].count("WATCHDOG") == 1 and host.dev.state == State.IDLE
+
+
+def _stuck_heater(dev, at_s):
+    """Step ``dev`` with a heater stuck from ``at_s``; return the pad temperature per 5 ms step."""
+    pads = []
+    sub = dev.plant.step
+
+    def spy(*a):                    # the pad at the end of each 10 ms tick and its two 5 ms steps
+        y = sub(*a)
+        pads.append(dev.plant.pad)
+        return y
+    dev.plant.step = spy
+    dev.faults += [f for f in __import__("experiments.hardware.faults", fromlist=["x"])
+                   .parse_faults(f"overtemp@{at_s}")]
+    for _ in range(int((at_s + 2.0) / 0.01)):
+        dev.step()
+    return np.array(pads)
+
+
+@pytest.mark.parametrize("start", ["neutral", "hottest setpoint"])
+def test_a_stuck_heater_never_holds_the_pad_above_45_C_for_a_tick(host, start):
+    # Regression: the trip was at 48 °C (HARD_MAX_C + 3): 48.6 °C reached, 0.22 s above 45 °C.
+    from experiments.hardware.device import HARD_MAX_C, SETPOINT_MAX_C
+    assert host.send(Cmd.SET_LIMITS, m.LIMITS.pack(1500, 4500, 1000)).type == Cmd.SET_LIMITS | 0x80
+    if start != "neutral":
+        assert m.CENTI.unpack(host.send(Cmd.SET_NEUTRAL, m.CENTI.pack(4500)).payload)[0] == \
+            round(SETPOINT_MAX_C * 100)
+        host.step(500)                                     # settled at the highest setpoint
+        assert host.dev.state == State.IDLE                # no false trip at the ceiling
+    pads = _stuck_heater(host.dev, host.dev.time_us * 1e-6 + 0.5)
+    assert host.dev.state == State.FAULT and host.dev.last_fault == Err.OVER_TEMPERATURE
+    assert np.count_nonzero(pads > HARD_MAX_C) <= 1        # at most one 10 ms tick above 45 °C
+    assert pads.max() < HARD_MAX_C + 0.2
+
+
+def test_overtemperature_and_sensor_faults_stay_latched_through_abort(host):
+    # Regression: the host's ABORT cleared the latch and re-closed the relay within 10-20 ms.
+    host.upload(np.full(3000, 30.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    host.send(Cmd.SIM_FAULT, m.encode_json({"spec": "overtemp+0.5"}))
+    host.step(100)
+    assert host.dev.state == State.FAULT
+    assert host.send(Cmd.ABORT).type == Cmd.ABORT | 0x80
+    host.step(100)                                         # the stuck driver has healed by now
+    assert host.dev.state == State.FAULT and host.dev.enabled is False
+    assert nak_code(host.send(Cmd.ARM, m.ARM.pack(0, 200, 1000))) == Err.FAULT_LATCHED
+    assert nak_code(host.send(Cmd.CLEAR_FAULT, b"please")) == Err.BAD_ARGUMENT
+    assert host.send(Cmd.CLEAR_FAULT, m.CLEAR_FAULT_MAGIC).type == Cmd.CLEAR_FAULT | 0x80
+    host.step(10)
+    assert host.dev.state == State.IDLE and host.dev.enabled is True
+
+
+def test_a_restart_changes_the_boot_id_and_starts_device_time_again():
+    h = Host(Device(seed=4, faults="reboot@1"))
+    hello = h.send(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
+    boot0 = m.HELLO_REPLY_HEAD.unpack_from(hello.payload)[-1]
+    h.step(50)
+    st = m.Status.decode(h.send(Cmd.STATUS).payload)
+    assert st.boot_id == boot0 and st.device_time_s == pytest.approx(0.5)
+    h.step(100)                                            # the power cycle at 1 s
+    st = m.Status.decode(h.send(Cmd.STATUS).payload)
+    assert st.boot_id != boot0 and st.device_time_s == pytest.approx(0.5)
+    assert nak_code(h.send(Cmd.ARM, m.ARM.pack(1, 200, 1000))) == Err.NO_HELLO
+    h.step(200)
+    assert h.dev.boots == 1                                # once per spec, not at every 1 s
+
+
+def test_a_finger_still_pressing_is_not_a_new_contact(host):
+    # Regression: re-armed while the finger still pressed, a trial "started" at once and ended
+    # 0.05 s later. Contact needs the force below half the threshold since ARM first.
+    host.upload(np.full(300, 32.0))
+    finger(host, press_after_s=0.0, hold_s=3.0)            # pressing before ARM, until 3 s
+    host.step(100)
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    tel, ev = host.step(150)                               # ready, still pressed: no contact
+    assert "READY" in [e.kind for e in ev] and "CONTACT" not in [e.kind for e in ev]
+    tel, ev = host.step(100)                               # released at 3 s
+    assert "CONTACT" not in [e.kind for e in ev]
+    finger(host, press_after_s=0.1, hold_s=3.0)            # a fresh touch
+    tel, ev = host.step(50)
+    assert [e.kind for e in ev].count("CONTACT") == 1

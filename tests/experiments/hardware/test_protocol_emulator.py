@@ -58,3 +58,23 @@ def test_a_plus_in_the_url_is_the_faults_duration():
         assert port.device.faults == [FaultSpec("stall", None, 0.1, 0.2)]
     finally:
         port.close()
+
+
+def test_a_timed_disconnect_ends_and_the_link_comes_back():
+    # Regression (issue 16): on a virtual clock the device advanced only in reads, and reads
+    # failed while disconnected: the clock stopped and disconnect@T+D never ended.
+    from experiments.errors import DisplayError
+    from experiments.hardware import open_display
+    with open_display("emulator://?clock=virtual&seed=3&faults=disconnect@1+0.5") as d:
+        with pytest.raises(DisplayError):
+            d.wait(1.2)
+        for _ in range(200):                       # each failed read lets device time pass
+            try:
+                t = d.heartbeat()
+                break
+            except DisplayError:
+                pass
+        else:
+            pytest.fail("the link never came back")
+        assert t >= 1.5 and d.port.device.time_us * 1e-6 < 3.0
+        assert d.status().state == "IDLE"

@@ -75,3 +75,16 @@ def test_messages_print_plain_numbers():
     with pytest.raises(UserInputError) as e:
         check_profile(np.arange(1, 2, 0.01), np.full(100, 30.0), SafetyLimits())
     assert str(e.value).endswith("got first 1.0")
+
+
+def test_the_rate_is_the_span_over_every_window_not_one_lag():
+    # Regression (issue 16): 15 <-> 42 °C alternating every 10 ms has equal ends 0.1 s apart,
+    # passed the host's check, was limited by the device and reported ok with a 26.8 °C error.
+    y = np.where(np.arange(200) % 2, 42.0, 15.0)
+    assert profile_max_rate(y, 0.01, 0.1) == pytest.approx(270.0)
+    with pytest.raises(SafetyLimitError, match="rate"):
+        check_profile(np.arange(200) * 0.01, y, SafetyLimits())
+    # a spike that returns within the window: its span counts, not its ends
+    z = np.full(100, 30.0)
+    z[50:55] = 35.0
+    assert profile_max_rate(z, 0.01, 0.1) == pytest.approx(50.0)
