@@ -208,7 +208,8 @@ def ensure_dir(path: str | Path) -> Path:
             pass
         fsync_dir(d.parent)
     if not path.is_dir():
-        raise NotADirectoryError(f"{path}: expected a folder, got a file")
+        import errno
+        raise NotADirectoryError(errno.ENOTDIR, "expected a folder, got a file", str(path))
     return path
 
 

@@ -43,7 +43,7 @@ def test_no_ok_trial_the_device_did_not_deliver(tmp_path):
     assert any(r["status"] == "fault" and r["fault_code"] == "WATCHDOG" for r in rows)
     delivered = {round(t, 2): end for t, end in _device_trials(log)}
     for r in ok:
-        t = round(float(r["contact_time_s"]), 2)
+        t = round(float(r["contact_onset_s"]), 2)
         assert delivered.get(t) == "end", (r, delivered)   # a contact the device ended itself
 
 
@@ -60,7 +60,7 @@ def test_a_display_restart_mid_session_stops_it_and_resume_finishes(tmp_path, ca
     session = data / "P01" / "S01"
     with open(session / "trials.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert rows and all(r["status"] != "ok" or r["contact_time_s"] for r in rows)
+    assert rows and all(r["status"] != "ok" or r["contact_onset_s"] for r in rows)
     assert any(r["fault_code"] in ("DEVICE_RESTARTED", "DisplayRestarted") for r in rows)
     assert main(["resume", str(session), "--display", "emulator://?clock=virtual&seed=3",
                  "--responder", "simulated", "--quiet"]) == 0
