@@ -578,6 +578,7 @@ class Session:
         if contact:
             self.machine.go(active, **ctx, device_time_s=contact[0])
         row.update(self._recording_fields(rec))
+        row["contact_force_N"] = self._contact_force(writer, rec)   # Eq. 5's force (issue 12)
         self._skin_temperature(row, ctx, finger_before[0])
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,
@@ -657,6 +658,16 @@ class Session:
                 "contact_onset_s": rec.contact_time_s,
                 "contact_duration_s": float(getattr(rec, "duration_s", 0.0)) if touched else None,
                 "frames": rec.frames, "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
+
+    @staticmethod
+    def _contact_force(writer, rec) -> float | None:
+        """Mean summed force the display's four sensors measured over the contact, N."""
+        if rec.contact_time_s is None or not writer.time_s:
+            return None
+        from experiments.responders.base import contact_force
+        value = contact_force(np.asarray(writer.time_s, dtype=float) - float(rec.contact_time_s),
+                              writer.forces_N)
+        return None if value is None else round(value, 2)
 
     def _stimulus(self, spec, writer, rec, profile, sample) -> TrialStimulus:
         t = np.asarray(writer.time_s, dtype=float)
