@@ -116,6 +116,13 @@ COLUMNS = {
     "cri_low": (_L, "variational credible interval, lower end"),
     "cri_high": (_L, "variational credible interval, upper end"),
     "model": (_C, "model the row comes from"),
+    # model_decisions.csv: the scene planner's decisions for the simulated profiles (issue 12)
+    "effect": (_C, "physical effect of the thermal model (stimuli.scene)"),
+    "decision": (_C, "kept or neglected by the scene planner"),
+    "n_profiles": (_N, "distinct target profiles with this decision"),
+    "max_bound_K": ("K", "largest error neglecting the effect causes over those profiles"),
+    "tolerance_K": ("K", "smallest tolerance the planner was asked for"),
+    "note": (_C, "the effect, or why it was kept, in words"),
     "log_odds_ratio_A_vs_B": (_L, "log odds of correct, group A minus group B"),
     "odds_ratio_A_vs_B": ("ratio", "exp(log_odds_ratio_A_vs_B)"),
     "p_correct_A": (_P, "model probability of a correct answer, group A (averaged row: mean of "

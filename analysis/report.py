@@ -21,6 +21,7 @@ from .glmm import fit_glmm
 from .glmm_slope import fit_glmm_slope
 from .inference import chance_tests, holm, interaction_test, omnibus_group_test, primary_test
 from .missing import missing_summary, missing_trials
+from .model_decisions import model_decisions, model_decisions_markdown
 from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
 from .proportions import cell_proportions, participant_summary
 from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
@@ -446,7 +447,9 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),
                   "ordinal": ordinal_table(trials, level=level),
                   "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
-                  "force": force_table(trials)}
+                  "force": force_table(trials),
+                  "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],
+                                                                      "path"])}
     summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests)
     say(f"writing figures and tables to {out}")
     files = {
@@ -548,6 +551,7 @@ def _report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, see
     ]
     parts += _sessions_markdown(log)
     parts += _missing_section(r)
+    parts += model_decisions_markdown(r.extras.get("model_decisions", pd.DataFrame()), _md_table)
     if log.warnings:
         parts += ["### Problems in the logs (worked around)", ""]
         parts += [f"- {w}" for w in log.warnings] + [""]

@@ -164,6 +164,7 @@ class Session:
         self._attempt: _Attempt | None = None
         self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
         self._profiles = dict(profiles or {})   # (roughness_id, roughness_um) -> checked profile
+        self._plans_told: set = set()   # profiles whose model decisions the experimenter was told
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
         self.protocol_source = _protocol_source(protocol)
         self._defer = 0
@@ -695,6 +696,12 @@ class Session:
             self._profiles[key] = simulated_target_profile(
                 self.protocol, self.participant, self.group, self.skin_thickness_um,
                 spec.roughness_id, spec.roughness_um)
+        if key not in self._plans_told:
+            # the scene planner's decisions, once per profile, to the experimenter (issue 12)
+            from stimuli.planner import plan_line
+            self._plans_told.add(key)
+            self._say(f"profile {spec.roughness_id}# ({spec.roughness_um:g} um): "
+                      + plan_line(self._profiles[key].parameters.get("plan")))
         return self._profiles[key]
 
     def _complete(self, spec, attempt: int, row: dict) -> None:

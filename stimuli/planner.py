@@ -35,7 +35,7 @@ import numpy as np
 from .exact import INVERSION_ERROR, InversionPlan
 from .scene import Model, Scene, evaluate
 
-__all__ = ["plan", "planned_temperature", "Plan", "Decision", "SAFETY", "EFFECTS"]
+__all__ = ["plan", "planned_temperature", "plan_line", "Plan", "Decision", "SAFETY", "EFFECTS"]
 
 #: Factor on the probe error for the times between probes (checked by the planner's grid test).
 SAFETY = 1.5
@@ -300,3 +300,30 @@ def planned_temperature(quantity: str, skin, material, resistance: float, skin_t
     if p.model.sensor:
         return evaluate(p.scene, p.model, scene.times)[np.round(t * rate).astype(int)], p
     return evaluate(p.scene, p.model, t), p
+
+
+def plan_line(plan: dict) -> str:
+    """One line saying what a plan (:meth:`Plan.to_dict`, as logged) kept and neglected.
+
+    Examples
+    --------
+    >>> plan_line({"model": "exact, slab, homogeneous skin", "bound_K": 0.004, "tolerance_K": 0.3,
+    ...            "decisions": [{"effect": "sensor", "included": False, "bound_K": 0.0},
+    ...                          {"effect": "slab", "included": True, "bound_K": None}]})
+    'model exact, slab, homogeneous skin (error <= 0.004 K of 0.3 K); neglected: sensor <= 0 K; kept: slab'
+    """
+    if not isinstance(plan, dict):
+        return "model: not recorded"
+    if "sides" in plan:
+        return "; ".join(f"side {i + 1}: {plan_line(p)}" for i, p in enumerate(plan["sides"]))
+    if not plan.get("decisions"):
+        return f"model {plan.get('model', 'not recorded')}" + (
+            f" ({plan['note']})" if plan.get("note") else "")
+    head = f"model {plan.get('model')}"
+    if plan.get("bound_K") is not None and plan.get("tolerance_K") is not None:
+        head += f" (error <= {plan['bound_K']:.2g} K of {plan['tolerance_K']:g} K)"
+    dropped = [f"{d['effect']} <= {d['bound_K']:.2g} K" if d.get("bound_K") is not None
+               else d["effect"] for d in plan["decisions"] if not d.get("included")]
+    kept = [d["effect"] for d in plan["decisions"] if d.get("included")]
+    return (head + "; neglected: " + (", ".join(dropped) or "nothing")
+            + "; kept: " + (", ".join(kept) or "nothing"))
