@@ -77,6 +77,7 @@ COLUMNS = {
     "analysed": ("bool", "the session's rows are analysed under the --sessions policy"),
     "skin_temperature_C": ("degC", "fingertip temperature measured just before the touch"),
     "skin_temperature_in_range": ("0/1", "1 if skin_temperature_C was within the protocol's range"),
+    "contact_force_N": ("N", "mean summed force the display measured over the contact"),
     # counts and proportions
     "n_participants": (_N, "participants contributing"),
     "n_trials": (_N, "trials"),
@@ -94,6 +95,10 @@ COLUMNS = {
     "median_rt_s": ("s", "median response time"),
     "q25_rt_s": ("s", "first quartile of response time"),
     "q75_rt_s": ("s", "third quartile of response time"),
+    "mean_force_N": ("N", "mean contact force the display measured (contact_force_N)"),
+    "sd_force_N": ("N", "standard deviation of contact_force_N across trials"),
+    "min_force_N": ("N", "smallest contact_force_N"),
+    "max_force_N": ("N", "largest contact_force_N"),
     # models
     "term": (_C, "model term (patsy name; treatment coding: group A, real, 1# are the reference)"),
     "log_odds": (_L, "estimate on the log-odds scale (participant_sd, sd_*: SDs of the random "
@@ -111,6 +116,13 @@ COLUMNS = {
     "cri_low": (_L, "variational credible interval, lower end"),
     "cri_high": (_L, "variational credible interval, upper end"),
     "model": (_C, "model the row comes from"),
+    # model_decisions.csv: the scene planner's decisions for the simulated profiles (issue 12)
+    "effect": (_C, "physical effect of the thermal model (stimuli.scene)"),
+    "decision": (_C, "kept or neglected by the scene planner"),
+    "n_profiles": (_N, "distinct target profiles with this decision"),
+    "max_bound_K": ("K", "largest error neglecting the effect causes over those profiles"),
+    "tolerance_K": ("K", "smallest tolerance the planner was asked for"),
+    "note": (_C, "the effect, or why it was kept, in words"),
     "log_odds_ratio_A_vs_B": (_L, "log odds of correct, group A minus group B"),
     "odds_ratio_A_vs_B": ("ratio", "exp(log_odds_ratio_A_vs_B)"),
     "p_correct_A": (_P, "model probability of a correct answer, group A (averaged row: mean of "

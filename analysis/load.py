@@ -523,7 +523,8 @@ def _validate(df: pd.DataFrame) -> pd.DataFrame:
             out[column] = values.astype("Int64") if kind == "int" else values.astype(float)
     # Written by sessions since issue 10; older logs lack them (blank, without a warning).
     # (Floats: 1/0/NaN for the flag, blank where no thermometer reading was taken.)
-    for column, integer in (("skin_temperature_C", False), ("skin_temperature_in_range", True)):
+    for column, integer in (("skin_temperature_C", False), ("skin_temperature_in_range", True),
+                            ("contact_force_N", False)):   # the display's force (issue 12)
         if column in df.columns:
             out[column] = _as_number(df, column, integer=integer, allow_blank=True).astype(float)
         else:
@@ -829,7 +830,7 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
              "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
              "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
-             "skin_temperature_C", "skin_temperature_in_range",
+             "skin_temperature_C", "skin_temperature_in_range", "contact_force_N",
              "abort_reason", "familiarisation", "included", "exclusion", "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
                                        ignore_index=True)

@@ -44,7 +44,7 @@ import pandas as pd
 from scipy import stats
 
 __all__ = ["information_transfer", "agreement_table", "hu_table", "ordinal_table",
-           "covariate_table", "rt_table"]
+           "covariate_table", "force_table", "rt_table"]
 
 
 def information_transfer(counts) -> dict:
@@ -243,6 +243,12 @@ def covariate_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFram
                                             "(practice/fatigue)"),
                             ("group[T.B]", "group B - A at real samples, adjusted for position")],
                            level)
+    if "contact_force_N" in trials and trials["contact_force_N"].notna().all():
+        data["force_N"] = trials["contact_force_N"].to_numpy(float)
+        if data["force_N"].std() > 0.01:   # the force varies: Eq. 5's R moves with it
+            rows += _gee_terms(data, "correct ~ force_N + group * mode + C(roughness_id)",
+                               [("force_N", "log odds per +1 N of measured contact force "
+                                            "(adjusted for group x mode)")], level)
     if "rt_s" in trials and trials["rt_s"].notna().all() and (trials["rt_s"] > 0).all():
         data["log_rt"] = np.log(trials["rt_s"].to_numpy(float))
         rows += _gee_terms(data, "correct ~ log_rt + group * mode + C(roughness_id)",
@@ -250,6 +256,26 @@ def covariate_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFram
                                        "(speed-accuracy relation)")], level)
     return pd.DataFrame(rows, columns=["model", "term", "meaning", "log_odds", "se", "ci_low",
                                        "ci_high", "p_value"])
+
+
+def force_table(trials: pd.DataFrame) -> pd.DataFrame:
+    """The contact force the display measured, per group x mode (``contact_force_N`` of trials.csv).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``group, mode, n_trials, mean_force_N, sd_force_N, min_force_N, max_force_N`` over the
+        trials with a measured force (empty when none has one).
+    """
+    cols = ["group", "mode", "n_trials", "mean_force_N", "sd_force_N", "min_force_N", "max_force_N"]
+    if "contact_force_N" not in trials:
+        return pd.DataFrame(columns=cols)
+    sel = trials[trials["contact_force_N"].notna()]
+    if sel.empty:
+        return pd.DataFrame(columns=cols)
+    g = sel.groupby(["group", "mode"])["contact_force_N"]
+    return pd.DataFrame({"n_trials": g.size(), "mean_force_N": g.mean(), "sd_force_N": g.std(),
+                         "min_force_N": g.min(), "max_force_N": g.max()}).reset_index()[cols]
 
 
 def rt_table(trials: pd.DataFrame) -> pd.DataFrame:

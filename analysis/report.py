@@ -21,9 +21,11 @@ from .glmm import fit_glmm
 from .glmm_slope import fit_glmm_slope
 from .inference import chance_tests, holm, interaction_test, omnibus_group_test, primary_test
 from .missing import missing_summary, missing_trials
+from .model_decisions import model_decisions, model_decisions_markdown
 from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
 from .proportions import cell_proportions, participant_summary
-from .psychophysics import agreement_table, covariate_table, hu_table, ordinal_table, rt_table
+from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
+                            rt_table)
 
 __all__ = ["AnalysisResult", "analyze", "plain_summary", "COLUMN_MEANINGS"]
 
@@ -444,7 +446,10 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         warnings.simplefilter("ignore")
         extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),
                   "ordinal": ordinal_table(trials, level=level),
-                  "covariates": covariate_table(trials, level=level), "rt": rt_table(trials)}
+                  "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
+                  "force": force_table(trials),
+                  "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],
+                                                                      "path"])}
     summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests)
     say(f"writing figures and tables to {out}")
     files = {
@@ -546,6 +551,7 @@ def _report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, see
     ]
     parts += _sessions_markdown(log)
     parts += _missing_section(r)
+    parts += model_decisions_markdown(r.extras.get("model_decisions", pd.DataFrame()), _md_table)
     if log.warnings:
         parts += ["### Problems in the logs (worked around)", ""]
         parts += [f"- {w}" for w in log.warnings] + [""]
@@ -679,6 +685,11 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
                   "Covariates (GEE, bias-reduced): skin thickness as a continuous predictor beside "
                   "the 800 um split, trial position, and log response time (speed-accuracy):", "",
                   _md_table(ex["covariates"]) if not ex["covariates"].empty else "_none estimable_",
+                  "", "Contact force the display measured (mean summed force over each "
+                  "contact, `contact_force_N`; Eq. 5's R depends on it), per group x mode; the "
+                  "covariates above include it when it varies:", "",
+                  _md_table(ex["force"]) if not ex.get("force", pd.DataFrame()).empty
+                  else "_not logged (sessions before issue 12)_",
                   "", "Median response times by group, mode, sample and correctness are in "
                   "`rt.csv`; Wagner's Hu per sample in `hu.csv`.", ""]
     return parts

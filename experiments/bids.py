@@ -77,6 +77,7 @@ COLUMN_DESCRIPTIONS = {
     "frames": ("Telemetry frames received during the trial", None),
     "frames_lost": ("Telemetry frames missing from the device's numbering", None),
     "trace_file": ("The trial's telemetry trace, relative to the session folder", None),
+    "contact_force_N": ("Mean summed force of the display's four sensors over the contact", "N"),
 }
 
 _PARTICIPANT_COLUMNS = {

@@ -107,6 +107,8 @@ TRIAL_COLUMNS = (
     # quality
     "status", "fault_code", "abort_reason", "skin_temperature_C", "skin_temperature_in_range",
     "tracking_rms_C", "tracking_max_C", "frames", "frames_lost", "trace_file",
+    # the display's measured contact force (mean summed force over the contact; Eq. 5's force)
+    "contact_force_N",
 )
 
 #: Decimals each float column is written with: the resolution of what measured it (the
@@ -116,7 +118,7 @@ COLUMN_DECIMALS = {
     "skin_thickness_um": 1, "roughness_um": 3, "profile_skin_thickness_um": 1,
     "profile_resistance_m2K_W": "sig4", "pad_resistance_m2K_W": "sig4",
     "rate_limited_max_change_C": 3, "rt_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
-    "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3,
+    "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3, "contact_force_N": 2,
 }
 
 #: Keys of ``session_started`` / ``session_resumed`` copied onto every trial row.

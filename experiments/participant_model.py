@@ -264,6 +264,7 @@ class SimulatedPerson:
             raise ValueError(f"SimulatedPerson: dermis_fraction: expected a share in (0, 1), "
                              f"got {self.dermis_fraction!r}")
         self._real_cache: dict = {}
+        self.last_display_plan = None   # the planner's decisions of the last feel_imposed
 
     # -- physics ---------------------------------------------------------------------------
     @property
@@ -340,7 +341,8 @@ class SimulatedPerson:
                                         material=material(pad_material)))
 
     def feel_imposed(self, t, surface_C, skin_temperature_C: float | None = None, *,
-                     pad_resistance: float | None = None):
+                     pad_resistance: float | None = None, layered: bool = False,
+                     perfusion_per_s: float = 0.0):
         """Receptor temperature when a display's pad at ``surface_C`` is touched.
 
         Parameters
@@ -355,6 +357,11 @@ class SimulatedPerson:
             Finger–pad contact resistance (e.g. :meth:`pad_resistance`): the pad is touched
             through it (a Robin boundary, ``skin_response(..., resistance=...)``). ``None``:
             the pad temperature is imposed on the skin surface itself (an ideal contact).
+        layered, perfusion_per_s : bool, float, keyword-only
+            The skin's physics as known (:class:`stimuli.scene.Scene`'s options): the receptor
+            is computed by the scene planner's model for it
+            (:func:`stimuli.display_planner.planned_skin_response`, within the perceptual
+            floor); its decisions are kept in :attr:`last_display_plan`.
 
         Returns
         -------
@@ -362,7 +369,7 @@ class SimulatedPerson:
             Uniform times from 0 up to ``min(params.duration_s, t[-1])``.
         receptor_C : ndarray, °C
         """
-        from stimuli import skin_response
+        from stimuli.display_planner import planned_skin_response
         t_in = np.asarray(t, dtype=float)
         g_in = np.asarray(surface_C, dtype=float)
         ok = np.isfinite(t_in) & np.isfinite(g_in)
@@ -375,9 +382,11 @@ class SimulatedPerson:
         grid = self.time_grid(min(self.params.duration_s, float(t_in[-1])))
         surface = np.interp(grid, t_in, g_in)
         skin = self.skin
-        extra = {} if pad_resistance is None else {"resistance": float(pad_resistance)}
-        receptor = skin_response(skin, grid, surface, initial_temperature=t_s, depth=skin.dermis,
-                                 **extra)
+        # through the scene planner (issue 12: one chokepoint for every production temperature)
+        receptor, self.last_display_plan = planned_skin_response(
+            skin, grid, surface, t_s, depth=skin.dermis,
+            resistance=None if pad_resistance is None else float(pad_resistance),
+            layered=layered, perfusion_per_s=perfusion_per_s)
         return grid, np.asarray(receptor, dtype=float)
 
     def features(self, t, receptor_C, skin_temperature_C: float | None = None) -> np.ndarray:

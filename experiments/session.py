@@ -172,6 +172,7 @@ class Session:
         self._attempt: _Attempt | None = None
         self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
         self._profiles = dict(profiles or {})   # (roughness_id, roughness_um) -> checked profile
+        self._plans_told: set = set()   # profiles whose model decisions the experimenter was told
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
         self.protocol_source = _protocol_source(protocol)
         self._defer = 0
@@ -631,6 +632,7 @@ class Session:
         if contact:
             self.machine.go(active, **ctx, device_time_s=contact[0])
         row.update(self._recording_fields(rec))
+        row["contact_force_N"] = self._contact_force(writer, rec)   # Eq. 5's force (issue 12)
         self._skin_temperature(row, ctx, finger_before[0])
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,
@@ -742,6 +744,16 @@ class Session:
                 "contact_duration_s": float(getattr(rec, "duration_s", 0.0)) if touched else None,
                 "frames": rec.frames, "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
 
+    @staticmethod
+    def _contact_force(writer, rec) -> float | None:
+        """Mean summed force the display's four sensors measured over the contact, N."""
+        if rec.contact_time_s is None or not writer.time_s:
+            return None
+        from experiments.responders.base import contact_force
+        value = contact_force(np.asarray(writer.time_s, dtype=float) - float(rec.contact_time_s),
+                              writer.forces_N)
+        return None if value is None else round(value, 2)
+
     def _stimulus(self, spec, writer, rec, profile, sample) -> TrialStimulus:
         t = np.asarray(writer.time_s, dtype=float)
         if rec.contact_time_s is not None and t.size:
@@ -768,6 +780,12 @@ class Session:
             self._profiles[key] = simulated_target_profile(
                 self.protocol, self.participant, self.group, self.skin_thickness_um,
                 spec.roughness_id, spec.roughness_um)
+        if key not in self._plans_told:
+            # the scene planner's decisions, once per profile, to the experimenter (issue 12)
+            from stimuli.planner import plan_line
+            self._plans_told.add(key)
+            self._say(f"profile {spec.roughness_id}# ({spec.roughness_um:g} um): "
+                      + plan_line(self._profiles[key].parameters.get("plan")))
         return self._profiles[key]
 
     def _complete(self, spec, attempt: int, row: dict) -> None:

@@ -35,7 +35,7 @@ import numpy as np
 from .exact import INVERSION_ERROR, InversionPlan
 from .scene import Model, Scene, evaluate
 
-__all__ = ["plan", "planned_temperature", "Plan", "Decision", "SAFETY", "EFFECTS"]
+__all__ = ["plan", "planned_temperature", "plan_line", "Plan", "Decision", "SAFETY", "EFFECTS"]
 
 #: Factor on the probe error for the times between probes (checked by the planner's grid test).
 SAFETY = 1.5
@@ -184,6 +184,29 @@ def _warmed_through(scene: Scene) -> str | None:
     return None
 
 
+def _at_probes(scene: Scene, model: Model, probes: np.ndarray, ip: InversionPlan) -> np.ndarray:
+    """:func:`stimuli.scene.evaluate` at the probe times (all > 0), without its per-call checks.
+
+    The same transform and inversion as ``evaluate(scene, model, probes, plan=ip)`` (equal to
+    the last bit; ``tests/stimuli/test_planner.py`` checks it), minus the validation of times
+    the planner made itself: ~30 % of the planner's cost on a cold multi-effect scene.
+    """
+    if model.method != "exact":
+        return evaluate(scene, model, probes)
+    from .scene import _contact
+    c = _contact(scene, model)
+    tr = c.transform
+    if scene.quantity == "interface_material":
+        theta = ip.apply(tr.material_rise(ip.s, tr.L))
+    else:
+        x = c.thickness - scene.receptor_depth if scene.quantity == "receptor" else tr.L
+        theta = 1.0 - ip.apply(tr.skin_deficit(ip.s, float(x)))
+    T = c.material_initial + (c.skin_initial - c.material_initial) * theta
+    if model.sensor and scene.sensor_time_constant_s > 0:      # never for the planner's candidates
+        return evaluate(scene, model, probes, plan=ip)
+    return T
+
+
 @lru_cache(maxsize=256)
 def _plan(scene: Scene, screen: bool = True) -> Plan:
     full = scene.full_model()
@@ -197,7 +220,7 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
 
     def reference():
         if "ref" not in cache:
-            cache["ref"] = evaluate(scene, base, probes, plan=ip)
+            cache["ref"] = _at_probes(scene, base, probes, ip)
         return cache["ref"]
 
     # the sensor: tau sup|dT/dt|, analytic
@@ -233,7 +256,7 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             continue
         ref = reference()
         prev = ref if prev is None else prev
-        val = evaluate(scene, cand, probes, plan=ip if cand.method == "exact" else None)
+        val = _at_probes(scene, cand, probes, ip)
         step = float(np.max(np.abs(val - prev)))
         cand_inv = inv if cand.method == "exact" else 0.0
         err = SAFETY * float(np.max(np.abs(val - ref))) + inv + cand_inv + sensor_bound
@@ -300,3 +323,30 @@ def planned_temperature(quantity: str, skin, material, resistance: float, skin_t
     if p.model.sensor:
         return evaluate(p.scene, p.model, scene.times)[np.round(t * rate).astype(int)], p
     return evaluate(p.scene, p.model, t), p
+
+
+def plan_line(plan: dict) -> str:
+    """One line saying what a plan (:meth:`Plan.to_dict`, as logged) kept and neglected.
+
+    Examples
+    --------
+    >>> plan_line({"model": "exact, slab, homogeneous skin", "bound_K": 0.004, "tolerance_K": 0.3,
+    ...            "decisions": [{"effect": "sensor", "included": False, "bound_K": 0.0},
+    ...                          {"effect": "slab", "included": True, "bound_K": None}]})
+    'model exact, slab, homogeneous skin (error <= 0.004 K of 0.3 K); neglected: sensor <= 0 K; kept: slab'
+    """
+    if not isinstance(plan, dict):
+        return "model: not recorded"
+    if "sides" in plan:
+        return "; ".join(f"side {i + 1}: {plan_line(p)}" for i, p in enumerate(plan["sides"]))
+    if not plan.get("decisions"):
+        return f"model {plan.get('model', 'not recorded')}" + (
+            f" ({plan['note']})" if plan.get("note") else "")
+    head = f"model {plan.get('model')}"
+    if plan.get("bound_K") is not None and plan.get("tolerance_K") is not None:
+        head += f" (error <= {plan['bound_K']:.2g} K of {plan['tolerance_K']:g} K)"
+    dropped = [f"{d['effect']} <= {d['bound_K']:.2g} K" if d.get("bound_K") is not None
+               else d["effect"] for d in plan["decisions"] if not d.get("included")]
+    kept = [d["effect"] for d in plan["decisions"] if d.get("included")]
+    return (head + "; neglected: " + (", ".join(dropped) or "nothing")
+            + "; kept: " + (", ".join(kept) or "nothing"))

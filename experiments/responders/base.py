@@ -126,6 +126,44 @@ class TrialStimulus:
     sample: dict | None = None
     status: str = "ok"
 
+    @property
+    def contact_force_N(self) -> float | None:
+        """Mean summed force over the contact, N (:func:`contact_force`), or None."""
+        return contact_force(self.time_s, self.forces_N)
+
+
+#: Summed force, N, from which the finger counts as touching (the session's ``_TOUCH_N``).
+TOUCH_N = 0.1
+
+
+def contact_force(time_s, forces_N) -> float | None:
+    """The force the display measured over a trial's contact: the mean summed force, N.
+
+    Parameters
+    ----------
+    time_s : array_like, s
+        Frame times relative to contact (contact at 0).
+    forces_N : array_like, N
+        Shape ``(n, 4)``: the four force sensors per frame.
+
+    Returns
+    -------
+    float or None
+        The mean of the four sensors' sum over the frames from contact on where the finger
+        touches (sum >= :data:`TOUCH_N`); None when there is no such frame.
+
+    Examples
+    --------
+    >>> contact_force([-0.1, 0.0, 0.1, 0.2], [[0, 0, 0, 0], [1, 1, 0, 0], [1, 1, 1, 1], [0, 0, 0, 0]])
+    3.0
+    """
+    t = np.asarray(time_s, dtype=float).ravel()
+    f = np.asarray(forces_N, dtype=float).reshape(-1, 4)
+    n = min(t.size, f.shape[0])
+    total = f[:n].sum(axis=1)
+    on = (t[:n] >= 0) & (total >= TOUCH_N) & np.isfinite(total)
+    return float(np.mean(total[on])) if on.any() else None
+
 
 class Responder:
     """Base class of responders; subclass with ``name=`` (and optional ``aliases=``) to register.

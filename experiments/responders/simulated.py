@@ -269,6 +269,12 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         threshold = getattr(contact, "force_threshold_N", 2.0)
         return float(threshold) + 0.5
 
+    def trial_force(self, stimulus) -> float:
+        """The force of this trial's contact, N: what the display measured (the mean summed
+        force over the contact, :attr:`TrialStimulus.contact_force_N`), else the scripted press."""
+        measured = getattr(stimulus, "contact_force_N", None)
+        return round(float(measured), 2) if measured is not None else self._force()
+
     def feel(self, trial, stimulus) -> tuple[np.ndarray, np.ndarray, float]:
         """The receptor temperature trace this trial produced: ``(t_s, receptor_C, skin_C)``."""
         person = self._ensure_person()
@@ -283,7 +289,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                                       sample_thickness_m=sample["thickness_m"],
                                       material_temperature_C=sample["temperature_C"],
                                       skin_temperature_C=skin_temperature,
-                                      force_N=self._force())   # Eq. 5 at the finger's press (issue 12)
+                                      force_N=self.trial_force(stimulus))   # Eq. 5 (issue 12)
         return t, rec, skin_temperature
 
     def pad_resistance(self) -> float | None:

@@ -364,3 +364,26 @@ def test_feel_real_uses_eq5_at_the_given_force():
     R = contact_resistance(1.6e-6, skin=p.skin, material=steel, force=2.5)
     want = Contact(p.skin, steel, R, p.skin_temperature_C, p.params.material_temperature_C)
     np.testing.assert_allclose(firm[1:], want.receptor_temperature(t[1:]), atol=1e-9)
+
+
+def test_display_driven_receptor_goes_through_the_scene_planner():
+    # issue 12: feel_imposed is computed by the planner's model (one chokepoint), which keeps
+    # the skin's layers (kelvins at the receptor) and neglects perfusion (millikelvins)
+    from stimuli import skin_response
+    from stimuli.layered import layered_skin_response, skin_layers
+    person = SimulatedPerson(skin_thickness_m=650e-6, skin_temperature_C=35.5)
+    t = np.arange(0, 5.0, 0.01)
+    surface = 22.0 + 6.0 * np.exp(-t / 2.0)
+    grid, plain = person.feel_imposed(t, surface, pad_resistance=1e-4)
+    assert person.last_display_plan is not None and not person.last_display_plan.layered
+    g = np.interp(grid, t, surface)
+    np.testing.assert_array_equal(plain, skin_response(person.skin, grid, g, initial_temperature=35.5,
+                                                       depth=person.skin.dermis, resistance=1e-4))
+    _, layered = person.feel_imposed(t, surface, pad_resistance=1e-4, layered=True,
+                                     perfusion_per_s=1.25e-3)
+    plan = {d.effect: d.included for d in person.last_display_plan.decisions}
+    assert plan == {"perfusion": False, "layered": True}
+    expect = layered_skin_response(skin_layers(person.skin, layered=True), grid, g, 35.5,
+                                   person.skin.dermis, 1e-4)
+    np.testing.assert_allclose(layered, expect, atol=1e-12)
+    assert np.max(np.abs(layered - plain)) > 0.3

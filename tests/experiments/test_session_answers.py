@@ -9,7 +9,9 @@ seed-0 cohort, virtual clock, emulator seed 0) on the fast path a simulated stud
 History: the first reference was made at a89728d, before any speed change, and the fast path
 matched it. Issue 12 then changed the model on purpose (the simulated finger's contact resistance
 from Eq. 5 at the 2.5 N it presses, not 2 N) and issues 10/16 changed what a trial logs, so the
-reference was regenerated, on the durable path, at the commit named in its ``_comment``.
+reference was regenerated, on the durable path, at the commit named in its ``_comment``; and
+again when the simulated participant's real-sample percept took the contact force the display
+measured in each trial (``contact_force_N``, issue 12) instead of the scripted 2.5 N.
 """
 import json
 from pathlib import Path

@@ -156,6 +156,10 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
     for r in scored:
         e = percepts[int(r["trial_index"])]
         assert e["answer"] == int(r["response_id"]) and len(e["features"]) == 4
+    # Every trial logs the force the display measured over its contact (issue 12): the emulated
+    # finger presses the protocol's threshold + 0.5 N (2.5 N), overshooting a little at onset.
+    forces = [float(r["contact_force_N"]) for r in rows]
+    assert all(2.4 <= f <= 2.8 for f in forces), forces
 
 
 def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule():
@@ -281,3 +285,38 @@ def test_hold_depends_on_whether_the_block_asks_for_an_answer():
     given = SimulatedResponder(seed=1, skin_thickness_um=700.0, hold_s="3.0")
     given.session = SimpleNamespace(protocol=protocol)
     assert hold(spec(1, "familiarise", "real", 1), given) == 3.0      # an explicit option wins
+
+
+def _real_stimulus(rid, force_N, n=2000):
+    """A real trial's record with the four sensors summing to ``force_N`` from contact on."""
+    t = np.arange(-50, n) / 100.0
+    f = np.where(t[:, None] >= 0, force_N / 4, 0.0) * np.ones((1, 4))
+    return TrialStimulus("real", rid, RA_UM[rid], time_s=t, forces_N=f,
+                         sample={"label": f"{rid}#", "material": "stainless_steel",
+                                 "roughness_m": RA_UM[rid] * 1e-6, "thickness_m": 3e-3,
+                                 "temperature_C": 20.0})
+
+
+def test_contact_force_is_the_mean_summed_force_from_contact_on():
+    from experiments.responders.base import contact_force
+    t = np.array([-0.2, -0.1, 0.0, 0.1, 0.2, 0.3])
+    f = np.array([[1, 1, 1, 1], [0.5] * 4, [0.5] * 4, [0.75] * 4, [0.0] * 4, [0.01] * 4])
+    # before contact and after release (sum < 0.1 N) do not count: (2 + 3) / 2
+    assert contact_force(t, f) == pytest.approx(2.5)
+    assert contact_force(t[:2], f[:2]) is None
+    assert _real_stimulus(1, 1.5).contact_force_N == pytest.approx(1.5)
+
+
+def test_real_trial_is_felt_at_the_force_the_display_measured():
+    # Eq. 5: a lighter press is a larger contact resistance, a warmer receptor (issue 12: the
+    # trial's measured force, not the scripted press, sets R in the real-sample percept).
+    r = SimulatedResponder(seed=4, skin_thickness_um=650.0, skin_temperature_sd_C=0.0,
+                           skin_temperature_C=35.5)
+    trial = spec(9, "real", "real", 1)
+    _, light, _ = r.feel(trial, _real_stimulus(1, 1.5))
+    _, firm, _ = r.feel(trial, _real_stimulus(1, 2.5))
+    person = r._ensure_person()
+    _, expect = person.feel_real(1.6e-6, sample_thickness_m=3e-3, material_temperature_C=20.0,
+                                 skin_temperature_C=35.5, force_N=1.5)
+    np.testing.assert_allclose(light, expect, atol=1e-12)
+    assert np.max(light[1:] - firm[1:]) > 0.2       # K: the force matters at the 0.3 K floor

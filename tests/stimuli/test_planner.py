@@ -151,3 +151,17 @@ def test_planned_temperature_with_no_temperature_difference_stays_put():
     T, p = planned_temperature("interface_material", Skin(650e-6), material("steel", 3e-3), 1e-3,
                                30.0, 30.0, np.arange(11) * 0.1)
     assert p is None and np.all(T == 30.0)
+
+
+def test_probe_evaluation_is_evaluate_to_the_last_bit():
+    # the planner's unchecked probe evaluation (speed, issue 12) computes what evaluate does
+    from stimuli.planner import _at_probes, _probes, _resolved
+    from stimuli.scene import Model, Scene, evaluate
+    probes, ip = _probes(20.0, 1000.0)
+    for quantity in ("receptor", "interface_material", "interface_skin"):
+        scene = _resolved(Scene(quantity=quantity, perfusion_per_s=1.25e-3, support="wood",
+                                geometry="slab-on-support"))
+        for model in (Model(geometry="slab-on-support", layered=True, perfusion=True),
+                      Model(geometry="slab"), Model(geometry="half-space", layered=True)):
+            np.testing.assert_array_equal(_at_probes(scene, model, probes, ip),
+                                          evaluate(scene, model, probes, plan=ip))

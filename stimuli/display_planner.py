@@ -1,0 +1,179 @@
+r"""The scene planner for a display-driven skin: layered skin and perfusion, kept or neglected.
+
+A display imposes a surface history g(t) on the skin (through the finger-pad resistance R);
+the receptor temperature is linear in g: :math:`u(t) = \int_0^t S'(t-\tau) h(\tau)\,d\tau +
+S(t) h(0)`, h = g - T_S0, S the skin's step response at the receptor. Two models of the skin
+differ by :math:`\Delta u = \int h\, d\Delta S`, so for every t
+
+.. math:: |\Delta u(t)| \le \sup|h| \cdot \mathrm{TV}_{[0,t]}(\Delta S)
+          \quad\text{and}\quad |\Delta u(t)| \le \sup|\Delta S| \cdot (|h(0)| + \mathrm{TV}(h)).
+
+:func:`plan_display` evaluates the step responses of the full model (the physics the caller
+states: :data:`stimuli.layered.TISSUES`' epidermis and dermis, Pennes perfusion) and of each
+cheaper candidate at the planner's ~20 probe times (one shared inversion plan), and bounds the
+candidate's error by the smaller of the two right-hand sides, with the total variation and the
+sup of Delta S taken over the probes, times :data:`stimuli.planner.SAFETY` (between probes the
+step responses are smooth and their difference single-humped; the factor covers the probes
+missing the extreme), plus both inversions' bounds. ``tests/stimuli/test_display_planner.py``
+evaluates planned and full models over a grid of skins and histories and asserts the error is
+within the tolerance -- a wrong bound fails there.
+
+Effects are dropped in the order perfusion, then layers; the cheapest model, homogeneous skin
+without perfusion, is :func:`stimuli.skin_response`'s exact solution (a few ms for 20 s at
+1 kHz); a kept effect is computed by :func:`stimuli.layered.layered_skin_response` (exact).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .exact import INVERSION_ERROR
+from .layered import LayeredTransform, layered_skin_response, skin_layers
+from .materials import material as _material
+from .planner import SAFETY, Decision, _probes
+
+__all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
+
+
+@dataclass(frozen=True)
+class DisplayPlan:
+    """The planner's answer for a display-driven skin: kept effects, decisions, bound (K)."""
+
+    layered: bool
+    perfusion: bool
+    decisions: tuple
+    bound_K: float
+    tolerance_K: float
+
+    def describe(self) -> str:
+        parts = ["exact", "display-driven", "layered skin" if self.layered else "homogeneous skin"]
+        if self.perfusion:
+            parts.append("perfusion")
+        return ", ".join(parts)
+
+    def to_dict(self) -> dict:
+        """JSON-ready, like :meth:`stimuli.planner.Plan.to_dict`."""
+        return {"model": self.describe(), "method": "exact", "layered": self.layered,
+                "perfusion": self.perfusion, "bound_K": self.bound_K,
+                "tolerance_K": self.tolerance_K, "quantity": "receptor (display-driven)",
+                "decisions": [d.to_dict() for d in self.decisions]}
+
+
+def _step(layers, depth, resistance, ip):
+    """The step response S at the probe times of inversion plan ``ip``."""
+    tr = LayeredTransform(layers, _material("copper"), 0.0)     # the material is not used
+    return np.concatenate([[0.0], ip.apply(tr.display_kernel(ip.s, depth, resistance) / ip.s)])
+
+
+def _bound(dS, h_sup, h0, h_tv):
+    tv = float(np.sum(np.abs(np.diff(dS))))
+    return min(h_sup * tv, float(np.max(np.abs(dS))) * (abs(h0) + h_tv))
+
+
+def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_Hz: float,
+                 h, *, tolerance: float, layered: bool = False,
+                 perfusion_per_s: float = 0.0) -> DisplayPlan:
+    """The cheapest model of a display-driven skin within ``tolerance`` (module docstring).
+
+    Parameters
+    ----------
+    skin : Skin
+    depth : float, m
+        From the core (the receptors: ``skin.dermis``).
+    resistance : float, m^2 K/W
+        Finger-pad resistance (0: the surface temperature imposed on the skin).
+    duration_s, rate_Hz : float
+        The history's span and sampling (for the probe times).
+    h : ndarray, K
+        The surface history relative to the initial skin temperature.
+    tolerance : float, K
+    layered, perfusion_per_s : bool, float
+        The full model's physics (as :class:`stimuli.scene.Scene`).
+
+    Returns
+    -------
+    DisplayPlan
+    """
+    perfused = float(perfusion_per_s) > 0.0
+    decisions, current = [], (bool(layered), perfused)
+    if not (layered or perfused):
+        decisions.append(Decision("perfusion", False, 0.0, "none stated"))
+        decisions.append(Decision("layered", False, 0.0, "none stated"))
+        return DisplayPlan(False, False, tuple(decisions), 0.0, float(tolerance))
+    probes, ip = _probes(float(duration_s), float(rate_Hz))
+    h = np.asarray(h, dtype=float)
+    h_sup, h0 = float(np.max(np.abs(h))), float(h[0])
+    h_tv = float(np.sum(np.abs(np.diff(h))))
+    inv = 2 * INVERSION_ERROR * max(h_sup, 1.0)
+    w = float(perfusion_per_s) if perfused else None
+    ref = _step(skin_layers(skin, layered=bool(layered), perfusion=w), depth, resistance, ip)
+    err = 0.0
+    for effect in ("perfusion", "layered"):
+        if effect == "perfusion" and not current[1]:
+            decisions.append(Decision("perfusion", False, 0.0, "none stated"))
+            continue
+        if effect == "layered" and not current[0]:
+            decisions.append(Decision("layered", False, 0.0, "none stated"))
+            continue
+        cand = (current[0], False) if effect == "perfusion" else (False, current[1])
+        val = _step(skin_layers(skin, layered=cand[0], perfusion=w if cand[1] else None),
+                    depth, resistance, ip)
+        b = SAFETY * _bound(val - ref, h_sup, h0, h_tv) + inv
+        note = ("Pennes perfusion of the dermis" if effect == "perfusion" else
+                "epidermis and dermis properties (else Table 1's homogeneous skin)")
+        if b <= float(tolerance):
+            decisions.append(Decision(effect, False, b, note))
+            current, err = cand, b
+        else:
+            decisions.append(Decision(effect, True, b, note))
+    return DisplayPlan(current[0], current[1], tuple(decisions), float(err), float(tolerance))
+
+
+def planned_skin_response(skin, t, surface_temperature, initial_temperature: float, *,
+                          depth: float | None = None, resistance: float | None = None,
+                          tolerance: float | None = None, layered: bool = False,
+                          perfusion_per_s: float = 0.0):
+    """The display-driven receptor temperature, by the planned model (the production chokepoint).
+
+    Parameters
+    ----------
+    skin : Skin
+    t : array_like, s
+        Uniform times from 0.
+    surface_temperature : array_like, °C
+    initial_temperature : float, °C
+    depth : float or None, m
+        From the core; None: ``skin.dermis`` (the receptors).
+    resistance : float or None, m^2 K/W
+    tolerance : float or None, K
+        Default :data:`stimuli.scene.PERCEPTUAL_FLOOR_K`.
+    layered, perfusion_per_s : bool, float
+        The physics as known (the full model).
+
+    Returns
+    -------
+    T : ndarray, °C
+    plan : DisplayPlan
+    """
+    from .display_response import skin_response
+    from .scene import PERCEPTUAL_FLOOR_K
+    t = np.asarray(t, dtype=float)
+    g = np.asarray(surface_temperature, dtype=float)
+    x = skin.dermis if depth is None else float(depth)
+    R = 0.0 if resistance is None else float(resistance)
+    tol = PERCEPTUAL_FLOOR_K if tolerance is None else float(tolerance)
+    dt = float(t[1] - t[0]) if t.size > 1 else 1.0
+    rate = 1.0 / dt
+    duration = max(round(float(t[-1]) * rate) / rate, dt)
+    p = plan_display(skin, x, R, duration, rate, g - float(initial_temperature), tolerance=tol,
+                     layered=layered, perfusion_per_s=perfusion_per_s)
+    if not (p.layered or p.perfusion):
+        T = skin_response(skin, t, g, initial_temperature=initial_temperature, depth=x,
+                          resistance=None if R == 0.0 else R)
+    else:
+        w = float(perfusion_per_s) if p.perfusion else None
+        T = layered_skin_response(skin_layers(skin, layered=p.layered, perfusion=w), t, g,
+                                  float(initial_temperature), x, R)
+    return np.asarray(T, dtype=float), p
+
