@@ -97,7 +97,7 @@ class TraceWriter:
 
     def write(self, frame) -> None:
         """Append one :class:`~experiments.hardware.Telemetry` frame."""
-        forces = tuple(float(f) for f in frame.forces_N)
+        forces = tuple(map(float, frame.forces_N))
         t, target, contact = float(frame.device_time_s), float(frame.setpoint_C), float(frame.contact_C)
         fields = (t, target, contact, float(frame.ambient_C), float(frame.finger_C), *forces)
         line = _FRAME_FORMAT % fields           # one C-level format: the hot path of a session

@@ -264,18 +264,19 @@ class PadPlant:
         self._k_hat = params.conductance * (1 - e)
         self._a_hat = params.seebeck * (1 - e)
         self._r_hat = params.resistance * (1 + e)
+        # the per-step constants (the parameters are frozen): computed once, not every tick
+        dtc = self.dtc
+        self._consts = (dtc, self.n_sub, params.capacity, params.conductance, params.seebeck,
+                        params.resistance, self._c_hat, self._k_hat, self._a_hat, self._r_hat,
+                        params.kp, params.i_max, dtc / params.tau_observer,
+                        1.0 - math.exp(-dtc / params.tau_sensor), params.noise_sensor,
+                        params.hs_conductance, params.room, params.hs_capacity)
 
     def step(self, sp0: float, sp1: float, load_W: float, enabled: bool) -> float:
         """Advance one tick: setpoint moving linearly from ``sp0`` to ``sp1``; return the reading."""
-        p = self.p
-        dtc, n = self.dtc, self.n_sub
-        C, K, a, Re = p.capacity, p.conductance, p.seebeck, p.resistance
-        ch, kh, ah, rh = self._c_hat, self._k_hat, self._a_hat, self._r_hat
-        kp, imax = p.kp, p.i_max
-        g_obs = dtc / p.tau_observer
-        lag = 1.0 - math.exp(-dtc / p.tau_sensor)
+        (dtc, n, C, K, a, Re, ch, kh, ah, rh, kp, imax, g_obs, lag, noise, g_hs, room,
+         C_hs) = self._consts
         nz = self.noise
-        noise = p.noise_sensor
         pad, hs, s_state, y_prev, q_prev, d_hat = (self.pad, self.hs, self.sensor_state,
                                                    self._y_prev, self._q_prev, self.d_hat)
         override, frozen, stuck = self.sensor_override, self.sensor_frozen, self.stuck_current
@@ -320,9 +321,9 @@ class PadPlant:
                 i = stuck
             joule = 0.5 * Re * i * i
             q_pad = a * i * (pad + KELVIN) + joule + K * (hs - pad) + load_W
-            q_hs = -a * i * (hs + KELVIN) + joule + K * (pad - hs) + p.hs_conductance * (p.room - hs)
+            q_hs = -a * i * (hs + KELVIN) + joule + K * (pad - hs) + g_hs * (room - hs)
             pad += dtc * q_pad / C
-            hs += dtc * q_hs / p.hs_capacity
+            hs += dtc * q_hs / C_hs
         self.pad, self.hs, self.sensor_state, self._y_prev, self._q_prev, self.d_hat = (
             pad, hs, s_state, y_prev, q_prev, d_hat)
         self.sensor = y
