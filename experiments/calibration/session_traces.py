@@ -27,6 +27,7 @@ An explicit ``skin_temperature_C`` / ``material_temperature_C`` always wins.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 from dataclasses import dataclass, field
@@ -81,8 +82,16 @@ def read_trace_csv(path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise CalibrationError(f"{path}: expected a trace file, got none")
-    with open(path, encoding="utf-8", newline="") as fh:
-        rows = list(csv.reader(fh))
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise CalibrationError(f"{path}: expected a UTF-8 CSV trace, got byte 0x{raw[exc.start]:02x} "
+                               f"at offset {exc.start}") from None
+    if "\x00" in text:
+        raise CalibrationError(f"{path}: expected a text CSV trace, got a NUL byte at offset "
+                               f"{text.index(chr(0))}")
+    rows = list(csv.reader(io.StringIO(text, newline="")))
     if not rows:
         raise CalibrationError(f"{path}: header: expected {', '.join(_REQUIRED_TRACE_COLUMNS)}, got an empty file")
     header = [h.strip() for h in rows[0]]
@@ -103,6 +112,15 @@ def read_trace_csv(path) -> dict:
         except ValueError:
             bad = next(v for v in vals if v != "" and not _isfloat(v))
             raise CalibrationError(f"{path}: {name}: expected numbers, got {bad!r}") from None
+        if name in _REQUIRED_TRACE_COLUMNS:
+            # a blank cell is a sample the device did not report; a written NaN or infinity is
+            # damage (or an edit), never a measurement
+            written = np.array([v.strip() != "" for v in vals], dtype=bool)
+            bad_rows = np.flatnonzero(written & ~np.isfinite(out[name]))
+            if bad_rows.size:
+                i = int(bad_rows[0])
+                raise CalibrationError(f"{path}: {name}: expected finite numbers, got "
+                                       f"{vals[i]!r} on line {i + 2}")
     return out
 
 

@@ -57,3 +57,31 @@ def test_no_usable_trial_and_no_touch_are_errors(tmp_path):
     path.write_text(path.read_text().replace(",0.625,0.625,0.625,0.625,", ",0.0,0.0,0.0,0.0,"))
     with pytest.raises(CalibrationError, match=r"trial-001\.csv: force1_N\.\.force4_N: .*no contact"):
         load_session_traces(sdir)
+
+
+def test_a_binary_or_nul_damaged_trace_is_named_with_its_byte_offset(tmp_path):
+    # issue 16: a garbage (non-UTF-8) trace given to calibrate was a UnicodeDecodeError traceback
+    sdir = make_session(tmp_path, samples=(1, 4), duration_s=3.0)
+    trace = sorted((sdir / "traces").glob("trial-*.csv"))[0]
+    good = trace.read_bytes()
+    trace.write_bytes(good[:40] + b"\xe2\x28\xa1" + good[43:])
+    with pytest.raises(CalibrationError, match=rf"{trace.name}: expected a UTF-8 CSV trace, got "
+                                               r"byte 0xe2 at offset 40$"):
+        load_session_traces(sdir)
+    trace.write_bytes(good[:50] + b"\x00" + good[51:])
+    with pytest.raises(CalibrationError, match=r"got a NUL byte at offset 50$"):
+        load_session_traces(sdir)
+
+
+def test_a_written_nan_in_a_trace_is_refused_with_its_line(tmp_path):
+    sdir = make_session(tmp_path, samples=(1, 4), duration_s=3.0)
+    trace = sorted((sdir / "traces").glob("trial-*.csv"))[0]
+    lines = trace.read_text(encoding="utf-8").splitlines()
+    header = lines[0].split(",")
+    cells = lines[5].split(",")
+    cells[header.index("contact_C")] = "nan"
+    lines[5] = ",".join(cells)
+    trace.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(CalibrationError, match=r"contact_C: expected finite numbers, got 'nan' "
+                                               r"on line 6$"):
+        load_session_traces(sdir)
