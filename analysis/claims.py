@@ -94,7 +94,7 @@ CLAIMS = (
           "§3.2, as above, 'for both real and simulated samples'",
           "as above_chance_real, simulated trials", "as above_chance_real"),
     Claim("no_dominant_answer_simulated", "no bias S",
-          "no single answer dominates the simulated block (recognition, not a response bias)",
+          "no single answer dominates the simulated block",
           "§3.2 reads the simulated block as recognition 'to a certain extent', like the real one",
           "share of the simulated block's answers (all participants pooled) taken by its most "
           "frequent answer; 1/4 in the balanced design without a response bias",

@@ -236,8 +236,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         elif held == total:
             named = "Best match to the paper's claims: reproduces them"
         else:
-            named = (f"Best match by the stated rule (not a reproduction: {held} of {total} "
-                     f"claims)")
+            named = (f"Best match by the stated rule, not a reproduction\n({held} of {total} "
+                     f"claims shown by at least half of simulated studies)")
         files = plot_figure9_panels(
             predicted, analysis.proportions, out_dir / "figure9.png",
             left_title=(f"Figure 9 as the paper's method predicts it\nprinted Eq. 7 (material "
@@ -369,8 +369,8 @@ def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
             f"Probability that one simulated 15 + 15 study shows the claim ({n_studies} studies "
             f"per scenario, the observer models applied to simulated percepts; 95 % Monte-Carlo "
             f"intervals in `claims.csv`); ✓ when at least {MAJORITY:g}. Headline scenario (its "
-            f"30 sessions below): {headline[0]} replay, {headline[1]} observer; best match to "
-            f"the paper's evidence (highest probability of showing every claim in one study; "
+            f"30 sessions below): {headline[0]} replay, {headline[1]} observer; best match by "
+            f"the stated rule (highest probability of showing every claim in one study; "
             f"ties to the higher mean probability of the single claims): {best[0]} replay, "
             f"{best[1]} observer. A scenario reproduces the paper when every claim is ✓; "
             f"reproducing: "

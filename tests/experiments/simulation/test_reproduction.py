@@ -62,3 +62,12 @@ def test_screen_marks_and_headline():
     screen = claims_screen(r, ("material", "absolute")).splitlines()
     assert screen[0].split()[:2] == ["replay", "observer"]
     assert "✓1.00" in screen[2] and "✗0.00" in screen[2] and screen[2].endswith("<- headline")
+
+
+def test_claims_held_and_reproducing_scenarios():
+    from experiments.simulation.reproduction import claims_held, reproducing_scenarios
+    r = _result({("skin", "absolute"): [1, 1, .6, .6, 1, .9, 0, .6, .6, 1, 0],
+                 ("compensated", "relative"): [1, 1, .5, .6, 1, 1, 1, .6, .6, 1, .05]})
+    assert claims_held(r, ("skin", "absolute")) == (9, 10)
+    assert claims_held(r, ("compensated", "relative")) == (10, 10)      # 0.5 counts as ✓
+    assert reproducing_scenarios(r) == [("compensated", "relative")]
