@@ -4,7 +4,12 @@
 real and simulated samples; 1# "is often confused with other samples, both for the real and
 simulated samples"; with real samples group A is "higher than that of the group B to a certain
 extent", and "for simulated material ... this difference becomes less".  Its Table 2
-"simulation" column rises with roughness (25.70 -> 28.82 °C).  :data:`CLAIMS` states each with
+"simulation" column rises with roughness (25.70 -> 28.82 °C).  Of recognition itself it says
+that "the different surface roughness can be recognized by the thermal tactile perception to a
+certain extent" although "the correct proportions ... are still not quite high", for real and
+simulated samples alike: above chance (1/4), and -- since the simulated block is read as
+recognition, not as one answer given to everything -- without one answer dominating the
+simulated block (see :data:`DOMINANT_SHARE`).  :data:`CLAIMS` states each with
 a statistic and the criterion under which one study "shows" it; :func:`evaluate_claims` applies
 them to the correct-answer counts of one study or of thousands at once (no experiment runtime is
 imported: counts come from logs via :func:`counts_from_trials`, or from simulated studies).
@@ -17,11 +22,23 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-__all__ = ["Claim", "CLAIMS", "evaluate_claims", "counts_from_trials", "claim_probabilities",
-           "wilson_interval", "ALPHA"]
+__all__ = ["Claim", "CLAIMS", "evaluate_claims", "counts_from_trials", "answers_from_trials",
+           "claim_probabilities", "wilson_interval", "ALPHA", "DOMINANT_SHARE"]
 
 #: One-sided level of the claims that are tests.
 ALPHA = 0.05
+
+#: ``no_dominant_answer_simulated``: the most frequent answer of the simulated block (all
+#: participants of a study pooled) must take less than this share of the answers.  In the
+#: paper's balanced design (each sample 3 times in 12 trials) every answer is right in exactly
+#: 1/4 of the trials, whatever the participant's accuracy: a perfect recogniser and an unbiased
+#: guesser both give each answer 1/4 of the time.  An answer given in at least half of the
+#: trials is therefore wrong in at least half of its uses -- it is given because of a response
+#: bias (one label for whatever is felt), not because the sample was recognised.  The criterion
+#: reads the confusion matrix's answer margins directly, so it needs no threshold on the
+#: per-sample proportions correct (a bias towards 4# shows there as 4# near 1 and the others
+#: near 0, but so could an observer who recognises 4# well and confuses the rest).
+DOMINANT_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -67,6 +84,21 @@ CLAIMS = (
           "< 0: 1# strictly the lowest"),
     Claim("confused_1_simulated", "1# low S", "1# is the most confused sample (simulated)",
           "§3.2, as above", "as confused_1_real, simulated trials", "as confused_1_real"),
+    Claim("above_chance_real", ">1/4 R", "samples recognised above chance (real)",
+          "§3.2 'the different surface roughness can be recognized ... to a certain extent'; "
+          "'the correct proportions ... are still not quite high'",
+          "mean over participants of each one's proportion correct over the four samples, and "
+          "its one-sample t against chance 1/4",
+          f"t > t(0.95, P-1): one-sided test at {ALPHA:g}"),
+    Claim("above_chance_simulated", ">1/4 S", "samples recognised above chance (simulated)",
+          "§3.2, as above, 'for both real and simulated samples'",
+          "as above_chance_real, simulated trials", "as above_chance_real"),
+    Claim("no_dominant_answer_simulated", "no bias S",
+          "no single answer dominates the simulated block",
+          "§3.2 reads the simulated block as recognition 'to a certain extent', like the real one",
+          "share of the simulated block's answers (all participants pooled) taken by its most "
+          "frequent answer; 1/4 in the balanced design without a response bias",
+          f"< {DOMINANT_SHARE:g}: otherwise that answer is wrong in at least half of its uses"),
     Claim("a_above_b_real", "A>B R", "group A above group B with real samples",
           "§3.2 'the proportion of the group A is higher than that of the group B'",
           "difference of the groups' mean per-participant proportion correct (real), A - B, and "
@@ -99,7 +131,8 @@ def _t_crit(df):
     return t.ppf(1 - ALPHA, df)
 
 
-def evaluate_claims(correct, groups, repetitions: int, replay_temperatures=None) -> dict:
+def evaluate_claims(correct, groups, repetitions: int, replay_temperatures=None,
+                    answered=None) -> dict:
     """Statistic and verdict of each claim for each study.
 
     Parameters
@@ -113,6 +146,10 @@ def evaluate_claims(correct, groups, repetitions: int, replay_temperatures=None)
     replay_temperatures : array_like, °C, optional
         The replayed interface temperature at Table 2's conditions, one per roughness in
         increasing order; without it ``table2_rises`` is left out.
+    answered : array_like, shape (S, P, 2, C) or (P, 2, C), optional
+        How often each participant gave each answer (1# first) per mode: the column sums of
+        their confusion matrices (:func:`answers_from_trials`); without it
+        ``no_dominant_answer_simulated`` is left out.
 
     Returns
     -------
@@ -138,6 +175,22 @@ def evaluate_claims(correct, groups, repetitions: int, replay_temperatures=None)
         pooled = prop[:, :, m, :].mean(axis=1)                      # (S, C)
         gap = pooled[:, 0] - pooled[:, 1:].min(axis=1)
         out[f"confused_1_{mode}"] = (gap, gap < 0)
+        each = prop[:, :, m, :].mean(axis=-1)                      # (S, P) over the samples
+        mean = each.mean(axis=1)
+        sd = each.std(axis=1, ddof=1)
+        excess = mean - 1.0 / C
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(sd > 0, excess / (sd / math.sqrt(P)),
+                         np.where(excess > 0, np.inf, -np.inf))
+        out[f"above_chance_{mode}"] = (mean, t > _t_crit(P - 1))
+    if answered is not None:
+        n = np.asarray(answered, dtype=float)
+        if n.ndim == 3:
+            n = n[None]
+        totals = n[:, :, 1, :].sum(axis=1)                          # (S, C) pooled answers
+        with np.errstate(divide="ignore", invalid="ignore"):
+            share = totals.max(axis=1) / totals.sum(axis=1)
+        out["no_dominant_answer_simulated"] = (share, share < DOMINANT_SHARE)
     per = prop.mean(axis=3)                                         # (S, P, 2)
     a, b = per[:, groups == "A"], per[:, groups == "B"]
     diff = a.mean(axis=1) - b.mean(axis=1)                          # (S, 2)
@@ -189,6 +242,30 @@ def counts_from_trials(trials: pd.DataFrame, roughness_ids=(1, 2, 3, 4)):
             for j, rid in enumerate(roughness_ids):
                 out[i, m, j] = table.get((pid, mode, rid), np.nan)
     return out, people["group"].to_numpy()
+
+
+def answers_from_trials(trials: pd.DataFrame, roughness_ids=(1, 2, 3, 4)) -> np.ndarray:
+    """How often each participant gave each answer, per mode, from its scored trials.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Columns participant, mode, response_id (as :func:`counts_from_trials`).
+
+    Returns
+    -------
+    ndarray of int, shape (P, 2, C)
+        Participants in the order of :func:`counts_from_trials`; answers 1# first.
+    """
+    people = trials.drop_duplicates("participant").sort_values("participant")["participant"]
+    out = np.zeros((len(people), 2, len(roughness_ids)), dtype=int)
+    answered = trials.dropna(subset=["response_id"])
+    table = answered.groupby(["participant", "mode", answered["response_id"].astype(int)]).size()
+    for i, pid in enumerate(people):
+        for m, mode in enumerate(("real", "simulated")):
+            for j, rid in enumerate(roughness_ids):
+                out[i, m, j] = int(table.get((pid, mode, int(rid)), 0))
+    return out
 
 
 def claim_probabilities(verdicts: dict) -> pd.DataFrame:

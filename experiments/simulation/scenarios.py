@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
-           "sensitivity", "SENSITIVITY_CHOICES", "ABSOLUTE_RECEPTOR_DEPTH_UM"]
+           "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM"]
 
 #: One receptor depth below the surface for everyone, µm: 0.4 x 860 µm, the middle of the
 #: model's 0.35-0.45 L at the mean thickness of the two groups' ranges (675 and 1050 µm).
@@ -115,7 +115,8 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
             outcome = simulate_studies(pool, h, get_observer(name), n_studies=n_studies,
                                        n_per_group=n_per_group, familiarise_reps=familiarise_reps,
                                        params=params, seed=int(seed) * 1000 + 10 * hi + oi)
-            verdicts = evaluate_claims(outcome.correct, outcome.groups, outcome.repetitions, temps)
+            verdicts = evaluate_claims(outcome.correct, outcome.groups, outcome.repetitions, temps,
+                                       answered=outcome.answers.sum(axis=-2))
             table = claim_probabilities(verdicts)
             table.insert(0, "observer", name)
             table.insert(0, "hypothesis", h)
@@ -141,6 +142,19 @@ def best_scenario(result: ScenarioResult) -> tuple[str, str]:
     score = pd.DataFrame({"all": wide["all"].round(2), "mean": single})
     order = score.sort_values(["all", "mean"], ascending=False, kind="stable")
     return tuple(order.index[0])
+
+
+def tied_scenarios(result: ScenarioResult, best) -> list:
+    """Scenarios other than ``best`` tied with it on :func:`best_scenario`'s first key.
+
+    That is the probability of showing every claim in one study, rounded to two decimals;
+    among them the choice went to the higher mean probability of the single claims.
+    """
+    wide = result.wide()
+    if "all" not in wide.columns:
+        return []
+    key = wide["all"].round(2)
+    return [k for k in wide.index if k != tuple(best) and key.loc[k] == key.loc[tuple(best)]]
 
 
 #: Choices the headline depends on, each with its alternatives (label -> keyword changes).
@@ -193,7 +207,8 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
             fam = change.get("familiarise_reps", 1)
             out = simulate_studies(use_pool, hypothesis, get_observer(observer), n_studies=n_studies,
                                    familiarise_reps=fam, params=params, seed=seed)
-            probs = claim_probabilities(evaluate_claims(out.correct, out.groups, out.repetitions, temps))
+            probs = claim_probabilities(evaluate_claims(out.correct, out.groups, out.repetitions, temps,
+                                                        answered=out.answers.sum(axis=-2)))
             row = {"choice": choice, "setting": label}
             row.update({r.claim: r.probability for r in probs.itertuples()})
             p = out.proportions()                           # (groups, modes, C)

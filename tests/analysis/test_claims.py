@@ -20,6 +20,7 @@ def _study(real_by_sample, sim_by_sample, rng, a_bonus=0.0):
 def test_claims_have_statistics_and_criteria():
     ids = [c.id for c in CLAIMS]
     assert ids == ["rise_real", "rise_simulated", "confused_1_real", "confused_1_simulated",
+                   "above_chance_real", "above_chance_simulated", "no_dominant_answer_simulated",
                    "a_above_b_real", "smaller_diff_simulated", "table2_rises"]
     assert all(c.statistic and c.criterion and c.quote for c in CLAIMS)
 
@@ -82,3 +83,97 @@ def test_one_participant_per_group_shows_no_group_difference():
     one[0, 0] = 3
     stat, holds = evaluate_claims(one, np.array(["A", "B"]), 3)["a_above_b_real"]
     assert stat[0] == 1.0 and not holds[0]
+
+
+# --------------------------------------------------------------- issue 11: recognition itself
+def test_above_chance_is_a_one_sample_t_test_against_a_quarter():
+    # correct out of 3 per sample; per-participant proportions over the 12 trials, by hand:
+    # real 6/12 3/12 6/12 9/12 -> mean 0.5, deviations 0 -1/4 0 +1/4, s^2 = 0.125/3,
+    #   t = 0.25 / (sqrt(0.125/3)/2) = sqrt(6) = 2.449 > t(0.95, 3) = 2.353 (table): shown
+    # simulated 6/12 3/12 3/12 9/12 -> mean 0.4375, s^2 = 0.171875/3 = 0.0572917,
+    #   t = 0.1875 / (0.239357/2) = 1.567 < 2.353: not shown
+    c = np.zeros((4, 2, 4))
+    c[:, 0] = [[1, 1, 2, 2], [0, 1, 1, 1], [2, 1, 1, 2], [1, 2, 3, 3]]
+    c[:, 1] = [[1, 1, 2, 2], [0, 1, 1, 1], [0, 1, 1, 1], [1, 2, 3, 3]]
+    v = evaluate_claims(c, np.array(["A", "A", "B", "B"]), 3)
+    assert v["above_chance_real"][0][0] == pytest.approx(0.5)
+    assert v["above_chance_real"][1][0]
+    assert v["above_chance_simulated"][0][0] == pytest.approx(0.4375)
+    assert not v["above_chance_simulated"][1][0]
+    # the same decisions as scipy's one-sided one-sample t-test (an independent implementation)
+    ref = stats.ttest_1samp(c[:, 1].sum(axis=1) / 12, 0.25, alternative="greater")
+    assert ref.statistic == pytest.approx(1.5667, abs=1e-4) and ref.pvalue > 0.05
+    assert "no_dominant_answer_simulated" not in v          # no answer counts given
+
+
+def _all_fourth(n=30):
+    """A study whose real block is recognised and whose simulated answers are all '4#'."""
+    correct = np.zeros((n, 2, 4))
+    correct[:, 0] = [2, 2, 3, 3]
+    correct[:, 1] = [0, 0, 0, 3]
+    answered = np.zeros((n, 2, 4))
+    answered[:, 0] = [3, 3, 3, 3]
+    answered[:, 1] = [0, 0, 0, 12]
+    return correct, answered
+
+
+def test_a_study_answering_4_to_every_simulated_sample_fails_the_recognition_claims():
+    correct, answered = _all_fourth()
+    v = evaluate_claims(correct, GROUPS, 3, answered=answered)
+    # the old claims are fooled: a rise from 0 to 1 with roughness
+    assert v["rise_simulated"][1][0]
+    # proportion correct exactly 1/4 for everyone (sd 0): not above chance
+    assert v["above_chance_simulated"][0][0] == pytest.approx(0.25)
+    assert not v["above_chance_simulated"][1][0]
+    # 360 of 360 simulated answers are 4#
+    assert v["no_dominant_answer_simulated"][0][0] == pytest.approx(1.0)
+    assert not v["no_dominant_answer_simulated"][1][0]
+    # the real block (10/12 each, 3 of each answer) shows both
+    assert v["above_chance_real"][0][0] == pytest.approx(10 / 12) and v["above_chance_real"][1][0]
+    table = claim_probabilities(v).set_index("claim")
+    assert table.loc["all", "probability"] == 0.0
+
+
+def test_a_mostly_4_study_above_chance_still_fails_the_bias_claim():
+    # half the participants answer 2# once (correct) and 4# otherwise, half answer 4# always:
+    # proportions 4/12 and 3/12, mean 0.2917, s = 0.042379, t = 0.041667 / (s/sqrt(30)) = 5.39
+    # > t(0.95, 29) = 1.699: above chance; answers: 15*11 + 15*12 = 345 of 360 are 4# = 0.9583
+    correct, answered = _all_fourth()
+    correct[:15, 1] = [0, 1, 0, 3]
+    answered[:15, 1] = [0, 1, 0, 11]
+    v = evaluate_claims(correct, GROUPS, 3, answered=answered)
+    assert v["above_chance_simulated"][0][0] == pytest.approx(3.5 / 12)
+    assert v["above_chance_simulated"][1][0]
+    assert v["no_dominant_answer_simulated"][0][0] == pytest.approx(345 / 360)
+    assert not v["no_dominant_answer_simulated"][1][0]
+
+
+def test_dominant_answer_threshold_is_strict_half():
+    correct = np.ones((2, 2, 4))
+    ok = np.zeros((2, 2, 4))
+    ok[:, 1] = [[3, 2, 1, 0], [2, 1, 1, 2]]       # pooled 5 3 2 2: 5/12 < 1/2
+    half = ok.copy()
+    half[:, 1] = [[3, 1, 1, 1], [3, 1, 1, 1]]     # pooled 6 2 2 2: 6/12, not < 1/2
+    both = evaluate_claims(np.stack([correct, correct]), np.array(["A", "B"]), 3,
+                           answered=np.stack([ok, half]))
+    stat, holds = both["no_dominant_answer_simulated"]
+    np.testing.assert_allclose(stat, [5 / 12, 0.5])
+    assert list(holds) == [True, False]
+
+
+def test_answers_from_trials_counts_each_participants_answers():
+    import pandas as pd
+
+    from analysis.claims import answers_from_trials, counts_from_trials
+    rows = [("P02", "B", "simulated", 1, 4), ("P02", "B", "simulated", 2, 4),
+            ("P02", "B", "simulated", 3, 4), ("P02", "B", "real", 1, 1),
+            ("P01", "A", "simulated", 4, 2), ("P01", "A", "simulated", 4, None),
+            ("P01", "A", "real", 2, 2), ("P01", "A", "real", 3, 2)]
+    trials = pd.DataFrame(rows, columns=["participant", "group", "mode", "roughness_id",
+                                         "response_id"])
+    trials["correct"] = (trials.response_id == trials.roughness_id).astype(float)
+    got = answers_from_trials(trials)
+    _, groups = counts_from_trials(trials)
+    assert list(groups) == ["A", "B"]
+    np.testing.assert_array_equal(got[0], [[0, 2, 0, 0], [0, 1, 0, 0]])
+    np.testing.assert_array_equal(got[1], [[1, 0, 0, 0], [0, 0, 0, 3]])

@@ -81,3 +81,22 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
     diffs = np.array(diffs)
     assert diffs.shape == (12, 4)
     assert np.abs(diffs).max() < 0.01          # logged features are rounded to 1e-4
+
+
+def test_scenarios_judge_the_simulated_block_for_a_response_bias():
+    # issue 11: the skin-side replay judged by the absolute observer names nearly every
+    # simulated sample 4#; the claims table must see it (it was ✓ on every old claim)
+    from experiments.simulation.scenarios import evaluate_scenarios
+    pool = build_pool(hypotheses=("skin", "compensated"), pool_size=20, seed=3)
+    res = evaluate_scenarios(pool, observers=["absolute"], n_studies=40, seed=2)
+    wide = res.wide()
+    assert wide.loc[("skin", "absolute"), "no_dominant_answer_simulated"] == 0.0
+    assert wide.loc[("skin", "absolute"), "all"] == 0.0
+    assert wide.loc[("compensated", "absolute"), "no_dominant_answer_simulated"] >= 0.9
+    stats = res.claims.set_index(["hypothesis", "claim"])["mean_statistic"]
+    assert stats[("skin", "no_dominant_answer_simulated")] > 0.5        # share of one answer
+    assert stats[("compensated", "no_dominant_answer_simulated")] < 0.5
+    # simulated proportion correct: the skin/absolute 4#-for-everything pattern is ~1/4
+    p = res.proportions
+    sim = p[(p.hypothesis == "skin") & (p["mode"] == "simulated")]
+    assert sim[sim.roughness_id < 4]["expected"].max() < 0.2
