@@ -16,12 +16,14 @@ Cholesky factor of the curvature; ``n_agq = 1`` is the Laplace approximation, wh
 ``lme4::glmer`` uses for vector random effects).
 
 Reported: fixed effects with Wald intervals (inverse observed information of
-:math:`(\\beta, \\theta)`), the two SDs and their correlation as point estimates, and a
-likelihood-ratio test of the random slope against the intercept-only model (its null
-distribution on the boundary is the 50:50 mixture of :math:`\\chi^2_1` and
-:math:`\\chi^2_2` [1]_). The coverage of this model's intervals has not been measured
-(``benchmarks/bench_recovery.py`` measures the intercept-only model), which the report
-says.
+:math:`(\\beta, \\theta)`, t(m - 2) quantiles), the two SDs and their correlation with
+profile-likelihood intervals (the deviance re-minimised over every other parameter, in the
+parametrisation :math:`\\Lambda = [[s_0, 0], [s_1 \\sin\\varphi, s_1 \\cos\\varphi]]`,
+correlation :math:`\\sin\\varphi`, rises by the F(1, m - 2) cut-off as for
+:mod:`analysis.glmm`'s SD), and a likelihood-ratio test of the random slope against the
+intercept-only model (its null distribution on the boundary is the 50:50 mixture of
+:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Coverage of all these intervals is measured by
+``benchmarks/bench_recovery.py`` (``--scenario slope``, ``--slope-model``; docs/analysis.md).
 
 References
 ----------
@@ -164,11 +166,21 @@ def _sd_objective(data, z, n_agq, p, fixed_index, fixed_value):
     def full(u):
         return np.insert(np.asarray(u, float), p + fixed_index, fixed_value)
 
+    def theta_of(u):
+        v = full(u)
+        s0, s1, phi = v[p:]
+        return np.append(v[:p], [s0, s1 * np.sin(phi), s1 * np.cos(phi)])
+
+    if n_agq < 5:           # the posterior-expectation gradient is not accurate: differences
+        def fun_fd(u):
+            dev = lambda w: slope_deviance(theta_of(w), data, z, n_agq)
+            return dev(u), _fd_gradient(dev, np.asarray(u, float))
+        return fun_fd
+
     def fun(u):
         v = full(u)
         s0, s1, phi = v[p:]
-        t = np.array([s0, s1 * np.sin(phi), s1 * np.cos(phi)])
-        dev, g = slope_deviance(np.append(v[:p], t), data, z, n_agq, grad=True)
+        dev, g = slope_deviance(theta_of(u), data, z, n_agq, grad=True)
         gt = g[p:]
         jac = np.array([[1.0, 0.0, 0.0],
                         [0.0, np.sin(phi), np.cos(phi)],
@@ -235,7 +247,7 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
 
 def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
                    n_agq: int = 5, intercept_fit: ModelFit | None = None,
-                   profile: bool = True) -> ModelFit:
+                   profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """Mixed logit with participant random intercepts and random mode slopes (ML).
 
     Parameters
@@ -255,6 +267,9 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
         Profile-likelihood intervals of the two SDs and the correlation (cut-off
         F(1, participants - 2) at ``level``, as the intercept-only model's SD); else
         point estimates only.
+    sd_cutoff : {"F", "chi2"}
+        The profile cut-off: F(1, m - 2) (default) or chi2_1 (lme4's
+        ``confint(method = "profile")``, used by the cross-check).
 
     Returns
     -------
@@ -269,12 +284,13 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     # one BLAS thread: L-BFGS-B's small BLAS calls spin threads, 10x slower on a busy machine
     with threadpool_limits(1):
         return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq,
-                                    intercept_fit=intercept_fit, profile=profile)
+                                    intercept_fit=intercept_fit, profile=profile,
+                                    sd_cutoff=sd_cutoff)
 
 
 def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
                          n_agq: int = 5, intercept_fit: ModelFit | None = None,
-                         profile: bool = True) -> ModelFit:
+                         profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)
@@ -337,15 +353,16 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                               "ci_low": beta - zq * se, "ci_high": beta + zq * se,
                               "interval": f"Wald, t({df:g})" if df else "Wald"})
         how = "point estimate"
+        cut_df = df if sd_cutoff == "F" else None
         if profile:
-            how = (f"profile likelihood, F(1, {df:g}) cut-off" if df
+            how = (f"profile likelihood, F(1, {cut_df:g}) cut-off" if cut_df
                    else "profile likelihood, chi2(1) cut-off")
         for which, (term, value) in enumerate((("sd_intercept", sd0), ("sd_mode_slope", sd1),
                                                ("corr_intercept_slope", corr))):
             low = high = np.nan
             if profile:
                 with np.errstate(all="ignore"):
-                    low, high = _profile_sd(data, z, theta, res.fun, n_agq, level, df, which)
+                    low, high = _profile_sd(data, z, theta, res.fun, n_agq, level, cut_df, which)
             table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how]
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
