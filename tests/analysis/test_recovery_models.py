@@ -51,7 +51,7 @@ def test_random_slope_models_profile_intervals_cover():
     # The random-slope model's SDs and correlation (profile likelihood, F(1, m - 2) cut-off)
     # over 8 datasets with a true random mode slope (SD 0.8, independent of the intercept: true
     # correlation 0); ~1.5 s CPU a dataset. The benchmark's slope scenario measures 200. Band:
-    # at least 20 of the 24 intervals cover (P(<= 19) = 0.007 at a true coverage of 0.95), and
+    # at least 20 of the 24 intervals cover (P(<= 19) = 0.006 at a true coverage of 0.95), and
     # the intervals say something: finite SD upper ends, and the correlation's interval not the
     # whole [-1, 1] in most datasets (an interval that always covers would pass otherwise).
     import warnings
