@@ -642,8 +642,10 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
             f"SD's lower end 0 and a correlation's end +-1 where the profile never rises that "
             f"far); `lrt_slope` is the likelihood-ratio test against the intercept-only model "
             f"(p from the 50:50 chi2(1)/chi2(2) mixture). Coverage of these intervals was "
-            f"measured with and without a true random slope (docs/analysis.md, \"Measured "
-            f"coverage\").", "",
+            f"measured over 200 datasets per scenario (docs/analysis.md, \"Measured coverage\"): "
+            f"with a true random slope 0.945-0.963 for every one; when the true slope SD is 0 the "
+            f"slope SD's interval covers 0.965-0.975, at or above the 0.97 edge (conservative at "
+            f"the boundary).", "",
             _md_table(sl.table[~sl.table["term"].str.contains(":")]), "",
             "Interaction terms: `glmm_slope.csv`.", ""]
     if r.bayes.formula is not None:
