@@ -16,12 +16,14 @@ Cholesky factor of the curvature; ``n_agq = 1`` is the Laplace approximation, wh
 ``lme4::glmer`` uses for vector random effects).
 
 Reported: fixed effects with Wald intervals (inverse observed information of
-:math:`(\\beta, \\theta)`), the two SDs and their correlation as point estimates, and a
-likelihood-ratio test of the random slope against the intercept-only model (its null
-distribution on the boundary is the 50:50 mixture of :math:`\\chi^2_1` and
-:math:`\\chi^2_2` [1]_). The coverage of this model's intervals has not been measured
-(``benchmarks/bench_recovery.py`` measures the intercept-only model), which the report
-says.
+:math:`(\\beta, \\theta)`, t(m - 2) quantiles), the two SDs and their correlation with
+profile-likelihood intervals (the deviance re-minimised over every other parameter, in the
+parametrisation :math:`\\Lambda = [[s_0, 0], [s_1 \\sin\\varphi, s_1 \\cos\\varphi]]`,
+correlation :math:`\\sin\\varphi`, rises by the F(1, m - 2) cut-off as for
+:mod:`analysis.glmm`'s SD), and a likelihood-ratio test of the random slope against the
+intercept-only model (its null distribution on the boundary is the 50:50 mixture of
+:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Coverage of all these intervals is measured by
+``benchmarks/bench_recovery.py`` (``--scenario slope``, ``--slope-model``; docs/analysis.md).
 
 References
 ----------
@@ -150,8 +152,102 @@ def _hessian(theta, data, z, n_agq):
     return (hess + hess.T) / 2
 
 
+def _sd_params(t):
+    """lme4's theta ``(l11, l21, l22)`` -> ``(sd_intercept, sd_slope, phi)``, corr = sin(phi)."""
+    return np.array([abs(t[0]), np.hypot(t[1], t[2]), np.arctan2(t[1], max(t[2], 0.0))])
+
+
+def _sd_objective(data, z, n_agq, p, fixed_index, fixed_value):
+    """Deviance and gradient over ``(beta, sd0, sd1, phi)`` with one of the last three fixed.
+
+    ``Lambda = [[sd0, 0], [sd1 sin phi, sd1 cos phi]]``: the correlation is ``sin phi``, smooth
+    up to +-1 (a profile over the correlation needs no Fisher transform that blows up there).
+    """
+    def full(u):
+        return np.insert(np.asarray(u, float), p + fixed_index, fixed_value)
+
+    def theta_of(u):
+        v = full(u)
+        s0, s1, phi = v[p:]
+        return np.append(v[:p], [s0, s1 * np.sin(phi), s1 * np.cos(phi)])
+
+    if n_agq < 5:           # the posterior-expectation gradient is not accurate: differences
+        def fun_fd(u):
+            dev = lambda w: slope_deviance(theta_of(w), data, z, n_agq)
+            return dev(u), _fd_gradient(dev, np.asarray(u, float))
+        return fun_fd
+
+    def fun(u):
+        v = full(u)
+        s0, s1, phi = v[p:]
+        dev, g = slope_deviance(theta_of(u), data, z, n_agq, grad=True)
+        gt = g[p:]
+        jac = np.array([[1.0, 0.0, 0.0],
+                        [0.0, np.sin(phi), np.cos(phi)],
+                        [0.0, s1 * np.cos(phi), -s1 * np.sin(phi)]])
+        gv = np.append(g[:p], jac @ gt)
+        return dev, np.delete(gv, p + fixed_index)
+    return fun
+
+
+def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
+    """Profile-likelihood interval of ``sd_intercept`` (0), ``sd_mode_slope`` (1) or the
+    correlation (2), as :func:`analysis.glmm._profile_sigma`: the ends are where the deviance,
+    re-minimised over every other parameter, has risen by F(1, df)(level) (chi2_1 without
+    ``df``). An SD's lower end is 0, and a correlation's end is -1 or 1, when the profile
+    never rises that far.
+    """
+    cut = stats.f.ppf(level, 1, df) if df else stats.chi2.ppf(level, 1)
+    p = len(theta) - 3
+    hat = np.append(theta[:p], _sd_params(theta[-3:]))
+    value_hat = hat[p + which]
+    bounds = [(None, None)] * p + [(0.0, _BOUND), (0.0, _BOUND), (-np.pi / 2, np.pi / 2)]
+    del bounds[p + which]
+    start_hat = np.delete(hat, p + which)
+    done: dict = {float(value_hat): (-cut, start_hat)}
+
+    def excess(v):
+        v = float(v)
+        if v not in done:
+            near = min(done, key=lambda w: abs(w - v))
+            # warm start from the nearest point; if that lands above the cut-off, also from the
+            # estimate (a warm start from the far side can stop in a worse local minimum)
+            best = None
+            for start in (done[near][1], start_hat):
+                res = optimize.minimize(_sd_objective(data, z, n_agq, p, which, v), start,
+                                        jac=True, method="L-BFGS-B", bounds=bounds,
+                                        options={"maxiter": 500, "ftol": 1e-11, "gtol": 1e-5})
+                if best is None or res.fun < best.fun:
+                    best = res
+                if best.fun - dev_min < cut or near == value_hat:
+                    break
+            done[v] = (best.fun - dev_min - cut, best.x)
+        return done[v][0]
+
+    if which == 2:                      # phi: corr = sin(phi) in [-1, 1]
+        ends = []
+        for edge in (-np.pi / 2, np.pi / 2):
+            if excess(edge) <= 0:
+                ends.append(np.sin(edge))
+            else:
+                a, b = sorted((value_hat, edge))
+                ends.append(np.sin(optimize.brentq(excess, a, b, xtol=1e-4)))
+        return ends[0], ends[1]
+    if value_hat <= 1e-6 or excess(0.0) <= 0:
+        low = 0.0
+    else:
+        low = optimize.brentq(excess, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
+    hi_try = max(2 * value_hat, 0.5)
+    while excess(hi_try) < 0 and hi_try < _BOUND:
+        hi_try = min(2 * hi_try, _BOUND)
+    high = optimize.brentq(excess, value_hat, hi_try, xtol=2e-5, rtol=1e-6) \
+        if excess(hi_try) > 0 else np.inf
+    return low, high
+
+
 def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-                   n_agq: int = 5, intercept_fit: ModelFit | None = None) -> ModelFit:
+                   n_agq: int = 5, intercept_fit: ModelFit | None = None,
+                   profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """Mixed logit with participant random intercepts and random mode slopes (ML).
 
     Parameters
@@ -167,24 +263,34 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     intercept_fit : ModelFit, optional
         The intercept-only model (:func:`analysis.glmm.fit_glmm`); when its fixed effects
         are the same as this fit's, gives the likelihood-ratio test of the slope.
+    profile : bool
+        Profile-likelihood intervals of the two SDs and the correlation (cut-off
+        F(1, participants - 2) at ``level``, as the intercept-only model's SD); else
+        point estimates only.
+    sd_cutoff : {"F", "chi2"}
+        The profile cut-off: F(1, m - 2) (default) or chi2_1 (lme4's
+        ``confint(method = "profile")``, used by the cross-check).
 
     Returns
     -------
     ModelFit
         ``kind`` ``"glmm-slope"``; ``table``: fixed effects (Wald) then
-        ``sd_intercept``, ``sd_mode_slope``, ``corr_intercept_slope`` (point
-        estimates) and, with ``intercept_fit``, ``lrt_slope`` (statistic in
+        ``sd_intercept``, ``sd_mode_slope``, ``corr_intercept_slope`` with profile
+        intervals (an SD's lower end 0, a correlation's end +-1, where the profile never
+        rises to the cut-off) and, with ``intercept_fit``, ``lrt_slope`` (statistic in
         ``log_odds``, mixture p-value in ``p_value``); ``result`` holds the
         convergence details.
     """
     # one BLAS thread: L-BFGS-B's small BLAS calls spin threads, 10x slower on a busy machine
     with threadpool_limits(1):
         return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq,
-                                    intercept_fit=intercept_fit)
+                                    intercept_fit=intercept_fit, profile=profile,
+                                    sd_cutoff=sd_cutoff)
 
 
 def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
-                         n_agq: int = 5, intercept_fit: ModelFit | None = None) -> ModelFit:
+                         n_agq: int = 5, intercept_fit: ModelFit | None = None,
+                         profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)
@@ -246,10 +352,18 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                               "p_value": reference_p(beta / se, df),
                               "ci_low": beta - zq * se, "ci_high": beta + zq * se,
                               "interval": f"Wald, t({df:g})" if df else "Wald"})
-        for term, value in (("sd_intercept", sd0), ("sd_mode_slope", sd1),
-                            ("corr_intercept_slope", corr)):
-            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, np.nan, np.nan,
-                                     "point estimate"]
+        how = "point estimate"
+        cut_df = df if sd_cutoff == "F" else None
+        if profile:
+            how = (f"profile likelihood, F(1, {cut_df:g}) cut-off" if cut_df
+                   else "profile likelihood, chi2(1) cut-off")
+        for which, (term, value) in enumerate((("sd_intercept", sd0), ("sd_mode_slope", sd1),
+                                               ("corr_intercept_slope", corr))):
+            low = high = np.nan
+            if profile:
+                with np.errstate(all="ignore"):
+                    low, high = _profile_sd(data, z, theta, res.fun, n_agq, level, cut_df, which)
+            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how]
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
             lrt = max(0.0, 2 * (loglik - intercept_fit.result["log_likelihood"]))

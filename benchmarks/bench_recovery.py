@@ -9,7 +9,10 @@ Datasets come from ``tests/analysis/generator.py`` (independent of the code unde
 simulated participant): a random-intercept logistic model with known typical-participant cell
 probabilities, SD ``--sigma`` (default 0.8), groups of 13 and 17, 3 repetitions, 3 % of trials
 lost at random, wrong answers biased to neighbouring samples. ``null``: no group effect
-anywhere; ``effect``: group A 0.15 above B with real samples only.
+anywhere; ``effect``: group A 0.15 above B with real samples only; ``slope``: the null cells
+plus a participant effect of simulated vs real samples, SD ``SLOPE_SD``, independent of the
+intercept (the random-slope model's intervals are then measured too; ``--slope-model`` measures
+them in the other scenarios, where the true slope SD is 0 and the correlation undefined).
 
 Each dataset is analysed with the functions ``thermocue analyze`` calls (cell_proportions,
 fit_gee, group_contrasts, fit_glmm, the named tests, chance_tests). For each interval family the
@@ -39,18 +42,23 @@ sys.path.insert(0, str(ROOT / "tests" / "analysis"))
 
 from analysis import cell_proportions, fit_gee, group_contrasts  # noqa: E402
 from analysis.glmm import fit_glmm  # noqa: E402
+from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
 from analysis.inference import chance_tests  # noqa: E402
 from analysis.models import FORMULA  # noqa: E402
 from analysis.report import tests_table  # noqa: E402
 from generator import effect_cells, generate, null_cells  # noqa: E402
 
 MODES = ("real", "simulated")
+#: The "slope" scenario's SD of the participants' simulated-vs-real effect (independent of the
+#: intercept: true correlation 0).
+SLOPE_SD = 0.8
 
 
-def truths(cells: dict, sigma: float) -> dict:
+def truths(cells: dict, sigma: float, slope_sd: float = 0.0) -> dict:
     z, w = np.polynomial.hermite_e.hermegauss(80)
     w = w / w.sum()
-    marg = {k: float(w @ expit(logit(p) + sigma * z)) for k, p in cells.items()}
+    sd = {"real": sigma, "simulated": np.hypot(sigma, slope_sd)}      # u and u + u_sim
+    marg = {k: float(w @ expit(logit(p) + sd[k[1]] * z)) for k, p in cells.items()}
     out = {"marg": marg, "cond": dict(cells)}
     for scale, table in (("gee", marg), ("glmm", cells)):
         for m in MODES:
@@ -87,35 +95,52 @@ class Tally:
         return pd.DataFrame(rows)
 
 
-def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True):
-    cells = null_cells() if scenario == "null" else effect_cells()
-    truth = truths(cells, sigma)
+def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_model=False,
+        slope_sd=None, gee_only=False):
+    cells = effect_cells() if scenario == "effect" else null_cells()
+    if slope_sd is None:
+        slope_sd = SLOPE_SD if scenario == "slope" else 0.0
+    truth = truths(cells, sigma, slope_sd)
+    # with a true random slope the intercept-only mixed model is misspecified: its intervals
+    # have no true value to cover and are not tallied (the GEE's and the cells' still do)
+    intercept_model_ok = slope_sd == 0
     grid = pd.DataFrame([(g, m, r, 0, "x") for (g, m, r) in cells],
                         columns=["group", "mode", "roughness_id", "correct", "participant"])
     cond_logit = logit(np.array([cells[k] for k in cells]))
+    marg_logit = logit(np.array([truth["marg"][k] for k in cells]))
     tally = Tally()
     rejections = {k: 0 for k in ("primary (GEE averaged A-B, real)", "omnibus (GEE, 8 df)",
                                  "any per-sample, unadjusted", "any per-sample, Holm",
                                  "interaction (GEE)", "interaction (GLMM)",
-                                 "GLMM group[T.B] (real 1#)")}
+                                 "GLMM group[T.B] (real 1#)",
+                                 "slope model: LR test of the random slope")}
     fallbacks = {"gee": 0, "glmm": 0}
     glmm_fail = 0
     start = time.process_time()
     for i in range(n):
-        trials = generate(cells, sigma=sigma, seed=seed0 + i)
+        trials = generate(cells, sigma=sigma, seed=seed0 + i, slope_sd=slope_sd)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            gee = fit_gee(trials)
+        fallbacks["gee"] += gee.formula != FORMULA
+        if gee.formula == FORMULA:      # the GEE table's coefficients: population-averaged truth
+            x = np.asarray(patsy.build_design_matrices([gee.design_info], grid)[0])
+            beta_true = np.linalg.lstsq(x, marg_logit, rcond=None)[0]
+            for row, b in zip(gee.table.iloc[: len(beta_true)].itertuples(), beta_true):
+                tally.add("gee coefficients (Wald)", row.ci_low, row.ci_high, b)
+        if gee_only:
+            continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             props = cell_proportions(trials, n_boot=n_boot, seed=i)
-            gee = fit_gee(trials)
             glmm = fit_glmm(trials, profile=profile)
-        fallbacks["gee"] += gee.formula != FORMULA
         fallbacks["glmm"] += glmm.formula != FORMULA
         for row in props.itertuples():
             t = truth["marg"][(row.group, row.mode, row.roughness_id)]
             tally.add("cell: participant bootstrap", row.boot_low, row.boot_high, t)
             tally.add("cell: Wilson (trials independent)", row.wilson_low, row.wilson_high, t)
         contrasts = group_contrasts(gee, trials)
-        if glmm.formula is not None:
+        if glmm.formula is not None and intercept_model_ok:
             gc = group_contrasts(glmm, trials)
             gc["model"] = "glmm"
             contrasts = pd.concat([contrasts, gc], ignore_index=True)
@@ -129,7 +154,7 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True):
         tests = tests_table(gee, glmm if glmm.formula else None, contrasts[contrasts["model"] == "gee"],
                             trials)
         for row in tests.itertuples():
-            if row.role == "interaction":
+            if row.role == "interaction" and (row.model == "gee" or intercept_model_ok):
                 lor, dd = truth[(row.model, "interaction")]
                 tally.add(f"{row.model} interaction: log odds", row.ci_low, row.ci_high, lor)
                 tally.add(f"{row.model} interaction: proportions", row.difference_ci_low,
@@ -144,7 +169,7 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True):
         inter = tests[tests["role"] == "interaction"].set_index("model")["p_value"]
         rejections["interaction (GEE)"] += bool(inter.get("gee", 1) < 0.05)
         rejections["interaction (GLMM)"] += bool(inter.get("glmm", 1) < 0.05)
-        if glmm.formula == FORMULA:
+        if glmm.formula == FORMULA and intercept_model_ok:
             x = np.asarray(patsy.build_design_matrices([glmm.design_info], grid)[0])
             beta_true = np.linalg.lstsq(x, cond_logit, rcond=None)[0]
             fixed = glmm.table.iloc[: len(beta_true)]
@@ -152,15 +177,36 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True):
                 tally.add("glmm fixed effects (Wald)", row.ci_low, row.ci_high, b)
             g = fixed.set_index("term").loc["group[T.B]"]
             rejections["GLMM group[T.B] (real 1#)"] += bool(g["p_value"] < 0.05)
-        if glmm.formula is not None:
+        if glmm.formula is not None and intercept_model_ok:
             t = glmm.table.set_index("term")
             how = "profile" if profile else "Wald on log SD"
             tally.add(f"glmm participant SD ({how})", t.loc["participant_sd", "ci_low"],
                       t.loc["participant_sd", "ci_high"], sigma)
             tally.add(f"glmm ICC latent ({how})", t.loc["icc_latent", "ci_low"],
                       t.loc["icc_latent", "ci_high"], sigma ** 2 / (sigma ** 2 + np.pi ** 2 / 3))
-        else:
+        elif glmm.formula is None:
             glmm_fail += 1
+        if slope_model and glmm.formula is not None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                sl = fit_glmm_slope(trials, glmm.formula, intercept_fit=glmm)
+            if sl.formula is None:
+                glmm_fail += 1
+            else:
+                t = sl.table.set_index("term")
+                if sl.formula == FORMULA:
+                    x = np.asarray(patsy.build_design_matrices([sl.design_info], grid)[0])
+                    beta_true = np.linalg.lstsq(x, cond_logit, rcond=None)[0]
+                    for row, b in zip(sl.table.iloc[: len(beta_true)].itertuples(), beta_true):
+                        tally.add("slope model fixed effects (Wald)", row.ci_low, row.ci_high, b)
+                for term, truth_v in (("sd_intercept", sigma), ("sd_mode_slope", slope_sd),
+                                      ("corr_intercept_slope", 0.0 if slope_sd > 0 else None)):
+                    if truth_v is not None:
+                        tally.add(f"slope model {term} (profile)", t.loc[term, "ci_low"],
+                                  t.loc[term, "ci_high"], truth_v)
+                if "lrt_slope" in t.index:
+                    rejections["slope model: LR test of the random slope"] += \
+                        bool(t.loc["lrt_slope", "p_value"] < 0.05)
         chance = chance_tests(trials)
         for row in chance.itertuples():
             if row.family == "cell":
@@ -172,32 +218,46 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True):
             print(f"  {i + 1}/{n} datasets, {time.process_time() - start:.0f} s CPU",
                   file=sys.stderr, flush=True)
     cpu = time.process_time() - start
+    if not slope_model:
+        del rejections["slope model: LR test of the random slope"]
     rej = pd.DataFrame([{"test": k, "rejections": v, "datasets": n, "rate": v / n,
                          "binomial_se": np.sqrt(max(v / n * (1 - v / n), 1e-12) / n)}
                         for k, v in rejections.items()])
     return tally.table(), rej, {"fallbacks": fallbacks, "glmm_failed": glmm_fail,
                                 "cpu_s": cpu, "datasets": n, "scenario": scenario,
-                                "sigma": sigma, "seed0": seed0, "n_boot": n_boot,
+                                "sigma": sigma, "slope_sd": slope_sd, "slope_model": slope_model,
+                                "seed0": seed0, "n_boot": n_boot,
                                 "load_average": os.getloadavg()}
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--datasets", type=int, default=200)
-    ap.add_argument("--scenario", choices=("null", "effect"), default="null")
+    ap.add_argument("--scenario", choices=("null", "effect", "slope"), default="null",
+                    help="slope: null cells plus a random mode slope of SD %g" % SLOPE_SD)
+    ap.add_argument("--slope-model", action="store_true",
+                    help="also fit the random-slope model and measure its intervals (slow)")
     ap.add_argument("--sigma", type=float, default=0.8)
     ap.add_argument("--seed", type=int, default=20261124)
     ap.add_argument("--bootstrap", type=int, default=1000)
+    ap.add_argument("--gee-only", action="store_true",
+                    help="only the GEE coefficient table's intervals (fast)")
     ap.add_argument("--out", type=Path)
     ns = ap.parse_args(argv)
-    cov, rej, info = run(ns.datasets, ns.scenario, ns.sigma, ns.seed, ns.bootstrap)
+    cov, rej, info = run(ns.datasets, ns.scenario, ns.sigma, ns.seed, ns.bootstrap,
+                         slope_model=ns.slope_model or ns.scenario == "slope",
+                         gee_only=ns.gee_only)
     pd.set_option("display.width", 200)
     print(f"scenario {ns.scenario}, {ns.datasets} datasets, sigma {ns.sigma}: "
           f"{info['cpu_s']:.0f} s CPU; fallbacks {info['fallbacks']}")
     print(cov.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    print(rej.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    if not ns.gee_only:
+        print(rej.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     if ns.out:
         ns.out.mkdir(parents=True, exist_ok=True)
+        if ns.gee_only:
+            cov.to_csv(ns.out / f"coverage_gee_{ns.scenario}.csv", index=False)
+            return
         cov.to_csv(ns.out / f"coverage_{ns.scenario}.csv", index=False)
         rej.to_csv(ns.out / f"rejections_{ns.scenario}.csv", index=False)
         (ns.out / f"info_{ns.scenario}.json").write_text(json.dumps(info, indent=2))

@@ -36,6 +36,24 @@ def test_analyze_writes_every_table_figure_and_report(study, tmp_path):
     assert "16 participants" in report and "GEE" in report and "participant_sd" in report
     assert "![Figure 9](figure9.png)" in report
     assert result.summary in report
+    # report.md prints only intervals whose coverage was measured (docs/analysis.md): the
+    # trial-independent Wilson interval, the ordinal slope's and the covariates' intervals stay
+    # in the CSVs; the random-slope model's SDs and correlation carry profile intervals
+    lines = report.splitlines()
+
+    def header_after(text):
+        start = next(i for i, line in enumerate(lines) if text in line)
+        return next(line for line in lines[start + 1:] if line.startswith("|"))
+    assert "wilson" not in header_after("## Proportion correct") and "boot_low" in report
+    assert "po_ci_low" not in header_after("Ordinal agreement") and "po_slope" in report
+    assert "ci_low" not in header_after("Covariates (GEE")
+    assert "ci_low" in header_after("### With a random slope")
+    slope_rows = {line.split("|")[1].strip(): line for line in lines if line.startswith("| sd_")
+                  or line.startswith("| corr_")}
+    for term in ("sd_intercept", "sd_mode_slope", "corr_intercept_slope"):
+        assert "profile likelihood, F(1, 14) cut-off" in slope_rows[term], slope_rows
+    assert {"wilson_low"} <= set(pd.read_csv(out / "proportions.csv").columns)
+    assert {"po_ci_low"} <= set(pd.read_csv(out / "ordinal.csv").columns)
 
 
 def test_cli_analyze(study, tmp_path, capsys):
