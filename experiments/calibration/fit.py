@@ -28,6 +28,7 @@ from experiments.calibration.model import ContactSetup, ResponseGrid
 from experiments.calibration.trace import ContactTrace
 
 __all__ = ["FitProblem", "CalibrationFit", "Parameter", "fit_traces", "BOUNDS", "SKIN_TEMPERATURE_MODES",
+           "plan_calibration", "planned_setup",
            "MAX_CONDITION", "BOUND_TOLERANCE"]
 
 #: Bounds of the fitted parameters (SI; T_S0 in °C).  L: the participant schema's hard range.
@@ -80,12 +81,16 @@ class FitProblem:
     ----------
     traces : sequence of ContactTrace
     setup : ContactSetup
+        The contact as stated (reported with the fit).
     fit_skin_temperature : {"none", "shared", "per-trace"} or bool
         Fit the initial skin temperature instead of using the traces' values (``True`` is
         ``"shared"``, ``False`` is ``"none"``).
+    model : stimuli.scene.Model, optional
+        The scene planner's model of this contact (:func:`plan_calibration`): the readings are
+        computed with ``setup`` reduced to it. None: the exact model of ``setup``.
     """
 
-    def __init__(self, traces, setup: ContactSetup, fit_skin_temperature="none"):
+    def __init__(self, traces, setup: ContactSetup, fit_skin_temperature="none", model=None):
         traces = list(traces)
         if not traces:
             raise CalibrationError("calibration: traces: expected at least one contact trace, got none")
@@ -94,6 +99,10 @@ class FitProblem:
                 raise CalibrationError(f"calibration: traces: expected ContactTrace objects, got {tr!r}")
         self.traces = traces
         self.setup = setup
+        #: the planner's model (:class:`stimuli.scene.Model`) the grids evaluate, or None (exact
+        #: model of ``setup``); ``forward_setup`` is ``setup`` reduced to it (:func:`planned_setup`)
+        self.model = model
+        self.forward_setup = setup if model is None else planned_setup(setup, model)
         mode = {True: "shared", False: "none", None: "none"}.get(fit_skin_temperature, fit_skin_temperature)
         if mode not in SKIN_TEMPERATURE_MODES:
             raise CalibrationError(f"calibration: fit_skin_temperature: expected one of "
@@ -129,7 +138,7 @@ class FitProblem:
         for tr in traces:           # traces sampled at the same times share one grid
             key = (tr.n, tr.time_s.tobytes())
             if key not in grids:
-                grids[key] = ResponseGrid(tr.time_s, setup)
+                grids[key] = ResponseGrid(tr.time_s, self.forward_setup)
             self.grids.append(grids[key])
 
     # -- coordinates -------------------------------------------------------------------
@@ -355,7 +364,8 @@ _BLAS_CONTROLLER = None
 def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperature="none",
                skin_thickness_guess: float | None = None, interval: str = "profile",
                level: float = 0.95, bootstrap_samples: int = 200, seed: int = 0,
-               max_nfev: int = 200, skin_temperature_sd_C: float | None = None) -> CalibrationFit:
+               max_nfev: int = 200, skin_temperature_sd_C: float | None = None,
+               plan_model: bool = True) -> CalibrationFit:
     """Fit R_k per sample and a shared L (and T_S0) to contact traces; refuse if not identifiable.
 
     Parameters
@@ -384,6 +394,11 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
         it, a given T_S0 0.3 K off that would move an estimate beyond its interval is warned
         about (:mod:`experiments.calibration.misspecification`, with the geometry and sensor-lag
         checks).
+    plan_model : bool
+        Compute the readings with the scene planner's model of the contact (issue 12; planned once
+        per fit at the start values and the traces' white-noise level as tolerance, checked at the
+        fitted values and refitted with the stated model when the planner then keeps more).
+        ``False``: the exact model of ``setup`` (the reference the planned fit is tested against).
 
     Returns
     -------
@@ -401,11 +416,12 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
         return _fit_traces(traces, setup, fit_skin_temperature=fit_skin_temperature,
                            skin_thickness_guess=skin_thickness_guess, interval=interval, level=level,
                            bootstrap_samples=bootstrap_samples, seed=seed, max_nfev=max_nfev,
-                           skin_temperature_sd_C=skin_temperature_sd_C)
+                           skin_temperature_sd_C=skin_temperature_sd_C, plan_model=plan_model)
 
 
 def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
-                bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None):
+                bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None, plan_model=True,
+                _replanned=None):
     from experiments.calibration.intervals import bootstrap_intervals, profile_intervals
 
     if interval not in ("profile", "bootstrap"):
@@ -415,6 +431,15 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     setup = setup or ContactSetup()
     t_start = time.perf_counter()
     problem = FitProblem(traces, setup, fit_skin_temperature)
+    forward, forward_record = None, None
+    if plan_model:
+        # the forward model is the planner's (issue 12): the scene planned once, at the start values'
+        # R and L and the traces' own white-noise level as tolerance; checked at the fitted values below
+        start = problem.to_natural(_start_values(problem, skin_thickness_guess)[0])
+        noise = float(np.median([tr.noise_C for tr in problem.traces]))
+        forward, forward_record = plan_calibration(problem.traces, setup, start[0], start[problem.k], noise)
+        if forward is not None:
+            problem = FitProblem(traces, setup, fit_skin_temperature, model=forward.model)
     best = None
     for p0 in _start_values(problem, skin_thickness_guess):
         res = problem.solve(p0, max_nfev=max_nfev)
@@ -462,6 +487,29 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     diag["correlation_parameters"] = list(problem.names)
     fit = CalibrationFit(problem, best.x, params, sigma, interval, level, diag, warnings)
     _check_misspecification(fit, skin_temperature_sd_C)
+    if forward is not None:
+        check = diag["plan"]
+        used = forward.model.geometry
+        if _GEOMETRY_RANK.get(check.get("geometry"), -1) > _GEOMETRY_RANK[used]:
+            # at the fitted values the planner keeps what the start values let it drop: refit with it
+            return _fit_traces(traces, setup,
+                               fit_skin_temperature=fit_skin_temperature,
+                               skin_thickness_guess=skin_thickness_guess, interval=interval, level=level,
+                               bootstrap_samples=bootstrap_samples, seed=seed, max_nfev=max_nfev,
+                               skin_temperature_sd_C=skin_temperature_sd_C, plan_model=False,
+                               _replanned=f"planned at the start values: {used}; at the fitted values "
+                                          f"the planner keeps the {check['geometry']}: refitted with "
+                                          f"the exact model of the stated setup")
+        diag["forward_model"] = {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
+                                 "note": "the fit's readings are computed with the planned model" + (
+                                     " (Eq. 7 is within the tolerance; its exact half-space transform "
+                                     "is evaluated, which gives the fit's derivatives)"
+                                     if forward.model.method == "eq7" else "")}
+    else:
+        diag["forward_model"] = {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
+                                 "note": _replanned or ("not planned: the exact model of the stated "
+                                                        "setup" if forward_record is None else
+                                                        forward_record.get("note", ""))}
     diag["elapsed_s"] = time.perf_counter() - t_start
     diag["model_evaluations"] = problem.n_evaluations
     return fit
@@ -495,32 +543,72 @@ def _check_misspecification(fit, skin_temperature_sd_C):
     fit.diagnostics["plan"] = _plan_calibration_scene(fit)
 
 
-def _plan_calibration_scene(fit):
-    """The scene planner's view of the calibration's contact (issue 12): which effects matter at
-    the traces' own noise level (tolerance = the residual SD), for a massless sensor."""
+_GEOMETRY_RANK = {"half-space": 0, "slab": 1, "slab-on-support": 2}
+
+
+def planned_setup(setup: ContactSetup, model) -> ContactSetup:
+    """``setup`` reduced to the scene planner's ``model`` (:class:`stimuli.scene.Model`).
+
+    A calibration scene states homogeneous skin, no perfusion, no sensor lag and the sample as a
+    half-space or an insulated slab, so the planner's only simplifications are the slab (to a
+    half-space) and the exact half-space (to the printed Eq. 7). The half-space is evaluated by
+    :class:`ResponseGrid`'s exact transform in both cases: the fit needs dθ/dR and dθ/dL, which
+    Eq. 7's printed form does not give, and the exact form is the one Eq. 7 was checked against.
+    """
+    from dataclasses import replace as _replace
+    if model.layered or model.perfusion or model.sensor or model.geometry == "slab-on-support":
+        raise CalibrationError(f"calibration: model: the calibration's forward model has homogeneous "
+                               f"skin on a half-space or an insulated slab, got {model.describe()!r}")
+    d = setup.material.thickness
+    if model.geometry == "half-space" and d is not None:
+        return _replace(setup, material=setup.material.with_thickness(None))
+    if model.geometry == "slab" and d is None:
+        raise CalibrationError("calibration: model: a slab model for a half-space sample")
+    return setup
+
+
+def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickness: float,
+                     tolerance_K: float):
+    """Plan the calibration's contact scene (issue 12): the longest trace's times, its temperatures,
+    ``resistance`` and ``skin_thickness``, the sensor's side as the quantity, ``tolerance_K``.
+
+    Returns
+    -------
+    plan : stimuli.planner.Plan or None
+        None for a lumped sensor (not a scene quantity) or a scene the planner refuses.
+    record : dict
+        :meth:`Plan.to_dict`, or ``{"note": why not planned}``.
+    """
     import warnings as _warnings
 
     from stimuli import ModelInputError
     from stimuli.planner import plan
     from stimuli.scene import Scene
-    prob = fit.problem
-    side = prob.setup.sensor.side
+    side = setup.sensor.side
     if side == "lumped":
-        return {"note": "lumped sensor: not a scene quantity"}
-    tr = max(prob.traces, key=lambda x: x.duration_s)
-    R = fit.resistances()[0].value
-    mat = prob.setup.material
+        return None, {"note": "lumped sensor: not a scene quantity; the fit's exact model"}
+    tr = max(traces, key=lambda x: x.duration_s)
+    mat = setup.material
     try:
         with _warnings.catch_warnings():
             _warnings.simplefilter("ignore")            # range warnings belong to the traces' loader
             scene = Scene(quantity=f"interface_{side}", duration_s=round(tr.duration_s, 6),
-                          rate_Hz=round(tr.n / tr.duration_s, 6), tolerance_K=max(fit.sigma_C, 1e-6),
-                          material=mat.with_thickness(None), resistance=R,
-                          skin_thickness_m=fit.skin_thickness.value,
+                          rate_Hz=round(tr.n / tr.duration_s, 6), tolerance_K=max(tolerance_K, 1e-6),
+                          material=mat.with_thickness(None), resistance=float(resistance),
+                          skin_thickness_m=float(skin_thickness),
                           skin_temperature_C=tr.skin_temperature_C,
                           material_temperature_C=tr.material_temperature_C,
                           geometry="half-space" if mat.thickness is None else "slab",
                           sample_thickness_m=mat.thickness or 3e-3)
-            return plan(scene).to_dict()
+            p = plan(scene)
+            return p, p.to_dict()
     except ModelInputError as exc:
-        return {"note": f"not planned: {exc}"}
+        return None, {"note": f"not planned: {exc}"}
+
+
+def _plan_calibration_scene(fit):
+    """The scene planner's view of the calibration's contact at the fitted values, at the traces' own
+    noise level (tolerance = the residual SD), for a massless sensor."""
+    prob = fit.problem
+    return plan_calibration(prob.traces, prob.setup, fit.resistances()[0].value,
+                            fit.skin_thickness.value, fit.sigma_C)[1]

@@ -120,6 +120,7 @@ def calibration_record(fit: CalibrationFit, *, session: str | None = None, date:
                              for c in fit.diagnostics.get("misspecification", [])],
         "warnings": list(fit.warnings),
         "plan": fit.diagnostics.get("plan"),
+        "forward_model": fit.diagnostics.get("forward_model"),
     }
     if setup.sensor.side == "lumped":
         rec["sensor"] = setup.sensor.to_dict()
