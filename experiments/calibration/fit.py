@@ -497,19 +497,23 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
                                skin_thickness_guess=skin_thickness_guess, interval=interval, level=level,
                                bootstrap_samples=bootstrap_samples, seed=seed, max_nfev=max_nfev,
                                skin_temperature_sd_C=skin_temperature_sd_C, plan_model=False,
-                               _replanned=f"planned at the start values: {used}; at the fitted values "
-                                          f"the planner keeps the {check['geometry']}: refitted with "
-                                          f"the exact model of the stated setup")
+                               _replanned=(f"planned at the start values: {used}; at the fitted "
+                                           f"values the planner keeps the {check['geometry']}: "
+                                           f"refitted with the exact model of the stated setup",
+                                           forward_record))
         diag["forward_model"] = {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
                                  "note": "the fit's readings are computed with the planned model" + (
                                      " (Eq. 7 is within the tolerance; its exact half-space transform "
                                      "is evaluated, which gives the fit's derivatives)"
                                      if forward.model.method == "eq7" else "")}
     else:
+        if _replanned is not None:
+            note, forward_record = _replanned
+        else:
+            note = ("not planned: the exact model of the stated setup" if forward_record is None
+                    else forward_record.get("note", ""))
         diag["forward_model"] = {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
-                                 "note": _replanned or ("not planned: the exact model of the stated "
-                                                        "setup" if forward_record is None else
-                                                        forward_record.get("note", ""))}
+                                 "note": note}
     diag["elapsed_s"] = time.perf_counter() - t_start
     diag["model_evaluations"] = problem.n_evaluations
     return fit

@@ -66,6 +66,7 @@ def test_a_plan_the_fitted_values_contradict_is_refitted_with_the_stated_model()
     planned, exact = _pair(0.011, 8.0, seed=0, roughness=False)
     fm = planned.diagnostics["forward_model"]
     assert "refitted with the exact model" in fm["note"]
+    assert not {d["effect"]: d for d in fm["planned"]["decisions"]}["slab"]["included"]  # what was dropped
     assert planned.diagnostics["plan"]["geometry"] == "slab"
     assert planned.problem.forward_setup.sample_thickness == pytest.approx(0.011)
     np.testing.assert_array_equal(planned.coordinates, exact.coordinates)
@@ -79,3 +80,10 @@ def test_a_lumped_sensor_is_not_a_scene_and_keeps_the_exact_model():
     fit = fit_traces(tr, setup)
     assert fit.problem.model is None
     assert "lumped sensor" in fit.diagnostics["forward_model"]["note"]
+
+
+def test_a_half_space_sample_is_fitted_through_the_planners_model():
+    planned, exact = _pair(None, 8.0, seed=2)
+    assert planned.problem.model is not None and planned.problem.model.geometry == "half-space"
+    assert planned.diagnostics["forward_model"]["planned"]["geometry"] == "half-space"
+    np.testing.assert_array_equal(planned.coordinates, exact.coordinates)
