@@ -165,3 +165,35 @@ def test_probe_evaluation_is_evaluate_to_the_last_bit():
                       Model(geometry="slab"), Model(geometry="half-space", layered=True)):
             np.testing.assert_array_equal(_at_probes(scene, model, probes, ip),
                                           evaluate(scene, model, probes, plan=ip))
+
+
+def test_probe_inversion_error_bound():
+    # the planner's cheap probe inversion (PROBE_NODES per window, speed, issue 12) is within its
+    # stated PROBE_INVERSION_ERROR x |dT| of the production inversion (itself within 1e-12 of
+    # mpmath, tests/stimuli/test_exact.py) for every model the planner compares, over a grid
+    from dataclasses import replace
+    from stimuli.planner import (EFFECTS, PROBE_INVERSION_ERROR, _at_probes, _drop, _probes,
+                                 _resolved)
+    worst = 0.0
+    for (duration, rate), quantity, geometry, layered, w, R in itertools.product(
+            [(20.0, 1000.0), (20.0, 200.0), (2.0, 100.0), (120.0, 1000.0)],
+            ["receptor", "interface_material", "interface_skin"],
+            ["half-space", "slab", "slab-on-support"], [False, True], [0.0, 1.25e-3, 2e-2],
+            [0.0, 1e-4, 1e-3]):
+        scene = _resolved(Scene(quantity=quantity, geometry=geometry, layered=layered,
+                                perfusion_per_s=w, resistance=R, duration_s=duration, rate_Hz=rate,
+                                support="wood" if geometry == "slab-on-support" else None))
+        probes, cheap = _probes(duration, rate, cheap=True)
+        dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
+        models = [replace(scene.full_model(), sensor=False)]
+        for effect in EFFECTS[1:]:          # every model a chain of drops reaches
+            for m in list(models):
+                cand = _drop(m, effect, scene)
+                if cand is not None and cand.method == "exact":
+                    models.append(cand)
+        for m in models:
+            err = np.max(np.abs(_at_probes(scene, m, probes, cheap)
+                                - evaluate(scene, m, probes))) / dT
+            worst = max(worst, float(err))
+    assert worst <= PROBE_INVERSION_ERROR, worst
+    print(f"probe inversion: worst {worst:.3g} of dT (bound {PROBE_INVERSION_ERROR:g})")
