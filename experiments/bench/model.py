@@ -514,7 +514,7 @@ def _layered_reference(layers, steel, R, idx, dps=30):
 def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     """Rows "layered": the exact layered and perfused contact (receptor) and the scene planner."""
     from stimuli.layered import LayeredContact, skin_layers
-    from stimuli.planner import _plan, plan
+    from stimuli.planner import PROBE_INVERSION_ERROR, PROBE_NODES, _plan, plan
     from stimuli.properties import Skin
     from stimuli.scene import Scene, evaluate
 
@@ -564,7 +564,9 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
                   "exact_slab_interface": lambda: slab_contact.interface_temperature(t)})
     rows.append(_row("layered", "planner", f"plan -> {p.model.describe()}", _best_seconds(cold, repeat),
                      errors["planned"], errors["planned"] / abs(dT), int(ridx.size),
-                     f"cost: the planner alone (cold); error: the planned model against the "
+                     f"cost: the planner alone (cold; probes inverted with {PROBE_NODES} nodes per "
+                     f"window, their bound {PROBE_INVERSION_ERROR:g} dT added); error: the planned "
+                     f"model against the "
                      f"perfused reference, tolerance {scene.tolerance_K:g} K"))
     return {"errors": errors, "timed": timed, "planned_model": p.model.describe(),
             "tolerance_K": scene.tolerance_K}
