@@ -46,7 +46,7 @@ from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
 from .errors import ModelWarning
-from .models import (FORMULA, ModelFit, _candidates, _design, _fit_ok, _separated_cells,
+from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _fit_ok, _separated,
                      model_data, reference_df, reference_p, reference_quantile)
 
 __all__ = ["fit_glmm", "GLMMData", "glmm_deviance", "ICC_LATENT_VARIANCE"]
@@ -349,12 +349,8 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     zt = reference_quantile(level, df)           # fixed effects: t(participants - 2)
     columns = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
     for candidate in _candidates(data_t, formula, notes, "GLMM"):
-        if candidate == FORMULA:
-            cells = _separated_cells(data_t)
-            if cells:
-                notes.append(f"GLMM: {candidate!r} not estimable: complete separation in cell(s) "
-                             f"{', '.join(cells)}; trying a simpler formula")
-                continue
+        if _separated("GLMM", candidate, data_t, notes):
+            continue
         y, x = _design(candidate, data_t)
         data = GLMMData.from_trials(y, x.to_numpy(), data_t["participant"])
         p = x.shape[1]
@@ -375,12 +371,8 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
         se = np.sqrt(np.diag(cov))
         why = None if res.success else f"did not converge ({res.message})"
         why = why or _fit_ok(beta, se)
-        if why:
-            notes.append(f"GLMM: {candidate!r} {why}; trying a simpler formula")
+        if not _accepted("GLMM", candidate, formula, why, notes):
             continue
-        if candidate != formula:
-            notes.append(f"GLMM: fitted the simpler {candidate!r} instead of {formula!r}")
-            warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
         sigma = float(theta[-1])
         if profile:
             with np.errstate(all="ignore"):

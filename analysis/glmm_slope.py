@@ -33,16 +33,13 @@ References
 """
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
-from .errors import ModelWarning
 from .glmm import GLMMData, _fd_gradient
-from .models import (FORMULA, ModelFit, _candidates, _design, _fit_ok, _separated_cells,
+from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _fit_ok, _separated,
                      model_data, reference_df, reference_p, reference_quantile)
 
 __all__ = ["fit_glmm_slope", "slope_deviance"]
@@ -302,9 +299,7 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         notes.append("GLMM slope: one mode only: no mode slope to fit")
         return ModelFit("glmm-slope", None, formula, pd.DataFrame(columns=columns), notes)
     for candidate in _candidates(data_t, formula, notes, "GLMM slope"):
-        if candidate == FORMULA and _separated_cells(data_t):
-            notes.append(f"GLMM slope: {candidate!r} not estimable (separation); trying a simpler "
-                         f"formula")
+        if _separated("GLMM slope", candidate, data_t, notes):
             continue
         y, x = _design(candidate, data_t)
         sim = (data_t["mode"] == "simulated").to_numpy(float)
@@ -338,12 +333,8 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         se = np.sqrt(np.diag(cov))
         why = None if res.success else f"did not converge ({res.message})"
         why = why or _fit_ok(beta, se)
-        if why:
-            notes.append(f"GLMM slope: {candidate!r} {why}; trying a simpler formula")
+        if not _accepted("GLMM slope", candidate, formula, why, notes):
             continue
-        if candidate != formula:
-            notes.append(f"GLMM slope: fitted the simpler {candidate!r} instead of {formula!r}")
-            warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
         lam = _lambda(theta[-3:])
         sigma = lam @ lam.T
         sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])

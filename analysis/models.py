@@ -185,6 +185,30 @@ def _fit_ok(params, se) -> str | None:
     return None
 
 
+def _separated(kind: str, candidate: str, data: pd.DataFrame, notes: list) -> bool:
+    """True, with a note, when ``candidate`` is the full formula and a cell is separated."""
+    if candidate != FORMULA:
+        return False
+    cells = _separated_cells(data)
+    if cells:
+        notes.append(f"{kind}: {candidate!r} not estimable: complete separation in cell(s) "
+                     f"{', '.join(cells)}; trying a simpler formula")
+    return bool(cells)
+
+
+def _accepted(kind: str, candidate: str, formula: str, why: str | None, notes: list) -> bool:
+    """One rung of the fallback ladder every model shares: ``why`` (the fit's trouble, or
+    None) rejects ``candidate`` with a note; an accepted simpler formula is noted and warned."""
+    if why:
+        notes.append(f"{kind}: {candidate!r} {why}; trying a simpler formula")
+        return False
+    if candidate != formula:
+        notes.append(f"{kind}: fitted the simpler {candidate!r} instead of {formula!r}")
+        # stacklevel 3: the caller of the fitting function, as before this helper existed
+        warnings.warn("; ".join(notes), ModelWarning, stacklevel=3)
+    return True
+
+
 def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95) -> ModelFit:
     """Logit GEE with participant clusters, exchangeable correlation, bias-reduced covariance.
 
@@ -210,12 +234,8 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
     df = reference_df(data)
     z = reference_quantile(level, df)
     for candidate in _candidates(data, formula, notes, "GEE"):
-        if candidate == FORMULA:
-            cells = _separated_cells(data)
-            if cells:
-                notes.append(f"GEE: {candidate!r} not estimable: complete separation in cell(s) "
-                             f"{', '.join(cells)}; trying a simpler formula")
-                continue
+        if _separated("GEE", candidate, data, notes):
+            continue
         y, x = _design(candidate, data)
         why = None
         with warnings.catch_warnings(record=True) as caught:
@@ -237,12 +257,8 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
             why = "; ".join(trouble) if (trouble or not res.converged) else _fit_ok(params, se)
             if not res.converged and not trouble:
                 why = "did not converge"
-        if why:
-            notes.append(f"GEE: {candidate!r} {why}; trying a simpler formula")
+        if not _accepted("GEE", candidate, formula, why, notes):
             continue
-        if candidate != formula:
-            notes.append(f"GEE: fitted the simpler {candidate!r} instead of {formula!r}")
-            warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
         table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
                               "z": params / se, "p_value": reference_p(params / se, df),
                               "ci_low": params - z * se, "ci_high": params + z * se})
@@ -303,12 +319,8 @@ def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.
                 why = "did not converge (VB optimiser)"
             else:
                 why = _fit_ok(res.fe_mean, res.fe_sd)
-        if why:
-            notes.append(f"Bayes: {candidate!r} {why}; trying a simpler formula")
+        if not _accepted("Bayes", candidate, formula, why, notes):
             continue
-        if candidate != formula:
-            notes.append(f"Bayes: fitted the simpler {candidate!r} instead of {formula!r}")
-            warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
         mean, sd = np.asarray(res.fe_mean), np.asarray(res.fe_sd)
         table = pd.DataFrame({"term": x.columns, "posterior_mean": mean, "posterior_sd": sd,
                               "cri_low": mean - z * sd, "cri_high": mean + z * sd})
