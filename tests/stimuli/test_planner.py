@@ -197,3 +197,56 @@ def test_probe_inversion_error_bound():
             worst = max(worst, float(err))
     assert worst <= PROBE_INVERSION_ERROR, worst
     print(f"probe inversion: worst {worst:.3g} of dT (bound {PROBE_INVERSION_ERROR:g})")
+
+
+HARD_PERFUSION = list(itertools.product(
+    ["receptor", "interface_material", "interface_skin"],
+    [("copper", "half-space", 0.0), ("stainless_steel", "slab", 1e-4),
+     ("glass", "slab-on-support", 1e-3), ("copper", "slab", 0.0)],
+    [(False, None), (True, None), (True, 2e-3)],           # layered, hypodermis
+    [(650e-6, 0.4), (3e-3, 0.1), (400e-6, 0.9)],           # skin thickness, receptor fraction
+    [(1.25e-3, 20.0, 100.0), (2e-2, 600.0, 2.0), (0.5, 60.0, 50.0)],  # w, duration, rate
+))
+
+
+@pytest.mark.parametrize("quantity,sample,layers,skin,run", HARD_PERFUSION)
+def test_perfusion_closed_form_bounds_the_exact_effect(quantity, sample, layers, skin, run):
+    # the planner neglects perfusion by a closed form (speed, issue 12) without evaluating it: it
+    # must be >= what perfusion changes at every sample, computed by the exact models, on hard
+    # scenes (copper at R = 0: the largest deficit; 3 mm skin, hypodermis; w up to 0.5 /s, long
+    # runs towards the steady state; a warm sample); tightness printed
+    from stimuli.exact import INVERSION_ERROR
+    from stimuli.planner import perfusion_bound
+    (material, geometry, R), (layered, hyp), (L, frac), (w, duration, rate) = sample, layers, skin, run
+    for T_M in (5.0, 45.0):
+        scene = Scene(quantity=quantity, material=material, geometry=geometry, resistance=R,
+                      support="wood" if geometry == "slab-on-support" else None, layered=layered,
+                      hypodermis_m=hyp, skin_thickness_m=L, receptor_fraction=frac,
+                      perfusion_per_s=w, duration_s=duration, rate_Hz=rate,
+                      skin_temperature_C=35.5, material_temperature_C=T_M)
+        full = evaluate(scene, scene.full_model())
+        unperfused = evaluate(scene, Model("exact", geometry, layered, False))
+        effect = float(np.max(np.abs(full - unperfused)))
+        bound = perfusion_bound(scene)
+        assert effect <= bound + 2 * INVERSION_ERROR * abs(35.5 - T_M), (effect, bound)
+        print(f"{quantity} {material} {geometry} layered={layered} L={L} w={w}: effect "
+              f"{effect:.3g} K <= bound {bound:.3g} K")
+
+
+def test_perfusion_neglected_by_the_closed_form_without_evaluation():
+    # the benchmark's cold layered, perfused scene: perfusion's closed form (0.0058 K) is within the
+    # 0.3 K, so only the layers are weighed by evaluation; the model is the evaluated planner's
+    from stimuli.planner import perfusion_bound
+    scene = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3)
+    p, q = plan(scene), plan(scene, screen=False)
+    d = {x.effect: x for x in p.decisions}
+    assert not d["perfusion"].included and "closed form" in d["perfusion"].note
+    assert d["perfusion"].bound_K == perfusion_bound(scene) < 0.01
+    assert p.model == q.model and d["layered"].included
+    # explain (screen=False) still evaluates it, and the evaluated effect is below the closed form
+    e = {x.effect: x for x in q.decisions}["perfusion"]
+    assert "closed form" not in e.note and e.bound_K < d["perfusion"].bound_K
+    # too loose for the tolerance: evaluated as before (homogeneous perfused skin, 2e-2 /s)
+    heavy = Scene(quantity="receptor", geometry="half-space", perfusion_per_s=2e-2, tolerance_K=0.3)
+    assert perfusion_bound(heavy) > 0.3
+    assert "closed form" not in {x.effect: x for x in plan(heavy).decisions}["perfusion"].note
