@@ -271,6 +271,60 @@ def perfusion_bound(scene: Scene) -> float:
     return min(m * u_top * scene.duration_s, S) * dT
 
 
+#: The layers are kept without evaluation when their steady effect at the receptor is at least
+#: this many tolerances (:func:`_layers_matter`).
+LAYER_SCREEN = 4.0
+
+
+def _layers_matter(scene: Scene) -> str | None:
+    """Why the scene's layered skin certainly matters at the receptor (screen), or None.
+
+    Once the scene is longer than the skin's diffusion time L^2 / alpha (Table 1's skin), the
+    skin is quasi-steady: the receptor's deficit is about its share of the skin's series
+    resistance below it -- d/k_d / (d/k_d + (L - d)/k_e) with the layers, d/L without (a
+    hypodermis below adds to both) -- times the surface deficit r / (r + R + Z_M), r the skin's
+    resistance and Z_M the sample's impedance at s = 1/T (a half-space sqrt(alpha_M T)/k_M, a
+    slab's larger by coth(D / sqrt(alpha_M T)), its support in parallel): the end of the scene,
+    when a half-space or an insulated slab draws the least. When the two models' estimates differ
+    by ``LAYER_SCREEN`` tolerances the layers are kept without evaluating them -- keeping an
+    effect is always safe, and at production nodes the layered transform costs the same as the
+    homogeneous one, so this only saves the planner's time. ``tests/stimuli/test_planner.py``
+    checks on a grid that whenever the screen keeps the layers, evaluating them
+    (``screen=False``) keeps them too.
+    """
+    if scene.quantity != "receptor" or not scene.layered:
+        return None
+    from .layered import skin_layers
+    skin = scene.skin
+    L = skin.thickness + (scene.hypodermis_m or 0.0)
+    T = scene.duration_s
+    if T < L * L / skin.diffusivity:
+        return None
+    m = scene.material_object(scene.geometry)
+    ell = math.sqrt(m.diffusivity * T)
+    Zm = ell / m.conductivity                                   # half-space at s = 1/T
+    if scene.geometry != "half-space":
+        x = m.thickness / ell
+        Yb = 0.0
+        if scene.geometry == "slab-on-support":
+            sup = scene.support_object()
+            Yb = sup.conductivity / math.sqrt(sup.diffusivity * T)
+        th = math.tanh(x)
+        Zm = Zm * (1.0 + Zm * Yb * th) / (Zm * Yb + th)
+    est = []
+    for layered in (True, False):
+        layers = skin_layers(skin, layered=layered, hypodermis=scene.hypodermis_m)
+        r = [t.thickness / t.conductivity for t in layers]
+        below = r[:-1] if layered else r[:-1] + [skin.dermis / skin.conductivity]
+        rs = sum(r)
+        est.append(sum(below) / rs * rs / (rs + scene.contact_resistance + Zm))
+    effect = abs(est[0] - est[1]) * abs(scene.skin_temperature_C - scene.material_temperature_C)
+    if effect < LAYER_SCREEN * scene.tolerance_K:
+        return None
+    return (f"kept without evaluation: the receptor's quasi-steady deficit differs by "
+            f"{effect:.3g} K with the layers (>= {LAYER_SCREEN:g} x the tolerance)")
+
+
 def _warmed_through(scene: Scene) -> str | None:
     """Why the scene's slab certainly matters (screen), or None."""
     D = scene.material_object("slab").thickness
@@ -354,6 +408,10 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
                 decisions.append(Decision("slab", True, math.nan, "kept with its support"))
             continue
         why = _warmed_through(scene) if (screen and effect == "slab") else None
+        if why is not None:
+            decisions.append(Decision(effect, True, math.nan, why))
+            continue
+        why = _layers_matter(scene) if (screen and effect == "layered") else None
         if why is not None:
             decisions.append(Decision(effect, True, math.nan, why))
             continue

@@ -250,3 +250,26 @@ def test_perfusion_neglected_by_the_closed_form_without_evaluation():
     heavy = Scene(quantity="receptor", geometry="half-space", perfusion_per_s=2e-2, tolerance_K=0.3)
     assert perfusion_bound(heavy) > 0.3
     assert "closed form" not in {x.effect: x for x in plan(heavy).decisions}["perfusion"].note
+
+
+def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
+    # the screen (speed, issue 12) keeps layered skin without evaluating it when its steady effect
+    # at the receptor is >= LAYER_SCREEN tolerances; keeping is safe, but it must not keep layers
+    # that evaluating them would neglect: on a grid, every screened keep is an evaluated keep
+    from stimuli.planner import _layers_matter
+    screened = 0
+    for material, geometry, R, L, frac, tol, duration, hyp in itertools.product(
+            ["copper", "stainless_steel", "glass", "polystyrene_foam"],
+            ["half-space", "slab"], [0.0, 1e-3], [400e-6, 650e-6, 1e-3], [0.1, 0.4, 0.7],
+            [0.02, 0.3, 1.0], [5.0, 20.0], [None, 1e-3]):
+        scene = Scene(quantity="receptor", material=material, geometry=geometry, resistance=R,
+                      skin_thickness_m=L, receptor_fraction=frac, layered=True, hypodermis_m=hyp,
+                      tolerance_K=tol, duration_s=duration, rate_Hz=100.0)
+        if _layers_matter(scene) is None:
+            continue
+        screened += 1
+        p = plan(scene)
+        assert {d.effect: d for d in p.decisions}["layered"].included
+        evaluated = {d.effect: d for d in plan(scene, screen=False).decisions}["layered"]
+        assert evaluated.included, (p.lines(), evaluated)
+    assert screened > 100, screened
