@@ -147,17 +147,27 @@ def skin_layers(skin: Skin, *, layered: bool = True, perfusion: float | None = N
     hypodermis : float or None, m
         Add a hypodermis of this thickness below the dermis (the core moves deeper).
     """
+    if hypodermis is not None:
+        check_positive("skin_layers", "hypodermis", hypodermis)
+    return tuple(Tissue(*row) for row in layer_rows(skin, layered=layered, perfusion=perfusion,
+                                                     hypodermis=hypodermis))
+
+
+def layer_rows(skin: Skin, *, layered: bool = True, perfusion: float | None = None,
+               hypodermis: float | None = None) -> list:
+    """:func:`skin_layers` as plain tuples (thickness, conductivity, density, specific_heat,
+    perfusion, name), unvalidated: for the scene planner's closed forms (no Tissue to build)."""
     w = 0.0 if perfusion is None else float(perfusion)
     if not layered:
-        stack = [Tissue(skin.thickness, skin.conductivity, skin.density, skin.specific_heat, w,
-                        "skin")]
+        rows = [(skin.thickness, skin.conductivity, skin.density, skin.specific_heat, w, "skin")]
     else:
-        stack = [TISSUES["dermis"].with_thickness(skin.dermis).with_perfusion(w),
-                 TISSUES["epidermis"].with_thickness(skin.epidermis)]
+        d, e = TISSUES["dermis"], TISSUES["epidermis"]
+        rows = [(skin.dermis, d.conductivity, d.density, d.specific_heat, w, d.name),
+                (skin.epidermis, e.conductivity, e.density, e.specific_heat, e.perfusion, e.name)]
     if hypodermis is not None:
-        stack.insert(0, TISSUES["hypodermis"].with_thickness(
-            check_positive("skin_layers", "hypodermis", hypodermis)).with_perfusion(w))
-    return tuple(stack)
+        h = TISSUES["hypodermis"]
+        rows.insert(0, (float(hypodermis), h.conductivity, h.density, h.specific_heat, w, h.name))
+    return rows
 
 
 def _tanh(a):
