@@ -28,7 +28,6 @@ printed by ``thermocue explain``.
 """
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass
 from functools import lru_cache
@@ -36,6 +35,7 @@ from functools import lru_cache
 import numpy as np
 
 from .exact import INVERSION_ERROR, WINDOW_RATIO, InversionPlan
+from .layered import BLOOD_HEAT_CAPACITY, layer_rows
 from .properties import Material
 from .scene import Model, Scene, evaluate
 
@@ -224,7 +224,8 @@ def _resolved(scene: Scene) -> Scene:
     """The scene with Eq. 5 and the material names resolved once (evaluations repeat them)."""
     # the scene was validated when it was made; these are values derived from it, so the copy is
     # not validated again (Scene.replace would: ~10 us of the planner's ~60 us on a cold scene)
-    out = copy.copy(scene)
+    out = object.__new__(Scene)
+    out.__dict__.update(scene.__dict__)
     for k, v in (("resistance", scene.contact_resistance),
                  ("material", _half_space(scene)),
                  ("support", None if scene.support is None else scene.support_object())):
@@ -268,7 +269,6 @@ def perfusion_bound(scene: Scene, skin=None) -> float:
     """
     if not scene.perfusion_per_s > 0:
         return 0.0
-    from .layered import BLOOD_HEAT_CAPACITY, layer_rows
     # (thickness, conductivity, density, specific heat, perfusion, name), core to surface
     layers = layer_rows(scene.skin if skin is None else skin, layered=scene.layered,
                         perfusion=scene.perfusion_per_s, hypodermis=scene.hypodermis_m)
@@ -310,7 +310,6 @@ def _layers_matter(scene: Scene, skin=None) -> str | None:
     """
     if scene.quantity != "receptor" or not scene.layered:
         return None
-    from .layered import layer_rows
     skin = scene.skin if skin is None else skin
     L = skin.thickness + (scene.hypodermis_m or 0.0)
     T = scene.duration_s
@@ -345,7 +344,16 @@ def _half_space(scene: Scene) -> Material:
     m = scene.material
     if isinstance(m, Material) and m.thickness is None:
         return m
+    if isinstance(m, str):
+        return _named(m)
     return scene.material_object("half-space")
+
+
+@lru_cache(maxsize=64)
+def _named(name: str) -> Material:
+    """A material by name, as a half-space (immutable: looked up once per name)."""
+    from .materials import material
+    return material(name)
 
 
 def _slab_thickness(scene: Scene) -> float:
