@@ -24,6 +24,7 @@ without perfusion, is :func:`stimuli.skin_response`'s exact solution (a few ms f
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +32,7 @@ import numpy as np
 from .exact import INVERSION_ERROR
 from .layered import LayeredTransform, layered_skin_response, skin_layers
 from .materials import material as _material
-from .planner import SAFETY, Decision, _probes
+from .planner import SAFETY, Decision, _probes, perfusion_factor
 
 __all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
 
@@ -73,7 +74,7 @@ def _bound(dS, h_sup, h0, h_tv):
 
 def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_Hz: float,
                  h, *, tolerance: float, layered: bool = False,
-                 perfusion_per_s: float = 0.0) -> DisplayPlan:
+                 perfusion_per_s: float = 0.0, screen: bool = True) -> DisplayPlan:
     """The cheapest model of a display-driven skin within ``tolerance`` (module docstring).
 
     Parameters
@@ -90,6 +91,11 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
     tolerance : float, K
     layered, perfusion_per_s : bool, float
         The full model's physics (as :class:`stimuli.scene.Scene`).
+    screen : bool
+        Decide without evaluating where a closed form or a screen can (as
+        :func:`stimuli.planner.plan`): perfusion by :func:`stimuli.planner.perfusion_factor`
+        x sup|h| when that fits the tolerance; the layers kept by :func:`_layers_matter`.
+        ``False``: every effect evaluated at the probes.
 
     Returns
     -------
@@ -104,11 +110,9 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
     probes, ip = _probes(float(duration_s), float(rate_Hz))
     h = np.asarray(h, dtype=float)
     h_sup, h0 = float(np.max(np.abs(h))), float(h[0])
-    h_tv = float(np.sum(np.abs(np.diff(h))))
     inv = 2 * INVERSION_ERROR * max(h_sup, 1.0)
     w = float(perfusion_per_s) if perfused else None
-    ref = _step(skin_layers(skin, layered=bool(layered), perfusion=w), depth, resistance, ip)
-    err = 0.0
+    err, offset, ref = 0.0, 0.0, None
     for effect in ("perfusion", "layered"):
         if effect == "perfusion" and not current[1]:
             decisions.append(Decision("perfusion", False, 0.0, "none stated"))
@@ -116,18 +120,75 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
         if effect == "layered" and not current[0]:
             decisions.append(Decision("layered", False, 0.0, "none stated"))
             continue
+        note = ("Pennes perfusion of the dermis" if effect == "perfusion" else
+                "epidermis and dermis properties (else Table 1's homogeneous skin)")
+        if screen and effect == "perfusion":
+            b = perfusion_factor(skin, bool(layered), w, None, float(duration_s)) * h_sup
+            if b + inv <= float(tolerance):      # neglected without evaluating anything
+                decisions.append(Decision(effect, False, b, note + "; bounded in closed form "
+                                          "(maximum principle), not evaluated"))
+                current, err, offset = (current[0], False), b + inv, b
+                continue
+        if screen and effect == "layered":
+            why = _layers_matter(skin, depth, resistance, float(duration_s), float(rate_Hz), h,
+                                 float(tolerance))
+            if why is not None:
+                decisions.append(Decision(effect, True, math.nan, why))
+                continue
+        if ref is None:     # the full model, or without perfusion when its closed form dropped it
+            ref = _step(skin_layers(skin, layered=bool(layered), perfusion=w if current[1] else None),
+                        depth, resistance, ip)
+            h_tv = float(np.sum(np.abs(np.diff(h))))
         cand = (current[0], False) if effect == "perfusion" else (False, current[1])
         val = _step(skin_layers(skin, layered=cand[0], perfusion=w if cand[1] else None),
                     depth, resistance, ip)
         b = SAFETY * _bound(val - ref, h_sup, h0, h_tv) + inv
-        note = ("Pennes perfusion of the dermis" if effect == "perfusion" else
-                "epidermis and dermis properties (else Table 1's homogeneous skin)")
+        if offset:
+            b += offset
         if b <= float(tolerance):
             decisions.append(Decision(effect, False, b, note))
             current, err = cand, b
         else:
             decisions.append(Decision(effect, True, b, note))
     return DisplayPlan(current[0], current[1], tuple(decisions), float(err), float(tolerance))
+
+
+#: The layers are kept without evaluation when their quasi-steady effect is this many tolerances.
+LAYER_SCREEN = 4.0
+
+
+def _layers_matter(skin, depth, resistance, duration_s, rate_Hz, h, tolerance):
+    """Why layered skin certainly matters at ``depth`` under the history ``h`` (screen), or None.
+
+    A drive held at |h| >= H over the last two diffusion times of the skin (2 L^2 / alpha, Table
+    1's skin) leaves the skin quasi-steady: the deficit at ``depth`` is about its share of the
+    skin's series resistance below it (d/k_d / (d/k_d + (L - d)/k_e) with the layers, depth / L
+    without) times the surface's share r / (r + R_pad) of H. When the two models differ by
+    ``LAYER_SCREEN`` tolerances the layers are kept without evaluation (keeping is safe; it only
+    saves the planner's time). ``tests/stimuli/test_display_planner.py`` checks on a grid that
+    every screened keep is an evaluated keep.
+    """
+    from .layered import layer_rows
+    L = skin.thickness
+    window = 2.0 * L * L / skin.diffusivity
+    if duration_s < window:
+        return None
+    n = int(round(window * rate_Hz)) + 1
+    H = float(np.min(np.abs(h[-n:])))
+    est = []
+    for layered in (True, False):
+        rows = layer_rows(skin, layered=layered)
+        r = [row[0] / row[1] for row in rows]
+        below, lo = 0.0, 0.0
+        for (thick, k, *_rest) in rows:
+            below += (min(depth, lo + thick) - lo) / k if depth > lo else 0.0
+            lo += thick
+        est.append(below / sum(r) * sum(r) / (sum(r) + resistance))
+    effect = abs(est[0] - est[1]) * H
+    if effect < LAYER_SCREEN * tolerance:
+        return None
+    return (f"kept without evaluation: the quasi-steady deficit at the receptor differs by "
+            f"{effect:.3g} K with the layers (>= {LAYER_SCREEN:g} x the tolerance)")
 
 
 def planned_skin_response(skin, t, surface_temperature, initial_temperature: float, *,

@@ -269,9 +269,20 @@ def perfusion_bound(scene: Scene, skin=None) -> float:
     """
     if not scene.perfusion_per_s > 0:
         return 0.0
+    dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
+    return perfusion_factor(scene.skin if skin is None else skin, scene.layered,
+                            scene.perfusion_per_s, scene.hypodermis_m, scene.duration_s) * dT
+
+
+def perfusion_factor(skin, layered: bool, perfusion_per_s: float, hypodermis_m, duration_s: float) -> float:
+    """min(m u_top T, S(L)) per kelvin of the skin's surface deficit (:func:`perfusion_bound`).
+
+    Also the display-driven planner's bound (:mod:`stimuli.display_planner`): there the surface
+    is driven through the pad by h(t), so |u| <= sup|h| in the skin, and the same two
+    supersolutions (they carry no flux through the surface) give |Delta u| <= this x sup|h|.
+    """
     # (thickness, conductivity, density, specific heat, perfusion, name), core to surface
-    layers = layer_rows(scene.skin if skin is None else skin, layered=scene.layered,
-                        perfusion=scene.perfusion_per_s, hypodermis=scene.hypodermis_m)
+    layers = layer_rows(skin, layered=layered, perfusion=perfusion_per_s, hypodermis=hypodermis_m)
     r = [h / k for h, k, *_ in layers]
     top = max(i for i, row in enumerate(layers) if row[4] > 0)
     u_top = min(1.0, sum(r[:top + 1]) / sum(r))
@@ -283,8 +294,7 @@ def perfusion_bound(scene: Scene, skin=None) -> float:
         hi = lo + h
         S += Q * ((P - lo) ** 2 - (P - hi) ** 2) / (2.0 * k)
         lo = hi
-    dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
-    return min(m * u_top * scene.duration_s, S) * dT
+    return min(m * u_top * duration_s, S)
 
 
 #: The layers are kept without evaluation when their steady effect at the receptor is at least

@@ -1,6 +1,8 @@
 """The display-driven planner (stimuli.display_planner): planned vs full model over a grid."""
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -65,5 +67,69 @@ def test_layers_are_kept_at_the_perceptual_floor_and_perfusion_is_neglected():
                                          perfusion_per_s=1.25e-3)
     assert plan.layered and not plan.perfusion
     d = {x.effect: x for x in plan.decisions}
-    assert d["layered"].included and d["layered"].bound_K > 0.3
+    # screened (issue 12, speed): kept without evaluation, perfusion by its closed form
+    assert d["layered"].included and "without evaluation" in d["layered"].note
     assert not d["perfusion"].included and d["perfusion"].bound_K < 0.05
+    # evaluated (screen=False): the same decisions, the layers' effect > 0.3 K, perfusion's mK
+    from stimuli.display_planner import plan_display
+    e = {x.effect: x for x in plan_display(skin, skin.dermis, 0.0, 10.0, 500.0,
+                                           np.full(T.size, 25.0 - 35.5), tolerance=0.3,
+                                           layered=True, perfusion_per_s=1.25e-3,
+                                           screen=False).decisions}
+    assert e["layered"].included and e["layered"].bound_K > 0.3
+    assert not e["perfusion"].included and e["perfusion"].bound_K < d["perfusion"].bound_K
+
+
+def _histories_hard(t):
+    rng = np.random.default_rng(11)
+    return {"cold step": np.full(t.size, 15.0), "warm step": np.full(t.size, 42.0),
+            "return": np.interp(t, [0, t[-1] / 4, t[-1] / 2, t[-1]], [20.0, 20.0, 35.5, 35.5]),
+            "square": 35.5 + 10.0 * np.sign(np.sin(2 * np.pi * t / 4.0 + 0.1)),
+            "noisy": 25.0 + 0.5 * rng.standard_normal(t.size)}
+
+
+@pytest.mark.parametrize("L_um,frac", [(400.0, 0.9), (650.0, 0.6), (3000.0, 0.6), (1000.0, 0.1)])
+@pytest.mark.parametrize("R", [0.0, 1e-3])
+def test_display_perfusion_closed_form_bounds_the_exact_effect(L_um, frac, R):
+    # the display planner's closed form for perfusion (issue 12: perfusion_factor x sup|h|, not
+    # evaluated) against the effect the exact models compute at every sample, hard cases: w up
+    # to 0.5 /s, 3 mm skin, 60 s, warm and cold drives
+    from stimuli.exact import INVERSION_ERROR
+    from stimuli.planner import perfusion_factor
+    t = np.arange(3001) * 0.02                     # 60 s at 50 Hz
+    skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
+    for name, g in _histories_hard(t).items():
+        h_sup = float(np.max(np.abs(g - 35.5)))
+        for layered in (False, True):
+            for w in (1.25e-3, 2e-2, 0.5):
+                run = lambda w_: layered_skin_response(skin_layers(skin, layered=layered,
+                                                                   perfusion=w_), t, g, 35.5,
+                                                       skin.dermis, R)
+                effect = float(np.max(np.abs(run(w) - run(None))))
+                bound = perfusion_factor(skin, layered, w, None, float(t[-1])) * h_sup
+                assert effect <= bound + 4 * INVERSION_ERROR * max(h_sup, 1.0), (name, effect, bound)
+
+
+def test_display_layer_screen_keeps_only_layers_the_evaluation_keeps():
+    # the display planner's layer screen (speed, issue 12) must not keep layers that evaluating
+    # them would neglect: over skins, pads, tolerances and drives, every screened keep is an
+    # evaluated keep
+    from stimuli.display_planner import _layers_matter, plan_display
+    screened = 0
+    for L_um, frac, R, tol, (duration, rate) in itertools.product(
+            [400.0, 650.0, 1000.0], [0.2, 0.6, 0.9], [0.0, 1e-4, 1e-3], [0.02, 0.3, 1.0],
+            [(10.0, 500.0), (20.0, 100.0), (60.0, 20.0)]):
+        skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
+        t = np.arange(int(round(duration * rate)) + 1) / rate
+        for name, g in _histories_hard(t).items():
+            h = g - 35.5
+            if _layers_matter(skin, skin.dermis, R, duration, rate, h, tol) is None:
+                continue
+            screened += 1
+            p = plan_display(skin, skin.dermis, R, duration, rate, h, tolerance=tol,
+                             layered=True, perfusion_per_s=1.25e-3)
+            assert p.layered
+            q = plan_display(skin, skin.dermis, R, duration, rate, h, tolerance=tol,
+                             layered=True, perfusion_per_s=1.25e-3, screen=False)
+            assert q.layered, (name, L_um, frac, R, tol, duration, q.decisions)
+    assert screened > 50, screened
