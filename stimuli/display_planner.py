@@ -10,13 +10,20 @@ differ by :math:`\Delta u = \int h\, d\Delta S`, so for every t
 
 :func:`plan_display` evaluates the step responses of the full model (the physics the caller
 states: :data:`stimuli.layered.TISSUES`' epidermis and dermis, Pennes perfusion) and of each
-cheaper candidate at the planner's ~20 probe times (one shared inversion plan), and bounds the
+cheaper candidate at the planner's ~20 probe times (one shared cheap inversion plan), and bounds the
 candidate's error by the smaller of the two right-hand sides, with the total variation and the
 sup of Delta S taken over the probes, times :data:`stimuli.planner.SAFETY` (between probes the
 step responses are smooth and their difference single-humped; the factor covers the probes
 missing the extreme), plus both inversions' bounds. ``tests/stimuli/test_display_planner.py``
 evaluates planned and full models over a grid of skins and histories and asserts the error is
 within the tolerance -- a wrong bound fails there.
+
+Before evaluating (``screen=True``, the default): perfusion is neglected when its closed-form
+bound (:func:`stimuli.planner.perfusion_factor` x sup|h|, the maximum principle) fits the
+tolerance, and the layers are kept when their quasi-steady effect under the drive is several
+tolerances (:func:`_layers_matter`); each was checked against the evaluation in the tests. The
+probes' inversion is the scene planner's cheap one (each value within
+:data:`stimuli.planner.PROBE_INVERSION_ERROR`, added to the bounds).
 
 Effects are dropped in the order perfusion, then layers; the cheapest model, homogeneous skin
 without perfusion, is :func:`stimuli.skin_response`'s exact solution (a few ms for 20 s at
@@ -32,7 +39,7 @@ import numpy as np
 from .exact import INVERSION_ERROR
 from .layered import LayeredTransform, layered_skin_response, skin_layers
 from .materials import material as _material
-from .planner import SAFETY, Decision, _probes, perfusion_factor
+from .planner import PROBE_INVERSION_ERROR, SAFETY, Decision, _probes, perfusion_factor
 
 __all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
 
@@ -67,9 +74,12 @@ def _step(layers, depth, resistance, ip):
     return np.concatenate([[0.0], ip.apply(tr.display_kernel(ip.s, depth, resistance) / ip.s)])
 
 
-def _bound(dS, h_sup, h0, h_tv):
-    tv = float(np.sum(np.abs(np.diff(dS))))
-    return min(h_sup * tv, float(np.max(np.abs(dS))) * (abs(h0) + h_tv))
+def _bound(dS, h_sup, h0, h_tv, perr=0.0):
+    """The smaller right-hand side of the module's two bounds; ``perr``: each probe value of
+    both step responses within ``perr`` of the exact one (the value at 0 is exact), so every
+    probe of dS within 2 perr and each of its steps within 4 perr."""
+    tv = float(np.sum(np.abs(np.diff(dS)))) + 4.0 * perr * (dS.size - 1)
+    return min(h_sup * tv, (float(np.max(np.abs(dS))) + 2.0 * perr) * (abs(h0) + h_tv))
 
 
 def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_Hz: float,
@@ -107,7 +117,10 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
         decisions.append(Decision("perfusion", False, 0.0, "none stated"))
         decisions.append(Decision("layered", False, 0.0, "none stated"))
         return DisplayPlan(False, False, tuple(decisions), 0.0, float(tolerance))
-    probes, ip = _probes(float(duration_s), float(rate_Hz))
+    # the scene planner's cheap probe inversion (PROBE_NODES per window, one dense product); its
+    # error on a step response (bounded by 1) is within PROBE_INVERSION_ERROR
+    # (tests/stimuli/test_display_planner.py::test_display_probe_inversion_error_bound)
+    probes, ip = _probes(float(duration_s), float(rate_Hz), cheap=True)
     h = np.asarray(h, dtype=float)
     h_sup, h0 = float(np.max(np.abs(h))), float(h[0])
     inv = 2 * INVERSION_ERROR * max(h_sup, 1.0)
@@ -142,7 +155,7 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
         cand = (current[0], False) if effect == "perfusion" else (False, current[1])
         val = _step(skin_layers(skin, layered=cand[0], perfusion=w if cand[1] else None),
                     depth, resistance, ip)
-        b = SAFETY * _bound(val - ref, h_sup, h0, h_tv) + inv
+        b = SAFETY * _bound(val - ref, h_sup, h0, h_tv, PROBE_INVERSION_ERROR) + inv
         if offset:
             b += offset
         if b <= float(tolerance):

@@ -133,3 +133,25 @@ def test_display_layer_screen_keeps_only_layers_the_evaluation_keeps():
                              layered=True, perfusion_per_s=1.25e-3, screen=False)
             assert q.layered, (name, L_um, frac, R, tol, duration, q.decisions)
     assert screened > 50, screened
+
+
+def test_display_probe_inversion_error_bound():
+    # the display planner's probes use the scene planner's cheap inversion (speed, issue 12): on
+    # every step response it compares (skins, receptor depths, pads, perfusion, durations and
+    # rates), each probe value is within PROBE_INVERSION_ERROR of the production inversion
+    # (itself within 1e-12 of mpmath, tests/stimuli/test_exact.py)
+    from stimuli.display_planner import _step
+    from stimuli.planner import PROBE_INVERSION_ERROR, _probes
+    worst = 0.0
+    for (duration, rate), L_um, frac, R, layered, w in itertools.product(
+            [(20.0, 1000.0), (10.0, 500.0), (2.0, 100.0), (120.0, 1000.0)],
+            [400.0, 650.0, 1000.0, 3000.0], [0.1, 0.6, 0.9], [0.0, 1e-4, 1e-3],
+            [False, True], [None, 1.25e-3, 2e-2]):
+        skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
+        layers = skin_layers(skin, layered=layered, perfusion=w)
+        _, cheap = _probes(duration, rate, cheap=True)
+        _, prod = _probes(duration, rate)
+        err = np.max(np.abs(_step(layers, skin.dermis, R, cheap) - _step(layers, skin.dermis, R, prod)))
+        worst = max(worst, float(err))
+    assert worst <= PROBE_INVERSION_ERROR, worst
+    print(f"display probe inversion: worst {worst:.3g} (bound {PROBE_INVERSION_ERROR:g})")
