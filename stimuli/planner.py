@@ -21,6 +21,15 @@ How the error is bounded (cheaply, and checked)
   tau sup |dT/dt|, with the sup over the profile's sampled slopes (a jump at contact counts as
   its slope over the first sample); it applies to the interface quantities (what a sensor reads)
   and is "not applicable" to the receptor.
+* Perfusion is first bounded in closed form (:func:`perfusion_bound`, the maximum principle);
+  when that fits the tolerance it is neglected without evaluating anything, and the model
+  without it becomes the reference of the later drops, its bound added to their errors.
+* Screens (``screen=True``, production) keep an effect without evaluating it when it certainly
+  matters: a warmed-through slab (:func:`_warmed_through`) and, at the receptor, layered skin
+  whose quasi-steady effect is ``LAYER_SCREEN`` tolerances (:func:`_layers_matter`). Keeping
+  is always safe; the tests check that every screened keep is an evaluated keep. With these,
+  a cold layered, perfused scene is planned in ~0.07 of one exact evaluation
+  (benchmarks/README.md). ``screen=False`` (``thermocue explain``) evaluates every effect.
 
 The decisions (each effect: kept or neglected, the error its neglect causes, why) travel with
 every profile (``TargetProfile.parameters["plan"]``, hence the session's events) and are
@@ -202,7 +211,9 @@ def plan(scene: Scene, *, screen: bool = True) -> Plan:
         Keep, without evaluating it, a slab that is certainly warmed through over the scene
         (D < sqrt(alpha_M t_end) / 2: its back is felt within the scene, by kelvins on metals);
         keeping an effect is always safe, so this only saves the planner's time. Its decision then
-        has ``bound_K = nan``. ``False`` evaluates every effect (``thermocue explain``).
+        has ``bound_K = nan``. Likewise layered skin at the receptor (:func:`_layers_matter`), and
+        perfusion neglected by its closed form (:func:`perfusion_bound`) when that fits.
+        ``False`` evaluates every effect (``thermocue explain``).
 
     Returns
     -------
