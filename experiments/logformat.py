@@ -1,7 +1,9 @@
 """The on-disk log format of a session folder, in one home (standard library only).
 
 One concept: what ``events.jsonl``, ``trials.csv`` and ``traces/trial-NNN.csv`` hold and how
-they are read back. The writer (:mod:`experiments.logbook`, :mod:`experiments.session_files`)
+they are read back (kept in one module, though past 500 lines, so that the format has exactly
+one home: event types, column lists, the cell format, the tolerant readers, the trial-row
+projection and replay). The writer (:mod:`experiments.logbook`, :mod:`experiments.session_files`)
 and the reader of record (:mod:`analysis.load`) both use this module, so that neither
 re-implements the other; it imports nothing outside the standard library (no numpy, serial,
 stimuli, pandas), so that :mod:`analysis` can use it without importing the runtime.
