@@ -5,7 +5,8 @@
 >>> result.proportions, result.contrasts    # doctest: +SKIP
 
 ``analysis`` depends on nothing of ``experiments``' runtime: it reads the
-session folders (``trials.csv``, ``events.jsonl``, ``session.json``) itself.
+session folders (``trials.csv``, ``events.jsonl``, ``session.json``) with
+:mod:`experiments.logformat`, the log format shared with the writer (standard library only).
 """
 from .errors import LogError, LogWarning, ModelWarning
 from .load import TrialLog, load_trials

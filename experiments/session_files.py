@@ -2,12 +2,11 @@
 
 ``DATA/<participant>/<session>/`` holds ``session.json``, ``events.jsonl`` (the source of truth),
 ``trials.csv`` (rebuilt from the events after every trial, :mod:`experiments.logbook`) and
-``traces/trial-NNN.csv``. This module writes the traces and lists the extra trial columns;
-:mod:`experiments.session` decides when things are written.
+``traces/trial-NNN.csv``. This module writes the traces (their columns and cell format are
+:mod:`experiments.logformat`'s); :mod:`experiments.session` decides when things are written.
 """
 from __future__ import annotations
 
-import math
 import os
 import platform
 import sys
@@ -15,9 +14,9 @@ from importlib import metadata
 from pathlib import Path
 
 from experiments.logbook import fsync, fsync_dir
+from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
 
 __all__ = [
-    "EXTRA_TRIAL_COLUMNS",
     "TRACE_COLUMNS",
     "TraceWriter",
     "package_versions",
@@ -26,17 +25,6 @@ __all__ = [
     "claim_session_folder",
     "schedule_sha256",
 ]
-
-#: Columns the session adds to :data:`experiments.logbook.TRIAL_COLUMNS` in ``trials.csv``.
-EXTRA_TRIAL_COLUMNS = [
-    "tracking_max_C", "contact_time_s", "frames", "frames_lost", "cue_played",
-    "response_source", "profile_skin_thickness_um", "protocol_hash", "trace_file", "finished_at",
-]
-
-#: Columns of ``traces/trial-NNN.csv``.
-TRACE_COLUMNS = ["time_s", "target_C", "contact_C", "ambient_C", "finger_C",
-                 "force1_N", "force2_N", "force3_N", "force4_N", "state"]
-
 
 def trace_name(trial_index: int) -> str:
     """File name (inside ``traces/``) of a trial's trace."""
@@ -52,21 +40,9 @@ def aborted_trace_name(trial_index: int, attempt: int, kind: str = "aborted") ->
     return f"trial-{int(trial_index):03d}.attempt-{int(attempt)}.{kind}.csv"
 
 
-def _fmt(value) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "1" if value else "0"
-    if isinstance(value, float):
-        if math.isnan(value):
-            return ""
-        return repr(round(value, 6))
-    return str(value)
-
-
-#: The numeric cells of a trace line (time_s .. force4_N): 10 significant digits keep the
-#: device's 10 µs time stamps and 0.01 °C / 0.01 N readings exact.
-_FRAME_FORMAT = ",".join(["%.10g"] * 9)
+#: The numeric cells of a trace line (time_s .. force4_N) in one C-level format: the same
+#: text as :func:`~experiments.logformat.format_cell` gives each finite cell.
+_FRAME_FORMAT = ",".join(f"%.{TRACE_DECIMALS[c]}" for c in TRACE_COLUMNS[:-1])
 
 
 class TraceWriter:
@@ -101,8 +77,8 @@ class TraceWriter:
         t, target, contact = float(frame.device_time_s), float(frame.setpoint_C), float(frame.contact_C)
         fields = (t, target, contact, float(frame.ambient_C), float(frame.finger_C), *forces)
         line = _FRAME_FORMAT % fields           # one C-level format: the hot path of a session
-        if "n" in line:                         # nan or inf: blank cells, as _fmt writes them
-            line = ",".join(_fmt(v) for v in fields)
+        if "n" in line:                         # nan or inf: blank cells (format_cell)
+            line = ",".join(format_cell(v, c, TRACE_DECIMALS) for v, c in zip(fields, TRACE_COLUMNS))
         self._fh.write(f"{line},{frame.state}\n")
         self.time_s.append(t)
         self.target_C.append(target)

@@ -3,8 +3,9 @@
 ``DATA/<participant>/<session>/``: ``session.json`` (protocol, participant record),
 ``trials.csv`` (one row per trial; ``mode``, ``status``, ``roughness_id``, ``roughness_um``,
 ``trace_file``) and ``traces/trial-NNN.csv`` (``time_s``, ``target_C``, ``contact_C``,
-``ambient_C``, ``finger_C``, ``force1_N`` .. ``force4_N``, ``state``).  Every real trial with
-status ``ok`` and a trace is used.
+``ambient_C``, ``finger_C``, ``force1_N`` .. ``force4_N``, ``state``:
+:data:`experiments.logformat.TRACE_COLUMNS`).  Every real trial with status ``ok`` and a trace
+is used.
 
 Per trace (each rule documented because each is a choice):
 
@@ -37,6 +38,7 @@ import numpy as np
 
 from experiments.calibration.errors import CalibrationError
 from experiments.calibration.trace import ContactTrace
+from experiments.logformat import FORCE_COLUMNS
 
 __all__ = ["SessionTraces", "load_session_traces", "read_trace_csv", "TOUCH_THRESHOLD_N"]
 
@@ -229,7 +231,7 @@ def load_session_traces(session_dir, *, sensor_side: str = "material", skin_temp
             path = session_dir / "traces" / name
         cols = read_trace_csv(path)
         t = cols["time_s"]
-        forces = [cols[c] for c in ("force1_N", "force2_N", "force3_N", "force4_N") if c in cols]
+        forces = [cols[c] for c in FORCE_COLUMNS if c in cols]
         onset = None
         if forces:
             total = np.nansum(np.vstack(forces), axis=0)

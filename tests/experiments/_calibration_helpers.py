@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 
 from experiments.calibration import ContactSetup, Sensor, sensor_temperature
+from experiments.logformat import TRACE_COLUMNS
 from experiments.protocol import load_protocol
 from stimuli import contact_resistance, material
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
 T_S0, T_M0, L_TRUE = 35.0, 24.0, 700e-6
-# DESIGN.md's session-directory columns (traces/trial-NNN.csv and the trials table)
-TRACE_COLUMNS = ["time_s", "target_C", "contact_C", "ambient_C", "finger_C",
-                 "force1_N", "force2_N", "force3_N", "force4_N", "state"]
+# DESIGN.md's session-directory columns: traces/trial-NNN.csv (TRACE_COLUMNS, the writer's) and
+# the trials table's columns analysis requires (a subset of logformat.TRIAL_COLUMNS)
 TRIAL_COLUMNS = ["participant", "group", "session", "block", "trial_index", "mode", "roughness_id",
                  "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
                  "tracking_rms_C"]

@@ -1,0 +1,85 @@
+"""Which sessions are analysed: each session's state and the inclusion policy (one concept).
+
+A session is *complete* when its event log says it finished (``session_finished``), or, for a
+trials table without a log, when the table holds every planned trial. The policy
+(:data:`SESSION_POLICIES`) picks, per participant, the first or the latest complete session, or
+all of them.
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from experiments.logformat import read_events
+
+from .trial_rows import int_text
+
+__all__ = ["SESSION_POLICIES", "session_state", "apply_policy"]
+
+
+#: Inclusion policies of :func:`load_trials` (``thermocue analyze --sessions``).
+SESSION_POLICIES = ("first", "latest", "all")
+
+
+def session_state(folder: Path, meta: dict) -> dict:
+    """``complete``, ``n_done``, ``n_planned`` and ``created_at`` of one session folder."""
+    done, finished = set(), False
+    try:
+        events, report = read_events(folder / "events.jsonl", on_damage="skip", warn=False)
+    except OSError:
+        events, report = [], None
+    for ev in events:
+        if ev.get("event") == "session_finished":
+            finished = True
+        elif ev.get("event") == "trial_completed" and isinstance(ev.get("row"), dict) \
+                and ev["row"].get("status", "ok") == "ok":
+            done.add(ev.get("trial_index"))
+    planned = meta.get("schedule")
+    n_planned = len(planned) if isinstance(planned, list) else np.nan
+    if report is None or report.n_lines == 0:
+        # No event log (a trials table alone, e.g. exported elsewhere): complete when it holds
+        # every planned trial, or when nothing says how many were planned.
+        try:
+            with open(folder / "trials.csv", newline="", encoding="utf-8") as fh:
+                table = [r for r in csv.DictReader(fh) if r.get("status", "ok") == "ok"]
+        except (OSError, UnicodeDecodeError, csv.Error):
+            table = []
+        done = {r.get("trial_index") for r in table}
+        finished = bool(table) and (np.isnan(n_planned) or len(done) >= n_planned)
+    return {"complete": finished, "n_done": len(done), "n_planned": n_planned,
+            "created_at": str(meta.get("created_at", ""))}
+
+
+def apply_policy(sessions: pd.DataFrame, policy: str) -> pd.DataFrame:
+    """Mark each session ``analysed`` (bool) with its ``reason`` under ``policy``."""
+    analysed, reasons = [], []
+    for _, row in sessions.iterrows():
+        if row["skipped"]:
+            analysed.append(False)
+            reasons.append(f"skipped: {row['skipped']}")
+            continue
+        if policy == "all":
+            analysed.append(True)
+            reasons.append("analysed (--sessions all)" + ("" if row["complete"] else
+                           f"; incomplete: {row['n_done']} of {int_text(row['n_planned'])} trials"))
+            continue
+        mine = sessions[(sessions["participant"] == row["participant"]) & (sessions["skipped"] == "")
+                        & sessions["complete"]].sort_values(["created_at", "session"])
+        chosen = None if mine.empty else (mine.iloc[0] if policy == "first" else mine.iloc[-1])
+        if chosen is not None and chosen["path"] == row["path"]:
+            analysed.append(True)
+            reasons.append(f"analysed: the {policy} complete session of {row['participant']}")
+        elif not row["complete"]:
+            analysed.append(False)
+            reasons.append(f"incomplete: {row['n_done']} of {int_text(row['n_planned'])} trials")
+        else:
+            analysed.append(False)
+            reasons.append(f"repeated session: {row['participant']}'s {policy} complete session "
+                           f"is {chosen['session']}")
+    out = sessions.copy()
+    out["analysed"] = analysed
+    out["reason"] = reasons
+    return out

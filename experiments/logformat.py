@@ -1,0 +1,619 @@
+"""The on-disk log format of a session folder, in one home (standard library only).
+
+One concept: what ``events.jsonl``, ``trials.csv`` and ``traces/trial-NNN.csv`` hold and how
+they are read back (kept in one module, though past 500 lines, so that the format has exactly
+one home: event types, column lists, the cell format, the tolerant readers, the trial-row
+projection and replay). The writer (:mod:`experiments.logbook`, :mod:`experiments.session_files`)
+and the reader of record (:mod:`analysis.load`) both use this module, so that neither
+re-implements the other; it imports nothing outside the standard library (no numpy, serial,
+stimuli, pandas), so that :mod:`analysis` can use it without importing the runtime.
+
+Events
+------
+Every event is a JSON object on its own line with ``event`` (its type), ``seq`` (1, 2, ...
+per file) and ``time`` (UTC, ISO 8601 with milliseconds; a caller may pass its own ``time``),
+plus:
+
+``session_started``
+    ``session``, ``participant``, ``protocol_hash``, ``seed`` (required); usually also
+    ``group``, ``protocol``, ``n_trials``, ``skin_thickness_um``, ``sex``.
+``session_resumed``
+    As ``session_started`` (the context keys are taken from the latest of the two).
+``trial_started``
+    ``trial_index``, ``attempt`` (1, 2, ... per trial) and the rest of the
+    :class:`~experiments.schedule.TrialSpec` (``block``, ``mode``, ``roughness_id``,
+    ``roughness_um``, ``repetition``).
+``trial_completed``
+    ``trial_index``, ``attempt``, ``row``: the trial's row of ``trials.csv`` (see
+    :data:`TRIAL_COLUMNS`; ``status`` "ok" or "fault").
+``trial_aborted``
+    ``trial_index``, ``attempt``, ``reason`` (e.g. "interrupted", "timeout",
+    "killed"), optional ``fault_code``.  Becomes a row with status "aborted".
+``session_interrupted``
+    ``reason`` (e.g. "SIGTERM").
+``session_finished``
+    optional ``n_completed``.
+``log_repaired``
+    ``torn_bytes``, ``torn_tail`` (the cut bytes as text): written by
+    :class:`experiments.logbook.EventLog`.
+
+Any other snake_case type may be logged (state changes, display faults, notes); only the
+types above have required fields.  Non-finite floats are written as ``null``; numpy
+scalars and arrays, paths, dates and dataclasses are converted (:func:`to_jsonable`).
+
+Damage
+------
+A crash can only leave a *torn last line* of a file (appends are single writes). Every
+reader here reads a file up to its first damaged line and says where it stopped, in one
+message per damaged line naming the file and the line (:func:`read_events`,
+:func:`read_csv_prefix`).
+"""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import datetime as _dt
+import io
+import json
+import math
+import os
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+__all__ = [
+    "REQUIRED_FIELDS", "event_problem", "CONTEXT_KEYS", "SPEC_KEYS",
+    "TRIAL_COLUMNS", "COLUMN_DECIMALS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "STATUSES",
+    "TRACE_COLUMNS", "FORCE_COLUMNS", "TRACE_DECIMALS",
+    "to_jsonable", "dumps", "format_cell",
+    "LogDamageWarning", "LogReport", "read_events", "read_csv_prefix",
+    "trials_from_events", "session_context", "SessionProgress", "replay",
+]
+
+# --------------------------------------------------------------------------- events
+#: Required fields per event type (other types: none).
+REQUIRED_FIELDS = {
+    "session_started": ("session", "participant", "protocol_hash", "seed"),
+    "session_resumed": ("session", "participant", "protocol_hash", "seed"),
+    "trial_started": ("trial_index", "attempt"),
+    "trial_completed": ("trial_index", "attempt", "row"),
+    "trial_aborted": ("trial_index", "attempt", "reason"),
+    "session_interrupted": ("reason",),
+}
+
+#: Keys of ``session_started`` / ``session_resumed`` copied onto every trial row.
+CONTEXT_KEYS = ("participant", "group", "session", "skin_thickness_um", "sex", "date", "expName",
+                "protocol_version", "thermocue_version")
+#: Keys of ``trial_started`` (the :class:`~experiments.schedule.TrialSpec`) copied onto its rows.
+SPEC_KEYS = ("block", "mode", "roughness_id", "roughness_um", "repetition")
+
+_EVENT_NAME = re.compile(r"^[a-z][a-z0-9_]{0,63}$")
+
+
+def event_problem(event: Any, fields: Mapping[str, Any]) -> str | None:
+    """What is wrong with an event about to be logged, or None.
+
+    Parameters
+    ----------
+    event : str
+        Its type.
+    fields : mapping
+        Its content (without ``event`` and ``seq``, which the log sets).
+
+    Returns
+    -------
+    str or None
+        ``"<event>.<field>: expected ..., got ..."`` (the caller prefixes the file).
+    """
+    if not isinstance(event, str) or not _EVENT_NAME.match(event):
+        return f"event: expected a snake_case name, got {event!r}"
+    for reserved in ("event", "seq"):
+        if reserved in fields:
+            return f"{event}.{reserved}: expected no value (set by the log), got {fields[reserved]!r}"
+    missing = [k for k in REQUIRED_FIELDS.get(event, ()) if k not in fields]
+    if missing:
+        return f"{event}.{missing[0]}: expected a value, got nothing"
+    if event == "trial_completed" and not isinstance(fields["row"], Mapping):
+        return f"trial_completed.row: expected a mapping, got {fields['row']!r}"
+    return None
+
+
+# --------------------------------------------------------------------------- columns
+#: Columns of ``trials.csv``, in this order, all of them from the first row on (docs/session.md,
+#: "The trial table"): identity, design, stimulus, response, timing, quality. A key a row has
+#: beyond these (none written by this version) follows, sorted.
+TRIAL_COLUMNS = (
+    # identity (PsychoPy's names where PsychoPy has one: date, expName, psychopyVersion)
+    "participant", "session", "group", "sex", "skin_thickness_um", "date", "expName",
+    "protocol_version", "protocol_hash", "thermocue_version", "psychopyVersion",
+    # design
+    "block", "trial_index", "attempt", "repetition", "mode", "roughness_id", "roughness_um",
+    # stimulus
+    "target_side", "profile_skin_thickness_um", "profile_resistance_m2K_W",
+    "profile_resistance_source", "pad_resistance_m2K_W", "rate_limited_max_change_C", "cue_played",
+    # response
+    "response_id", "correct", "rt_s", "response_source",
+    # timing
+    "started_at", "finished_at", "contact_onset_s", "contact_duration_s",
+    # quality
+    "status", "fault_code", "abort_reason", "skin_temperature_C", "skin_temperature_in_range",
+    "tracking_rms_C", "tracking_max_C", "frames", "frames_lost", "trace_file",
+    # the display's measured contact force (mean summed force over the contact; Eq. 5's force)
+    "contact_force_N",
+)
+
+#: Decimals each float column of ``trials.csv`` is written with: the resolution of what
+#: measured it (the display's 0.01 °C and 1 ms device clock, the keyboard's 0.1 ms), or 4
+#: significant digits for modelled resistances ("sig4"). Unlisted floats keep their shortest
+#: round-trip form.
+COLUMN_DECIMALS = {
+    "skin_thickness_um": 1, "roughness_um": 3, "profile_skin_thickness_um": 1,
+    "profile_resistance_m2K_W": "sig4", "pad_resistance_m2K_W": "sig4",
+    "rate_limited_max_change_C": 3, "rt_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
+    "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3, "contact_force_N": 2,
+}
+
+#: Columns every trial row must have for analysis (DESIGN.md, docs/internal-contracts.md
+#: "Trials table"); all of them are in :data:`TRIAL_COLUMNS`.
+REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "mode",
+                    "roughness_id", "response_id", "correct", "status")
+#: Optional columns for analysis and their kinds; missing ones are added empty (``attempt``
+#: defaults to 1).
+OPTIONAL_COLUMNS = {"roughness_um": "float", "repetition": "int", "rt_s": "float",
+                    "tracking_rms_C": "float", "skin_thickness_um": "float", "sex": "str",
+                    "attempt": "int", "started_at": "str", "fault_code": "str"}
+#: Values of the ``status`` column.
+STATUSES = ("ok", "fault", "aborted")
+
+#: Columns of ``traces/trial-NNN.csv``.
+TRACE_COLUMNS = ("time_s", "target_C", "contact_C", "ambient_C", "finger_C",
+                 "force1_N", "force2_N", "force3_N", "force4_N", "state")
+#: The four force sensors' columns of a trace (their sum is the contact force).
+FORCE_COLUMNS = TRACE_COLUMNS[5:9]
+#: The numeric cells of a trace (time_s .. force4_N): 10 significant digits keep the device's
+#: 10 µs time stamps and 0.01 °C / 0.01 N readings exact.
+TRACE_DECIMALS = {c: "10g" for c in TRACE_COLUMNS if c != "state"}
+
+
+# --------------------------------------------------------------------------- encoding
+def to_jsonable(obj: Any) -> Any:
+    """A JSON-ready copy: non-finite floats -> None, numpy -> Python, Path/date -> str.
+
+    Raises
+    ------
+    TypeError
+        For an object with no JSON form.
+    """
+    if obj is None or isinstance(obj, (bool, str, int)):
+        return obj
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, Mapping):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return to_jsonable(dataclasses.asdict(obj))
+    if isinstance(obj, (Path, os.PathLike)):
+        return os.fspath(obj)
+    if isinstance(obj, (_dt.datetime, _dt.date)):
+        return obj.isoformat()
+    tolist = getattr(obj, "tolist", None)  # numpy scalars and arrays
+    if callable(tolist):
+        return to_jsonable(tolist())
+    raise TypeError(f"expected a JSON-ready value, got {type(obj).__name__}: {obj!r}")
+
+
+def dumps(obj: Any, indent: int | None = None) -> str:
+    """``obj`` as JSON text (:func:`to_jsonable` first); compact unless ``indent`` is given."""
+    return json.dumps(to_jsonable(obj), ensure_ascii=False, allow_nan=False, indent=indent,
+                      separators=None if indent else (",", ":"))
+
+
+def format_cell(v: Any, column: str = "", decimals: Mapping[str, Any] = COLUMN_DECIMALS) -> str:
+    """One CSV cell, as every file of a session folder writes it.
+
+    Parameters
+    ----------
+    v : object
+        The value.
+    column : str
+        Its column; ``decimals[column]`` says how a float is written: a number of decimals
+        (trailing zeros cut, ``-0`` written ``0``), ``"sig4"`` (4 significant digits) or
+        ``"10g"`` (10 significant digits, ``%.10g``); a column not listed keeps the shortest
+        round-trip form (``repr``).
+    decimals : mapping
+        :data:`COLUMN_DECIMALS` (``trials.csv``, the default) or :data:`TRACE_DECIMALS`.
+
+    Returns
+    -------
+    str
+        ``""`` for None and non-finite floats; ``1``/``0`` for booleans; compact JSON for
+        dicts and lists; ``str`` for anything else.
+    """
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "1" if v else "0"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return ""
+        places = decimals.get(column)
+        if places == "sig4":
+            return f"{v:.4g}"
+        if places == "10g":
+            return f"{v:.10g}"
+        if places is not None:
+            text = f"{v:.{places}f}".rstrip("0").rstrip(".")
+            return "0" if text in ("-0", "") else text
+        return repr(v)
+    if isinstance(v, (dict, list, tuple)):
+        return dumps(v)
+    return str(v)
+
+
+# --------------------------------------------------------------------------- reading
+class LogDamageWarning(UserWarning):
+    """An event log had a torn or undecodable line; the message names the file and line."""
+
+
+@dataclass(frozen=True)
+class LogReport:
+    """What :func:`read_events` found besides the events.
+
+    Attributes
+    ----------
+    path : str
+    n_events : int
+        Events returned.
+    n_lines : int
+        Lines in the file (a torn last line included).
+    torn_tail : bytes or None
+        The incomplete last line, if any (not returned as an event).
+    torn_line : int or None
+        Its line number.
+    bad_lines : tuple of (int, str)
+        Undecodable lines before the last one: (line number, reason).
+    stopped_at : int or None
+        With ``on_damage="stop"``: the first bad line; nothing from there on was returned.
+    missing_newline : bool
+        The last line was a whole object without its newline (returned as an event).
+    event_lines : tuple of int
+        The line number of each event returned.
+    damage : tuple of str
+        One message per damaged line, naming the file and the line (as warned).
+    """
+
+    path: str
+    n_events: int
+    n_lines: int
+    torn_tail: bytes | None = None
+    torn_line: int | None = None
+    bad_lines: tuple[tuple[int, str], ...] = ()
+    stopped_at: int | None = None
+    missing_newline: bool = False
+    event_lines: tuple[int, ...] = ()
+    damage: tuple[str, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        """No torn line and no bad line."""
+        return self.torn_tail is None and not self.bad_lines
+
+    def describe(self) -> str:
+        """One line for the experimenter."""
+        if self.ok:
+            return f"{self.path}: {self.n_events} events, intact"
+        parts = []
+        if self.torn_tail is not None:
+            parts.append(f"torn last line {self.torn_line} ({len(self.torn_tail)} bytes) ignored")
+        for n, why in self.bad_lines:
+            parts.append(f"line {n} undecodable ({why})")
+        if self.stopped_at is not None:
+            parts.append(f"read up to line {self.stopped_at - 1}")
+        return f"{self.path}: {self.n_events} events; " + "; ".join(parts)
+
+
+def _decode(raw: bytes) -> dict:
+    obj = json.loads(raw.decode("utf-8"))
+    if not isinstance(obj, dict) or not isinstance(obj.get("event"), str):
+        raise ValueError("not an event object")
+    return obj
+
+
+def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) -> tuple[list[dict], LogReport]:
+    """Read an event log, tolerating damage.
+
+    Parameters
+    ----------
+    path : str or Path
+        An ``events.jsonl`` file.
+    on_damage : {"stop", "skip"}
+        What to do at an undecodable line that is not the last: ``"stop"`` returns the
+        events before it; ``"skip"`` leaves it out and goes on.
+    warn : bool
+        Issue a :class:`LogDamageWarning` (naming the file and line) per damaged line; the
+        messages are in ``report.damage`` either way.
+
+    Returns
+    -------
+    events : list of dict
+    report : LogReport
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+
+    Notes
+    -----
+    A last line without its newline that does not decode is a *torn* line, the trace of a
+    crash during an append; it is reported and ignored.  Empty lines are skipped.  A line
+    that is not a JSON object with an ``event`` string is undecodable.
+    """
+    if on_damage not in ("stop", "skip"):
+        raise ValueError(f"on_damage: expected 'stop' or 'skip', got {on_damage!r}")
+    path = Path(path)
+    data = path.read_bytes()
+    lines = data.split(b"\n")
+    last_complete = data.endswith(b"\n") or not data
+    if last_complete:
+        lines = lines[:-1]
+    events: list[dict] = []
+    numbers: list[int] = []
+    damage: list[str] = []
+    torn = torn_line = stopped = None
+    bad: list[tuple[int, str]] = []
+    missing_newline = False
+    n = len(lines)
+    for i, raw in enumerate(lines, start=1):
+        is_tail = i == n and not last_complete
+        if not raw.strip():
+            continue
+        try:
+            ev = _decode(raw)
+        except (ValueError, UnicodeDecodeError) as exc:
+            if is_tail:
+                torn, torn_line = raw, i
+                damage.append(f"{path}: line {i}: torn last line ({len(raw)} bytes) ignored")
+                break
+            reason = str(exc).split("\n")[0][:120]
+            bad.append((i, reason))
+            if on_damage == "stop":
+                stopped = i
+                damage.append(f"{path}: line {i}: undecodable line ({reason}); "
+                              f"events read up to line {i - 1}")
+                break
+            damage.append(f"{path}: line {i}: undecodable line ({reason}) skipped")
+            continue
+        if is_tail:
+            missing_newline = True
+        events.append(ev)
+        numbers.append(i)
+    if warn:
+        for text in damage:
+            warnings.warn(text, LogDamageWarning, stacklevel=2)
+    report = LogReport(path=str(path), n_events=len(events), n_lines=n, torn_tail=torn,
+                       torn_line=torn_line, bad_lines=tuple(bad), stopped_at=stopped,
+                       missing_newline=missing_newline, event_lines=tuple(numbers),
+                       damage=tuple(damage))
+    return events, report
+
+
+def _decode_prefix(raw: bytes, path: Path, damage: list) -> str:
+    """Decode ``raw`` as UTF-8 up to the first NUL or undecodable byte (whole lines only)."""
+    cut = len(raw)
+    nul = raw.find(b"\x00")
+    if nul >= 0:
+        cut = nul
+    try:
+        text = raw[:cut].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        cut = exc.start
+        text = raw[:cut].decode("utf-8")
+    if cut < len(raw):
+        line = text.count("\n") + 1
+        damage.append(f"{path}: line {line}: damaged bytes from here on; read the lines before it")
+        text = text[: text.rfind("\n") + 1]      # the damaged line is not trusted either
+    return text
+
+
+def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]], list[int], list[str]]:
+    """Read a CSV file (``trials.csv``) up to its first damaged line.
+
+    Damage is a NUL or undecodable byte (the lines before its line are read), a torn last
+    line (no newline at its end) or a row with the wrong number of fields (the rows before
+    it are read).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    header : list of str or None
+        The first line's cells as written (None for an empty file; no rows are read after a
+        header with no name in it).
+    rows : list of list of str
+        The rows read (blank lines left out).
+    lines : list of int
+        The 1-based line number of each row.
+    damage : list of str
+        One message per damage found, naming the file and the line.
+    """
+    path = Path(path)
+    damage: list[str] = []
+    text = _decode_prefix(path.read_bytes(), path, damage)
+    if text and not text.endswith("\n"):
+        torn = text.count("\n") + 1
+        damage.append(f"{path}: line {torn}: torn last line (no newline at its end); ignored")
+        text = text[: text.rfind("\n") + 1]
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader, None)
+    if not header or not any(h.strip() for h in header):
+        return header, [], [], damage
+    rows, lines = [], []
+    for row in reader:
+        if not row or all(not c.strip() for c in row):
+            continue
+        if len(row) != len(header):
+            damage.append(f"{path}: line {reader.line_num}: expected {len(header)} fields, "
+                          f"got {len(row)}; read the {len(rows)} rows before it")
+            break
+        rows.append(row)
+        lines.append(reader.line_num)
+    return header, rows, lines, damage
+
+
+# --------------------------------------------------------------------------- trial rows
+def session_context(events: Iterable[Mapping[str, Any]]) -> dict:
+    """The :data:`CONTEXT_KEYS` of the latest ``session_started``/``session_resumed``."""
+    ctx: dict[str, Any] = {}
+    for ev in events:
+        if ev.get("event") in ("session_started", "session_resumed"):
+            ctx.update({k: ev[k] for k in CONTEXT_KEYS if k in ev})
+    return ctx
+
+
+def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | None = None,
+                       damage: list | None = None) -> list[dict]:
+    """The rows of ``trials.csv``, rebuilt from the event log.
+
+    Parameters
+    ----------
+    events : iterable of dict
+        As returned by :func:`read_events`.
+    sources : list, optional
+        If given, the position (in ``events``) of the event each row comes from is appended.
+    damage : list, optional
+        If given, a second event for an attempt is reported here (one message each)
+        instead of as a :class:`LogDamageWarning`.
+
+    Returns
+    -------
+    list of dict
+        In log order: one row per ``trial_completed`` (its ``row``) and one per
+        ``trial_aborted`` (status ``"aborted"``, plus ``abort_reason``).  Each row is
+        completed from the session context (:data:`CONTEXT_KEYS` of the latest
+        ``session_started``/``session_resumed``) and the attempt's ``trial_started``
+        (:data:`SPEC_KEYS` and ``started_at``, its ``time``); the row's own values win.
+        ``correct`` is filled from ``response_id == roughness_id`` (the values as logged)
+        when the row lacks it.  A second event for the same (trial_index, attempt) is
+        ignored.
+    """
+    ctx: dict[str, Any] = {}
+    starts: dict[tuple, Mapping] = {}
+    seen: set[tuple] = set()
+    rows: list[dict] = []
+    for position, ev in enumerate(events):
+        kind = ev.get("event")
+        if kind in ("session_started", "session_resumed"):
+            ctx.update(session_context([ev]))
+        elif kind == "trial_started":
+            starts[(ev.get("trial_index"), ev.get("attempt"))] = ev
+        elif kind in ("trial_completed", "trial_aborted"):
+            key = (ev.get("trial_index"), ev.get("attempt"))
+            if key in seen:
+                note = (f"trial {key[0]} attempt {key[1]}: a second {kind} event "
+                        f"(seq {ev.get('seq')}) ignored")
+                if damage is None:
+                    warnings.warn(f"events: {note}", LogDamageWarning, stacklevel=2)
+                else:
+                    damage.append(note)
+                continue
+            seen.add(key)
+            start = starts.get(key, {})
+            row: dict[str, Any] = dict(ctx)
+            row.update({k: start[k] for k in SPEC_KEYS if k in start})
+            row["trial_index"], row["attempt"] = key
+            if "time" in start:
+                row["started_at"] = start["time"]
+            if kind == "trial_completed":
+                row.update(ev["row"])
+                row.setdefault("status", "ok")
+                if row.get("correct") is None and row.get("response_id") is not None \
+                        and row.get("roughness_id") is not None:
+                    row["correct"] = int(row["response_id"] == row["roughness_id"])
+            else:
+                row["status"] = "aborted"
+                row["abort_reason"] = ev.get("reason")
+                if ev.get("fault_code") is not None:
+                    row["fault_code"] = ev["fault_code"]
+            rows.append(row)
+            if sources is not None:
+                sources.append(position)
+    return rows
+
+
+# --------------------------------------------------------------------------- replay
+@dataclass
+class SessionProgress:
+    """Where a session stands, from its events (for ``thermocue resume``).
+
+    Attributes
+    ----------
+    session : dict or None
+        The first ``session_started`` event.
+    completed : dict of int to str
+        trial_index -> status of its ``trial_completed`` row ("ok" or "fault"; the last
+        one if a trial was completed more than once).
+    aborted : list of (int, int)
+        (trial_index, attempt) of ``trial_aborted`` events.
+    open_attempts : list of (int, int)
+        Attempts started and neither completed nor aborted (cut off by a crash): log a
+        ``trial_aborted`` for each before re-running the trial.
+    attempts : dict of int to int
+        trial_index -> highest attempt number seen.
+    finished : bool
+        A ``session_finished`` event is present.
+    last_seq : int
+    """
+
+    session: dict | None = None
+    completed: dict[int, str] = field(default_factory=dict)
+    aborted: list[tuple[int, int]] = field(default_factory=list)
+    open_attempts: list[tuple[int, int]] = field(default_factory=list)
+    attempts: dict[int, int] = field(default_factory=dict)
+    finished: bool = False
+    last_seq: int = 0
+
+    def next_attempt(self, trial_index: int) -> int:
+        """The attempt number for the next try of a trial."""
+        return self.attempts.get(trial_index, 0) + 1
+
+    def first_incomplete(self, trial_indices: Iterable[int]) -> int | None:
+        """The first of ``trial_indices`` (schedule order) with no completed attempt."""
+        for i in trial_indices:
+            if i not in self.completed:
+                return i
+        return None
+
+
+def replay(events: Iterable[Mapping[str, Any]]) -> SessionProgress:
+    """Summarise a session's events into a :class:`SessionProgress`."""
+    p = SessionProgress()
+    open_: dict[tuple[int, int], None] = {}
+    for ev in events:
+        kind = ev.get("event")
+        if isinstance(ev.get("seq"), int):
+            p.last_seq = max(p.last_seq, ev["seq"])
+        if kind == "session_started" and p.session is None:
+            p.session = dict(ev)
+        elif kind in ("trial_started", "trial_completed", "trial_aborted"):
+            ti, att = ev.get("trial_index"), ev.get("attempt")
+            if isinstance(ti, int) and isinstance(att, int):
+                p.attempts[ti] = max(p.attempts.get(ti, 0), att)
+            if kind == "trial_started":
+                open_[(ti, att)] = None
+            else:
+                open_.pop((ti, att), None)
+                if kind == "trial_completed":
+                    p.completed[ti] = ev.get("row", {}).get("status", "ok")
+                else:
+                    p.aborted.append((ti, att))
+        elif kind == "session_finished":
+            p.finished = True
+    p.open_attempts = list(open_)
+    return p
