@@ -127,7 +127,7 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
     predicted : pandas.DataFrame
         Left panel: columns group, mode, roughness_id, roughness_um, expected, study_low,
         study_high (expected proportion correct over many simulated studies and the 95 % range
-        of a single study's; :class:`experiments.simulation.scenarios.ScenarioResult`).
+        of a single study's; :class:`experiments.simulation.figure9.scenarios.ScenarioResult`).
     observed : pandas.DataFrame
         Right panel: :func:`analysis.cell_proportions` of the emulated sessions.
     left_title, right_title : str

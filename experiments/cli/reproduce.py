@@ -6,7 +6,7 @@
   markdown table is also printed.
 * ``figure9``: the paper's claims under every (replay hypothesis x observer) scenario from
   many simulated 15 + 15 studies, then the 30-participant study on the emulated display for the
-  headline scenario (:func:`experiments.simulation.reproduction.run_reproduction`): by default
+  headline scenario (:func:`experiments.simulation.figure9.reproduction.run_reproduction`): by default
   the scenario that best matches the paper's evidence; ``--replay`` and ``--observer`` choose
   it (``--target-side`` / ``--rate-limit`` override single fields); ``study.json`` and
   ``report.md`` say which. ``--participants N`` runs N of
@@ -98,9 +98,9 @@ def _run(ns) -> int:
         print(csv_path)
         print(md_path)
         return 0
-    # figure9: the simulated cohort (owned by experiments/cohort.py)
+    # figure9: the simulated cohort (experiments/simulation/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
-    from experiments.simulation.reproduction import run_reproduction
+    from experiments.simulation.figure9.reproduction import run_reproduction
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
                      observer=ns.observer, n_studies=400 if ns.studies is None else ns.studies,

@@ -3,7 +3,7 @@
 An emulated session (``thermocue run ... --responder simulated``) costs about a second per
 participant; a claim's probability needs hundreds of studies per scenario.  This module
 computes the same participants' noise-free features once (a *pool* of persons per group, the
-physics of :mod:`experiments.participant_model`), then draws studies: 15 persons per group from
+physics of :mod:`experiments.simulation.person`), then draws studies: 15 persons per group from
 the pool, their familiarisation percepts, the real and simulated blocks' percepts in a random
 order, and the answers of an observer (:mod:`.observers`, the very code the simulated responder
 runs), all vectorised.
@@ -22,7 +22,7 @@ Where this differs from emulated sessions (it is *not* exactly equivalent)
   schedule's ``order = "random"`` is also a uniform permutation, from another seed).
 * Random numbers come from one generator per scenario, not from ``(seed, trial_index)`` per
   person: the same distributions, different draws.
-Everything else is the same: person draws (:func:`~experiments.participant_model.draw_person`
+Everything else is the same: person draws (:func:`~experiments.simulation.person.draw_person`
 ranges), the session's own target profiles (:func:`experiments.session_setup.
 simulated_target_profile`, rate limit included), the finger–pad contact resistance, the
 features, the noise model, the familiarisation (one touch per real sample, by default), the
@@ -86,8 +86,8 @@ def build_pool(protocol="roughness_recognition", hypotheses=("material", "skin",
     dermis_fraction : (low, high)
         Range of ``d / L`` persons are drawn from (the cohort's 0.55–0.65).
     """
-    from experiments.participant_model import (GROUP_THICKNESS_UM, PerceptionParameters,
-                                               SimulatedPerson, draw_person)
+    from experiments.simulation.person import PerceptionParameters, SimulatedPerson, draw_person
+    from stimuli.paper import GROUP_THICKNESS_UM
     from experiments.protocol import load_protocol
     from experiments.session_setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
