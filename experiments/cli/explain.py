@@ -7,6 +7,8 @@ against the full one. ``--json`` prints the same as one JSON object.
 """
 from __future__ import annotations
 
+import json
+
 __all__ = ["register"]
 
 
@@ -46,8 +48,6 @@ def _um(v):
 
 
 def _run(ns) -> int:
-    import json
-
     from stimuli.planner import plan
     from stimuli.scene import PERCEPTUAL_FLOOR_K, Scene
 
