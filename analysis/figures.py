@@ -6,6 +6,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from stimuli.paper import SAMPLE_NAMES
+
 __all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
            "Y_LIMITS"]
 
@@ -196,8 +198,8 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
     for k, (ax, (group, mode)) in enumerate(zip(axes.ravel(), panels)):
         sel = confusion[(confusion["group"] == group) & (confusion["mode"] == mode)]
         ax.set_title(f"Group {group}, {mode}", fontsize=10)
-        ax.set_xticks(range(4), ["1#", "2#", "3#", "4#"])
-        ax.set_yticks(range(4), ["1#", "2#", "3#", "4#"])
+        ax.set_xticks(range(4), SAMPLE_NAMES)
+        ax.set_yticks(range(4), SAMPLE_NAMES)
         if k >= 2:
             ax.set_xlabel("response")
         if k % 2 == 0:

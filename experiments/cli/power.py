@@ -6,6 +6,8 @@ import logging
 import time
 from pathlib import Path
 
+from stimuli.paper import MODES
+
 log = logging.getLogger("thermocue.analysis")
 
 
@@ -40,7 +42,7 @@ def register(sub) -> None:
                         "model's with --from-analysis, else 0.5)")
     p.add_argument("--missing-rate", type=float, default=0.0, metavar="P",
                    help="probability that a scheduled trial gives no answer (default 0)")
-    p.add_argument("--mode", choices=("real", "simulated"), default="real",
+    p.add_argument("--mode", choices=MODES, default="real",
                    help="mode whose group difference is tested (default real: the primary test)")
     p.add_argument("--test", choices=("gee", "cluster-t"), default="gee",
                    help="gee: the report's primary test (default); cluster-t: Welch t on "

@@ -9,7 +9,7 @@ import os
 import sys
 from pathlib import Path
 
-RESPONDERS = ("psychopy", "console", "simulated")
+from stimuli.paper import RESPONDER_NAMES as RESPONDERS
 
 
 def register(sub) -> None:

@@ -54,7 +54,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, PAD_MATERIAL, PAD_ROUGHNESS_M,
-                          SKIN_TEMPERATURE_RANGE_C)
+                          SAMPLE_MATERIAL, SKIN_TEMPERATURE_RANGE_C)
 
 __all__ = [
     "FEATURE_NAMES",
@@ -261,7 +261,7 @@ class SimulatedPerson:
         n = int(round(duration * self.params.sample_rate_Hz))
         return np.arange(n + 1) / self.params.sample_rate_Hz
 
-    def feel_real(self, roughness_m: float, *, material: str = "stainless_steel",
+    def feel_real(self, roughness_m: float, *, material: str = SAMPLE_MATERIAL,
                   sample_thickness_m: float | None | str = "default",
                   material_temperature_C: float | None = None,
                   skin_temperature_C: float | None = None, force_N: float = 2.0):

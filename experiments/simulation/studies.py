@@ -34,6 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stimuli.paper import DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, TARGET_SIDES
+
 __all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
            "imposed_features"]
 
@@ -66,9 +68,9 @@ class PersonPool:
     settings: dict = field(default_factory=dict)
 
 
-def build_pool(protocol="roughness_recognition", hypotheses=("material", "skin", "compensated"),
+def build_pool(protocol="roughness_recognition", hypotheses=TARGET_SIDES,
                pool_size: int = 100, seed: int = 0, params=None, receptor_depth_um: float | None = None,
-               dermis_fraction=(0.55, 0.65)) -> PersonPool:
+               dermis_fraction=DERMIS_FRACTION_RANGE) -> PersonPool:
     """Draw ``pool_size`` persons per group and compute their noise-free features.
 
     Parameters
@@ -87,7 +89,6 @@ def build_pool(protocol="roughness_recognition", hypotheses=("material", "skin",
         Range of ``d / L`` persons are drawn from (the cohort's 0.55–0.65).
     """
     from experiments.simulation.person import PerceptionParameters, SimulatedPerson, draw_person
-    from stimuli.paper import GROUP_THICKNESS_UM
     from experiments.protocol import load_protocol
     from experiments.session_setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant

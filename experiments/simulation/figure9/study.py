@@ -207,7 +207,9 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         # Import the engine once here so forked workers start with it loaded.
         import experiments.hardware  # noqa: F401
         import experiments.session  # noqa: F401
-        import stimuli  # noqa: F401
+        import stimuli.contact  # noqa: F401  (the package loads its model on first use)
+        import stimuli.display_response  # noqa: F401
+        import stimuli.target  # noqa: F401
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         with ProcessPoolExecutor(max_workers=workers,
                                  mp_context=multiprocessing.get_context(method)) as pool:
