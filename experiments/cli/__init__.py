@@ -22,7 +22,7 @@ import sys
 from experiments import thermocue_version
 from experiments.cli.logs import configure_logging
 
-__all__ = ["main", "SUBCOMMANDS", "USER_ERRORS", "thermocue_version"]
+__all__ = ["main", "SUBCOMMANDS", "thermocue_version"]
 
 #: Subcommand name -> module (in this package) that registers it.
 SUBCOMMANDS = {
@@ -60,8 +60,6 @@ def _user_errors():
         pass
     return tuple(classes)
 
-
-USER_ERRORS = None  # filled lazily by main()
 
 QUIET_HELP = "no progress lines on stderr (warnings, errors and results are still printed)"
 

@@ -57,7 +57,6 @@ from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, PAD_MATERI
                           SAMPLE_MATERIAL, SKIN_TEMPERATURE_RANGE_C)
 
 __all__ = [
-    "FEATURE_NAMES",
     "feature_names",
     "PerceptionParameters",
     "SimulatedPerson",
@@ -167,10 +166,6 @@ class PerceptionParameters:
 def feature_names(params: PerceptionParameters) -> tuple[str, ...]:
     """Names of the features for ``params`` (drop at each time, then the peak rate)."""
     return tuple(f"drop_{t:g}s_C" for t in params.drop_times_s) + ("peak_rate_C_per_s",)
-
-
-#: Feature names for the default parameters.
-FEATURE_NAMES = feature_names(PerceptionParameters())
 
 
 def receptor_features(t, receptor_C, initial_C, params: PerceptionParameters) -> np.ndarray:
