@@ -234,7 +234,7 @@ def test_finger_stays_on_for_the_whole_recording_of_an_exp1_session(tmp_path):
 
     protocol = load_protocol("interface_temperature")
     record_s, threshold_N = protocol.contact.record_s, protocol.contact.force_threshold_N
-    participant = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
+    participant = Path(__file__).resolve().parents[3] / "participants" / "examples" / "P01.json"
     status = main(["run", "interface_temperature", "--participant", str(participant),
                    "--display", "emulator://?clock=virtual", "--responder", "simulated",
                    "--data", str(tmp_path / "data"), "--seed", "1", "--quiet"])
