@@ -10,7 +10,6 @@ Progress ("participant n of N", elapsed, ETA) and the Figure 9 table are logged 
 """
 from __future__ import annotations
 
-import copy
 import io
 import logging
 import multiprocessing
@@ -335,7 +334,8 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     from experiments.errors import UserInputError
     from experiments.logbook import atomic_write_json
     from experiments.protocol import load_protocol, parse_protocol
-    from experiments.simulation.replay import _add_display_familiarisation, replay_hypothesis
+    from experiments.simulation.replay import (_add_display_familiarisation, _with_simulation,
+                                               replay_hypothesis)
     base = load_protocol(protocol)
     sim = base.simulation
     if sim is None:
@@ -355,8 +355,7 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     changes = {k: v for k, v in changes.items() if v != getattr(sim, k)}
     if not changes and not display_familiarisation:
         return str(protocol), base
-    data = copy.deepcopy(base.data)
-    data["simulation"] = {**data["simulation"], **changes}
+    data = _with_simulation(base.data, **changes)
     if display_familiarisation:
         data = _add_display_familiarisation(data)
     where = base.path.name if base.path is not None else base.name
