@@ -72,13 +72,13 @@ def _sizes(text: str):
     return sizes
 
 
-def _model_cells():
+def _model_cells(progress):
     """Per-cell probabilities from the simulated-participant model, or None if unavailable."""
     try:
         from experiments.simulation.prediction import predicted_cell_probabilities
     except ImportError:
         return None
-    log.info("predicting per-cell probabilities from the simulated-participant model")
+    progress("predicting per-cell probabilities from the simulated-participant model")
     return predicted_cell_probabilities()
 
 
@@ -116,7 +116,7 @@ def _run(ns) -> int:
             raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
         cells, source = read_cells(ns.cells), ns.cells
     else:
-        cells, source = _model_cells(), "experiments.simulation.prediction"
+        cells, source = _model_cells(progress), "experiments.simulation.prediction"
         if cells is None:
             raise UserInputError("--cells: expected a CSV of per-cell probabilities (group, mode, "
                                  "roughness_id, p_correct), got none, and the simulated-participant "
