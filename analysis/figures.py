@@ -6,6 +6,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from stimuli.paper import SAMPLE_NAMES
+
 __all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
            "Y_LIMITS"]
 
@@ -127,7 +129,7 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
     predicted : pandas.DataFrame
         Left panel: columns group, mode, roughness_id, roughness_um, expected, study_low,
         study_high (expected proportion correct over many simulated studies and the 95 % range
-        of a single study's; :class:`experiments.simulation.scenarios.ScenarioResult`).
+        of a single study's; :class:`experiments.simulation.figure9.scenarios.ScenarioResult`).
     observed : pandas.DataFrame
         Right panel: :func:`analysis.cell_proportions` of the emulated sessions.
     left_title, right_title : str
@@ -196,8 +198,8 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
     for k, (ax, (group, mode)) in enumerate(zip(axes.ravel(), panels)):
         sel = confusion[(confusion["group"] == group) & (confusion["mode"] == mode)]
         ax.set_title(f"Group {group}, {mode}", fontsize=10)
-        ax.set_xticks(range(4), ["1#", "2#", "3#", "4#"])
-        ax.set_yticks(range(4), ["1#", "2#", "3#", "4#"])
+        ax.set_xticks(range(4), SAMPLE_NAMES)
+        ax.set_yticks(range(4), SAMPLE_NAMES)
         if k >= 2:
             ax.set_xlabel("response")
         if k % 2 == 0:

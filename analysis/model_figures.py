@@ -22,10 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from stimuli.paper import TABLE2_ROUGHNESS_UM
+
 __all__ = ["FIGURES", "figure_rows", "write_figures", "METHODS", "ROUGHNESS_UM"]
 
 METHODS = ("paper-as-printed", "paper", "exact")
-ROUGHNESS_UM = (0.4, 1.6, 12.5, 50.0, 100.0)
+ROUGHNESS_UM = TABLE2_ROUGHNESS_UM
 FIG3_EPIDERMIS_UM = (100.0, 200.0, 300.0, 400.0, 500.0)
 FIG3_DERMIS_UM = 600.0
 SKIN_C, MATERIAL_C = 36.0, 20.0

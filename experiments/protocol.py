@@ -33,6 +33,7 @@ else:  # pragma: no cover
 
 from experiments.errors import ProtocolError
 from participants_schema import GroupRule
+from stimuli import paper
 
 __all__ = [
     "PROTOCOLS_DIR",
@@ -57,17 +58,17 @@ __all__ = [
 #: Folder of the packaged protocols.
 PROTOCOLS_DIR = Path(__file__).with_name("protocols")
 
-MODES = ("real", "simulated")
+MODES = paper.MODES
 ORDERS = ("random", "by_repetition", "fixed")
 BLOCK_ORDERS = ("fixed", "counterbalanced", "random")
 SIM_THICKNESS = ("group", "participant")
 SIM_METHODS = ("exact", "paper", "paper-as-printed", "numerical")
-SIM_TARGET_SIDES = ("material", "skin", "compensated")
-SIM_RATE_LIMITS = ("refuse", "slew")
+SIM_TARGET_SIDES = paper.TARGET_SIDES
+SIM_RATE_LIMITS = paper.RATE_LIMITS
 #: The emulated display's pad face (``experiments.hardware.pad_physics.finger_pad_resistance``):
 #: polished copper, R_a 0.4 µm.  The defaults of ``[simulation] pad_roughness_um`` / ``pad_material``.
-DEFAULT_PAD_ROUGHNESS_UM = 0.4
-DEFAULT_PAD_MATERIAL = "copper"
+DEFAULT_PAD_ROUGHNESS_UM = paper.PAD_ROUGHNESS_UM
+DEFAULT_PAD_MATERIAL = paper.PAD_MATERIAL
 #: Skin-safe bounds of ``[display]`` min_C, max_C and neutral_C (°C).  The pad touches a
 #: fingertip for up to ``max_contact_s``: 45 °C is where heat pain begins for most people (the
 #: heat-pain threshold region, ~43-47 °C, and the usual ceiling of thermal testers held against

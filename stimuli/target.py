@@ -20,12 +20,13 @@ import numpy as np
 
 from . import _cache
 from .errors import ModelInputError
+from .paper import TARGET_SIDES
 from .properties import Material, Skin
 
 __all__ = ["TargetProfile", "target_profile", "MODEL_REVISION", "SIDES"]
 
 #: What :func:`target_profile` can return (``side=``).
-SIDES = ("material", "skin", "compensated")
+SIDES = TARGET_SIDES
 
 #: Bumped when a change in the model would change a cached profile (part of the hash).
 MODEL_REVISION = 2   # 2: profiles planned (issue 12), the plan stored with them

@@ -27,10 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
+from stimuli.paper import GROUP_TARGET_THICKNESS_UM, SAMPLE_ROUGHNESS_UM
+
 __all__ = ["run_display_benchmark", "CONTROLLER"]
 
-ROUGHNESS_UM = {1: 1.6, 2: 12.5, 3: 50.0, 4: 100.0}
-SKIN_UM = (650.0, 1000.0)
+ROUGHNESS_UM = dict(enumerate(SAMPLE_ROUGHNESS_UM, start=1))
+SKIN_UM = tuple(GROUP_TARGET_THICKNESS_UM.values())
 
 CONTROLLER = (
     "Device-side loop at 200 Hz (5 ms) on the contact sensor: feed-forward of the profile's "

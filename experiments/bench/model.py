@@ -41,10 +41,9 @@ SKIN_THICKNESS_M = 650e-6
 ROUGHNESS_M = 12.5e-6
 T_SKIN_C = 35.5
 T_MATERIAL_C = 20.0
-#: The display's pad face (experiments.participant_model.PAD_ROUGHNESS_M / PAD_MATERIAL): Eq. 5
+#: The display's pad face (stimuli.paper.PAD_ROUGHNESS_M / PAD_MATERIAL): Eq. 5
 #: of polished copper, R_a 0.4 µm, gives the finger-pad resistance R_pad of the ``pad`` rows.
-PAD_ROUGHNESS_M = 0.4e-6
-PAD_MATERIAL = "copper"
+from stimuli.paper import PAD_MATERIAL, PAD_ROUGHNESS_M  # noqa: E402
 
 
 # --------------------------------------------------------------------------- machine

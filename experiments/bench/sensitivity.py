@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from stimuli.paper import GROUP_TARGET_THICKNESS_UM, SAMPLE_ROUGHNESS_UM
+
 __all__ = ["sensitivity_rows", "sensitivity_markdown", "VARIANTS"]
 
-ROUGHNESS_UM = (1.6, 12.5, 50.0, 100.0)
-GROUPS_UM = {"A": 650.0, "B": 1000.0}
+ROUGHNESS_UM = SAMPLE_ROUGHNESS_UM
+GROUPS_UM = GROUP_TARGET_THICKNESS_UM
 TIMES_S = (3.0, 8.0)
 
 #: (label, Scene options) -- the first is the default every other row is compared with.

@@ -8,6 +8,10 @@ Exit status: 0 on success, 2 on bad input (one line naming the file and the
 field, no traceback), 1 otherwise; a file-system failure is one line naming the path
 (``thermocue run: /data/P01: Permission denied``), exit 1, or exit 2 when it is caught before
 any work (a ``--data`` or ``--out`` that cannot be written, :mod:`experiments.cli.paths`).
+
+Progress lines (the library's ``thermocue.*`` loggers) go to stderr while a command runs
+(:func:`experiments.cli.logs.configure_logging`); ``--quiet``, before or after the command name,
+keeps only warnings and errors.
 """
 from __future__ import annotations
 
@@ -16,8 +20,9 @@ import importlib
 import sys
 
 from experiments import thermocue_version
+from experiments.cli.logs import configure_logging
 
-__all__ = ["main", "SUBCOMMANDS", "USER_ERRORS", "thermocue_version"]
+__all__ = ["main", "SUBCOMMANDS", "thermocue_version"]
 
 #: Subcommand name -> module (in this package) that registers it.
 SUBCOMMANDS = {
@@ -56,7 +61,7 @@ def _user_errors():
     return tuple(classes)
 
 
-USER_ERRORS = None  # filled lazily by main()
+QUIET_HELP = "no progress lines on stderr (warnings, errors and results are still printed)"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,10 +70,16 @@ def build_parser() -> argparse.ArgumentParser:
         description="Thermal-tactile roughness perception: model, display, sessions, analysis.",
     )
     parser.add_argument("--version", action="version", version=f"thermocue {thermocue_version()}")
+    parser.add_argument("--quiet", action="store_true", help=QUIET_HELP)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, module in SUBCOMMANDS.items():
         mod = importlib.import_module(f"{__name__}.{module}")
         mod.register(sub)
+    for command in sub.choices.values():
+        if "--quiet" not in command._option_string_actions:   # run/resume have their own
+            # SUPPRESS: absent after the command name, the value before it stands
+            command.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS,
+                                 help=QUIET_HELP)
     return parser
 
 
@@ -78,7 +89,8 @@ def main(args: list[str] | None = None) -> int:
     ns = parser.parse_args(args)
     user_errors = _user_errors()
     try:
-        status = ns.func(ns)
+        with configure_logging(quiet=ns.quiet):
+            status = ns.func(ns)
     except user_errors as exc:
         print(f"thermocue {ns.command}: {exc}", file=sys.stderr)
         return 2

@@ -1,8 +1,11 @@
 """``thermocue analyze DATA_DIR --out DIR``: Figure 9, every table and report.md from the logs."""
 from __future__ import annotations
 
-import sys
+import logging
 import time
+import warnings
+
+log = logging.getLogger("thermocue.analysis")
 
 
 def register(sub) -> None:
@@ -34,8 +37,6 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    import warnings
-
     from analysis import LogWarning, analyze
     from experiments.errors import UserInputError
 
@@ -45,8 +46,8 @@ def _run(ns) -> int:
         raise UserInputError(f"--bootstrap: expected an integer >= 0, got {ns.bootstrap!r}")
     start = time.monotonic()
 
-    def progress(message: str) -> None:
-        print(f"[{time.monotonic() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
+    def progress(message: str) -> None:      # analysis.analyze's steps, with the time so far
+        log.info("[%6.1f s] %s", time.monotonic() - start, message)
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LogWarning)     # listed in the report and below
@@ -54,7 +55,7 @@ def _run(ns) -> int:
                          bayes=ns.bayes_vb and not ns.no_bayes, mixed=not ns.no_mixed,
                          progress=progress, sessions=ns.sessions)
     for message in result.log.warnings:
-        print(f"warning: {message}", file=sys.stderr)
+        log.warning("warning: %s", message)
     progress(f"done: {result.files['report']}")
     print(result.files["report"])
     return 0

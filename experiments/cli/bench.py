@@ -7,6 +7,8 @@ table and write ``DIR/bench.json`` (unit in every field name) and a PNG.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 __all__ = ["register"]
 
 
@@ -22,8 +24,6 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    from pathlib import Path
-
     from experiments.errors import UserInputError
 
     out = Path(ns.out if ns.out is not None else f"bench-{ns.target}")

@@ -12,7 +12,9 @@ with the reasons in one line, as it does for unusable traces.
 """
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
 
 HELP_SENSOR = ("where the contact sensor sits: 'material' (massless, on the sample surface: the "
                "display's contact sensor, Eq. 7; the default), 'skin' (massless, glued to the "
@@ -82,9 +84,6 @@ def _sample_thickness(value, default_m):
 
 
 def run(ns) -> int:
-    import json
-    from pathlib import Path
-
     from stimuli import material as get_material
 
     from experiments.calibration import (CalibrationRefused, ContactSetup, Sensor, calibration_record,

@@ -7,6 +7,10 @@ against the full one. ``--json`` prints the same as one JSON object.
 """
 from __future__ import annotations
 
+import json
+
+from stimuli.paper import GROUP_TARGET_THICKNESS_UM, SAMPLE_MATERIAL
+
 __all__ = ["register"]
 
 
@@ -19,10 +23,10 @@ def register(sub) -> None:
     p.add_argument("--rate-Hz", type=float, default=100.0)
     p.add_argument("--tolerance-K", type=float, default=None,
                    help="accuracy needed (default: the perceptual floor, 0.3 K)")
-    p.add_argument("--material", default="stainless_steel")
+    p.add_argument("--material", default=SAMPLE_MATERIAL)
     p.add_argument("--roughness-um", type=float, default=12.5)
     p.add_argument("--force-N", type=float, default=2.0, help="contact force for Eq. 5")
-    p.add_argument("--skin-thickness-um", type=float, default=650.0,
+    p.add_argument("--skin-thickness-um", type=float, default=GROUP_TARGET_THICKNESS_UM["A"],
                    help="L, the effective depth of the isothermal core")
     p.add_argument("--receptor-depth-um", type=float, default=None,
                    help="below the surface (default: 0.4 L)")
@@ -46,8 +50,6 @@ def _um(v):
 
 
 def _run(ns) -> int:
-    import json
-
     from stimuli.planner import plan
     from stimuli.scene import PERCEPTUAL_FLOOR_K, Scene
 

@@ -1,6 +1,8 @@
 """`thermocue export-bids DATA_DIR`: (re)write the BIDS behavioural dataset of every session."""
 from __future__ import annotations
 
+from pathlib import Path
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -15,8 +17,6 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    from pathlib import Path
-
     from experiments.bids import export_dataset
     from experiments.cli.paths import check_writable_dir
     from experiments.errors import UserInputError

@@ -1,8 +1,14 @@
 """``thermocue power``: power to detect the group difference, by simulating cohorts."""
 from __future__ import annotations
 
-import sys
+import json
+import logging
 import time
+from pathlib import Path
+
+from stimuli.paper import MODES
+
+log = logging.getLogger("thermocue.analysis")
 
 
 def register(sub) -> None:
@@ -15,7 +21,7 @@ def register(sub) -> None:
                     "and 90 %% power), power.png and cells.csv to --out. The probabilities come "
                     "from --from-analysis DIR (the mixed model of `thermocue analyze`), --cells "
                     "FILE, else the simulated-participant model "
-                    "(experiments.participant_model.predicted_cell_probabilities).")
+                    "(experiments.simulation.prediction.predicted_cell_probabilities).")
     p.add_argument("--n-per-group", default="5,10,15,20,30,40,60", metavar="N,N,A:B,...",
                    help="participants per group, comma-separated; A:B for unequal groups "
                         "(default 5,10,15,20,30,40,60)")
@@ -36,7 +42,7 @@ def register(sub) -> None:
                         "model's with --from-analysis, else 0.5)")
     p.add_argument("--missing-rate", type=float, default=0.0, metavar="P",
                    help="probability that a scheduled trial gives no answer (default 0)")
-    p.add_argument("--mode", choices=("real", "simulated"), default="real",
+    p.add_argument("--mode", choices=MODES, default="real",
                    help="mode whose group difference is tested (default real: the primary test)")
     p.add_argument("--test", choices=("gee", "cluster-t"), default="gee",
                    help="gee: the report's primary test (default); cluster-t: Welch t on "
@@ -69,7 +75,7 @@ def _sizes(text: str):
 def _model_cells(progress):
     """Per-cell probabilities from the simulated-participant model, or None if unavailable."""
     try:
-        from experiments.participant_model import predicted_cell_probabilities
+        from experiments.simulation.prediction import predicted_cell_probabilities
     except ImportError:
         return None
     progress("predicting per-cell probabilities from the simulated-participant model")
@@ -77,9 +83,6 @@ def _model_cells(progress):
 
 
 def _run(ns) -> int:
-    import json
-    from pathlib import Path
-
     from analysis.power import glmm_cells, plot_power, power_curve, read_cells
     from experiments.errors import UserInputError
 
@@ -96,8 +99,8 @@ def _run(ns) -> int:
         raise UserInputError(f"--missing-rate: expected a number in [0, 1), got {ns.missing_rate!r}")
     start = time.monotonic()
 
-    def progress(message: str) -> None:
-        print(f"[{time.monotonic() - start:6.1f} s] {message}", file=sys.stderr, flush=True)
+    def progress(message: str) -> None:      # power_curve's steps, with the time so far
+        log.info("[%6.1f s] %s", time.monotonic() - start, message)
 
     sd, scale = ns.participant_sd, ns.cells_scale
     if ns.from_analysis:
@@ -113,7 +116,7 @@ def _run(ns) -> int:
             raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
         cells, source = read_cells(ns.cells), ns.cells
     else:
-        cells, source = _model_cells(progress), "experiments.participant_model"
+        cells, source = _model_cells(progress), "experiments.simulation.prediction"
         if cells is None:
             raise UserInputError("--cells: expected a CSV of per-cell probabilities (group, mode, "
                                  "roughness_id, p_correct), got none, and the simulated-participant "

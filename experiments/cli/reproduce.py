@@ -6,7 +6,7 @@
   markdown table is also printed.
 * ``figure9``: the paper's claims under every (replay hypothesis x observer) scenario from
   many simulated 15 + 15 studies, then the 30-participant study on the emulated display for the
-  headline scenario (:func:`experiments.simulation.reproduction.run_reproduction`): by default
+  headline scenario (:func:`experiments.simulation.figure9.reproduction.run_reproduction`): by default
   the scenario that best matches the paper's evidence; ``--replay`` and ``--observer`` choose
   it (``--target-side`` / ``--rate-limit`` override single fields); ``study.json`` and
   ``report.md`` say which. ``--participants N`` runs N of
@@ -17,6 +17,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from stimuli.paper import RATE_LIMITS, TARGET_SIDES
+
 TARGETS = ("figure9", "table2", "figures")
 
 
@@ -26,7 +28,8 @@ def register(sub) -> None:
     p.add_argument("target", choices=TARGETS, help="what to reproduce")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing)")
     p.add_argument("--seed", type=int, default=0, help="figure9 only: cohort seed (default 0)")
-    p.add_argument("--replay", choices=("material", "skin", "compensated"), default=None,
+    # the replay hypotheses are named after the side they replay (test_paper.py checks it)
+    p.add_argument("--replay", choices=TARGET_SIDES, default=None,
                    help="figure9 only: the headline's replay hypothesis: 'material' (the printed "
                         "Eq. 7), 'skin' (skin side) or 'compensated'; default: the best match "
                         "to the paper's evidence")
@@ -39,11 +42,11 @@ def register(sub) -> None:
     p.add_argument("--pool-size", type=int, default=None, metavar="N",
                    help="figure9 only: simulated persons per group the studies draw from "
                         "(default 100)")
-    p.add_argument("--target-side", choices=("material", "skin", "compensated"), default=None,
+    p.add_argument("--target-side", choices=TARGET_SIDES, default=None,
                    help="figure9 only: what the display replays on simulated trials: 'material' "
                         "(the paper's Eq. 7), 'skin' or 'compensated' (through the finger-pad "
                         "resistance, the real contact); default: the protocol's (material)")
-    p.add_argument("--rate-limit", choices=("refuse", "slew"), default=None,
+    p.add_argument("--rate-limit", choices=RATE_LIMITS, default=None,
                    help="figure9 only: profiles faster than the display's rate limit are refused "
                         "(the study stops before it starts) or slowed to it ('slew'; compensated "
                         "3#/4# need it); default: the replay hypothesis's")
@@ -98,9 +101,9 @@ def _run(ns) -> int:
         print(csv_path)
         print(md_path)
         return 0
-    # figure9: the simulated cohort (owned by experiments/cohort.py)
+    # figure9: the simulated cohort (experiments/simulation/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
-    from experiments.simulation.reproduction import run_reproduction
+    from experiments.simulation.figure9.reproduction import run_reproduction
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
                      observer=ns.observer, n_studies=400 if ns.studies is None else ns.studies,

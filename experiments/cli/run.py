@@ -1,7 +1,15 @@
 """`thermocue run`: run one participant through a protocol (new session)."""
 from __future__ import annotations
 
-RESPONDERS = ("psychopy", "console", "simulated")
+import argparse
+import ctypes
+import ctypes.util
+import json
+import os
+import sys
+from pathlib import Path
+
+from stimuli.paper import RESPONDER_NAMES as RESPONDERS
 
 
 def register(sub) -> None:
@@ -35,7 +43,8 @@ def add_common(p) -> None:
     p.add_argument("--experimenter-screen", type=int, default=None, metavar="N",
                    help="show the experimenter's lines (sample to place, progress, warnings) in "
                         "a PsychoPy window on screen N too (default: the terminal only)")
-    p.add_argument("--quiet", action="store_true",
+    # SUPPRESS: absent here, ``thermocue --quiet run`` (the top-level option) stands
+    p.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS,
                    help="no progress lines on stderr (errors and why a run stopped are still printed)")
 
 
@@ -86,9 +95,6 @@ def experimenter_for(ns):
 
 def check_window(responder: str, option: str = "--responder psychopy") -> None:
     """Refuse the PsychoPy responder up front when there is no display to open a window on."""
-    import os
-    import sys
-
     from experiments.errors import UserInputError
     if responder == "psychopy" and sys.platform.startswith("linux") \
             and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
@@ -103,9 +109,6 @@ def check_window(responder: str, option: str = "--responder psychopy") -> None:
 def _x_display_opens() -> bool:
     """Whether Xlib can connect to ``$DISPLAY`` (True when Xlib itself is not found: PsychoPy
     will then say what is wrong)."""
-    import ctypes
-    import ctypes.util
-
     name = ctypes.util.find_library("X11")
     if name is None:
         return True
@@ -124,8 +127,6 @@ def _x_display_opens() -> bool:
 
 
 def _run(ns) -> int:
-    import sys
-
     from experiments.errors import UserInputError
     from experiments.responders import get_responder
     from experiments.session import plan_session
@@ -187,15 +188,12 @@ def remove_if_unused(directory) -> bool:
     ``trials.csv`` with no rows, an empty ``traces/``), then the folder and an emptied participant folder: a failure before the
     first trial leaves no empty session behind. Returns whether it was removed.
     """
-    from pathlib import Path
-
     directory = Path(directory)
     events = directory / "events.jsonl"
     try:
         text = events.read_text(encoding="utf-8", errors="replace") if events.exists() else ""
     except OSError:
         return False
-    import json
     for line in text.splitlines():
         try:
             started = json.loads(line).get("event") == "trial_started"
@@ -224,8 +222,6 @@ def open_display_or_report(command: str, protocol, url: str, option: str, outcom
     a protocol range the device does not allow) raises a UserInputError naming ``option`` or the
     protocol field (exit 2).
     """
-    import sys
-
     from experiments.errors import DisplayError, UserInputError
     from experiments.session import open_session_display
 

@@ -87,7 +87,8 @@ def finger_pad_resistance() -> float:
     ``stimuli.contact_resistance(0.4 µm, copper)`` (Eq. 5 of the paper at 2 N on 135 mm²).
     """
     from stimuli import Skin, contact_resistance, material
-    return float(contact_resistance(0.4e-6, skin=Skin(1.0e-3), material=material("copper")))
+    from stimuli.paper import PAD_MATERIAL, PAD_ROUGHNESS_M
+    return float(contact_resistance(PAD_ROUGHNESS_M, skin=Skin(1.0e-3), material=material(PAD_MATERIAL)))
 
 
 @lru_cache(maxsize=64)

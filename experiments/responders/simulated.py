@@ -1,6 +1,6 @@
 """The simulated participant as a responder: ``--responder simulated``.
 
-It wraps :class:`experiments.participant_model.SimulatedPerson`: before each trial it scripts the
+It wraps :class:`experiments.simulation.person.SimulatedPerson`: before each trial it scripts the
 emulator's finger (its own skin thickness and temperature, a ~2 N press) and, on real trials,
 places the trial's sample on the emulator; after the trial it feels what the physics says at its
 receptors (real trials: its skin on the sample through the contact resistance; simulated trials:
@@ -16,8 +16,8 @@ import math
 import numpy as np
 
 from experiments.errors import UserInputError
-from experiments.participant_model import (PAD_MATERIAL, PAD_ROUGHNESS_M, PerceptionParameters,
-                                           SimulatedPerson, feature_names)
+from experiments.simulation.person import PerceptionParameters, SimulatedPerson, feature_names
+from stimuli.paper import PAD_MATERIAL, PAD_ROUGHNESS_M
 from experiments.responders.base import RESPONSE_IDS, Responder, Response
 
 __all__ = ["SimulatedResponder", "HOLD_MARGIN_S"]
@@ -94,7 +94,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
         log-likelihood of each sample, answer), so every answer can be traced to the physics.
     **perception
-        Any field of :class:`~experiments.participant_model.PerceptionParameters`
+        Any field of :class:`~experiments.simulation.person.PerceptionParameters`
         (``drop_noise_C``, ``weber_fraction``, ``lapse_rate``, ...).
     """
 

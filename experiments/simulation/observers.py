@@ -1,6 +1,6 @@
 r"""Observer models: how a simulated participant turns a percept into an answer 1#..4#.
 
-The simulated participant (:class:`experiments.participant_model.SimulatedPerson`) feels the
+The simulated participant (:class:`experiments.simulation.person.SimulatedPerson`) feels the
 physics at its receptors and perceives a noisy feature vector :math:`x` (drops at a few times
 and the peak rate of fall).  *Which answer* it gives is a separate, named choice: the paper does
 not say how its participants decided, and the Figure 9 result depends on it.
@@ -31,7 +31,7 @@ name                   decision rule
 =====================  ========================================================================
 
 Parameters shared by the whole family live in
-:class:`experiments.participant_model.PerceptionParameters`, with their sources there: the
+:class:`experiments.simulation.person.PerceptionParameters`, with their sources there: the
 perceptual noise the observer knows it has (0.3 K per drop feature, 0.3 K/s on the rate, Weber
 fraction 0.1) and ``lapse_rate`` (0.02, the usual allowance for inattention); the familiarisation
 (one touch per real sample) is the protocol's.  Observer-specific parameters are listed by
@@ -46,6 +46,7 @@ in the fast study simulation (:mod:`experiments.simulation.studies`, thousands o
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -327,7 +328,6 @@ def fit_observer(name: str, percepts: np.ndarray, answers: np.ndarray, ctx: Bloc
     dict
         The fitted parameters and ``lapse_rate``, plus ``log_likelihood``.
     """
-    import itertools
     grid = dict(grid or {})
     answers = np.asarray(answers, dtype=int)
     percepts = np.asarray(percepts, dtype=float)

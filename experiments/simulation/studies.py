@@ -3,7 +3,7 @@
 An emulated session (``thermocue run ... --responder simulated``) costs about a second per
 participant; a claim's probability needs hundreds of studies per scenario.  This module
 computes the same participants' noise-free features once (a *pool* of persons per group, the
-physics of :mod:`experiments.participant_model`), then draws studies: 15 persons per group from
+physics of :mod:`experiments.simulation.person`), then draws studies: 15 persons per group from
 the pool, their familiarisation percepts, the real and simulated blocks' percepts in a random
 order, and the answers of an observer (:mod:`.observers`, the very code the simulated responder
 runs), all vectorised.
@@ -22,7 +22,7 @@ Where this differs from emulated sessions (it is *not* exactly equivalent)
   schedule's ``order = "random"`` is also a uniform permutation, from another seed).
 * Random numbers come from one generator per scenario, not from ``(seed, trial_index)`` per
   person: the same distributions, different draws.
-Everything else is the same: person draws (:func:`~experiments.participant_model.draw_person`
+Everything else is the same: person draws (:func:`~experiments.simulation.person.draw_person`
 ranges), the session's own target profiles (:func:`experiments.session_setup.
 simulated_target_profile`, rate limit included), the finger–pad contact resistance, the
 features, the noise model, the familiarisation (one touch per real sample, by default), the
@@ -33,6 +33,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from stimuli.paper import DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, TARGET_SIDES
 
 __all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
            "imposed_features"]
@@ -66,9 +68,9 @@ class PersonPool:
     settings: dict = field(default_factory=dict)
 
 
-def build_pool(protocol="roughness_recognition", hypotheses=("material", "skin", "compensated"),
+def build_pool(protocol="roughness_recognition", hypotheses=TARGET_SIDES,
                pool_size: int = 100, seed: int = 0, params=None, receptor_depth_um: float | None = None,
-               dermis_fraction=(0.55, 0.65)) -> PersonPool:
+               dermis_fraction=DERMIS_FRACTION_RANGE) -> PersonPool:
     """Draw ``pool_size`` persons per group and compute their noise-free features.
 
     Parameters
@@ -86,8 +88,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=("material", "skin",
     dermis_fraction : (low, high)
         Range of ``d / L`` persons are drawn from (the cohort's 0.55–0.65).
     """
-    from experiments.participant_model import (GROUP_THICKNESS_UM, PerceptionParameters,
-                                               SimulatedPerson, draw_person)
+    from experiments.simulation.person import PerceptionParameters, SimulatedPerson, draw_person
     from experiments.protocol import load_protocol
     from experiments.session_setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant

@@ -54,7 +54,7 @@ def test_importing_the_package_does_not_import_psychopy_or_the_model():
     code = ("import sys, experiments.responders as r, experiments.session; "
             "r.get_responder('console'); "
             "print(sorted(m for m in sys.modules if m.split('.')[0] == 'psychopy' "
-            "or m.endswith('participant_model') or m.endswith('responders.simulated')))")
+            "or m.endswith('simulation.person') or m.endswith('responders.simulated')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from experiments.participant_model import PerceptionParameters, SimulatedPerson
+from experiments.simulation.person import PerceptionParameters, SimulatedPerson
 from experiments.simulation.observers import (OBSERVERS, BlockContext, answer_block,
                                               discrimination_axis, fit_observer, get_observer)
 

@@ -2,8 +2,8 @@
 import pandas as pd
 
 from analysis.claims import CLAIMS
-from experiments.simulation.reproduction import claims_screen, verdict_line
-from experiments.simulation.scenarios import ScenarioResult, best_scenario
+from experiments.simulation.figure9.reproduction import claims_screen, verdict_line
+from experiments.simulation.figure9.scenarios import ScenarioResult, best_scenario
 
 
 def _result(rows):
@@ -65,7 +65,7 @@ def test_screen_marks_and_headline():
 
 
 def test_claims_held_and_reproducing_scenarios():
-    from experiments.simulation.reproduction import claims_held, reproducing_scenarios
+    from experiments.simulation.figure9.reproduction import claims_held, reproducing_scenarios
     r = _result({("skin", "absolute"): [1, 1, .6, .6, 1, .9, 0, .6, .6, 1, 0],
                  ("compensated", "relative"): [1, 1, .5, .6, 1, 1, 1, .6, .6, 1, .05]})
     assert claims_held(r, ("skin", "absolute")) == (9, 10)

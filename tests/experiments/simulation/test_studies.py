@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from experiments.participant_model import predicted_cell_probabilities
+from experiments.simulation.prediction import predicted_cell_probabilities
 from experiments.simulation.observers import get_observer
 from experiments.simulation.studies import build_pool, simulate_studies
 
@@ -24,7 +24,7 @@ def test_absolute_observer_studies_match_predicted_cell_probabilities():
 
 
 def test_superposed_features_equal_the_direct_computation():
-    from experiments.participant_model import draw_person
+    from experiments.simulation.person import draw_person
     from experiments.protocol import load_protocol
     from experiments.session_setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
@@ -53,8 +53,9 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
     import csv
     import json
 
-    from experiments.cohort import run_participant, write_cohort
-    from experiments.participant_model import SimulatedPerson
+    from experiments.simulation.cohort import write_cohort
+    from experiments.simulation.figure9.study import run_participant
+    from experiments.simulation.person import SimulatedPerson
     from experiments.protocol import load_protocol
     from experiments.session_setup import simulated_target_profile
     from experiments.simulation.studies import imposed_features
@@ -86,7 +87,7 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
 def test_scenarios_judge_the_simulated_block_for_a_response_bias():
     # issue 11: the skin-side replay judged by the absolute observer names nearly every
     # simulated sample 4#; the claims table must see it (it was ✓ on every old claim)
-    from experiments.simulation.scenarios import evaluate_scenarios
+    from experiments.simulation.figure9.scenarios import evaluate_scenarios
     pool = build_pool(hypotheses=("skin", "compensated"), pool_size=20, seed=3)
     res = evaluate_scenarios(pool, observers=["absolute"], n_studies=40, seed=2)
     wide = res.wide()

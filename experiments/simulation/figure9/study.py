@@ -1,153 +1,32 @@
-"""The paper's cohort of 30 simulated participants and the whole Figure 9 study in one call.
+"""The paper's Figure 9 study end to end: the cohort's sessions on the emulated display, then the analysis.
 
-§3.2 of the paper: thirty right-handed adults aged 18-45 (twelve women, eighteen men) of
-different occupations, split by fingertip skin thickness into group A (600-750 µm: five men,
-ten women) and group B (900-1200 µm: twelve men, three women). :func:`paper_cohort` writes such
-a cohort as participant records (valid against ``participants_schema``); the thicknesses,
-dermis shares, skin temperatures and ages are drawn uniformly within the stated ranges from a
-seed. :func:`run_figure9_study` runs every participant through ``roughness_recognition.toml``
-with the emulated display on a virtual clock and the simulated participant responding, then
-the analysis.
+§3.2 of the paper: thirty participants (:mod:`..cohort`), each run through
+``roughness_recognition.toml`` with the emulated display on a virtual clock and the simulated
+participant responding (:func:`run_participant`), then :func:`analysis.analyze` on their logs
+(:func:`run_figure9_study`).
 
-The paper contradicts itself on the sexes: "twelve women and eighteen men", but group A "has
-five men and ten women" and group B "twelve men and three women", i.e. 13 women and 17 men.
-The cohort follows the per-group numbers (they fix who is in which group); both are 15 per
-group, which is what the analysis compares.
+Progress ("participant n of N", elapsed, ETA) and the Figure 9 table are logged at INFO on the
+``thermocue.study`` logger; ``thermocue`` shows them on stderr (``--quiet`` hides them).
 """
 from __future__ import annotations
 
-import copy
-import json
+import io
+import logging
+import multiprocessing
 import os
-import sys
 import time
-from dataclasses import dataclass
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PAPER_GROUPS", "CohortGroup", "paper_cohort", "write_cohort", "alternate_groups",
-           "run_figure9_study", "run_participant"]
+from stimuli.paper import RATE_LIMITS, TARGET_SIDES
 
+from ..cohort import alternate_groups, paper_cohort, write_cohort
 
-@dataclass(frozen=True)
-class CohortGroup:
-    """One group of the paper's cohort.
+__all__ = ["run_figure9_study", "run_participant", "check_group_profiles", "MAX_DEFAULT_WORKERS"]
 
-    Parameters
-    ----------
-    name : str
-    men, women : int
-    thickness_um : (float, float), µm
-        Range of the total fingertip skin thickness.
-    """
-
-    name: str
-    men: int
-    women: int
-    thickness_um: tuple[float, float]
-
-
-#: §3.2: A = 5 men + 10 women, 600-750 µm; B = 12 men + 3 women, 900-1200 µm.
-PAPER_GROUPS = (CohortGroup("A", 5, 10, (600.0, 750.0)), CohortGroup("B", 12, 3, (900.0, 1200.0)))
-#: "different occupations, for example, student, teacher, worker, farmer, etc."
-OCCUPATIONS = ("student", "teacher", "worker", "farmer", "engineer", "nurse", "clerk", "driver")
-AGE_RANGE = (18, 45)
-SKIN_TEMPERATURE_RANGE_C = (35.5, 36.0)
-DERMIS_FRACTION_RANGE = (0.55, 0.65)
-
-
-def paper_cohort(seed: int = 0, groups=PAPER_GROUPS) -> list[dict]:
-    """Participant records of the paper's cohort (P01..P30), reproducible from ``seed``.
-
-    Parameters
-    ----------
-    seed : int
-    groups : sequence of CohortGroup
-
-    Returns
-    -------
-    list of dict
-        Records valid for :func:`participants_schema.validate_participant`; each has an
-        ``x_simulation`` member with the intended group and the draw's seed.
-    """
-    rng = np.random.default_rng([int(seed), 0xC0_40_27])
-    records = []
-    n = 0
-    for group in groups:
-        sexes = ["male"] * group.men + ["female"] * group.women
-        rng.shuffle(sexes)
-        for sex in sexes:
-            n += 1
-            total = round(float(rng.uniform(*group.thickness_um)), 1)
-            dermis = round(total * float(rng.uniform(*DERMIS_FRACTION_RANGE)), 1)
-            records.append({
-                "schema_version": 1,
-                "id": f"P{n:02d}",
-                "age": int(rng.integers(AGE_RANGE[0], AGE_RANGE[1] + 1)),
-                "sex": sex,
-                "handedness": "right",
-                "dominant_hand": "right",
-                "occupation": str(rng.choice(OCCUPATIONS)),
-                "skin_thickness": {
-                    "epidermis_um": round(total - dermis, 1),
-                    "dermis_um": dermis,
-                    "total_um": total,
-                    "method": "simulated: uniform within the paper's group range (§3.2)",
-                    "finger": "right index",
-                },
-                "initial_skin_temperature_C": round(float(rng.uniform(*SKIN_TEMPERATURE_RANGE_C)), 2),
-                "consent": {"given": True, "date": "2026-01-01", "form": "simulated participant"},
-                "notes": "Simulated participant of the Figure 9 study (experiments.cohort).",
-                "x_simulation": {"group": group.name, "seed": int(seed) * 1000 + n},
-            })
-    return records
-
-
-def write_cohort(directory, seed: int = 0) -> list[Path]:
-    """Write :func:`paper_cohort` as ``<directory>/<id>.json`` (validated); return the paths."""
-    from participants_schema import validate_participant
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for record in paper_cohort(seed):
-        path = directory / f"{record['id']}.json"
-        validate_participant(record, source=str(path))
-        path.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
-        paths.append(path)
-    return paths
-
-
-def alternate_groups(records, n: int) -> list:
-    """The first ``n`` records taking the groups in turn (A, B, A, B, ...), ids unchanged.
-
-    Parameters
-    ----------
-    records : sequence of dict
-        Participant records in cohort order (:func:`paper_cohort`: P01-P15 group A, P16-P30
-        group B); the group is ``x_simulation.group``.
-    n : int
-        How many to take, 1 to ``len(records)``.
-
-    Returns
-    -------
-    list of dict
-        Group A's first, group B's first, A's second, ...: any ``n >= 2`` compares both groups
-        (sizes differing by at most one while both last), and ``n = len(records)`` is every
-        record, in the same interleaved order.
-    """
-    queues: dict = {}
-    for record in records:
-        extra = record.get("x_simulation")
-        group = extra.get("group") if isinstance(extra, dict) else None
-        queues.setdefault(group, []).append(record)
-    queues = [list(q) for q in queues.values()]
-    out = []
-    while len(out) < n and any(queues):
-        for queue in queues:
-            if queue and len(out) < n:
-                out.append(queue.pop(0))
-    return out
+log = logging.getLogger("thermocue.study")
 
 
 def _positive_int(value, option: str, high: int | None = None) -> int:
@@ -172,8 +51,6 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     dict
         ``participant``, ``session_dir``, ``seconds`` (wall time), ``trials``.
     """
-    import io
-
     from experiments.responders import get_responder
     from experiments.session import create_session   # heavy: the session engine, display, stimuli
     from participants_schema import load_participant
@@ -207,12 +84,11 @@ def _run_one(args):
                            durable=durable)
 
 
-def _progress(done: int, total: int, start: float, label: str, stream) -> None:
+def _progress(done: int, total: int, start: float, label: str) -> None:
     elapsed = time.perf_counter() - start
     eta = elapsed / done * (total - done) if done else float("nan")
-    stream.write(f"figure9: participant {done} of {total} done ({label}); elapsed {elapsed:5.1f} s, "
-                 f"ETA {eta:5.1f} s\n")
-    stream.flush()
+    log.info("figure9: participant %d of %d done (%s); elapsed %5.1f s, ETA %5.1f s",
+             done, total, label, elapsed, eta)
 
 
 #: Largest default number of worker processes: each holds ~125 MiB (RSS) besides the main
@@ -220,7 +96,7 @@ def _progress(done: int, total: int, start: float, label: str, stream) -> None:
 MAX_DEFAULT_WORKERS = 4
 
 
-def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: int | None = None, *,
+def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
                       analyze: bool = True, participants: int | None = None,
                       target_side: str | None = None, rate_limit: str | None = None,
@@ -234,8 +110,6 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         analysis outputs (``figure9.png``, tables, ``report.md``).
     seed : int
         Seeds the cohort, the schedules, the emulator and the responders.
-    progress : bool
-        Print "participant n of N, elapsed, ETA" lines on stderr.
     workers : int, optional
         Processes running participants in parallel (1: in this process; at most one per
         participant). Default: twice the CPU count (a session also waits for ``fsync``: every
@@ -313,13 +187,12 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     protocol_name = str(protocol)
     protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit, replay,
                                         display_familiarisation=on_display)
-    check_simulated_profiles(used)
+    check_group_profiles(used)
     data_dir.mkdir(parents=True, exist_ok=True)
     paths = {p.stem: p for p in write_cohort(out_dir / "participants", seed=seed)}
     paths = [paths[r["id"]] for r in alternate_groups(records, n)]
     jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {}), bool(durable))
             for p in paths]
-    stream = sys.stderr
     start = time.perf_counter()
     results = []
     if workers is None:
@@ -328,24 +201,21 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
     if workers == 1:
         for job in jobs:
             results.append(_run_one(job))
-            if progress:
-                _progress(len(results), len(jobs), start, results[-1]["participant"], stream)
+            _progress(len(results), len(jobs), start, results[-1]["participant"])
     else:
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
         # Import the engine once here so forked workers start with it loaded.
         import experiments.hardware  # noqa: F401
         import experiments.session  # noqa: F401
-        import stimuli  # noqa: F401
+        import stimuli.contact  # noqa: F401  (the package loads its model on first use)
+        import stimuli.display_response  # noqa: F401
+        import stimuli.target  # noqa: F401
         method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
         with ProcessPoolExecutor(max_workers=workers,
                                  mp_context=multiprocessing.get_context(method)) as pool:
             futures = [pool.submit(_run_one, job) for job in jobs]
             for fut in as_completed(futures):
                 results.append(fut.result())
-                if progress:
-                    _progress(len(results), len(jobs), start, results[-1]["participant"], stream)
+                _progress(len(results), len(jobs), start, results[-1]["participant"])
     seconds = time.perf_counter() - start
     summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
                "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
@@ -355,14 +225,15 @@ def run_figure9_study(out_dir, seed: int = 0, progress: bool = True, workers: in
         summary["analysis"] = run_analysis(data_dir, out_dir)
         summary["analysis_seconds"] = time.perf_counter() - t0
         _note_simulation(out_dir / "report.md", used)
-        if progress:
+        if log.isEnabledFor(logging.INFO):
             table = _figure9_text(getattr(summary["analysis"], "proportions", None))
-            stream.write(f"figure9: target side {used.simulation.target_side!r}, finger-pad "
-                         f"{used.simulation.pad_roughness_um:g} µm {used.simulation.pad_material}, "
-                         f"rate limit {used.simulation.rate_limit!r}\n")
-            stream.write(table + f"figure9: sessions {seconds:.1f} s, analysis "
-                         f"{summary['analysis_seconds']:.1f} s; results in {out_dir}\n")
-            stream.flush()
+            log.info("figure9: target side %r, finger-pad %g µm %s, rate limit %r",
+                     used.simulation.target_side, used.simulation.pad_roughness_um,
+                     used.simulation.pad_material, used.simulation.rate_limit)
+            for line in table.splitlines():
+                log.info("%s", line)
+            log.info("figure9: sessions %.1f s, analysis %.1f s; results in %s", seconds,
+                     summary["analysis_seconds"], out_dir)
     from experiments.logbook import atomic_write_json
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers,
@@ -411,8 +282,6 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
     (``stimuli.skin_response``). Markdown lines; they say why simulated samples are named as
     they are.
     """
-    import numpy as np
-
     from stimuli import Contact, Skin, contact_resistance, material, skin_response, target_profile
     sim = protocol.simulation
     steel = material(protocol.material.name, protocol.material.thickness_m)
@@ -464,8 +333,9 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     """
     from experiments.errors import UserInputError
     from experiments.logbook import atomic_write_json
-    from experiments.protocol import SIM_RATE_LIMITS, SIM_TARGET_SIDES, load_protocol, parse_protocol
-    from experiments.simulation.replay import _add_display_familiarisation, replay_hypothesis
+    from experiments.protocol import load_protocol, parse_protocol
+    from experiments.simulation.replay import (_add_display_familiarisation, _with_simulation,
+                                               replay_hypothesis)
     base = load_protocol(protocol)
     sim = base.simulation
     if sim is None:
@@ -475,8 +345,8 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     if replay is not None:
         hyp = replay_hypothesis(replay)
         changes = {"target_side": hyp.target_side, "rate_limit": hyp.rate_limit}
-    for key, value, choices, option in (("target_side", target_side, SIM_TARGET_SIDES, "--target-side"),
-                                        ("rate_limit", rate_limit, SIM_RATE_LIMITS, "--rate-limit")):
+    for key, value, choices, option in (("target_side", target_side, TARGET_SIDES, "--target-side"),
+                                        ("rate_limit", rate_limit, RATE_LIMITS, "--rate-limit")):
         if value is None:
             continue
         if value not in choices:
@@ -485,8 +355,7 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     changes = {k: v for k, v in changes.items() if v != getattr(sim, k)}
     if not changes and not display_familiarisation:
         return str(protocol), base
-    data = copy.deepcopy(base.data)
-    data["simulation"] = {**data["simulation"], **changes}
+    data = _with_simulation(base.data, **changes)
     if display_familiarisation:
         data = _add_display_familiarisation(data)
     where = base.path.name if base.path is not None else base.name
@@ -497,10 +366,10 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     return variant, variant
 
 
-def check_simulated_profiles(protocol) -> None:
-    """Refuse, before any session runs, a protocol whose simulated profiles the display refuses.
+def check_group_profiles(protocol) -> None:
+    """Refuse, before any session runs, a study protocol whose group profiles the display refuses.
 
-    Computes each sample's profile for each group's thickness (as the session will, for a
+    Computes each sample's profile for each group's profile thickness (as the session will, for a
     participant without calibration) and applies the display's checks
     (:func:`experiments.hardware.safety.check_profile`).
 

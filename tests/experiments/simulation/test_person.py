@@ -1,4 +1,4 @@
-"""Tests of experiments.participant_model: physics of the percept, learning, decisions, prediction."""
+"""Tests of experiments.simulation.person and .prediction: physics of the percept, learning, decisions, prediction."""
 from __future__ import annotations
 
 import math
@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from experiments.participant_model import (
+from experiments.simulation.person import (
     PerceptionParameters,
     SimulatedPerson,
     draw_person,
-    predicted_cell_probabilities,
     receptor_features,
 )
+from experiments.simulation.prediction import predicted_cell_probabilities
 
 STEEL_RA_M = (1.6e-6, 12.5e-6, 50e-6, 100e-6)
 

@@ -1,4 +1,4 @@
-"""Tests of experiments.cohort: the paper's cohort as records, and the Figure 9 study end to end."""
+"""Tests of experiments.simulation.cohort and .figure9: the paper's cohort as records, and the Figure 9 study end to end."""
 from __future__ import annotations
 
 import json
@@ -6,7 +6,8 @@ from collections import Counter
 
 import pytest
 
-from experiments.cohort import alternate_groups, paper_cohort, run_figure9_study, write_cohort
+from experiments.simulation.cohort import alternate_groups, paper_cohort, write_cohort
+from experiments.simulation.figure9.study import run_figure9_study
 from participants_schema import GroupRule, assign_group, load_participant, validate_participant
 
 
@@ -56,7 +57,7 @@ def _check_study(out, n_participants):
 
 
 def test_two_participants_end_to_end(tmp_path):
-    summary = run_figure9_study(tmp_path, seed=3, progress=False, workers=2, participants=2)
+    summary = run_figure9_study(tmp_path, seed=3, workers=2, participants=2)
     assert len(summary["sessions"]) == 2
     scored = _check_study(tmp_path, 2)
     assert set(scored.groupby("participant")["group"].first()) == {"A", "B"}   # both compared
@@ -81,7 +82,7 @@ def test_a_partial_cohort_takes_the_groups_in_turn(n):
 
 def test_target_side_into_a_folder_that_does_not_exist_yet(tmp_path):
     out = tmp_path / "new" / "study"
-    summary = run_figure9_study(out, seed=1, progress=False, workers=1, participants=1,
+    summary = run_figure9_study(out, seed=1, workers=1, participants=1,
                                 target_side="skin", rate_limit="slew", analyze=False)
     assert len(summary["sessions"]) == 1
     variant = json.loads((out / "protocol.json").read_text())     # the variant's data, recorded
@@ -167,7 +168,7 @@ def test_refuses_to_pool_with_an_earlier_run(tmp_path):
     from experiments.errors import UserInputError
     (tmp_path / "data" / "P01").mkdir(parents=True)
     with pytest.raises(UserInputError, match="data"):
-        run_figure9_study(tmp_path, progress=False, participants=1)
+        run_figure9_study(tmp_path, participants=1)
 
 
 @pytest.mark.slow
@@ -187,7 +188,7 @@ def test_a_participant_answers_the_same_in_every_run(tmp_path):
     # function of the seed alone.
     import csv
 
-    from experiments.cohort import run_participant
+    from experiments.simulation.figure9.study import run_participant
     (path,) = write_cohort(tmp_path / "people", seed=6)[:1]
     answers = []
     for run in ("a", "b"):
@@ -201,7 +202,7 @@ def test_a_participant_answers_the_same_in_every_run(tmp_path):
 def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
     from experiments.errors import UserInputError
     with pytest.raises(UserInputError) as ei:
-        run_figure9_study(tmp_path, progress=False, participants=1, target_side="compensated")
+        run_figure9_study(tmp_path, participants=1, target_side="compensated")
     msg = str(ei.value)
     assert msg.startswith("roughness_recognition: simulation.target_side: expected profiles the display accepts; "
                           "'compensated' for sample 3# (group A) gives profile.target_C: expected a rate ≤ 10.0")
@@ -212,9 +213,9 @@ def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
 def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_path):
     import csv
 
-    from experiments.cohort import _note_simulation
+    from experiments.simulation.figure9.study import _note_simulation
     from experiments.protocol import load_protocol
-    run_figure9_study(tmp_path, progress=False, participants=1, workers=1, analyze=False,
+    run_figure9_study(tmp_path, participants=1, workers=1, analyze=False,
                       target_side="compensated", rate_limit="slew")
     study = json.loads((tmp_path / "study.json").read_text())
     assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
@@ -242,7 +243,7 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
 def test_run_participant_names_the_file_of_a_bad_record(tmp_path):
     # Regression: the record was read with a bare json.loads, so a damaged file surfaced as a
     # JSONDecodeError naming neither the file nor the field.
-    from experiments.cohort import run_participant
+    from experiments.simulation.figure9.study import run_participant
     from participants_schema import ParticipantError
     bad = tmp_path / "P99.json"
     bad.write_text('{"id": "P99", ', encoding="utf-8")
@@ -257,7 +258,7 @@ def test_report_note_says_why_replayed_rough_samples_feel_smooth():
     import dataclasses
     import re
 
-    from experiments.cohort import _felt_at_receptors
+    from experiments.simulation.figure9.study import _felt_at_receptors
     from experiments.protocol import load_protocol
     p = load_protocol("roughness_recognition")
 

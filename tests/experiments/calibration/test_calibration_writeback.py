@@ -11,7 +11,7 @@ from experiments.calibration import (calibrated_profile_parameters, calibration_
                                      synthetic_traces, write_participant_calibration)
 from participants_schema import ParticipantError, load_participant, load_schema
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
+EXAMPLE = Path(__file__).resolve().parents[3] / "participants" / "examples" / "P01.json"
 
 
 @pytest.fixture(scope="module")

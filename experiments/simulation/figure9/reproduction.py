@@ -5,7 +5,7 @@
    paper's claims (:mod:`analysis.claims`), and the expected proportions correct.
 2. The headline scenario (the best match to the paper's evidence unless ``--replay`` /
    ``--observer`` say otherwise) run as the 30-participant study on the emulated display
-   (:func:`experiments.cohort.run_figure9_study`), with its analysis.
+   (:func:`experiments.simulation.figure9.study.run_figure9_study`), with its analysis.
 3. ``figure9.png`` / ``.pdf``: the paper's method as printed (material-side replay, absolute
    observer; expected proportions) beside the headline's 30 emulated sessions; ``report.md``
    opening with the verdict, the claims table and the sensitivity table; the claims table last
@@ -13,7 +13,8 @@
 """
 from __future__ import annotations
 
-import sys
+import json
+import logging
 import time
 from pathlib import Path
 
@@ -28,6 +29,8 @@ PRINTED = ("material", "absolute")
 #: A claim is marked as reproduced (✓) in a scenario when at least this share of simulated
 #: studies shows it.
 MAJORITY = 0.5
+
+log = logging.getLogger("thermocue.study")
 
 
 def _mark(p: float) -> str:
@@ -75,7 +78,7 @@ def verdict_line(result, best) -> str:
     """
     from analysis.claims import CLAIMS
     from experiments.simulation.replay import REPLAY_HYPOTHESES
-    from experiments.simulation.scenarios import tied_scenarios
+    from experiments.simulation.figure9.scenarios import tied_scenarios
     wide = result.wide()
     ids = [c.id for c in CLAIMS if c.id in wide.columns]
     row = wide.loc[best]
@@ -129,9 +132,11 @@ def verdict_line(result, best) -> str:
 
 def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None, replay=None,
                      observer=None, responder_options=None, n_studies: int = 400,
-                     pool_size: int = 100, progress: bool = True, stream=None,
-                     target_side=None, rate_limit=None) -> dict:
+                     pool_size: int = 100, target_side=None, rate_limit=None) -> dict:
     """Run everything ``reproduce figure9`` promises (see the module docstring).
+
+    Progress is logged at INFO on ``thermocue.study``; the verdict and the claims table are
+    printed on stdout.
 
     Parameters
     ----------
@@ -139,7 +144,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     seed : int
         Seeds the cohort, the sessions and the simulated studies.
     workers, participants : int, optional
-        As :func:`experiments.cohort.run_figure9_study`.
+        As :func:`experiments.simulation.figure9.study.run_figure9_study`.
     replay, observer : str, optional
         The headline scenario; default: the best match to the paper's evidence
         (:func:`.scenarios.best_scenario`).
@@ -158,18 +163,18 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         (run_figure9_study's summary), ``seconds`` per stage.
     """
     from analysis.figures import plot_figure9_panels
-    from experiments.cohort import run_figure9_study
+    from experiments.simulation.figure9.study import run_figure9_study
     from experiments.errors import UserInputError
     from experiments.logbook import atomic_write_json, atomic_write_text
     from experiments.simulation.observers import OBSERVERS
     from experiments.simulation.replay import REPLAY_HYPOTHESES, replay_hypothesis
-    from experiments.simulation.scenarios import best_scenario, evaluate_scenarios, sensitivity
+    from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios, sensitivity
     from experiments.simulation.studies import build_pool
 
-    stream = stream or sys.stderr
     out_dir = Path(out_dir)
     options = dict(responder_options or {})
-    from experiments.cohort import _positive_int, paper_cohort
+    from experiments.simulation.cohort import paper_cohort
+    from experiments.simulation.figure9.study import _positive_int
     from experiments.responders import get_responder
     if participants is not None:
         _positive_int(participants, "--participants", len(paper_cohort(seed)))
@@ -207,13 +212,10 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     headline = (replay or best[0], observer or best[1])
     sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed)
     seconds["scenarios_s"] = time.perf_counter() - t0
-    if progress:
-        stream.write(f"figure9: {len(result.wide())} scenarios x {n_studies} simulated studies "
-                     f"in {seconds['scenarios_s']:.1f} s; headline: {headline[0]} replay, "
-                     f"{headline[1]} observer\n")
-        stream.flush()
+    log.info("figure9: %d scenarios x %d simulated studies in %.1f s; headline: %s replay, "
+             "%s observer", len(result.wide()), n_studies, seconds["scenarios_s"], *headline)
     t1 = time.perf_counter()
-    study = run_figure9_study(out_dir, seed=seed, progress=progress, workers=workers,
+    study = run_figure9_study(out_dir, seed=seed, workers=workers,
                               participants=participants, replay=headline[0],
                               target_side=target_side, rate_limit=rate_limit,
                               responder_options={**options, "observer": headline[1]})
@@ -262,16 +264,13 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     seconds["total_s"] = time.perf_counter() - t0
     study_json = out_dir / "study.json"
     if study_json.is_file():
-        import json
         record = json.loads(study_json.read_text(encoding="utf-8"))
         record.update({"headline": {"replay": headline[0], "observer": headline[1]},
                        "best_match": {"replay": best[0], "observer": best[1]},
                        "scenario_settings": result.settings, "verdict": verdict,
                        "reproduction_seconds": seconds})
         atomic_write_json(study_json, record)
-    if progress:
-        stream.write(f"figure9: results in {out_dir} ({seconds['total_s']:.1f} s)\n")
-        stream.flush()
+    log.info("figure9: results in %s (%.1f s)", out_dir, seconds["total_s"])
     print(verdict)
     if sessions_line:
         print(sessions_line)
@@ -283,7 +282,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
 def _sessions_verdicts(trials: pd.DataFrame, headline):
     """``evaluate_claims`` of the emulated study itself (None without both groups)."""
     from analysis.claims import answers_from_trials, counts_from_trials, evaluate_claims
-    from experiments.simulation.scenarios import table2_replay_temperatures
+    from experiments.simulation.figure9.scenarios import table2_replay_temperatures
     if trials is None or trials.empty or trials["group"].nunique() < 2:
         return None
     props, groups = counts_from_trials(trials)

@@ -135,7 +135,7 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
     from pathlib import Path
 
     from experiments.cli import main
-    from experiments.cohort import write_cohort
+    from experiments.simulation.cohort import write_cohort
 
     participant = write_cohort(tmp_path / "people", seed=1)[0]
     status = main(["run", "roughness_recognition", "--participant", str(participant),
@@ -189,7 +189,7 @@ def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule(
 def test_simulated_trial_is_felt_through_the_protocols_finger_pad_resistance():
     from types import SimpleNamespace
 
-    from experiments.participant_model import SimulatedPerson
+    from experiments.simulation.person import SimulatedPerson
     t = np.arange(0, 10.0, 0.01)
     pad = 22.0 + 4.0 * (1 - np.exp(-t / 2.0))
     trial = spec(9, "simulated", "simulated", 2)
@@ -234,7 +234,7 @@ def test_finger_stays_on_for_the_whole_recording_of_an_exp1_session(tmp_path):
 
     protocol = load_protocol("interface_temperature")
     record_s, threshold_N = protocol.contact.record_s, protocol.contact.force_threshold_N
-    participant = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
+    participant = Path(__file__).resolve().parents[3] / "participants" / "examples" / "P01.json"
     status = main(["run", "interface_temperature", "--participant", str(participant),
                    "--display", "emulator://?clock=virtual", "--responder", "simulated",
                    "--data", str(tmp_path / "data"), "--seed", "1", "--quiet"])

@@ -2,7 +2,7 @@
 of the headline to the model's deciding choices.
 
 :func:`evaluate_scenarios` simulates many 15 + 15 studies per scenario
-(:func:`.studies.simulate_studies`) and returns, per scenario, the probability that a study
+(:func:`..studies.simulate_studies`) and returns, per scenario, the probability that a study
 shows each claim of :data:`analysis.claims.CLAIMS` (with its 95 % Monte-Carlo interval) and the
 expected proportions correct.  :func:`best_scenario` picks the scenario that best matches the
 paper's evidence: the highest probability that one study shows every claim at once.
@@ -10,10 +10,14 @@ paper's evidence: the highest probability that one study shows every claim at on
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+
+from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, SAMPLE_MATERIAL, TABLE2_ROUGHNESS_UM,
+                          TARGET_SIDES)
 
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
            "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM"]
@@ -48,14 +52,13 @@ class ScenarioResult:
                                        values="probability", sort=False)
 
 
-def table2_replay_temperatures(hypothesis: str, roughness_um=(0.4, 1.6, 12.5, 50.0, 100.0)) -> np.ndarray:
+def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM) -> np.ndarray:
     """What the display would replay at 20 s under Table 2's conditions, °C, per roughness.
 
     Table 2 (Exp. 1): skin 35 °C, steel 24 °C, read at 20 s; skin 650 µm (dermis 0.6 L), the
     protocol's 3 mm steel, Eq. 5 contact resistance, the 0.4 µm copper pad for the compensated
     replay.  No display rounding.
     """
-    from experiments.participant_model import PAD_MATERIAL, PAD_ROUGHNESS_M
     from experiments.simulation.replay import replay_hypothesis
     from stimuli import Skin, contact_resistance, material, target_profile
     side = replay_hypothesis(hypothesis).target_side
@@ -63,7 +66,7 @@ def table2_replay_temperatures(hypothesis: str, roughness_um=(0.4, 1.6, 12.5, 50
     pad_r = float(contact_resistance(PAD_ROUGHNESS_M, skin=skin, material=material(PAD_MATERIAL)))
     out = []
     for ra in roughness_um:
-        prof = target_profile(material=material("stainless_steel", thickness=3e-3),
+        prof = target_profile(material=material(SAMPLE_MATERIAL, thickness=3e-3),
                               roughness=ra * 1e-6, skin=skin, skin_temperature=35.0,
                               material_temperature=24.0, duration=20.0, rate=10.0, resolution=1e-6,
                               side=side, pad_resistance=pad_r, cache=False)
@@ -95,9 +98,9 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
     Parameters
     ----------
     pool : PersonPool
-        From :func:`.studies.build_pool` (its hypotheses are the default).
+        From :func:`..studies.build_pool` (its hypotheses are the default).
     hypotheses, observers : sequence of str, optional
-        Default: the pool's hypotheses, every observer of :data:`.observers.OBSERVERS`.
+        Default: the pool's hypotheses, every observer of :data:`..observers.OBSERVERS`.
     n_studies, n_per_group, familiarise_reps : int
     params : PerceptionParameters, optional
     seed : int
@@ -106,7 +109,7 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
     from experiments.simulation.observers import OBSERVERS, get_observer
     from experiments.simulation.studies import simulate_studies
     hypotheses = list(hypotheses or sorted({h for h, _ in pool.simulated},
-                                           key=["material", "skin", "compensated"].index))
+                                           key=TARGET_SIDES.index))
     observers = list(observers or OBSERVERS)
     claim_rows, prop_rows = [], []
     for hi, h in enumerate(hypotheses):
@@ -135,7 +138,7 @@ def best_scenario(result: ScenarioResult) -> tuple[str, str]:
     The paper reports one study in which every claim held: the scenario under which a study
     shows all of them at once most often (claim ``all``) matches it best; ties (to two decimals)
     go to the higher mean probability over the single claims, then to the earlier row
-    (hypotheses material, skin, compensated; observers in :data:`.observers.OBSERVERS` order).
+    (hypotheses material, skin, compensated; observers in :data:`..observers.OBSERVERS` order).
     """
     wide = result.wide()
     single = wide.drop(columns=["all"], errors="ignore").mean(axis=1)
@@ -186,8 +189,6 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
         One row per (choice, setting): the claims' probabilities and the expected proportion
         correct, real and simulated, per group (mean over samples).
     """
-    import dataclasses
-
     from analysis.claims import claim_probabilities, evaluate_claims
     from experiments.simulation.observers import get_observer
     from experiments.simulation.studies import build_pool, simulate_studies
