@@ -26,7 +26,7 @@ def test_absolute_observer_studies_match_predicted_cell_probabilities():
 def test_superposed_features_equal_the_direct_computation():
     from experiments.participant_model import draw_person
     from experiments.protocol import load_protocol
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
     from experiments.simulation.studies import imposed_features
     person = draw_person("B", 20261124)
@@ -56,7 +56,7 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
     from experiments.cohort import run_participant, write_cohort
     from experiments.participant_model import SimulatedPerson
     from experiments.protocol import load_protocol
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     from experiments.simulation.studies import imposed_features
     proto = load_protocol("roughness_recognition")
     paths = {p.stem: p for p in write_cohort(tmp_path / "people", seed=0)}
