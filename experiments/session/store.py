@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from experiments.errors import SessionError
+from experiments.records import TableReader, Verbatim
 from experiments.logbook import now_iso as _now_iso
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
 from experiments.session_files import package_versions, schedule_sha256
@@ -124,40 +125,28 @@ def read_session_json(directory, *, out=None) -> StoredSession:
         raise SessionError(f"{path}: expected valid JSON, got {exc}") from None
     if not isinstance(meta, dict):
         raise SessionError(f"{path}: expected a JSON object, got {type(meta).__name__}")
-    for key in ("session", "participant", "protocol", "protocol_hash", "seed", "schedule",
-                "display_url", "group"):
-        if key not in meta:
-            raise SessionError(f"{path}: {key}: expected a value, got nothing")
-    # the scalar fields through the protocol's own table reader (typed, bounded, one line)
-    from experiments.errors import ProtocolError
-    from experiments.protocol import TableReader
-    table = TableReader(str(path), meta, "")
-    try:
-        table.string("session")
-        table.string("protocol_hash")
-        table.integer("seed", ge=0)
-        table.integer("max_consecutive_faults", 3, ge=1, le=1000,
-                      why="faults in a row before a session stops")
-        table.string("responder", "", nonempty=False)
-    except ProtocolError as exc:
-        raise SessionError(str(exc)) from None
+    table = TableReader(str(path), meta, "", error=SessionError)
+    table.require("session", "participant", "protocol", "protocol_hash", "seed", "schedule",
+                  "display_url", "group")
+    table.string("session")
+    table.string("protocol_hash")
+    seed = table.integer("seed", ge=0)
+    max_faults = table.integer("max_consecutive_faults", 3, ge=1, le=1000,
+                               why="faults in a row before a session stops")
+    responder = table.string("responder", "", nonempty=False)
     source = f"{path}: protocol"
     protocol = parse_protocol(meta["protocol"], source=source,
                               path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
     if protocol.hash != meta["protocol_hash"]:
-        raise SessionError(f"{path}: protocol_hash: expected {protocol.hash} (the stored protocol's "
-                           f"hash), got {meta['protocol_hash']!r}")
+        table.fail("protocol_hash", f"{protocol.hash} (the stored protocol's hash)",
+                   meta["protocol_hash"])
     participant = validate_participant(meta["participant"], source=f"{path}: participant")
-    seed = meta["seed"]
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise SessionError(f"{path}: seed: expected an integer ≥ 0, got {seed!r}")
     if not isinstance(meta["schedule"], list):
-        raise SessionError(f"{path}: schedule: expected a list of trials, got "
-                           f"{type(meta['schedule']).__name__}")
+        table.fail("schedule", "a list of trials", Verbatim(type(meta["schedule"]).__name__))
     try:
         schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
-    except (TypeError, ValueError, KeyError, AttributeError) as exc:
-        raise SessionError(f"{path}: schedule: expected a list of trials, got {exc}") from None
+    except ValueError as exc:
+        table.fail("schedule", "a list of trials", Verbatim(exc))
     # Sessions written before the field existed used the first algorithm.
     made_by = meta.get("schedule_algorithm", "thermocue-schedule-v1")
     expected = build_schedule(protocol, str(participant["id"]), seed)
@@ -172,21 +161,19 @@ def read_session_json(directory, *, out=None) -> StoredSession:
                     min(len(schedule), len(expected)))
         got = meta["schedule"][diff] if diff < len(schedule) else "nothing"
         want = expected[diff].to_dict() if diff < len(expected) else "nothing"
-        raise SessionError(f"{path}: schedule: expected the schedule of the stored protocol, "
-                           f"participant {participant['id']} and seed {seed} ({len(expected)} "
-                           f"trials; trial {diff + 1}: {want}), got {len(schedule)} trials "
-                           f"(trial {diff + 1}: {got})")
+        table.fail("schedule", f"the schedule of the stored protocol, participant "
+                               f"{participant['id']} and seed {seed} ({len(expected)} trials; "
+                               f"trial {diff + 1}: {want})",
+                   Verbatim(f"{len(schedule)} trials (trial {diff + 1}: {got})"))
     group = meta["group"]
     groups = None if protocol.grouping is None else (protocol.grouping.below, protocol.grouping.above)
     if not isinstance(group, str) or (groups is not None and group not in groups):
-        raise SessionError(f"{path}: group: expected " + (f"one of {groups}" if groups else "a name")
-                           + f", got {group!r}")
+        table.fail("group", f"one of {groups}" if groups else "a name", group)
     check_against_log(directory, path, meta, participant, schedule)
     if not isinstance(meta["display_url"], str) or not meta["display_url"]:
-        raise SessionError(f"{path}: display_url: expected a URL, got {meta['display_url']!r}")
+        table.fail("display_url", "a URL", meta["display_url"])
     return StoredSession(path, protocol, participant, group, meta["session"], seed, schedule,
-                         meta["display_url"], meta.get("responder") or "",
-                         meta.get("max_consecutive_faults", 3), source)
+                         meta["display_url"], responder or "", max_faults, source)
 
 
 def check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
