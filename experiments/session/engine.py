@@ -15,6 +15,8 @@ from pathlib import Path
 
 from experiments.errors import DisplayError, SessionError, UserInputError
 from experiments.responders.base import Responder
+from experiments.responders.hand import press
+from experiments.session.display import Display
 from experiments.session.hooks import SessionHooks, hooks_from_env
 from experiments.session.machine import StateMachine, clock_for_url
 from experiments.session.planning import SessionProfiles
@@ -144,16 +146,14 @@ class Session(TrialSteps):
         ``initial_skin_temperature_C`` (else the middle of the protocol's skin-temperature range).
         """
         contact = self.protocol.contact
-        if spec.mode != "simulated":
-            display.sim_sample(**self.sample_for(spec))
         env = self.protocol.environment
         skin_C = self.participant.get("initial_skin_temperature_C",
                                       0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C))
         thickness_um = self.skin_thickness_um or 800.0
-        display.sim_finger(press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
-                           hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
-                           skin_thickness_m=float(thickness_um) * 1e-6,
-                           skin_temperature_C=float(skin_C))
+        press(display, sample=None if spec.mode == "simulated" else self.sample_for(spec),
+              press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
+              hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
+              skin_thickness_m=float(thickness_um) * 1e-6, skin_temperature_C=float(skin_C))
         self.log_event("emulated_touch", trial_index=spec.trial_index, skin_temperature_C=skin_C)
 
     # -- logging --------------------------------------------------------------------------
@@ -179,7 +179,7 @@ class Session(TrialSteps):
         self.experimenter.tell(text)
 
     # -- the run --------------------------------------------------------------------------
-    def run(self, responder: Responder, display=None) -> int:
+    def run(self, responder: Responder, display: Display | None = None) -> int:
         """Run (or resume) the session to its end.
 
         Parameters
