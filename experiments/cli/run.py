@@ -76,6 +76,28 @@ def check_common(ns) -> None:
             raise UserInputError(f"--experimenter-screen: expected a screen number ≥ 0, got "
                                  f"{ns.experimenter_screen}")
         check_window("psychopy", option="--experimenter-screen")
+    progress_on_stderr(ns.quiet)
+
+
+def progress_on_stderr(quiet: bool) -> None:
+    """The session's progress lines (logger ``thermocue``, INFO) on stderr; ``--quiet``: none.
+
+    A stand-in until the CLI configures the ``thermocue`` logger in one place (issue 14): the
+    level is set here, a stderr handler added only if the logger has none.
+    """
+    import logging
+    import sys
+
+    class _Stderr(logging.StreamHandler):
+        # sys.stderr at each line (not the stream of the first call: tests swap it)
+        stream = property(lambda self: sys.stderr, lambda self, value: None)
+
+    log = logging.getLogger("thermocue")
+    log.setLevel(logging.WARNING if quiet else logging.INFO)
+    if not log.handlers:
+        handler = _Stderr()
+        handler.setFormatter(logging.Formatter("thermocue: %(message)s"))
+        log.addHandler(handler)
 
 
 def experimenter_for(ns):
@@ -142,8 +164,7 @@ def _run(ns) -> int:
     # before the session folder is written: a bad input or an unreachable display leaves nothing.
     plan = plan_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
                         session_name=ns.session, responder_name=ns.responder,
-                        clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3,
-                        progress=not ns.quiet)
+                        clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3)
     if not confirm_another_session(plan, experimenter_for(ns)):
         return 1
     display = open_display_or_report("run", plan.protocol, ns.display, "--display",

@@ -28,6 +28,9 @@ from experiments.session_files import schedule_sha256
 
 __all__ = ["Session"]
 
+#: Progress lines (trial n of N, elapsed, time left, the planner's word on each profile).
+_log = logging.getLogger("thermocue.session")
+
 class Session(TrialSteps):
     """A session directory and the engine that runs its trials.
 
@@ -48,13 +51,17 @@ class Session(TrialSteps):
         The session's name (its folder).
     display_url : str
     clock : RealClock or VirtualClock
+    experimenter : experiments.responders.experimenter.Experimenter
+        The experimenter's channel (``out``: its stream; default stderr): the sample to place,
+        faults, warnings and why a run stopped. Progress lines are logged instead
+        (``thermocue.session``, :meth:`_say`).
     responder_name : str
         The responder recorded in ``session.json`` ("" if none).
     """
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
-                 progress: bool = True, responder_name: str = "", profiles: dict | None = None,
+                 responder_name: str = "", profiles: dict | None = None,
                  experimenter=None, hooks: SessionHooks | None = None):
         self.directory = Path(directory)
         self.protocol = protocol
@@ -69,7 +76,8 @@ class Session(TrialSteps):
         self.clock = clock if clock is not None else clock_for_url(display_url)
         self.max_consecutive_faults = int(max_consecutive_faults)
         self.out = out
-        self.show_progress = progress
+        #: Whether this session logs progress lines at all (a cohort's many sessions: off).
+        self.show_progress = True
         #: The experimenter's channel (terminal by default): everything the participant must
         #: not see (:mod:`experiments.responders.experimenter`).
         if experimenter is None:
@@ -168,9 +176,11 @@ class Session(TrialSteps):
         self.log_event("state", **{"from": old, "to": new}, **context)
 
     def _say(self, text: str) -> None:
-        """A progress line (silenced by ``--quiet``)."""
-        if self.show_progress:
-            self._report(text)
+        """A progress line: logged at INFO on ``thermocue.session`` (the CLI prints it on
+        stderr; ``--quiet`` silences it) and shown on the experimenter's window if one is open."""
+        if self.show_progress and _log.isEnabledFor(logging.INFO):
+            _log.info(text)
+            self.experimenter.progress(text)
 
     def _report(self, text: str) -> None:
         """An error, a warning or the reason a run stopped: printed even with ``--quiet``.

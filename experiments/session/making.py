@@ -71,7 +71,6 @@ class SessionPlan:
     max_consecutive_faults: int
     profiles: dict
     out: object = None
-    progress: bool = True
     auto_name: bool = False       # the name was chosen here (S01, S02, ...): take the next if taken
 
     @property
@@ -116,7 +115,7 @@ class SessionPlan:
         session = Session(directory, protocol, self.participant, assignment.group, self.seed,
                           self.schedule, self.name, self.display_url, assignment=assignment,
                           clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
-                          out=self.out, progress=self.progress, responder_name=self.responder_name,
+                          out=self.out, responder_name=self.responder_name,
                           profiles=self.profiles)
         for w in assignment.warnings:
             session._report(f"warning: {w}")
@@ -146,7 +145,7 @@ def _refuse_existing(directory: Path) -> None:
 
 def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
                  session_name: str | None = None, responder_name: str = "", clock: str = "auto",
-                 max_consecutive_faults: int = 3, out=None, progress: bool = True) -> SessionPlan:
+                 max_consecutive_faults: int = 3, out=None) -> SessionPlan:
     """Validate the inputs, plan the schedule and check every simulated profile; write nothing.
 
     Parameters are those of :func:`create_session`.
@@ -185,12 +184,12 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     profiles = check_simulated_profiles(protocol, participant, assignment.group, schedule)
     return SessionPlan(protocol, participant, str(participant_path), assignment, seed, schedule,
                        directory, display_url, clock_obj, responder_name, max_consecutive_faults,
-                       profiles, out=out, progress=progress, auto_name=not session_name)
+                       profiles, out=out, auto_name=not session_name)
 
 
 def create_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
                    session_name: str | None = None, responder_name: str = "", clock: str = "auto",
-                   max_consecutive_faults: int = 3, out=None, progress: bool = True) -> Session:
+                   max_consecutive_faults: int = 3, out=None) -> Session:
     """Validate the inputs, plan the schedule and write a new session directory.
 
     Every simulated profile is computed and checked against the protocol's display limits
@@ -215,8 +214,9 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     responder_name : str
         Recorded in ``session.json`` (``thermocue resume`` uses it by default).
     clock : {"auto", "real", "virtual"}
-    progress : bool
-        Progress lines on stderr (errors and stop reasons are printed regardless).
+    out : file, optional
+        The experimenter's channel (default stderr): errors, warnings, why a run stopped.
+        Progress lines are logged on ``thermocue.session`` (INFO) instead.
 
     Returns
     -------
@@ -230,12 +230,11 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     """
     return plan_session(protocol, participant_path, data_dir, display_url, seed=seed,
                         session_name=session_name, responder_name=responder_name, clock=clock,
-                        max_consecutive_faults=max_consecutive_faults, out=out,
-                        progress=progress).write()
+                        max_consecutive_faults=max_consecutive_faults, out=out).write()
 
 
 def open_session(session_dir, *, display_url: str | None = None, clock: str | None = None,
-                 out=None, progress: bool = True) -> Session:
+                 out=None) -> Session:
     """Reopen a session directory to resume it (same protocol, participant, seed, schedule).
 
     ``session.json`` is checked, not trusted: the protocol copy against its hash, the seed (an
@@ -263,6 +262,6 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     session = Session(Path(session_dir), stored.protocol, stored.participant, stored.group,
                       stored.seed, stored.schedule, stored.name, url, clock=clock_obj,
                       max_consecutive_faults=stored.max_consecutive_faults, out=out,
-                      progress=progress, responder_name=stored.responder, profiles=profiles)
+                      responder_name=stored.responder, profiles=profiles)
     session.protocol_source = stored.source
     return session
