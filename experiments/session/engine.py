@@ -31,6 +31,7 @@ __all__ = ["Session"]
 #: Progress lines (trial n of N, elapsed, time left, the planner's word on each profile).
 _log = logging.getLogger("thermocue.session")
 
+
 class Session(TrialSteps):
     """A session directory and the engine that runs its trials.
 
@@ -57,6 +58,8 @@ class Session(TrialSteps):
         (``thermocue.session``, :meth:`_say`).
     responder_name : str
         The responder recorded in ``session.json`` ("" if none).
+    hooks : SessionHooks
+        Called at the trial's pause points (tests; default from ``THERMOCUE_TEST_PAUSE_AT``).
     """
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
