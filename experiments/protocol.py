@@ -14,13 +14,16 @@ got 'three'"``.  Block indices are 0-based, as in the TOML array.
 The protocol's :attr:`Protocol.hash` is the SHA-256 of the parsed content in canonical JSON
 (sorted keys, no whitespace), so comments and layout do not change it, and
 ``parse_protocol(protocol.data)`` (e.g. from ``session.json``) gives the same hash.
+
+One concept, the protocol (its typed objects and how a file becomes them); the generic table
+reader it is read with is :mod:`experiments.records` (shared with ``session.json`` and
+:class:`~experiments.schedule.TrialSpec`).
 """
 from __future__ import annotations
 
 import copy
 import hashlib
 import json
-import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +35,10 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 from experiments.errors import ProtocolError
+from experiments.records import TableReader
+from experiments.records import TableReader as _Table
+from experiments.records import Verbatim as _Note
+from experiments.records import number_text as _fmt
 from participants_schema import GroupRule
 from stimuli import paper
 
@@ -76,7 +83,6 @@ DEFAULT_PAD_MATERIAL = paper.PAD_MATERIAL
 #: (15-42 °C, the packaged protocols) lies well inside; the device's own hard range may be wider.
 SKIN_SAFE_MIN_C = 5.0
 SKIN_SAFE_MAX_C = 45.0
-_MISSING = object()
 
 
 # --------------------------------------------------------------------------- typed parts
@@ -415,137 +421,6 @@ MAX_TRIALS = 5000
 MAX_WAIT_S = 3600.0
 _WAIT_WHY = "at most an hour: longer is a typo, and a real clock cannot wait it"
 _SKIN_WHY = "µm of fingertip skin: at most 1 cm"
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _fmt(x: float) -> str:
-    return f"{x:g}"
-
-
-class _Table:
-    """One TOML table being read: typed getters, then :meth:`done` rejects unknown keys."""
-
-    def __init__(self, source: str, data: Any, field: str):
-        self.source, self.field = source, field
-        if not isinstance(data, Mapping):
-            self._fail(field, "a table", data)
-        self.data = data
-        self.used: list[str] = []
-
-    def _name(self, key: str) -> str:
-        return f"{self.field}.{key}" if self.field else key
-
-    def _fail(self, field: str, what: str, value: Any = _MISSING):
-        got = "nothing (the key is required)" if value is _MISSING else repr(value)
-        raise ProtocolError(f"{self.source}: {field}: expected {what}, got {got}")
-
-    def fail(self, key: str, what: str, value: Any = _MISSING):
-        self._fail(self._name(key), what, value)
-
-    def _get(self, key: str, default: Any, what: str) -> Any:
-        self.used.append(key)
-        if key in self.data:
-            return self.data[key]
-        if default is _MISSING:
-            self._missing(key, what)
-        return default
-
-    def _missing(self, key: str, what: str):
-        import difflib
-
-        near = difflib.get_close_matches(key, [k for k in self.data if isinstance(k, str)], n=1, cutoff=0.75)
-        if near:
-            self._fail(self._name(key), what, _Note(f"nothing (the key is required; is {near[0]!r} a misspelling?)"))
-        self.fail(key, what)
-
-    def number(self, key, default=_MISSING, *, gt=None, ge=None, le=None, lt=None,
-               why: str = "") -> float | None:
-        bounds = []
-        if gt is not None:
-            bounds.append(f"> {_fmt(gt)}")
-        if ge is not None:
-            bounds.append(f"≥ {_fmt(ge)}")
-        if lt is not None:
-            bounds.append(f"< {_fmt(lt)}")
-        # an upper bound given with its reason is stated when it is the one broken
-        upper = f"≤ {_fmt(le)}" if le is not None else None
-        if upper and not why:
-            bounds.append(upper)
-        what = "a number" + (" " + " and ".join(bounds) if bounds else "")
-        v = self._get(key, default, what)
-        if v is None and default is None and key not in self.data:
-            return None
-        if not _is_number(v) or (gt is not None and not v > gt) or (ge is not None and not v >= ge) \
-                or (lt is not None and not v < lt) or (le is not None and not why and not v <= le):
-            self.fail(key, what, v)
-        if le is not None and not v <= le:
-            self.fail(key, f"{what} and {upper} ({why})", v)
-        return float(v)
-
-    def integer(self, key, default=_MISSING, *, ge=None, le=None, why: str = "") -> int:
-        what = "an integer" + (f" ≥ {ge}" if ge is not None else "")
-        v = self._get(key, default, what)
-        if isinstance(v, bool) or not isinstance(v, int) or (ge is not None and v < ge):
-            self.fail(key, what, v)
-        if le is not None and v > le:     # the upper bound and its reason, when broken
-            self.fail(key, f"{what} and ≤ {le}" + (f" ({why})" if why else ""), v)
-        return v
-
-    def string(self, key, default=_MISSING, *, choices=None, nonempty=True) -> str:
-        what = ("one of " + ", ".join(repr(c) for c in choices)) if choices else \
-            ("a non-empty string" if nonempty else "a string")
-        v = self._get(key, default, what)
-        if not isinstance(v, str) or (choices and v not in choices) or (nonempty and not v.strip()):
-            self.fail(key, what, v)
-        return v
-
-    def boolean(self, key, default=_MISSING) -> bool:
-        v = self._get(key, default, "true or false")
-        if not isinstance(v, bool):
-            self.fail(key, "true or false", v)
-        return v
-
-    def table(self, key, required=True) -> "_Table | None":
-        self.used.append(key)
-        if key not in self.data:
-            if required:
-                self._missing(key, "a table")
-            return None
-        return _Table(self.source, self.data[key], self._name(key))
-
-    def tables(self, key) -> list["_Table"]:
-        self.used.append(key)
-        v = self.data.get(key, _MISSING)
-        if v is _MISSING:
-            self._missing(key, "an array of tables ([[" + key + "]])")
-        if not isinstance(v, list) or not v:
-            self.fail(key, "a non-empty array of tables ([[" + key + "]])", v)
-        return [_Table(self.source, item, f"{self._name(key)}[{i}]") for i, item in enumerate(v)]
-
-    def done(self):
-        unknown = [k for k in self.data if k not in self.used]
-        if unknown:
-            known = ", ".join(sorted(set(self.used)))
-            self._fail(self._name(unknown[0]), f"one of the known keys ({known})",
-                       _Unknown(unknown[0]))
-
-
-#: The typed table reader (one line naming the source and field per problem), for other files
-#: than protocols that are read the same way (``session.json``).
-TableReader = _Table
-
-
-class _Note(str):
-    def __repr__(self):
-        return str(self)
-
-
-class _Unknown(str):
-    def __repr__(self):
-        return f"an unknown key {str.__repr__(self)}"
 
 
 def _pad_material(s: _Table) -> str:

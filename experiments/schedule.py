@@ -48,6 +48,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from experiments.errors import UserInputError
+from experiments.records import TableReader
 
 __all__ = ["TrialSpec", "build_schedule", "derive_seed", "participant_number", "ALGORITHM",
            "block_sequence"]
@@ -96,28 +97,13 @@ class TrialSpec:
         ValueError
             If a field is missing or has the wrong type.
         """
-        kwargs = {}
-        for f in fields(cls):
-            if f.name not in d:
-                raise ValueError(f"TrialSpec: {f.name}: expected a value, got nothing")
-            v = d[f.name]
-            if f.name in ("trial_index", "roughness_id", "repetition"):
-                if isinstance(v, bool) or not isinstance(v, int):
-                    if isinstance(v, str) and v.strip().lstrip("-").isdigit():
-                        v = int(v)
-                    elif isinstance(v, float) and v.is_integer():
-                        v = int(v)
-                    else:
-                        raise ValueError(f"TrialSpec: {f.name}: expected an integer, got {v!r}")
-            elif f.name == "roughness_um":
-                try:
-                    v = float(v)
-                except (TypeError, ValueError):
-                    raise ValueError(f"TrialSpec: roughness_um: expected a number, got {v!r}") from None
-            elif not isinstance(v, str):
-                raise ValueError(f"TrialSpec: {f.name}: expected a string, got {v!r}")
-            kwargs[f.name] = v
-        return cls(**kwargs)
+        r = TableReader("TrialSpec", d, "", error=ValueError)
+        r.require(*(f.name for f in fields(cls)))
+        return cls(trial_index=r.integer("trial_index", from_text=True),
+                   block=r.string("block", nonempty=False), mode=r.string("mode", nonempty=False),
+                   roughness_id=r.integer("roughness_id", from_text=True),
+                   roughness_um=r.number("roughness_um", from_text=True),
+                   repetition=r.integer("repetition", from_text=True))
 
 
 def derive_seed(protocol_hash: str, participant_id: str, seed: int, *parts: str) -> int:

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
                     reason="not a git checkout")
 def test_data_results_and_participant_records_are_ignored():
     paths = ["data/P01/S01/trials.csv", "results/report.md", "participants/P07.json",
-             "participants/examples/P01.json", "experiments/session.py"]
+             "participants/examples/P01.json", "experiments/session/engine.py"]
     run = subprocess.run(["git", "check-ignore", "--no-index", *paths], cwd=ROOT,
                          capture_output=True, text=True)
     assert run.stdout.split() == paths[:3]

@@ -80,7 +80,7 @@ def test_stimuli_imports_only_numpy_scipy_and_the_standard_library():
 
 #: What analysis must not import: the experiment's runtime. ``experiments.logformat`` (the log
 #: format, standard library only) is the one part of experiments analysis may read.
-RUNTIME = ("experiments.session", "experiments.session_machine", "experiments.session_setup",
+RUNTIME = ("experiments.session", "experiments.records",
            "experiments.session_files", "experiments.hardware", "experiments.responders",
            "experiments.cli", "experiments.protocol", "experiments.logbook",
            "experiments.schedule", "experiments.psychopy_plugin", "experiments.calibration",

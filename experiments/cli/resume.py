@@ -27,8 +27,7 @@ def _run(ns) -> int:
     from experiments.session import open_session
 
     check_common(ns)
-    session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock,
-                           progress=not ns.quiet)
+    session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
     name = ns.responder
     if name is None:
         name = session.responder_name

@@ -143,8 +143,7 @@ def _run(ns) -> int:
     # before the session folder is written: a bad input or an unreachable display leaves nothing.
     plan = plan_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
                         session_name=ns.session, responder_name=ns.responder,
-                        clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3,
-                        progress=not ns.quiet)
+                        clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3)
     if not confirm_another_session(plan, experimenter_for(ns)):
         return 1
     display = open_display_or_report("run", plan.protocol, ns.display, "--display",

@@ -91,7 +91,7 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
         self.url = str(url)
         self.protocol = load_protocol_for_cue(protocol) if protocol not in (None, "") else None
         if self.protocol is not None:
-            from experiments.session_setup import open_session_display
+            from experiments.session.setup import open_session_display
             self.limits = self.protocol.display.safety_limits()
             self.display = open_session_display(self.protocol, self.url, option="url")
         else:

@@ -2,7 +2,7 @@
 
 No PsychoPy here: the Builder component and the Coder example both call these, and the same
 profile would be uploaded by ``thermocue run`` for that participant and sample
-(:func:`experiments.session_setup.simulated_target_profile`).
+(:func:`experiments.session.setup.simulated_target_profile`).
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def protocol_profile(protocol, participant_file, sample_id) -> CueProfile:
     UserInputError
         An unknown sample (names the protocol and the field), a bad participant file.
     """
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     from participants_schema import assign_group, load_participant
 
     proto = load_protocol_for_cue(protocol)

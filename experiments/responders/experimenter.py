@@ -37,6 +37,10 @@ class Experimenter:
         """Show one line to the experimenter."""
         print(f"thermocue: {text}", file=self.out, flush=True)
 
+    def progress(self, text: str) -> None:
+        """A progress line of the session (already logged on ``thermocue.session``, which the
+        CLI prints on stderr): shown again only where the experimenter has a screen."""
+
     def confirm(self, question: str) -> bool | None:
         """Ask a yes/no question; True or False, or None when nobody can be asked.
 
@@ -117,6 +121,12 @@ class WindowExperimenter(Experimenter):
 
     def tell(self, text: str) -> None:
         super().tell(text)
+        self._show(text)
+
+    def progress(self, text: str) -> None:
+        self._show(text)
+
+    def _show(self, text: str) -> None:
         self._history = (self._history + [text])[-self.lines:]
         if self.win is not None:
             self._stim.text = "\n".join(self._history)

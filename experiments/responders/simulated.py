@@ -19,6 +19,7 @@ from experiments.errors import UserInputError
 from experiments.simulation.person import PerceptionParameters, SimulatedPerson, feature_names
 from stimuli.paper import PAD_MATERIAL, PAD_ROUGHNESS_M
 from experiments.responders.base import RESPONSE_IDS, Responder, Response
+from experiments.responders.hand import press
 
 __all__ = ["SimulatedResponder", "HOLD_MARGIN_S"]
 
@@ -226,14 +227,10 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         """Script the emulator: the sample (real trials) and the finger."""
         person = self._ensure_person()
         _, skin_temperature = self._trial(trial)
-        if trial.mode != "simulated":
-            sample = _sample_for(self.session, trial, self.params)
-            display.sim_sample(material=sample["material"], roughness_m=sample["roughness_m"],
-                               thickness_m=sample["thickness_m"], temperature_C=sample["temperature_C"])
-        display.sim_finger(press_after_s=self.press_after_s, force_N=self._force(),
-                           hold_s=self.hold_for(trial),
-                           skin_thickness_m=person.skin_thickness_m,
-                           skin_temperature_C=skin_temperature)
+        press(display, sample=(None if trial.mode == "simulated"
+                               else _sample_for(self.session, trial, self.params)),
+              press_after_s=self.press_after_s, force_N=self._force(), hold_s=self.hold_for(trial),
+              skin_thickness_m=person.skin_thickness_m, skin_temperature_C=skin_temperature)
         if _is_familiarisation(trial) and trial.mode != "simulated":
             # A real sample is felt by physics alone: learn now, whether or not the protocol
             # asks for an answer on familiarisation trials (``response = false``).

@@ -23,7 +23,7 @@ Where this differs from emulated sessions (it is *not* exactly equivalent)
 * Random numbers come from one generator per scenario, not from ``(seed, trial_index)`` per
   person: the same distributions, different draws.
 Everything else is the same: person draws (:func:`~experiments.simulation.person.draw_person`
-ranges), the session's own target profiles (:func:`experiments.session_setup.
+ranges), the session's own target profiles (:func:`experiments.session.setup.
 simulated_target_profile`, rate limit included), the finger–pad contact resistance, the
 features, the noise model, the familiarisation (one touch per real sample, by default), the
 lapse rule and the observer's decision (:func:`.observers.answer_block`).
@@ -90,7 +90,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=TARGET_SIDES,
     """
     from experiments.simulation.person import PerceptionParameters, SimulatedPerson, draw_person
     from experiments.protocol import load_protocol
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
 
     params = params or PerceptionParameters()

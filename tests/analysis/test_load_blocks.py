@@ -48,7 +48,7 @@ def test_an_unscored_review_block_of_any_name_is_read_from_session_json(tmp_path
 
     s = create_session(review_protocol(tmp_path, name), P01, tmp_path / "data",
                        "emulator://?clock=virtual&seed=4", seed=3, responder_name="right-answers-test",
-                       clock="virtual", progress=False)
+                       clock="virtual")
     assert s.run(RightAnswers()) == 0
     meta = json.loads((s.directory / "session.json").read_text())
     assert block_roles(meta)[name] == {"scored": False, "response": False}

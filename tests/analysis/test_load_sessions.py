@@ -53,7 +53,7 @@ def data(tmp_path_factory):
             (tmp / "P02.json", 7), (tmp / "P02.json", None)]
     for i, (record_path, stop_at) in enumerate(plan):
         s = create_session(proto, record_path, data, "emulator://?clock=virtual&seed=1", seed=i,
-                           responder_name="answers-until-test", clock="virtual", progress=False)
+                           responder_name="answers-until-test", clock="virtual")
         assert s.run(Answers(stop_at)) == (1 if stop_at else 0)
     return data
 

@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from experiments.errors import DisplayError, DisplayTimeout
+from experiments.hardware.driver import TrialRecording
+from experiments.hardware.messages import Telemetry
 from experiments.responders.base import Responder, Response
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -145,29 +147,6 @@ class ScriptedResponder(Responder, name="scripted-test"):
 
 # --------------------------------------------------------------------------- stand-in display
 @dataclass
-class Frame:
-    device_time_s: float
-    setpoint_C: float
-    contact_C: float
-    ambient_C: float
-    finger_C: float
-    forces_N: tuple
-    state: str
-
-
-@dataclass
-class Recording:
-    status: str
-    fault_code: str | None = None
-    fault_message: str | None = None
-    contact_time_s: float | None = None
-    frames: int = 0
-    frames_lost: int = 0
-    tracking_rms_C: float | None = None
-    tracking_max_C: float | None = None
-
-
-@dataclass
 class Info:
     device_id: str = "scripted"
     firmware: str = "0"
@@ -176,7 +155,8 @@ class Info:
 
 @dataclass
 class ScriptedDisplay:
-    """Follows the driver's contract; ``script`` says per run_trial call what happens:
+    """Follows the driver's contract (:class:`experiments.session.display.EmulatedDisplay`,
+    frames and recordings of the driver's own types); ``script`` says per run_trial call what happens:
     ``"ok"``, ``"fault"`` (faulted recording), ``"raise"`` (DisplayError), ``"timeout"``
     (DisplayTimeout) or ``"no_contact"``."""
 
@@ -184,6 +164,7 @@ class ScriptedDisplay:
     calls: list = field(default_factory=list)
     info: Info = field(default_factory=Info)
     n_runs: int = 0
+    mode: str = "playback"
     #: The real driver's host-side check, so an engine test cannot upload what a display refuses.
     limits: object = None
 
@@ -196,6 +177,7 @@ class ScriptedDisplay:
         self.calls.append(("upload", len(t)))
 
     def arm(self, **kw):
+        self.mode = kw["mode"]
         self.calls.append(("arm", kw["mode"]))
 
     def abort(self):
@@ -217,14 +199,17 @@ class ScriptedDisplay:
             raise DisplayTimeout("no answer in 1 s")
         if what == "no_contact":
             for i in range(3):
-                on_telemetry(Frame(i * 0.1, 32.0, 32.0, 20.0, 35.0, (0.0,) * 4, "ARMED"))
-            return Recording("fault", "TRIAL_TIMEOUT", "no end of trial within 5 s", None, 3)
+                on_telemetry(Telemetry(i, i * 0.1, 32.0, 32.0, 20.0, 35.0, (0.0,) * 4, "ARMED", None))
+            return TrialRecording("fault", "TRIAL_TIMEOUT", "no end of trial within 5 s", None, 3, 0,
+                                  None, None, mode=self.mode)
         for i in range(10):
             state = "ARMED" if i < 2 else "RECORDING"
-            on_telemetry(Frame(i * 0.1, 30.0, 30.1, 20.0, 35.0, (0.5,) * 4, state))
+            on_telemetry(Telemetry(i, i * 0.1, 30.0, 30.1, 20.0, 35.0, (0.5,) * 4, state, None))
         if what == "fault":
-            return Recording("fault", "OVER_TEMPERATURE", "pad above limit", 0.2, 10, 0, 0.1, 0.2)
-        return Recording("ok", None, None, 0.2, 10, 0, 0.05, 0.1)
+            return TrialRecording("fault", "OVER_TEMPERATURE", "pad above limit", 0.2, 10, 0, 0.1, 0.2,
+                                  mode=self.mode, end_reason="fault")
+        return TrialRecording("ok", None, None, 0.2, 10, 0, 0.05, 0.1, mode=self.mode,
+                              end_reason="complete")
 
 
 def read_json_lines(path):

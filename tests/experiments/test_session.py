@@ -389,3 +389,61 @@ def _nothing_logged(directory):
     """No event written: the claimed log (issue 16: claimed with the folder) is empty."""
     log = directory / "events.jsonl"
     return not log.exists() or log.read_bytes() == b""
+
+
+# --------------------------------------------------------------------------- issue 14: the shape
+def test_progress_is_logged_on_thermocue_session_and_not_told(tmp_path, caplog):
+    import io
+    import logging
+
+    proto = write_protocol(tmp_path, sim_samples=())
+    told = io.StringIO()
+    s = create_session(proto, P01, tmp_path / "data", "scripted://", seed=7,
+                       responder_name="scripted-test", clock="virtual", out=told)
+    caplog.set_level(logging.INFO, logger="thermocue.session")
+    assert s.run(ScriptedResponder(), display=ScriptedDisplay(script=["fault"])) == 0
+    progress = [r.getMessage() for r in caplog.records if r.name == "thermocue.session"]
+    assert any(m.startswith("trial 1 of 4 | block real") for m in progress)
+    assert any(m.startswith("trial 1 of 4 | block real") and m.endswith("| attempt 2")
+               for m in progress)
+    assert any(m.startswith("session finished: 4 trials") for m in progress)
+    # the experimenter's channel keeps what is theirs (the fault), and no progress line
+    assert "trial 1: display fault OVER_TEMPERATURE" in told.getvalue()
+    assert "of 4 | block" not in told.getvalue()
+
+
+def test_quiet_logger_gives_no_progress_lines(tmp_path, caplog):
+    import logging
+
+    caplog.set_level(logging.WARNING, logger="thermocue.session")
+    s = new_session(tmp_path)
+    assert s.run(ScriptedResponder(), display=ScriptedDisplay()) == 0
+    assert not [r for r in caplog.records if r.name == "thermocue.session"]
+
+
+def test_pause_points_are_a_hooks_object_reached_in_order(tmp_path):
+    from experiments.session import PAUSE_ENV, PAUSE_POINTS, PauseAt, SessionHooks
+    from experiments.session.hooks import hooks_from_env
+
+    class Seen(SessionHooks):
+        def __init__(self):
+            self.points = []
+
+        def at(self, point, spec, attempt):
+            self.points.append((point, spec.trial_index, attempt))
+
+    proto = write_protocol(tmp_path, real_samples=(1,), sim_samples=(2,))
+    s = create_session(proto, P01, tmp_path / "data", "scripted://", seed=7,
+                       responder_name="scripted-test", clock="virtual")
+    s.hooks = seen = Seen()
+    assert s.run(ScriptedResponder(), display=ScriptedDisplay()) == 0
+    real = [p for p, t, a in seen.points if s.schedule[t - 1].mode == "real" and t == 1]
+    assert real == ["trial_started", "armed", "playback", "after_response", "after_write"]
+    sim = next(x.trial_index for x in s.schedule if x.mode == "simulated")
+    assert [p for p, t, a in seen.points if t == sim] == list(PAUSE_POINTS)
+    # the environment variable of the kill tests: no points, the do-nothing base class
+    assert type(hooks_from_env({})) is SessionHooks
+    assert hooks_from_env({PAUSE_ENV: "upload:9, playback:2"}).points == {("upload", 9), ("playback", 2)}
+    assert isinstance(hooks_from_env({PAUSE_ENV: "upload:9"}), PauseAt)
+    with pytest.raises(ValueError, match=f"{PAUSE_ENV}: expected point:trial_index"):
+        hooks_from_env({PAUSE_ENV: "nowhere:1"})

@@ -229,9 +229,12 @@ def test_resume_takes_the_clock_from_the_display_it_uses(tmp_path):
     assert start["clock"] == "virtual" and start["display_url"] == EMU
 
 
-def test_progress_counts_elapsed_time_from_the_sessions_first_start(tmp_path):
+def test_progress_counts_elapsed_time_from_the_sessions_first_start(tmp_path, caplog):
     # Regression: "elapsed" restarted at 0:00 on resume.
+    import logging
+
     from experiments.logbook import EventLog, now_iso
+    caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged (issue 14)
     s = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data", "scripted://",
                        seed=7, clock="virtual")
     an_hour_ago = (dt.datetime.now(dt.timezone.utc) - dt.timedelta(hours=1, seconds=5))
@@ -250,7 +253,7 @@ def test_progress_counts_elapsed_time_from_the_sessions_first_start(tmp_path):
     assert again.run(resp, display=ScriptedDisplay()) == 0
     lines = [c[1] for c in resp.calls if c[0] == "progress"]
     assert len(lines) == 4 and all("| elapsed 1:00:0" in t for t in lines), lines
-    assert "session finished: 4 trials, 1:00:0" in out.getvalue()
+    assert "session finished: 4 trials, 1:00:0" in caplog.text
 
 
 # --------------------------------------------------------------------------- 7. the console's bell

@@ -1,10 +1,10 @@
-"""Tests of the session's state machine and clocks (experiments.session_machine)."""
+"""Tests of the session's state machine and clocks (experiments.session.machine)."""
 from __future__ import annotations
 
 import pytest
 
 from experiments.errors import UserInputError
-from experiments.session_machine import (
+from experiments.session.machine import (
     TRANSITIONS,
     RealClock,
     StateMachine,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import json
+import logging
 import re
 
 import pytest
@@ -50,7 +51,8 @@ def _protocol(tmp_path):
     return path
 
 
-def test_participant_terminal_never_names_a_test_trials_sample(tmp_path):
+def test_participant_terminal_never_names_a_test_trials_sample(tmp_path, caplog):
+    caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged (issue 14)
     proto = _protocol(tmp_path)
     experimenter = io.StringIO()
     s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&seed=3", seed=11,
@@ -87,8 +89,10 @@ def test_participant_terminal_never_names_a_test_trials_sample(tmp_path):
             assert (f"trial {spec.trial_index}/12: place sample {sample.label} "
                     f"(Ra {sample.roughness_um:g} µm)") in told
     assert "correct" not in told and "wrong" not in told
+    progress = "\n".join(r.getMessage() for r in caplog.records if r.name == "thermocue.session")
     assert re.search(r"trial 12 of 12 \| block simulated \| elapsed \d+:\d\d \| about \d+:\d\d left",
-                     told)
+                     progress)
+    assert "correct" not in progress and "wrong" not in progress
     meta = json.loads((s.directory / "session.json").read_text())
     assert meta["blocks"] == [
         {"name": "familiarise", "mode": "real", "scored": False, "response": False, "feedback": True},
@@ -111,7 +115,7 @@ def test_trials_csv_has_its_whole_header_from_the_first_row(tmp_path):
 
     proto = _protocol(tmp_path)
     s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&seed=3", seed=11,
-                       responder_name="simulated", clock="virtual", progress=False)
+                       responder_name="simulated", clock="virtual")
     headers = []
 
     class Watch(type(get_responder("simulated"))):

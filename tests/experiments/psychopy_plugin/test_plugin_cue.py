@@ -36,7 +36,7 @@ def _run(cue, clock, until_contact=True, timeout_s=10.0):
 
 def test_protocol_profile_is_the_sessions_profile_for_the_participant():
     from experiments.protocol import load_protocol
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     proto = load_protocol("roughness_recognition")
     prof = protocol_profile(proto, P01, 3)
     # P01: 680 µm, group A (< 800 µm); the protocol simulates group A at 650 µm

@@ -26,7 +26,7 @@ def test_absolute_observer_studies_match_predicted_cell_probabilities():
 def test_superposed_features_equal_the_direct_computation():
     from experiments.simulation.person import draw_person
     from experiments.protocol import load_protocol
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
     from experiments.simulation.studies import imposed_features
     person = draw_person("B", 20261124)
@@ -57,7 +57,7 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
     from experiments.simulation.figure9.study import run_participant
     from experiments.simulation.person import SimulatedPerson
     from experiments.protocol import load_protocol
-    from experiments.session_setup import simulated_target_profile
+    from experiments.session.setup import simulated_target_profile
     from experiments.simulation.studies import imposed_features
     proto = load_protocol("roughness_recognition")
     paths = {p.stem: p for p in write_cohort(tmp_path / "people", seed=0)}

@@ -1,0 +1,507 @@
+"""The session engine: :class:`Session` runs one participant through one protocol.
+
+The session-level states of :data:`~experiments.session.machine.TRANSITIONS` live here
+(``idle`` between trials, ``finished``, ``stopped``, ``interrupted``: :meth:`Session.run`);
+each trial's states are :class:`~experiments.session.trial.TrialSteps`' methods. Every state
+change is logged; a log append or a file rewrite is never cut by a signal
+(:mod:`experiments.session.signals`); a fault or an interruption puts the display to neutral
+first. See :mod:`experiments.session` for the files a session writes.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+from experiments.errors import DisplayError, SessionError, UserInputError
+from experiments.responders.base import Responder
+from experiments.responders.hand import press
+from experiments.session.display import Display
+from experiments.session.hooks import SessionHooks, hooks_from_env
+from experiments.session.machine import StateMachine, clock_for_url
+from experiments.session.planning import SessionProfiles
+from experiments.session.setup import _protocol_source, open_session_display
+from experiments.session.signals import STOPS, SignalGuard, stop_reason
+from experiments.session.traces import keep_trace
+from experiments.session.trial import TrialSteps, _Trial, clock_text
+from experiments.session_files import schedule_sha256
+
+__all__ = ["Session"]
+
+#: Progress lines (trial n of N, elapsed, time left, the planner's word on each profile).
+_log = logging.getLogger("thermocue.session")
+
+
+class Session(TrialSteps):
+    """A session directory and the engine that runs its trials.
+
+    Make one with :func:`create_session` (new) or :func:`open_session` (resume), then call
+    :meth:`run`.
+
+    Attributes
+    ----------
+    directory : Path
+    protocol : experiments.protocol.Protocol
+    participant : dict
+        The validated participant record.
+    assignment : participants_schema.GroupAssignment or None
+    group : str
+    seed : int
+    schedule : list of TrialSpec
+    name : str
+        The session's name (its folder).
+    display_url : str
+    clock : RealClock or VirtualClock
+    experimenter : experiments.responders.experimenter.Experimenter
+        The experimenter's channel (``out``: its stream; default stderr): the sample to place,
+        faults, warnings and why a run stopped. Progress lines are logged instead
+        (``thermocue.session``, :meth:`_say`).
+    responder_name : str
+        The responder recorded in ``session.json`` ("" if none).
+    hooks : SessionHooks
+        Called at the trial's pause points (tests; default from ``THERMOCUE_TEST_PAUSE_AT``).
+    """
+
+    def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
+                 *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
+                 responder_name: str = "", profiles: dict | None = None,
+                 experimenter=None, hooks: SessionHooks | None = None):
+        self.directory = Path(directory)
+        self.protocol = protocol
+        self.participant = participant
+        self.group = group
+        self.assignment = assignment
+        self.seed = seed
+        self.schedule = list(schedule)
+        self.name = name
+        self.display_url = display_url
+        self.responder_name = responder_name
+        self.clock = clock if clock is not None else clock_for_url(display_url)
+        self.max_consecutive_faults = int(max_consecutive_faults)
+        self.out = out
+        #: Whether this session logs progress lines at all (a cohort's many sessions: off).
+        self.show_progress = True
+        #: The experimenter's channel (terminal by default): everything the participant must
+        #: not see (:mod:`experiments.responders.experimenter`).
+        if experimenter is None:
+            from experiments.responders.experimenter import TerminalExperimenter
+            experimenter = TerminalExperimenter(out)
+        self.experimenter = experimenter
+        self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
+        self.log = None
+        self.responder: Responder | None = None
+        self.display = None
+        self.machine = StateMachine(on_change=self._on_state)
+        self._attempt: _Trial | None = None
+        self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
+        #: The checked target profiles, by (roughness_id, roughness_um).
+        self.profiles = SessionProfiles(profiles)
+        #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
+        self.protocol_source = _protocol_source(protocol)
+        self.signals = SignalGuard()
+        self._fatal = None          # (code, message) of a fault that stops the session
+        #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).
+        self.hooks = hooks if hooks is not None else hooks_from_env()
+        self._last_block = None
+        self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
+
+    # -- paths and context ------------------------------------------------------------------
+    @property
+    def participant_id(self) -> str:
+        return str(self.participant["id"])
+
+    @property
+    def skin_thickness_um(self):
+        return (self.participant.get("skin_thickness") or {}).get("total_um")
+
+    @property
+    def n_trials(self) -> int:
+        return len(self.schedule)
+
+    @property
+    def events_path(self) -> Path:
+        return self.directory / "events.jsonl"
+
+    @property
+    def trials_path(self) -> Path:
+        return self.directory / "trials.csv"
+
+    @property
+    def traces_dir(self) -> Path:
+        return self.directory / "traces"
+
+    def _context(self) -> dict:
+        from experiments import thermocue_version
+        return {"session": self.name, "participant": self.participant_id, "group": self.group,
+                "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
+                "seed": self.seed, "n_trials": self.n_trials,
+                "schedule_sha256": schedule_sha256(self.schedule),
+                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
+                # PsychoPy-style identity of every trial row (date: the session's first start)
+                "date": self._date, "expName": self.protocol.name,
+                "protocol_version": self.protocol.version, "thermocue_version": thermocue_version()}
+
+    def sample_for(self, spec) -> dict:
+        """The physical sample of a trial: material, roughness (m), thickness (m), temperature (°C)."""
+        sample = self.protocol.sample(spec.roughness_id)
+        return {"material": self.protocol.material.name, "roughness_m": sample.roughness_m,
+                "thickness_m": self.protocol.material.thickness_m,
+                "temperature_C": self.protocol.environment.room_temperature_C}
+
+    def emulated_touch(self, spec, display) -> None:
+        """Stand in for a person's hand on the emulator: place the sample, press the finger.
+
+        The finger presses 0.3 s after arming with 0.5 N more than the protocol's threshold
+        and stays for ``max_contact_s`` (simulated trials) or ``record_s`` (real ones), with the
+        participant's skin thickness (800 µm if the record has none) and
+        ``initial_skin_temperature_C`` (else the middle of the protocol's skin-temperature range).
+        """
+        contact = self.protocol.contact
+        env = self.protocol.environment
+        skin_C = self.participant.get("initial_skin_temperature_C",
+                                      0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C))
+        thickness_um = self.skin_thickness_um or 800.0
+        press(display, sample=None if spec.mode == "simulated" else self.sample_for(spec),
+              press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
+              hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
+              skin_thickness_m=float(thickness_um) * 1e-6, skin_temperature_C=float(skin_C))
+        self.log_event("emulated_touch", trial_index=spec.trial_index, skin_temperature_C=skin_C)
+
+    # -- logging --------------------------------------------------------------------------
+    def log_event(self, kind: str, **fields) -> dict | None:
+        """Append an event to ``events.jsonl`` (fsynced). Used by responders too."""
+        if self.log is None or self.log.closed:
+            return None
+        with self.signals.critical():
+            return self.log.append(kind, **fields)
+
+    def _on_state(self, old: str, new: str, **context) -> None:
+        self.log_event("state", **{"from": old, "to": new}, **context)
+
+    def _say(self, text: str) -> None:
+        """A progress line: logged at INFO on ``thermocue.session`` (the CLI prints it on
+        stderr; ``--quiet`` silences it) and shown on the experimenter's window if one is open."""
+        if self.show_progress and _log.isEnabledFor(logging.INFO):
+            _log.info(text)
+            self.experimenter.progress(text)
+
+    def _report(self, text: str) -> None:
+        """An error, a warning or the reason a run stopped: printed even with ``--quiet``.
+
+        Goes to the experimenter's channel (never to the participant's screen)."""
+        self.experimenter.tell(text)
+
+    # -- the run --------------------------------------------------------------------------
+    def run(self, responder: Responder, display: Display | None = None) -> int:
+        """Run (or resume) the session to its end.
+
+        Parameters
+        ----------
+        responder : Responder
+        display : open display, optional
+            Default: opened from :attr:`display_url` with the protocol's safety limits.
+
+        Returns
+        -------
+        int
+            0 when every trial is done; 1 when interrupted or stopped after repeated faults
+            (the session can be resumed).
+        """
+        from experiments.logbook import EventLog, log_shortfall, read_events, replay
+
+        events = []
+        if self.events_path.exists():
+            events, _report = read_events(self.events_path, warn=False)
+        missing = log_shortfall(events, self.trials_path, self.traces_dir)
+        if missing:
+            more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+            raise SessionError(
+                f"{self.events_path}: expected the record of everything in trials.csv and "
+                f"traces/, got a log without {'; '.join(missing[:3])}{more}: it was cut or "
+                f"replaced by an older copy; restore it from a backup (nothing was changed)")
+        progress = replay(events)
+        since = _seconds_since_first_start(events)
+        self._started = time.monotonic() - since
+        self._date = _psychopy_date(time.time() - since)
+        try:
+            with EventLog(self.events_path) as log:
+                if log.repaired:
+                    self._report(f"repaired: {log.repaired}")
+                self.log = log
+                old_handlers = self.signals.install()
+                try:
+                    return self._run(responder, display, progress)
+                finally:
+                    self.signals.restore(old_handlers)
+                    self.log = None
+        except OSError as exc:
+            if isinstance(exc, DisplayError):
+                raise
+            return self._write_failed(exc)
+
+    def _write_failed(self, exc: OSError) -> int:
+        """A file of the session could not be written (disk full, read-only): one line, exit 1.
+
+        The display was put to neutral where the error was caught (:meth:`_guarded`); what
+        could be logged was logged; every file is as a crash would leave it, so the session
+        resumes once the cause is fixed.
+        """
+        import errno
+        cause = {errno.ENOSPC: "disk full", errno.EROFS: "read-only file system",
+                 errno.EDQUOT: "disk quota exceeded", errno.EFBIG: "file too large",
+                 errno.EACCES: "permission denied", errno.EPERM: "permission denied",
+                 errno.EIO: "I/O error"}.get(exc.errno, exc.strerror or type(exc).__name__)
+        where = exc.filename or self.directory
+        self._report(f"{where}: cannot write ({cause}); display neutral, session stopped; "
+                     f"free the disk and resume with `thermocue resume {self.directory}`")
+        return 1
+
+    def _run(self, responder, display, progress) -> int:
+        resumed = progress.session is not None
+        kind = "session_resumed" if resumed else "session_started"
+        if progress.finished:
+            self._report(f"session {self.directory} is already finished; nothing to do")
+            return 0
+        try:
+            self.log_event(kind, **self._context(), responder=responder.name,
+                           display_url=self.display_url, clock="virtual" if self.clock.virtual else "real")
+            for trial_index, attempt in progress.open_attempts:
+                self._abort_attempt(trial_index, attempt, reason="killed")
+            self._write_trials()
+            todo = [s for s in self.schedule if progress.completed.get(s.trial_index) != "ok"]
+            self._say(f"{self.participant_id}/{self.name}: {len(todo)} of {self.n_trials} trials to run"
+                      + (" (resumed)" if resumed else ""))
+            self.responder = responder
+            self.experimenter.open()
+            try:
+                responder.begin_session(self)
+            except BaseException:
+                self.experimenter.close()
+                raise
+            try:
+                if display is None:
+                    try:
+                        opened = self._open_display()
+                    except DisplayError as exc:
+                        if isinstance(exc, UserInputError):
+                            raise
+                        self.log_event("display_error", step="open", message=str(exc))
+                        self._report(f"{exc}; nothing was run: resume with `thermocue resume "
+                                     f"{self.directory} --display URL`")
+                        return 1
+                    with opened as disp:
+                        return self._guarded(disp, todo, progress)
+                return self._guarded(display, todo, progress)
+            finally:
+                try:
+                    responder.end_session()
+                finally:
+                    self.experimenter.close()
+        except STOPS as exc:
+            self._interrupted(stop_reason(exc))
+            return 1
+
+    def _guarded(self, disp, todo, progress) -> int:
+        """Run the trials; on an interruption or an error, neutral first (display still open)."""
+        try:
+            return self._run_trials(disp, todo, progress)
+        except STOPS as exc:
+            self._interrupted(stop_reason(exc))
+            return 1
+        except Exception as exc:
+            with self.signals.shielded():
+                self._neutral(disp)
+                # best effort: the error may be the disk itself (full, read-only), and the
+                # clean-up must not raise in its turn and hide it
+                a = self._attempt
+                if a is not None and not a.logged_end:
+                    _best_effort(lambda: self._abort_attempt(a.spec.trial_index, a.attempt,
+                                                             reason="error"))
+                _best_effort(lambda: self.log_event("session_error",
+                                                    message=f"{type(exc).__name__}: {exc}"))
+            raise
+
+    def _open_display(self):
+        disp = open_session_display(self.protocol, self.display_url, source=self.protocol_source)
+        try:
+            self.check_display(disp)
+        except BaseException:
+            disp.close()
+            raise
+        return disp
+
+    def check_display(self, display) -> None:
+        """Check the simulated profiles against an open display's capacity (points, step).
+
+        Raises
+        ------
+        ProtocolError
+            Naming the protocol and ``simulation.duration_s`` or ``simulation.rate_Hz``.
+        """
+        self.profiles.check_display(self.protocol, display, self.protocol_source)
+
+    @property
+    def finished(self) -> bool:
+        """Whether ``events.jsonl`` records the session as finished."""
+        from experiments.logbook import read_events, replay
+        if not self.events_path.exists():
+            return False
+        events, _ = read_events(self.events_path, warn=False)
+        return bool(replay(events).finished)
+
+    def _run_trials(self, disp, todo, progress) -> int:
+        self.display = disp
+        info = getattr(disp, "info", None)
+        self.log_event("display_opened", url=self.display_url,
+                       device_id=getattr(info, "device_id", None), firmware=getattr(info, "firmware", None),
+                       capabilities=list(getattr(info, "capabilities", ()) or ()))
+        disp.set_neutral(self.protocol.display.neutral_C)
+        faults = 0
+        queue = list(todo)
+        while queue:
+            spec = queue[0]
+            attempt = progress.next_attempt(spec.trial_index)
+            progress.attempts[spec.trial_index] = attempt
+            outcome = self._run_trial(disp, spec, attempt)
+            if outcome == "ok":
+                faults = 0
+                queue.pop(0)
+            else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again
+                faults += 1
+            if self._fatal is not None:
+                return self._stop_fatal(disp, queue)
+            if faults >= self.max_consecutive_faults:
+                self.machine.go("idle")
+                self.machine.go("stopped")
+                self._neutral(disp)
+                self.log_event("session_stopped", reason=f"{faults} consecutive faults",
+                               n_completed=self.n_trials - len(queue))
+                self._report(f"stopped after {faults} consecutive faults; resume with "
+                             f"`thermocue resume {self.directory}`")
+                return 1
+            if queue:
+                self._rewarm()
+            self.machine.go("idle")
+        self.machine.go("finished")
+        self._neutral(disp)
+        self._write_trials()
+        self._export_bids()          # (before session_finished: that stays the log's last event)
+        self.log_event("session_finished", n_completed=self.n_trials)
+        self._write_trials()
+        self._say(f"session finished: {self.n_trials} trials, {clock_text(self._elapsed())} since "
+                  f"its first start; data in {self.directory}")
+        if self.responder is not None:
+            self.responder.show_text("Thank you: the session is finished.")
+        return 0
+
+    def _abort_attempt(self, trial_index: int, attempt: int, reason: str, fault_code=None) -> None:
+        """Log an attempt as aborted and keep its trace under an ``aborted`` name."""
+        kept = keep_trace(self.traces_dir, trial_index, attempt, "aborted")
+        with self.signals.critical():
+            self.log_event("trial_aborted", trial_index=trial_index, attempt=attempt, reason=reason,
+                           fault_code=fault_code,
+                           trace_file=None if kept is None else f"traces/{kept.name}")
+            if self._attempt is not None and self._attempt.spec.trial_index == trial_index \
+                    and self._attempt.attempt == attempt:
+                self._attempt.logged_end = True
+            self._write_trials()
+
+    def _write_trials(self) -> None:
+        from experiments.logbook import read_events, trials_from_events, write_trials_csv
+        events, _ = read_events(self.events_path, warn=False)
+        rows = trials_from_events(events)
+        aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
+                   for e in events if e.get("event") == "trial_aborted"}
+        for row in rows:  # an aborted row's trace_file comes from its event
+            if row.get("status") == "aborted":
+                row["trace_file"] = aborted.get((row.get("trial_index"), row.get("attempt")))
+            else:
+                row.setdefault("trace_file", None)
+        write_trials_csv(self.trials_path, rows)
+
+    def _export_bids(self) -> None:
+        """The finished session as BIDS behavioural data in ``DATA/bids/`` (:mod:`experiments.bids`).
+
+        A failure is reported and logged, never fatal: ``trials.csv`` is the session's record."""
+        from experiments.bids import export_session
+        try:
+            path = export_session(self.directory)
+        except (OSError, ValueError, KeyError) as exc:
+            self.log_event("bids_export_failed", message=f"{type(exc).__name__}: {exc}")
+            self._report(f"warning: BIDS export failed ({exc}); run `thermocue export-bids` later")
+            return
+        self.log_event("bids_exported", path=str(path))
+
+    def _neutral(self, disp) -> None:
+        """Display to neutral whatever state it is in (errors logged, never raised)."""
+        for step, call in (("abort", lambda: disp.abort()),
+                           ("set_neutral", lambda: disp.set_neutral(self.protocol.display.neutral_C))):
+            try:
+                call()
+            except DisplayError as exc:
+                _best_effort(lambda: self.log_event("display_error", step=step, message=str(exc)))
+            except Exception as exc:  # an interrupted driver may be in any state
+                _best_effort(lambda: self.log_event("display_error", step=step,
+                                                    message=f"{type(exc).__name__}: {exc}"))
+
+    def _interrupted(self, reason: str) -> None:
+        if self.machine.state == "interrupted":
+            return  # already handled with the display open
+        # Further signals must not cut the clean-up short.
+        with self.signals.shielded():
+            if self.display is not None:
+                self._neutral(self.display)
+            a = self._attempt
+            if a is not None and not a.logged_end:
+                self._abort_attempt(a.spec.trial_index, a.attempt, reason="interrupted")
+            if self.machine.can("interrupted"):
+                self.machine.go("interrupted")
+            self.log_event("session_interrupted", reason=reason)
+            self._write_trials()
+        self._report(f"session interrupted ({reason}); display neutral; resume with "
+                     f"`thermocue resume {self.directory}`")
+
+    def _stop_fatal(self, disp, queue) -> int:
+        """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
+        code, message = self._fatal
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        self._neutral(disp)
+        advice = "the display restarted: resume to shake hands with it again"
+        self.log_event("session_stopped", reason=f"display fault {code}", message=message,
+                       n_completed=self.n_trials - len(queue))
+        self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
+        return 1
+
+
+
+def _best_effort(call) -> None:
+    """Run a clean-up write; a failing disk (OSError) must not raise over the first error."""
+    try:
+        call()
+    except OSError as exc:
+        if isinstance(exc, DisplayError):
+            raise
+
+
+def _seconds_since_first_start(events) -> float:
+    """Seconds from the log's first ``session_started`` event to now (0 if none)."""
+    import datetime as _dt
+    for e in events:
+        if e.get("event") == "session_started" and isinstance(e.get("time"), str):
+            try:
+                t0 = _dt.datetime.fromisoformat(e["time"].replace("Z", "+00:00"))
+            except ValueError:
+                return 0.0
+            if t0.tzinfo is None:
+                t0 = t0.replace(tzinfo=_dt.timezone.utc)
+            return max(0.0, (_dt.datetime.now(_dt.timezone.utc) - t0).total_seconds())
+    return 0.0
+
+
+def _psychopy_date(epoch_s: float) -> str:
+    """PsychoPy's ``data.getDateStr()`` form of a time, e.g. ``2026-11-22_14h05.09.123`` (local)."""
+    t = time.localtime(epoch_s)
+    return time.strftime("%Y-%m-%d_%Hh%M.%S", t) + f".{int((epoch_s % 1) * 1000):03d}"
+
+

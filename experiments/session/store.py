@@ -1,0 +1,201 @@
+"""``session.json``: written once when a session is made, checked (not trusted) on resume.
+
+:func:`write_session_json` writes it (atomically); :func:`read_session_json` reads it back
+into a :class:`StoredSession`: every field typed and bounded on the shared table reader
+(:mod:`experiments.records`), the protocol copy against its hash, the schedule against
+``build_schedule(protocol, participant id, seed)``, and the whole against the log's
+``session_started`` event (the log is the session's record). Every problem is one line naming
+the file and the field (:class:`~experiments.errors.SessionError`, exit 2).
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from experiments.errors import SessionError
+from experiments.records import TableReader, Verbatim
+from experiments.logbook import now_iso as _now_iso
+from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
+from experiments.session_files import package_versions, schedule_sha256
+
+__all__ = ["SESSION_FORMAT", "StoredSession", "block_roles", "write_session_json",
+           "read_session_json"]
+
+#: The ``format`` field of ``session.json``.
+SESSION_FORMAT = "thermocue-session/1"
+
+
+def block_roles(protocol) -> list[dict]:
+    """Per block: ``name``, ``mode``, ``scored``, ``response``, ``feedback`` (session.json)."""
+    return [{"name": b.name, "mode": b.mode, "scored": bool(b.scored), "response": bool(b.response),
+             "feedback": bool(b.feedback)} for b in protocol.blocks]
+
+
+def write_session_json(directory: Path, plan) -> None:
+    """Write ``directory/session.json`` for a :class:`~experiments.session.SessionPlan`, and
+    ``traces/``."""
+    from experiments.logbook import atomic_write_json, ensure_dir
+
+    protocol, assignment = plan.protocol, plan.assignment
+    atomic_write_json(directory / "session.json", {
+        "format": SESSION_FORMAT,
+        "session": plan.name,
+        "created_at": _now_iso(),
+        "participant_id": plan.participant_id,
+        "participant": plan.participant,
+        "participant_file": str(plan.participant_path),
+        "group": assignment.group,
+        "group_assignment": assignment.to_dict(),
+        "protocol_name": protocol.name,
+        "protocol_file": None if protocol.path is None else str(protocol.path),
+        "protocol_hash": protocol.hash,
+        "protocol": protocol.data,
+        "seed": plan.seed,
+        "schedule": [s.to_dict() for s in plan.schedule],
+        "schedule_algorithm": SCHEDULE_ALGORITHM,
+        # What each block is (analysis reads this, not block names).
+        "blocks": block_roles(protocol),
+        "display_url": plan.display_url,
+        "responder": plan.responder_name,
+        "clock": "virtual" if plan.clock.virtual else "real",
+        "max_consecutive_faults": plan.max_consecutive_faults,
+        "versions": package_versions(),
+    })
+    ensure_dir(directory / "traces")
+
+
+@dataclass
+class StoredSession:
+    """A checked ``session.json`` (:func:`read_session_json`).
+
+    Attributes
+    ----------
+    path : Path
+        The file.
+    protocol : Protocol
+        Parsed from the stored copy (its hash checked).
+    participant : dict
+    group, name, display_url, responder : str
+    seed, max_consecutive_faults : int
+    schedule : list of TrialSpec
+    source : str
+        How messages name the stored protocol (``<path>: protocol``).
+    """
+
+    path: Path
+    protocol: object
+    participant: dict
+    group: str
+    name: str
+    seed: int
+    schedule: list
+    display_url: str
+    responder: str
+    max_consecutive_faults: int
+    source: str
+
+
+def read_session_json(directory, *, out=None) -> StoredSession:
+    """Read and check ``directory/session.json`` (see the module's docstring).
+
+    ``out`` receives the one warning this can give (a schedule made by another algorithm,
+    resumed unchecked; default stderr).
+
+    Raises
+    ------
+    SessionError
+        No folder, no or a damaged ``session.json``, an edited field (naming it).
+    """
+    import json
+
+    from experiments.protocol import parse_protocol
+    from experiments.schedule import TrialSpec, build_schedule
+    from participants_schema import validate_participant
+
+    directory = Path(directory)
+    path = directory / "session.json"
+    if not directory.is_dir():
+        raise SessionError(f"{directory}: expected a session folder, got no such folder")
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SessionError(f"{path}: expected a session.json, got no such file") from None
+    except (OSError, ValueError) as exc:
+        raise SessionError(f"{path}: expected valid JSON, got {exc}") from None
+    if not isinstance(meta, dict):
+        raise SessionError(f"{path}: expected a JSON object, got {type(meta).__name__}")
+    table = TableReader(str(path), meta, "", error=SessionError)
+    table.require("session", "participant", "protocol", "protocol_hash", "seed", "schedule",
+                  "display_url", "group")
+    table.string("session")
+    table.string("protocol_hash")
+    seed = table.integer("seed", ge=0)
+    max_faults = table.integer("max_consecutive_faults", 3, ge=1, le=1000,
+                               why="faults in a row before a session stops")
+    responder = table.string("responder", "", nonempty=False)
+    source = f"{path}: protocol"
+    protocol = parse_protocol(meta["protocol"], source=source,
+                              path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
+    if protocol.hash != meta["protocol_hash"]:
+        table.fail("protocol_hash", f"{protocol.hash} (the stored protocol's hash)",
+                   meta["protocol_hash"])
+    participant = validate_participant(meta["participant"], source=f"{path}: participant")
+    if not isinstance(meta["schedule"], list):
+        table.fail("schedule", "a list of trials", Verbatim(type(meta["schedule"]).__name__))
+    try:
+        schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
+    except ValueError as exc:
+        table.fail("schedule", "a list of trials", Verbatim(exc))
+    # Sessions written before the field existed used the first algorithm.
+    made_by = meta.get("schedule_algorithm", "thermocue-schedule-v1")
+    expected = build_schedule(protocol, str(participant["id"]), seed)
+    if made_by != SCHEDULE_ALGORITHM:
+        # A newer thermocue cannot rebuild an older algorithm's schedule: the stored one is
+        # used (it is what the participant has been given so far), unchecked, and said so.
+        print(f"thermocue: {path}: schedule_algorithm: made by {made_by!r}, this version builds "
+              f"{SCHEDULE_ALGORITHM!r}; resuming with the stored schedule unchecked",
+              file=out or sys.stderr, flush=True)
+    elif schedule != expected:
+        diff = next((i for i, (a, b) in enumerate(zip(schedule, expected)) if a != b),
+                    min(len(schedule), len(expected)))
+        got = meta["schedule"][diff] if diff < len(schedule) else "nothing"
+        want = expected[diff].to_dict() if diff < len(expected) else "nothing"
+        table.fail("schedule", f"the schedule of the stored protocol, participant "
+                               f"{participant['id']} and seed {seed} ({len(expected)} trials; "
+                               f"trial {diff + 1}: {want})",
+                   Verbatim(f"{len(schedule)} trials (trial {diff + 1}: {got})"))
+    group = meta["group"]
+    groups = None if protocol.grouping is None else (protocol.grouping.below, protocol.grouping.above)
+    if not isinstance(group, str) or (groups is not None and group not in groups):
+        table.fail("group", f"one of {groups}" if groups else "a name", group)
+    check_against_log(directory, path, meta, participant, schedule)
+    if not isinstance(meta["display_url"], str) or not meta["display_url"]:
+        table.fail("display_url", "a URL", meta["display_url"])
+    return StoredSession(path, protocol, participant, group, meta["session"], seed, schedule,
+                         meta["display_url"], responder or "", max_faults, source)
+
+
+def check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
+    """Refuse a ``session.json`` that differs from the log's ``session_started`` (issue 16).
+
+    The log is the source of truth: a session.json replaced by another run, or edited by hand
+    (seed, schedule, protocol, group, participant, name), must not steer a resume.
+    """
+    from experiments.logbook import read_events
+
+    events_path = directory / "events.jsonl"
+    if not events_path.exists():
+        return
+    events, _ = read_events(events_path, warn=False)
+    started = next((e for e in events if e.get("event") == "session_started"), None)
+    if started is None:
+        return
+    stored = {"session": meta["session"], "participant": str(participant["id"]),
+              "group": meta["group"], "seed": meta["seed"],
+              "protocol_hash": meta["protocol_hash"], "schedule_sha256": schedule_sha256(schedule)}
+    for key, value in stored.items():
+        if key in started and started[key] != value:
+            raise SessionError(f"{path}: {key}: expected {started[key]!r} as in {events_path.name}'s "
+                               f"session_started (line {started.get('seq', '?')}), got {value!r}; "
+                               f"the log is the session's record: restore session.json")

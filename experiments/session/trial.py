@@ -1,0 +1,430 @@
+"""One trial of a session: one method per state of :data:`~experiments.session.machine.TRANSITIONS`.
+
+Read beside the table::
+
+    prompt -> prepare -> cue -> wait_contact -> playback | record -> respond -> write -> rewarm
+                 \\-> fault -> write           \\-> no_contact (aborted, re-run)
+
+:meth:`TrialSteps._prompt` (the experimenter places the sample), :meth:`~TrialSteps._prepare`
+(the profile uploaded, the display armed, the finger scripted), :meth:`~TrialSteps._cue`,
+:meth:`~TrialSteps._wait_contact` (the display runs the trial, the trace streams),
+:meth:`~TrialSteps._contact` (``playback`` | ``record``: the recording judged),
+:meth:`~TrialSteps._respond`, :meth:`~TrialSteps._write`, :meth:`~TrialSteps._rewarm`; and
+the two side exits :meth:`~TrialSteps._fault` and :meth:`~TrialSteps._no_contact`.
+:class:`~experiments.session.Session` runs them (:meth:`TrialSteps._run_trial`).
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from experiments.errors import DisplayError, DisplayRestarted
+from experiments.logbook import now_iso as _now_iso
+from experiments.session.machine import SessionInterrupted
+from experiments.session.traces import contact_force, keep_aside, keep_trace, trial_stimulus
+from experiments.session_files import TraceWriter, trace_name
+
+__all__ = ["TrialSteps"]
+
+#: Telemetry states of a trial in contact (the display's ``State`` names).
+_ACTIVE_STATES = {"PLAYING", "RECORDING"}
+_TOUCH_N = 0.1   # N: summed force below which the finger is not yet touching
+#: Recording fault codes that mean "nobody touched" (the attempt is aborted and re-run).
+_NO_CONTACT_CODES = {"TRIAL_TIMEOUT"}
+#: End reasons of a delivered trial (``TrialRecording.end_reason``).
+_DELIVERED_ENDS = {"complete", "released", "max_duration"}
+#: Faults after which the session stops at once instead of re-running the trial: the display
+#: restarted (it lost the session's limits and neutral; a resume shakes hands again). A latched
+#: fault (over-temperature, sensor) makes the device refuse ARM (FAULT_LATCHED) until an operator
+#: resets it, so the consecutive-fault rule stops the session without heating again.
+_FATAL_CODES = {"DEVICE_RESTARTED", "DisplayRestarted", "NO_HELLO"}
+
+
+@dataclass
+class _Trial:
+    """The attempt being run and what its states pass on to the next."""
+
+    spec: object
+    attempt: int
+    logged_end: bool = False
+    row: dict = field(default_factory=dict)      # the trial row being filled
+    t0: float = 0.0                               # time.monotonic() at the prompt
+    block: object = None
+    sample: object = None
+    real: bool = False
+    labelled: bool = False                        # the participant is told the sample
+    profile: object = None
+    writer: object = None
+    contact_s: float | None = None                # device time of the first frame in contact
+    finger_C: float | None = None                 # the IR thermometer's last reading before it
+    answered: list = field(default_factory=list)  # an answer given during contact
+
+    @property
+    def ctx(self) -> dict:
+        return {"trial_index": self.spec.trial_index, "attempt": self.attempt}
+
+    @property
+    def trace(self):
+        return trace_name(self.spec.trial_index)
+
+
+class TrialSteps:
+    """The trial's states, as methods of :class:`~experiments.session.Session`."""
+
+    def _run_trial(self, disp, spec, attempt: int) -> str:
+        """Run one attempt; ``"ok"``, ``"fault"`` (written) or ``"no_contact"`` (aborted)."""
+        t = self._prompt(spec, attempt)
+        try:
+            self._prepare(disp, t)
+        except DisplayError as exc:
+            return self._fault(disp, t, exc)
+        self._cue(t)
+        try:
+            rec = self._wait_contact(disp, t)
+        except DisplayError as exc:
+            return self._fault(disp, t, exc)
+        ended = self._contact(disp, t, rec)
+        if ended is not None:
+            return ended
+        self._respond(t, rec)
+        self._write(t)
+        return "ok"
+
+    # -- the states, in the table's order -------------------------------------------------------
+    def _prompt(self, spec, attempt: int) -> _Trial:
+        """``prompt``: the trial logged as started; the experimenter places a real sample."""
+        t = _Trial(spec, attempt)
+        ctx = t.ctx
+        self.machine.go("prompt", **ctx)
+        self._attempt = t
+        self.log_event("trial_started", **ctx, **{k: v for k, v in spec.to_dict().items()
+                                                 if k != "trial_index"})
+        started_at = _now_iso()
+        self.hooks.at("trial_started", spec, attempt)
+        t.t0 = time.monotonic()
+        text = self._progress_text(spec)
+        self._say(text + (f" | attempt {attempt}" if attempt > 1 else ""))
+        self.responder.progress(text)   # the experimenter's; responders do not show it
+        t.block = block = self.protocol.block(spec.block)
+        t.sample = sample = self.protocol.sample(spec.roughness_id)
+        shown = self.protocol.presentation
+        if spec.block != self._last_block and block.instructions:
+            self.responder.show_instructions(block.instructions, shown.instructions_min_s,
+                                             shown.instructions_key)
+        self._last_block = spec.block
+        t.real = real = spec.mode != "simulated"
+        # Two audiences: the sample to place is the experimenter's (terminal or their screen);
+        # the participant's screen only says "please wait" (or names the sample where the
+        # block gives feedback before an unanswered touch: familiarisation).
+        t.labelled = block.feedback and not block.response
+        if real:
+            ask = (f"trial {spec.trial_index}/{self.n_trials}: place sample {sample.label} "
+                   f"(Ra {sample.roughness_um:g} µm), then confirm on the participant's keyboard")
+            (self.experimenter.tell if self.responder.human else self._say)(ask)
+            self.responder.please_wait()
+            self.responder.prompt_experimenter(ask)
+            self.log_event("sample_placed", **ctx, sample=sample.label)
+        if t.labelled:
+            self.responder.show_label(f"This is sample {sample.label}")
+        elif not real:
+            self.responder.please_wait()
+        t.row = {"started_at": started_at, "protocol_hash": self.protocol.hash,
+                 "mode": spec.mode, "block": spec.block,
+                 "psychopyVersion": getattr(self.responder, "psychopy_version", None)}
+        return t
+
+    def _prepare(self, disp, t: _Trial) -> None:
+        """``prepare``: upload the target profile (simulated) and arm; the finger is scripted."""
+        spec, ctx, row, contact = t.spec, t.ctx, t.row, self.protocol.contact
+        self.machine.go("prepare", **ctx)
+        if t.real:
+            disp.arm(mode="record", force_threshold_N=contact.force_threshold_N,
+                     max_duration_s=contact.record_s)
+        else:
+            t.profile = profile = self._target_profile(spec)
+            row["profile_skin_thickness_um"] = profile.parameters.get("skin_thickness_um")
+            row["target_side"] = profile.parameters["target_side"]
+            row["pad_resistance_m2K_W"] = profile.parameters["pad_resistance_m2K_W"]
+            row["profile_resistance_m2K_W"] = profile.parameters.get("resistance_m2K_per_W")
+            row["profile_resistance_source"] = profile.parameters["resistance_source"]
+            row["rate_limited_max_change_C"] = profile.parameters["rate_limited_max_change_C"]
+            self.hooks.at("upload", spec, t.attempt)
+            disp.upload_profile(np.asarray(profile.times), np.asarray(profile.temperature))
+            self.log_event("profile_uploaded", **ctx, content_hash=profile.content_hash,
+                           n_points=len(profile.times), method=profile.method,
+                           error_bound_C=profile.error_bound,
+                           skin_thickness_um=row["profile_skin_thickness_um"],
+                           skin_thickness_source=profile.parameters["skin_thickness_source"],
+                           target_side=row["target_side"],
+                           pad_resistance_m2K_W=row["pad_resistance_m2K_W"],
+                           resistance_m2K_W=row["profile_resistance_m2K_W"],
+                           resistance_source=row["profile_resistance_source"],
+                           rate_limited_max_change_C=row["rate_limited_max_change_C"],
+                           parameters=profile.parameters)
+            disp.arm(mode="playback", force_threshold_N=contact.force_threshold_N,
+                     max_duration_s=contact.max_contact_s)
+        self.log_event("armed", **ctx, mode="record" if t.real else "playback")
+        self.hooks.at("armed", spec, t.attempt)
+        self.responder.touch(spec, disp)
+
+    def _cue(self, t: _Trial) -> None:
+        """``cue``: the sound."""
+        self.machine.go("cue", **t.ctx)
+        played = bool(self.responder.cue())
+        t.row["cue_played"] = played
+        self.log_event("cue", **t.ctx, played=played)
+
+    def _wait_contact(self, disp, t: _Trial):
+        """``wait_contact``: the display runs the trial; its telemetry streams to the trace.
+
+        Returns the display's recording. The first frame in contact is noted (and, with
+        ``[presentation] answer_during_contact``, the question goes up then)."""
+        spec, attempt, ctx = t.spec, t.attempt, t.ctx
+        self.machine.go("wait_contact", **ctx)
+        if not self.traces_dir.is_dir():
+            from experiments.logbook import ensure_dir
+            ensure_dir(self.traces_dir)
+        trace = self.traces_dir / t.trace
+        if trace.exists():   # never overwritten: the log cannot explain it, so keep it aside
+            aside = keep_aside(trace, attempt)
+            self.log_event("trace_kept_aside", **ctx, trace_file=f"traces/{aside.name}")
+            self._report(f"repaired: {trace} existed before trial {spec.trial_index} attempt "
+                         f"{attempt} started; kept as {aside.name}")
+        t.writer = writer = TraceWriter(trace)
+        # [presentation] answer_during_contact: the question goes up at contact and the answer
+        # is taken as soon as it is given (the recording runs on to its end regardless).
+        early = t.block.response and self.protocol.presentation.answer_during_contact
+        answered = t.answered
+
+        def on_frame(frame):
+            # Runs at the telemetry rate inside the driver's read loop: no fsync here (a slow
+            # callback lets the serial buffer overrun); contact is logged once the trial ends.
+            writer.write(frame)
+            if early and t.contact_s is not None and not answered:
+                got = self.responder.poll_answer(spec)
+                if got is not None:
+                    answered.append(got)
+            if t.contact_s is None:
+                if frame.state in _ACTIVE_STATES:
+                    t.contact_s = float(frame.device_time_s)
+                    if early:
+                        self.responder.begin_answer(spec)
+                    self.hooks.at("playback", spec, attempt)
+                elif sum(frame.forces_N) < _TOUCH_N:   # not yet touching: the IR reads bare skin
+                    t.finger_C = frame.finger_C
+
+        c = self.protocol.contact
+        try:
+            return disp.run_trial(timeout_s=c.trial_timeout_s + c.max_contact_s + 5.0,
+                                  on_telemetry=on_frame)
+        finally:
+            writer.close()
+
+    def _contact(self, disp, t: _Trial, rec):
+        """``playback`` | ``record``: the recording judged; None when it delivered the trial,
+        else the outcome of :meth:`_no_contact` or :meth:`_fault`."""
+        ctx, row = t.ctx, t.row
+        active = "record" if t.real else "playback"
+        if t.contact_s is not None:
+            self.machine.go(active, **ctx, device_time_s=t.contact_s)
+        row.update(self._recording_fields(rec))
+        row["contact_force_N"] = contact_force(t.writer, rec)   # Eq. 5's force (issue 12)
+        self._skin_temperature(row, ctx, t.finger_C)
+        self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
+                       contact_time_s=rec.contact_time_s, frames=rec.frames,
+                       frames_lost=rec.frames_lost, tracking_rms_C=rec.tracking_rms_C)
+        if rec.contact_time_s is None and (rec.status == "aborted" or rec.fault_code in _NO_CONTACT_CODES):
+            return self._no_contact(disp, t, rec)
+        if rec.status == "ok":
+            rec = self._check_delivered(rec, t.real)
+        if rec.status != "ok":
+            return self._fault(disp, t, None, rec=rec)
+        if self.machine.state == "wait_contact":   # contact seen by the device only
+            self.machine.go(active, **ctx, device_time_s=rec.contact_time_s)
+        return None
+
+    def _respond(self, t: _Trial, rec) -> None:
+        """``respond``: the answer (blocks that ask for one) and the block's feedback."""
+        spec, ctx, row, block, sample = t.spec, t.ctx, t.row, t.block, t.sample
+        self.machine.go("respond", **ctx)
+        if t.labelled:
+            self.responder.show_label(None)
+        if block.response:
+            stimulus = trial_stimulus(self.protocol, spec, t.writer, rec, t.profile, sample)
+            response = t.answered[0] if t.answered else self.responder.respond(spec, stimulus)
+            self.log_event("response", **ctx, **response.to_dict(),
+                           during_contact=bool(t.answered))
+            row.update(response_id=response.response_id, rt_s=response.rt_s,
+                       correct=int(response.response_id == spec.roughness_id),
+                       response_source=response.source)
+            if block.feedback:   # only where the protocol's block says so
+                right = response.response_id == spec.roughness_id
+                self.responder.feedback(("Correct" if right else "Not correct")
+                                        + f": it was sample {sample.label}",
+                                        self.protocol.presentation.feedback_s)
+                self.log_event("feedback", **ctx, correct=int(right))
+        self._trial_seconds.append(time.monotonic() - t.t0)
+        self.hooks.at("after_response", spec, t.attempt)
+
+    def _write(self, t: _Trial) -> None:
+        """``write``: the completed row, logged and written to ``trials.csv``."""
+        self.machine.go("write", **t.ctx)
+        t.row.update(status="ok", trace_file=f"traces/{t.trace}", finished_at=_now_iso())
+        self._complete(t.spec, t.attempt, t.row)
+        self.hooks.at("after_write", t.spec, t.attempt)
+
+    def _rewarm(self) -> None:
+        """``rewarm``: the finger rests between trials (not waited on a virtual clock)."""
+        self.machine.go("rewarm")
+        seconds = self.protocol.contact.rewarm_s
+        self.responder.rewarm(0.0 if self.clock.virtual else seconds)
+
+    # -- the side exits ----------------------------------------------------------------------
+    def _fault(self, disp, t: _Trial, exc, rec=None) -> str:
+        """``fault`` -> ``write``: neutral, the attempt written as a fault (run again)."""
+        spec, attempt, ctx, row = t.spec, t.attempt, t.ctx, t.row
+        if exc is None:
+            code, message = rec.fault_code or "fault", rec.fault_message
+        else:
+            code, message = getattr(exc, "code", None), str(exc)
+            if isinstance(code, int):   # DisplayRefused: the device's code, named like a device fault
+                from experiments.hardware.messages import error_name
+                code = error_name(code)
+            elif code is None:
+                code = type(exc).__name__
+        if isinstance(exc, DisplayRestarted) or str(code) in _FATAL_CODES:
+            self._fatal = (str(code), message)
+        self.machine.go("fault", **ctx)
+        self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
+        self._neutral(disp)
+        self.machine.go("write", **ctx)
+        kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault")
+        row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
+                   trace_file=None if kept is None else f"traces/{kept.name}")
+        self._complete(spec, attempt, row)
+        self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
+        return "fault"
+
+    def _no_contact(self, disp, t: _Trial, rec) -> str:
+        """``no_contact``: nobody touched in time; neutral, the attempt aborted (run again)."""
+        self.machine.go("no_contact", **t.ctx)
+        self._neutral(disp)
+        self._abort_attempt(t.spec.trial_index, t.attempt, reason="no_contact",
+                            fault_code=rec.fault_code)
+        self._report(f"trial {t.spec.trial_index}: no contact within "
+                     f"{self.protocol.contact.trial_timeout_s:g} s; the trial will be run again")
+        return "no_contact"
+
+    # -- what the states share -----------------------------------------------------------------
+    def _complete(self, spec, attempt: int, row: dict) -> None:
+        with self.signals.critical():
+            self.log_event("trial_completed", trial_index=spec.trial_index, attempt=attempt, row=row)
+            self._attempt.logged_end = True
+            self._write_trials()
+        if row.get("status") == "ok":
+            # Never whether the answer was right: on the console responder the participant reads
+            # this terminal (feedback is the block's, through the responder).
+            answer = row.get("response_id")
+            self._say(f"trial {spec.trial_index}: ok" + ("" if answer is None else ", answer logged"))
+
+    def _target_profile(self, spec):
+        """The target profile of a simulated trial (:class:`~experiments.session.planning.
+        SessionProfiles`): the one checked when the session was made or reopened."""
+        return self.profiles.target(self, spec, self._say)
+
+    def _progress_text(self, spec) -> str:
+        text = (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
+                f"elapsed {clock_text(self._elapsed())}")
+        if self._trial_seconds:   # the mean trial of this run so far, times the trials left
+            left = self.n_trials - spec.trial_index + 1
+            eta = left * sum(self._trial_seconds) / len(self._trial_seconds)
+            text += f" | about {clock_text(eta)} left"
+        return text
+
+    def _elapsed(self) -> float:
+        """Seconds since the session's first start (its first ``session_started`` event)."""
+        return time.monotonic() - self._started
+
+    def _check_delivered(self, rec, real: bool):
+        """The recording as a flagged attempt unless the display delivered the trial.
+
+        A trial is ``ok`` only with a contact, an end by completion, release or the maximum
+        duration, and (playback) a tracking error within ``[simulation] max_tracking_error_C``;
+        anything else is written as a fault and run again (the driver already checks the
+        device's own account; this holds every display to the same rule).
+        """
+        end = getattr(rec, "end_reason", "complete")
+        why = None
+        if rec.contact_time_s is None:
+            why = "NOT_DELIVERED", "ok without a contact"
+        elif end is not None and end not in _DELIVERED_ENDS:
+            why = "NOT_DELIVERED", f"ok with end reason {end!r}"
+        elif not real:
+            err = rec.tracking_max_C
+            limit = self.protocol.simulation.max_tracking_error_C
+            if err is not None and np.isfinite(err) and err > limit:
+                why = ("TRACKING_ERROR", f"contact temperature {err:.3g} °C off the target "
+                       f"(simulation.max_tracking_error_C = {limit:g})")
+        if why is None:
+            return rec
+        try:
+            return dataclasses.replace(rec, status="fault", fault_code=why[0], fault_message=why[1])
+        except TypeError:   # a display's own recording type: same fields, set in place
+            rec.status, rec.fault_code, rec.fault_message = "fault", why[0], why[1]
+            return rec
+
+    def _skin_temperature(self, row: dict, ctx: dict, finger_C) -> None:
+        """Log the skin temperature measured just before touching (§3.2 of the paper).
+
+        The display's radiation thermometer reads the approaching finger; its last reading before
+        the first touch (summed force under ``_TOUCH_N``) goes into the trial row as
+        ``skin_temperature_C``. A reading outside the protocol's
+        ``environment`` range is kept and flagged with a ``skin_temperature_out_of_range`` event
+        (the experimenter decides whether to rewarm longer; the trial is not discarded).
+        """
+        env = self.protocol.environment
+        if not env.measure_skin_temperature or finger_C is None:
+            return
+        value = round(float(finger_C), 2)
+        row["skin_temperature_C"] = value
+        inside = env.skin_temperature_min_C <= value <= env.skin_temperature_max_C
+        row["skin_temperature_in_range"] = int(inside)
+        if not inside:
+            self.log_event("skin_temperature_out_of_range", **ctx, skin_temperature_C=value,
+                           expected_min_C=env.skin_temperature_min_C,
+                           expected_max_C=env.skin_temperature_max_C)
+            # Shown to the experimenter at the time, who must confirm to go on (asked on the
+            # terminal; with none to ask, logged as unconfirmed and listed by the report).
+            self._report(f"warning: trial {ctx['trial_index']}: skin temperature {value:.2f} °C, "
+                         f"outside {env.skin_temperature_min_C:g}-{env.skin_temperature_max_C:g} °C")
+            # Asked when a person answers; a simulated participant's session (a cohort, the
+            # paper's reproduction) is never held up by a question nobody is there to answer.
+            if self.responder is None or getattr(self.responder, "human", True):
+                answer = self.experimenter.confirm(
+                    f"trial {ctx['trial_index']}: skin temperature {value:.2f} °C is out of "
+                    "range; keep this trial and go on?")
+                said = {True: "yes", False: "no", None: "unasked (no terminal)"}[answer]
+            else:
+                answer, said = None, "unasked (simulated participant)"
+            self.log_event("skin_temperature_confirmation", **ctx, answer=said)
+            if answer is False:
+                raise SessionInterrupted("experimenter stopped: skin temperature out of range")
+
+    def _recording_fields(self, rec) -> dict:
+        # contact_onset_s: the display's clock at contact (a time stamp, not a duration);
+        # contact_duration_s: from contact to the end of the recording.
+        touched = rec.contact_time_s is not None
+        return {"tracking_rms_C": rec.tracking_rms_C, "tracking_max_C": rec.tracking_max_C,
+                "contact_onset_s": rec.contact_time_s,
+                "contact_duration_s": float(getattr(rec, "duration_s", 0.0)) if touched else None,
+                "frames": rec.frames, "frames_lost": rec.frames_lost, "fault_code": rec.fault_code}
+
+
+def clock_text(seconds: float) -> str:
+    """``M:SS``, or ``H:MM:SS`` from an hour on."""
+    m, s = divmod(int(seconds), 60)
+    h, m = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
