@@ -63,6 +63,11 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     start = time.perf_counter()
     responder = get_responder("simulated", **options)
     previous = set_durable(durable)
+    # a study's 30 sessions tell nothing line by line (not even the group line written with the
+    # folder); the study logs one line per participant instead
+    session_log = logging.getLogger("thermocue.session")
+    level = session_log.level
+    session_log.setLevel(logging.WARNING)
     try:
         session = create_session(protocol, participant_path, data_dir,
                                  f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
@@ -71,6 +76,7 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
         status = session.run(responder)
     finally:
         set_durable(previous)
+        session_log.setLevel(level)
     if status != 0:
         raise RuntimeError(f"{participant_path}: the session in {session.directory} ended with "
                            f"status {status}; see its events.jsonl")

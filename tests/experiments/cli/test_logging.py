@@ -59,5 +59,7 @@ def test_study_progress_says_elapsed_and_eta(tmp_path, capsys):
     err = capsys.readouterr().err
     assert re.search(r"^figure9: participant 1 of 1 done \(P01\); elapsed +\d+\.\d s, ETA +0\.0 s$",
                      err, re.M), err
+    # one line per participant: the sessions' own lines (the group line, trial n of N) stay out
+    assert [line for line in err.splitlines() if not line.startswith("figure9: ")] == [], err
     run_figure9_study(tmp_path / "again", seed=2, participants=1, workers=1, analyze=False)
     assert capsys.readouterr().err == ""             # the library alone configures nothing
