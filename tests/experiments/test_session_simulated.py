@@ -54,5 +54,5 @@ def test_full_roughness_recognition_session_with_the_simulated_participant(tmp_p
     err = capsys.readouterr().err
     assert "trial 28 of 28 | block simulated" in err and "session finished" in err
     # ... and the experimenter reads them, one line per profile (issue 12)
-    lines = [x for x in err.splitlines() if " profile " in x and " um): model " in x]
+    lines = [x for x in err.splitlines() if x.startswith("profile ") and " um): model " in x]
     assert len(lines) == 4 and all("kept: " in x and "slab" in x for x in lines), lines
