@@ -283,14 +283,13 @@ class ThermalDisplay:
         # a random start: a host that reconnects must not repeat its predecessor's numbers
         self._seq = secrets.randbelow(256)
         self._last_seq_by_type: dict[int, int] = {}
-        self._virtual = getattr(port, "virtual_time_s", None) is not None
-        # the loop's clock, s: device time on a virtual clock, else wall time (read per frame:
-        # chosen once here rather than looked up on the port at every call)
-        if self._virtual:
-            dev = port.device
-            self._clock = lambda: dev.time_us * 1e-6
-        else:
-            self._clock = time.monotonic
+        # the loop's clock, s: a port whose device runs on a virtual clock says so by offering
+        # device_clock() (a function returning device seconds, or None on a real clock); every
+        # other port (a serial device, a pty) runs on wall time
+        device_clock = getattr(port, "device_clock", None)
+        device_clock = device_clock() if callable(device_clock) else None
+        self._virtual = device_clock is not None
+        self._clock = device_clock if self._virtual else time.monotonic
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
@@ -900,7 +899,6 @@ def open_display(url: str, limits: SafetyLimits | None = None, **options) -> The
     DisplayError
         If the port cannot be opened or the device does not answer the handshake.
     """
-    import experiments.hardware  # noqa: F401  (registers emulator://)
     baud = options.pop("baudrate", 115200)
     try:
         port = serial.serial_for_url(url, baudrate=baud, timeout=0.01, write_timeout=1.0)
