@@ -40,8 +40,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg import expm
 
-__all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "PassiveSample", "CONTACT_AREA_M2",
-           "finger_pad_resistance"]
+__all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "FingerScript", "PassiveSample",
+           "CONTACT_AREA_M2", "finger_pad_resistance"]
 
 #: Contact area of the fingertip, m² (paper: 2 N on 135 mm²).
 CONTACT_AREA_M2 = 135e-6
@@ -329,3 +329,38 @@ class PadPlant:
         self.sensor = y
         self.current = i
         return y
+
+
+class FingerScript:
+    """A scripted fingertip: approach, press, hold, release (times in s, forces in N).
+
+    The press ramps to 1.15 × ``force_N`` in 0.15 s (people overshoot a little), settles to
+    ``force_N`` with a 0.2 s time constant, holds for ``hold_s`` from the start of the press, and
+    releases in 0.1 s. The four pressure sensors share the force 27/24/26/23 %.
+    """
+
+    SHARES = (0.27, 0.24, 0.26, 0.23)
+
+    def __init__(self, press_after_s=0.3, force_N=2.0, hold_s=20.0, skin_thickness_m=650e-6,
+                 skin_temperature_C=35.5):
+        self.press_after_s = float(press_after_s)
+        self.force_N = float(force_N)
+        self.hold_s = float(hold_s)
+        self.skin_thickness_m = float(skin_thickness_m)
+        self.skin_temperature_C = float(skin_temperature_C)
+        self.start_us = None     # set when the script starts
+
+    def force(self, t_us: int) -> float:
+        if self.start_us is None:
+            return 0.0
+        tau = (t_us - self.start_us) * 1e-6 - self.press_after_s
+        F = self.force_N
+        if tau <= 0.0:
+            return 0.0
+        if tau < 0.15:
+            return 1.15 * F * tau / 0.15
+        if tau < self.hold_s:
+            return F * (1.0 + 0.15 * math.exp(-(tau - 0.15) / 0.2))
+        if tau < self.hold_s + 0.1:
+            return F * (1.0 - (tau - self.hold_s) / 0.1)
+        return 0.0
