@@ -51,6 +51,25 @@ def fingerprint(folder: Path, tmp: Path) -> str:
     return h.hexdigest()
 
 
+def traces_digest(session_dir: Path) -> str:
+    """SHA-256 over a session's telemetry traces (``traces/*.csv`` by name): the values of every
+    row, numbers parsed (so a change of the number format alone does not change it)."""
+    h = hashlib.sha256()
+    for path in sorted((Path(session_dir) / "traces").glob("*.csv")):
+        rows = path.read_text(encoding="utf-8").splitlines()[1:]          # not the header
+        h.update(path.name.encode() + b"\0")
+        for row in rows:
+            h.update(repr([_value(c) for c in row.split(",")]).encode())
+    return h.hexdigest()
+
+
+def _value(cell: str):
+    try:
+        return float(cell)
+    except ValueError:
+        return cell
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=3)

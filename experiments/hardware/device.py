@@ -39,7 +39,7 @@ from .device_constants import (DEFAULT_NEUTRAL_C, FIRMWARE, HARD_MAX_C, HARD_MIN
 from .device_constants import (END_ABORTED, END_COMPLETE, END_FAULT,  # noqa: F401
                                END_MAX_DURATION, END_RELEASED)
 from .faults import FaultSpec, parse_faults
-from .framing import FrameParser, crc8, encode_frame
+from .framing import Frame, FrameParser, crc8, encode_frame
 from .messages import Err, Event, Mode, State
 from .pad_physics import (CONTACT_AREA_M2, FingerScript, FingerSkin, PadParams, PadPlant,  # noqa: F401
                           PassiveSample, finger_pad_resistance, normal_stream)
@@ -55,6 +55,7 @@ _TEL_HEAD = struct.Struct("<HBB")
 _TEL_PREFIX = [h + bytes((crc8(h),)) for h in
                (_TEL_HEAD.pack(m.TELEMETRY.size, q, m.Msg.TELEMETRY) for q in range(256))]
 _TEL_PACK = m.TELEMETRY.pack
+_TELEMETRY = int(m.Msg.TELEMETRY)
 _CRC = struct.Struct("<H")
 
 
@@ -130,6 +131,9 @@ class Device(HostCommands):
         self.contact_C = self.plant.sensor
         self.stalled = False
         self.fault_listeners = []          # transports that apply link faults (drop, delay, ...)
+        # a list while a transport takes the tick's output as decoded frames, not bytes (the
+        # in-process virtual clock with no fault injected: nothing on the line to damage)
+        self.direct: list[Frame] | None = None
         self._r_fp = finger_pad_resistance()     # imports stimuli now, not mid-trial
 
     # ------------------------------------------------------------------ output helpers
@@ -145,9 +149,11 @@ class Device(HostCommands):
 
     def _event(self, kind: Event, arg: int = 0, text: str = "") -> None:
         self.tx_seq = (self.tx_seq + 1) & 0xFF
-        self._send(self.tx_seq, m.Msg.EVENT,
-                   m.EVENT_HEAD.pack(kind, self.time_us - self.boot_us, arg)
-                   + text.encode("utf-8")[:200])
+        payload = m.EVENT_HEAD.pack(kind, self.time_us - self.boot_us, arg) + text.encode("utf-8")[:200]
+        if self.direct is not None:
+            self.direct.append(Frame(self.tx_seq, m.Msg.EVENT, payload))
+        else:
+            self._send(self.tx_seq, m.Msg.EVENT, payload)
 
     def take_output(self) -> bytes:
         """Bytes waiting to go to the host (and forget them)."""
@@ -361,16 +367,21 @@ class Device(HostCommands):
             f = self.forces
             fault = self.last_fault if self.state == _FAULT else 0
             try:
-                body = _TEL_PREFIX[seq] + _TEL_PACK(
+                payload = _TEL_PACK(
                     self.counter, t_us - self.boot_us, round(sp * 100), round(self.contact_C * 100),
                     round(self.ambient_C * 100), round(self.finger_C * 100), round(f[0] * 100),
                     round(f[1] * 100), round(f[2] * 100), round(f[3] * 100), self.state, fault)
             except struct.error:                   # a reading beyond ±327.67: saturate
                 c = m.centi
-                body = _TEL_PREFIX[seq] + _TEL_PACK(
+                payload = _TEL_PACK(
                     self.counter, t_us - self.boot_us, c(sp), c(self.contact_C), c(self.ambient_C),
                     c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]), self.state, fault)
-            self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
+            direct = self.direct
+            if direct is not None:
+                direct.append(Frame(seq, _TELEMETRY, payload))
+            else:
+                body = _TEL_PREFIX[seq] + payload
+                self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
 
     def _sample_reading(self, t_us, touching) -> float:
         """Contact sensor on the passive sample (record mode)."""

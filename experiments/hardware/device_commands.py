@@ -17,10 +17,14 @@ from .device_constants import (_BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWAR
                                LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
                                WATCHDOG_MS)
 from .faults import parse_faults
+from .framing import encode_frame
 from .messages import Cmd, Err, Event, Mode, State
 from .pad_physics import FingerScript, FingerSkin, PassiveSample, finger_pad_resistance
 
 __all__ = ["HostCommands"]
+
+#: Every silent heartbeat frame (payload 0: feed the watchdog, no reply), one per number.
+_SILENT_HEARTBEATS = frozenset(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
 
 
 class HostCommands:
@@ -40,6 +44,10 @@ class HostCommands:
         if self.stalled:
             return
         stamp = self.time_us if at_us is None else max(self.time_us, int(at_us))
+        if type(data) is bytes and data in _SILENT_HEARTBEATS and not self.parser.buffered:
+            self.parser.frames += 1            # what the parser would say of it, without parsing
+            self.last_rx_us = stamp            # (the host's commonest frame: every 10 ms)
+            return
         for fr in self.parser.feed(data):
             self.last_rx_us = stamp
             if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":

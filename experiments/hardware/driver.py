@@ -62,6 +62,8 @@ CHUNK = 512                    # samples per upload chunk
 # the device's own numbers: a reply of these types is one only with the reply's size (4 and 0
 # bytes; telemetry has 30, an event at least 11)
 _REPLY_SIZE = {Cmd.ARM | m.REPLY_BIT: m.COUNTER.size, Cmd.ABORT | m.REPLY_BIT: 0}
+#: The silent heartbeat (payload 0: no reply wanted) of every sequence number, encoded once.
+_SILENT_HEARTBEAT = tuple(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
 
 
 class ThermalDisplay:
@@ -128,6 +130,8 @@ class ThermalDisplay:
         device_clock = device_clock() if callable(device_clock) else None
         self._virtual = device_clock is not None
         self._clock = device_clock if self._virtual else time.monotonic
+        # ... and may offer read_frames(): read() as decoded frames when nothing can damage them
+        self._read_direct = getattr(port, "read_frames", None) if self._virtual else None
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
@@ -168,6 +172,11 @@ class ThermalDisplay:
         try:
             port = self.port
             if self._virtual:                    # the emulator returns what one wait produced
+                if self._read_direct is not None and not self._parser.buffered:
+                    frames = self._read_direct(65536)
+                    if frames is not None:
+                        self._parser.frames += len(frames)
+                        return frames
                 data = port.read(65536)
                 return self._parser.feed(data) if data else (
                     self._parser.drop_candidate() if self._parser.buffered else [])
@@ -216,7 +225,7 @@ class ThermalDisplay:
                 or (not self._virtual and self._alive - self._last_tx >= self.heartbeat_s)):
             self._hb_clock, self._hb_dev = c, self._dev_time
             # silent (no reply wanted): telemetry or the next reply shows the device is alive
-            self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
+            self._write(_SILENT_HEARTBEAT[self._next_seq(Cmd.HEARTBEAT)])
 
     def _dispatch(self, fr) -> None:
         """Route a frame that is not the awaited reply."""
@@ -373,7 +382,7 @@ class ThermalDisplay:
                 # and nothing written for half a period: heartbeat, whoever holds the I/O lock
                 if (not helper and now - self._alive <= self.host_stall_s
                         and now - self._last_tx >= period / 2):
-                    self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
+                    self._write(_SILENT_HEARTBEAT[self._next_seq(Cmd.HEARTBEAT)])
                     self.heartbeats_sent += 1
                 if not self._lock.acquire(blocking=False):
                     continue                   # the I/O thread is reading

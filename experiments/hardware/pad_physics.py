@@ -43,6 +43,7 @@ from scipy.linalg import expm
 __all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "FingerScript", "PassiveSample",
            "CONTACT_AREA_M2", "finger_pad_resistance"]
 
+_dot = np.dot
 #: Contact area of the fingertip, m² (paper: 2 N on 135 mm²).
 CONTACT_AREA_M2 = 135e-6
 #: Heat transfer coefficient of the finger to room air, W/(m² K).
@@ -153,6 +154,7 @@ class FingerSkin:
         self._ab = {True: np.hstack(self._touch[:2]), False: np.hstack(self._air[:2])}
         self._g = {True: self._touch[3], False: self._air[3]}
         self._x = np.full(n + 2, self.core)
+        self._x_next = np.full(n + 2, self.core)     # the next tick's state is written here
         self.n = n
         self.surface_node = self.core
         self.flux = 0.0       # W/m², skin to pad (or air), over the last tick
@@ -167,10 +169,13 @@ class FingerSkin:
         x = self._x
         n = self.n
         x[n] = outside_C
-        new = self._ab[touching] @ x
-        x[:n] = new
+        # the same product as ``A @ x`` (one BLAS gemv), written straight into the other state
+        # vector: no temporary, no copy back (the inner boundary, x[n + 1], never changes)
+        nxt = self._x_next
+        _dot(self._ab[touching], x, out=nxt[:n])
+        self._x, self._x_next = nxt, x
         s_old = self.surface_node
-        self.surface_node = s_new = float(new[-1])
+        self.surface_node = s_new = float(nxt[n - 1])
         # average surface flux over the tick (trapezoid on the surface node)
         self.flux = self._g[touching] * (0.5 * (s_old + s_new) - outside_C)
         return self.flux
