@@ -56,6 +56,7 @@ _TEL_PREFIX = [h + bytes((crc8(h),)) for h in
                (_TEL_HEAD.pack(m.TELEMETRY.size, q, m.Msg.TELEMETRY) for q in range(256))]
 _TEL_PACK = m.TELEMETRY.pack
 _TELEMETRY = int(m.Msg.TELEMETRY)
+_SH0, _SH1, _SH2, _SH3 = FingerScript.SHARES
 _CRC = struct.Struct("<H")
 
 
@@ -262,10 +263,12 @@ class Device(HostCommands):
         F = fin.force(t_us) if fin is not None else 0.0
         nz = self.noise
         nf = self.params.noise_force
-        sh = FingerScript.SHARES
-        self.forces = (F * sh[0] + nf * next(nz), F * sh[1] + nf * next(nz),
-                       F * sh[2] + nf * next(nz), F * sh[3] + nf * next(nz))
-        Fsum = self.forces[0] + self.forces[1] + self.forces[2] + self.forces[3]
+        f0 = F * _SH0 + nf * next(nz)
+        f1 = F * _SH1 + nf * next(nz)
+        f2 = F * _SH2 + nf * next(nz)
+        f3 = F * _SH3 + nf * next(nz)
+        self.forces = (f0, f1, f2, f3)
+        Fsum = f0 + f1 + f2 + f3
         touching = F > 0.1
         if touching and self.touch_us is None and state in _ACTIVE:
             self.touch_us = t_us

@@ -290,6 +290,7 @@ class PadPlant:
             enabled = False
         dsp = (sp1 - sp0) / n
         y = self.sensor
+        same = self.same_count
         i = 0.0
         for k in range(n):
             # sensor
@@ -300,7 +301,7 @@ class PadPlant:
                 y_new = y
             else:
                 y_new = round(s_state + noise * next(nz), 3)
-            self.same_count = self.same_count + 1 if y_new == y else 0
+            same = same + 1 if y_new == y else 0
             y = y_new
             r = sp0 + dsp * k
             if enabled and y > trip:             # the firmware's over-temperature cut: now
@@ -332,6 +333,7 @@ class PadPlant:
         self.pad, self.hs, self.sensor_state, self._y_prev, self._q_prev, self.d_hat = (
             pad, hs, s_state, y_prev, q_prev, d_hat)
         self.sensor = y
+        self.same_count = same
         self.current = i
         return y
 
