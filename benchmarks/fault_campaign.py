@@ -194,7 +194,9 @@ def ok_rows_by_run(session: Path):
             query = urllib.parse.urlsplit(e.get("display_url", "")).query.replace("+", "%2B")
             log = urllib.parse.parse_qs(query).get("log", [None])[-1]
         elif e["event"] == "trial_completed" and e["row"].get("status") == "ok":
-            out.append((log, e["trial_index"], e["attempt"], e["row"].get("contact_time_s")))
+            row = e["row"]          # the trial row names it contact_onset_s (contact_time_s before)
+            out.append((log, e["trial_index"], e["attempt"],
+                        row.get("contact_onset_s", row.get("contact_time_s"))))
     return out
 
 
