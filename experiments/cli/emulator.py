@@ -1,14 +1,14 @@
 """`thermocue emulator`: serve the display protocol on a pseudo-terminal, print its path.
 
-The options and the server live in :mod:`experiments.hardware.pty_server` (hardware never
-imports the CLI); this module only registers the sub-command.
+The options live in :mod:`experiments.hardware.emulator_options`, the server in
+:mod:`experiments.hardware.pty_server` (hardware never imports the CLI); this module only
+registers the sub-command.
 """
 from __future__ import annotations
 
 
-
 def register(sub) -> None:
-    from experiments.hardware.pty_server import add_arguments
+    from experiments.hardware.emulator_options import add_arguments   # stdlib only: fast
     p = sub.add_parser(
         "emulator",
         help="serve the emulated thermal display on a pty (prints the path; SIGINT/SIGTERM stops)",

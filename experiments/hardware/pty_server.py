@@ -32,6 +32,7 @@ from experiments.errors import UserInputError
 
 from .device import TICK_US
 from .emulator_core import EmulatorCore, JsonLog
+from .emulator_options import add_arguments
 from .faults import parse_faults
 
 __all__ = ["serve", "main", "add_arguments", "run", "hold_link", "MAX_PENDING"]
@@ -173,25 +174,8 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     return 0
 
 
-def add_arguments(p) -> None:
-    """The options of ``thermocue emulator`` (and ``python -m experiments.hardware.pty_server``)."""
-    p.add_argument("--link", metavar="PATH",
-                   help="also make PATH a symbolic link to the pty (refused while another running "
-                        "emulator holds PATH)")
-    p.add_argument("--faults", metavar="SPEC", default=None,
-                   help="fault injection, e.g. 'drop=0.001,overtemp@30' (see docs/display-protocol.md)")
-    p.add_argument("--clock", choices=("real", "virtual"), default="real",
-                   help="real: 10 ms ticks of wall time; virtual: as fast as the host reads "
-                        "during trials (default: real)")
-    p.add_argument("--seed", type=int, default=0, help="noise and fault seed (default 0)")
-    p.add_argument("--log", metavar="PATH", default=None,
-                   help="append state changes, faults and watchdog trips as JSON lines")
-    p.add_argument("--no-sim", action="store_true",
-                   help="refuse the emulator-only 'sim' commands, like a real device")
-
-
 def run(ns) -> int:
-    """Serve with the options :func:`add_arguments` parsed (holding ``--link`` if given).
+    """Serve with the options :func:`~.emulator_options.add_arguments` parsed (holding ``--link``).
 
     Raises
     ------

@@ -126,3 +126,22 @@ def test_the_driver_asks_the_port_for_its_device_clock():
         assert 0.2e6 <= inner.device.time_us - t0 < 0.25e6
     finally:
         d.close()
+
+
+def test_the_cli_offers_the_emulator_options_without_importing_the_emulator():
+    # pty_server no longer imports the CLI; the CLI must not pay for that by importing the
+    # emulator (numpy, scipy, the device) just to build its parser: `thermocue --help` stays fast
+    import subprocess
+    import sys
+    code = ("import sys\n"
+            "from experiments.cli import build_parser\n"
+            "p = build_parser()\n"
+            "ns = p.parse_args(['emulator', '--faults', 'drop=0.1', '--clock', 'virtual'])\n"
+            "assert (ns.faults, ns.clock, ns.seed) == ('drop=0.1', 'virtual', 0), ns\n"
+            "heavy = [m for m in ('numpy', 'scipy', 'experiments.hardware.device',\n"
+            "                     'experiments.hardware.pty_server') if m in sys.modules]\n"
+            "print(heavy)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parents[3], timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
