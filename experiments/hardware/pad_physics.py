@@ -300,7 +300,14 @@ class PadPlant:
             elif frozen:
                 y_new = y
             else:
-                y_new = round(s_state + noise * next(nz), 3)
+                # round(v, 3) -- Python's correctly rounded decimal rounding, 0.3 us -- done as
+                # k / 1000 with k the nearest integer to v * 1000: the same double whenever
+                # v * 1000 is not within 1e-4 of a half (its rounding error is ~1e-11 here);
+                # the division of two exact doubles is correctly rounded, as is round()'s result
+                v = s_state + noise * next(nz)
+                w = v * 1000.0
+                kk = round(w)
+                y_new = kk / 1000.0 if (kk and -0.4999 < w - kk < 0.4999) else round(v, 3)
             same = same + 1 if y_new == y else 0
             y = y_new
             r = sp0 + dsp * k
