@@ -11,6 +11,8 @@ from experiments.hardware.device import TICK_US
 from experiments.hardware.emulator_core import MAX_CATCH_UP_TICKS, EmulatorCore
 from experiments.hardware.framing import FrameParser, encode_frame
 
+from _ports import HidingPort
+
 HARDWARE = Path(__file__).resolve().parents[3] / "experiments" / "hardware"
 
 
@@ -98,26 +100,11 @@ def test_in_process_port_runs_on_the_core_and_loses_no_reply_to_garbage():
         port.close()
 
 
-class _OnlyTheClock:
-    """A port that offers the device clock and pyserial's calls, and nothing of the emulator."""
-
-    def __init__(self, port):
-        self._port = port
-
-    def device_clock(self):
-        return self._port.device_clock()
-
-    def __getattr__(self, name):
-        if name in ("device", "core", "virtual_time_s", "link"):
-            raise AttributeError(name)
-        return getattr(self._port, name)
-
-
 def test_the_driver_asks_the_port_for_its_device_clock():
     # the driver read port.device.time_us; now only the documented device_clock()
     from experiments.hardware.driver import ThermalDisplay
     inner = serial.serial_for_url("emulator://?clock=virtual", timeout=0.01)
-    d = ThermalDisplay(_OnlyTheClock(inner))
+    d = ThermalDisplay(HidingPort(inner, hide=("device", "core", "virtual_time_s", "link")))
     try:
         info = d.handshake()
         assert info.device_id == "EMU-0001"

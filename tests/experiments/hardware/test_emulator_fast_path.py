@@ -20,20 +20,7 @@ from experiments.hardware.device import Device
 from experiments.hardware.driver import ThermalDisplay
 from experiments.hardware.framing import FrameParser, encode_frame
 
-
-class _BytesOnly:
-    """A port without the fast path: everything through read() and the parser."""
-
-    def __init__(self, port):
-        self._port = port
-
-    def device_clock(self):
-        return self._port.device_clock()
-
-    def __getattr__(self, name):
-        if name == "read_frames":
-            raise AttributeError(name)
-        return getattr(self._port, name)
+from _ports import HidingPort
 
 
 def _trial(port, mode):
@@ -62,7 +49,7 @@ def test_a_trial_through_the_fast_path_equals_the_byte_path(mode):
     read_frames = fast.read_frames
     fast.read_frames = lambda size: calls.append(size) or read_frames(size)
     a = _trial(fast, mode)
-    b = _trial(_BytesOnly(slow), mode)
+    b = _trial(HidingPort(slow, hide=("read_frames",)), mode)   # everything through read()
     assert len(calls) > 50                                # the fast path did the trial's reads
     assert repr(a[0]) == repr(b[0]) and a[0].status == "ok"   # the TrialRecording (nan-proof)
     assert a[1] == b[1] and len(a[1]) > 150               # every telemetry frame
