@@ -42,86 +42,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "experiments"))
+from _session_helpers import write_protocol as _mini_protocol  # noqa: E402  (one protocol text)
+
 P01 = ROOT / "participants" / "examples" / "P01.json"
 HARD_MAX_C = 45.0
 PROTOCOL_MAX_C = 42.0
 CHILD_TIMEOUT_S = 300
-
-PROTOCOL = """
-[protocol]
-name = "campaign"
-title = "Fault campaign"
-
-[environment]
-room_temperature_C = 20.0
-skin_temperature_min_C = 35.5
-skin_temperature_max_C = 36.0
-
-[material]
-name = "stainless_steel"
-thickness_mm = 3.0
-
-[[samples]]
-id = 1
-label = "1#"
-roughness_um = 1.6
-
-[[samples]]
-id = 2
-label = "2#"
-roughness_um = 12.5
-
-[[samples]]
-id = 3
-label = "3#"
-roughness_um = 50.0
-
-[[samples]]
-id = 4
-label = "4#"
-roughness_um = 100.0
-
-[contact]
-force_threshold_N = 2.0
-max_contact_s = 1.0
-record_s = 1.0
-trial_timeout_s = 5.0
-rewarm_s = 0.0
-
-[display]
-min_C = 15.0
-max_C = 42.0
-max_rate_C_per_s = 10.0
-neutral_C = 32.0
-
-[grouping]
-threshold_um = 800.0
-margin_um = 50.0
-
-[simulation]
-skin_thickness = "group"
-group_skin_thickness_um = { A = 650.0, B = 1000.0 }
-skin_temperature_C = 35.5
-material_temperature_C = 20.0
-duration_s = 1.0
-rate_Hz = 50.0
-resolution_C = 0.01
-method = "exact"
-
-[[blocks]]
-name = "real"
-mode = "real"
-repetitions = REAL_REPS
-samples = [1, 2, 3, 4]
-order = "random"
-
-[[blocks]]
-name = "simulated"
-mode = "simulated"
-repetitions = SIM_REPS
-samples = [1, 2, 3, 4]
-order = "random"
-"""
 
 # --------------------------------------------------------------------------- the child process
 CHILD = r"""
@@ -181,9 +108,10 @@ class Totals:
 
 
 def write_protocol(folder: Path, real_reps=1, sim_reps=2) -> Path:
-    p = folder / "campaign.toml"
-    p.write_text(PROTOCOL.replace("REAL_REPS", str(real_reps)).replace("SIM_REPS", str(sim_reps)))
-    return p
+    """The campaign's protocol: the session tests' short protocol (1 s contacts), more blocks."""
+    return _mini_protocol(folder, contact_s=1.0, rewarm_s=0.0, real_reps=real_reps,
+                          sim_reps=sim_reps, name="campaign.toml", protocol_name="campaign",
+                          title="Fault campaign")
 
 
 def child(argv, folder: Path, T: Totals, *, limit_bytes=None, timeout=CHILD_TIMEOUT_S, kill_after=None):
@@ -266,7 +194,9 @@ def ok_rows_by_run(session: Path):
             query = urllib.parse.urlsplit(e.get("display_url", "")).query.replace("+", "%2B")
             log = urllib.parse.parse_qs(query).get("log", [None])[-1]
         elif e["event"] == "trial_completed" and e["row"].get("status") == "ok":
-            out.append((log, e["trial_index"], e["attempt"], e["row"].get("contact_time_s")))
+            row = e["row"]          # the trial row names it contact_onset_s (contact_time_s before)
+            out.append((log, e["trial_index"], e["attempt"],
+                        row.get("contact_onset_s", row.get("contact_time_s"))))
     return out
 
 

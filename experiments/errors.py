@@ -17,7 +17,6 @@ __all__ = [
     "DisplayRefused",
     "DisplayRestarted",
     "SafetyLimitError",
-    "FrameError",
 ]
 
 
@@ -59,7 +58,3 @@ class SafetyLimitError(DisplayError, UserInputError):
 
     Raised by the host *before* anything is sent.
     """
-
-
-class FrameError(DisplayError):
-    """A frame on the serial line could not be decoded (bad CRC, length, syntax)."""

@@ -2,18 +2,36 @@
 
 Importing this package registers it with pyserial, so ``serial.serial_for_url("emulator://")``
 opens the in-process emulator (:mod:`experiments.hardware.protocol_emulator`). The protocol is
-written down in ``docs/display-protocol.md``.
+written down in ``docs/display-protocol.md``. The names below are imported on first use (PEP 562),
+so a module of the package that needs only the standard library (the emulator's command-line
+options) does not pull in numpy and the driver.
 """
 from __future__ import annotations
+
+import importlib
 
 import serial as _serial
 
 if "experiments.hardware" not in _serial.protocol_handler_packages:
     _serial.protocol_handler_packages.append("experiments.hardware")
 
-from .safety import SafetyLimits  # noqa: E402
-from .messages import DeviceInfo, DeviceEvent, Status, Telemetry  # noqa: E402
-from .driver import ContactEvent, ThermalDisplay, TrialRecording, open_display  # noqa: E402
+#: public name -> the module that defines it
+_EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "messages", "DeviceEvent": "messages",
+            "Status": "messages", "Telemetry": "messages", "ContactEvent": "trial_recording",
+            "TrialRecording": "trial_recording", "ThermalDisplay": "driver",
+            "open_display": "driver"}
 
 __all__ = ["open_display", "ThermalDisplay", "SafetyLimits", "Telemetry", "ContactEvent",
            "TrialRecording", "DeviceInfo", "DeviceEvent", "Status"]
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -1,4 +1,8 @@
-"""The emulated display's firmware: command handling, state machine, watchdog, safety monitors.
+"""The emulated display's firmware: its state machine, run as a 10 ms tick.
+
+One concept, the firmware's tick (watchdog, setpoint and rate limits, physics, safety monitors,
+trial logic, telemetry); its command handling is the mixin :class:`~.device_commands.HostCommands`,
+its fixed numbers are in :mod:`.device_constants`, the physics in :mod:`.pad_physics`.
 
 A :class:`Device` knows nothing about clocks or ports: a transport feeds it host bytes
 (:meth:`Device.receive`), advances it in fixed ticks (:meth:`Device.step`, 10 ms of device time)
@@ -22,45 +26,27 @@ from __future__ import annotations
 
 import math
 import struct
-import zlib
 from binascii import crc_hqx
 from collections import deque
 
-import numpy as np
-
 from . import messages as m
+from .device_commands import HostCommands
+from .device_constants import (DEFAULT_NEUTRAL_C, FIRMWARE, HARD_MAX_C, HARD_MIN_C,  # noqa: F401
+                               HARD_RATE_C_PER_S, HEATSINK_MAX_C, LATCHED_FAULTS, MAX_POINTS,
+                               MIN_DT_US, OVERTEMP_C, RATE_SLACK_C, RATE_WINDOW_TICKS,
+                               READY_BAND_C, RELEASE_MS, SETPOINT_MAX_C, STUCK_SAMPLES, TICK_US,
+                               WATCHDOG_MS, _boot_id)
+from .device_constants import (END_ABORTED, END_COMPLETE, END_FAULT,  # noqa: F401
+                               END_MAX_DURATION, END_RELEASED)
 from .faults import FaultSpec, parse_faults
-from .framing import FrameParser, crc8, encode_frame
-from .messages import Cmd, Err, Event, Mode, State
-from .pad_physics import (CONTACT_AREA_M2, FingerSkin, PadParams, PadPlant, PassiveSample,
-                          finger_pad_resistance, normal_stream)
+from .framing import Frame, FrameParser, crc8, encode_frame
+from .messages import Err, Event, Mode, State
+from .pad_physics import (CONTACT_AREA_M2, FingerScript, FingerSkin, PadParams, PadPlant,  # noqa: F401
+                          PassiveSample, finger_pad_resistance, normal_stream)
 
 __all__ = ["Device", "FingerScript", "FIRMWARE", "HARD_MIN_C", "HARD_MAX_C", "SETPOINT_MAX_C",
            "OVERTEMP_C", "HARD_RATE_C_PER_S", "LATCHED_FAULTS"]
 
-FIRMWARE = "thermocue-emu 1.0.0"
-HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to it, always
-HARD_MAX_C = 45.0          # the skin-safe maximum: the pad is never above it for a tick
-SETPOINT_MAX_C = 44.5      # highest setpoint (HELLO's hard_max): a margin below the trip
-HARD_RATE_C_PER_S = 100.0  # largest setpoint step per second the firmware ever makes
-DEFAULT_NEUTRAL_C = 32.0
-WATCHDOG_MS = 90           # host silence that trips the watchdog, checked every 10 ms tick:
-                           # the setpoint goes to neutral ≤ WATCHDOG_MS + one tick = 100 ms
-                           # after the last host frame (docs/display-protocol.md, timing budget)
-RATE_WINDOW_TICKS = 10     # the rate limit is also held over any 10 ticks (0.1 s), the host's
-                           # window (SafetyLimits.rate_window_s): playback may step faster for a
-                           # tick (a sqrt(t) profile's first samples), never faster over 0.1 s
-RATE_SLACK_C = 0.01        # one setpoint resolution step, as the host's check allows
-MAX_POINTS = 65536         # 65.5 s at 1 ms, 655 s at 10 ms
-MIN_DT_US = 1000
-TICK_US = 10_000
-READY_BAND_C = 0.1         # |contact - first sample| to declare READY
-RELEASE_MS = 50            # force below half the threshold this long ends a trial
-OVERTEMP_C = HARD_MAX_C - 0.2   # contact sensor reading that cuts the Peltier current within
-                                # the same 5 ms control step (PadPlant.trip_C): the sensor's lag
-                                # and one step of a stuck full-current heater stay below 45 °C
-HEATSINK_MAX_C = 70.0
-STUCK_SAMPLES = 20         # identical raw readings in a row (100 ms at 200 Hz)
 _IDLE, _ARMED, _PLAYING, _RECORDING, _FAULT = (State.IDLE, State.ARMED, State.PLAYING,
                                                State.RECORDING, State.FAULT)
 _ACTIVE = (State.ARMED, State.PLAYING, State.RECORDING)
@@ -69,56 +55,13 @@ _TEL_HEAD = struct.Struct("<HBB")
 _TEL_PREFIX = [h + bytes((crc8(h),)) for h in
                (_TEL_HEAD.pack(m.TELEMETRY.size, q, m.Msg.TELEMETRY) for q in range(256))]
 _TEL_PACK = m.TELEMETRY.pack
+_TELEMETRY = int(m.Msg.TELEMETRY)
+_SH0, _SH1, _SH2, _SH3 = FingerScript.SHARES
+_tuple_new = tuple.__new__
 _CRC = struct.Struct("<H")
-END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
-#: Faults that stay latched through ABORT until an operator reset (CLEAR_FAULT).
-LATCHED_FAULTS = (Err.OVER_TEMPERATURE, Err.SENSOR_FAILURE, Err.SENSOR_STUCK)
-#: Commands a device carries out before any HELLO (everything else: NAK NO_HELLO).
-_BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT,
-                 Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT)
 
 
-def _boot_id(seed: int, boots: int) -> int:
-    """A power-up's boot id (non-zero, different at every power-up of one device)."""
-    return (zlib.crc32(f"{seed}:{boots}".encode()) or 1) & 0xFFFFFFFF
-
-
-class FingerScript:
-    """A scripted fingertip: approach, press, hold, release (times in s, forces in N).
-
-    The press ramps to 1.15 × ``force_N`` in 0.15 s (people overshoot a little), settles to
-    ``force_N`` with a 0.2 s time constant, holds for ``hold_s`` from the start of the press, and
-    releases in 0.1 s. The four pressure sensors share the force 27/24/26/23 %.
-    """
-
-    SHARES = (0.27, 0.24, 0.26, 0.23)
-
-    def __init__(self, press_after_s=0.3, force_N=2.0, hold_s=20.0, skin_thickness_m=650e-6,
-                 skin_temperature_C=35.5):
-        self.press_after_s = float(press_after_s)
-        self.force_N = float(force_N)
-        self.hold_s = float(hold_s)
-        self.skin_thickness_m = float(skin_thickness_m)
-        self.skin_temperature_C = float(skin_temperature_C)
-        self.start_us = None     # set when the script starts
-
-    def force(self, t_us: int) -> float:
-        if self.start_us is None:
-            return 0.0
-        tau = (t_us - self.start_us) * 1e-6 - self.press_after_s
-        F = self.force_N
-        if tau <= 0.0:
-            return 0.0
-        if tau < 0.15:
-            return 1.15 * F * tau / 0.15
-        if tau < self.hold_s:
-            return F * (1.0 + 0.15 * math.exp(-(tau - 0.15) / 0.2))
-        if tau < self.hold_s + 0.1:
-            return F * (1.0 - (tau - self.hold_s) / 0.1)
-        return 0.0
-
-
-class Device:
+class Device(HostCommands):
     """The emulated display (see module docstring).
 
     Parameters
@@ -190,6 +133,9 @@ class Device:
         self.contact_C = self.plant.sensor
         self.stalled = False
         self.fault_listeners = []          # transports that apply link faults (drop, delay, ...)
+        # a list while a transport takes the tick's output as decoded frames, not bytes (the
+        # in-process virtual clock with no fault injected: nothing on the line to damage)
+        self.direct: list[Frame] | None = None
         self._r_fp = finger_pad_resistance()     # imports stimuli now, not mid-trial
 
     # ------------------------------------------------------------------ output helpers
@@ -205,9 +151,11 @@ class Device:
 
     def _event(self, kind: Event, arg: int = 0, text: str = "") -> None:
         self.tx_seq = (self.tx_seq + 1) & 0xFF
-        self._send(self.tx_seq, m.Msg.EVENT,
-                   m.EVENT_HEAD.pack(kind, self.time_us - self.boot_us, arg)
-                   + text.encode("utf-8")[:200])
+        payload = m.EVENT_HEAD.pack(kind, self.time_us - self.boot_us, arg) + text.encode("utf-8")[:200]
+        if self.direct is not None:
+            self.direct.append(Frame(self.tx_seq, m.Msg.EVENT, payload))
+        else:
+            self._send(self.tx_seq, m.Msg.EVENT, payload)
 
     def take_output(self) -> bytes:
         """Bytes waiting to go to the host (and forget them)."""
@@ -224,224 +172,6 @@ class Device:
             self.log("state", old=old.name, why=why)
 
     # ------------------------------------------------------------------ host input
-    def receive(self, data: bytes, at_us: int | None = None) -> None:
-        """Handle bytes from the host (any number of frames, garbage tolerated).
-
-        Parameters
-        ----------
-        data : bytes
-        at_us : int, optional, µs
-            Device time at which the bytes are known to have arrived, when the transport runs
-            behind (a starved emulator process catching up on ticks): valid frames feed the
-            watchdog as of that time. Default: now (``time_us``).
-        """
-        if self.stalled:
-            return
-        stamp = self.time_us if at_us is None else max(self.time_us, int(at_us))
-        for fr in self.parser.feed(data):
-            self.last_rx_us = stamp
-            if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":
-                continue                           # silent: no reply, nothing to cache
-            hello = fr.type == Cmd.HELLO           # a new session: always carried out
-            hit = None if hello else self.cache.get(fr.type)
-            if hit is not None and hit[0] == fr.seq:
-                self.out += hit[1]                 # a retry: the same answer, not a second action
-                continue
-            try:
-                reply = self._handle(fr.seq, fr.type, fr.payload)
-            except (struct.error, IndexError, ValueError) as exc:
-                reply = self._nak(fr.seq, fr.type, Err.BAD_LENGTH, f"malformed payload: {exc}")
-            if not hello:
-                self.cache[fr.type] = (fr.seq, reply)
-
-    def _nak(self, seq, cmd, code, text="") -> bytes:
-        return self._send(seq, m.Msg.NAK, m.NAK_HEAD.pack(cmd & 0xFF, int(code)) +
-                          text.encode("utf-8")[:200])
-
-    def _ack(self, seq, cmd, payload=b"") -> bytes:
-        return self._send(seq, (cmd | m.REPLY_BIT) & 0xFF, payload)
-
-    def _handle(self, seq: int, cmd: int, p: bytes) -> bytes:
-        if not self.hello and cmd not in _BEFORE_HELLO:
-            return self._nak(seq, cmd, Err.NO_HELLO, "no HELLO since power-up")
-        if cmd == Cmd.HEARTBEAT:
-            if p == b"\x00":
-                return b""                         # a silent heartbeat: no reply wanted
-            return self._ack(seq, cmd, m.TIME.pack(self.time_us - self.boot_us))
-        if cmd == Cmd.HELLO:
-            (ver,) = m.HELLO_REQ.unpack(p)
-            if ver != m.PROTOCOL_VERSION:
-                return self._nak(seq, cmd, Err.NOT_SUPPORTED,
-                                 f"protocol {ver} not supported (device speaks {m.PROTOCOL_VERSION})")
-            # a new host: its numbers say nothing about the last host's, so forget the replies
-            # kept for retries (else its SET_LIMITS, SET_NEUTRAL, UPLOAD_BEGIN, ... could be
-            # answered from the cache and not carried out) and any half-done upload
-            self.cache.clear()
-            self.upload = None
-            self.hello = True
-            caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
-            head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
-                                           m.centi(SETPOINT_MAX_C), int(HARD_RATE_C_PER_S * 100),
-                                           m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US,
-                                           self.boot_id)
-            self.log("hello")
-            return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps))
-        if cmd == Cmd.STATUS:
-            return self._ack(seq, cmd, self._status())
-        if cmd == Cmd.ABORT:
-            if self.state in (State.ARMED, State.PLAYING, State.RECORDING):
-                self.end_reason = END_ABORTED
-                self._event(Event.END, END_ABORTED, "aborted by host")
-            if self.state == State.FAULT and self.last_fault in LATCHED_FAULTS:
-                self.log("abort_latched", code=m.error_name(self.last_fault))
-                return self._ack(seq, cmd)         # stopped already; the latch stays (relay open)
-            self._set_state(State.IDLE, "abort")
-            self.enabled = True
-            return self._ack(seq, cmd)
-        if cmd == Cmd.CLEAR_FAULT:
-            if p != m.CLEAR_FAULT_MAGIC:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "CLEAR_FAULT needs the operator's payload")
-            if self.state == State.FAULT:
-                self.log("fault_cleared", code=m.error_name(self.last_fault))
-                self._set_state(State.IDLE, "operator reset")
-                self.enabled = True
-                self.plant.tripped = False
-            return self._ack(seq, cmd)
-        if cmd == Cmd.SET_NEUTRAL:
-            (v,) = m.CENTI.unpack(p)
-            if self.state not in (State.IDLE, State.FAULT):
-                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_NEUTRAL in state {self.state.name}")
-            self.neutral = min(max(v / 100.0, self.lim_min), self.lim_max)
-            self.log("neutral", asked_C=v / 100.0, neutral_C=self.neutral)
-            return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.neutral)))
-        if cmd == Cmd.SET_LIMITS:
-            lo, hi, rate = m.LIMITS.unpack(p)
-            lo, hi = max(lo / 100.0, HARD_MIN_C), min(hi / 100.0, SETPOINT_MAX_C)
-            if self.state != State.IDLE:
-                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_LIMITS in state {self.state.name}")
-            if not lo < hi or rate <= 0:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "empty range or zero rate")
-            self.lim_min, self.lim_max = lo, hi
-            self.lim_rate = min(rate / 100.0, HARD_RATE_C_PER_S)
-            self.neutral = min(max(self.neutral, lo), hi)
-            self.log("limits", min_C=lo, max_C=hi, rate_C_per_s=self.lim_rate,
-                     neutral_C=self.neutral)
-            return self._ack(seq, cmd, m.LIMITS.pack(m.centi(lo), m.centi(hi),
-                                                     int(round(self.lim_rate * 100))))
-        if cmd == Cmd.UPLOAD_BEGIN:
-            n, dt_us = m.UPLOAD_BEGIN.unpack(p)
-            if self.state != State.IDLE:
-                return self._nak(seq, cmd, Err.BAD_STATE, f"UPLOAD in state {self.state.name}")
-            if not (2 <= n <= MAX_POINTS) or dt_us < MIN_DT_US:
-                return self._nak(seq, cmd, Err.OUT_OF_RANGE,
-                                 f"n={n} (2..{MAX_POINTS}), dt={dt_us} µs (≥ {MIN_DT_US})")
-            self.upload = dict(n=n, dt_us=dt_us, data=bytearray(2 * n), got=np.zeros(n, bool))
-            self.profile = None
-            return self._ack(seq, cmd)
-        if cmd == Cmd.UPLOAD_CHUNK:
-            off, count = m.UPLOAD_CHUNK_HEAD.unpack_from(p)
-            body = p[m.UPLOAD_CHUNK_HEAD.size:]
-            if self.upload is None:
-                return self._nak(seq, cmd, Err.BAD_STATE, "no UPLOAD_BEGIN")
-            if len(body) != 2 * count:
-                return self._nak(seq, cmd, Err.BAD_LENGTH, f"{count} samples need {2 * count} bytes")
-            if off + count > self.upload["n"]:
-                return self._nak(seq, cmd, Err.OUT_OF_RANGE, f"chunk {off}+{count} > {self.upload['n']}")
-            self.upload["data"][2 * off:2 * (off + count)] = body
-            self.upload["got"][off:off + count] = True
-            return self._ack(seq, cmd, m.UPLOAD_CHUNK_ACK.pack(off, count, zlib.crc32(body)))
-        if cmd == Cmd.UPLOAD_COMMIT:
-            (crc,) = m.COMMIT.unpack(p)
-            up = self.upload
-            if up is None or not up["got"].all():
-                return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "missing samples")
-            mine = zlib.crc32(bytes(up["data"]))
-            if mine != crc:
-                return self._nak(seq, cmd, Err.PROFILE_CRC, f"crc32 {mine:08x} != {crc:08x}")
-            vals = np.frombuffer(bytes(up["data"]), dtype="<i2").astype(float) / 100.0
-            clamped = np.clip(vals, self.lim_min, self.lim_max)
-            n_clamped = int(np.count_nonzero(clamped != vals))
-            if n_clamped:
-                self.log("profile_clamped", samples=n_clamped)
-            self.profile = (clamped.tolist(), up["dt_us"])
-            self.upload = None
-            return self._ack(seq, cmd, m.COMMIT_ACK.pack(len(vals), mine, min(n_clamped, 65535)))
-        if cmd == Cmd.ARM:
-            mode, thr, maxdur = m.ARM.unpack(p)
-            if self.state == State.FAULT:
-                return self._nak(seq, cmd, Err.FAULT_LATCHED, f"fault {m.error_name(self.last_fault)}")
-            if self.state != State.IDLE:
-                return self._nak(seq, cmd, Err.BAD_STATE, f"ARM in state {self.state.name}")
-            if mode not in (Mode.PLAYBACK, Mode.RECORD) or thr == 0 or maxdur == 0:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "mode, threshold or duration")
-            if mode == Mode.PLAYBACK and self.profile is None:
-                return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "no profile committed")
-            self.arm_mode = Mode(mode)
-            self.threshold = thr / 100.0
-            self.max_duration_us = maxdur * 1000
-            self.ready = False
-            self.ready_count = 0
-            self.fresh = False             # contact only after the force fell below half the
-            self.contact_us = 0            # threshold since ARM: a fresh touch, not the last one
-            self.touch_us = None
-            self.end_reason = END_COMPLETE
-            self._set_state(State.ARMED, f"arm {self.arm_mode.name.lower()}")
-            return self._ack(seq, cmd, m.COUNTER.pack(self.counter))
-        if cmd in (Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT):
-            if not self.sim:
-                return self._nak(seq, cmd, Err.NOT_SUPPORTED, "not an emulator")
-            try:
-                args = m.decode_json(p)
-                reply = self._sim(cmd, args)
-            except (ValueError, TypeError, KeyError) as exc:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, str(exc))
-            return self._ack(seq, cmd, m.encode_json(reply))
-        return self._nak(seq, cmd, Err.UNKNOWN_COMMAND, f"type 0x{cmd:02x}")
-
-    def _sim(self, cmd, a):
-        if cmd == Cmd.SIM_SAMPLE:
-            self.sample = PassiveSample(a.get("material", "stainless_steel"),
-                                        a.get("roughness_m", 1.6e-6), a.get("thickness_m", 3e-3),
-                                        a.get("temperature_C", 20.0))
-            from stimuli import material
-            material(self.sample.material)                         # unknown name -> error now
-            return dict(vars(self.sample))
-        if cmd == Cmd.SIM_FINGER:
-            f = FingerScript(**{k: float(v) for k, v in a.items()})
-            if not (0.05 <= f.force_N <= 20 and f.hold_s > 0 and f.press_after_s >= 0
-                    and 100e-6 <= f.skin_thickness_m <= 5e-3 and 25 <= f.skin_temperature_C <= 40):
-                raise ValueError(f"finger out of range: {a}")
-            # the finger waits for the cue: if armed but not ready, its clock starts at READY
-            if not (self.state == State.ARMED and not self.ready):
-                f.start_us = self.time_us
-            self.finger = f
-            if self._r_fp is None:
-                self._r_fp = finger_pad_resistance()
-            self.skin = FingerSkin(f.skin_thickness_m, f.skin_temperature_C, self.tick_s, self._r_fp)
-            self.log("finger", **a)
-            return dict(start_s=None if f.start_us is None else f.start_us * 1e-6)
-        specs = parse_faults(a["spec"], where="sim_fault")
-        now = self.time_us * 1e-6
-        shifted = [s.shifted(now) for s in specs]
-        self.faults += shifted
-        for listener in self.fault_listeners:
-            listener(shifted)
-        if not self.stalled and self._fault_active("stall"):
-            self.stalled = True                    # hangs right after this reply
-            self.log("stall")
-        self.log("fault_injected", spec=a["spec"])
-        return dict(now_s=now, faults=len(specs))
-
-    def _status(self) -> bytes:
-        f = self.forces
-        return m.STATUS_REPLY.pack(
-            self.state, self.last_fault, self.time_us - self.boot_us, m.centi(self.sp),
-            m.centi(self.contact_C),
-            m.centi(self.ambient_C), m.centi(self.finger_C), m.centi(self.plant.hs),
-            m.centi(f[0]), m.centi(f[1]), m.centi(f[2]), m.centi(f[3]), m.centi(self.neutral),
-            0 if self.profile is None else len(self.profile[0]),
-            0 if not self.contact_us else self.contact_us - self.boot_us, self.end_reason,
-            self.counter, self.trials, self.boot_id)
 
     # ------------------------------------------------------------------ faults & safety
     def _fault_active(self, name: str) -> bool:
@@ -534,10 +264,12 @@ class Device:
         F = fin.force(t_us) if fin is not None else 0.0
         nz = self.noise
         nf = self.params.noise_force
-        sh = FingerScript.SHARES
-        self.forces = (F * sh[0] + nf * next(nz), F * sh[1] + nf * next(nz),
-                       F * sh[2] + nf * next(nz), F * sh[3] + nf * next(nz))
-        Fsum = self.forces[0] + self.forces[1] + self.forces[2] + self.forces[3]
+        f0 = F * _SH0 + nf * next(nz)
+        f1 = F * _SH1 + nf * next(nz)
+        f2 = F * _SH2 + nf * next(nz)
+        f3 = F * _SH3 + nf * next(nz)
+        self.forces = (f0, f1, f2, f3)
+        Fsum = f0 + f1 + f2 + f3
         touching = F > 0.1
         if touching and self.touch_us is None and state in _ACTIVE:
             self.touch_us = t_us
@@ -639,16 +371,21 @@ class Device:
             f = self.forces
             fault = self.last_fault if self.state == _FAULT else 0
             try:
-                body = _TEL_PREFIX[seq] + _TEL_PACK(
+                payload = _TEL_PACK(
                     self.counter, t_us - self.boot_us, round(sp * 100), round(self.contact_C * 100),
                     round(self.ambient_C * 100), round(self.finger_C * 100), round(f[0] * 100),
                     round(f[1] * 100), round(f[2] * 100), round(f[3] * 100), self.state, fault)
             except struct.error:                   # a reading beyond ±327.67: saturate
                 c = m.centi
-                body = _TEL_PREFIX[seq] + _TEL_PACK(
+                payload = _TEL_PACK(
                     self.counter, t_us - self.boot_us, c(sp), c(self.contact_C), c(self.ambient_C),
                     c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]), self.state, fault)
-            self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
+            direct = self.direct
+            if direct is not None:
+                direct.append(_tuple_new(Frame, (seq, _TELEMETRY, payload)))  # Frame(...), sooner
+            else:
+                body = _TEL_PREFIX[seq] + payload
+                self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
 
     def _sample_reading(self, t_us, touching) -> float:
         """Contact sensor on the passive sample (record mode)."""

@@ -1,5 +1,10 @@
 """The host side: :class:`ThermalDisplay` over any pyserial URL, and :func:`open_display`.
 
+The display's commands (handshake, neutral, upload, arm, run a trial, status, the emulator's
+"sim" commands) on the link of :mod:`.link` (:class:`~.link.ProtocolLink`: numbered requests,
+replies, heartbeats); the armed trial's book-keeping and the recording it yields are in
+:mod:`.trial_recording`.
+
 One port, one lock, one parser. Commands are request/reply with a sequence number, a timeout and
 bounded retries (every command is safe to retry: the device answers a repeated sequence number
 with its cached reply instead of acting twice). Each connection numbers its commands from a random
@@ -35,198 +40,27 @@ import secrets
 import threading
 import time
 import zlib
-from dataclasses import asdict, dataclass
 
 import numpy as np
 import serial
 
-from experiments.errors import (DisplayError, DisplayRefused, DisplayRestarted, DisplayTimeout,
-                                SafetyLimitError, UserInputError)
+from experiments.errors import (DisplayError, DisplayRestarted, DisplayTimeout, SafetyLimitError,
+                                UserInputError)
 
 from . import messages as m
-from .framing import FrameParser, encode_frame
-from .messages import (Cmd, CommitAck, DeviceEvent, DeviceInfo, Mode, Msg, Status,
-                       Telemetry, UploadAck)
+from .framing import FrameParser
+from .link import ProtocolLink
+from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from .safety import SafetyLimits, check_profile
+from .trial_recording import (_ACTIVE, _END_NAMES, ContactEvent, TrialRecording, _not_delivered,
+                              _Trial)
 
 __all__ = ["ThermalDisplay", "open_display", "TrialRecording", "ContactEvent"]
 
 CHUNK = 512                    # samples per upload chunk
-# ARM's and ABORT's reply types (0xA0, 0xA1) are also TELEMETRY's and EVENT's, whose frames carry
-# the device's own numbers: a reply of these types is one only with the reply's size (4 and 0
-# bytes; telemetry has 30, an event at least 11)
-_REPLY_SIZE = {Cmd.ARM | m.REPLY_BIT: m.COUNTER.size, Cmd.ABORT | m.REPLY_BIT: 0}
-_ACTIVE = ("ARMED", "PLAYING", "RECORDING")
-_END_NAMES = {0: "complete", 1: "released", 2: "max_duration", 3: "aborted", 4: "fault"}
 
 
-@dataclass(frozen=True)
-class ContactEvent:
-    """The moment the summed force crossed the threshold (device clock, s) and the force, N."""
-
-    device_time_s: float
-    force_N: float | None = None
-
-
-@dataclass(frozen=True)
-class TrialRecording:
-    """How one trial went on the display.
-
-    Parameters
-    ----------
-    status : str
-        ``"ok"``, ``"fault"`` or ``"aborted"``.
-    fault_code, fault_message : str or None
-        Device codes (``WATCHDOG``, ``OVER_TEMPERATURE``, ``SENSOR_FAILURE``, ``SENSOR_STUCK``)
-        or host codes (``LINK_TIMEOUT``, ``LINK_LOST``, ``TRIAL_TIMEOUT``, ``TELEMETRY_LOSS``).
-    contact_time_s : float or None, s
-        Device time of contact.
-    frames, frames_lost : int
-        Telemetry frames received, and missing from the device's numbering.
-    tracking_rms_C, tracking_max_C : float, °C
-        Contact temperature minus the uploaded target during playback (NaN in record mode).
-    mode : str
-        ``"playback"`` or ``"record"``.
-    end_reason : str or None
-        ``complete``, ``released``, ``max_duration``, ``aborted``, ``fault``.
-    duration_s : float, s
-        Contact to end.
-    bad_frames : int
-        Frames rejected by the CRC check during the trial.
-    """
-
-    status: str
-    fault_code: str | None
-    fault_message: str | None
-    contact_time_s: float | None
-    frames: int
-    frames_lost: int
-    tracking_rms_C: float
-    tracking_max_C: float
-    mode: str = "playback"
-    end_reason: str | None = None
-    duration_s: float = 0.0
-    bad_frames: int = 0
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-
-class _Trial:
-    """Book-keeping of the armed trial (frames are streamed, not kept)."""
-
-    def __init__(self, mode, profile):
-        self.mode = mode
-        self.dt, self.target = profile if profile else (None, None)
-        self.n_target = len(self.target) if self.target else 0
-        self.counter0 = 0                # the device's frame counter at ARM (set from its reply)
-        self.last_counter = 0
-        self.frames = 0
-        self.pending: list = []          # frames before run_trial() attaches a callback
-        self.callback = None
-        self.on_event = None
-        self.contact_s = None
-        self.contact_force = None
-        self.ready = False
-        self.active_seen = False
-        self.ended = False
-        self.end_reason = None
-        self.end_time_s = None
-        self.fault = None
-        self.fault_msg = None
-        self.sq = 0.0
-        self.n_track = 0
-        self.max_err = 0.0
-        self.last_frame_clock = None
-        self.bad0 = 0
-
-    def telemetry(self, fr: Telemetry) -> None:
-        gap = fr.counter - self.last_counter
-        if gap <= 0:
-            return                       # a stale frame from before arming
-        self.last_counter = fr.counter
-        self.frames += 1
-        st = fr.state
-        if st == "PLAYING" or st == "RECORDING":
-            self.active_seen = True
-            if self.contact_s is None:   # CONTACT event lost: the first active frame bounds it
-                self.contact_s = fr.device_time_s
-            if st == "PLAYING" and self.target is not None:
-                x = (fr.device_time_s - self.contact_s) / self.dt
-                i = int(x)
-                tgt = self.target
-                if i >= self.n_target - 1:
-                    y = tgt[-1]
-                elif i < 0:
-                    y = tgt[0]
-                else:
-                    y = tgt[i] + (x - i) * (tgt[i + 1] - tgt[i])
-                e = fr.contact_C - y
-                self.sq += e * e
-                self.n_track += 1
-                if abs(e) > self.max_err:
-                    self.max_err = abs(e)
-        elif st == "FAULT" and self.fault is None:
-            self.fault = fr.fault or "FAULT"
-            self.ended = True
-            self.end_time_s = fr.device_time_s
-        elif st == "IDLE" and (self.active_seen or self.ready):
-            self.ended = True
-            if self.end_time_s is None:
-                self.end_time_s = fr.device_time_s
-        if self.callback is not None:
-            self.callback(fr)
-        elif len(self.pending) < 5000:
-            self.pending.append(fr)
-
-    def event(self, ev: DeviceEvent) -> None:
-        k = ev.kind
-        if k == "READY":
-            self.ready = True
-        elif k == "CONTACT":
-            self.contact_s = ev.device_time_s
-            try:
-                self.contact_force = float(ev.text.split()[0])
-            except (ValueError, IndexError):
-                pass
-        elif k == "END":
-            self.ended = True
-            self.end_reason = _END_NAMES.get(ev.arg, str(ev.arg))
-            self.end_time_s = ev.device_time_s
-        elif k in ("FAULT", "WATCHDOG"):
-            if self.fault is None:
-                self.fault = m.error_name(ev.arg) if k == "FAULT" else "WATCHDOG"
-                self.fault_msg = ev.text
-            self.ended = True
-            self.end_reason = "fault"
-            self.end_time_s = ev.device_time_s
-        if self.on_event is not None:
-            self.on_event(ev)
-
-
-#: How a delivered trial ends (the device's end reasons other than aborted and fault).
-DELIVERED_ENDS = ("complete", "released", "max_duration")
-
-
-def _not_delivered(st: Status | None, tr: _Trial) -> str | None:
-    """Why the device's own account does not show the armed trial delivered (None: it does).
-
-    Delivered means: the device is idle again, it saw a contact since ARM, and it ended the
-    trial by completion, release or the maximum duration (never by a fault, a watchdog trip
-    or an abort) -- docs/display-protocol.md §5, "A delivered trial".
-    """
-    if st is None:
-        return "no STATUS from the device after the trial"
-    if st.state in _ACTIVE:
-        return f"the device is still {st.state} after the trial's end"
-    if st.contact_time_s is None:
-        return "the device saw no contact since ARM"
-    if tr.end_reason not in DELIVERED_ENDS:
-        return f"the device ended the trial with reason {tr.end_reason!r}"
-    return None
-
-
-class ThermalDisplay:
+class ThermalDisplay(ProtocolLink):
     """A Peltier thermal display (or its emulator) on an open pyserial port.
 
     Use :func:`open_display`, which also does the handshake and starts the heartbeat.
@@ -283,14 +117,15 @@ class ThermalDisplay:
         # a random start: a host that reconnects must not repeat its predecessor's numbers
         self._seq = secrets.randbelow(256)
         self._last_seq_by_type: dict[int, int] = {}
-        self._virtual = getattr(port, "virtual_time_s", None) is not None
-        # the loop's clock, s: device time on a virtual clock, else wall time (read per frame:
-        # chosen once here rather than looked up on the port at every call)
-        if self._virtual:
-            dev = port.device
-            self._clock = lambda: dev.time_us * 1e-6
-        else:
-            self._clock = time.monotonic
+        # the loop's clock, s: a port whose device runs on a virtual clock says so by offering
+        # device_clock() (a function returning device seconds, or None on a real clock); every
+        # other port (a serial device, a pty) runs on wall time
+        device_clock = getattr(port, "device_clock", None)
+        device_clock = device_clock() if callable(device_clock) else None
+        self._virtual = device_clock is not None
+        self._clock = device_clock if self._virtual else time.monotonic
+        # ... and may offer read_frames(): read() as decoded frames when nothing can damage them
+        self._read_direct = getattr(port, "read_frames", None) if self._virtual else None
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
@@ -302,161 +137,6 @@ class ThermalDisplay:
         self._restart: str | None = None       # why we think the device restarted
         self.last_recording: TrialRecording | None = None
         self.last_contact: ContactEvent | None = None
-
-    # ------------------------------------------------------------------ low level
-    def _next_seq(self, mtype: int) -> int:
-        with self._wlock:
-            s = (self._seq + 1) & 0xFF
-            if self._last_seq_by_type.get(mtype) == s:      # never repeat a type's last number
-                s = (s + 1) & 0xFF
-            if s == 0 and mtype == Cmd.HEARTBEAT:           # 0: the helper's silent heartbeats
-                s = 1 if self._last_seq_by_type.get(mtype) != 1 else 2
-            self._seq = s
-            self._last_seq_by_type[mtype] = s
-            return s
-
-    def _write(self, data: bytes) -> None:
-        with self._wlock:
-            try:
-                self.port.write(data)
-            except (serial.SerialException, OSError) as exc:
-                self._link_error = exc
-                raise DisplayError(f"display: link lost while writing: {exc}") from exc
-            now = time.monotonic()
-            if self._last_tx > 0:
-                self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
-            self._last_tx = now
-
-    def _read_frames(self):
-        try:
-            port = self.port
-            if self._virtual:                    # the emulator returns what one wait produced
-                data = port.read(65536)
-                return self._parser.feed(data) if data else (
-                    self._parser.drop_candidate() if self._parser.buffered else [])
-            n = port.in_waiting
-            data = port.read(n if n > 0 else 1)
-            if n <= 0 and data:
-                n = port.in_waiting             # the rest of what arrived with the first byte
-                if n > 0:
-                    data += port.read(n)
-        except (serial.SerialException, OSError) as exc:
-            self._link_error = exc
-            raise DisplayError(f"display: link lost while reading: {exc}") from exc
-        self._touch()
-        if not data:
-            return self._stale_candidate() if self._parser.buffered else []
-        return self._parser.feed(data)
-
-    def _stale_candidate(self):
-        """Give up on a partial frame only once the parser has made no progress for ``stale_s``.
-
-        The rest of a frame split by the kernel may take a while on a loaded machine; a
-        candidate whose length field is garbage is abandoned after ``stale_s`` (and sooner by
-        itself once enough later bytes arrive for its CRC to fail).
-        """
-        p = self._parser
-        key = (p.frames, p.bad_frames, p.bytes_skipped, p.buffered)
-        now = time.monotonic()
-        if key != self._cand_key:
-            self._cand_key, self._cand_since = key, now
-            return []
-        if now - self._cand_since < self.stale_s:
-            return []
-        self._cand_key = None
-        return p.drop_candidate()
-
-    def _touch(self) -> None:
-        """The I/O thread is alive: say so to the heartbeat thread and helper."""
-        self._alive = time.monotonic()
-        if self._hb_proc is not None:
-            self._hb_proc.ping()
-
-    def _heartbeat_if_due(self) -> None:
-        self._touch()
-        c = self._clock()
-        if (c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s
-                or (not self._virtual and self._alive - self._last_tx >= self.heartbeat_s)):
-            self._hb_clock, self._hb_dev = c, self._dev_time
-            # silent (no reply wanted): telemetry or the next reply shows the device is alive
-            self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
-
-    def _dispatch(self, fr) -> None:
-        """Route a frame that is not the awaited reply."""
-        t = fr.type
-        if t == Msg.TELEMETRY:
-            try:
-                tel = Telemetry.decode(fr.payload)
-            except Exception:        # a frame with a good CRC but a wrong layout: count, go on
-                self._parser.bad_frames += 1
-                return
-            if tel.device_time_s < self._dev_time - 0.05:      # telemetry is never a cached reply
-                self._restarted(f"its time went back from {self._dev_time:.3f} s to "
-                                f"{tel.device_time_s:.3f} s")
-            self._dev_time = tel.device_time_s
-            if self._trial is not None:
-                self._trial.last_frame_clock = self._clock()
-                self._trial.telemetry(tel)
-        elif t == Msg.EVENT:
-            try:
-                ev = DeviceEvent.decode(fr.payload)
-            except Exception:
-                self._parser.bad_frames += 1
-                return
-            self._dev_time = max(self._dev_time, ev.device_time_s)
-            if self._trial is not None:
-                self._trial.event(ev)
-        elif t == (Cmd.HEARTBEAT | m.REPLY_BIT) and len(fr.payload) == m.TIME.size:
-            # not a restart test: a retried heartbeat is answered from the device's cache
-            self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
-
-    def _restarted(self, why: str) -> None:
-        """Note a device restart: the next command raises :class:`DisplayRestarted`."""
-        if self._restart is None:
-            self._restart = why
-        if self._trial is not None and self._trial.fault is None:
-            self._trial.fault, self._trial.fault_msg = "DEVICE_RESTARTED", f"display restarted: {why}"
-            self._trial.ended = True
-
-    def _transact(self, cmd: int, payload: bytes = b"", *, timeout_s: float | None = None,
-                  retries: int | None = None) -> bytes:
-        """Send a command, return the reply payload; raise on refusal or silence."""
-        timeout_s = self.reply_timeout_s if timeout_s is None else timeout_s
-        retries = self.retries if retries is None else retries
-        with self._lock:
-            seq = self._next_seq(cmd)
-            frame = encode_frame(seq, cmd, payload)
-            want = (cmd | m.REPLY_BIT) & 0xFF
-            size = _REPLY_SIZE.get(want)
-            for attempt in range(retries + 1):
-                self._write(frame)
-                self._hb_clock, self._hb_dev = self._clock(), self._dev_time  # any frame feeds the watchdog
-                deadline = self._clock() + timeout_s
-                while self._clock() < deadline:
-                    answer = None
-                    for fr in self._read_frames():      # dispatch every other frame, even after
-                        if answer is None and fr.seq == seq and (
-                                (fr.type == want and (size is None or len(fr.payload) == size))
-                                or (fr.type == Msg.NAK and fr.payload[:1] == bytes([cmd]))):
-                            answer = fr
-                        else:
-                            self._dispatch(fr)
-                    if answer is not None:
-                        if answer.type == want:
-                            return answer.payload
-                        _, code = m.NAK_HEAD.unpack_from(answer.payload)
-                        text = answer.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
-                        if code == m.Err.NO_HELLO and cmd != Cmd.HELLO and self.info is not None:
-                            self._restarted(f"{Cmd(cmd).name} refused with NO_HELLO")
-                            raise DisplayRestarted(
-                                f"display: restarted since the handshake ({Cmd(cmd).name} "
-                                f"refused: NO_HELLO); it no longer holds this session's "
-                                f"limits and neutral: stop, and resume to shake hands again")
-                        raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
-                                             f"{m.error_name(code)} ({text})", code=code)
-                    self._heartbeat_if_due()
-            raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
-                                 f"{timeout_s} s, got none after {retries + 1} attempts")
 
     # ------------------------------------------------------------------ session set-up
     def handshake(self) -> DeviceInfo:
@@ -494,61 +174,6 @@ class ThermalDisplay:
                 f"not hold")
         self.set_neutral(lim.neutral_C)
         return self.info
-
-    def start_heartbeat(self) -> None:
-        """Start the background heartbeat (not needed, and not started, on a virtual clock).
-
-        A helper process on a port with a file descriptor, else a thread (module docstring).
-        """
-        if self._virtual or self._hb_thread is not None:
-            return
-        fd = getattr(self.port, "fd", None)
-        if isinstance(fd, int) and fd >= 0 and self._hb_proc is None:
-            from .heartbeat import HeartbeatProcess
-            try:
-                self._hb_proc = HeartbeatProcess(
-                    fd, encode_frame(0, Cmd.HEARTBEAT, b"\x00"), self.heartbeat_s,
-                    self.host_stall_s)
-            except OSError:
-                self._hb_proc = None          # no helper: the thread heartbeats
-        self._hb_stop.clear()
-        self._hb_thread = threading.Thread(target=self._heartbeat_loop, name="display-heartbeat",
-                                           daemon=True)
-        self._hb_thread.start()
-
-    def stop_heartbeat(self) -> None:
-        """Stop the background heartbeat (commands still feed the watchdog; a silent host trips it)."""
-        self._hb_stop.set()
-        if self._hb_thread is not None:
-            self._hb_thread.join(timeout=1.0)
-            self._hb_thread = None
-        if self._hb_proc is not None:
-            self._hb_proc.stop()
-            self._hb_proc = None
-
-    def _heartbeat_loop(self) -> None:
-        period = self.heartbeat_s
-        while not self._hb_stop.wait(period):
-            now = time.monotonic()
-            helper = self._hb_proc is not None and self._hb_proc.running
-            try:
-                # the I/O thread alive (or merely busy: a GIL-holding main thread still counts)
-                # and nothing written for half a period: heartbeat, whoever holds the I/O lock
-                if (not helper and now - self._alive <= self.host_stall_s
-                        and now - self._last_tx >= period / 2):
-                    self._write(encode_frame(self._next_seq(Cmd.HEARTBEAT), Cmd.HEARTBEAT, b"\x00"))
-                    self.heartbeats_sent += 1
-                if not self._lock.acquire(blocking=False):
-                    continue                   # the I/O thread is reading
-                try:                           # nobody reads: keep the input drained
-                    if self.port.in_waiting:
-                        for fr in self._parser.feed(self.port.read(self.port.in_waiting)):
-                            self._dispatch(fr)
-                finally:
-                    self._lock.release()
-            except Exception as exc:           # reported by the next call in the main thread
-                self._link_error = exc
-                return
 
     # ------------------------------------------------------------------ commands
     def set_neutral(self, temperature_C: float) -> float:
@@ -802,11 +427,6 @@ class ThermalDisplay:
                     self._dispatch(fr)
                 self._heartbeat_if_due()
 
-    def _check_link(self) -> None:
-        if self._link_error is not None:
-            exc, self._link_error = self._link_error, None
-            raise DisplayError(f"display: link lost: {exc}")
-
     def poll(self, on_telemetry=None, on_event=None) -> bool:
         """Route what has arrived, without waiting; return whether the armed trial has ended.
 
@@ -900,7 +520,6 @@ def open_display(url: str, limits: SafetyLimits | None = None, **options) -> The
     DisplayError
         If the port cannot be opened or the device does not answer the handshake.
     """
-    import experiments.hardware  # noqa: F401  (registers emulator://)
     baud = options.pop("baudrate", 115200)
     try:
         port = serial.serial_for_url(url, baudrate=baud, timeout=0.01, write_timeout=1.0)

@@ -266,10 +266,12 @@ class Telemetry(NamedTuple):
 
     @classmethod
     def decode(cls, payload: bytes) -> "Telemetry":
-        c, t, sp, ct, amb, fin, f1, f2, f3, f4, st, fault = TELEMETRY.unpack(payload)
-        return cls(c, t * 1e-6, sp * 0.01, ct * 0.01, amb * 0.01, fin * 0.01,
-                   (f1 * 0.01, f2 * 0.01, f3 * 0.01, f4 * 0.01), _STATE_NAMES[st],
-                   None if fault == 0 else error_name(fault))
+        c, t, sp, ct, amb, fin, f1, f2, f3, f4, st, fault = _TEL_UNPACK(payload)
+        # tuple.__new__ directly: the named tuple's own __new__ is a Python call (a third of
+        # the cost of a frame's decoding, 100 times a second)
+        return _tuple_new(cls, (c, t * 1e-6, sp * 0.01, ct * 0.01, amb * 0.01, fin * 0.01,
+                                (f1 * 0.01, f2 * 0.01, f3 * 0.01, f4 * 0.01), _STATE_NAMES[st],
+                                None if fault == 0 else error_name(fault)))
 
     @property
     def force_N(self) -> float:
@@ -278,6 +280,8 @@ class Telemetry(NamedTuple):
 
 
 _STATE_NAMES = {s.value: s.name for s in State}
+_TEL_UNPACK = TELEMETRY.unpack
+_tuple_new = tuple.__new__
 
 
 @dataclass(frozen=True)

@@ -40,9 +40,10 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg import expm
 
-__all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "PassiveSample", "CONTACT_AREA_M2",
-           "finger_pad_resistance"]
+__all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "FingerScript", "PassiveSample",
+           "CONTACT_AREA_M2", "finger_pad_resistance"]
 
+_dot = np.dot
 #: Contact area of the fingertip, m² (paper: 2 N on 135 mm²).
 CONTACT_AREA_M2 = 135e-6
 #: Heat transfer coefficient of the finger to room air, W/(m² K).
@@ -154,6 +155,7 @@ class FingerSkin:
         self._ab = {True: np.hstack(self._touch[:2]), False: np.hstack(self._air[:2])}
         self._g = {True: self._touch[3], False: self._air[3]}
         self._x = np.full(n + 2, self.core)
+        self._x_next = np.full(n + 2, self.core)     # the next tick's state is written here
         self.n = n
         self.surface_node = self.core
         self.flux = 0.0       # W/m², skin to pad (or air), over the last tick
@@ -168,10 +170,13 @@ class FingerSkin:
         x = self._x
         n = self.n
         x[n] = outside_C
-        new = self._ab[touching] @ x
-        x[:n] = new
+        # the same product as ``A @ x`` (one BLAS gemv), written straight into the other state
+        # vector: no temporary, no copy back (the inner boundary, x[n + 1], never changes)
+        nxt = self._x_next
+        _dot(self._ab[touching], x, out=nxt[:n])
+        self._x, self._x_next = nxt, x
         s_old = self.surface_node
-        self.surface_node = s_new = float(new[-1])
+        self.surface_node = s_new = float(nxt[n - 1])
         # average surface flux over the tick (trapezoid on the surface node)
         self.flux = self._g[touching] * (0.5 * (s_old + s_new) - outside_C)
         return self.flux
@@ -286,6 +291,7 @@ class PadPlant:
             enabled = False
         dsp = (sp1 - sp0) / n
         y = self.sensor
+        same = self.same_count
         i = 0.0
         for k in range(n):
             # sensor
@@ -295,8 +301,15 @@ class PadPlant:
             elif frozen:
                 y_new = y
             else:
-                y_new = round(s_state + noise * next(nz), 3)
-            self.same_count = self.same_count + 1 if y_new == y else 0
+                # round(v, 3) -- Python's correctly rounded decimal rounding, 0.3 us -- done as
+                # k / 1000 with k the nearest integer to v * 1000: the same double whenever
+                # v * 1000 is not within 1e-4 of a half (its rounding error is ~1e-11 here);
+                # the division of two exact doubles is correctly rounded, as is round()'s result
+                v = s_state + noise * next(nz)
+                w = v * 1000.0
+                kk = round(w)
+                y_new = kk / 1000.0 if (kk and -0.4999 < w - kk < 0.4999) else round(v, 3)
+            same = same + 1 if y_new == y else 0
             y = y_new
             r = sp0 + dsp * k
             if enabled and y > trip:             # the firmware's over-temperature cut: now
@@ -328,5 +341,41 @@ class PadPlant:
         self.pad, self.hs, self.sensor_state, self._y_prev, self._q_prev, self.d_hat = (
             pad, hs, s_state, y_prev, q_prev, d_hat)
         self.sensor = y
+        self.same_count = same
         self.current = i
         return y
+
+
+class FingerScript:
+    """A scripted fingertip: approach, press, hold, release (times in s, forces in N).
+
+    The press ramps to 1.15 × ``force_N`` in 0.15 s (people overshoot a little), settles to
+    ``force_N`` with a 0.2 s time constant, holds for ``hold_s`` from the start of the press, and
+    releases in 0.1 s. The four pressure sensors share the force 27/24/26/23 %.
+    """
+
+    SHARES = (0.27, 0.24, 0.26, 0.23)
+
+    def __init__(self, press_after_s=0.3, force_N=2.0, hold_s=20.0, skin_thickness_m=650e-6,
+                 skin_temperature_C=35.5):
+        self.press_after_s = float(press_after_s)
+        self.force_N = float(force_N)
+        self.hold_s = float(hold_s)
+        self.skin_thickness_m = float(skin_thickness_m)
+        self.skin_temperature_C = float(skin_temperature_C)
+        self.start_us = None     # set when the script starts
+
+    def force(self, t_us: int) -> float:
+        if self.start_us is None:
+            return 0.0
+        tau = (t_us - self.start_us) * 1e-6 - self.press_after_s
+        F = self.force_N
+        if tau <= 0.0:
+            return 0.0
+        if tau < 0.15:
+            return 1.15 * F * tau / 0.15
+        if tau < self.hold_s:
+            return F * (1.0 + 0.15 * math.exp(-(tau - 0.15) / 0.2))
+        if tau < self.hold_s + 0.1:
+            return F * (1.0 - (tau - self.hold_s) / 0.1)
+        return 0.0

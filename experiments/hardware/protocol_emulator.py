@@ -23,8 +23,6 @@ pyserial finds this module because ``experiments.hardware`` adds itself to
 """
 from __future__ import annotations
 
-import collections
-import json
 import threading
 import time
 import urllib.parse
@@ -32,9 +30,16 @@ import urllib.parse
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
 
 from .device import TICK_US, Device
-from .faults import LinkFaults, parse_faults
+from .emulator_core import EmulatorCore, JsonLog
+from .faults import parse_faults
+from .framing import HEADER_SIZE
 
-__all__ = ["Serial", "URL_GRAMMAR"]
+__all__ = ["Serial", "URL_GRAMMAR", "JsonLog"]
+
+_FRAME_OVERHEAD = HEADER_SIZE + 2          # bytes of a frame besides its payload
+#: A read of more bytes than this is never cut short by its size within three ticks (a tick's
+#: output: one telemetry frame and a few events of at most 220 bytes each).
+_NEVER_SHORT = 16384
 
 URL_GRAMMAR = ("emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH]"
                "[&id=DEVICE_ID]")
@@ -80,39 +85,36 @@ def parse_url(url: str) -> dict:
     return opts
 
 
-class JsonLog:
-    """Append dicts as JSON lines (flushed at once) and keep the last 2,000 in memory."""
-
-    def __init__(self, path=None):
-        self.records = collections.deque(maxlen=2000)
-        self._fh = open(path, "a", encoding="utf-8") if path else None
-
-    def __call__(self, rec: dict) -> None:
-        self.records.append(rec)
-        if self._fh is not None:
-            self._fh.write(json.dumps(rec, sort_keys=True) + "\n")
-            self._fh.flush()
-
-    def close(self):
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
-
-
 class Serial(SerialBase):
-    """An emulated display behind the pyserial API (see the module docstring for the URL)."""
+    """An emulated display behind the pyserial API (see the module docstring for the URL).
+
+    A thin transport over :class:`~experiments.hardware.emulator_core.EmulatorCore`: it keeps
+    the host's receive buffer and runs the core's clock (a thread, or the host's reads).
+    """
 
     def __init__(self, *args, **kwargs):
-        self.device: Device | None = None
-        self.link: LinkFaults | None = None
+        self.core: EmulatorCore | None = None
         self.virtual = False
         self._cond = threading.Condition()
         self._rx = bytearray()
-        self._delayed = collections.deque()
         self._thread = None
         self._stop = False
         self._log = None
         super().__init__(*args, **kwargs)
+
+    @property
+    def device(self) -> Device | None:
+        """The emulated firmware (tests may put a modified one in its place before use)."""
+        return self.core.device if self.core is not None else None
+
+    @device.setter
+    def device(self, dev: Device) -> None:
+        self.core.device = dev
+
+    @property
+    def link(self):
+        """The link's faults (:class:`~experiments.hardware.faults.LinkFaults`)."""
+        return self.core.link if self.core is not None else None
 
     # ------------------------------------------------------------------ pyserial plumbing
     def open(self):
@@ -122,16 +124,14 @@ class Serial(SerialBase):
             raise SerialException("Port must be configured before it can be used.")
         opts = parse_url(self.port)
         self._log = JsonLog(opts["log"])
-        self.device = Device(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
-                             log=self._log, device_id=opts["id"])
-        self.link = LinkFaults(opts["faults"], seed=opts["seed"])
-        self.device.fault_listeners.append(self.link.add)
+        self.core = EmulatorCore(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
+                                 log=self._log, device_id=opts["id"])
         self.virtual = opts["clock"] == "virtual"
         self._rx.clear()
-        self._delayed.clear()
         self.is_open = True
         self._stop = False
         if not self.virtual:
+            self.core.start_real_time(time.monotonic())
             self._thread = threading.Thread(target=self._run_real_time, name="emulator-clock",
                                             daemon=True)
             self._thread.start()
@@ -193,53 +193,41 @@ class Serial(SerialBase):
     @property
     def virtual_time_s(self) -> float | None:
         """Device time in virtual-clock mode (the driver's clock), else None."""
-        return self.device.time_us * 1e-6 if self.virtual and self.device else None
+        return self.core.time_s if self.virtual and self.core else None
+
+    def device_clock(self):
+        """The device's clock as a function returning seconds, or None on a real clock.
+
+        On a virtual clock the host must measure every timeout in device time (the device
+        advances only while the host reads); a driver asks for this clock once, here, instead
+        of reading the emulator's internals.
+        """
+        if not self.virtual:
+            return None
+        core = self.core
+        return lambda: core.device.time_us * 1e-6
 
     def _tick(self) -> None:
         """Advance the device one tick and move its output to the host side (lock held)."""
-        self.device.step()
-        self._pump()
-
-    def _pump(self) -> None:
-        dev, link = self.device, self.link
-        data = dev.take_output()
-        if link.specs:
-            t = dev.time_us * 1e-6
-            data = link.mangle(data, t) + link.garbage(t)
-            delay = link.delay_s(t)
-            if delay > 0 or self._delayed:
-                if data:
-                    self._delayed.append((t + delay, data))
-                while self._delayed and self._delayed[0][0] <= t:
-                    self._rx += self._delayed.popleft()[1]
-                return
+        data = self.core.tick()
         if data:
             self._rx += data
 
     def _run_real_time(self) -> None:
-        tick = TICK_US * 1e-6
-        self._next_tick = nxt = time.monotonic() + tick
+        core = self.core
         while True:
             with self._cond:
                 if self._stop:
                     return
                 now = time.monotonic()
-                if now < nxt:
-                    self._cond.wait(nxt - now)
+                if now < core.next_tick:
+                    self._cond.wait(core.next_tick - now)
                     continue
-                behind = 0
-                while nxt <= now and behind < 20:          # catch up, but not for ever
-                    self._tick()
-                    nxt += tick
-                    behind += 1
-                if nxt <= now:
-                    nxt = now + tick
-                self._next_tick = nxt
+                _, data = core.catch_up(now)
+                if data:
+                    self._rx += data
                 if self._rx:
                     self._cond.notify_all()
-
-    def _disconnected(self) -> bool:
-        return bool(self.link.specs) and self.link.disconnected(self.device.time_us * 1e-6)
 
     # ------------------------------------------------------------------ I/O
     @property
@@ -252,8 +240,9 @@ class Serial(SerialBase):
         if size <= 0:
             return b""
         timeout = self._timeout
+        core = self.core
         with self._cond:
-            if self._disconnected():
+            if core.disconnected():
                 if self.virtual:
                     # time goes on while the link is dead (a read that waits its timeout for
                     # nothing), so a timed disconnect@T+D ends and the device's watchdog acts
@@ -273,10 +262,10 @@ class Serial(SerialBase):
                     # a reader asking for more gets up to 3 ticks' worth per call (30 ms of device
                     # time: well inside the 90 ms watchdog, with a 10 ms heartbeat)
                     extra = 0
-                    while rx and len(rx) < size and extra < 2 and self.device.state != 0:
+                    while rx and len(rx) < size and extra < 2 and core.device.state != 0:
                         self._tick()
                         extra += 1
-                    if self._disconnected():
+                    if core.disconnected():
                         raise SerialException("emulator: device disconnected (injected fault)")
             elif not self._rx and timeout != 0:
                 deadline = None if timeout is None else time.monotonic() + timeout
@@ -290,27 +279,68 @@ class Serial(SerialBase):
             del self._rx[:n]
             return data
 
+    def read_frames(self, size=65536):
+        """:meth:`read` as decoded frames, on a virtual clock with no fault injected; else None.
+
+        The same ticks as ``read(size)`` (until the device has something to say, then up to two
+        more while a trial runs and less than ``size`` bytes are due), the same frames in the
+        same order, but the device hands them over without encoding them and the host takes
+        them without parsing: with nothing on the line to drop, corrupt or delay, the bytes
+        would only be built and taken apart again. The driver's I/O loop uses it when offered.
+
+        Returns
+        -------
+        list of Frame or None
+            None when the fast path does not apply (real clock, a fault spec, bytes or a partial
+            frame waiting, a zero timeout): call :meth:`read`.
+        """
+        self._check_open()
+        core = self.core
+        dev = core.device
+        timeout = self._timeout
+        if (not self.virtual or self._rx or dev.out or core.link.specs or dev.faults
+                or dev.stalled or timeout == 0 or size <= 0):
+            return None
+        budget = 10**9 if timeout is None else max(1, int(timeout * 1e6 / TICK_US + 0.5))
+        with self._cond:
+            frames = dev.direct = []
+            try:
+                step = dev.step
+                for _ in range(budget):
+                    step()
+                    if frames:
+                        break
+                if frames:
+                    # read() stops short of ``size`` bytes; a tick says well under 1 kB, so
+                    # only a small ``size`` needs the frames' lengths counted
+                    n = 0 if size > _NEVER_SHORT else sum(_FRAME_OVERHEAD + len(f.payload)
+                                                          for f in frames)
+                    extra = 0
+                    while n < size and extra < 2 and dev.state != 0:
+                        k = len(frames)
+                        step()
+                        extra += 1
+                        if size <= _NEVER_SHORT:
+                            n += sum(_FRAME_OVERHEAD + len(f.payload) for f in frames[k:])
+            finally:
+                dev.direct = None
+        return frames
+
     def write(self, data):
         self._check_open()
         data = to_bytes(data)
+        core = self.core
         with self._cond:
-            if self._disconnected():
+            if core.disconnected():
                 if self.virtual:
                     self._tick()                   # a write to a dead link takes time too
                     self._rx.clear()
                 raise SerialException("emulator: device disconnected (injected fault)")
-            dev = self.device
-            if self.link.specs:
-                data = self.link.mangle(data, dev.time_us * 1e-6)
-            at_us = None
-            if not self.virtual:
-                # the clock thread may be late (starved): the bytes arrived now, so they feed
-                # the watchdog as of the device time it is about to catch up to
-                late = time.monotonic() - getattr(self, "_next_tick", float("inf"))
-                if late >= 0:
-                    at_us = dev.time_us + min(19, int(late / (TICK_US * 1e-6))) * TICK_US
-            dev.receive(data, at_us=at_us)
-            self._pump()
+            at_us = None if self.virtual else core.late_stamp_us(time.monotonic())
+            core.to_device(data, at_us=at_us)
+            out = core.to_host(ticked=False)
+            if out:
+                self._rx += out
             if self._rx:
                 self._cond.notify_all()
         return len(data)

@@ -18,7 +18,6 @@ Run it with ``thermocue emulator`` or ``python -m experiments.hardware.pty_serve
 """
 from __future__ import annotations
 
-import collections
 import fcntl
 import os
 import select
@@ -29,11 +28,14 @@ import termios
 import time
 import tty
 
-from .device import TICK_US, Device
-from .faults import LinkFaults, parse_faults
-from .protocol_emulator import JsonLog
+from experiments.errors import UserInputError
 
-__all__ = ["serve", "main", "MAX_PENDING"]
+from .device import TICK_US
+from .emulator_core import EmulatorCore, JsonLog
+from .emulator_options import add_arguments
+from .faults import parse_faults
+
+__all__ = ["serve", "main", "add_arguments", "run", "hold_link", "MAX_PENDING"]
 
 #: Output bytes held for a host that does not read (≈ 4 min of telemetry at 100 Hz).
 MAX_PENDING = 1 << 20
@@ -72,11 +74,9 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     int
         0.
     """
-    specs = parse_faults(faults) if isinstance(faults, (str, type(None))) else list(faults)
     jlog = JsonLog(log)
-    dev = Device(seed=seed, faults=specs, sim=sim, log=jlog)
-    lf = LinkFaults(specs, seed=seed)
-    dev.fault_listeners.append(lf.add)
+    core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
+    dev = core.device
     master, slave = os.openpty()
     tty.setraw(slave)
     os.set_blocking(master, False)
@@ -96,14 +96,12 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     jlog(dict(t_s=0.0, event="serve", path=path, clock=clock, pid=os.getpid()))
     (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
     tick = TICK_US * 1e-6
-    delayed = collections.deque()
     dropped_out = 0
     pending = bytearray()                 # output the pty could not take yet
-    max_late = 0.0
     max_pending = 0
     connected = True
     last_write, seen_queued = 0.0, False
-    nxt = time.monotonic() + tick
+    core.start_real_time(time.monotonic())
     try:
         while not stopping and not (stop is not None and stop()):
             now = time.monotonic()
@@ -115,7 +113,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
                 if q > 0:
                     seen_queued = True
                 virtual_go = q == 0 and (seen_queued or now - last_write > 0.002)
-            wait = 0.0 if virtual_go else max(0.0, nxt - now)
+            wait = 0.0 if virtual_go else max(0.0, core.next_tick - now)
             if clock == "virtual" and dev.state != 0:
                 wait = min(wait, 0.0002)          # poll the host's progress
             if connected:
@@ -124,9 +122,6 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
             else:
                 time.sleep(min(wait, 0.05)); r = []
             now = time.monotonic()
-            if not virtual_go and now >= nxt:
-                max_late = max(max_late, now - nxt)
-            due = 1 if virtual_go else min(20, int((now - nxt) / tick) + 1 if now >= nxt else 0)
             if r:
                 try:
                     data = os.read(master, 65536)
@@ -135,34 +130,18 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
                 except OSError:          # EIO: no host has the slave open (we hold it, so rare)
                     data = b""
                 if data:
-                    if lf.specs:
-                        data = lf.mangle(data, dev.time_us * 1e-6)
                     # the bytes arrived by now: stamp them with the device time we catch up to
-                    dev.receive(data, at_us=dev.time_us + max(0, due - 1) * TICK_US)
-            n = 0
+                    core.to_device(data, at_us=None if virtual_go else core.late_stamp_us(now))
             if virtual_go:
-                dev.step(); n = 1
-                nxt = now + tick
+                out = core.tick()
+                core.next_tick = now + tick
             else:
-                while now >= nxt and n < 20:
-                    dev.step(); n += 1; nxt += tick
-                if now >= nxt:
-                    nxt = now + tick
-            out = dev.take_output()
-            if lf.specs:
-                t = dev.time_us * 1e-6
-                if connected and lf.disconnected(t):
-                    jlog(dict(t_s=t, event="disconnect"))
-                    os.close(master)
-                    connected = False
-                out = lf.mangle(out, t) + (lf.garbage(t) if n else b"")
-                d = lf.delay_s(t)
-                if d > 0 or delayed:
-                    if out:
-                        delayed.append((t + d, out))
-                    out = b""
-                    while delayed and delayed[0][0] <= t:
-                        out += delayed.popleft()[1]
+                _, out = core.catch_up(now)
+            out += core.to_host(ticked=False)         # replies to the host bytes just read
+            if connected and core.disconnected():
+                jlog(dict(t_s=core.time_s, event="disconnect"))
+                os.close(master)
+                connected = False
             if out and connected:
                 pending += out
                 if len(pending) > MAX_PENDING:          # nobody reads: drop the oldest bytes
@@ -183,7 +162,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
         for s, h in old.items():
             signal.signal(s, h)
         jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop", dropped_output_bytes=dropped_out + len(pending),
-                  max_late_ms=round(max_late * 1e3, 1), max_pending_bytes=max_pending,
+                  max_late_ms=round(core.max_late_s * 1e3, 1), max_pending_bytes=max_pending,
                   state=dev.state.name, last_fault=dev.last_fault, setpoint_C=round(dev.sp, 3),
                   pad_C=round(dev.plant.pad, 3)))
         jlog.close()
@@ -195,17 +174,81 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     return 0
 
 
+def run(ns) -> int:
+    """Serve with the options :func:`~.emulator_options.add_arguments` parsed (holding ``--link``).
+
+    Raises
+    ------
+    UserInputError
+        A bad ``--faults`` SPEC, or a ``--link`` PATH another emulator holds.
+    """
+    specs = parse_faults(ns.faults, where="--faults")
+    if not ns.link:
+        return serve(faults=specs, clock=ns.clock, seed=ns.seed, link=None, log=ns.log,
+                     sim=not ns.no_sim)
+    with hold_link(ns.link):
+        return serve(faults=specs, clock=ns.clock, seed=ns.seed, link=ns.link, log=ns.log,
+                     sim=not ns.no_sim)
+
+
+def _lock_path(link: str) -> str:
+    return f"{link}.lock"
+
+
+class hold_link:
+    """Claim ``--link PATH`` for this emulator's lifetime (``PATH.lock``, an exclusive flock).
+
+    A second emulator given the same PATH while the first runs is refused (the old behaviour:
+    it silently replaced the first one's link and deleted it on exit). The lock dies with its
+    process, so a link left by a killed emulator is simply replaced.
+
+    Raises
+    ------
+    UserInputError
+        ``--link PATH: expected a path no running emulator holds, got the link of process N``;
+        or a path that exists and is not a symbolic link.
+    """
+
+    def __init__(self, link: str):
+        self.link = link
+        self.fd = None
+
+    def __enter__(self):
+        if os.path.lexists(self.link) and not os.path.islink(self.link):
+            raise UserInputError(f"--link {self.link}: expected a new path or a symbolic link, "
+                                 f"got an existing file")
+        fd = os.open(_lock_path(self.link), os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise UserInputError(f"--link {self.link}: expected a path no running emulator holds, "
+                                 f"got the link of emulator process {holder} (stop it, or choose "
+                                 f"another --link)") from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        self.fd = fd
+        return self
+
+    def __exit__(self, *exc):
+        try:
+            os.unlink(_lock_path(self.link))
+        except OSError:
+            pass
+        os.close(self.fd)
+        return False
+
+
 def main(argv=None) -> int:
     """``python -m experiments.hardware.pty_server [thermocue emulator options]``."""
     import argparse
-
-    from experiments.cli import emulator
-    from experiments.errors import UserInputError
-    parser = argparse.ArgumentParser(prog="python -m experiments.hardware.pty_server")
-    emulator.register(parser.add_subparsers(dest="command", required=True))
-    ns = parser.parse_args(["emulator", *(sys.argv[1:] if argv is None else argv)])
+    parser = argparse.ArgumentParser(prog="python -m experiments.hardware.pty_server",
+                                     description="Serve the emulated thermal display on a pty.")
+    add_arguments(parser)
+    ns = parser.parse_args(sys.argv[1:] if argv is None else argv)
     try:
-        return ns.func(ns)
+        return run(ns)
     except UserInputError as exc:          # same contract as thermocue: one line, status 2
         print(f"thermocue emulator: {exc}", file=sys.stderr)
         return 2

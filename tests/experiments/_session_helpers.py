@@ -16,8 +16,8 @@ P01 = ROOT / "participants" / "examples" / "P01.json"
 
 MINI_PROTOCOL = """
 [protocol]
-name = "mini"
-title = "A short session for tests"
+name = "{name}"
+title = "{title}"
 
 [environment]
 room_temperature_C = 20.0
@@ -78,24 +78,30 @@ method = "exact"
 [[blocks]]
 name = "real"
 mode = "real"
-repetitions = 1
+repetitions = {real_reps}
 samples = {real_samples}
 order = "random"
 
 [[blocks]]
 name = "simulated"
 mode = "simulated"
-repetitions = 1
+repetitions = {sim_reps}
 samples = {sim_samples}
 order = "random"
 """
 
 
 def write_protocol(folder: Path, *, contact_s=1.0, rewarm_s=0.0, real_samples=(1, 2, 3, 4),
-                   sim_samples=(1, 2, 3, 4), name="mini.toml") -> Path:
-    """A protocol with a real and a simulated block over the paper's four samples."""
+                   sim_samples=(1, 2, 3, 4), name="mini.toml", real_reps=1, sim_reps=1,
+                   protocol_name="mini", title="A short session for tests") -> Path:
+    """A protocol with a real and a simulated block over the paper's four samples.
+
+    Also the fault campaign's protocol (``benchmarks/fault_campaign.py`` imports this helper).
+    """
     text = MINI_PROTOCOL.format(contact_s=contact_s, rewarm_s=rewarm_s,
-                                real_samples=list(real_samples), sim_samples=list(sim_samples))
+                                real_samples=list(real_samples), sim_samples=list(sim_samples),
+                                real_reps=real_reps, sim_reps=sim_reps, name=protocol_name,
+                                title=title)
     if not sim_samples:
         text = text.split("[[blocks]]\nname = \"simulated\"")[0]
     if not real_samples:

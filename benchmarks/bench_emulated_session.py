@@ -1,0 +1,117 @@
+"""CPU time of emulated sessions (virtual clock), and their logs' fingerprint.  Not a test.
+
+Run:  .venv/bin/python benchmarks/bench_emulated_session.py [--rounds 3] [--profile]
+
+Runs P01 and P16 of the seed-0 simulated cohort (the default protocol, 24 trials each) on
+``emulator://?clock=virtual`` with the simulated responder, ``--rounds`` times after one warm-up
+session, and prints per session the CPU time of this process (user + system,
+``time.process_time``: on a shared machine fairer than wall time) and the wall time, per trial,
+median and best. fsync is off for every session (:func:`experiments.logbook.set_durable`): the
+figure is the cost of the emulated session, not of the disk. It also prints a SHA-256 over every
+file the sessions wrote (trials, traces, events; timestamps and durations stripped), so two
+commits can be compared for identical logs. ``--profile`` prints the top of a cProfile instead.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import os
+import platform
+import re
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+PARTICIPANTS = ("P01", "P16")
+_VOLATILE = re.compile(rb'[0-9]{4}-[0-9]{2}-[0-9]{2}[T_][0-9:.h]+Z?|"(seconds|wall_s|elapsed_s|'
+                       rb't_wall|duration_s_wall)": [0-9.e+-]+')
+
+
+def _cohort():
+    try:
+        from experiments.simulation.cohort import run_participant, write_cohort
+    except ImportError:
+        from experiments.cohort import run_participant, write_cohort
+    return run_participant, write_cohort
+
+
+def fingerprint(folder: Path, tmp: Path) -> str:
+    """SHA-256 over the sessions' files (relative names and contents; the temporary folder's
+    name, the code's folder, timestamps and durations stripped)."""
+    h = hashlib.sha256()
+    for path in sorted(p for p in folder.rglob("*") if p.is_file()):
+        h.update(path.relative_to(folder).as_posix().encode())
+        data = path.read_bytes().replace(str(tmp).encode(), b"TMP").replace(str(ROOT).encode(), b"ROOT")
+        h.update(_VOLATILE.sub(b"X", data))
+    return h.hexdigest()
+
+
+def traces_digest(session_dir: Path) -> str:
+    """SHA-256 over a session's telemetry traces (``traces/*.csv`` by name): the values of every
+    row, numbers parsed (so a change of the number format alone does not change it)."""
+    h = hashlib.sha256()
+    for path in sorted((Path(session_dir) / "traces").glob("*.csv")):
+        rows = path.read_text(encoding="utf-8").splitlines()[1:]          # not the header
+        h.update(path.name.encode() + b"\0")
+        for row in rows:
+            h.update(repr([_value(c) for c in row.split(",")]).encode())
+    return h.hexdigest()
+
+
+def _value(cell: str):
+    try:
+        return float(cell)
+    except ValueError:
+        return cell
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--keep", metavar="DIR", help="copy round 0's sessions to DIR (to diff them)")
+    ns = ap.parse_args(argv)
+    run_participant, write_cohort = _cohort()
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"Python {platform.python_version()}; code: {ROOT}")
+    print(f"load average at the start: {os.getloadavg()[0]:.2f}")
+    tmp = Path(tempfile.mkdtemp(prefix="bench-emulated-"))
+    try:
+        paths = {p.stem: p for p in write_cohort(tmp / "participants", seed=0)}
+        run_participant(paths["P02"], tmp / "warm", seed=0, durable=False)   # imports, caches
+        if ns.profile:
+            import cProfile
+            import pstats
+            prof = cProfile.Profile()
+            prof.enable()
+            run_participant(paths["P01"], tmp / "prof", seed=0, durable=False)
+            prof.disable()
+            pstats.Stats(prof).sort_stats("tottime").print_stats(25)
+            return 0
+        cpu, wall = [], []
+        for r in range(ns.rounds):
+            for pid in PARTICIPANTS:
+                c0, w0 = time.process_time(), time.perf_counter()
+                res = run_participant(paths[pid], tmp / "runs" / f"r{r}", seed=0, durable=False)
+                n = res["n_trials"]
+                cpu.append(1000 * (time.process_time() - c0) / n)
+                wall.append(1000 * (time.perf_counter() - w0) / n)
+        print(f"{len(cpu)} sessions ({', '.join(PARTICIPANTS)} x {ns.rounds}), {n} trials each")
+        print(f"CPU : median {statistics.median(cpu):6.2f} ms/trial, best {min(cpu):6.2f}")
+        print(f"wall: median {statistics.median(wall):6.2f} ms/trial, best {min(wall):6.2f}")
+        print(f"logs fingerprint (round 0): {fingerprint(tmp / 'runs' / 'r0', tmp)}")
+        if ns.keep:
+            shutil.copytree(tmp / "runs" / "r0", ns.keep, dirs_exist_ok=True)
+        print(f"load average at the end: {os.getloadavg()[0]:.2f}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
