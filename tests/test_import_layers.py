@@ -96,19 +96,8 @@ def test_analysis_never_imports_the_experiments_runtime():
     assert _violations(("analysis",), allowed) == []
 
 
-#: Known edges being removed in parallel: (importing module, imported module, who removes it).
-HARDWARE_KNOWN = {
-    # r14c (issue 14, "the cycle gone") moves the emulator's option parsing out of the CLI;
-    # delete this entry when that branch is merged.
-    ("experiments.hardware.pty_server", "experiments.cli"),
-    ("experiments.hardware.pty_server", "experiments.cli.emulator"),
-}
-
-
 def test_hardware_never_imports_the_cli_or_the_session():
-    def allowed(target, module):
-        if (module, target) in HARDWARE_KNOWN:
-            return True
+    def allowed(target, _):
         return not _within(target, ("experiments.cli", "experiments.session"))
     assert _violations(("experiments.hardware",), allowed) == []
 
