@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 __all__ = ["wilson_interval", "cluster_bootstrap", "cell_proportions", "participant_summary",
            "CELL"]
@@ -54,7 +53,9 @@ def wilson_interval(k, n, level: float = 0.95):
 
     Notes
     -----
-    With :math:`\\hat p = k/n` and :math:`z` the two-sided normal quantile,
+    ``statsmodels.stats.proportion.proportion_confint(k, n, 1 - level, method="wilson")``, with
+    the bounds at ``k = 0`` and ``k = n`` set to exactly 0 and 1. With :math:`\\hat p = k/n` and
+    :math:`z` the two-sided normal quantile,
 
     .. math:: \\frac{\\hat p + z^2/2n \\pm z\\sqrt{\\hat p(1-\\hat p)/n + z^2/4n^2}}{1 + z^2/n}.
 
@@ -64,15 +65,13 @@ def wilson_interval(k, n, level: float = 0.95):
     >>> float(low), round(float(high), 4)
     (0.0, 0.2775)
     """
+    from statsmodels.stats.proportion import proportion_confint
+
     k = np.asarray(k, dtype=float)
     n = np.asarray(n, dtype=float)
-    z = stats.norm.ppf(0.5 + level / 2)
     with np.errstate(invalid="ignore", divide="ignore"):
-        p = k / n
-        denom = 1 + z * z / n
-        centre = (p + z * z / (2 * n)) / denom
-        half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    low, high = np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+        low, high = proportion_confint(k, n, alpha=1 - level, method="wilson")
+    # the bounds are exactly 0 and 1 there (statsmodels leaves ~1e-18 of rounding)
     low = np.where(k == 0, 0.0, low)
     high = np.where(k == n, 1.0, high)
     return low, high
