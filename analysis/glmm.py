@@ -262,6 +262,15 @@ def _hessian(theta, data, n_agq):
     """Central differences of the gradient, symmetrised (deviance scale)."""
     if n_agq < 7:       # second differences of the deviance itself (see _objective)
         return _hessian_fd(theta, data, n_agq)
+    return _fd_hessian(lambda t: glmm_deviance(t, data, n_agq, True)[1], theta, sd_last=True)
+
+
+def _fd_hessian(grad, theta, *, sd_last: bool = False):
+    """Central differences of ``grad`` (steps 1e-4 max(1, |theta_i|)), symmetrised.
+
+    ``sd_last``: the last parameter is an SD (>= 0): where its step would cross 0 the difference
+    is one-sided. Shared by :func:`fit_glmm` and :func:`analysis.glmm_slope.fit_glmm_slope`.
+    """
     p = len(theta)
     hess = np.empty((p, p))
     for i in range(p):
@@ -269,14 +278,11 @@ def _hessian(theta, data, n_agq):
         up, down = theta.copy(), theta.copy()
         up[i] += step
         down[i] -= step
-        if i == p - 1 and down[i] < 0:        # sigma at the boundary: one-sided
+        if sd_last and i == p - 1 and down[i] < 0:        # sigma at the boundary: one-sided
             down[i] = theta[i]
-            step_used = step
-            hess[i] = (glmm_deviance(up, data, n_agq, True)[1]
-                       - glmm_deviance(down, data, n_agq, True)[1]) / step_used
+            hess[i] = (grad(up) - grad(down)) / step
             continue
-        hess[i] = (glmm_deviance(up, data, n_agq, True)[1]
-                   - glmm_deviance(down, data, n_agq, True)[1]) / (2 * step)
+        hess[i] = (grad(up) - grad(down)) / (2 * step)
     return (hess + hess.T) / 2
 
 

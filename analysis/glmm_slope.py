@@ -38,7 +38,7 @@ import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
-from .glmm import (ML_COLUMNS, GLMMData, _fd_gradient, _ml_wald, _profile_cut, _profile_upper,
+from .glmm import (ML_COLUMNS, GLMMData, _fd_gradient, _fd_hessian, _ml_wald, _profile_cut, _profile_upper,
                    _wald_table)
 from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _separated, model_data,
                      reference_df, reference_quantile)
@@ -52,6 +52,17 @@ def _lambda(t):
     return np.array([[t[0], 0.0], [t[1], t[2]]])
 
 
+def _curvature(person, w, zt, m):
+    """Per participant the 2 x 2 curvature I + sum_rows w z' z of the log integrand (m x 2 x 2)."""
+    h = np.empty((m, 2, 2))
+    for a in range(2):
+        for c in range(a, 2):
+            h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
+    h[:, 0, 0] += 1
+    h[:, 1, 1] += 1
+    return h
+
+
 def _inner(x_eta, z, person, m, k, n, lam, n_agq):
     """Per participant: log integral, nodes (m, Q, 2), eta at the nodes (rows, Q), posterior."""
     zt = z @ lam                                          # rows x 2: z' Lambda
@@ -62,12 +73,7 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq):
         r = k - n * p
         w = n * p * (1 - p)
         g = np.stack([np.bincount(person, zt[:, a] * r, m) for a in range(2)], axis=1) - b
-        h = np.empty((m, 2, 2))
-        for a in range(2):
-            for c in range(a, 2):
-                h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
-        h[:, 0, 0] += 1
-        h[:, 1, 1] += 1
+        h = _curvature(person, w, zt, m)
         step = np.linalg.solve(h, g[..., None])[..., 0]
         b += step
         if np.max(np.abs(step)) < 1e-10:
@@ -75,12 +81,7 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq):
     eta = x_eta + np.einsum("rk,rk->r", zt, b[person])
     p = special.expit(eta)
     w = n * p * (1 - p)
-    h = np.empty((m, 2, 2))
-    for a in range(2):
-        for c in range(a, 2):
-            h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
-    h[:, 0, 0] += 1
-    h[:, 1, 1] += 1
+    h = _curvature(person, w, zt, m)
     chol = np.linalg.cholesky(h)                          # h = L L^T
     t1, w1 = np.polynomial.hermite.hermgauss(n_agq)
     tt = np.array([(a, c) for a in t1 for c in t1])       # Q x 2
@@ -135,19 +136,11 @@ def _objective(data, z, n_agq):
 
 
 def _hessian(theta, data, z, n_agq):
-    p = len(theta)
     if n_agq >= 5:
         g = lambda t: slope_deviance(t, data, z, n_agq, grad=True)[1]
     else:
         g = lambda t: _fd_gradient(lambda u: slope_deviance(u, data, z, n_agq), t)
-    hess = np.empty((p, p))
-    for i in range(p):
-        h = 1e-4 * max(1.0, abs(theta[i]))
-        up, down = theta.copy(), theta.copy()
-        up[i] += h
-        down[i] -= h
-        hess[i] = (g(up) - g(down)) / (2 * h)
-    return (hess + hess.T) / 2
+    return _fd_hessian(g, theta)
 
 
 def _sd_params(t):
