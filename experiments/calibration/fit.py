@@ -33,7 +33,7 @@ from experiments.calibration.problem import BOUNDS, SKIN_TEMPERATURE_MODES, FitP
 
 __all__ = ["FitProblem", "CalibrationFit", "Parameter", "fit_traces", "BOUNDS", "SKIN_TEMPERATURE_MODES",
            "plan_calibration", "planned_setup",
-           "MAX_CONDITION", "BOUND_TOLERANCE"]
+           "MAX_CONDITION", "BOUND_TOLERANCE", "INTERVALS"]
 
 #: Condition number of the scaled Jacobian above which a fit is refused (not identifiable).
 MAX_CONDITION = 1e6
@@ -256,13 +256,30 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
                            skin_temperature_sd_C=skin_temperature_sd_C, plan_model=plan_model)
 
 
+def _profile(problem, x, *, ssr, se, level, **_):
+    """Profile-likelihood intervals of R_k, L and a shared T_S0 (per-trace T_S0: none)."""
+    from experiments.calibration.intervals import profile_intervals
+    which = range(problem.k + 1 + (problem.n_ts0 if problem.n_ts0 == 1 else 0))
+    return profile_intervals(problem, x, ssr, se, level, which=which)
+
+
+def _bootstrap(problem, x, *, sigma, level, samples, seed, **_):
+    """Parametric-bootstrap intervals (``samples`` refits)."""
+    from experiments.calibration.intervals import bootstrap_intervals
+    return bootstrap_intervals(problem, x, sigma, level, samples, seed)
+
+
+#: The interval methods ``interval=`` accepts: name -> ``f(problem, x, *, ssr, sigma, se, level,
+#: samples, seed) -> (lows, highs, flat)`` (the ``solve_ivp`` ``METHODS`` shape).
+INTERVALS = {"profile": _profile, "bootstrap": _bootstrap}
+
+
 def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
                 bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None, plan_model=True,
                 _replanned=None):
-    from experiments.calibration.intervals import bootstrap_intervals, profile_intervals
-
-    if interval not in ("profile", "bootstrap"):
-        raise CalibrationError(f"calibration: interval: expected 'profile' or 'bootstrap', got {interval!r}")
+    if interval not in INTERVALS:
+        raise CalibrationError(f"calibration: interval: expected "
+                               f"{' or '.join(map(repr, INTERVALS))}, got {interval!r}")
     if not 0.5 <= level < 1.0:
         raise CalibrationError(f"calibration: level: expected a probability in [0.5, 1), got {level!r}")
     setup = setup or ContactSetup()
@@ -297,11 +314,8 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     J = problem.jacobian(best.x)
     cov = sigma ** 2 * np.linalg.inv(J.T @ J)
     se = np.sqrt(np.diag(cov))
-    if interval == "profile":
-        which = range(problem.k + 1 + (problem.n_ts0 if problem.n_ts0 == 1 else 0))
-        lows, highs, flat = profile_intervals(problem, best.x, ssr, se, level, which=which)
-    else:
-        lows, highs, flat = bootstrap_intervals(problem, best.x, sigma, level, bootstrap_samples, seed)
+    lows, highs, flat = INTERVALS[interval](problem, best.x, ssr=ssr, sigma=sigma, se=se,
+                                            level=level, samples=bootstrap_samples, seed=seed)
     if flat:
         diag["flat"] = flat
         raise CalibrationRefused("calibration refused: " + "; ".join(flat), flat, diag)

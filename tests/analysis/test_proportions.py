@@ -110,3 +110,16 @@ def test_participant_summary_by_hand():
     assert s.loc[("A1", "simulated"), "proportion_correct"] == 1.0
     assert s.loc[("B1", "real"), "median_rt_s"] == 2.0
     assert s.loc[("B1", "real"), "skin_thickness_um"] == 1000.0
+
+
+def test_bootstrap_methods_are_one_table_and_the_error_names_them():
+    from analysis.proportions import BOOTSTRAP_METHODS
+    assert list(BOOTSTRAP_METHODS) == ["wilson-deff", "studentized", "percentile"]
+    trials = _table({"P1": [("A", "real", 1, [1, 0, 1])], "P2": [("A", "real", 1, [0, 0, 1])]})
+    with pytest.raises(ValueError, match="method: expected 'wilson-deff', 'studentized' or "
+                                         "'percentile', got 'bca'"):
+        cluster_bootstrap(trials, method="bca")
+    for name in BOOTSTRAP_METHODS:                     # every entry runs through the public call
+        out = cluster_bootstrap(trials, n_boot=50, method=name)
+        assert ((out["boot_low"] >= 0) & (out["boot_low"] <= out["boot_high"])
+                & (out["boot_high"] <= 1)).all()
