@@ -142,12 +142,14 @@ def _numerical(skin, t, h, x, cells, epidermis_properties, T0, resistance=0.0):
     return r2, float(np.max(np.abs(r2 - r1)))
 
 
-def _refined(p, tol=None, where="skin_response"):
-    """The ``"numerical"`` method: :func:`_numerical` on ``p.cells``, and with a tolerance the
-    grid doubled (up to 256 cells) until the Richardson estimate is within ``tol`` K.
+def _refined(p, tolerance=None, where="skin_response"):
+    """The ``"numerical"`` method: :func:`_numerical` on ``p.cells``, and with a ``tolerance``
+    (K, already checked) the grid doubled (up to 256 cells) until the Richardson estimate is
+    within it.
 
     The one refinement loop of the finite-volume solver (Dirichlet and Robin surfaces alike).
     """
+    tol = None if tolerance is None else float(tolerance)
     c = int(p.cells)
     while True:
         u, est = _numerical(p.skin, p.t, p.h, p.x, c, p.epidermis_properties, p.T0,
@@ -157,7 +159,7 @@ def _refined(p, tol=None, where="skin_response"):
         if c >= 256:
             raise ModelInputError(f"{where}: tolerance: expected a tolerance the finite-volume "
                                   f"solver meets with <= 4 x 256 cells (estimate {est:.3g} K), "
-                                  f"got {tol!r}")
+                                  f"got {tolerance!r}")
         c *= 2
 
 
@@ -181,21 +183,21 @@ class _Problem:
 
 
 def _by_series(name, form):
-    def method(p, tol=None, where="skin_response"):
+    def method(p, tolerance=None, where="skin_response"):
         u, bound = form(p.skin, p.t, p.dt, p.h, p.xi)
         return u, ResponseInfo(name, bound)
     method.__name__ = method.__qualname__ = f"_{name.replace('-', '_')}_method"
     return method
 
 
-def _robin_exact_method(p, tol=None, where="skin_response"):
+def _robin_exact_method(p, tolerance=None, where="skin_response"):
     u, bound = _robin_exact(p.skin, p.t, p.dt, p.h, p.x, p.resistance)
     return u, ResponseInfo("exact", bound)
 
 
-#: Methods accepted by :func:`skin_response`: name -> ``f(problem, tol, where) -> (u, ResponseInfo)``
-#: (the ``scipy.integrate`` ``METHODS = {'RK23': RK23, ...}`` shape), for a surface imposed on
-#: the skin (R = 0) ...
+#: Methods accepted by :func:`skin_response`: name -> ``f(problem, tolerance, where)`` returning
+#: ``(u, ResponseInfo)`` (the ``scipy.integrate`` ``METHODS = {'RK23': RK23, ...}`` shape), for
+#: a surface imposed on the skin (R = 0) ...
 METHODS = {"exact": _by_series("exact", _exact), "paper": _by_series("paper", _paper),
            "paper-as-printed": _by_series("paper-as-printed", _printed), "numerical": _refined}
 #: ... and through a contact resistance R > 0 (the paper's forms assume R = 0).
@@ -343,7 +345,7 @@ def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=
         u = np.zeros_like(h) if x <= 0.0 else h.copy()
         info = ResponseInfo(method if tolerance is None else "exact", 0.0)
     elif tolerance is not None and layered:
-        u, info = METHODS["numerical"](problem, tol, where)
+        u, info = METHODS["numerical"](problem, tolerance, where)
     elif tolerance is not None:
         # the paper's form is never cheaper here (same FFT convolution, a kernel of the same
         # cost, see ``thermocue bench model``), so the cheapest adequate method is "exact"
@@ -386,7 +388,7 @@ def _robin(p, method, tolerance, full_output, where):
     if p.x <= 0.0:
         u, info = np.zeros_like(p.h), ResponseInfo(method, 0.0)
     else:
-        u, info = ROBIN_METHODS[method](p, tol, where)
+        u, info = ROBIN_METHODS[method](p, tolerance, where)
         if method == "exact" and tol is not None and info.error_bound > tol:
             raise ModelInputError(f"{where}: tolerance: expected >= {info.error_bound:.3g} K (the "
                                   f"exact method's bound for this history), got {tolerance!r}")
