@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .proportions import wilson_interval
+
 __all__ = ["Claim", "CLAIMS", "evaluate_claims", "counts_from_trials", "answers_from_trials",
            "claim_probabilities", "wilson_interval", "ALPHA", "DOMINANT_SHARE"]
 
@@ -113,17 +115,6 @@ CLAIMS = (
           "650 µm) with roughness 0.4-100 µm",
           "= +1: strictly increasing (a property of the replay, not of a study)"),
 )
-
-
-def wilson_interval(k, n, z: float = 1.959963984540054):
-    """95 % Wilson score interval of ``k`` successes in ``n`` (arrays allowed)."""
-    k = np.asarray(k, dtype=float)
-    n = np.asarray(n, dtype=float)
-    p = k / n
-    denom = 1 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return centre - half, centre + half
 
 
 def _t_crit(df):

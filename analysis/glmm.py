@@ -56,6 +56,51 @@ ICC_LATENT_VARIANCE = np.pi ** 2 / 3
 _SIGMA_MAX = 20.0
 
 
+# --------------------------------------------------------------------------- shared by the ML fits
+#: Columns of the ML mixed models' tables (:func:`fit_glmm`, :func:`analysis.glmm_slope.fit_glmm_slope`).
+ML_COLUMNS = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
+
+
+def _ml_wald(theta, hess, p: int, res):
+    """The ML fits' Wald step on the deviance's Hessian ``hess`` (deviance = -2 log L).
+
+    Returns ``(cov_full, beta, cov, se, why)``: the covariance 2 H^-1 of every parameter (NaN
+    when H is singular), the ``p`` fixed effects ``theta[:p]``, their covariance and SEs, and
+    why the fit is rejected (None when accepted; see :func:`analysis.models._accepted`).
+    """
+    try:
+        cov_full = 2.0 * np.linalg.inv(hess)
+    except np.linalg.LinAlgError:
+        cov_full = np.full(np.shape(hess), np.nan)
+    beta, cov = theta[:p], cov_full[:p, :p]
+    se = np.sqrt(np.diag(cov))
+    why = None if res.success else f"did not converge ({res.message})"
+    return cov_full, beta, cov, se, why or _fit_ok(beta, se)
+
+
+def _wald_table(terms, beta, se, df, q) -> pd.DataFrame:
+    """Fixed effects with Wald ratios, p-values and intervals against t(``df``) (``q`` its
+    two-sided quantile; normal without ``df``)."""
+    return pd.DataFrame({"term": terms, "log_odds": beta, "se": se, "z": beta / se,
+                         "p_value": reference_p(beta / se, df),
+                         "ci_low": beta - q * se, "ci_high": beta + q * se,
+                         "interval": f"Wald, t({df:g})" if df else "Wald"})
+
+
+def _profile_cut(level: float, df) -> float:
+    """A profile interval's deviance cut-off: F(1, df)(level), chi2_1(level) without ``df``."""
+    return stats.f.ppf(level, 1, df) if df else stats.chi2.ppf(level, 1)
+
+
+def _profile_upper(excess, value_hat: float, hi_try: float, bound: float) -> float:
+    """A profile interval's upper end: ``hi_try`` doubled (up to ``bound``) until the deviance
+    ``excess`` over the cut-off is positive, then Brent's root; inf if it never rises so far."""
+    while excess(hi_try) < 0 and hi_try < bound:
+        hi_try = min(2 * hi_try, bound)
+    return optimize.brentq(excess, value_hat, hi_try, xtol=2e-5, rtol=1e-6) \
+        if excess(hi_try) > 0 else np.inf
+
+
 @dataclass
 class GLMMData:
     """Binomial counts per participant and distinct design row.
@@ -217,6 +262,15 @@ def _hessian(theta, data, n_agq):
     """Central differences of the gradient, symmetrised (deviance scale)."""
     if n_agq < 7:       # second differences of the deviance itself (see _objective)
         return _hessian_fd(theta, data, n_agq)
+    return _fd_hessian(lambda t: glmm_deviance(t, data, n_agq, True)[1], theta, sd_last=True)
+
+
+def _fd_hessian(grad, theta, *, sd_last: bool = False):
+    """Central differences of ``grad`` (steps 1e-4 max(1, |theta_i|)), symmetrised.
+
+    ``sd_last``: the last parameter is an SD (>= 0): where its step would cross 0 the difference
+    is one-sided. Shared by :func:`fit_glmm` and :func:`analysis.glmm_slope.fit_glmm_slope`.
+    """
     p = len(theta)
     hess = np.empty((p, p))
     for i in range(p):
@@ -224,14 +278,11 @@ def _hessian(theta, data, n_agq):
         up, down = theta.copy(), theta.copy()
         up[i] += step
         down[i] -= step
-        if i == p - 1 and down[i] < 0:        # sigma at the boundary: one-sided
+        if sd_last and i == p - 1 and down[i] < 0:        # sigma at the boundary: one-sided
             down[i] = theta[i]
-            step_used = step
-            hess[i] = (glmm_deviance(up, data, n_agq, True)[1]
-                       - glmm_deviance(down, data, n_agq, True)[1]) / step_used
+            hess[i] = (grad(up) - grad(down)) / step
             continue
-        hess[i] = (glmm_deviance(up, data, n_agq, True)[1]
-                   - glmm_deviance(down, data, n_agq, True)[1]) / (2 * step)
+        hess[i] = (grad(up) - grad(down)) / (2 * step)
     return (hess + hess.T) / 2
 
 
@@ -266,7 +317,7 @@ def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan, df=None)
     point already computed); the ends are found by Brent's method, bracketed first by the
     Wald interval on log sigma.
     """
-    cut = stats.f.ppf(level, 1, df) if df else stats.chi2.ppf(level, 1)
+    cut = _profile_cut(level, df)
     sigma_hat, beta_hat = float(theta[-1]), theta[:-1]
     done: dict = {}
 
@@ -291,11 +342,7 @@ def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan, df=None)
             lo_try /= 2
         low = 0.0 if excess(lo_try) < 0 else \
             optimize.brentq(excess, lo_try, sigma_hat, xtol=2e-5, rtol=1e-6)
-    hi_try = max(sigma_hat * spread, 0.3)
-    while excess(hi_try) < 0 and hi_try < _SIGMA_MAX:
-        hi_try = min(2 * hi_try, _SIGMA_MAX)
-    high = optimize.brentq(excess, sigma_hat, hi_try, xtol=2e-5, rtol=1e-6) \
-        if excess(hi_try) > 0 else np.inf
+    high = _profile_upper(excess, sigma_hat, max(sigma_hat * spread, 0.3), _SIGMA_MAX)
     return low, high
 
 
@@ -347,7 +394,7 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     z = stats.norm.ppf(0.5 + level / 2)          # log-SD Wald interval (profile=False)
     df = reference_df(data_t)
     zt = reference_quantile(level, df)           # fixed effects: t(participants - 2)
-    columns = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
+    columns = ML_COLUMNS
     for candidate in _candidates(data_t, formula, notes, "GLMM"):
         if _separated("GLMM", candidate, data_t, notes):
             continue
@@ -363,14 +410,7 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
             res = _minimise(data, start, n_agq)
             theta = res.x.copy()
             hess = _hessian(theta, data, n_agq)
-        try:
-            cov_full = 2.0 * np.linalg.inv(hess)       # deviance = -2 logL
-        except np.linalg.LinAlgError:
-            cov_full = np.full((p + 1, p + 1), np.nan)
-        beta, cov = theta[:-1], cov_full[:-1, :-1]
-        se = np.sqrt(np.diag(cov))
-        why = None if res.success else f"did not converge ({res.message})"
-        why = why or _fit_ok(beta, se)
+        cov_full, beta, cov, se, why = _ml_wald(theta, hess, p, res)
         if not _accepted("GLMM", candidate, formula, why, notes):
             continue
         sigma = float(theta[-1])
@@ -385,10 +425,7 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
             sd_log = np.sqrt(cov_full[-1, -1]) / max(sigma, 1e-12)
             low, high = sigma * np.exp(-z * sd_log), sigma * np.exp(z * sd_log)
             how = "Wald on log SD"
-        table = pd.DataFrame({"term": x.columns, "log_odds": beta, "se": se, "z": beta / se,
-                              "p_value": reference_p(beta / se, df),
-                              "ci_low": beta - zt * se, "ci_high": beta + zt * se,
-                              "interval": f"Wald, t({df:g})" if df else "Wald"})
+        table = _wald_table(x.columns, beta, se, df, zt)
         icc = lambda s: s ** 2 / (s ** 2 + ICC_LATENT_VARIANCE)
         table.loc[len(table)] = ["participant_sd", sigma, np.sqrt(cov_full[-1, -1]), np.nan,
                                  np.nan, low, high, how]

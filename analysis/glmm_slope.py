@@ -38,9 +38,10 @@ import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
-from .glmm import GLMMData, _fd_gradient
-from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _fit_ok, _separated,
-                     model_data, reference_df, reference_p, reference_quantile)
+from .glmm import (ML_COLUMNS, GLMMData, _fd_gradient, _fd_hessian, _ml_wald, _profile_cut, _profile_upper,
+                   _wald_table)
+from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _separated, model_data,
+                     reference_df, reference_quantile)
 
 __all__ = ["fit_glmm_slope", "slope_deviance"]
 
@@ -49,6 +50,17 @@ _BOUND = 20.0
 
 def _lambda(t):
     return np.array([[t[0], 0.0], [t[1], t[2]]])
+
+
+def _curvature(person, w, zt, m):
+    """Per participant the 2 x 2 curvature I + sum_rows w z' z of the log integrand (m x 2 x 2)."""
+    h = np.empty((m, 2, 2))
+    for a in range(2):
+        for c in range(a, 2):
+            h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
+    h[:, 0, 0] += 1
+    h[:, 1, 1] += 1
+    return h
 
 
 def _inner(x_eta, z, person, m, k, n, lam, n_agq):
@@ -61,12 +73,7 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq):
         r = k - n * p
         w = n * p * (1 - p)
         g = np.stack([np.bincount(person, zt[:, a] * r, m) for a in range(2)], axis=1) - b
-        h = np.empty((m, 2, 2))
-        for a in range(2):
-            for c in range(a, 2):
-                h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
-        h[:, 0, 0] += 1
-        h[:, 1, 1] += 1
+        h = _curvature(person, w, zt, m)
         step = np.linalg.solve(h, g[..., None])[..., 0]
         b += step
         if np.max(np.abs(step)) < 1e-10:
@@ -74,12 +81,7 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq):
     eta = x_eta + np.einsum("rk,rk->r", zt, b[person])
     p = special.expit(eta)
     w = n * p * (1 - p)
-    h = np.empty((m, 2, 2))
-    for a in range(2):
-        for c in range(a, 2):
-            h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
-    h[:, 0, 0] += 1
-    h[:, 1, 1] += 1
+    h = _curvature(person, w, zt, m)
     chol = np.linalg.cholesky(h)                          # h = L L^T
     t1, w1 = np.polynomial.hermite.hermgauss(n_agq)
     tt = np.array([(a, c) for a in t1 for c in t1])       # Q x 2
@@ -134,19 +136,11 @@ def _objective(data, z, n_agq):
 
 
 def _hessian(theta, data, z, n_agq):
-    p = len(theta)
     if n_agq >= 5:
         g = lambda t: slope_deviance(t, data, z, n_agq, grad=True)[1]
     else:
         g = lambda t: _fd_gradient(lambda u: slope_deviance(u, data, z, n_agq), t)
-    hess = np.empty((p, p))
-    for i in range(p):
-        h = 1e-4 * max(1.0, abs(theta[i]))
-        up, down = theta.copy(), theta.copy()
-        up[i] += h
-        down[i] -= h
-        hess[i] = (g(up) - g(down)) / (2 * h)
-    return (hess + hess.T) / 2
+    return _fd_hessian(g, theta)
 
 
 def _sd_params(t):
@@ -194,7 +188,7 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
     ``df``). An SD's lower end is 0, and a correlation's end is -1 or 1, when the profile
     never rises that far.
     """
-    cut = stats.f.ppf(level, 1, df) if df else stats.chi2.ppf(level, 1)
+    cut = _profile_cut(level, df)
     p = len(theta) - 3
     hat = np.append(theta[:p], _sd_params(theta[-3:]))
     value_hat = hat[p + which]
@@ -234,11 +228,7 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
         low = 0.0
     else:
         low = optimize.brentq(excess, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
-    hi_try = max(2 * value_hat, 0.5)
-    while excess(hi_try) < 0 and hi_try < _BOUND:
-        hi_try = min(2 * hi_try, _BOUND)
-    high = optimize.brentq(excess, value_hat, hi_try, xtol=2e-5, rtol=1e-6) \
-        if excess(hi_try) > 0 else np.inf
+    high = _profile_upper(excess, value_hat, max(2 * value_hat, 0.5), _BOUND)
     return low, high
 
 
@@ -292,7 +282,7 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
 
     data_t = model_data(trials)
     notes: list = []
-    columns = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
+    columns = ML_COLUMNS
     df = reference_df(data_t)
     zq = reference_quantile(level, df)
     if data_t["mode"].nunique() < 2:
@@ -325,24 +315,14 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                 res.nit += first.nit
             theta = res.x.copy()
             hess = _hessian(theta, data, z, n_agq)
-        try:
-            cov_full = 2.0 * np.linalg.inv(hess)
-        except np.linalg.LinAlgError:
-            cov_full = np.full((p + 3, p + 3), np.nan)
-        beta, cov = theta[:p], cov_full[:p, :p]
-        se = np.sqrt(np.diag(cov))
-        why = None if res.success else f"did not converge ({res.message})"
-        why = why or _fit_ok(beta, se)
+        cov_full, beta, cov, se, why = _ml_wald(theta, hess, p, res)
         if not _accepted("GLMM slope", candidate, formula, why, notes):
             continue
         lam = _lambda(theta[-3:])
         sigma = lam @ lam.T
         sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])
         corr = sigma[0, 1] / (sd0 * sd1) if sd0 > 0 and sd1 > 0 else np.nan
-        table = pd.DataFrame({"term": x.columns, "log_odds": beta, "se": se, "z": beta / se,
-                              "p_value": reference_p(beta / se, df),
-                              "ci_low": beta - zq * se, "ci_high": beta + zq * se,
-                              "interval": f"Wald, t({df:g})" if df else "Wald"})
+        table = _wald_table(x.columns, beta, se, df, zq)
         how = "point estimate"
         cut_df = df if sd_cutoff == "F" else None
         if profile:

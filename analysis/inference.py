@@ -46,6 +46,8 @@ CHANCE = 0.25
 def holm(p) -> np.ndarray:
     """Holm's step-down adjusted p-values (NaN entries left out and kept NaN).
 
+    ``statsmodels.stats.multitest.multipletests(p, method="holm")`` on the finite entries.
+
     Parameters
     ----------
     p : array_like
@@ -61,15 +63,13 @@ def holm(p) -> np.ndarray:
     >>> holm([0.01, 0.04, 0.03]).round(3).tolist()
     [0.03, 0.06, 0.06]
     """
+    from statsmodels.stats.multitest import multipletests
+
     p = np.asarray(p, float)
     out = np.full(p.shape, np.nan)
-    ok = np.flatnonzero(np.isfinite(p))
-    m = len(ok)
-    if m == 0:
-        return out
-    order = ok[np.argsort(p[ok], kind="stable")]
-    adjusted = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p[order]))
-    out[order] = adjusted
+    ok = np.isfinite(p)
+    if ok.any():
+        out[ok] = multipletests(p[ok], method="holm")[1]
     return out
 
 

@@ -185,6 +185,21 @@ def _fit_ok(params, se) -> str | None:
     return None
 
 
+def _fit_trouble(category) -> bool:
+    """True for the statsmodels warning classes that mean a fit is not to be trusted.
+
+    Classified by class, not by message text (:mod:`statsmodels.tools.sm_exceptions`):
+    ``ConvergenceWarning`` (GEE's "Singular matrix encountered in GEE update", VB's "VB
+    fitting did not converge"), ``IterationLimitWarning``, ``SingularMatrixWarning``,
+    ``PerfectSeparationWarning`` (the GLM that starts a GEE) and ``HessianInversionWarning``.
+    """
+    from statsmodels.tools import sm_exceptions as sme
+
+    return issubclass(category, (sme.ConvergenceWarning, sme.IterationLimitWarning,
+                                 sme.SingularMatrixWarning, sme.PerfectSeparationWarning,
+                                 sme.HessianInversionWarning))
+
+
 def _separated(kind: str, candidate: str, data: pd.DataFrame, notes: list) -> bool:
     """True, with a note, when ``candidate`` is the full formula and a cell is separated."""
     if candidate != FORMULA:
@@ -249,9 +264,7 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
         if res is None and why is None:        # statsmodels returns None when it gives up
             why = "failed (" + "; ".join(str(w.message) for w in caught) + ")"
         if res is not None:
-            trouble = [str(w.message) for w in caught
-                       if "converge" in str(w.message).lower() or "singular" in str(w.message).lower()
-                       or "separation" in str(w.message).lower()]
+            trouble = [str(w.message) for w in caught if _fit_trouble(w.category)]
             params = np.asarray(res.params)
             se = np.asarray(res.bse)
             why = "; ".join(trouble) if (trouble or not res.converged) else _fit_ok(params, se)
@@ -259,8 +272,11 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
                 why = "did not converge"
         if not _accepted("GEE", candidate, formula, why, notes):
             continue
+        # statsmodels' res.pvalues / res.conf_int() refer the Wald ratio to the normal; the
+        # table refers it to t(participants - 2) (reference_df), so only the ratio is theirs
+        ratio = np.asarray(res.tvalues)
         table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
-                              "z": params / se, "p_value": reference_p(params / se, df),
+                              "z": ratio, "p_value": reference_p(ratio, df),
                               "ci_low": params - z * se, "ci_high": params + z * se})
         return ModelFit("gee", candidate, formula, table, notes, params,
                         np.asarray(res.cov_params()), x.design_info, res, df)
@@ -314,8 +330,7 @@ def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.
             except (np.linalg.LinAlgError, ValueError, FloatingPointError) as exc:
                 res, why = None, f"failed ({exc})"
         if res is not None:
-            if not res.optim_retvals.success or any("converge" in str(w.message).lower()
-                                                    for w in caught):
+            if not res.optim_retvals.success or any(_fit_trouble(w.category) for w in caught):
                 why = "did not converge (VB optimiser)"
             else:
                 why = _fit_ok(res.fe_mean, res.fe_sd)

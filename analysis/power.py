@@ -280,6 +280,25 @@ def _gee_primary(trials, mode, alpha, samples):
     return bool(row["p_value"] < alpha), row["log_odds_ratio"], fallback
 
 
+def _gee_cohort(k, n, groups, keys, prop, mode, alpha, samples):
+    """The report's primary test on one simulated cohort (:func:`_gee_primary`)."""
+    return _gee_primary(_as_trials(_counts_table(k, n, groups, keys)), mode, alpha, samples)
+
+
+def _cluster_t(k, n, groups, keys, prop, mode, alpha, samples):
+    """Welch's t on the per-participant proportions of one simulated cohort."""
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        res = stats.ttest_ind(prop["A"], prop["B"], equal_var=False)
+    pv = float(res.pvalue) if np.isfinite(res.pvalue) else 1.0
+    return pv < alpha, prop["A"].mean() - prop["B"].mean(), False
+
+
+#: The tests :func:`power_curve` simulates: name -> ``f(k, n, groups, keys, prop, mode, alpha,
+#: samples) -> (rejected, estimate, fallback)`` for one cohort (the ``solve_ivp`` ``METHODS`` shape).
+TESTS = {"gee": _gee_cohort, "cluster-t": _cluster_t}
+
+
 @threadpool_limits.wrap(limits=1)   # small BLAS calls per cohort: threads only spin
 def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: int = 400,
                 repetitions: int = 3, participant_sd: float = 0.5, mode: str = "real",
@@ -333,8 +352,9 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
         An unknown ``test`` or ``cells_scale``, a size below 2, a rate outside [0, 1).
     """
     table = cells_frame(cells)
-    if test not in ("cluster-t", "gee"):
-        raise ValueError(f"power_curve: test: expected 'gee' or 'cluster-t', got {test!r}")
+    if test not in TESTS:
+        raise ValueError(f"power_curve: test: expected {' or '.join(map(repr, TESTS))}, "
+                         f"got {test!r}")
     if cells_scale not in ("conditional", "marginal"):
         raise ValueError(f"power_curve: cells_scale: expected 'conditional' or 'marginal', "
                          f"got {cells_scale!r}")
@@ -383,15 +403,7 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
                 kk, nn = kg[:, in_mode[g]].sum(axis=1), ng[:, in_mode[g]].sum(axis=1)
                 prop[g] = kk[nn > 0] / nn[nn > 0]
             diffs.append(prop["A"].mean() - prop["B"].mean())
-            if test == "gee":
-                r, est, fb = _gee_primary(_as_trials(_counts_table(k, n, groups, keys)), mode,
-                                          alpha, ids)
-            else:
-                with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
-                    warnings.simplefilter("ignore", RuntimeWarning)
-                    res = stats.ttest_ind(prop["A"], prop["B"], equal_var=False)
-                pv = float(res.pvalue) if np.isfinite(res.pvalue) else 1.0
-                r, est, fb = pv < alpha, diffs[-1], False
+            r, est, fb = TESTS[test](k, n, groups, keys, prop, mode, alpha, ids)
             reject.append(r)
             sign.append(est > 0)
             fallback.append(fb)

@@ -24,9 +24,10 @@ References
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 __all__ = ["wilson_interval", "cluster_bootstrap", "cell_proportions", "participant_summary",
            "CELL"]
@@ -54,7 +55,9 @@ def wilson_interval(k, n, level: float = 0.95):
 
     Notes
     -----
-    With :math:`\\hat p = k/n` and :math:`z` the two-sided normal quantile,
+    ``statsmodels.stats.proportion.proportion_confint(k, n, 1 - level, method="wilson")``, with
+    the bounds at ``k = 0`` and ``k = n`` set to exactly 0 and 1. With :math:`\\hat p = k/n` and
+    :math:`z` the two-sided normal quantile,
 
     .. math:: \\frac{\\hat p + z^2/2n \\pm z\\sqrt{\\hat p(1-\\hat p)/n + z^2/4n^2}}{1 + z^2/n}.
 
@@ -64,15 +67,13 @@ def wilson_interval(k, n, level: float = 0.95):
     >>> float(low), round(float(high), 4)
     (0.0, 0.2775)
     """
+    from statsmodels.stats.proportion import proportion_confint
+
     k = np.asarray(k, dtype=float)
     n = np.asarray(n, dtype=float)
-    z = stats.norm.ppf(0.5 + level / 2)
     with np.errstate(invalid="ignore", divide="ignore"):
-        p = k / n
-        denom = 1 + z * z / n
-        centre = (p + z * z / (2 * n)) / denom
-        half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    low, high = np.clip(centre - half, 0, 1), np.clip(centre + half, 0, 1)
+        low, high = proportion_confint(k, n, alpha=1 - level, method="wilson")
+    # the bounds are exactly 0 and 1 there (statsmodels leaves ~1e-18 of rounding)
     low = np.where(k == 0, 0.0, low)
     high = np.where(k == n, 1.0, high)
     return low, high
@@ -145,9 +146,10 @@ def cluster_bootstrap(trials: pd.DataFrame, *, n_boot: int = 2000, level: float 
     (The plain Wilson interval: 0.95 without participant differences,
     0.92-0.94 with them.)
     """
-    if method not in ("wilson-deff", "studentized", "percentile"):
-        raise ValueError(f"cluster_bootstrap: method: expected 'wilson-deff', 'studentized' or "
-                         f"'percentile', got {method!r}")
+    if method not in BOOTSTRAP_METHODS:
+        *first, last = map(repr, BOOTSTRAP_METHODS)
+        raise ValueError(f"cluster_bootstrap: method: expected {', '.join(first)} or {last}, "
+                         f"got {method!r}")
     rng = np.random.default_rng(seed)
     k, n = _counts(trials)
     groups = trials.drop_duplicates("participant").set_index("participant")["group"]
@@ -173,29 +175,74 @@ def cluster_bootstrap(trials: pd.DataFrame, *, n_boot: int = 2000, level: float 
         with np.errstate(invalid="ignore", divide="ignore"):
             deff = np.where(binomial_var > 0, se ** 2 * inflate / binomial_var, 1.0)
         deff = np.where(np.isfinite(deff), np.maximum(deff, 1.0), 1.0)
-        if method == "wilson-deff":
-            low, high = wilson_interval(phat * total_n / deff, total_n / deff, level)
-        elif method == "percentile" or m < 2:
-            low = np.nanquantile(props, alpha, axis=0)
-            high = np.nanquantile(props, 1 - alpha, axis=0)
-        else:
-            def robust_var(p, kk, kn, nn, total):
-                return inflate * (kk - 2 * p * kn + p * p * nn) / total ** 2
-            v_hat = robust_var(phat, (kg ** 2).sum(0), (kg * ng).sum(0), (ng ** 2).sum(0), total_n)
-            v_star = robust_var(props, weights @ kg ** 2, weights @ (kg * ng), weights @ ng ** 2,
-                                n_star)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                t_star = (props - phat) / np.sqrt(v_star)
-            t_star[~np.isfinite(t_star)] = np.nan
-            usable = (np.isfinite(t_star).mean(axis=0) >= 0.5) & (v_hat > 0)
-            t_low = np.nanquantile(np.where(usable, t_star, 0.0), alpha, axis=0)
-            t_high = np.nanquantile(np.where(usable, t_star, 0.0), 1 - alpha, axis=0)
-            low = np.where(usable, np.clip(phat - t_high * np.sqrt(v_hat), 0, 1), w_low)
-            high = np.where(usable, np.clip(phat - t_low * np.sqrt(v_hat), 0, 1), w_high)
+        draws = _Draws(level, alpha, m, inflate, kg, ng, weights, n_star, props, phat, total_n,
+                       deff, w_low, w_high)
+        low, high = BOOTSTRAP_METHODS[method](draws)
         for j, cell in enumerate(cols):
             out.append({**dict(zip(CELL, cell)), "boot_low": low[j], "boot_high": high[j],
                         "boot_se": se[j], "design_effect": deff[j]})
     return pd.DataFrame(out, columns=CELL + ["boot_low", "boot_high", "boot_se", "design_effect"])
+
+
+@dataclass(frozen=True)
+class _Draws:
+    """One group's bootstrap: its m participants' counts ``kg``, ``ng`` (participants x cells),
+    the resamples' participant ``weights`` and proportions ``props`` (resamples x cells), the
+    pooled ``phat`` of ``total_n`` trials, the design effect and the plain Wilson bounds."""
+
+    level: float
+    alpha: float
+    m: int
+    inflate: float
+    kg: np.ndarray
+    ng: np.ndarray
+    weights: np.ndarray
+    n_star: np.ndarray
+    props: np.ndarray
+    phat: np.ndarray
+    total_n: np.ndarray
+    deff: np.ndarray
+    w_low: np.ndarray
+    w_high: np.ndarray
+
+
+def _wilson_deff(d: _Draws):
+    """The Wilson interval at the effective sample size n / design effect."""
+    return wilson_interval(d.phat * d.total_n / d.deff, d.total_n / d.deff, d.level)
+
+
+def _percentile(d: _Draws):
+    """Quantiles of the resampled proportions."""
+    return (np.nanquantile(d.props, d.alpha, axis=0),
+            np.nanquantile(d.props, 1 - d.alpha, axis=0))
+
+
+def _studentized(d: _Draws):
+    """Bootstrap-t with the cluster-robust variance (percentile with fewer than 2 people)."""
+    if d.m < 2:
+        return _percentile(d)
+    kg, ng, weights, inflate = d.kg, d.ng, d.weights, d.inflate
+
+    def robust_var(p, kk, kn, nn, total):
+        return inflate * (kk - 2 * p * kn + p * p * nn) / total ** 2
+    v_hat = robust_var(d.phat, (kg ** 2).sum(0), (kg * ng).sum(0), (ng ** 2).sum(0), d.total_n)
+    v_star = robust_var(d.props, weights @ kg ** 2, weights @ (kg * ng), weights @ ng ** 2,
+                        d.n_star)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t_star = (d.props - d.phat) / np.sqrt(v_star)
+    t_star[~np.isfinite(t_star)] = np.nan
+    usable = (np.isfinite(t_star).mean(axis=0) >= 0.5) & (v_hat > 0)
+    t_low = np.nanquantile(np.where(usable, t_star, 0.0), d.alpha, axis=0)
+    t_high = np.nanquantile(np.where(usable, t_star, 0.0), 1 - d.alpha, axis=0)
+    low = np.where(usable, np.clip(d.phat - t_high * np.sqrt(v_hat), 0, 1), d.w_low)
+    high = np.where(usable, np.clip(d.phat - t_low * np.sqrt(v_hat), 0, 1), d.w_high)
+    return low, high
+
+
+#: The bootstrap intervals :func:`cluster_bootstrap` offers: name -> ``f(draws) -> (low, high)``
+#: (the ``solve_ivp`` ``METHODS`` shape).
+BOOTSTRAP_METHODS = {"wilson-deff": _wilson_deff, "studentized": _studentized,
+                     "percentile": _percentile}
 
 
 def cell_proportions(trials: pd.DataFrame, *, level: float = 0.95, n_boot: int = 2000,

@@ -151,7 +151,6 @@ def ordinal_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
         n_participants, po_slope, po_se, po_ci_low, po_ci_high`` (proportional-odds
         log odds of a higher answer per sample step; cluster-robust SE).
     """
-    z = stats.norm.ppf(0.5 + level / 2)
     rows = []
     for (g, m), sel in trials.groupby(["group", "mode"]):
         s, r = sel["roughness_id"].to_numpy(float), sel["response_id"].to_numpy(float)
@@ -164,20 +163,23 @@ def ordinal_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
         fz = np.arctanh(per)
         mean = float(np.tanh(fz.mean())) if len(per) else np.nan
         p = float(stats.ttest_1samp(fz, 0.0).pvalue) if len(per) > 1 else np.nan
-        slope, se = _po_slope(sel)
+        slope, se, low, high = _po_slope(sel, level)
         rows.append({"group": g, "mode": m, "spearman_pooled": pooled,
                      "mean_participant_spearman": mean, "t_p_value": p,
                      "n_participants": len(per), "po_slope": slope, "po_se": se,
-                     "po_ci_low": slope - z * se, "po_ci_high": slope + z * se})
+                     "po_ci_low": low, "po_ci_high": high})
     return pd.DataFrame(rows)
 
 
-def _po_slope(sel: pd.DataFrame) -> tuple[float, float]:
+def _po_slope(sel: pd.DataFrame, level: float = 0.95) -> tuple[float, float, float, float]:
+    """Proportional-odds slope per sample step: estimate, cluster-robust SE and Wald interval
+    (statsmodels' ``res.conf_int``)."""
     from statsmodels.miscmodels.ordinal_model import OrderedModel
+    nan = (np.nan,) * 4
     y = pd.Series(pd.Categorical(sel["response_id"].astype(int), categories=[1, 2, 3, 4],
                                  ordered=True))
     if y.nunique() < 2:
-        return np.nan, np.nan
+        return nan
     x = sel[["roughness_id"]].astype(float).reset_index(drop=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -186,14 +188,15 @@ def _po_slope(sel: pd.DataFrame) -> tuple[float, float]:
                 method="bfgs", disp=False, cov_type="cluster",
                 cov_kwds={"groups": pd.factorize(sel["participant"])[0]})
         except (ValueError, np.linalg.LinAlgError, ZeroDivisionError):
-            return np.nan, np.nan
-    return float(res.params["roughness_id"]), float(res.bse["roughness_id"])
+            return nan
+    low, high = res.conf_int(alpha=1 - level).loc["roughness_id"]
+    return (float(res.params["roughness_id"]), float(res.bse["roughness_id"]), float(low),
+            float(high))
 
 
 def _gee_terms(data: pd.DataFrame, formula: str, terms, level: float) -> list[dict]:
     import statsmodels.api as sm
     import statsmodels.formula.api as smf
-    z = stats.norm.ppf(0.5 + level / 2)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
@@ -202,13 +205,14 @@ def _gee_terms(data: pd.DataFrame, formula: str, terms, level: float) -> list[di
         except (ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return []
     out = []
+    ci = pd.DataFrame(res.conf_int(alpha=1 - level), index=res.params.index)
     for term, label in terms:
         if term not in res.params.index:
             continue
         b, se = float(res.params[term]), float(res.bse[term])
         out.append({"model": f"GEE {formula}", "term": term, "meaning": label, "log_odds": b,
-                    "se": se, "ci_low": b - z * se, "ci_high": b + z * se,
-                    "p_value": float(2 * stats.norm.sf(abs(b / se))) if se > 0 else np.nan})
+                    "se": se, "ci_low": float(ci.loc[term, 0]), "ci_high": float(ci.loc[term, 1]),
+                    "p_value": float(res.pvalues[term]) if se > 0 else np.nan})
     return out
 
 

@@ -13,8 +13,9 @@ from .properties import Material, Skin
 
 __all__ = ["Contact", "MethodInfo", "METHODS"]
 
-#: The methods ``method=`` accepts.
-METHODS = ("exact", "paper", "paper-as-printed", "numerical")
+#: The methods ``method=`` accepts: name -> evaluator ``f(contact, quantity, x, t)`` returning
+#: theta (like ``scipy.integrate``'s ``METHODS = {'RK23': RK23, ...}``); filled in below the class.
+METHODS: dict = {}
 
 #: What ``tolerance=`` tries, cheapest first (``thermocue bench model``, 20 s at 1 kHz:
 #: exact ~1.5 x the printed Eq. 7, the corrected series ~15-30 x, so the
@@ -26,7 +27,7 @@ _SINGLE_TERM = ("interface_material", "psi")
 
 @dataclass(frozen=True)
 class MethodInfo:
-    """What a `Contact` evaluation used (:attr:`Contact.last_info`).
+    """What a `Contact` evaluation used (returned with ``full_output=True``).
 
     ``method``: the method name; ``error_bound``: K for temperatures,
     dimensionless for psi -- the exact method's 1e-12 |T_S0 - T_M0|, the
@@ -78,7 +79,9 @@ class Contact:
     given, ``method`` is ignored and the cheapest method whose estimated error
     on the requested quantity, depth and time range is below ``tolerance`` is
     used: the single-term printed Eq. 7 / Eq. 8 where they are good enough,
-    else "exact" (which is faster than the corrected series). The choice is reported in :attr:`last_info` (a :class:`MethodInfo`).
+    else "exact" (which is faster than the corrected series). ``full_output=True`` returns
+    ``(values, info)`` with the choice and its error bound in ``info`` (a :class:`MethodInfo`),
+    like SciPy's ``full_output`` habit; without it every evaluator returns the values only.
     The closed forms' error is estimated by comparing them with ``"exact"`` on
     at most 24 probe times spanning the requested ones (so a cheap method is
     not guaranteed below ``tolerance`` between probes, but it is checked where
@@ -95,13 +98,13 @@ class Contact:
     >>> c = Contact(Skin(650e-6), material("stainless_steel"), 0.0, 36.0, 20.0)
     >>> c.interface_temperature([0.0, 1.0, 20.0]).round(3).tolist()
     [22.218, 22.224, 24.566]
-    >>> c.receptor_temperature([1.0, 20.0], tolerance=0.01).round(3).tolist()
-    [28.883, 29.113]
-    >>> c.last_info.method
-    'exact'
-    >>> c.interface_temperature([1.0, 20.0], tolerance=2.0).round(3).tolist()   # printed Eq. 7 is enough
+    >>> T, info = c.receptor_temperature([1.0, 20.0], tolerance=0.01, full_output=True)
+    >>> T.round(3).tolist(), info.method
+    ([28.883, 29.113], 'exact')
+    >>> T, info = c.interface_temperature([1.0, 20.0], tolerance=2.0, full_output=True)
+    >>> T.round(3).tolist()   # printed Eq. 7 is enough
     [22.222, 23.283]
-    >>> c.last_info.method, round(c.last_info.error_bound, 2)
+    >>> info.method, round(info.error_bound, 2)
     ('paper-as-printed', 1.28)
     """
 
@@ -124,7 +127,6 @@ class Contact:
                         ("material_temperature", self.material_initial)):
             if v < -273.15:   # Contact is also used in theta units (1, 0): only the impossible is refused
                 raise ModelInputError(f"Contact: {name}: expected >= -273.15 °C (absolute zero), got {v!r}")
-        self.last_info: MethodInfo | None = None
         self._transform = ContactTransform.from_contact(skin, material, r)
 
     def __repr__(self):
@@ -132,7 +134,8 @@ class Contact:
                 f"skin_temperature={self.skin_initial!r}, material_temperature={self.material_initial!r})")
 
     # -- public evaluators ----------------------------------------------------
-    def interface_temperature(self, t, side: str = "material", method: str = "exact", tolerance=None):
+    def interface_temperature(self, t, side: str = "material", method: str = "exact", tolerance=None,
+                              full_output: bool = False):
         """Interface temperature, degC.
 
         Parameters
@@ -143,39 +146,45 @@ class Contact:
             x = L+ (the paper's Eq. 7, what a sensor on the sample reads) or x = L-.
             They differ by R times the heat flux; equal for R = 0.
         method : str
+            A key of :data:`METHODS`.
         tolerance : float, K, optional
+        full_output : bool
+            Also return the :class:`MethodInfo` of the evaluation.
 
         Returns
         -------
         ndarray, degC, shape of ``t``
+            And, with ``full_output=True``, the :class:`MethodInfo` as a second item.
         """
         if side not in ("material", "skin"):
             raise ModelInputError(f"Contact.interface_temperature: side: expected 'material' or 'skin', got {side!r}")
         q = "interface_material" if side == "material" else "interface_skin"
-        return self._temperature(q, self.skin.thickness, t, method, tolerance)
+        return self._temperature(q, self.skin.thickness, t, method, tolerance, full_output)
 
-    def skin_temperature(self, x, t, method: str = "exact", tolerance=None):
+    def skin_temperature(self, x, t, method: str = "exact", tolerance=None, full_output: bool = False):
         """Skin temperature at depth ``x`` (m from the inner boundary, 0 <= x <= L), degC."""
         x = self._depth(x, 0.0, self.skin.thickness, "x")
-        return self._temperature("skin", x, t, method, tolerance)
+        return self._temperature("skin", x, t, method, tolerance, full_output)
 
-    def material_temperature(self, x, t, method: str = "exact", tolerance=None):
+    def material_temperature(self, x, t, method: str = "exact", tolerance=None,
+                             full_output: bool = False):
         """Material temperature at ``x`` (m, L <= x [<= L + D]), degC."""
         hi = math.inf if self.material.thickness is None else self.skin.thickness + self.material.thickness
         x = self._depth(x, self.skin.thickness, hi, "x")
-        return self._temperature("material", x, t, method, tolerance)
+        return self._temperature("material", x, t, method, tolerance, full_output)
 
-    def receptor_temperature(self, t, method: str = "exact", tolerance=None):
+    def receptor_temperature(self, t, method: str = "exact", tolerance=None, full_output: bool = False):
         """Temperature at the thermoreceptors, x = d, degC."""
-        return self._temperature("skin", self.skin.dermis, t, method, tolerance)
+        return self._temperature("skin", self.skin.dermis, t, method, tolerance, full_output)
 
-    def recognizing_profile(self, t, method: str = "exact", tolerance=None):
+    def recognizing_profile(self, t, method: str = "exact", tolerance=None, full_output: bool = False):
         r"""psi(t) = (T_S0 - T_S(d, t)) / (T_S0 - T_M0), Eq. 8's quantity, dimensionless in [0, 1]."""
         if self.skin_initial == self.material_initial:
             raise ModelInputError("Contact: material_temperature: expected a value different from "
                                   f"skin_temperature for psi, got {self.material_initial!r}")
         tt = self._times(t)
-        return self._run("psi", self.skin.dermis, tt, method, tolerance, scale=1.0)
+        out, info = self._run("psi", self.skin.dermis, tt, method, tolerance, scale=1.0)
+        return (out, info) if full_output else out
 
     # -- machinery ------------------------------------------------------------
     def theta(self, quantity: str, x: float, t, method: str = "exact"):
@@ -186,11 +195,12 @@ class Contact:
         tt = self._times(t)
         return self._evaluate(quantity, x, tt, method)
 
-    def _temperature(self, quantity, x, t, method, tolerance):
+    def _temperature(self, quantity, x, t, method, tolerance, full_output=False):
         tt = self._times(t)
         dT = self.skin_initial - self.material_initial
-        th = self._run(quantity, x, tt, method, tolerance, scale=abs(dT))
-        return self.material_initial + dT * th
+        th, info = self._run(quantity, x, tt, method, tolerance, scale=abs(dT))
+        out = self.material_initial + dT * th
+        return (out, info) if full_output else out
 
     def _run(self, quantity, x, tt, method, tolerance, scale):
         if tolerance is not None:
@@ -201,8 +211,7 @@ class Contact:
         else:
             bound = self._bound(method, quantity, x, tt, scale)
         out = self._evaluate(quantity, x, tt, method)
-        self.last_info = MethodInfo(method, bound, quantity)
-        return out
+        return out, MethodInfo(method, bound, quantity)
 
     def _bound(self, method, quantity, x, tt, scale):
         if method == "exact":
@@ -233,19 +242,25 @@ class Contact:
         return self.material.thickness is None
 
     def _evaluate(self, quantity, x, tt, method):
-        if method == "exact":
-            return self._exact(quantity, x, tt)
-        if method in ("paper", "paper-as-printed"):
-            if not self._closed_form_ok(method):
-                raise ModelInputError(
-                    f"Contact: method: {method!r} is a half-space closed form; got a material slab "
-                    f"(thickness={self.material.thickness!r} m); use 'exact' or 'numerical'")
-            from . import paper_forms
-            return paper_forms.evaluate(self._paper_params(), quantity, x, tt,
-                                        printed=(method == "paper-as-printed"))
-        if method == "numerical":
-            return self._numerical(quantity, x, tt)
-        raise ModelInputError(f"Contact: method: expected one of {list(METHODS)}, got {method!r}")
+        try:
+            evaluate = METHODS[method]
+        except (KeyError, TypeError):
+            raise ModelInputError(f"Contact: method: expected one of {list(METHODS)}, "
+                                  f"got {method!r}") from None
+        return evaluate(self, quantity, x, tt)
+
+    def _paper(self, quantity, x, tt, printed=False):
+        """The paper's closed forms (:mod:`stimuli.paper_forms`), corrected or as printed."""
+        method = "paper-as-printed" if printed else "paper"
+        if not self._closed_form_ok(method):
+            raise ModelInputError(
+                f"Contact: method: {method!r} is a half-space closed form; got a material slab "
+                f"(thickness={self.material.thickness!r} m); use 'exact' or 'numerical'")
+        from . import paper_forms
+        return paper_forms.evaluate(self._paper_params(), quantity, x, tt, printed=printed)
+
+    def _paper_as_printed(self, quantity, x, tt):
+        return self._paper(quantity, x, tt, printed=True)
 
     def _paper_params(self):
         from .paper_forms import PaperParameters
@@ -317,6 +332,10 @@ class Contact:
         if not (lo <= v <= hi):
             raise ModelInputError(f"Contact: {name}: expected {lo!r} <= x <= {hi!r} m, got {x!r}")
         return v
+
+
+METHODS.update({"exact": Contact._exact, "paper": Contact._paper,
+                "paper-as-printed": Contact._paper_as_printed, "numerical": Contact._numerical})
 
 
 def _finite(name, value):

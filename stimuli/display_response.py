@@ -27,10 +27,8 @@ from .errors import ModelInputError
 from .finite_volume import (DEFAULT_CELLS, _check_depth, _check_resistance, _uniform_times,
                             solve_surface)
 
-__all__ = ["skin_response", "ResponseInfo", "METHODS"]
+__all__ = ["skin_response", "ResponseInfo", "METHODS", "ROBIN_METHODS"]
 
-#: Methods accepted by :func:`skin_response`.
-METHODS = ("exact", "paper", "paper-as-printed", "numerical")
 _EPS = np.finfo(float).eps
 
 
@@ -142,6 +140,72 @@ def _numerical(skin, t, h, x, cells, epidermis_properties, T0, resistance=0.0):
     r1 = (4.0 * u2 - u1) / 3.0
     r2 = (4.0 * u4 - u2) / 3.0
     return r2, float(np.max(np.abs(r2 - r1)))
+
+
+def _refined(p, tolerance=None, where="skin_response"):
+    """The ``"numerical"`` method: :func:`_numerical` on ``p.cells``, and with a ``tolerance``
+    (K, already checked) the grid doubled (up to 256 cells) until the Richardson estimate is
+    within it.
+
+    The one refinement loop of the finite-volume solver (Dirichlet and Robin surfaces alike).
+    """
+    tol = None if tolerance is None else float(tolerance)
+    c = int(p.cells)
+    while True:
+        u, est = _numerical(p.skin, p.t, p.h, p.x, c, p.epidermis_properties, p.T0,
+                            resistance=p.resistance)
+        if tol is None or est <= tol:
+            return u, ResponseInfo("numerical", est, c)
+        if c >= 256:
+            raise ModelInputError(f"{where}: tolerance: expected a tolerance the finite-volume "
+                                  f"solver meets with <= 4 x 256 cells (estimate {est:.3g} K), "
+                                  f"got {tolerance!r}")
+        c *= 2
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """One :func:`skin_response` call's checked inputs, what every method of :data:`METHODS` takes."""
+
+    skin: object
+    t: np.ndarray
+    dt: float
+    h: np.ndarray           # surface history relative to T0, K
+    T0: float
+    x: float
+    cells: int
+    epidermis_properties: object = None
+    resistance: float = 0.0
+
+    @property
+    def xi(self):
+        return self.x / self.skin.thickness
+
+
+def _by_series(name, form):
+    def method(p, tolerance=None, where="skin_response"):
+        u, bound = form(p.skin, p.t, p.dt, p.h, p.xi)
+        return u, ResponseInfo(name, bound)
+    method.__name__ = method.__qualname__ = f"_{name.replace('-', '_')}_method"
+    return method
+
+
+def _robin_exact_method(p, tolerance=None, where="skin_response"):
+    u, bound = _robin_exact(p.skin, p.t, p.dt, p.h, p.x, p.resistance)
+    return u, ResponseInfo("exact", bound)
+
+
+#: Methods accepted by :func:`skin_response`: name -> ``f(problem, tolerance, where)`` returning
+#: ``(u, ResponseInfo)`` (the ``scipy.integrate`` ``METHODS = {'RK23': RK23, ...}`` shape), for
+#: a surface imposed on the skin (R = 0) ...
+METHODS = {"exact": _by_series("exact", _exact), "paper": _by_series("paper", _paper),
+           "paper-as-printed": _by_series("paper-as-printed", _printed), "numerical": _refined}
+#: ... and through a contact resistance R > 0 (the paper's forms assume R = 0).
+ROBIN_METHODS = {"exact": _robin_exact_method, "numerical": _refined}
+
+
+def _unknown_method(where, method):
+    return ModelInputError(f"{where}: method: expected one of {', '.join(METHODS)}, got {method!r}")
 
 
 def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=None,
@@ -265,15 +329,14 @@ def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=
     t, dt, h, T0 = _history(t, surface_temperature, initial_temperature, where)
     x = _check_depth(skin, depth, where)
     R = _check_resistance(resistance, where)
+    problem = _Problem(skin, t, dt, h, T0, x, cells, epidermis_properties, R)
     if R > 0.0:
-        return _robin(skin, t, dt, h, T0, x, R, method, tolerance, epidermis_properties, cells,
-                      full_output, where)
-    xi = x / skin.thickness
+        return _robin(problem, method, tolerance, full_output, where)
     layered = epidermis_properties is not None
     if tolerance is not None:
         tol = _check_tolerance(tolerance, where)
     elif method not in METHODS:
-        raise ModelInputError(f"{where}: method: expected one of {', '.join(METHODS)}, got {method!r}")
+        raise _unknown_method(where, method)
     if layered and tolerance is None and method != "numerical":
         raise ModelInputError(f"{where}: method: expected 'numerical' for layered skin "
                               f"(epidermis_properties), got {method!r}")
@@ -281,40 +344,17 @@ def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=
     if x <= 0.0 or x >= skin.thickness:
         u = np.zeros_like(h) if x <= 0.0 else h.copy()
         info = ResponseInfo(method if tolerance is None else "exact", 0.0)
+    elif tolerance is not None and layered:
+        u, info = METHODS["numerical"](problem, tolerance, where)
     elif tolerance is not None:
-        if layered:
-            c = int(cells)
-            while True:
-                u, est = _numerical(skin, t, h, x, c, epidermis_properties, T0)
-                if est <= tol:
-                    break
-                if c >= 256:
-                    raise ModelInputError(f"{where}: tolerance: expected a tolerance the finite-volume "
-                                          f"solver meets with <= 4 x 256 cells (estimate {est:.3g} K), "
-                                          f"got {tolerance!r}")
-                c *= 2
-            info = ResponseInfo("numerical", est, c)
-        else:
-            # the paper's form is never cheaper here (same FFT convolution, a kernel of the same
-            # cost, see ``thermocue bench model``), so the cheapest adequate method is "exact"
-            u, bound = _exact(skin, t, dt, h, xi)
-            if bound > tol:
-                raise ModelInputError(f"{where}: tolerance: expected >= {bound:.3g} K (the exact "
-                                      f"method's rounding bound), got {tolerance!r}")
-            info = ResponseInfo("exact", bound)
-    elif method == "exact":
-        u, bound = _exact(skin, t, dt, h, xi)
-        info = ResponseInfo("exact", bound)
-    elif method == "paper":
-        u, bound = _paper(skin, t, dt, h, xi)
-        info = ResponseInfo("paper", bound)
-    elif method == "paper-as-printed":
-        u, bound = _printed(skin, t, dt, h, xi)
-        info = ResponseInfo("paper-as-printed", bound)
+        # the paper's form is never cheaper here (same FFT convolution, a kernel of the same
+        # cost, see ``thermocue bench model``), so the cheapest adequate method is "exact"
+        u, info = METHODS["exact"](problem)
+        if info.error_bound > tol:
+            raise ModelInputError(f"{where}: tolerance: expected >= {info.error_bound:.3g} K (the "
+                                  f"exact method's rounding bound), got {tolerance!r}")
     else:
-        c = int(cells)
-        u, est = _numerical(skin, t, h, x, c, epidermis_properties, T0)
-        info = ResponseInfo("numerical", est, c)
+        u, info = METHODS[method](problem, None, where)
     T = T0 + u
     return (T, info) if full_output else T
 
@@ -330,42 +370,29 @@ def _check_tolerance(tolerance, where: str) -> float:
     return tol
 
 
-def _robin(skin, t, dt, h, T0, x, R, method, tolerance, epidermis_properties, cells, full_output,
-           where):
+def _robin(p, method, tolerance, full_output, where):
     """skin_response through a contact resistance R > 0 (Robin condition at x = L)."""
-    layered = epidermis_properties is not None
+    layered = p.epidermis_properties is not None
+    tol = None
     if tolerance is not None:
         tol = _check_tolerance(tolerance, where)
         method = "numerical" if layered else "exact"
     elif method not in METHODS:
-        raise ModelInputError(f"{where}: method: expected one of {', '.join(METHODS)}, got {method!r}")
-    if method in ("paper", "paper-as-printed"):
-        raise ModelInputError(f"{where}: method: expected 'exact' or 'numerical' with a contact "
-                              f"resistance (the paper's forms assume R = 0), got {method!r}")
+        raise _unknown_method(where, method)
+    if method not in ROBIN_METHODS:
+        raise ModelInputError(f"{where}: method: expected {' or '.join(map(repr, ROBIN_METHODS))} with a "
+                              f"contact resistance (the paper's forms assume R = 0), got {method!r}")
     if layered and method != "numerical":
         raise ModelInputError(f"{where}: method: expected 'numerical' for layered skin "
                               f"(epidermis_properties), got {method!r}")
-    if x <= 0.0:
-        u, info = np.zeros_like(h), ResponseInfo(method, 0.0)
-    elif method == "exact" and not layered:
-        u, bound = _robin_exact(skin, t, dt, h, x, R)
-        if tolerance is not None and bound > tol:
-            raise ModelInputError(f"{where}: tolerance: expected >= {bound:.3g} K (the exact "
-                                  f"method's bound for this history), got {tolerance!r}")
-        info = ResponseInfo("exact", bound)
+    if p.x <= 0.0:
+        u, info = np.zeros_like(p.h), ResponseInfo(method, 0.0)
     else:
-        c = int(cells)
-        while True:
-            u, est = _numerical(skin, t, h, x, c, epidermis_properties, T0, resistance=R)
-            if tolerance is None or est <= tol:
-                break
-            if c >= 256:
-                raise ModelInputError(f"{where}: tolerance: expected a tolerance the finite-volume "
-                                      f"solver meets with <= 4 x 256 cells (estimate {est:.3g} K), "
-                                      f"got {tolerance!r}")
-            c *= 2
-        info = ResponseInfo("numerical", est, c)
-    T = T0 + u
+        u, info = ROBIN_METHODS[method](p, tolerance, where)
+        if method == "exact" and tol is not None and info.error_bound > tol:
+            raise ModelInputError(f"{where}: tolerance: expected >= {info.error_bound:.3g} K (the "
+                                  f"exact method's bound for this history), got {tolerance!r}")
+    T = p.T0 + u
     return (T, info) if full_output else T
 
 

@@ -146,15 +146,15 @@ def _parameters(mat, skin, roughness, resistance, Ts, Tm, duration, rate, resolu
 
 def _interface(contact, times, side, method, tol):
     """One interface side by ``method`` (or ``tolerance``): (T °C, method used, model error K)."""
-    T = np.asarray(contact.interface_temperature(times, side=side, method=method, tolerance=tol),
-                   dtype=float)
-    info = contact.last_info
-    used = info.method if info is not None else str(method)
-    if used == "exact" and info is not None and math.isfinite(info.error_bound):
+    T, info = contact.interface_temperature(times, side=side, method=method, tolerance=tol,
+                                            full_output=True)
+    T = np.asarray(T, dtype=float)
+    used = info.method
+    if used == "exact" and math.isfinite(info.error_bound):
         return T, used, float(info.error_bound)
-    exact = contact.interface_temperature(times, side=side, method="exact")
-    exact_bound = contact.last_info.error_bound if contact.last_info is not None else 0.0
-    return T, used, float(np.max(np.abs(T - exact))) + float(exact_bound)
+    exact, exact_info = contact.interface_temperature(times, side=side, method="exact",
+                                                      full_output=True)
+    return T, used, float(np.max(np.abs(T - exact))) + float(exact_info.error_bound)
 
 
 def _side_temperature(contact, times, side, pad_resistance, method, tol):

@@ -14,7 +14,9 @@ profiles are then gotten".  This package makes that a step of the product:
 (True, True)
 
 Modules: ``model`` (exact forward model of the sensor reading, sensor placement),
-``trace`` (a checked trace), ``fit`` (least squares + identifiability checks),
+``trace`` (a checked trace), ``problem`` (the residuals and Jacobian in the fit's
+coordinates), ``fit`` (least squares + identifiability checks), ``planning`` (the contact as a
+scene of the planner),
 ``intervals`` (profile likelihood, bootstrap), ``synthetic`` (noisy model traces),
 ``session_traces`` (read a session directory), ``report`` (PNG + tables),
 ``writeback`` (the participant record's ``calibration`` field, and

@@ -11,7 +11,9 @@ A fit is *refused* (:class:`CalibrationRefused`, the reasons in words) when the 
 not converge, a parameter ends at a bound, the Jacobian is rank-deficient or ill-conditioned,
 or a profile likelihood does not close within the bounds (a flat profile: the data do not
 determine the parameter).  Intervals: profile likelihood (default) or parametric bootstrap,
-see :mod:`experiments.calibration.intervals`.
+see :mod:`experiments.calibration.intervals`. The problem itself (residuals, Jacobian, bounds) is
+:mod:`experiments.calibration.problem`; the planner's view of the contact
+:mod:`experiments.calibration.planning` (both re-exported here).
 """
 from __future__ import annotations
 
@@ -21,20 +23,18 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from experiments.calibration.errors import CalibrationError, CalibrationRefused
-from experiments.calibration.model import ContactSetup, ResponseGrid
-from experiments.calibration.trace import ContactTrace
+from experiments.calibration.model import ContactSetup
+# the problem and the planning live in their own modules; re-exported here
+from experiments.calibration.planning import (_GEOMETRY_RANK, _plan_calibration_scene,  # noqa: F401
+                                              plan_calibration, planned_setup)
+from experiments.calibration.problem import BOUNDS, SKIN_TEMPERATURE_MODES, FitProblem
 
 __all__ = ["FitProblem", "CalibrationFit", "Parameter", "fit_traces", "BOUNDS", "SKIN_TEMPERATURE_MODES",
            "plan_calibration", "planned_setup",
-           "MAX_CONDITION", "BOUND_TOLERANCE"]
+           "MAX_CONDITION", "BOUND_TOLERANCE", "INTERVALS"]
 
-#: Bounds of the fitted parameters (SI; T_S0 in °C).  L: the participant schema's hard range.
-BOUNDS = {"resistance": (1e-6, 0.1), "skin_thickness": (100e-6, 5e-3), "skin_temperature": (20.0, 42.0)}
-#: How the initial skin temperature enters the fit.
-SKIN_TEMPERATURE_MODES = ("none", "shared", "per-trace")
 #: Condition number of the scaled Jacobian above which a fit is refused (not identifiable).
 MAX_CONDITION = 1e6
 #: A log-parameter within this distance of its bound "is at the bound".
@@ -68,169 +68,6 @@ class Parameter:
     sample: str | None = None
     roughness_um: float | None = None
     roughness_id: int | None = None
-
-
-class FitProblem:
-    """The residuals and Jacobian of a set of traces, in the fit's coordinates.
-
-    Coordinates ``p``: ``log R_k`` for each sample (in order of first appearance),
-    ``log L``, then ``T_S0`` (°C): one if ``fit_skin_temperature="shared"``, one per trace if
-    ``"per-trace"``.
-
-    Parameters
-    ----------
-    traces : sequence of ContactTrace
-    setup : ContactSetup
-        The contact as stated (reported with the fit).
-    fit_skin_temperature : {"none", "shared", "per-trace"} or bool
-        Fit the initial skin temperature instead of using the traces' values (``True`` is
-        ``"shared"``, ``False`` is ``"none"``).
-    model : stimuli.scene.Model, optional
-        The scene planner's model of this contact (:func:`plan_calibration`): the readings are
-        computed with ``setup`` reduced to it. None: the exact model of ``setup``.
-    """
-
-    def __init__(self, traces, setup: ContactSetup, fit_skin_temperature="none", model=None):
-        traces = list(traces)
-        if not traces:
-            raise CalibrationError("calibration: traces: expected at least one contact trace, got none")
-        for tr in traces:
-            if not isinstance(tr, ContactTrace):
-                raise CalibrationError(f"calibration: traces: expected ContactTrace objects, got {tr!r}")
-        self.traces = traces
-        self.setup = setup
-        #: the planner's model (:class:`stimuli.scene.Model`) the grids evaluate, or None (exact
-        #: model of ``setup``); ``forward_setup`` is ``setup`` reduced to it (:func:`planned_setup`)
-        self.model = model
-        self.forward_setup = setup if model is None else planned_setup(setup, model)
-        mode = {True: "shared", False: "none", None: "none"}.get(fit_skin_temperature, fit_skin_temperature)
-        if mode not in SKIN_TEMPERATURE_MODES:
-            raise CalibrationError(f"calibration: fit_skin_temperature: expected one of "
-                                   f"{SKIN_TEMPERATURE_MODES}, got {fit_skin_temperature!r}")
-        self.skin_temperature_mode = mode
-        self.fit_skin_temperature = mode != "none"
-        self.n_ts0 = {"none": 0, "shared": 1, "per-trace": len(traces)}[mode]
-        self.samples: list[str] = []
-        for tr in traces:
-            if tr.sample not in self.samples:
-                self.samples.append(tr.sample)
-        self.k = len(self.samples)
-        self.index = [self.samples.index(tr.sample) for tr in traces]
-        ts0_names = {"none": [], "shared": ["T_S0"],
-                     "per-trace": [f"T_S0[{i + 1}]" for i in range(len(traces))]}[mode]
-        self.names = [f"R[{s}]" for s in self.samples] + ["L"] + ts0_names
-        self.kinds = ["resistance"] * self.k + ["skin_thickness"] + ["skin_temperature"] * self.n_ts0
-        self.n_params = len(self.names)
-        self.n_obs = sum(tr.n for tr in traces)
-        self.y = np.concatenate([tr.temperature_C for tr in traces])
-        lo, hi = [], []
-        for kind in self.kinds:
-            a, b = BOUNDS[kind]
-            if kind == "skin_temperature":
-                a = max(a, max(tr.material_temperature_C for tr in traces) + 0.5)
-                lo.append(a), hi.append(b)
-            else:
-                lo.append(math.log(a)), hi.append(math.log(b))
-        self.lower, self.upper = np.array(lo), np.array(hi)
-        self.n_evaluations = 0
-        grids: dict = {}
-        self.grids = []
-        for tr in traces:           # traces sampled at the same times share one grid
-            key = (tr.n, tr.time_s.tobytes())
-            if key not in grids:
-                grids[key] = ResponseGrid(tr.time_s, self.forward_setup)
-            self.grids.append(grids[key])
-
-    # -- coordinates -------------------------------------------------------------------
-    def to_natural(self, p) -> np.ndarray:
-        """SI values (°C for T_S0) of the coordinates ``p``."""
-        p = np.asarray(p, dtype=float)
-        out = np.exp(np.minimum(p, 700.0))
-        if self.n_ts0:
-            out[self.k + 1:] = p[self.k + 1:]
-        return out
-
-    def to_coordinates(self, values) -> np.ndarray:
-        v = np.asarray(values, dtype=float)
-        out = np.log(np.maximum(v, 1e-300))
-        if self.n_ts0:
-            out[self.k + 1:] = v[self.k + 1:]
-        return out
-
-    # -- model -----------------------------------------------------------------------
-    def predict(self, p, jacobian: bool = False):
-        """Model readings (°C) for all traces, concatenated; optionally the Jacobian."""
-        p = np.asarray(p, dtype=float)
-        nat = self.to_natural(p)
-        L = nat[self.k]
-        out = np.empty(self.n_obs)
-        jac = np.zeros((self.n_obs, self.n_params)) if jacobian else None
-        i0 = 0
-        self.n_evaluations += 1
-        for j, (tr, k, grid) in enumerate(zip(self.traces, self.index, self.grids)):
-            i1 = i0 + tr.n
-            R = nat[k]
-            col = None if not self.n_ts0 else self.k + 1 + (j if self.n_ts0 > 1 else 0)
-            ts0 = tr.skin_temperature_C if col is None else nat[col]
-            dT = ts0 - tr.material_temperature_C
-            if jacobian:
-                th, d_r, d_l = grid.response(R, L, derivatives=True)
-                jac[i0:i1, k] = dT * R * d_r
-                jac[i0:i1, self.k] = dT * L * d_l
-                if col is not None:
-                    jac[i0:i1, col] = th
-            else:
-                th = grid.response(R, L)
-            out[i0:i1] = tr.material_temperature_C + dT * th
-            i0 = i1
-        return (out, jac) if jacobian else out
-
-    def residuals(self, p) -> np.ndarray:
-        return self.predict(p) - self.y
-
-    def jacobian(self, p) -> np.ndarray:
-        return self.predict(p, jacobian=True)[1]
-
-    def solve(self, p0, fixed: dict | None = None, max_nfev: int = 200):
-        """Least squares from ``p0``; ``fixed`` maps coordinate index -> value held fixed.
-
-        Returns
-        -------
-        scipy.optimize.OptimizeResult
-            With ``x`` the full coordinate vector (fixed entries included) and ``cost`` =
-            SSR / 2.
-        """
-        fixed = dict(fixed or {})
-        free = [i for i in range(self.n_params) if i not in fixed]
-        full = np.array(p0, dtype=float)
-        for i, v in fixed.items():
-            full[i] = v
-
-        def expand(q):
-            x = full.copy()
-            x[free] = q
-            return x
-
-        cache = {}
-
-        def fun(q):
-            key = q.tobytes()
-            if key not in cache:
-                cache.clear()
-                y, j = self.predict(expand(q), jacobian=True)
-                cache[key] = (y - self.y, j[:, free])
-            return cache[key][0]
-
-        def jac(q):
-            fun(q)
-            return cache[q.tobytes()][1]
-
-        q0 = np.clip(full[free], self.lower[free] + 1e-9, self.upper[free] - 1e-9)
-        res = least_squares(fun, q0, jac=jac, bounds=(self.lower[free], self.upper[free]),
-                            method="trf", x_scale="jac", xtol=1e-10, ftol=1e-12, gtol=1e-10,
-                            max_nfev=max_nfev)
-        res.x = expand(res.x)
-        return res
 
 
 @dataclass
@@ -419,13 +256,30 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
                            skin_temperature_sd_C=skin_temperature_sd_C, plan_model=plan_model)
 
 
+def _profile(problem, x, *, ssr, se, level, **_):
+    """Profile-likelihood intervals of R_k, L and a shared T_S0 (per-trace T_S0: none)."""
+    from experiments.calibration.intervals import profile_intervals
+    which = range(problem.k + 1 + (problem.n_ts0 if problem.n_ts0 == 1 else 0))
+    return profile_intervals(problem, x, ssr, se, level, which=which)
+
+
+def _bootstrap(problem, x, *, sigma, level, samples, seed, **_):
+    """Parametric-bootstrap intervals (``samples`` refits)."""
+    from experiments.calibration.intervals import bootstrap_intervals
+    return bootstrap_intervals(problem, x, sigma, level, samples, seed)
+
+
+#: The interval methods ``interval=`` accepts: name -> ``f(problem, x, *, ssr, sigma, se, level,
+#: samples, seed) -> (lows, highs, flat)`` (the ``solve_ivp`` ``METHODS`` shape).
+INTERVALS = {"profile": _profile, "bootstrap": _bootstrap}
+
+
 def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
                 bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None, plan_model=True,
                 _replanned=None):
-    from experiments.calibration.intervals import bootstrap_intervals, profile_intervals
-
-    if interval not in ("profile", "bootstrap"):
-        raise CalibrationError(f"calibration: interval: expected 'profile' or 'bootstrap', got {interval!r}")
+    if interval not in INTERVALS:
+        raise CalibrationError(f"calibration: interval: expected "
+                               f"{' or '.join(map(repr, INTERVALS))}, got {interval!r}")
     if not 0.5 <= level < 1.0:
         raise CalibrationError(f"calibration: level: expected a probability in [0.5, 1), got {level!r}")
     setup = setup or ContactSetup()
@@ -460,11 +314,8 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     J = problem.jacobian(best.x)
     cov = sigma ** 2 * np.linalg.inv(J.T @ J)
     se = np.sqrt(np.diag(cov))
-    if interval == "profile":
-        which = range(problem.k + 1 + (problem.n_ts0 if problem.n_ts0 == 1 else 0))
-        lows, highs, flat = profile_intervals(problem, best.x, ssr, se, level, which=which)
-    else:
-        lows, highs, flat = bootstrap_intervals(problem, best.x, sigma, level, bootstrap_samples, seed)
+    lows, highs, flat = INTERVALS[interval](problem, best.x, ssr=ssr, sigma=sigma, se=se,
+                                            level=level, samples=bootstrap_samples, seed=seed)
     if flat:
         diag["flat"] = flat
         raise CalibrationRefused("calibration refused: " + "; ".join(flat), flat, diag)
@@ -545,74 +396,3 @@ def _check_misspecification(fit, skin_temperature_sd_C):
                                 f"intervals do not include the model's own uncertainty")
     fit.diagnostics["misspecification"] = shifts
     fit.diagnostics["plan"] = _plan_calibration_scene(fit)
-
-
-_GEOMETRY_RANK = {"half-space": 0, "slab": 1, "slab-on-support": 2}
-
-
-def planned_setup(setup: ContactSetup, model) -> ContactSetup:
-    """``setup`` reduced to the scene planner's ``model`` (:class:`stimuli.scene.Model`).
-
-    A calibration scene states homogeneous skin, no perfusion, no sensor lag and the sample as a
-    half-space or an insulated slab, so the planner's only simplifications are the slab (to a
-    half-space) and the exact half-space (to the printed Eq. 7). The half-space is evaluated by
-    :class:`ResponseGrid`'s exact transform in both cases: the fit needs dθ/dR and dθ/dL, which
-    Eq. 7's printed form does not give, and the exact form is the one Eq. 7 was checked against.
-    """
-    from dataclasses import replace as _replace
-    if model.layered or model.perfusion or model.sensor or model.geometry == "slab-on-support":
-        raise CalibrationError(f"calibration: model: the calibration's forward model has homogeneous "
-                               f"skin on a half-space or an insulated slab, got {model.describe()!r}")
-    d = setup.material.thickness
-    if model.geometry == "half-space" and d is not None:
-        return _replace(setup, material=setup.material.with_thickness(None))
-    if model.geometry == "slab" and d is None:
-        raise CalibrationError("calibration: model: a slab model for a half-space sample")
-    return setup
-
-
-def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickness: float,
-                     tolerance_K: float):
-    """Plan the calibration's contact scene (issue 12): the longest trace's times, its temperatures,
-    ``resistance`` and ``skin_thickness``, the sensor's side as the quantity, ``tolerance_K``.
-
-    Returns
-    -------
-    plan : stimuli.planner.Plan or None
-        None for a lumped sensor (not a scene quantity) or a scene the planner refuses.
-    record : dict
-        :meth:`Plan.to_dict`, or ``{"note": why not planned}``.
-    """
-    import warnings as _warnings
-
-    from stimuli import ModelInputError
-    from stimuli.planner import plan
-    from stimuli.scene import Scene
-    side = setup.sensor.side
-    if side == "lumped":
-        return None, {"note": "lumped sensor: not a scene quantity; the fit's exact model"}
-    tr = max(traces, key=lambda x: x.duration_s)
-    mat = setup.material
-    try:
-        with _warnings.catch_warnings():
-            _warnings.simplefilter("ignore")            # range warnings belong to the traces' loader
-            scene = Scene(quantity=f"interface_{side}", duration_s=round(tr.duration_s, 6),
-                          rate_Hz=round(tr.n / tr.duration_s, 6), tolerance_K=max(tolerance_K, 1e-6),
-                          material=mat.with_thickness(None), resistance=float(resistance),
-                          skin_thickness_m=float(skin_thickness),
-                          skin_temperature_C=tr.skin_temperature_C,
-                          material_temperature_C=tr.material_temperature_C,
-                          geometry="half-space" if mat.thickness is None else "slab",
-                          sample_thickness_m=mat.thickness or 3e-3)
-            p = plan(scene)
-            return p, p.to_dict()
-    except ModelInputError as exc:
-        return None, {"note": f"not planned: {exc}"}
-
-
-def _plan_calibration_scene(fit):
-    """The scene planner's view of the calibration's contact at the fitted values, at the traces' own
-    noise level (tolerance = the residual SD), for a massless sensor."""
-    prob = fit.problem
-    return plan_calibration(prob.traces, prob.setup, fit.resistances()[0].value,
-                            fit.skin_thickness.value, fit.sigma_C)[1]

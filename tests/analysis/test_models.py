@@ -105,3 +105,24 @@ def test_bayes_participant_sd_tracks_participant_differences(study):
     # mean-field VB shrinks and its intervals are too narrow (other seeds give 1.34, 1.46), so
     # only the magnitude is checked: well away from 0 and not above the truth by much
     assert 0.6 < sds[1.5][0] < 2.0 and sds[0.0][0] < 0.4
+
+
+def test_fit_trouble_is_classified_by_statsmodels_warning_class_not_by_message():
+    # the fallback ladder rejects a fit on statsmodels' warning classes; the old test on the
+    # message text ("converge", "singular", "separation") took the first of these as trouble
+    # and missed the second
+    from statsmodels.tools import sm_exceptions as sme
+
+    from analysis.models import _fit_trouble
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.warn("the display did not converge on its set point", UserWarning)
+        warnings.warn("Unable to estimate GEE parameters.", sme.ConvergenceWarning)
+        warnings.warn("Perfect separation or prediction detected", sme.PerfectSeparationWarning)
+        warnings.warn("Iteration limit reached prior to convergence", sme.IterationLimitWarning)
+        warnings.warn("Inverting hessian failed", sme.HessianInversionWarning)
+        warnings.warn("Encountered singularity in regularized GEE update", sme.SingularMatrixWarning)
+        warnings.warn("The logit link is not recommended", sme.DomainWarning)
+        warnings.warn("overflow encountered in exp", RuntimeWarning)
+    assert [_fit_trouble(w.category) for w in caught] == [False, True, True, True, True, True,
+                                                          False, False]

@@ -185,3 +185,10 @@ def test_cli_power_bad_analysis_folder_and_sizes_exit_2(tmp_path, capsys):
     assert main(["power", "--n-per-group", "13:17:4", "--out", str(tmp_path / "o")]) == 2
     assert "A:B pairs" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_power_tests_are_one_table_and_the_error_names_them():
+    from analysis.power import TESTS
+    assert list(TESTS) == ["gee", "cluster-t"]
+    with pytest.raises(ValueError, match="test: expected 'gee' or 'cluster-t', got 'anova'"):
+        power_curve(_cells(0.2), (4,), simulations=2, test="anova")

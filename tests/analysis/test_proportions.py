@@ -28,6 +28,24 @@ def test_wilson_matches_the_score_equation_roots(k, n, level):
     assert float(high) == pytest.approx(min(ref_high, 1.0), abs=1e-12)
 
 
+
+@pytest.mark.parametrize("n", [1, 3, 24, 45, 400])
+@pytest.mark.parametrize("level", [0.95, 0.8])
+def test_wilson_is_statsmodels_proportion_confint_on_a_grid(n, level):
+    # one Wilson interval in the package: statsmodels' own, bit for bit, on every k = 0..n;
+    # only k = 0 and k = n are set to exactly 0 and 1 (statsmodels leaves rounding there)
+    from statsmodels.stats.proportion import proportion_confint
+    import analysis.claims
+    k = np.arange(n + 1)
+    low, high = wilson_interval(k, n, level)
+    ref_low, ref_high = proportion_confint(k, n, alpha=1 - level, method="wilson")
+    np.testing.assert_array_equal(low[1:], ref_low[1:])
+    np.testing.assert_array_equal(high[:-1], ref_high[:-1])
+    assert low[0] == 0.0 and high[-1] == 1.0
+    assert abs(ref_low[0]) < 1e-15 and abs(ref_high[-1] - 1.0) < 1e-15
+    assert analysis.claims.wilson_interval is wilson_interval     # no second copy in claims
+
+
 def _table(per_participant):
     """per_participant: {pid: (group, mode, roughness_id, [correct...])} lists -> trials."""
     rows = []
@@ -92,3 +110,16 @@ def test_participant_summary_by_hand():
     assert s.loc[("A1", "simulated"), "proportion_correct"] == 1.0
     assert s.loc[("B1", "real"), "median_rt_s"] == 2.0
     assert s.loc[("B1", "real"), "skin_thickness_um"] == 1000.0
+
+
+def test_bootstrap_methods_are_one_table_and_the_error_names_them():
+    from analysis.proportions import BOOTSTRAP_METHODS
+    assert list(BOOTSTRAP_METHODS) == ["wilson-deff", "studentized", "percentile"]
+    trials = _table({"P1": [("A", "real", 1, [1, 0, 1])], "P2": [("A", "real", 1, [0, 0, 1])]})
+    with pytest.raises(ValueError, match="method: expected 'wilson-deff', 'studentized' or "
+                                         "'percentile', got 'bca'"):
+        cluster_bootstrap(trials, method="bca")
+    for name in BOOTSTRAP_METHODS:                     # every entry runs through the public call
+        out = cluster_bootstrap(trials, n_boot=50, method=name)
+        assert ((out["boot_low"] >= 0) & (out["boot_low"] <= out["boot_high"])
+                & (out["boot_high"] <= 1)).all()

@@ -153,3 +153,15 @@ def test_cli_bayes_is_opt_in_and_the_mixed_model_can_be_skipped(study, tmp_path)
                  "--no-mixed"]) == 0
     report = (tmp_path / "b" / "report.md").read_text()
     assert not (tmp_path / "b" / "bayes.csv").exists() and "## Mixed logit" not in report
+
+
+def test_holm_is_statsmodels_multipletests_with_nan_kept():
+    from statsmodels.stats.multitest import multipletests
+
+    from analysis.inference import holm
+    p = np.array([0.01, np.nan, 0.04, 0.03, 0.5, 0.03, np.nan, 0.2])
+    out = holm(p)
+    ok = np.isfinite(p)
+    np.testing.assert_array_equal(out[ok], multipletests(p[ok], method="holm")[1])
+    assert np.isnan(out[~ok]).all()
+    assert np.isnan(holm([np.nan, np.nan])).all()

@@ -74,11 +74,11 @@ def test_slab_and_half_space_agree_early_and_differ_late():
 def test_tolerance_picks_cheapest_and_reports():
     c = Contact(Skin(650e-6), STEEL, 0.0, 36.0, 20.0)
     t = np.linspace(0, 20, 201)
-    c.interface_temperature(t, tolerance=2.0)
-    assert c.last_info.method == "paper-as-printed"
-    assert 1.0 < c.last_info.error_bound <= 2.0
-    c.interface_temperature(t, tolerance=1e-6)
-    assert c.last_info.method == "exact"
+    _, info = c.interface_temperature(t, tolerance=2.0, full_output=True)
+    assert info.method == "paper-as-printed"
+    assert 1.0 < info.error_bound <= 2.0
+    _, info = c.interface_temperature(t, tolerance=1e-6, full_output=True)
+    assert info.method == "exact"
     with pytest.raises(ModelInputError, match="tolerance"):
         c.interface_temperature(t, tolerance=1e-14)
 
@@ -133,3 +133,46 @@ def test_bad_calls():
         c.interface_temperature([1.0], side="left")
     with pytest.raises(ModelInputError, match="method"):
         c.interface_temperature([1.0], method="magic")
+
+
+def test_unknown_method_error_names_every_valid_choice():
+    c = Contact(Skin(650e-6), STEEL, 0.0, 35.0, 24.0)
+    with pytest.raises(ModelInputError) as err:
+        c.receptor_temperature([1.0], method="magic")
+    for name in ("exact", "paper", "paper-as-printed", "numerical"):
+        assert repr(name) in str(err.value)
+
+
+def test_method_table_maps_names_to_evaluators():
+    # the solve_ivp shape: one dict name -> implementation, the same the evaluators dispatch on
+    from stimuli import METHODS
+    assert list(METHODS) == ["exact", "paper", "paper-as-printed", "numerical"]
+    assert all(callable(f) for f in METHODS.values())
+    c = Contact(Skin(650e-6), STEEL, 6.5e-4, 35.0, 24.0)
+    t = np.array([0.5, 5.0])
+    for name, evaluate in METHODS.items():
+        np.testing.assert_array_equal(evaluate(c, "interface_material", 650e-6, t),
+                                      c.theta("interface_material", 650e-6, t, method=name))
+
+
+@pytest.mark.parametrize("call", [
+    lambda c, **kw: c.interface_temperature([1.0, 20.0], side="skin", **kw),
+    lambda c, **kw: c.skin_temperature(3e-4, [1.0, 20.0], **kw),
+    lambda c, **kw: c.material_temperature(1e-3, [1.0, 20.0], **kw),
+    lambda c, **kw: c.receptor_temperature([1.0, 20.0], **kw),
+    lambda c, **kw: c.recognizing_profile([1.0, 20.0], **kw),
+])
+def test_full_output_returns_the_values_and_their_method_info(call):
+    from stimuli import MethodInfo
+    c = Contact(Skin(650e-6), STEEL, 0.0, 35.0, 24.0)
+    plain = call(c, tolerance=2.0)
+    assert isinstance(plain, np.ndarray)               # without full_output: values only, as before
+    values, info = call(c, tolerance=2.0, full_output=True)
+    np.testing.assert_array_equal(values, plain)
+    assert isinstance(info, MethodInfo)
+    assert info.method in ("paper-as-printed", "exact") and info.error_bound <= 2.0
+    _, exact = call(c, method="exact", full_output=True)
+    assert exact.method == "exact" and exact.error_bound > 0
+    _, printed = call(c, method="paper-as-printed", full_output=True)
+    assert printed.method == "paper-as-printed" and np.isnan(printed.error_bound)
+    assert not hasattr(c, "last_info")                  # no mutable side channel left

@@ -308,3 +308,48 @@ def test_resistance_layered_numerical():
     T_tol, info = skin_response(skin, t, g, tolerance=1e-5, epidermis_properties=Layer(0.5, 1200.0, 3340.0),
                                 resistance=6.5e-4, full_output=True)
     assert info.method == "numerical" and info.error_bound <= 1e-5
+
+
+@pytest.mark.parametrize("resistance", [None, 1e-4])
+def test_unknown_method_error_names_every_valid_choice(resistance):
+    from stimuli.display_response import METHODS
+    t = np.array([0.0, 0.1, 0.2])
+    with pytest.raises(ModelInputError) as err:
+        skin_response(Skin(1e-3), t, np.full(3, 30.0), method="magic", resistance=resistance)
+    assert list(METHODS) == ["exact", "paper", "paper-as-printed", "numerical"]
+    assert "expected one of exact, paper, paper-as-printed, numerical, got 'magic'" in str(err.value)
+
+
+def test_method_tables_dispatch_to_the_same_results():
+    # the solve_ivp shape: one dict name -> implementation per boundary condition; calling a
+    # table entry on a problem gives what skin_response(method=name) gives
+    from stimuli.display_response import METHODS, ROBIN_METHODS, _Problem
+    skin = Skin(650e-6)
+    t = np.arange(201) * 1e-2
+    g = 35.0 + _history(t)
+    h = g - 35.0
+    for table, R in ((METHODS, 0.0), (ROBIN_METHODS, 6.5e-4)):
+        for name, method in table.items():
+            u, info = method(_Problem(skin, t, 1e-2, h, 35.0, skin.dermis, 8, None, R))
+            T, ref = skin_response(skin, t, g, method=name, resistance=R or None, cells=8,
+                                   full_output=True)
+            np.testing.assert_array_equal(35.0 + u, T)
+            assert info == ref and info.method == name
+    assert list(ROBIN_METHODS) == ["exact", "numerical"]
+
+
+@pytest.mark.parametrize("resistance", [None, 6.5e-4])
+def test_refinement_doubles_cells_until_the_estimate_is_within_tolerance(resistance):
+    # one refinement loop for both boundary conditions: the grid is doubled from `cells`
+    skin = Skin(650e-6)
+    t = np.arange(1001) * 1e-2
+    g = 35.0 + _history(t)
+    epi = Layer(0.5, 1200.0, 3340.0)
+    _, coarse = skin_response(skin, t, g, method="numerical", epidermis_properties=epi, cells=4,
+                              resistance=resistance, full_output=True)
+    _, fine = skin_response(skin, t, g, tolerance=coarse.error_bound / 4, epidermis_properties=epi,
+                            cells=4, resistance=resistance, full_output=True)
+    assert coarse.cells == 4 and fine.cells > 4 and fine.error_bound <= coarse.error_bound / 4
+    with pytest.raises(ModelInputError, match="tolerance: expected a tolerance the finite-volume"):
+        skin_response(skin, t, g, tolerance=1e-30, epidermis_properties=epi, cells=128,
+                      resistance=resistance)

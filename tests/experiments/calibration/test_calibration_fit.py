@@ -145,3 +145,15 @@ def test_refuses_rank_deficient_jacobian():
     with pytest.raises(CalibrationRefused, match="the Jacobian has rank 2 < 3") as err:
         fit_traces(traces, setup)
     assert err.value.diagnostics["jacobian_rank"] == 2
+
+
+def test_interval_methods_are_one_table_and_the_error_names_them():
+    # the solve_ivp shape: interval= picks an entry of INTERVALS; anything else is refused with
+    # the table's names
+    from experiments.calibration import CalibrationError
+    from experiments.calibration.fit import INTERVALS
+    assert list(INTERVALS) == ["profile", "bootstrap"]
+    traces = synthetic_traces(R_TRUE[:1], L_TRUE, duration_s=5.0, rng=np.random.default_rng(7))
+    with pytest.raises(CalibrationError,
+                       match="interval: expected 'profile' or 'bootstrap', got 'wald'"):
+        fit_traces(traces, interval="wald")

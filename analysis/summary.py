@@ -1,0 +1,158 @@
+"""The report's plain-language summary: a few sentences a reader without statistics can follow."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .load import TrialLog
+from .models import ModelFit
+
+__all__ = ["plain_summary"]
+
+
+def _pct(p: float) -> str:
+    return f"{100 * p:.0f} %"
+
+
+def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFrame,
+                  gee: ModelFit, bayes: ModelFit, contrasts: pd.DataFrame,
+                  glmm: ModelFit | None = None, tests: pd.DataFrame | None = None) -> str:
+    """A few sentences a reader without statistics can follow.
+
+    Parameters
+    ----------
+    log, proportions, confusion, gee, bayes, contrasts, glmm, tests
+        As computed by :func:`analyze`. Only Holm-adjusted per-sample results are
+        named as significant.
+
+    Returns
+    -------
+    str
+        Markdown paragraphs.
+    """
+    a = log.analysable
+    people = a.drop_duplicates("participant")["group"].value_counts()
+    excluded = int((~log.trials["included"]).sum())
+    out = [f"{a['participant'].nunique()} participants (group A: {int(people.get('A', 0))}, "
+           f"group B: {int(people.get('B', 0))}) gave {len(a)} analysable answers; {excluded} "
+           f"logged trials were left out (familiarisation, faults, aborted or superseded attempts)."]
+    for mode in ("real", "simulated"):
+        sel = a[a["mode"] == mode]
+        if sel.empty:
+            continue
+        rates = sel.groupby("group")["correct"].mean()
+        text = ", ".join(f"group {g} {_pct(r)}" for g, r in rates.items())
+        line = f"With {mode} samples the answers were correct in {text} of trials (chance: 25 %)."
+        row = contrasts[(contrasts["model"] == "gee") & (contrasts["mode"] == mode)
+                        & (contrasts["roughness_id"] == 0)]
+        if not row.empty:
+            r = row.iloc[0]
+            verdict = ("a difference the data support (the interval excludes no difference)"
+                       if r["ci_low"] > 0 or r["ci_high"] < 0 else
+                       "a difference the data cannot tell apart from none")
+            line += (f" Averaged over the four samples, the GEE puts group A's odds of a correct "
+                     f"answer at {r['odds_ratio_A_vs_B']:.2f} times group B's (95 % CI "
+                     f"{np.exp(r['ci_low']):.2f}-{np.exp(r['ci_high']):.2f}, p = {r['p_value']:.3f}): "
+                     f"{verdict}.")
+        out.append(line)
+    gap = {}
+    for mode in ("real", "simulated"):
+        rates = a[a["mode"] == mode].groupby("group")["correct"].mean()
+        if {"A", "B"} <= set(rates.index):
+            gap[mode] = 100 * (rates["A"] - rates["B"])
+    if len(gap) == 2:
+        out.append(f"The paper (Figure 9, §3.2) reports group A above group B with real samples "
+                   f"and a smaller difference with simulated ones; here group A minus group B is "
+                   f"{gap['real']:+.1f} percentage points with real samples and "
+                   f"{gap['simulated']:+.1f} with simulated ones.")
+    if not proportions.empty:
+        by_r = a.groupby("roughness_id")["correct"].mean()
+        out.append(f"Pooled over groups and modes, the proportion correct was "
+                   + ", ".join(f"{_pct(v)} for {r}#" for r, v in by_r.items()) + ".")
+    below = proportions[proportions["boot_high"] < 0.25]
+    if not below.empty:
+        out.append("Below chance (whole bootstrap interval under 0.25): " + ", ".join(
+            f"group {r.group} {r.mode} {r.roughness_id}# ({_pct(r.proportion_correct)})"
+            for r in below.itertuples()) + "; these samples are systematically named as another "
+            "one (see the confusion matrices).")
+    if not confusion.empty:
+        worst_by_mode = []
+        for mode in ("real", "simulated"):
+            conf = confusion[confusion["mode"] == mode]
+            if conf.empty:
+                continue
+            diag = conf[conf["stimulus_roughness_id"] == conf["response_id"]]
+            worst = diag.groupby("stimulus_roughness_id")["n_trials"].sum() / \
+                conf.groupby("stimulus_roughness_id")["n_trials"].sum()
+            worst_by_mode.append(f"with {mode} samples {int(worst.idxmin())}# "
+                                 f"(named correctly in {_pct(worst.min())} of its trials)")
+        out.append("The sample most often confused with the others was, "
+                   + "; ".join(worst_by_mode) + ".")
+    out += _tests_summary(contrasts, tests)
+    if glmm is not None and glmm.formula is not None:
+        t = glmm.table.set_index("term")
+        sd, icc = t.loc["participant_sd"], t.loc["icc_latent"]
+        out.append(f"The mixed logit (maximum likelihood, participant random intercepts) puts the "
+                   f"spread between participants at SD {sd['log_odds']:.2f} on the log-odds scale "
+                   f"(95 % profile interval {sd['ci_low']:.2f}-{sd['ci_high']:.2f}; latent-scale "
+                   f"ICC {icc['log_odds']:.2f}, {icc['ci_low']:.2f}-{icc['ci_high']:.2f}).")
+    notes = gee.notes + (glmm.notes if glmm is not None else []) + bayes.notes
+    if notes:
+        out.append("Model notes:\n" + "\n".join(f"- {n}" for n in notes))
+    return "\n\n".join(out)
+
+
+def _tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[str]:
+    """Primary test, omnibus, Holm-adjusted per-sample results, interaction: in words."""
+    out = []
+    if tests is None or tests.empty:
+        return out
+    by_role = {role: sel for role, sel in tests.groupby("role")}
+    if "primary" in by_role:
+        r = by_role["primary"].iloc[0]
+        out.append(f"Primary test (the paper's claim: group A vs B with real samples, averaged "
+                   f"over the four samples; GEE Wald test): log odds ratio {r.estimate:+.2f} "
+                   f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), p = {r.p_value:.3f}; "
+                   f"difference of mean proportions {100 * r.difference:+.1f} percentage points "
+                   f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
+    if "omnibus" in by_role:
+        r = by_role["omnibus"].iloc[0]
+        out.append(f"Omnibus test of any group difference on any sample ({r.test.split(': ')[1]}"
+                   f", small-sample F = {r.statistic:.2f}): p = {r.p_value:.3f}.")
+    per = by_role.get("per-sample")
+    if per is not None and not per.empty:
+        missing = per[per["p_value"].isna()]
+        if not missing.empty:
+            out.append("No group comparison is possible for " + ", ".join(missing["compares"].map(
+                lambda c: c.split(",")[1].strip() if "," in c else c))
+                + " (a group answered it all right or all wrong).")
+        sig = per[per["p_holm"] < 0.05]
+        n_tests = int(per["p_value"].notna().sum())
+        omnibus = by_role.get("omnibus")
+        gate = None if omnibus is None else float(omnibus["p_value"].iloc[0])
+        if gate is not None and not gate < 0.05:
+            out.append(f"The omnibus test does not reject (p = {gate:.3f}), so no single sample "
+                       f"is claimed to differ between the groups (Holm-adjusted per-sample "
+                       f"p-values are in tests.csv; the smallest is {per['p_holm'].min():.3f}).")
+        elif sig.empty:
+            out.append(f"After Holm's adjustment for the {n_tests} per-sample comparisons, no "
+                       f"single sample shows a group difference (all adjusted p >= 0.05).")
+        else:
+            out.append(f"After Holm's adjustment for the {n_tests} per-sample comparisons, the "
+                       f"group difference remains for: " + "; ".join(
+                           f"{r.compares.split(':')[0]} (adjusted p = {r.p_holm:.3f})"
+                           for r in sig.itertuples()) + ".")
+        if (per["basis"].astype(str).str.startswith("per-sample")).any():
+            out.append("Per-sample group comparisons come from a GEE of each sample's trials "
+                       "alone (the full model could not be fitted; see the model notes).")
+    inter = by_role.get("interaction")
+    if inter is not None and not inter.empty:
+        r = inter[inter["model"] == "gee"].iloc[0] if (inter["model"] == "gee").any() \
+            else inter.iloc[0]
+        if np.isfinite(r.estimate):
+            out.append(f"Group x mode interaction (is the A-B gap different with real and simulated "
+                       f"samples?): difference of the two A-B log odds ratios {r.estimate:+.2f} "
+                       f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), p = {r.p_value:.3f}; as "
+                       f"proportions, {100 * r.difference:+.1f} percentage points "
+                       f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
+    return out
