@@ -7,7 +7,9 @@ the display itself, opened so that bad input (exit 2) is told from an unreachabl
 """
 from __future__ import annotations
 
+import errno
 import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -281,8 +283,6 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
     DisplayError
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
-    import errno
-
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware import open_display
 
@@ -320,7 +320,6 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
 
 def _is_terminal(path: str) -> bool:
     """Whether ``path`` is a terminal (a serial port or a pty); True when it cannot be told."""
-    import stat
     try:
         mode = os.stat(path).st_mode
     except OSError:

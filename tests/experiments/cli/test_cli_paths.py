@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+from importlib.metadata import version
 
 import pytest
 
@@ -97,7 +98,6 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0
-    from importlib.metadata import version
     assert capsys.readouterr().out == f"thermocue {version('thermocue')}\n"
     assert shutil.which("thermocue") is None or subprocess.run(
         ["thermocue", "--version"], capture_output=True, text=True).stdout.startswith("thermocue ")
