@@ -1,7 +1,7 @@
 """What a session checks and opens before it writes anything.
 
 The simulated trials' target profiles (:func:`simulated_target_profile`), computed once and
-checked against the display's safe range and rate limit (:func:`check_simulated_profiles`), and
+checked against the display's safe range and rate limit (:func:`check_schedule_profiles`), and
 the display itself, opened so that bad input (exit 2) is told from an unreachable device (exit 1)
 (:func:`open_session_display`). :mod:`experiments.session` uses and re-exports them.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from experiments.errors import DisplayError, SessionError, UserInputError
 
-__all__ = ["simulated_target_profile", "check_simulated_profiles", "open_session_display"]
+__all__ = ["simulated_target_profile", "check_schedule_profiles", "open_session_display"]
 
 
 class _Profile:
@@ -137,7 +137,7 @@ def _sample_label(protocol, roughness_id, roughness_um) -> str:
         return f"sample {roughness_id}, {roughness_um:g} µm"
 
 
-def check_simulated_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
+def check_schedule_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
                              ) -> dict:
     """Compute the target profile of every simulated trial and check it against the display's
     safe range and rate limit, before anything is written or played.
