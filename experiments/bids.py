@@ -21,8 +21,10 @@ by ``scripts/setup``).
 from __future__ import annotations
 
 import csv
+import fcntl
 import io
 import json
+import os
 import re
 from pathlib import Path
 
@@ -144,8 +146,6 @@ def _participants(root: Path, records: dict) -> None:
 
     Sessions finishing at once (``reproduce --workers``) take turns: an exclusive lock on
     ``.participants.lock`` around the read-merge-write, so that no participant is lost."""
-    import fcntl
-    import os
     fd = os.open(root / ".participants.lock", os.O_RDWR | os.O_CREAT, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import datetime as _dt
+import errno
 import fcntl
 import io
 import os
@@ -140,7 +141,6 @@ def ensure_dir(path: str | Path) -> Path:
             pass
         fsync_dir(d.parent)
     if not path.is_dir():
-        import errno
         raise NotADirectoryError(errno.ENOTDIR, "expected a folder, got a file", str(path))
     return path
 

@@ -14,6 +14,7 @@ Standard library only.
 """
 from __future__ import annotations
 
+import difflib
 import math
 from typing import Any, Mapping
 
@@ -98,8 +99,6 @@ class TableReader:
         return default
 
     def _missing(self, key: str, what: str):
-        import difflib
-
         near = difflib.get_close_matches(key, [k for k in self.data if isinstance(k, str)], n=1, cutoff=0.75)
         if near:
             self._fail(self._name(key), what, Verbatim(f"nothing (the key is required; is {near[0]!r} a misspelling?)"))

@@ -7,6 +7,8 @@
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import platform
 import sys
@@ -119,8 +121,6 @@ def schedule_sha256(schedule) -> str:
 
     ``session_started`` records it, so a resume can tell an edited ``session.json`` schedule.
     """
-    import hashlib
-    import json
     items = [s if isinstance(s, dict) else s.to_dict() for s in schedule]
     text = json.dumps(items, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.responders.hand import press
 from stimuli.paper import GROUP_TARGET_THICKNESS_UM, SAMPLE_ROUGHNESS_UM
 
 __all__ = ["run_display_benchmark", "CONTROLLER"]
@@ -99,7 +100,7 @@ def _loss(path, trials, hold_s=20.0):
         d.upload_profile(t, y)
         for _ in range(trials):
             d.arm("playback", max_duration_s=20.0)
-            d.sim_finger(press_after_s=0.2, hold_s=hold_s)
+            press(d, sample=None, press_after_s=0.2, hold_s=hold_s)
             rec = d.run_trial(timeout_s=60.0)
             frames += rec.frames
             lost += rec.frames_lost
@@ -115,8 +116,8 @@ def _tracking():
                 t, y, source = _target(ra, skin_um)
                 d.upload_profile(t, y)
                 d.arm("playback", max_duration_s=20.0)
-                d.sim_finger(press_after_s=0.3, hold_s=25.0, skin_thickness_m=skin_um * 1e-6,
-                             skin_temperature_C=35.5)
+                press(d, sample=None, press_after_s=0.3, hold_s=25.0, skin_thickness_m=skin_um * 1e-6,
+                      skin_temperature_C=35.5)
                 t0 = time.perf_counter()
                 rec = d.run_trial(timeout_s=60.0)
                 cost = time.perf_counter() - t0

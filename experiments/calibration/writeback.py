@@ -27,6 +27,7 @@ import copy
 import datetime as _dt
 import json
 import math
+from importlib import metadata
 from pathlib import Path
 
 from experiments.calibration.errors import CalibrationError
@@ -77,7 +78,6 @@ def check_calibration_samples(record, roughness_um, source: str = "participant r
 
 def calibration_record(fit: CalibrationFit, *, session: str | None = None, date: str | None = None) -> dict:
     """The ``calibration`` object for a participant record (see the module docstring)."""
-    from importlib import metadata
     try:
         version = metadata.version("thermocue")
     except metadata.PackageNotFoundError:   # pragma: no cover

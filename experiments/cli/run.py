@@ -4,11 +4,11 @@ from __future__ import annotations
 import argparse
 import ctypes
 import ctypes.util
-import json
 import os
 import sys
 from pathlib import Path
 
+from experiments.logformat import read_events
 from stimuli.paper import RESPONDER_NAMES as RESPONDERS
 
 
@@ -188,18 +188,16 @@ def remove_if_unused(directory) -> bool:
     first trial leaves no empty session behind. Returns whether it was removed.
     """
     directory = Path(directory)
-    events = directory / "events.jsonl"
     try:
-        text = events.read_text(encoding="utf-8", errors="replace") if events.exists() else ""
+        events, report = read_events(directory / "events.jsonl", on_damage="stop", warn=False)
+    except FileNotFoundError:
+        events, report = [], None
     except OSError:
         return False
-    for line in text.splitlines():
-        try:
-            started = json.loads(line).get("event") == "trial_started"
-        except (ValueError, AttributeError):
-            return False          # a log it cannot read: keep everything
-        if started:
-            return False
+    if report is not None and (not report.ok or report.n_events != report.n_lines):
+        return False              # a log it cannot read whole (damage, blank lines): keep everything
+    if any(e["event"] == "trial_started" for e in events):
+        return False
     known = {"session.json", "events.jsonl", "trials.csv", "traces"}
     if any(p.name not in known for p in directory.iterdir()) or \
             ((directory / "traces").is_dir() and any((directory / "traces").iterdir())):

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 from experiments.errors import DisplayError
+from experiments.responders.hand import press
 
 from .profiles import file_profile, load_protocol_for_cue, protocol_profile
 
@@ -132,10 +133,9 @@ class ThermalCue:
         self.armed_clock_s = clock.getTime()
         if self.simulate_touch:
             # a finger already resting (routine start) presses at once, with the threshold's force
-            dev.display.sim_finger(press_after_s=0.0 if self.trigger == "routine start"
-                                   else self.touch_after_s,
-                                   force_N=max(self.threshold_N(), 2.0) + 0.5,
-                                   hold_s=self.max_duration_s() + 1.0)
+            press(dev.display, sample=None,
+                  press_after_s=0.0 if self.trigger == "routine start" else self.touch_after_s,
+                  force_N=max(self.threshold_N(), 2.0) + 0.5, hold_s=self.max_duration_s() + 1.0)
 
     def poll(self) -> bool:
         """Each frame: route the display's messages; True once its trial has ended.

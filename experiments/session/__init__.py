@@ -74,7 +74,7 @@ from experiments.session.making import (
     plan_session,
 )
 from experiments.session.setup import (
-    check_simulated_profiles,
+    check_schedule_profiles,
     open_session_display,
     simulated_target_profile,
 )
@@ -86,7 +86,7 @@ __all__ = [
     "plan_session",
     "SessionPlan",
     "simulated_target_profile",
-    "check_simulated_profiles",
+    "check_schedule_profiles",
     "open_session_display",
     "open_session",
     "SessionInterrupted",

@@ -9,6 +9,8 @@ first. See :mod:`experiments.session` for the files a session writes.
 """
 from __future__ import annotations
 
+import datetime as _dt
+import errno
 import logging
 import time
 from pathlib import Path
@@ -246,7 +248,6 @@ class Session(TrialSteps):
         could be logged was logged; every file is as a crash would leave it, so the session
         resumes once the cause is fixed.
         """
-        import errno
         cause = {errno.ENOSPC: "disk full", errno.EROFS: "read-only file system",
                  errno.EDQUOT: "disk quota exceeded", errno.EFBIG: "file too large",
                  errno.EACCES: "permission denied", errno.EPERM: "permission denied",
@@ -486,7 +487,6 @@ def _best_effort(call) -> None:
 
 def _seconds_since_first_start(events) -> float:
     """Seconds from the log's first ``session_started`` event to now (0 if none)."""
-    import datetime as _dt
     for e in events:
         if e.get("event") == "session_started" and isinstance(e.get("time"), str):
             try:

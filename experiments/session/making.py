@@ -14,7 +14,7 @@ from pathlib import Path
 from experiments.errors import SessionError, UserInputError
 from experiments.session.engine import Session
 from experiments.session.machine import clock_for_url
-from experiments.session.setup import _check_capacity, _protocol_source, check_simulated_profiles
+from experiments.session.setup import _check_capacity, _protocol_source, check_schedule_profiles
 from experiments.session.store import read_session_json, write_session_json
 from experiments.session_files import claim_session_folder
 
@@ -154,7 +154,7 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     ------
     ProtocolError, ParticipantError, SessionError
         Bad files, a simulated profile the display would refuse
-        (:func:`check_simulated_profiles`), or a session folder that already exists.
+        (:func:`check_schedule_profiles`), or a session folder that already exists.
     """
     from experiments.protocol import load_protocol
     from experiments.schedule import build_schedule
@@ -181,7 +181,7 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     directory = folder / name
     _refuse_existing(directory)
     clock_obj = clock_for_url(display_url, clock)
-    profiles = check_simulated_profiles(protocol, participant, assignment.group, schedule)
+    profiles = check_schedule_profiles(protocol, participant, assignment.group, schedule)
     return SessionPlan(protocol, participant, str(participant_path), assignment, seed, schedule,
                        directory, display_url, clock_obj, responder_name, max_consecutive_faults,
                        profiles, out=out, auto_name=not session_name)
@@ -193,7 +193,7 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     """Validate the inputs, plan the schedule and write a new session directory.
 
     Every simulated profile is computed and checked against the protocol's display limits
-    first (:func:`check_simulated_profiles`): nothing is written for a protocol whose profiles
+    first (:func:`check_schedule_profiles`): nothing is written for a protocol whose profiles
     the display would refuse. The display itself is not opened here (``thermocue run`` opens it,
     :func:`open_session_display`, between :func:`plan_session` and :meth:`SessionPlan.write`).
 
@@ -239,7 +239,7 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
 
     ``session.json`` is checked, not trusted: the protocol copy against its hash, the seed (an
     integer ≥ 0), the schedule against ``build_schedule(protocol, participant id, seed)``, and
-    every simulated profile against the display limits (:func:`check_simulated_profiles`).
+    every simulated profile against the display limits (:func:`check_schedule_profiles`).
 
     Parameters
     ----------
@@ -257,7 +257,7 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     stored = read_session_json(session_dir, out=out)
     url = display_url or stored.display_url
     clock_obj = clock_for_url(url, clock or "auto")
-    profiles = check_simulated_profiles(stored.protocol, stored.participant, stored.group,
+    profiles = check_schedule_profiles(stored.protocol, stored.participant, stored.group,
                                         stored.schedule, source=stored.source)
     session = Session(Path(session_dir), stored.protocol, stored.participant, stored.group,
                       stored.seed, stored.schedule, stored.name, url, clock=clock_obj,

@@ -1,7 +1,7 @@
 """The simulated trials' target profiles during a run, and the scene planner's word on them.
 
 Every profile of the schedule is computed and checked before the session writes anything
-(:func:`experiments.session.setup.check_simulated_profiles`); :class:`SessionProfiles` holds
+(:func:`experiments.session.setup.check_schedule_profiles`); :class:`SessionProfiles` holds
 those, computes any other on demand (:func:`experiments.session.setup.simulated_target_profile`),
 checks them against an open display's capacity, and tells the experimenter the planner's
 decisions once per profile (issue 12).
@@ -19,7 +19,7 @@ class SessionProfiles:
     Parameters
     ----------
     profiles : dict, optional
-        Profiles already computed and checked (:func:`check_simulated_profiles`).
+        Profiles already computed and checked (:func:`check_schedule_profiles`).
     """
 
     def __init__(self, profiles: dict | None = None):

@@ -1,20 +1,22 @@
 """What a session checks and opens before it writes anything.
 
 The simulated trials' target profiles (:func:`simulated_target_profile`), computed once and
-checked against the display's safe range and rate limit (:func:`check_simulated_profiles`), and
+checked against the display's safe range and rate limit (:func:`check_schedule_profiles`), and
 the display itself, opened so that bad input (exit 2) is told from an unreachable device (exit 1)
 (:func:`open_session_display`). :mod:`experiments.session` uses and re-exports them.
 """
 from __future__ import annotations
 
+import errno
 import os
+import stat
 from pathlib import Path
 
 import numpy as np
 
 from experiments.errors import DisplayError, SessionError, UserInputError
 
-__all__ = ["simulated_target_profile", "check_simulated_profiles", "open_session_display"]
+__all__ = ["simulated_target_profile", "check_schedule_profiles", "open_session_display"]
 
 
 class _Profile:
@@ -135,7 +137,7 @@ def _sample_label(protocol, roughness_id, roughness_um) -> str:
         return f"sample {roughness_id}, {roughness_um:g} µm"
 
 
-def check_simulated_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
+def check_schedule_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
                              ) -> dict:
     """Compute the target profile of every simulated trial and check it against the display's
     safe range and rate limit, before anything is written or played.
@@ -281,8 +283,6 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
     DisplayError
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
-    import errno
-
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware import open_display
 
@@ -320,7 +320,6 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
 
 def _is_terminal(path: str) -> bool:
     """Whether ``path`` is a terminal (a serial port or a pty); True when it cannot be told."""
-    import stat
     try:
         mode = os.stat(path).st_mode
     except OSError:

@@ -9,6 +9,7 @@ the file and the field (:class:`~experiments.errors.SessionError`, exit 2).
 """
 from __future__ import annotations
 
+import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -107,8 +108,6 @@ def read_session_json(directory, *, out=None) -> StoredSession:
     SessionError
         No folder, no or a damaged ``session.json``, an edited field (naming it).
     """
-    import json
-
     from experiments.protocol import parse_protocol
     from experiments.schedule import TrialSpec, build_schedule
     from participants_schema import validate_participant

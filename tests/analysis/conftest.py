@@ -22,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from experiments.logformat import CONTEXT_KEYS, SPEC_KEYS
+
 COLUMNS = ["participant", "group", "session", "block", "trial_index", "mode", "roughness_id",
            "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
            "tracking_rms_C", "skin_thickness_um", "sex", "attempt", "started_at", "fault_code"]
@@ -99,8 +101,8 @@ def write_study(root, cells, *, n_per_group=15, reps=3, sigma=0.0, seed=0, famil
                                 "skin_thickness_um": thickness},
                 "group": group, "session": session, "seed": seed}))
             if write_events:     # as experiments.logbook writes them
-                spec_keys = ("block", "mode", "roughness_id", "roughness_um", "repetition")
-                context = ("participant", "group", "session", "skin_thickness_um", "sex")
+                spec_keys = SPEC_KEYS
+                context = tuple(k for k in CONTEXT_KEYS if k in COLUMNS)   # those the rows carry
                 with open(folder / "events.jsonl", "w") as fh:
                     first = rows[0]
                     fh.write(json.dumps({"event": "session_started", "seq": 1, "seed": seed,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -68,7 +69,6 @@ def test_every_finished_session_is_valid_bids(study):
 @pytest.mark.slow
 def test_the_validator_catches_a_broken_file(study, tmp_path):
     """The validator really reads the files: a row with a missing cell is an error."""
-    import shutil
     root = tmp_path / "bids"
     shutil.copytree(study / "bids", root)
     tsv = next(root.rglob("*_beh.tsv"))

@@ -8,7 +8,9 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -87,7 +89,6 @@ def test_reopen_continues_seq(tmp_path):
 
 
 def test_appends_from_threads_stay_whole(tmp_path):
-    import threading
 
     path = tmp_path / "events.jsonl"
     with EventLog(path) as log:
@@ -209,7 +210,6 @@ def _reference_log(directory: Path) -> tuple[bytes, list[dict]]:
 def test_any_truncation_reads_as_a_prefix(cut):
     """A log cut at any byte (even inside a UTF-8 character) reads as the whole lines before the
     cut; a partial line is reported as torn, with a warning."""
-    import tempfile
 
     with tempfile.TemporaryDirectory() as d:
         data, evs = _reference_log(Path(d))

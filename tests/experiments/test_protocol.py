@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 from pathlib import Path
 
@@ -93,8 +94,7 @@ def test_hash_ignores_layout_and_follows_content(tmp_path):
 
 
 def test_hash_is_sha256_of_canonical_json():
-    import hashlib
-    import tomllib
+    import tomllib   # here, not at the top: Python 3.10 (supported) has no tomllib
 
     data = tomllib.loads(RR.read_text(encoding="utf-8"))
     canonical = json.dumps(data, sort_keys=True, separators=(",", ":"), ensure_ascii=False)

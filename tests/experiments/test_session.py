@@ -6,7 +6,10 @@ window under Xvfb in test_session_gui.py.
 from __future__ import annotations
 
 import csv
+import io
 import json
+import logging
+import math
 import signal
 
 import pytest
@@ -278,7 +281,6 @@ class _RecordingDisplay(ScriptedDisplay):
 def _eq5_copper_pad():
     # Eq. 5 by hand for the pad's 0.4 µm copper face (401 W/mK) against skin (0.34 W/mK),
     # 2 N on 135 mm², H = 12.5 gf/mm², Delta_a = 0.3, R_S = 21.69 µm.
-    import math
     lam = 2 * 0.34 * 401.0 / (0.34 + 401.0)
     return 0.8 * math.hypot(21.69e-6, 0.4e-6) / (lam * 0.3) * (12.5 * 9.80665e-3 / 1e-6 / (2.0 / 135e-6)) ** 0.95
 
@@ -352,7 +354,6 @@ def test_uncalibrated_sample_uses_eq5_and_the_material_side_by_default(tmp_path)
     assert ev["skin_thickness_source"] == "calibration"
     assert ev["parameters"]["skin"]["thickness_m"] == pytest.approx(900e-6, rel=1e-12)
     # Eq. 5 for 50 µm steel (14.9 W/mK) against skin, by hand
-    import math
     lam = 2 * 0.34 * 14.9 / (0.34 + 14.9)
     eq5 = 0.8 * math.hypot(21.69e-6, 50e-6) / (lam * 0.3) * (12.5 * 9.80665e-3 / 1e-6 / (2.0 / 135e-6)) ** 0.95
     assert ev["resistance_m2K_W"] == pytest.approx(eq5, rel=1e-9)
@@ -393,8 +394,6 @@ def _nothing_logged(directory):
 
 # --------------------------------------------------------------------------- issue 14: the shape
 def test_progress_is_logged_on_thermocue_session_and_not_told(tmp_path, caplog):
-    import io
-    import logging
 
     proto = write_protocol(tmp_path, sim_samples=())
     told = io.StringIO()
@@ -413,7 +412,6 @@ def test_progress_is_logged_on_thermocue_session_and_not_told(tmp_path, caplog):
 
 
 def test_quiet_logger_gives_no_progress_lines(tmp_path, caplog):
-    import logging
 
     caplog.set_level(logging.WARNING, logger="thermocue.session")
     s = new_session(tmp_path)

@@ -10,6 +10,8 @@ import csv
 import datetime as dt
 import io
 import json
+import logging
+import multiprocessing
 from pathlib import Path
 
 import pytest
@@ -231,7 +233,6 @@ def test_resume_takes_the_clock_from_the_display_it_uses(tmp_path):
 
 def test_progress_counts_elapsed_time_from_the_sessions_first_start(tmp_path, caplog):
     # Regression: "elapsed" restarted at 0:00 on resume.
-    import logging
 
     from experiments.logbook import EventLog, now_iso
     caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged (issue 14)
@@ -282,7 +283,6 @@ def _nothing_logged(directory):
 def test_two_runs_claiming_one_session_folder_never_mix(tmp_path):
     # Regression: two concurrent `thermocue run` of one participant: S01/session.json ended up
     # holding the losing process's seed and schedule under the winner's log.
-    import multiprocessing
     proto = write_protocol(tmp_path, sim_samples=())
     data = tmp_path / "data"
     ctx = multiprocessing.get_context("fork")

@@ -1,6 +1,8 @@
 """Tests of the session's state machine and clocks (experiments.session.machine)."""
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from experiments.errors import UserInputError
@@ -53,7 +55,6 @@ def test_clock_follows_the_display_url_unless_told():
 
 
 def test_virtual_clock_does_not_wait():
-    import time
     c = VirtualClock()
     t0 = time.perf_counter()
     c.sleep(30.0)

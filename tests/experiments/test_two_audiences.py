@@ -8,6 +8,7 @@ test_session_gui.py.
 """
 from __future__ import annotations
 
+import csv
 import io
 import json
 import logging
@@ -107,8 +108,6 @@ def test_participant_terminal_never_names_a_test_trials_sample(tmp_path, caplog)
 def test_trials_csv_has_its_whole_header_from_the_first_row(tmp_path):
     """issue 10: the header grew during a session (28 -> 29 -> 35 columns); contact_time_s was
     the device clock at contact, read as a duration."""
-    import csv
-
     from experiments.logbook import TRIAL_COLUMNS
     from experiments.responders.simulated import SimulatedResponder  # noqa: F401 (registers it)
     from experiments.responders import get_responder

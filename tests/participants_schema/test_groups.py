@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import pytest
 
@@ -92,7 +93,6 @@ def test_missing_thickness():
 
 
 def test_to_dict_is_json_ready():
-    import json
 
     d = assign_group(rec(780)).to_dict()
     assert json.loads(json.dumps(d)) == d

@@ -377,7 +377,8 @@ def check_group_profiles(protocol) -> None:
 
     Computes each sample's profile for each group's profile thickness (as the session will, for a
     participant without calibration) and applies the display's checks
-    (:func:`experiments.hardware.safety.check_profile`).
+    (:func:`experiments.hardware.safety.check_profile`). The session checks one participant's
+    schedule the same way when it is made (:func:`experiments.session.check_schedule_profiles`).
 
     Raises
     ------

@@ -10,6 +10,7 @@ import os
 import shutil
 import subprocess
 import sys
+from importlib.metadata import version
 
 import pytest
 
@@ -93,11 +94,38 @@ def test_a_failure_before_the_first_trial_removes_the_session_folder(tmp_path):
     assert not remove_if_unused(s.directory) and (s.directory / "session.json").exists()
 
 
+def test_the_unused_session_check_reads_the_log_as_the_writer_wrote_it(tmp_path):
+    # the writer (logformat.dumps) keeps U+2028 raw inside strings: not a line break, so a log
+    # of a session that never started a trial still reads whole and its folder goes
+    from experiments.cli.run import remove_if_unused
+    from experiments.logformat import dumps
+    from experiments.session import create_session
+
+    proto = write_protocol(tmp_path, sim_samples=())
+    s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual", seed=1)
+    line = dumps({"event": "session_started", "seq": 1, "note": "first\u2028second"})
+    assert "\u2028" in line
+    (s.directory / "events.jsonl").write_text(line + "\n", encoding="utf-8")
+    assert remove_if_unused(s.directory) and not (tmp_path / "data" / "P01").exists()
+
+
+def test_a_damaged_log_keeps_the_session_folder(tmp_path):
+    from experiments.cli.run import remove_if_unused
+    from experiments.session import create_session
+
+    proto = write_protocol(tmp_path, sim_samples=())
+    for text in ('{"event":"session_started","seq":1}\n{"event":"trial_sta',       # torn last line
+                 '{"event":"session_started","seq":1}\nnot json\n',                 # undecodable line
+                 '{"event":"session_started","seq":1}\n\n'):                        # a blank line
+        s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual", seed=1)
+        (s.directory / "events.jsonl").write_text(text)
+        assert not remove_if_unused(s.directory) and (s.directory / "session.json").exists(), text
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0
-    from importlib.metadata import version
     assert capsys.readouterr().out == f"thermocue {version('thermocue')}\n"
     assert shutil.which("thermocue") is None or subprocess.run(
         ["thermocue", "--version"], capture_output=True, text=True).stdout.startswith("thermocue ")

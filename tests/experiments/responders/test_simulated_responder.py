@@ -1,6 +1,11 @@
 """Tests of the simulated participant as a responder (experiments.responders.simulated)."""
 from __future__ import annotations
 
+import csv
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -130,9 +135,6 @@ def test_faulted_trial_is_answered_with_a_guess_not_an_error():
 
 
 def test_thermocue_run_with_the_simulated_responder(tmp_path):
-    import csv
-    import json
-    from pathlib import Path
 
     from experiments.cli import main
     from experiments.simulation.cohort import write_cohort
@@ -187,7 +189,6 @@ def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule(
 
 
 def test_simulated_trial_is_felt_through_the_protocols_finger_pad_resistance():
-    from types import SimpleNamespace
 
     from experiments.simulation.person import SimulatedPerson
     t = np.arange(0, 10.0, 0.01)
@@ -226,9 +227,6 @@ def test_bad_pad_options_are_user_errors():
 
 def test_finger_stays_on_for_the_whole_recording_of_an_exp1_session(tmp_path):
     """Exp. 1 asks for no answer: the finger stays on for record_s (25 s) of contact."""
-    import csv
-    from pathlib import Path
-
     from experiments.cli import main
     from experiments.protocol import load_protocol
 
@@ -254,7 +252,6 @@ def test_finger_stays_on_for_the_whole_recording_of_an_exp1_session(tmp_path):
 
 
 def test_hold_depends_on_whether_the_block_asks_for_an_answer():
-    from types import SimpleNamespace
 
     from experiments.protocol import load_protocol
     from experiments.responders.simulated import HOLD_MARGIN_S

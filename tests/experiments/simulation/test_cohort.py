@@ -1,7 +1,10 @@
 """Tests of experiments.simulation.cohort and .figure9: the paper's cohort as records, and the Figure 9 study end to end."""
 from __future__ import annotations
 
+import csv
+import dataclasses
 import json
+import re
 from collections import Counter
 
 import pytest
@@ -186,7 +189,6 @@ def test_the_whole_study_runs_end_to_end(tmp_path, capsys):
 def test_a_participant_answers_the_same_in_every_run(tmp_path):
     # Worker count and scheduling must not change the study: each participant's session is a
     # function of the seed alone.
-    import csv
 
     from experiments.simulation.figure9.study import run_participant
     (path,) = write_cohort(tmp_path / "people", seed=6)[:1]
@@ -211,7 +213,6 @@ def test_compensated_side_without_slew_is_refused_before_any_session(tmp_path):
 
 
 def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_path):
-    import csv
 
     from experiments.simulation.figure9.study import _note_simulation
     from experiments.protocol import load_protocol
@@ -255,8 +256,6 @@ def test_run_participant_names_the_file_of_a_bad_record(tmp_path):
 def test_report_note_says_why_replayed_rough_samples_feel_smooth():
     # Two independent paths: the real contact (stimuli.Contact) and the pad playing the target
     # profile through the finger-pad resistance (target_profile + skin_response).
-    import dataclasses
-    import re
 
     from experiments.simulation.figure9.study import _felt_at_receptors
     from experiments.protocol import load_protocol

@@ -1,4 +1,6 @@
 """Replay hypotheses are protocol variants built from the protocol's data."""
+import json
+
 import pytest
 
 from experiments.errors import UserInputError
@@ -41,7 +43,6 @@ def test_unknown_hypothesis_is_a_user_error():
 
 @pytest.mark.slow
 def test_display_learned_observer_learns_on_the_display_in_a_session(tmp_path):
-    import json
 
     from experiments.simulation.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant

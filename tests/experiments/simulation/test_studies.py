@@ -1,4 +1,7 @@
 """Many simulated studies: agree with the participant model's own Monte Carlo."""
+import csv
+import json
+
 import numpy as np
 import pytest
 
@@ -50,9 +53,6 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
     the emulated pad's recorded contact temperature.  Same person, same trial skin temperature
     (logged), same profile: the features agree to well under the 0.3 perceptual noise.
     """
-    import csv
-    import json
-
     from experiments.simulation.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant
     from experiments.simulation.person import SimulatedPerson
