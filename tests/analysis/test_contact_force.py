@@ -11,7 +11,7 @@ from analysis import analyze
 from analysis.load import load_trials
 from analysis.psychophysics import covariate_table, force_table
 
-from conftest import paper_like_cells, write_study
+from _study_writer import paper_like_cells, write_study
 
 
 def _add_forces(root: Path, seed: int = 3) -> None:

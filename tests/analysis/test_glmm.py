@@ -19,7 +19,7 @@ import pytest
 from analysis import FORMULA, fit_gee, load_trials
 from analysis.glmm import fit_glmm
 
-from conftest import paper_like_cells
+from _study_writer import paper_like_cells
 
 R_SCRIPT = r"""
 suppressMessages(library(lme4))

@@ -7,7 +7,7 @@ import pandas as pd
 
 from analysis import analyze
 from analysis.model_decisions import model_decisions
-from conftest import paper_like_cells, write_study
+from _study_writer import paper_like_cells, write_study
 
 
 def _plan(bound_sensor, roughness):

@@ -2,7 +2,7 @@
 
 Each replicate writes a 30-person study (15 per group, 3 repetitions per cell,
 familiarisation and faulted attempts included) with the ``study`` fixture
-(``conftest.write_study``, known probabilities ``conftest.paper_like_cells``),
+(``_study_writer.write_study``, known probabilities ``_study_writer.paper_like_cells``),
 loads it with :func:`analysis.load_trials` and computes the intervals with
 :func:`analysis.cell_proportions`, exactly as ``thermocue analyze`` does.
 
@@ -75,7 +75,7 @@ def test_bootstrap_covers_with_participant_random_effects_and_extreme_cells(stud
 
 @pytest.mark.slow
 def test_gee_recovers_the_sign_of_the_group_effect(study):
-    # A is 0.15 above B in real mode, equal in simulated mode (conftest.paper_like_cells)
+    # A is 0.15 above B in real mode, equal in simulated mode (_study_writer.paper_like_cells)
     signs, excluded_zero = [], 0
     for rep in range(10):
         data, _ = study(name=f"g{rep}", sigma=0.5, seed=777 + rep)
