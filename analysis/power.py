@@ -35,6 +35,7 @@ Power is the share of cohorts rejecting "no group difference" at ``alpha``
 """
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -193,8 +194,7 @@ def glmm_cells(analysis_dir) -> tuple[pd.DataFrame, float]:
     LogError
         Missing or unreadable files.
     """
-    import json
-    import patsy
+    import patsy   # only here: the fitted model's own design
     folder = Path(analysis_dir)
     try:
         table = pd.read_csv(folder / "glmm.csv").set_index("term")

@@ -7,6 +7,7 @@ unreadable or mismatching entry is a miss (and is recomputed and replaced).
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
@@ -30,7 +31,6 @@ def cache_dir(directory=None) -> Path:
 def content_hash(payload: dict) -> str:
     """sha256 hex of the canonical JSON of ``payload`` (sorted keys, no spaces, float repr)."""
     text = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    import hashlib
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 

@@ -3,6 +3,8 @@ to the calibration's setup, and the plan of a fitted calibration's contact.
 """
 from __future__ import annotations
 
+import warnings as _warnings
+from dataclasses import replace as _replace
 from experiments.calibration.errors import CalibrationError
 from experiments.calibration.model import ContactSetup
 
@@ -21,7 +23,6 @@ def planned_setup(setup: ContactSetup, model) -> ContactSetup:
     :class:`ResponseGrid`'s exact transform in both cases: the fit needs dθ/dR and dθ/dL, which
     Eq. 7's printed form does not give, and the exact form is the one Eq. 7 was checked against.
     """
-    from dataclasses import replace as _replace
     if model.layered or model.perfusion or model.sensor or model.geometry == "slab-on-support":
         raise CalibrationError(f"calibration: model: the calibration's forward model has homogeneous "
                                f"skin on a half-space or an insulated slab, got {model.describe()!r}")
@@ -45,8 +46,6 @@ def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickn
     record : dict
         :meth:`Plan.to_dict`, or ``{"note": why not planned}``.
     """
-    import warnings as _warnings
-
     from stimuli import ModelInputError
     from stimuli.planner import plan
     from stimuli.scene import Scene

@@ -18,6 +18,7 @@ Run it with ``thermocue emulator`` or ``python -m experiments.hardware.pty_serve
 """
 from __future__ import annotations
 
+import argparse
 import fcntl
 import os
 import select
@@ -242,7 +243,6 @@ class hold_link:
 
 def main(argv=None) -> int:
     """``python -m experiments.hardware.pty_server [thermocue emulator options]``."""
-    import argparse
     parser = argparse.ArgumentParser(prog="python -m experiments.hardware.pty_server",
                                      description="Serve the emulated thermal display on a pty.")
     add_arguments(parser)
