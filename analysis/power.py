@@ -1,5 +1,7 @@
 """Power to detect the group difference (A vs B) by simulating cohorts and running the analysis.
 
+One concept (~500 lines): power by simulation, from the cells it starts from to the curve it returns.
+
 Cohorts are drawn from the participant-level model the report fits: participant
 ``i`` answers a trial of cell ``c`` (group × mode × sample) correctly with
 probability ``expit(logit(p_c) + u_i)``, ``u_i ~ N(0, participant_sd²)``, where

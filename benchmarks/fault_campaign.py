@@ -1,5 +1,7 @@
 """Fault campaign against the emulated display (issue 16): does anything unsafe or untrue get through?
 
+One concept (a script of ~700 lines): the campaign, its injected faults and its checks.
+
 Runs real ``thermocue run`` / ``thermocue resume`` processes on ``emulator://`` (virtual clock)
 and checks, against the device's own log and a per-tick probe of the emulated pad, that:
 

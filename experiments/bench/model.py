@@ -1,5 +1,7 @@
 """Speed against error of every thermal-model method on a 20 s profile sampled at 1 kHz.
 
+One concept (~650 lines): ``thermocue bench model``, its problems, references and rows.
+
 Two problems, both the paper's simulated trial (stainless steel half-space, R_a = 12.5 µm -> Eq. 5
 resistance, skin 650 µm with receptors at 0.6 L, T_S0 = 35.5 °C, T_M0 = 20 °C):
 

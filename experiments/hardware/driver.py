@@ -1,5 +1,7 @@
 """The host side: :class:`ThermalDisplay` over any pyserial URL, and :func:`open_display`.
 
+One concept (~540 lines): the display's commands as the host sends them.
+
 The display's commands (handshake, neutral, upload, arm, run a trial, status, the emulator's
 "sim" commands) on the link of :mod:`.link` (:class:`~.link.ProtocolLink`: numbered requests,
 replies, heartbeats); the armed trial's book-keeping and the recording it yields are in

@@ -1,5 +1,7 @@
 """The session engine: :class:`Session` runs one participant through one protocol.
 
+One concept (~500 lines): the session-level state machine and the state a run carries.
+
 The session-level states of :data:`~experiments.session.machine.TRANSITIONS` live here
 (``idle`` between trials, ``finished``, ``stopped``, ``interrupted``: :meth:`Session.run`);
 each trial's states are :class:`~experiments.session.trial.TrialSteps`' methods. Every state
