@@ -37,6 +37,24 @@ def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, la
         json.dumps(p.to_dict(), allow_nan=False)   # strict JSON: caches, session events
 
 
+@pytest.mark.parametrize("quantity,geometry,layered,w,tol", list(itertools.product(
+    ["receptor", "interface_material", "interface_skin"], ["half-space", "slab", "slab-on-support"],
+    [False, True], [1.25e-3, 2e-2], [0.02, 0.3, 2.0])))
+def test_planned_model_within_tolerance_with_a_hypodermis(quantity, geometry, layered, w, tol):
+    # a 2 mm hypodermis: the closed forms and the quasi-steady screen cannot decide, the
+    # Laplace-domain bounds often do (speed, issue 12); the planned model stays within tolerance
+    scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
+                  hypodermis_m=2e-3, tolerance_K=tol, support="wood" if geometry == "slab-on-support"
+                  else None, duration_s=20.0, rate_Hz=200.0)
+    full = evaluate(scene, scene.full_model())
+    for screen in (True, False):
+        p = plan(scene, screen=screen)
+        err = float(np.max(np.abs(p.evaluate() - full)))
+        assert err <= tol, (p.lines(), err)
+        assert err <= p.bound_K + 1e-9
+        json.dumps(p.to_dict(), allow_nan=False)
+
+
 @pytest.mark.parametrize("quantity", ["interface_material", "interface_skin"])
 @pytest.mark.parametrize("tau,tol", [(0.001, 0.3), (0.05, 0.3), (0.05, 5.0), (0.3, 2.0)])
 def test_sensor_lag_bound_holds(quantity, tau, tol):
