@@ -311,12 +311,12 @@ def perfusion_factor(skin, layered: bool, perfusion_per_s: float, hypodermis_m, 
 
 
 #: s T of the real Laplace variables tried, in order, by :func:`perfusion_laplace_bound`
-#: (the first that fits the tolerance ends the search) and by :func:`_layers_lower_bound`.
+#: (the first that fits the tolerance ends the search) and by :func:`_effect_lower_bound`.
 PERFUSION_LAPLACE_ST = (0.5, 0.25, 1.0)
 LAYER_LAPLACE_ST = (8.0, 4.0, 16.0)
 
-#: The layers are kept without evaluation when a lower bound of their effect (Laplace domain,
-#: :func:`_layers_lower_bound`) is at least this many tolerances.
+#: The layers are kept without evaluation when a lower bound of their effect
+#: (Laplace domain, :func:`_effect_lower_bound`) is at least this many tolerances.
 LAYER_LOWER_SCREEN = 2.0
 
 
@@ -442,13 +442,25 @@ def perfusion_laplace_bound(scene: Scene, model: Model, skin=None, tolerance: fl
     return best
 
 
-def _layers_lower_bound(scene: Scene, ref: Model, cand: Model, skin, need: float) -> float:
+def _lower_screen(scene: Scene, ref: Model, cand: Model, skin, tol: float, offset: float):
+    """Why dropping ``cand``'s effect from ``ref`` (itself within ``offset`` of the full model)
+    certainly breaks the tolerance (screen: the effect kept without evaluation), or None."""
+    need = LAYER_LOWER_SCREEN * tol + offset
+    low = _effect_lower_bound(scene, ref, cand, skin, need)
+    if low < need:
+        return None
+    return (f"kept without evaluation: its effect is at least {low - offset:.3g} K "
+            f"(Laplace-domain lower bound, >= {LAYER_LOWER_SCREEN:g} x the tolerance)")
+
+
+def _effect_lower_bound(scene: Scene, ref: Model, cand: Model, skin, need: float) -> float:
     r"""A lower bound (K) on max_{t <= T} |cand - ref| (exact models), from real s transforms.
 
     For Delta = cand - ref in theta units, |Delta| <= 1 at every time (both within [0, 1]), so
     |L[Delta](s)| <= M (1 - e^{-sT}) / s + e^{-sT} / s with M the max over [0, T]:
     M >= (s |L[Delta](s)| - e^{-sT}) / (1 - e^{-sT}). The largest over s T in
-    :data:`LAYER_LAPLACE_ST` (stopping once ``need`` is reached), times |T_S0 - T_M0|.
+    :data:`LAYER_LAPLACE_ST` (stopping once ``need`` is reached), times |T_S0 - T_M0|. Used for
+    the layers; perfusion's effect keeps growing after T (its tail bound is too loose to help).
     """
     dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
     best = -math.inf
@@ -629,12 +641,8 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             decisions.append(Decision(effect, True, math.nan, why))
             continue
         why = _layers_matter(scene, skin()) if (screen and effect == "layered") else None
-        if why is None and screen and effect == "layered" and "ref" not in cache:
-            need = LAYER_LOWER_SCREEN * tol + ref_offset
-            low = _layers_lower_bound(scene, ref_model, cand, skin(), need)
-            if low >= need:
-                why = (f"kept without evaluation: its effect is at least {low - ref_offset:.3g} K "
-                       f"(Laplace-domain lower bound, >= {LAYER_LOWER_SCREEN:g} x the tolerance)")
+        if why is None and screen and effect == "layered":
+            why = _lower_screen(scene, ref_model, cand, skin(), tol, ref_offset)
         if why is not None:
             decisions.append(Decision(effect, True, math.nan, why))
             continue

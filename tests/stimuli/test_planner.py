@@ -360,7 +360,7 @@ def test_layer_lower_bound_is_a_lower_bound_and_its_keeps_are_evaluated_keeps():
     # effect is >= LAYER_LOWER_SCREEN tolerances: the bound must be below the exact effect
     # (every quantity and geometry, hypodermis, short and long scenes), and every such keep an
     # evaluated keep
-    from stimuli.planner import LAYER_LOWER_SCREEN, _layers_lower_bound, _resolved
+    from stimuli.planner import LAYER_LOWER_SCREEN, _effect_lower_bound, _resolved
     screened = 0
     for quantity, material, geometry, R, L, frac, duration, hyp, T_M in itertools.product(
             ["receptor", "interface_material", "interface_skin"],
@@ -373,7 +373,7 @@ def test_layer_lower_bound_is_a_lower_bound_and_its_keeps_are_evaluated_keeps():
         r = _resolved(scene)
         ref = scene.full_model()
         cand = Model("exact", geometry, False, False)
-        low = _layers_lower_bound(r, ref, cand, r.skin, math.inf)
+        low = _effect_lower_bound(r, ref, cand, r.skin, math.inf)
         effect = float(np.max(np.abs(evaluate(scene, cand) - evaluate(scene, ref))))
         assert low <= effect + 1e-9, (scene, low, effect)
         if low >= LAYER_LOWER_SCREEN * 0.3:
