@@ -329,10 +329,11 @@ def _real_stack(rows, s: float, perfused: bool = True):
     out, Z = [], 0.0
     for h, k, rho, c, w, _name in rows:
         rc = rho * c
-        q = math.sqrt((s + (w * BLOOD_HEAT_CAPACITY / rc if perfused else 0.0)) * rc / k)
+        q = math.sqrt((s + (w * BLOOD_HEAT_CAPACITY / rc if perfused and w else 0.0)) * rc / k)
         z = 1.0 / (k * q)
-        th = math.tanh(q * h)
-        out.append((h, q, z, th, Z))
+        e = math.exp(-q * h)
+        th = (1.0 - e * e) / (1.0 + e * e)
+        out.append((h, q, z, th, Z, e))
         Z = (Z + z * th) / (1.0 + (Z / z) * th)
     return out, Z
 
@@ -347,13 +348,13 @@ def _real_ratio(stack, x: float) -> float:
             break
         lo += row[0]
     ratio = 1.0
-    for h, q, z, th, Zb in stack[j + 1:]:
-        e = math.exp(-q * h)
+    for h, q, z, th, Zb, e in stack[j + 1:]:
         ratio *= 2.0 * e / (1.0 + e * e) / (1.0 + Zb / z * th)
-    h, q, z, th, Zb = stack[j]
+    h, q, z, th, Zb, e = stack[j]
     xi = x - lo
-    cosh_ratio = math.exp(-q * (h - xi)) * (1.0 + math.exp(-2.0 * q * xi)) / (1.0 + math.exp(-2.0 * q * h))
-    return ratio * cosh_ratio * (Zb + z * math.tanh(q * xi)) / (1.0 + Zb / z * th)
+    exi = math.exp(-2.0 * q * xi)
+    cosh_ratio = math.exp(-q * (h - xi)) * (1.0 + exi) / (1.0 + e * e)
+    return ratio * cosh_ratio * (Zb + z * (1.0 - exi) / (1.0 + exi)) / (1.0 + Zb / z * th)
 
 
 def _real_material(scene: Scene, geometry: str, s: float) -> float:
@@ -376,12 +377,14 @@ def _rows(scene: Scene, model: Model, skin, perfusion: bool | None = None):
     return layer_rows(skin, layered=model.layered, perfusion=w, hypodermis=scene.hypodermis_m)
 
 
-def _real_quantity(scene: Scene, model: Model, skin, s: float) -> float:
+def _real_quantity(scene: Scene, model: Model, skin, s: float, Zm: float | None = None) -> float:
     """The transform, at a real s > 0, of the scene's quantity in theta units under ``model``
-    (exact): the skin's deficit 1 - theta at the receptor or surface, the sample's theta."""
+    (exact): the skin's deficit 1 - theta at the receptor or surface, the sample's theta
+    (``Zm``: the sample's impedance at s when known)."""
     rows = _rows(scene, model, skin)
     stack, Zs = _real_stack(rows, s)
-    Zm = _real_material(scene, model.geometry, s)
+    if Zm is None:
+        Zm = _real_material(scene, model.geometry, s)
     F = 1.0 / (s * (scene.contact_resistance + Zs + Zm))
     if scene.quantity == "interface_material":
         return F * Zm
@@ -466,7 +469,9 @@ def _effect_lower_bound(scene: Scene, ref: Model, cand: Model, skin, need: float
     best = -math.inf
     for a in LAYER_LAPLACE_ST:
         s = a / scene.duration_s
-        d = abs(_real_quantity(scene, cand, skin, s) - _real_quantity(scene, ref, skin, s))
+        Zm = _real_material(scene, ref.geometry, s)
+        d = abs(_real_quantity(scene, cand, skin, s, Zm if cand.geometry == ref.geometry else None)
+                - _real_quantity(scene, ref, skin, s, Zm))
         e = math.exp(-a)
         best = max(best, (s * d - e) / (1.0 - e) * dT)
         if best >= need:

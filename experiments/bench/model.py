@@ -599,18 +599,20 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     R_pad_display = 1e-4
     drives = {"decay": 27.75 + (T_SKIN_C - 27.75) * np.exp(-t / 2.0), "step": np.full(t.size, 25.0)}
     full_layers = skin_layers(skin, perfusion=1.25e-3)
+    display = {}
     for name, g in drives.items():
         h = g - T_SKIN_C
-        timed[f"display_planner_{name}"] = (
+        display[f"display_full_{name}"] = (
+            lambda g=g: layered_skin_response(full_layers, t, g, T_SKIN_C, skin.dermis, R_pad_display))
+        display[f"display_planner_{name}"] = (
             lambda h=h: plan_display(skin, skin.dermis, R_pad_display, DURATION_S, RATE_HZ, h,
                                      tolerance=0.3, layered=True, perfusion_per_s=1.25e-3))
-        timed[f"display_full_{name}"] = (
-            lambda g=g: layered_skin_response(full_layers, t, g, T_SKIN_C, skin.dermis, R_pad_display))
     timed.update({"planner_evaluated_cold": hard_cold, "planner_near_tolerance_cold": near_cold,
                   "exact_hypodermis": lambda: hard_contact.temperature("receptor", t, hard_x)})
     timed.update({"planner_cold": cold, "planner_repeated": lambda: plan(scene),
                   "planned": lambda: p.evaluate(), "planner_profile_cold": prod_cold,
                   "exact_slab_interface": lambda: slab_contact.interface_temperature(t)})
+    timed.update(display)           # last: the scene planner's rows time as before this was added
     rows.append(_row("layered", "planner", f"plan -> {p.model.describe()}", _best_seconds(cold, repeat),
                      errors["planned"], errors["planned"] / abs(dT), int(ridx.size),
                      f"cost: the planner alone (cold; perfusion bounded in closed form, the layers "
