@@ -221,11 +221,16 @@ def display_kernel_real(skin, layered: bool, perfusion, depth: float, resistance
 
 
 @lru_cache(maxsize=16)
-def _decay(n: int, rate_Hz: float, a: float) -> np.ndarray:
-    """exp(-s t_i), t_i = i / rate_Hz, i < n, s = a / (n / rate_Hz) (read-only, shared)."""
+def _weights(n: int, rate_Hz: float, a: float) -> np.ndarray:
+    """W with W . h = sum_{i < n} (h_{i+1} - h_i) exp(-s t_i), t_i = i / rate_Hz,
+    s = a / (n / rate_Hz), for n + 1 samples h (read-only, shared)."""
     e = np.exp(-(a * rate_Hz / n) * (np.arange(n) / rate_Hz))
-    e.setflags(write=False)
-    return e
+    w = np.empty(n + 1)
+    w[0] = -e[0]
+    w[1:n] = e[:-1] - e[1:]
+    w[n] = e[-1]
+    w.setflags(write=False)
+    return w
 
 
 def _history_transform(h: np.ndarray, rate_Hz: float, a: float) -> float:
@@ -235,7 +240,9 @@ def _history_transform(h: np.ndarray, rate_Hz: float, a: float) -> float:
     n = h.size - 1
     dt = 1.0 / rate_Hz
     s = a / (n * dt)
-    return h[0] / s + (-math.expm1(-s * dt)) / (s * s * dt) * float(np.dot(np.diff(h), _decay(n, rate_Hz, a)))
+    # einsum, not np.dot: a BLAS dot of this length may wake BLAS threads (ms on a busy machine)
+    return h[0] / s + (-math.expm1(-s * dt)) / (s * s * dt) * float(
+        np.einsum("i,i->", h, _weights(n, rate_Hz, a)))
 
 
 def _layers_lower_bound(skin, depth, resistance, rate_Hz, h, perfusion, need) -> float:
