@@ -542,6 +542,13 @@ def _half_space(scene: Scene) -> Material:
 
 
 @lru_cache(maxsize=64)
+def _skin(thickness: float, dermis: float):
+    """``Scene.skin`` (an immutable :class:`stimuli.properties.Skin`), validated once per value."""
+    from .properties import Skin
+    return Skin(thickness, dermis=dermis)
+
+
+@lru_cache(maxsize=64)
 def _named(name: str) -> Material:
     """A material by name, as a half-space (immutable: looked up once per name)."""
     from .materials import material
@@ -602,7 +609,8 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
 
     def skin():
         if "skin" not in cache:
-            cache["skin"] = scene.skin
+            L = scene.skin_thickness_m
+            cache["skin"] = _skin(L, L - scene.receptor_depth)     # = scene.skin, made once
         return cache["skin"]
 
     def reference():
