@@ -296,12 +296,19 @@ def perfusion_factor(skin, layered: bool, perfusion_per_s: float, hypodermis_m, 
     """
     # (thickness, conductivity, density, specific heat, perfusion, name), core to surface
     layers = layer_rows(skin, layered=layered, perfusion=perfusion_per_s, hypodermis=hypodermis_m)
-    r = [h / k for h, k, *_ in layers]
-    top = max(i for i, row in enumerate(layers) if row[4] > 0)
-    u_top = min(1.0, sum(r[:top + 1]) / sum(r))
-    m = max(w * BLOOD_HEAT_CAPACITY / (rho * c) for _h, _k, rho, c, w, _n in layers if w > 0)
-    P = sum(row[0] for row in layers[:top + 1])
-    Q = max(row[4] for row in layers) * BLOOD_HEAT_CAPACITY * u_top
+    # one pass (the planner's cold path): the series resistance and depth up to the top perfused
+    # layer (P), the largest m and w; the same sums, in the same order, as written out
+    rs = r_top = P = depth = m = w_max = 0.0
+    top = -1
+    for i, (h, k, rho, c, w, _n) in enumerate(layers):
+        rs += h / k
+        depth += h
+        if w > 0:
+            top, r_top, P = i, rs, depth
+            m = max(m, w * BLOOD_HEAT_CAPACITY / (rho * c))
+            w_max = max(w_max, w)
+    u_top = min(1.0, r_top / rs)
+    Q = w_max * BLOOD_HEAT_CAPACITY * u_top
     S, lo = 0.0, 0.0
     for h, k, *_ in layers[:top + 1]:            # above P the heat flux is 0: S is flat
         hi = lo + h
