@@ -41,7 +41,7 @@ from .exact import INVERSION_ERROR
 from .layered import LayeredTransform, layer_rows, layered_skin_response, skin_layers
 from .materials import material as _material
 from .planner import (LAYER_LAPLACE_ST, PROBE_INVERSION_ERROR, SAFETY, Decision, _probes,
-                      _real_ratio, _real_stack, perfusion_factor)
+                      _real_point, perfusion_factor)
 
 __all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
 
@@ -216,8 +216,8 @@ def _layers_matter(skin, depth, resistance, duration_s, rate_Hz, h, tolerance):
 def display_kernel_real(skin, layered: bool, perfusion, depth: float, resistance: float,
                         s: float) -> float:
     """:meth:`stimuli.layered.LayeredTransform.display_kernel` at a real s > 0, in plain floats."""
-    stack, Zs = _real_stack(layer_rows(skin, layered=layered, perfusion=perfusion), s)
-    return _real_ratio(stack, depth) / (Zs + resistance)
+    r, Zs = _real_point(layer_rows(skin, layered=layered, perfusion=perfusion), s, depth)
+    return r / (Zs + resistance)
 
 
 @lru_cache(maxsize=16)

@@ -327,41 +327,37 @@ LAYER_LAPLACE_ST = (8.0, 4.0, 16.0)
 LAYER_LOWER_SCREEN = 2.0
 
 
-def _real_stack(rows, s: float, perfused: bool = True):
-    """The skin stack at a real s > 0: per layer (h, q, z, tanh(q h), Z at its bottom), and Z_S.
+def _real_point(rows, s: float, x: float, perfused: bool = True):
+    """The deficit at x (from the core) per unit flux into the surface, and Z_S, of the stack
+    ``rows`` (:func:`stimuli.layered.layer_rows`) at a real s > 0, in one pass from the core up.
 
-    :class:`stimuli.layered.LayeredTransform`'s transmission lines in plain floats (a real s
-    needs no overflow guard: tanh saturates); ``perfused=False`` drops every layer's perfusion.
+    :class:`stimuli.layered.LayeredTransform`'s transmission lines (``skin_ratio``,
+    ``surface_impedance``) in plain floats: a real s needs no overflow guard, and one pass
+    without per-layer lists keeps the planner's cold path short. ``perfused=False`` drops every
+    layer's perfusion.
     """
-    out, Z = [], 0.0
-    for h, k, rho, c, w, _name in rows:
+    Z, ratio, inside, lo = 0.0, 1.0, 1.0, 0.0
+    found = False
+    n = len(rows)
+    for i, (h, k, rho, c, w, _name) in enumerate(rows):
         rc = rho * c
         q = math.sqrt((s + (w * BLOOD_HEAT_CAPACITY / rc if perfused and w else 0.0)) * rc / k)
         z = 1.0 / (k * q)
         e = math.exp(-q * h)
-        th = (1.0 - e * e) / (1.0 + e * e)
-        out.append((h, q, z, th, Z, e))
-        Z = (Z + z * th) / (1.0 + (Z / z) * th)
-    return out, Z
-
-
-def _real_ratio(stack, x: float) -> float:
-    """The deficit at x (from the core) per unit flux into the stack's surface, at a real s
-    (:meth:`stimuli.layered.LayeredTransform.skin_ratio`)."""
-    lo, j = 0.0, len(stack) - 1
-    for i, row in enumerate(stack):
-        if x <= lo + row[0]:
-            j = i
-            break
-        lo += row[0]
-    ratio = 1.0
-    for h, q, z, th, Zb, e in stack[j + 1:]:
-        ratio *= 2.0 * e / (1.0 + e * e) / (1.0 + Zb / z * th)
-    h, q, z, th, Zb, e = stack[j]
-    xi = x - lo
-    exi = math.exp(-2.0 * q * xi)
-    cosh_ratio = math.exp(-q * (h - xi)) * (1.0 + exi) / (1.0 + e * e)
-    return ratio * cosh_ratio * (Zb + z * (1.0 - exi) / (1.0 + exi)) / (1.0 + Zb / z * th)
+        e2 = e * e
+        th = (1.0 - e2) / (1.0 + e2)
+        den = 1.0 + Z / z * th
+        if found:                                   # a layer above x's: its flux ratio
+            ratio *= 2.0 * e / (1.0 + e2) / den
+        elif x <= lo + h or i == n - 1:             # x's layer (searchsorted "left")
+            xi = x - lo
+            exi = math.exp(-2.0 * q * xi)
+            inside = (math.exp(-q * (h - xi)) * (1.0 + exi) / (1.0 + e2)
+                      * (Z + z * (1.0 - exi) / (1.0 + exi)) / den)
+            found = True
+        lo += h
+        Z = (Z + z * th) / den
+    return ratio * inside, Z
 
 
 def _real_material(scene: Scene, geometry: str, s: float) -> float:
@@ -389,14 +385,16 @@ def _real_quantity(scene: Scene, model: Model, skin, s: float, Zm: float | None 
     (exact): the skin's deficit 1 - theta at the receptor or surface, the sample's theta
     (``Zm``: the sample's impedance at s when known)."""
     rows = _rows(scene, model, skin)
-    stack, Zs = _real_stack(rows, s)
+    L = 0.0
+    for row in rows:
+        L += row[0]
+    r, Zs = _real_point(rows, s, L - scene.receptor_depth if scene.quantity == "receptor" else L)
     if Zm is None:
         Zm = _real_material(scene, model.geometry, s)
     F = 1.0 / (s * (scene.contact_resistance + Zs + Zm))
     if scene.quantity == "interface_material":
         return F * Zm
-    L = sum(r[0] for r in rows)
-    return F * _real_ratio(stack, L - scene.receptor_depth if scene.quantity == "receptor" else L)
+    return F * r
 
 
 def perfusion_laplace_bound(scene: Scene, model: Model, skin=None, tolerance: float = 0.0) -> float:
@@ -429,14 +427,16 @@ def perfusion_laplace_bound(scene: Scene, model: Model, skin=None, tolerance: fl
     skin = scene.skin if skin is None else skin
     dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
     rows = _rows(scene, model, skin, perfusion=True)
-    L = sum(r[0] for r in rows)
+    L = 0.0
+    for row in rows:
+        L += row[0]
     x = L - scene.receptor_depth if scene.quantity == "receptor" else L
     R, T = scene.contact_resistance, scene.duration_s
     best = math.inf
     for a in PERFUSION_LAPLACE_ST:
         s = a / T
-        stack_p, Zp = _real_stack(rows, s, True)
-        stack_0, Z0 = _real_stack(rows, s, False)
+        r_p, Zp = _real_point(rows, s, x, True)
+        r_0, Z0 = _real_point(rows, s, x, False)
         Zm = _real_material(scene, model.geometry, s)
         A = 1.0 / (s * (R + Zp))
         J = A * (Z0 - Zp) / (R + Zm + Z0)
@@ -445,7 +445,7 @@ def perfusion_laplace_bound(scene: Scene, model: Model, skin=None, tolerance: fl
         elif scene.quantity == "interface_skin":
             d = (R + Zm) * J
         else:
-            d = (A - J) * _real_ratio(stack_0, x) - A * _real_ratio(stack_p, x)
+            d = (A - J) * r_0 - A * r_p
         best = min(best, s * math.exp(a) * max(d, 0.0) * dT)
         if best <= tolerance:
             break
