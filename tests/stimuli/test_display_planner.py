@@ -217,6 +217,7 @@ def test_display_layer_lower_bound_is_below_the_effect_and_its_keeps_are_evaluat
                                  layered=True, perfusion_per_s=w or 0.0, screen=False)
                 assert q.layered, (name, L_um, frac, R, tol, q.decisions)
     assert screened > 100, screened
+    print(f"display Laplace layer screen: {screened} screened keeps, all evaluated keeps")
 
 
 def test_decay_drive_decided_without_evaluation():

@@ -381,3 +381,4 @@ def test_layer_lower_bound_is_a_lower_bound_and_its_keeps_are_evaluated_keeps():
             evaluated = {d.effect: d for d in plan(scene, screen=False).decisions}["layered"]
             assert evaluated.included, (scene, low, evaluated)
     assert screened > 50, screened
+    print(f"Laplace layer screen: {screened} screened keeps, all evaluated keeps")
