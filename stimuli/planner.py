@@ -21,12 +21,16 @@ How the error is bounded (cheaply, and checked)
   tau sup |dT/dt|, with the sup over the profile's sampled slopes (a jump at contact counts as
   its slope over the first sample); it applies to the interface quantities (what a sensor reads)
   and is "not applicable" to the receptor.
-* Perfusion is first bounded in closed form (:func:`perfusion_bound`, the maximum principle);
-  when that fits the tolerance it is neglected without evaluating anything, and the model
-  without it becomes the reference of the later drops, its bound added to their errors.
+* Perfusion is first bounded in closed form (:func:`perfusion_bound`, the maximum principle),
+  then, if that is too loose, in the Laplace domain (:func:`perfusion_laplace_bound`: a majorant
+  that grows in time, bounded by its transform at a real s); when either fits the tolerance it
+  is neglected without evaluating anything, and the model without it becomes the reference of
+  the later drops, its bound added to their errors.
 * Screens (``screen=True``, production) keep an effect without evaluating it when it certainly
   matters: a warmed-through slab (:func:`_warmed_through`) and, at the receptor, layered skin
-  whose quasi-steady effect is ``LAYER_SCREEN`` tolerances (:func:`_layers_matter`). Keeping
+  whose quasi-steady effect is ``LAYER_SCREEN`` tolerances (:func:`_layers_matter`) or whose
+  effect is at least ``LAYER_LOWER_SCREEN`` tolerances by a Laplace-domain lower bound
+  (:func:`_effect_lower_bound`, exact transforms at a real s). Keeping
   is always safe; the tests check that every screened keep is an evaluated keep. With these,
   a cold layered, perfused scene is planned in ~0.07 of one exact evaluation
   (benchmarks/README.md). ``screen=False`` (``thermocue explain``) evaluates every effect.
