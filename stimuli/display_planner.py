@@ -21,7 +21,9 @@ within the tolerance -- a wrong bound fails there.
 Before evaluating (``screen=True``, the default): perfusion is neglected when its closed-form
 bound (:func:`stimuli.planner.perfusion_factor` x sup|h|, the maximum principle) fits the
 tolerance, and the layers are kept when their quasi-steady effect under the drive is several
-tolerances (:func:`_layers_matter`); each was checked against the evaluation in the tests. The
+tolerances (:func:`_layers_matter`) or a Laplace-domain lower bound of their effect is
+(:func:`_layers_lower_bound`: exact kernels and the history's exact transform at a real s);
+each was checked against the evaluation in the tests. The
 probes' inversion is the scene planner's cheap one (each value within
 :data:`stimuli.planner.PROBE_INVERSION_ERROR`, added to the bounds).
 
