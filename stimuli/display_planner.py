@@ -21,7 +21,9 @@ within the tolerance -- a wrong bound fails there.
 Before evaluating (``screen=True``, the default): perfusion is neglected when its closed-form
 bound (:func:`stimuli.planner.perfusion_factor` x sup|h|, the maximum principle) fits the
 tolerance, and the layers are kept when their quasi-steady effect under the drive is several
-tolerances (:func:`_layers_matter`); each was checked against the evaluation in the tests. The
+tolerances (:func:`_layers_matter`) or a Laplace-domain lower bound of their effect is
+(:func:`_layers_lower_bound`: exact kernels and the history's exact transform at a real s);
+each was checked against the evaluation in the tests. The
 probes' inversion is the scene planner's cheap one (each value within
 :data:`stimuli.planner.PROBE_INVERSION_ERROR`, added to the bounds).
 
@@ -33,13 +35,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from .exact import INVERSION_ERROR
-from .layered import LayeredTransform, layered_skin_response, skin_layers
+from .layered import LayeredTransform, layer_rows, layered_skin_response, skin_layers
 from .materials import material as _material
-from .planner import PROBE_INVERSION_ERROR, SAFETY, Decision, _probes, perfusion_factor
+from .planner import (LAYER_LAPLACE_ST, PROBE_INVERSION_ERROR, SAFETY, Decision, _probes,
+                      _real_point, perfusion_factor)
 
 __all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
 
@@ -145,6 +149,13 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
         if screen and effect == "layered":
             why = _layers_matter(skin, depth, resistance, float(duration_s), float(rate_Hz), h,
                                  float(tolerance))
+            if why is None and ref is None:
+                need = LAYER_LOWER_SCREEN * float(tolerance) + offset
+                low = _layers_lower_bound(skin, depth, resistance, float(rate_Hz), h, w if current[1]
+                                          else None, need)
+                if low >= need:
+                    why = (f"kept without evaluation: its effect is at least {low - offset:.3g} K "
+                           f"(Laplace-domain lower bound, >= {LAYER_LOWER_SCREEN:g} x the tolerance)")
             if why is not None:
                 decisions.append(Decision(effect, True, math.nan, why))
                 continue
@@ -202,6 +213,79 @@ def _layers_matter(skin, depth, resistance, duration_s, rate_Hz, h, tolerance):
         return None
     return (f"kept without evaluation: the quasi-steady deficit at the receptor differs by "
             f"{effect:.3g} K with the layers (>= {LAYER_SCREEN:g} x the tolerance)")
+
+
+def display_kernel_real(skin, layered: bool, perfusion, depth: float, resistance: float,
+                        s: float) -> float:
+    """:meth:`stimuli.layered.LayeredTransform.display_kernel` at a real s > 0, in plain floats."""
+    r, Zs = _real_point(layer_rows(skin, layered=layered, perfusion=perfusion), s, depth)
+    return r / (Zs + resistance)
+
+
+@lru_cache(maxsize=16)
+def _weights(n: int, rate_Hz: float, a: float) -> np.ndarray:
+    """W with W . h = sum_{i < n} (h_{i+1} - h_i) exp(-s t_i), t_i = i / rate_Hz,
+    s = a / (n / rate_Hz), for n + 1 samples h (read-only, shared)."""
+    e = np.exp(-(a * rate_Hz / n) * (np.arange(n) / rate_Hz))
+    w = np.empty(n + 1)
+    w[0] = -e[0]
+    w[1:n] = e[:-1] - e[1:]
+    w[n] = e[-1]
+    w.setflags(write=False)
+    return w
+
+
+def _history_transform(h: np.ndarray, rate_Hz: float, a: float) -> float:
+    """L[h](s) at s = a / T of the history as the models take it (piecewise linear between the
+    samples, from h[0] at 0+; held at h[-1] after T = (len(h) - 1) / rate_Hz):
+    h0 / s + (1 - e^{-s dt}) / (s^2 dt) sum_i (h_{i+1} - h_i) e^{-s t_i}."""
+    n = h.size - 1
+    dt = 1.0 / rate_Hz
+    s = a / (n * dt)
+    # einsum, not np.dot: a BLAS dot of this length may wake BLAS threads (ms on a busy machine)
+    return h[0] / s + (-math.expm1(-s * dt)) / (s * s * dt) * float(
+        np.einsum("i,i->", h, _weights(n, rate_Hz, a)))
+
+
+def _layers_lower_bound(skin, depth, resistance, rate_Hz, h, perfusion, need) -> float:
+    r"""A lower bound (K) on max_{t <= T} |Delta u| between the homogeneous and the layered skin
+    under the history h (``perfusion``: both models' perfusion, or None), from real s.
+
+    With h held after T, |Delta u| <= |u_1| + |u_2| <= sup|h| (S_1(inf) + S_2(inf)) at every
+    time (each step response S_i grows from 0 to its steady value, at most the unperfused
+    steady share of the resistance below ``depth``, (below) / (r + R)), so M = max over [0, T]
+    obeys |L[Delta u](s)| <= M (1 - e^{-sT}) / s + sup|h| (S_1 + S_2)(inf) e^{-sT} / s, with
+    L[Delta u](s) = (K_layered - K_homogeneous)(s) L[h](s) exactly (:func:`_history_transform`).
+    The largest over s T in :data:`stimuli.planner.LAYER_LAPLACE_ST` (stopping at ``need``).
+    """
+    if h.size < 2:
+        return -math.inf
+    T = (h.size - 1) / rate_Hz
+    tail = 0.0                          # sup|h| (S_1 + S_2)(inf)
+    for layered in (True, False):
+        below, total, lo = 0.0, resistance, 0.0
+        for thick, k, *_rest in layer_rows(skin, layered=layered):
+            below += (min(depth, lo + thick) - lo) / k if depth > lo else 0.0
+            total += thick / k
+            lo += thick
+        tail += below / total
+    tail *= float(np.max(np.abs(h)))
+    best = -math.inf
+    for a in LAYER_LAPLACE_ST:
+        s = a / T
+        dK = (display_kernel_real(skin, True, perfusion, depth, resistance, s)
+              - display_kernel_real(skin, False, perfusion, depth, resistance, s))
+        e = math.exp(-a)
+        best = max(best, (s * abs(dK * _history_transform(h, rate_Hz, a)) - tail * e) / (1.0 - e))
+        if best >= need:
+            break
+    return best
+
+
+#: The layers are kept without evaluation when the lower bound of their effect
+#: (:func:`_layers_lower_bound`) is this many tolerances (> 1: neglecting them would certainly
+#: break the tolerance; the margin covers the production inversion's error).
+LAYER_LOWER_SCREEN = 1.5
 
 
 def planned_skin_response(skin, t, surface_temperature, initial_temperature: float, *,

@@ -42,7 +42,9 @@ def test_bench_model_quick_writes_table_json_png(tmp_path, capsys):
     assert len(planner) == 1 and planner[0]["max_error_K"] <= data["ratios"]["planner_tolerance_K"]
     for key in ("layered_exact_over_eq7_cost_ratio", "perfusion_exact_over_eq7_cost_ratio",
                 "planner_cold_over_exact_cost_ratio", "planner_profile_scene_cold_over_exact_cost_ratio",
-                "planner_evaluated_scene_cold_over_exact_cost_ratio"):
+                "planner_evaluated_scene_cold_over_exact_cost_ratio",
+                "planner_near_tolerance_scene_cold_over_exact_cost_ratio",
+                "display_planner_decay_over_exact_cost_ratio", "display_planner_step_over_exact_cost_ratio"):
         assert data["ratios"][key] > 0
 
 

@@ -155,3 +155,91 @@ def test_display_probe_inversion_error_bound():
         worst = max(worst, float(err))
     assert worst <= PROBE_INVERSION_ERROR, worst
     print(f"display probe inversion: worst {worst:.3g} (bound {PROBE_INVERSION_ERROR:g})")
+
+
+def test_display_kernel_at_real_s_is_the_layered_transform():
+    # the display planner's plain-float kernel (its Laplace-domain lower bound) is the exact
+    # model's (stimuli.layered.LayeredTransform.display_kernel) at real s
+    from stimuli.display_planner import display_kernel_real
+    from stimuli.layered import LayeredTransform
+    from stimuli.materials import material
+    s = np.array([1e-3, 0.05, 1.0, 40.0, 3e3])
+    for L_um, frac, R, layered, w in itertools.product([400.0, 3000.0], [0.1, 0.6, 0.95],
+                                                        [0.0, 1e-3], [False, True], [None, 2e-2]):
+        skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
+        tr = LayeredTransform(skin_layers(skin, layered=layered, perfusion=w), material("copper"), 0.0)
+        want = tr.display_kernel(s, skin.dermis, R).real
+        got = [display_kernel_real(skin, layered, w, skin.dermis, R, float(x)) for x in s]
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+
+
+def test_history_transform_is_the_piecewise_linear_history():
+    # L[h](s) of the sampled history as the models take it (linear between samples, held after
+    # the end), against quadrature of the interpolant on a 50x finer grid plus the held tail
+    from stimuli.display_planner import _history_transform
+    rate = 100.0
+    t = np.arange(1001) / rate
+    for g in list(_histories_hard(t).values()) + [20.0 + 8.0 * np.exp(-t / 3.0)]:
+        h = g - 35.5
+        for a in (4.0, 8.0, 16.0):
+            s = a / t[-1]
+            tf = np.linspace(0.0, t[-1], 50 * (t.size - 1) + 1)
+            f = np.interp(tf, t, h) * np.exp(-s * tf)
+            want = float(np.sum((f[1:] + f[:-1]) / 2) * (tf[1] - tf[0])) + h[-1] * np.exp(-s * t[-1]) / s
+            assert abs(_history_transform(h, rate, a) - want) <= 1e-5 * np.max(np.abs(h)) / s
+
+
+def test_display_layer_lower_bound_is_below_the_effect_and_its_keeps_are_evaluated_keeps():
+    # the Laplace-domain screen keeps the layers without evaluation when a lower bound of their
+    # effect is >= LAYER_LOWER_SCREEN tolerances: the bound must be below the exact effect
+    # (skins, pads, perfusion, drives), and every such keep an evaluated keep
+    from stimuli.display_planner import LAYER_LOWER_SCREEN, _layers_lower_bound, plan_display
+    screened = 0
+    for (duration, rate), L_um, frac, R, w in itertools.product(
+            [(10.0, 200.0), (20.0, 50.0)], [400.0, 650.0, 2000.0], [0.2, 0.6, 0.9], [0.0, 1e-3],
+            [None, 2e-2]):
+        skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
+        t = np.arange(int(round(duration * rate)) + 1) / rate
+        hist = dict(_histories_hard(t), decay=27.75 + 7.75 * np.exp(-t / 2.0))
+        for name, g in hist.items():
+            h = g - 35.5
+            low = _layers_lower_bound(skin, skin.dermis, R, rate, h, w, np.inf)
+            run = lambda layered: layered_skin_response(skin_layers(skin, layered=layered,
+                                                                    perfusion=w), t, g, 35.5,
+                                                        skin.dermis, R)
+            effect = float(np.max(np.abs(run(True) - run(False))))
+            assert low <= effect + 1e-9, (name, L_um, frac, R, w, low, effect)
+            for tol in (0.02, 0.3, 1.0):
+                if low < LAYER_LOWER_SCREEN * tol:
+                    continue
+                screened += 1
+                q = plan_display(skin, skin.dermis, R, duration, rate, h, tolerance=tol,
+                                 layered=True, perfusion_per_s=w or 0.0, screen=False)
+                assert q.layered, (name, L_um, frac, R, tol, q.decisions)
+    assert screened > 100, screened
+    print(f"display Laplace layer screen: {screened} screened keeps, all evaluated keeps")
+
+
+def test_decay_drive_decided_without_evaluation():
+    # the benchmark's decay drive (20 s at 1 kHz, pad 1e-4): the quasi-steady screen cannot
+    # decide the layers (1.1 K < 4 x 0.3 K); the lower bound keeps them without evaluation, with
+    # the evaluated planner's model
+    from stimuli import display_planner
+    from stimuli.display_planner import plan_display
+    skin = Skin(650e-6)
+    t = np.arange(20001) / 1000.0
+    h = 27.75 + 7.75 * np.exp(-t / 2.0) - 35.5
+    calls = []
+    real = display_planner._step
+    try:
+        display_planner._step = lambda *a: calls.append(a) or real(*a)
+        p = plan_display(skin, skin.dermis, 1e-4, 20.0, 1000.0, h, tolerance=0.3, layered=True,
+                         perfusion_per_s=1.25e-3)
+    finally:
+        display_planner._step = real
+    assert calls == []
+    d = {x.effect: x for x in p.decisions}
+    assert d["layered"].included and "lower bound" in d["layered"].note
+    q = plan_display(skin, skin.dermis, 1e-4, 20.0, 1000.0, h, tolerance=0.3, layered=True,
+                     perfusion_per_s=1.25e-3, screen=False)
+    assert (q.layered, q.perfusion) == (p.layered, p.perfusion)

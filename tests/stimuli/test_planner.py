@@ -1,6 +1,7 @@
 """The scene planner: the planned model against the full model over a grid of scenes."""
 import itertools
 import json
+import math
 import warnings
 
 import numpy as np
@@ -34,6 +35,24 @@ def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, la
         assert err <= tol, (p.lines(), err)
         assert err <= p.bound_K + 1e-9      # the reported bound is a bound at every sample
         json.dumps(p.to_dict(), allow_nan=False)   # strict JSON: caches, session events
+
+
+@pytest.mark.parametrize("quantity,geometry,layered,w,tol", list(itertools.product(
+    ["receptor", "interface_material", "interface_skin"], ["half-space", "slab", "slab-on-support"],
+    [False, True], [1.25e-3, 2e-2], [0.02, 0.3, 2.0])))
+def test_planned_model_within_tolerance_with_a_hypodermis(quantity, geometry, layered, w, tol):
+    # a 2 mm hypodermis: the closed forms and the quasi-steady screen cannot decide, the
+    # Laplace-domain bounds often do (speed, issue 12); the planned model stays within tolerance
+    scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
+                  hypodermis_m=2e-3, tolerance_K=tol, support="wood" if geometry == "slab-on-support"
+                  else None, duration_s=20.0, rate_Hz=200.0)
+    full = evaluate(scene, scene.full_model())
+    for screen in (True, False):
+        p = plan(scene, screen=screen)
+        err = float(np.max(np.abs(p.evaluate() - full)))
+        assert err <= tol, (p.lines(), err)
+        assert err <= p.bound_K + 1e-9
+        json.dumps(p.to_dict(), allow_nan=False)
 
 
 @pytest.mark.parametrize("quantity", ["interface_material", "interface_skin"])
@@ -216,7 +235,7 @@ def test_perfusion_closed_form_bounds_the_exact_effect(quantity, sample, layers,
     # scenes (copper at R = 0: the largest deficit; 3 mm skin, hypodermis; w up to 0.5 /s, long
     # runs towards the steady state; a warm sample); tightness printed
     from stimuli.exact import INVERSION_ERROR
-    from stimuli.planner import perfusion_bound
+    from stimuli.planner import perfusion_bound, perfusion_laplace_bound
     (material, geometry, R), (layered, hyp), (L, frac), (w, duration, rate) = sample, layers, skin, run
     for T_M in (5.0, 45.0):
         scene = Scene(quantity=quantity, material=material, geometry=geometry, resistance=R,
@@ -229,8 +248,11 @@ def test_perfusion_closed_form_bounds_the_exact_effect(quantity, sample, layers,
         effect = float(np.max(np.abs(full - unperfused)))
         bound = perfusion_bound(scene)
         assert effect <= bound + 2 * INVERSION_ERROR * abs(35.5 - T_M), (effect, bound)
+        # the Laplace-domain bound the planner tries when the closed form is too loose
+        laplace = perfusion_laplace_bound(scene, scene.full_model())
+        assert effect <= laplace + 2 * INVERSION_ERROR * abs(35.5 - T_M), (effect, laplace)
         print(f"{quantity} {material} {geometry} layered={layered} L={L} w={w}: effect "
-              f"{effect:.3g} K <= bound {bound:.3g} K")
+              f"{effect:.3g} K <= bound {bound:.3g} K, Laplace {laplace:.3g} K")
 
 
 def test_perfusion_neglected_by_the_closed_form_without_evaluation():
@@ -273,3 +295,90 @@ def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
         evaluated = {d.effect: d for d in plan(scene, screen=False).decisions}["layered"]
         assert evaluated.included, (p.lines(), evaluated)
     assert screened > 100, screened
+
+
+@pytest.mark.parametrize("quantity", ["receptor", "interface_material", "interface_skin"])
+@pytest.mark.parametrize("geometry", ["half-space", "slab", "slab-on-support"])
+def test_real_s_transform_is_the_layered_transform(quantity, geometry):
+    # the planner's plain-float transform at a real s (its Laplace-domain bounds) is the exact
+    # model's transform (stimuli.layered.LayeredTransform) at that s
+    from stimuli.planner import _real_quantity, _resolved
+    from stimuli.scene import _contact
+    for layered, w, hyp, L in itertools.product([False, True], [0.0, 2e-2], [None, 2e-3],
+                                                [400e-6, 3e-3]):
+        scene = _resolved(Scene(quantity=quantity, geometry=geometry, layered=layered,
+                                perfusion_per_s=w, hypodermis_m=hyp, skin_thickness_m=L,
+                                support="wood" if geometry == "slab-on-support" else None))
+        model = scene.full_model()
+        c = _contact(scene, model)
+        tr = c.transform
+        s = np.array([1e-3, 0.05, 1.0, 40.0, 3e3])
+        if quantity == "interface_material":
+            want = tr.material_rise(s, tr.L).real
+        else:
+            x = c.thickness - scene.receptor_depth if quantity == "receptor" else tr.L
+            want = tr.skin_deficit(s, float(x)).real
+        got = np.array([_real_quantity(scene, model, scene.skin, float(si)) for si in s])
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+
+
+def test_undecided_scene_decided_in_the_laplace_domain_without_evaluation():
+    # the benchmark's scene with 2 mm of hypodermis: perfusion's closed form (0.53 K) exceeds the
+    # 0.3 K and the skin is not quasi-steady, so before this the planner evaluated three models at
+    # the probes; the Laplace-domain bounds decide both without evaluating anything, with the
+    # evaluated planner's model, and the bounds hold against the exact models
+    from stimuli import planner
+    from stimuli.planner import perfusion_bound
+    scene = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3,
+                  hypodermis_m=2e-3, duration_s=20.0, rate_Hz=1000.0)
+    assert perfusion_bound(scene) > 0.3
+    calls = []
+    real = planner._at_probes
+    planner._plan.cache_clear()
+    try:
+        planner._at_probes = lambda *a, **k: calls.append(a) or real(*a, **k)
+        p = plan(scene)
+    finally:
+        planner._at_probes = real
+        planner._plan.cache_clear()
+    assert calls == []                                  # nothing evaluated
+    d = {x.effect: x for x in p.decisions}
+    assert not d["perfusion"].included and "Laplace" in d["perfusion"].note
+    assert d["layered"].included and "lower bound" in d["layered"].note
+    q = plan(scene, screen=False)
+    assert q.model == p.model
+    full = evaluate(scene, scene.full_model())
+    unperfused = evaluate(scene, Model("exact", "half-space", True, False))
+    homogeneous = evaluate(scene, Model("exact", "half-space", False, False))
+    assert np.max(np.abs(full - unperfused)) <= d["perfusion"].bound_K
+    assert np.max(np.abs(p.evaluate() - full)) <= p.bound_K <= 0.3
+    assert np.max(np.abs(homogeneous - full)) > 2 * 0.3
+
+
+def test_layer_lower_bound_is_a_lower_bound_and_its_keeps_are_evaluated_keeps():
+    # the Laplace-domain screen keeps layered skin without evaluation when a lower bound of its
+    # effect is >= LAYER_LOWER_SCREEN tolerances: the bound must be below the exact effect
+    # (every quantity and geometry, hypodermis, short and long scenes), and every such keep an
+    # evaluated keep
+    from stimuli.planner import LAYER_LOWER_SCREEN, _effect_lower_bound, _resolved
+    screened = 0
+    for quantity, material, geometry, R, L, frac, duration, hyp, T_M in itertools.product(
+            ["receptor", "interface_material", "interface_skin"],
+            ["copper", "stainless_steel", "polystyrene_foam"], ["half-space", "slab"], [0.0, 1e-3],
+            [400e-6, 1e-3], [0.1, 0.7], [1.0, 20.0], [None, 2e-3], [5.0, 45.0]):
+        scene = Scene(quantity=quantity, material=material, geometry=geometry, resistance=R,
+                      skin_thickness_m=L, receptor_fraction=frac, layered=True, hypodermis_m=hyp,
+                      tolerance_K=0.3, duration_s=duration, rate_Hz=50.0,
+                      skin_temperature_C=35.5, material_temperature_C=T_M)
+        r = _resolved(scene)
+        ref = scene.full_model()
+        cand = Model("exact", geometry, False, False)
+        low = _effect_lower_bound(r, ref, cand, r.skin, math.inf)
+        effect = float(np.max(np.abs(evaluate(scene, cand) - evaluate(scene, ref))))
+        assert low <= effect + 1e-9, (scene, low, effect)
+        if low >= LAYER_LOWER_SCREEN * 0.3:
+            screened += 1
+            evaluated = {d.effect: d for d in plan(scene, screen=False).decisions}["layered"]
+            assert evaluated.included, (scene, low, evaluated)
+    assert screened > 50, screened
+    print(f"Laplace layer screen: {screened} screened keeps, all evaluated keeps")
