@@ -42,8 +42,8 @@ import numpy as np
 from .exact import INVERSION_ERROR
 from .layered import LayeredTransform, layer_rows, layered_skin_response, skin_layers
 from .materials import material as _material
-from .planner import (LAYER_LAPLACE_ST, PROBE_INVERSION_ERROR, SAFETY, Decision, _probes,
-                      _real_point, perfusion_factor)
+from .planner import PROBE_INVERSION_ERROR, SAFETY, Decision, _probes
+from .planner_bounds import LAYER_LAPLACE_ST, _real_point, perfusion_factor
 
 __all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
 

@@ -278,7 +278,7 @@ def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
     # the screen (speed, issue 12) keeps layered skin without evaluating it when its steady effect
     # at the receptor is >= LAYER_SCREEN tolerances; keeping is safe, but it must not keep layers
     # that evaluating them would neglect: on a grid, every screened keep is an evaluated keep
-    from stimuli.planner import _layers_matter
+    from stimuli.planner_bounds import _layers_matter
     screened = 0
     for material, geometry, R, L, frac, tol, duration, hyp in itertools.product(
             ["copper", "stainless_steel", "glass", "polystyrene_foam"],
@@ -302,7 +302,8 @@ def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
 def test_real_s_transform_is_the_layered_transform(quantity, geometry):
     # the planner's plain-float transform at a real s (its Laplace-domain bounds) is the exact
     # model's transform (stimuli.layered.LayeredTransform) at that s
-    from stimuli.planner import _real_quantity, _resolved
+    from stimuli.planner import _resolved
+    from stimuli.planner_bounds import _real_quantity
     from stimuli.scene import _contact
     for layered, w, hyp, L in itertools.product([False, True], [0.0, 2e-2], [None, 2e-3],
                                                 [400e-6, 3e-3]):
@@ -360,7 +361,8 @@ def test_layer_lower_bound_is_a_lower_bound_and_its_keeps_are_evaluated_keeps():
     # effect is >= LAYER_LOWER_SCREEN tolerances: the bound must be below the exact effect
     # (every quantity and geometry, hypodermis, short and long scenes), and every such keep an
     # evaluated keep
-    from stimuli.planner import LAYER_LOWER_SCREEN, _effect_lower_bound, _resolved
+    from stimuli.planner import _resolved
+    from stimuli.planner_bounds import LAYER_LOWER_SCREEN, _effect_lower_bound
     screened = 0
     for quantity, material, geometry, R, L, frac, duration, hyp, T_M in itertools.product(
             ["receptor", "interface_material", "interface_skin"],
