@@ -86,7 +86,7 @@ def set_durable(flag: bool) -> bool:
     Every write of this module (and of :mod:`experiments.session_files`) stays in the same
     order, atomic renames included; only the ``fsync`` calls that make them survive a power cut
     are skipped when off.  For simulated studies on a virtual clock
-    (:func:`experiments.cohort.run_figure9_study`), which are recomputed from their seed: on
+    (:func:`experiments.simulation.figure9.run_figure9_study`), which are recomputed from their seed: on
     the shared 2-core machine fsync was 70 % of an emulated session's wall time (issue 11).
     Never off for a session with a person in it.
     """
