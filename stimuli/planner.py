@@ -71,6 +71,10 @@ PROBE_NODES = 12
 #: (``tests/stimuli/test_planner.py::test_probe_inversion_error_bound``); stated with a margin.
 PROBE_INVERSION_ERROR = 1e-6
 
+#: Why perfusion is kept without evaluation when its bounds cannot settle it and the layers stay.
+_PERFUSION_KEPT_NOTE = ("kept without evaluation: its upper bound exceeds the tolerance and the "
+                        "layers stay, so dropping it would save nothing (same transfer matrix)")
+
 #: Effects, in the order they are tried for dropping.
 EFFECTS = ("sensor", "perfusion", "support", "slab", "layered", "closed_form")
 
@@ -351,6 +355,16 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             if err <= tol:
                 decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + _PERFUSION_LAPLACE_NOTE))
                 current, current_err, ref_model, ref_offset = cand, err, cand, b
+                continue
+            # neither bound settles it. Where the layers are kept anyway (their screen says so) the
+            # model stays exact and layered with or without perfusion, and perfusion sits in the
+            # same transfer matrix: dropping it would save nothing (benchmarks/README.md), so
+            # deciding it at the probes would be pure overhead. Kept, unevaluated, bound stated.
+            layers_out = _drop(current, "layered", scene) if full.layered else None
+            if layers_out is not None and (
+                    _layers_matter(scene, skin()) is not None
+                    or _lower_screen(scene, ref_model, layers_out, skin(), tol, ref_offset) is not None):
+                decisions.append(Decision(effect, True, b, _NOTES[effect] + "; " + _PERFUSION_KEPT_NOTE))
                 continue
         ref = reference()
         prev = ref if prev is None else prev

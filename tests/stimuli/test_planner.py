@@ -356,6 +356,51 @@ def test_undecided_scene_decided_in_the_laplace_domain_without_evaluation():
     assert np.max(np.abs(homogeneous - full)) > 2 * 0.3
 
 
+def test_undecided_perfusion_is_kept_unevaluated_only_where_the_layers_stay():
+    # at 0.1 K neither perfusion bound fits (Laplace 0.137 K) although its effect is 0.059 K:
+    # with the layers kept (their lower bound >= 2 tolerances) the model is exact and layered
+    # either way and perfusion is in the same transfer matrix, so the planner keeps it without
+    # evaluating anything (before: two models at the probes, 0.44 of an evaluation); the planned
+    # model is then the full model. Without layers the same perfusion is still evaluated.
+    from stimuli import planner
+    from stimuli.planner import perfusion_bound, perfusion_laplace_bound
+
+    def counted(scene, **kw):
+        calls = []
+        real = planner._at_probes
+        planner._plan.cache_clear()
+        try:
+            planner._at_probes = lambda *a, **k: calls.append(a) or real(*a, **k)
+            return plan(scene, **kw), calls
+        finally:
+            planner._at_probes = real
+            planner._plan.cache_clear()
+
+    near = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3,
+                 hypodermis_m=2e-3, duration_s=20.0, rate_Hz=1000.0, tolerance_K=0.1)
+    assert perfusion_bound(near) > 0.1
+    assert perfusion_laplace_bound(near, near.full_model(), near.skin, 0.1) > 0.1
+    p, calls = counted(near)
+    assert calls == []
+    d = {x.effect: x for x in p.decisions}
+    assert d["perfusion"].included and "kept without evaluation" in d["perfusion"].note
+    assert d["layered"].included
+    assert p.model == near.full_model()
+    full = evaluate(near, near.full_model())
+    unperfused = evaluate(near, Model("exact", "half-space", True, False))
+    assert 0 < np.max(np.abs(full - unperfused)) <= d["perfusion"].bound_K      # an upper bound
+    assert np.max(np.abs(p.evaluate() - full)) <= p.bound_K <= 0.1
+    # the evaluated planner may drop it (within the tolerance): both are right, neither cheaper
+    q, _ = counted(near, screen=False)
+    assert np.max(np.abs(q.evaluate() - full)) <= q.bound_K <= 0.1
+    # homogeneous skin: dropping perfusion may open the way to Eq. 7, so it is evaluated as before
+    homog = near.replace(layered=False, hypodermis_m=None, tolerance_K=0.005)
+    assert perfusion_laplace_bound(homog, homog.full_model(), homog.skin, 0.005) > 0.005
+    r, calls = counted(homog)
+    assert calls, "perfusion of homogeneous skin is decided at the probes"
+    assert "kept without evaluation" not in {x.effect: x for x in r.decisions}["perfusion"].note
+
+
 def test_layer_lower_bound_is_a_lower_bound_and_its_keeps_are_evaluated_keeps():
     # the Laplace-domain screen keeps layered skin without evaluation when a lower bound of its
     # effect is >= LAYER_LOWER_SCREEN tolerances: the bound must be below the exact effect
