@@ -34,7 +34,8 @@ _VOLATILE = re.compile(rb'[0-9]{4}-[0-9]{2}-[0-9]{2}[T_][0-9:.h]+Z?|"(seconds|wa
 
 def _cohort():
     try:
-        from experiments.simulation.cohort import run_participant, write_cohort
+        from experiments.simulation.cohort import write_cohort
+        from experiments.simulation.figure9.study import run_participant
     except ImportError:
         from experiments.cohort import run_participant, write_cohort
     return run_participant, write_cohort
