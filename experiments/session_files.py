@@ -57,6 +57,8 @@ class _Cells(dict):
     def __missing__(self, v):
         text = _CELL % v
         if v != 0:
+            if len(self) >= 100_000:           # bounded (readings out of the usual range)
+                self.clear()
             self[v] = text
         return text
 
@@ -96,13 +98,13 @@ class TraceWriter:
         # one C-level format, the decoded frame's floats kept as they are
         _, t, target, contact, ambient, finger, forces, state = frame[:8]
         c = _CELLS
-        if len(forces) == 4 and len(c) < 200_000:
+        try:
             f0, f1, f2, f3 = forces
+        except (TypeError, ValueError):        # not four forces: the line as the format has it
+            line = _LINE_FORMAT % (t, target, contact, ambient, finger, *forces, state)
+        else:
             line = (f"{_CELL % t},{c[target]},{c[contact]},{c[ambient]},{c[finger]},"
                     f"{c[f0]},{c[f1]},{c[f2]},{c[f3]},{state}\n")
-        else:
-            c.clear()
-            line = _LINE_FORMAT % (t, target, contact, ambient, finger, *forces, state)
         if "n" in line:                         # maybe nan or inf (or a letter of the state)
             fields = (float(t), float(target), float(contact), float(ambient), float(finger),
                       *map(float, forces))
