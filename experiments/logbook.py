@@ -16,6 +16,11 @@ What "nothing lost" means on disk (DESIGN.md, Durability):
 * **Whole-file updates** (``session.json``, ``trials.csv``): :func:`atomic_write_text`
   writes a temporary file in the same folder, fsyncs it, renames it over the old one and
   fsyncs the folder: a reader sees the old file or the new one, never half of one.
+  Between two trials of one run ``trials.csv`` only grows, so its new lines are appended with
+  a single ``write`` and fsynced (:func:`append_text`): a killed process leaves the old lines or
+  all of the new ones; a power cut during that write can leave a torn last line, which
+  :func:`~experiments.logformat.read_csv_prefix` ignores and the next run's first (atomic)
+  rewrite replaces.
 * The event log is the source of truth: :func:`~experiments.logformat.trials_from_events`
   and :func:`write_trials_csv` rebuild ``trials.csv`` from it at any time.
 """
