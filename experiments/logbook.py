@@ -397,7 +397,7 @@ def trials_csv_text(rows: Iterable[Mapping[str, Any]],
 
 def append_text(path: str | Path, text: str, expected_size: int, encoding: str = "utf-8") -> bool:
     """Append whole lines to a file in one ``write``, fsynced; False (nothing written) unless
-    the file is exactly ``expected_size`` bytes long.
+    the file exists and is exactly ``expected_size`` bytes long.
 
     For a file that only ever grows by whole lines (``trials.csv`` between two trials): one
     ``write`` of the new lines at the end, so a killed process leaves the old lines or all the
@@ -407,7 +407,10 @@ def append_text(path: str | Path, text: str, expected_size: int, encoding: str =
     data = text.encode(encoding)
     if not data.endswith(b"\n"):
         raise ValueError("append_text: whole lines only")
-    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    except FileNotFoundError:
+        return False
     try:
         if os.fstat(fd).st_size != expected_size:
             return False

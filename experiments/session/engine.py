@@ -422,7 +422,7 @@ class Session(TrialSteps):
                 row.setdefault("trace_file", None)
         text, _ = trials_csv_text(rows)
         last = getattr(self, "_trials_text", None)     # (text, its size in bytes) as last written
-        if last is not None and text == last[0] and self.trials_path.stat().st_size == last[1]:
+        if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
             return                                      # the same table: nothing to write
         if not (last is not None and len(text) > len(last[0]) and text.startswith(last[0])
                 and append_text(self.trials_path, text[len(last[0]):], last[1])):
@@ -542,3 +542,9 @@ def _psychopy_date(epoch_s: float) -> str:
     return time.strftime("%Y-%m-%d_%Hh%M.%S", t) + f".{int((epoch_s % 1) * 1000):03d}"
 
 
+def _size(path) -> int | None:
+    """A file's size in bytes, None if it is not there."""
+    try:
+        return os.stat(path).st_size
+    except FileNotFoundError:
+        return None

@@ -62,6 +62,8 @@ def test_append_text_appends_whole_lines_only_to_the_file_it_expects(tmp_path):
     with pytest.raises(ValueError):
         append_text(path, "5,", expected_size=12)
     assert path.read_bytes() == b"a,b\n1,2\n3,4\n"
+    path.unlink()                                  # gone: not created by an append either
+    assert not append_text(path, "5,6\n", expected_size=12) and not path.exists()
 
 
 def test_events_read_a_few_lines_at_a_time_are_read_events(tmp_path):
