@@ -7,7 +7,8 @@ Runs P01 and P16 of the seed-0 simulated cohort (the default protocol, 24 trials
 session, and prints per session the CPU time of this process (user + system,
 ``time.process_time``: on a shared machine fairer than wall time) and the wall time, per trial,
 median and best. fsync is off for every session (:func:`experiments.logbook.set_durable`): the
-figure is the cost of the emulated session, not of the disk. It also prints a SHA-256 over every
+figure is the cost of the emulated session, not of the disk (``--durable``: on for the measured
+sessions, as in a real session). It also prints a SHA-256 over every
 file the sessions wrote (trials, traces, events; timestamps and durations stripped), so two
 commits can be compared for identical logs. ``--profile`` prints the top of a cProfile instead.
 """
@@ -76,6 +77,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--profile", action="store_true")
     ap.add_argument("--keep", metavar="DIR", help="copy round 0's sessions to DIR (to diff them)")
+    ap.add_argument("--durable", action="store_true",
+                    help="fsync as a real session does (the measured sessions only)")
     ns = ap.parse_args(argv)
     run_participant, write_cohort = _cohort()
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
@@ -98,11 +101,12 @@ def main(argv=None) -> int:
         for r in range(ns.rounds):
             for pid in PARTICIPANTS:
                 c0, w0 = time.process_time(), time.perf_counter()
-                res = run_participant(paths[pid], tmp / "runs" / f"r{r}", seed=0, durable=False)
+                res = run_participant(paths[pid], tmp / "runs" / f"r{r}", seed=0, durable=ns.durable)
                 n = res["n_trials"]
                 cpu.append(1000 * (time.process_time() - c0) / n)
                 wall.append(1000 * (time.perf_counter() - w0) / n)
-        print(f"{len(cpu)} sessions ({', '.join(PARTICIPANTS)} x {ns.rounds}), {n} trials each")
+        print(f"{len(cpu)} sessions ({', '.join(PARTICIPANTS)} x {ns.rounds}), {n} trials each, "
+              f"fsync {'on' if ns.durable else 'off'}")
         print(f"CPU : median {statistics.median(cpu):6.2f} ms/trial, best {min(cpu):6.2f}")
         print(f"wall: median {statistics.median(wall):6.2f} ms/trial, best {min(wall):6.2f}")
         print(f"logs fingerprint (round 0): {fingerprint(tmp / 'runs' / 'r0', tmp)}")

@@ -16,6 +16,11 @@ What "nothing lost" means on disk (DESIGN.md, Durability):
 * **Whole-file updates** (``session.json``, ``trials.csv``): :func:`atomic_write_text`
   writes a temporary file in the same folder, fsyncs it, renames it over the old one and
   fsyncs the folder: a reader sees the old file or the new one, never half of one.
+  Between two trials of one run ``trials.csv`` only grows, so its new lines are appended with
+  a single ``write`` and fsynced (:func:`append_text`): a killed process leaves the old lines or
+  all of the new ones; a power cut during that write can leave a torn last line, which
+  :func:`~experiments.logformat.read_csv_prefix` ignores and the next run's first (atomic)
+  rewrite replaces.
 * The event log is the source of truth: :func:`~experiments.logformat.trials_from_events`
   and :func:`write_trials_csv` rebuild ``trials.csv`` from it at any time.
 """
@@ -65,6 +70,8 @@ __all__ = [
     "to_jsonable",
     "trials_from_events",
     "write_trials_csv",
+    "trials_csv_text",
+    "append_text",
     "replay",
     "SessionProgress",
     "TRIAL_COLUMNS",
@@ -367,6 +374,14 @@ def write_trials_csv(path: str | Path, rows: Iterable[Mapping[str, Any]],
     floats are empty cells; booleans are 1/0; floats are rounded as :data:`COLUMN_DECIMALS`
     says (else the shortest round-trip form).
     """
+    text, columns = trials_csv_text(rows, columns)
+    atomic_write_text(path, text)
+    return columns
+
+
+def trials_csv_text(rows: Iterable[Mapping[str, Any]],
+                    columns: Iterable[str] | None = None) -> tuple[str, list[str]]:
+    """The text :func:`write_trials_csv` writes, and its columns (same parameters)."""
     rows = list(rows)
     if columns is None:
         extra = sorted({k for r in rows for k in r} - set(TRIAL_COLUMNS))
@@ -377,8 +392,35 @@ def write_trials_csv(path: str | Path, rows: Iterable[Mapping[str, Any]],
     w.writerow(columns)
     for r in rows:
         w.writerow([format_cell(r.get(c), c) for c in columns])
-    atomic_write_text(path, buf.getvalue())
-    return columns
+    return buf.getvalue(), columns
+
+
+def append_text(path: str | Path, text: str, expected_size: int, encoding: str = "utf-8") -> bool:
+    """Append whole lines to a file in one ``write``, fsynced; False (nothing written) unless
+    the file exists and is exactly ``expected_size`` bytes long.
+
+    For a file that only ever grows by whole lines (``trials.csv`` between two trials): one
+    ``write`` of the new lines at the end, so a killed process leaves the old lines or all the
+    new ones, never a part of one (the caller rewrites with :func:`atomic_write_text` whenever
+    the new text does not merely extend the old).
+    """
+    data = text.encode(encoding)
+    if not data.endswith(b"\n"):
+        raise ValueError("append_text: whole lines only")
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    except FileNotFoundError:
+        return False
+    try:
+        if os.fstat(fd).st_size != expected_size:
+            return False
+        if os.write(fd, data) != len(data):       # a regular file: short only when full
+            os.ftruncate(fd, expected_size)
+            raise OSError(f"{path}: short write")
+        fsync(fd)
+    finally:
+        os.close(fd)
+    return True
 
 
 _TRACE_NAME = re.compile(r"^trial-(\d+)(?:\.attempt-(\d+)\.[a-z]+)?\.csv$")

@@ -45,6 +45,27 @@ def aborted_trace_name(trial_index: int, attempt: int, kind: str = "aborted") ->
 #: The numeric cells of a trace line (time_s .. force4_N) in one C-level format: the same
 #: text as :func:`~experiments.logformat.format_cell` gives each finite cell.
 _FRAME_FORMAT = ",".join(f"%.{TRACE_DECIMALS[c]}" for c in TRACE_COLUMNS[:-1])
+#: A whole trace line, the state last.
+_LINE_FORMAT = _FRAME_FORMAT + ",%s\n"
+_CELL = "%.10g"
+assert _FRAME_FORMAT == ",".join([_CELL] * (len(TRACE_COLUMNS) - 1)), "a trace cell's format changed"
+
+
+class _Cells(dict):
+    """``%.10g`` text of a number, remembered: the telemetry's readings are whole hundredths
+    (a few thousand distinct values), so a look-up replaces most formatting. Equal numbers
+    have the same text, except 0.0 and -0.0 (never remembered)."""
+
+    def __missing__(self, v):
+        text = _CELL % v
+        if v != 0:
+            if len(self) >= 100_000:           # bounded (readings out of the usual range)
+                self.clear()
+            self[v] = text
+        return text
+
+
+_CELLS = _Cells()
 
 
 class TraceWriter:
@@ -75,13 +96,26 @@ class TraceWriter:
 
     def write(self, frame) -> None:
         """Append one :class:`~experiments.hardware.Telemetry` frame."""
-        forces = tuple(map(float, frame.forces_N))
-        t, target, contact = float(frame.device_time_s), float(frame.setpoint_C), float(frame.contact_C)
-        fields = (t, target, contact, float(frame.ambient_C), float(frame.finger_C), *forces)
-        line = _FRAME_FORMAT % fields           # one C-level format: the hot path of a session
-        if "n" in line:                         # nan or inf: blank cells (format_cell)
-            line = ",".join(format_cell(v, c, TRACE_DECIMALS) for v, c in zip(fields, TRACE_COLUMNS))
-        self._fh.write(f"{line},{frame.state}\n")
+        # the hot path of a session (100 frames a second of device time): the whole line in
+        # one C-level format, the decoded frame's floats kept as they are
+        _, t, target, contact, ambient, finger, forces, state = frame[:8]
+        c = _CELLS
+        try:
+            f0, f1, f2, f3 = forces
+        except (TypeError, ValueError):        # not four forces: the line as the format has it
+            line = _LINE_FORMAT % (t, target, contact, ambient, finger, *forces, state)
+        else:
+            line = (f"{_CELL % t},{c[target]},{c[contact]},{c[ambient]},{c[finger]},"
+                    f"{c[f0]},{c[f1]},{c[f2]},{c[f3]},{state}\n")
+        if "n" in line:                         # maybe nan or inf (or a letter of the state)
+            fields = (float(t), float(target), float(contact), float(ambient), float(finger),
+                      *map(float, forces))
+            line = _FRAME_FORMAT % fields
+            if "n" in line:                     # nan or inf: blank cells (format_cell)
+                line = ",".join(format_cell(v, c, TRACE_DECIMALS)
+                                for v, c in zip(fields, TRACE_COLUMNS))
+            line = f"{line},{state}\n"
+        self._fh.write(line)
         self.time_s.append(t)
         self.target_C.append(target)
         self.contact_C.append(contact)

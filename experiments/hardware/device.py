@@ -289,30 +289,51 @@ class Device(HostCommands):
             goal = self.profile[0][0]
         else:
             goal = self.neutral
-        goal = min(max(goal, self.lim_min), self.lim_max)
+        # the clamps below are min()/max() written as comparisons (the same value, ties and
+        # NaN included: max(x, a) is a only when a > x, min(x, b) is b only when b < x)
+        lo, hi = self.lim_min, self.lim_max
+        if lo > goal:
+            goal = lo
+        if hi < goal:
+            goal = hi
         d = goal - sp_prev
         sp = goal if -max_step <= d <= max_step else sp_prev + math.copysign(max_step, d)
         # whatever the profile: the setpoints of any 0.1 s window span at most the rate limit
         # times the window (so no |T(t + w) - T(t)| beyond it, the host's measure). The last
         # setpoint is always inside these bounds, so this only ever shortens a step.
         span = self.lim_rate * self.tick_s * RATE_WINDOW_TICKS + RATE_SLACK_C
-        sp = min(max(sp, max(self._sp_window) - span), min(self._sp_window) + span)
-        self.sp = sp = min(max(sp, HARD_MIN_C, self.lim_min), SETPOINT_MAX_C, self.lim_max)
-        self._sp_window.append(sp)
+        window = self._sp_window
+        bound = max(window) - span
+        if bound > sp:
+            sp = bound
+        bound = min(window) + span
+        if bound < sp:
+            sp = bound
+        if HARD_MIN_C > sp:
+            sp = HARD_MIN_C
+        if lo > sp:
+            sp = lo
+        if SETPOINT_MAX_C < sp:
+            sp = SETPOINT_MAX_C
+        if hi < sp:
+            sp = hi
+        self.sp = sp
+        window.append(sp)
         # physics
         load = 0.0
         skin = self.skin
+        params = self.params
         if skin is not None:
             if touching and self.arm_mode == _PLAYBACK:      # the finger is on the pad
                 load = skin.step(True, self.plant.pad) * CONTACT_AREA_M2
                 self.finger_C = skin.surface_C(True)
             elif not touching:
-                skin.step(False, self.params.room)
+                skin.step(False, params.room)
                 self.finger_C = skin.surface_C(False)
         else:
-            self.finger_C = self.params.room + self.params.noise_ambient * next(nz)
+            self.finger_C = params.room + params.noise_ambient * next(nz)
         y = self.plant.step(sp_prev, sp, load, self.enabled)
-        self.ambient_C = self.params.room + self.params.noise_ambient * next(nz)
+        self.ambient_C = params.room + params.noise_ambient * next(nz)
         if self.arm_mode == _RECORD and state in (_ARMED, _RECORDING):
             self.contact_C = self._sample_reading(t_us, touching)
         else:
@@ -368,18 +389,17 @@ class Device(HostCommands):
         if self.state != _IDLE or prev_state != _IDLE:
             self.counter += 1
             self.tx_seq = seq = (self.tx_seq + 1) & 0xFF
-            f = self.forces
             fault = self.last_fault if self.state == _FAULT else 0
             try:
                 payload = _TEL_PACK(
                     self.counter, t_us - self.boot_us, round(sp * 100), round(self.contact_C * 100),
-                    round(self.ambient_C * 100), round(self.finger_C * 100), round(f[0] * 100),
-                    round(f[1] * 100), round(f[2] * 100), round(f[3] * 100), self.state, fault)
+                    round(self.ambient_C * 100), round(self.finger_C * 100), round(f0 * 100),
+                    round(f1 * 100), round(f2 * 100), round(f3 * 100), self.state, fault)
             except struct.error:                   # a reading beyond ±327.67: saturate
                 c = m.centi
                 payload = _TEL_PACK(
                     self.counter, t_us - self.boot_us, c(sp), c(self.contact_C), c(self.ambient_C),
-                    c(self.finger_C), c(f[0]), c(f[1]), c(f[2]), c(f[3]), self.state, fault)
+                    c(self.finger_C), c(f0), c(f1), c(f2), c(f3), self.state, fault)
             direct = self.direct
             if direct is not None:
                 direct.append(_tuple_new(Frame, (seq, _TELEMETRY, payload)))  # Frame(...), sooner
@@ -396,9 +416,11 @@ class Device(HostCommands):
             n = int(self.max_duration_us / TICK_US) + 200
             tm, ts = s.curves(self.finger.skin_thickness_m, self.finger.skin_temperature_C,
                               self.tick_s, n, force_N=self.finger.force_N)
-            self.curves = (self.touch_us, tm, ts)
+            self.curves = (self.touch_us, tm.tolist(), ts.tolist())   # the same floats
         _, tm, ts = self.curves
-        k = min((t_us - self.touch_us) // TICK_US, len(tm) - 1)
+        k = (t_us - self.touch_us) // TICK_US
+        if k >= len(tm):
+            k = len(tm) - 1
         if touching:
-            self.finger_C = float(ts[k])
-        return float(tm[k]) + self.params.noise_sensor * next(self.noise)
+            self.finger_C = ts[k]
+        return tm[k] + self.params.noise_sensor * next(self.noise)

@@ -156,6 +156,8 @@ class FingerSkin:
         self._g = {True: self._touch[3], False: self._air[3]}
         self._x = np.full(n + 2, self.core)
         self._x_next = np.full(n + 2, self.core)     # the next tick's state is written here
+        # each state vector's first n cells (a view, made once): where the product goes
+        self._heads = {id(self._x): self._x[:n], id(self._x_next): self._x_next[:n]}
         self.n = n
         self.surface_node = self.core
         self.flux = 0.0       # W/m², skin to pad (or air), over the last tick
@@ -173,10 +175,10 @@ class FingerSkin:
         # the same product as ``A @ x`` (one BLAS gemv), written straight into the other state
         # vector: no temporary, no copy back (the inner boundary, x[n + 1], never changes)
         nxt = self._x_next
-        _dot(self._ab[touching], x, out=nxt[:n])
+        _dot(self._ab[touching], x, out=self._heads[id(nxt)])
         self._x, self._x_next = nxt, x
         s_old = self.surface_node
-        self.surface_node = s_new = float(nxt[n - 1])
+        self.surface_node = s_new = nxt.item(n - 1)
         # average surface flux over the tick (trapezoid on the surface node)
         self.flux = self._g[touching] * (0.5 * (s_old + s_new) - outside_C)
         return self.flux

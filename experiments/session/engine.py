@@ -14,6 +14,7 @@ from __future__ import annotations
 import datetime as _dt
 import errno
 import logging
+import os
 import time
 from pathlib import Path
 
@@ -410,8 +411,10 @@ class Session(TrialSteps):
             self._write_trials()
 
     def _write_trials(self) -> None:
-        from experiments.logbook import read_events, trials_from_events, write_trials_csv
-        events, _ = read_events(self.events_path, warn=False)
+        """``trials.csv`` rebuilt from the event log (its own lines appended when the new table
+        only adds rows to the one this process last wrote; else replaced atomically)."""
+        from experiments.logbook import append_text, atomic_write_text, trials_csv_text, trials_from_events
+        events = self._logged_events()
         rows = trials_from_events(events)
         aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
                    for e in events if e.get("event") == "trial_aborted"}
@@ -420,7 +423,41 @@ class Session(TrialSteps):
                 row["trace_file"] = aborted.get((row.get("trial_index"), row.get("attempt")))
             else:
                 row.setdefault("trace_file", None)
-        write_trials_csv(self.trials_path, rows)
+        text, _ = trials_csv_text(rows)
+        last = getattr(self, "_trials_text", None)     # (text, its size in bytes) as last written
+        if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
+            return                                      # the same table: nothing to write
+        if not (last is not None and len(text) > len(last[0]) and text.startswith(last[0])
+                and append_text(self.trials_path, text[len(last[0]):], last[1])):
+            atomic_write_text(self.trials_path, text)
+        self._trials_text = (text, len(text.encode("utf-8")))
+
+    def _logged_events(self) -> list:
+        """The events of ``events.jsonl`` as :func:`~experiments.logbook.read_events` reads them,
+        decoding only the lines appended since the last call (the log only grows; any line
+        that does not decode, a torn tail or a shorter file: read whole again)."""
+        from experiments.logbook import read_events
+        from experiments.logformat import _decode
+        offset, events = getattr(self, "_events_read", (0, None))
+        with open(self.events_path, "rb") as fh:
+            if events is not None and os.fstat(fh.fileno()).st_size >= offset:
+                fh.seek(offset)
+            else:
+                offset, events = 0, []
+            data = fh.read()
+        new = []
+        try:
+            if data and not data.endswith(b"\n"):
+                raise ValueError("torn tail")
+            for raw in data.split(b"\n")[:-1]:
+                if raw.strip():
+                    new.append(_decode(raw))
+        except (ValueError, UnicodeDecodeError):
+            self._events_read = (0, None)
+            return read_events(self.events_path, warn=False)[0]
+        events = events + new      # a new list: rows of earlier calls keep theirs
+        self._events_read = (offset + len(data), events)
+        return events
 
     def _export_bids(self) -> None:
         """The finished session as BIDS behavioural data in ``DATA/bids/`` (:mod:`experiments.bids`).
@@ -507,3 +544,9 @@ def _psychopy_date(epoch_s: float) -> str:
     return time.strftime("%Y-%m-%d_%Hh%M.%S", t) + f".{int((epoch_s % 1) * 1000):03d}"
 
 
+def _size(path) -> int | None:
+    """A file's size in bytes, None if it is not there."""
+    try:
+        return os.stat(path).st_size
+    except FileNotFoundError:
+        return None

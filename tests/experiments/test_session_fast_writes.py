@@ -1,0 +1,107 @@
+"""The session's per-frame and per-trial writes (issue 11, speed) give the same bytes as before.
+
+* a trace line (:class:`~experiments.session_files.TraceWriter`) is the cells of
+  :func:`~experiments.logformat.format_cell` whatever the values (remembered hundredths, -0.0,
+  non-finite, integers, numpy scalars);
+* ``trials.csv`` grows by its new lines between trials (one ``write``; not a rewrite of the
+  whole table), and ends as the table rebuilt from the events;
+* the events the table is rebuilt from, read a few lines at a time, are what
+  :func:`~experiments.logbook.read_events` reads, torn last line included.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import types
+
+import numpy as np
+import pytest
+
+from experiments.hardware.messages import Telemetry
+from experiments.logbook import append_text, read_events, trials_csv_text, trials_from_events
+from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
+from experiments.session.engine import Session
+from experiments.session_files import TraceWriter
+
+
+def _reference_line(values, state):
+    return ",".join([format_cell(float(v), c, TRACE_DECIMALS)
+                     for v, c in zip(values, TRACE_COLUMNS)] + [state]) + "\n"
+
+
+def test_trace_lines_are_format_cells_text_for_any_value(tmp_path):
+    rng = np.random.default_rng(1)
+    odd = [0.0, -0.0, 0.0, -0.0, math.nan, math.inf, -math.inf, 1, -3, np.float64(31.25),
+           np.float32(0.1), 1e-300, 123456.789012345, 1 / 3, -0.01, 0.01, True]
+    frames = []
+    for i in range(3000):
+        cells = list(np.round(rng.uniform(-40, 60, 8), 2))      # whole hundredths, repeated
+        if i % 3 == 0:
+            cells[rng.integers(0, 8)] = odd[i // 3 % len(odd)]
+        frames.append(((i + 1) * 0.01, *cells[:4], tuple(cells[4:])))
+    w = TraceWriter(tmp_path / "trial-001.csv")
+    want = [",".join(TRACE_COLUMNS) + "\n"]
+    for i, (t, sp, ct, amb, fin, forces) in enumerate(frames):
+        state = ("PLAYING", "ARMED", "record", "n/a")[i % 4]
+        w.write(Telemetry(i, t, sp, ct, amb, fin, forces, state, None))
+        want.append(_reference_line((t, sp, ct, amb, fin, *forces), state))
+    w.close()
+    got = (tmp_path / "trial-001.csv").read_text(encoding="utf-8")
+    assert got.splitlines(keepends=True) == want
+    assert ",-0," in got and ",0," in got          # -0.0 is not written as 0.0 or vice versa
+
+
+def test_append_text_appends_whole_lines_only_to_the_file_it_expects(tmp_path):
+    path = tmp_path / "trials.csv"
+    path.write_bytes(b"a,b\n1,2\n")
+    assert append_text(path, "3,4\n", expected_size=8)
+    assert path.read_bytes() == b"a,b\n1,2\n3,4\n"
+    assert not append_text(path, "5,6\n", expected_size=8)      # someone else changed it
+    assert path.read_bytes() == b"a,b\n1,2\n3,4\n"
+    with pytest.raises(ValueError):
+        append_text(path, "5,", expected_size=12)
+    assert path.read_bytes() == b"a,b\n1,2\n3,4\n"
+    path.unlink()                                  # gone: not created by an append either
+    assert not append_text(path, "5,6\n", expected_size=12) and not path.exists()
+
+
+def test_events_read_a_few_lines_at_a_time_are_read_events(tmp_path):
+    path = tmp_path / "events.jsonl"
+    path.write_bytes(b"")
+    engine = types.SimpleNamespace(events_path=path)
+    lines = [json.dumps({"event": "e", "seq": i, "x": [i, 0.1 * i]}).encode() + b"\n"
+             for i in range(1, 40)]
+    chunks = [b"", lines[0], b"".join(lines[1:5]), lines[5][:7], lines[5][7:], b"\n",
+              b"".join(lines[6:20]), b"not json\n", b"".join(lines[20:]), b'{"event": "to']
+    for chunk in chunks:
+        with open(path, "ab") as fh:
+            fh.write(chunk)
+        assert Session._logged_events(engine) == read_events(path, warn=False)[0]
+
+
+def test_trials_csv_grows_by_lines_and_is_the_table_of_the_events(tmp_path, monkeypatch):
+    from experiments.simulation.cohort import write_cohort
+    from experiments.simulation.figure9.study import run_participant
+    paths = {p.stem: p for p in write_cohort(tmp_path / "participants", seed=0)}
+    replaced = []
+    real_replace = os.replace
+
+    def counting_replace(src, dst, *a, **k):
+        if os.path.basename(dst) == "trials.csv":
+            replaced.append(dst)
+        return real_replace(src, dst, *a, **k)
+
+    monkeypatch.setattr(os, "replace", counting_replace)
+    res = run_participant(paths["P01"], tmp_path / "data", seed=0, durable=False)
+    session = res["session_dir"]
+    assert res["n_trials"] == 28
+    assert len(replaced) == 1            # the first table of the run; then its new lines only
+    events, report = read_events(os.path.join(session, "events.jsonl"), warn=False)
+    assert report.ok
+    rows = trials_from_events(events)
+    for row in rows:
+        row.setdefault("trace_file", None)
+    want, _ = trials_csv_text(rows)
+    with open(os.path.join(session, "trials.csv"), encoding="utf-8", newline="") as fh:
+        assert fh.read() == want
