@@ -16,11 +16,10 @@ What "nothing lost" means on disk (DESIGN.md, Durability):
 * **Whole-file updates** (``session.json``, ``trials.csv``): :func:`atomic_write_text`
   writes a temporary file in the same folder, fsyncs it, renames it over the old one and
   fsyncs the folder: a reader sees the old file or the new one, never half of one.
-  Between two trials of one run ``trials.csv`` only grows, so its new lines are appended with
-  a single ``write`` and fsynced (:func:`append_text`): a killed process leaves the old lines or
-  all of the new ones; a power cut during that write can leave a torn last line, which
-  :func:`~experiments.logformat.read_csv_prefix` ignores and the next run's first (atomic)
-  rewrite replaces.
+  Only with durability off (:func:`set_durable`: a simulated study, recomputed from its seed)
+  does the session grow ``trials.csv`` between two trials by appending its new lines in one
+  ``write`` (:func:`append_text`) instead; a session with a person in it is always replaced
+  atomically.
 * The event log is the source of truth: :func:`~experiments.logformat.trials_from_events`
   and :func:`write_trials_csv` rebuild ``trials.csv`` from it at any time.
 """
@@ -64,7 +63,7 @@ __all__ = [
     "atomic_write_json",
     "fsync_dir",
     "fsync",
-    "set_durable",
+    "set_durable", "is_durable",
     "now_iso",
     "ensure_dir",
     "to_jsonable",
@@ -100,6 +99,12 @@ def set_durable(flag: bool) -> bool:
     global _DURABLE
     previous, _DURABLE = _DURABLE, bool(flag)
     return previous
+
+
+def is_durable() -> bool:
+    """Whether this process writes for a power cut (:func:`set_durable`; on unless a simulated
+    study turned it off)."""
+    return _DURABLE
 
 
 def fsync(fd: int) -> None:

@@ -411,9 +411,14 @@ class Session(TrialSteps):
             self._write_trials()
 
     def _write_trials(self) -> None:
-        """``trials.csv`` rebuilt from the event log (its own lines appended when the new table
-        only adds rows to the one this process last wrote; else replaced atomically)."""
-        from experiments.logbook import append_text, atomic_write_text, trials_csv_text, trials_from_events
+        """``trials.csv`` rebuilt from the event log, replaced atomically: never half-written.
+
+        Only where durability is off (a simulated study on a virtual clock, recomputed from its
+        seed: :func:`~experiments.logbook.set_durable`) does a table that only adds rows to the one
+        this process last wrote grow by its new lines in one ``write`` instead (issue 11's speed);
+        a session with a person in it always gets the atomic replace."""
+        from experiments.logbook import (append_text, atomic_write_text, is_durable, trials_csv_text,
+                                         trials_from_events)
         events = self._logged_events()
         rows = trials_from_events(events)
         aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
@@ -427,7 +432,8 @@ class Session(TrialSteps):
         last = getattr(self, "_trials_text", None)     # (text, its size in bytes) as last written
         if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
             return                                      # the same table: nothing to write
-        if not (last is not None and len(text) > len(last[0]) and text.startswith(last[0])
+        if not (last is not None and not is_durable() and len(text) > len(last[0])
+                and text.startswith(last[0])
                 and append_text(self.trials_path, text[len(last[0]):], last[1])):
             atomic_write_text(self.trials_path, text)
         self._trials_text = (text, len(text.encode("utf-8")))

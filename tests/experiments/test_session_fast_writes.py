@@ -97,6 +97,10 @@ def test_trials_csv_grows_by_lines_and_is_the_table_of_the_events(tmp_path, monk
     session = res["session_dir"]
     assert res["n_trials"] == 28
     assert len(replaced) == 1            # the first table of the run; then its new lines only
+    # a durable session (a person's) replaces the table atomically every time, never appends
+    replaced.clear()
+    durable = run_participant(paths["P02"], tmp_path / "durable", seed=0, durable=True)
+    assert len(replaced) >= durable["n_trials"]
     events, report = read_events(os.path.join(session, "events.jsonl"), warn=False)
     assert report.ok
     rows = trials_from_events(events)
