@@ -56,6 +56,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import asdict, dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -268,9 +269,10 @@ class Scene:
         from .materials import material as lookup
         return self.support if isinstance(self.support, Material) else lookup(self.support)
 
-    @property
+    @cached_property
     def contact_resistance(self) -> float:
-        """R, m^2 K/W: ``resistance`` or Eq. 5 at ``force_N``."""
+        """R, m^2 K/W: ``resistance`` or Eq. 5 at ``force_N`` (computed once per scene: the
+        planner asks for it several times; a scene is frozen, so it cannot change)."""
         if self.resistance is not None:
             return float(self.resistance)
         from .roughness import contact_resistance
