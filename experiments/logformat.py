@@ -67,7 +67,7 @@ __all__ = [
     "REQUIRED_FIELDS", "event_problem", "CONTEXT_KEYS", "SPEC_KEYS",
     "TRIAL_COLUMNS", "COLUMN_DECIMALS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "STATUSES",
     "TRACE_COLUMNS", "FORCE_COLUMNS", "TRACE_DECIMALS",
-    "to_jsonable", "dumps", "format_cell",
+    "to_jsonable", "dumps", "format_cell", "decode_event",
     "LogDamageWarning", "LogReport", "read_events", "read_csv_prefix",
     "trials_from_events", "session_context", "SessionProgress", "replay",
 ]
@@ -316,7 +316,9 @@ class LogReport:
         return f"{self.path}: {self.n_events} events; " + "; ".join(parts)
 
 
-def _decode(raw: bytes) -> dict:
+def decode_event(raw: bytes) -> dict:
+    """One line of ``events.jsonl`` (without its newline) as an event; ValueError (or
+    UnicodeDecodeError) if it is not a JSON object with a string ``event``."""
     obj = json.loads(raw.decode("utf-8"))
     if not isinstance(obj, dict) or not isinstance(obj.get("event"), str):
         raise ValueError("not an event object")
@@ -373,7 +375,7 @@ def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) ->
         if not raw.strip():
             continue
         try:
-            ev = _decode(raw)
+            ev = decode_event(raw)
         except (ValueError, UnicodeDecodeError) as exc:
             if is_tail:
                 torn, torn_line = raw, i

@@ -98,6 +98,9 @@ class TraceWriter:
         """Append one :class:`~experiments.hardware.Telemetry` frame."""
         # the hot path of a session (100 frames a second of device time): the whole line in
         # one C-level format, the decoded frame's floats kept as they are
+        if not isinstance(frame, tuple):        # any frame with Telemetry's field names
+            frame = (None, frame.device_time_s, frame.setpoint_C, frame.contact_C, frame.ambient_C,
+                     frame.finger_C, tuple(frame.forces_N), frame.state)
         _, t, target, contact, ambient, finger, forces, state = frame[:8]
         c = _CELLS
         try:

@@ -256,7 +256,7 @@ def _layers_lower_bound(skin, depth, resistance, rate_Hz, h, perfusion, need) ->
     steady share of the resistance below ``depth``, (below) / (r + R)), so M = max over [0, T]
     obeys |L[Delta u](s)| <= M (1 - e^{-sT}) / s + sup|h| (S_1 + S_2)(inf) e^{-sT} / s, with
     L[Delta u](s) = (K_layered - K_homogeneous)(s) L[h](s) exactly (:func:`_history_transform`).
-    The largest over s T in :data:`stimuli.planner.LAYER_LAPLACE_ST` (stopping at ``need``).
+    The largest over s T in :data:`stimuli.planner_bounds.LAYER_LAPLACE_ST` (stopping at ``need``).
     """
     if h.size < 2:
         return -math.inf

@@ -19,6 +19,9 @@ import time
 from pathlib import Path
 
 from experiments.errors import DisplayError, SessionError, UserInputError
+from experiments.logbook import (EventLog, append_text, atomic_write_text, is_durable, log_shortfall,
+                                 read_events, replay, trials_csv_text, trials_from_events)
+from experiments.logformat import decode_event
 from experiments.responders.base import Responder
 from experiments.responders.hand import press
 from experiments.session.display import Display
@@ -93,6 +96,8 @@ class Session(TrialSteps):
             experimenter = TerminalExperimenter(out)
         self.experimenter = experimenter
         self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
+        self._events_read: tuple = (0, None)   # (bytes of events.jsonl decoded, their events)
+        self._trials_text: tuple | None = None  # (trials.csv text, its size) as this run wrote it
         self.log = None
         self.responder: Responder | None = None
         self.display = None
@@ -212,8 +217,8 @@ class Session(TrialSteps):
             0 when every trial is done; 1 when interrupted or stopped after repeated faults
             (the session can be resumed).
         """
-        from experiments.logbook import EventLog, log_shortfall, read_events, replay
-
+        self._events_read = (0, None)   # this run reads the log afresh (_logged_events)
+        self._trials_text = None         # and rewrites trials.csv whole first (_write_trials)
         events = []
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
@@ -347,7 +352,6 @@ class Session(TrialSteps):
     @property
     def finished(self) -> bool:
         """Whether ``events.jsonl`` records the session as finished."""
-        from experiments.logbook import read_events, replay
         if not self.events_path.exists():
             return False
         events, _ = read_events(self.events_path, warn=False)
@@ -417,8 +421,6 @@ class Session(TrialSteps):
         seed: :func:`~experiments.logbook.set_durable`) does a table that only adds rows to the one
         this process last wrote grow by its new lines in one ``write`` instead (issue 11's speed);
         a session with a person in it always gets the atomic replace."""
-        from experiments.logbook import (append_text, atomic_write_text, is_durable, trials_csv_text,
-                                         trials_from_events)
         events = self._logged_events()
         rows = trials_from_events(events)
         aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
@@ -429,7 +431,7 @@ class Session(TrialSteps):
             else:
                 row.setdefault("trace_file", None)
         text, _ = trials_csv_text(rows)
-        last = getattr(self, "_trials_text", None)     # (text, its size in bytes) as last written
+        last = self._trials_text                       # (text, its size in bytes) as last written
         if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
             return                                      # the same table: nothing to write
         if not (last is not None and not is_durable() and len(text) > len(last[0])
@@ -442,9 +444,7 @@ class Session(TrialSteps):
         """The events of ``events.jsonl`` as :func:`~experiments.logbook.read_events` reads them,
         decoding only the lines appended since the last call (the log only grows; any line
         that does not decode, a torn tail or a shorter file: read whole again)."""
-        from experiments.logbook import read_events
-        from experiments.logformat import _decode
-        offset, events = getattr(self, "_events_read", (0, None))
+        offset, events = self._events_read
         with open(self.events_path, "rb") as fh:
             if events is not None and os.fstat(fh.fileno()).st_size >= offset:
                 fh.seek(offset)
@@ -457,7 +457,7 @@ class Session(TrialSteps):
                 raise ValueError("torn tail")
             for raw in data.split(b"\n")[:-1]:
                 if raw.strip():
-                    new.append(_decode(raw))
+                    new.append(decode_event(raw))
         except (ValueError, UnicodeDecodeError):
             self._events_read = (0, None)
             return read_events(self.events_path, warn=False)[0]
@@ -518,7 +518,6 @@ class Session(TrialSteps):
                        n_completed=self.n_trials - len(queue))
         self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
         return 1
-
 
 
 def _best_effort(call) -> None:

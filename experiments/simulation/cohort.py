@@ -95,7 +95,7 @@ def paper_cohort(seed: int = 0, groups=PAPER_GROUPS) -> list[dict]:
                 "consent": {"given": True, "date": "2026-01-01", "form": "simulated participant"},
                 # the module's name before issue 14, kept: the records (and the study's outputs)
                 # stay byte-identical
-                "notes": "Simulated participant of the Figure 9 study (experiments.simulation.cohort).",
+                "notes": "Simulated participant of the Figure 9 study (experiments.cohort).",
                 "x_simulation": {"group": group.name, "seed": int(seed) * 1000 + n},
             })
     return records

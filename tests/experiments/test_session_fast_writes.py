@@ -52,6 +52,22 @@ def test_trace_lines_are_format_cells_text_for_any_value(tmp_path):
     assert ",-0," in got and ",0," in got          # -0.0 is not written as 0.0 or vice versa
 
 
+def test_a_frame_with_telemetrys_field_names_writes_the_same_line(tmp_path):
+    # the Display protocol promises Telemetry-like frames; a display passing an object with the
+    # same field names (not the named tuple) gets the same trace line, not a TypeError mid-trial
+    from types import SimpleNamespace
+    tele = Telemetry(7, 0.07, 24.5, 31.25, 22.0, 35.1, (0.5, 0.25, 0.0, 1.0), "PLAYING", None)
+    obj = SimpleNamespace(**tele._asdict())
+    lines = []
+    for name, frame in (("a.csv", tele), ("b.csv", obj)):
+        w = TraceWriter(tmp_path / name)
+        w.write(frame)
+        w.close()
+        lines.append((tmp_path / name).read_text(encoding="utf-8"))
+    assert lines[0] == lines[1]
+    assert lines[0].splitlines()[1] == _reference_line((0.07, 24.5, 31.25, 22.0, 35.1, 0.5, 0.25, 0.0, 1.0), "PLAYING")[:-1]
+
+
 def test_append_text_appends_whole_lines_only_to_the_file_it_expects(tmp_path):
     path = tmp_path / "trials.csv"
     path.write_bytes(b"a,b\n1,2\n")
@@ -69,7 +85,7 @@ def test_append_text_appends_whole_lines_only_to_the_file_it_expects(tmp_path):
 def test_events_read_a_few_lines_at_a_time_are_read_events(tmp_path):
     path = tmp_path / "events.jsonl"
     path.write_bytes(b"")
-    engine = types.SimpleNamespace(events_path=path)
+    engine = types.SimpleNamespace(events_path=path, _events_read=(0, None))   # as Session.__init__
     lines = [json.dumps({"event": "e", "seq": i, "x": [i, 0.1 * i]}).encode() + b"\n"
              for i in range(1, 40)]
     chunks = [b"", lines[0], b"".join(lines[1:5]), lines[5][:7], lines[5][7:], b"\n",
