@@ -48,6 +48,9 @@ The package, one concept a module:
     The simulated trials' profiles during a run and the scene planner's decisions.
 :mod:`~experiments.session.traces`
     A trial's trace file: kept per attempt, never overwritten, read back.
+:mod:`~experiments.session.trials_table`
+    ``trials.csv`` rebuilt from ``events.jsonl`` after every trial (atomically; appended only
+    with durability off).
 :mod:`~experiments.session.signals`
     SIGINT/SIGTERM held while the session writes.
 :mod:`~experiments.session.hooks`

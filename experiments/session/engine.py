@@ -14,14 +14,11 @@ from __future__ import annotations
 import datetime as _dt
 import errno
 import logging
-import os
 import time
 from pathlib import Path
 
 from experiments.errors import DisplayError, SessionError, UserInputError
-from experiments.logbook import (EventLog, append_text, atomic_write_text, is_durable, log_shortfall,
-                                 read_events, replay, trials_csv_text, trials_from_events)
-from experiments.logformat import decode_event
+from experiments.logbook import EventLog, log_shortfall, read_events, replay
 from experiments.responders.base import Responder
 from experiments.responders.hand import press
 from experiments.session.display import Display
@@ -31,6 +28,7 @@ from experiments.session.planning import SessionProfiles
 from experiments.session.setup import _protocol_source, open_session_display
 from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.traces import keep_trace
+from experiments.session.trials_table import TrialsTable
 from experiments.session.trial import TrialSteps, _Trial, clock_text
 from experiments.session_files import schedule_sha256
 
@@ -96,8 +94,8 @@ class Session(TrialSteps):
             experimenter = TerminalExperimenter(out)
         self.experimenter = experimenter
         self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
-        self._events_read: tuple = (0, None)   # (bytes of events.jsonl decoded, their events)
-        self._trials_text: tuple | None = None  # (trials.csv text, its size) as this run wrote it
+        #: trials.csv, rebuilt from events.jsonl after every trial (made anew by each run)
+        self._trials_table = TrialsTable(self.events_path, self.trials_path)
         self.log = None
         self.responder: Responder | None = None
         self.display = None
@@ -217,8 +215,7 @@ class Session(TrialSteps):
             0 when every trial is done; 1 when interrupted or stopped after repeated faults
             (the session can be resumed).
         """
-        self._events_read = (0, None)   # this run reads the log afresh (_logged_events)
-        self._trials_text = None         # and rewrites trials.csv whole first (_write_trials)
+        self._trials_table = TrialsTable(self.events_path, self.trials_path)   # read afresh
         events = []
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
@@ -415,55 +412,8 @@ class Session(TrialSteps):
             self._write_trials()
 
     def _write_trials(self) -> None:
-        """``trials.csv`` rebuilt from the event log, replaced atomically: never half-written.
-
-        Only where durability is off (a simulated study on a virtual clock, recomputed from its
-        seed: :func:`~experiments.logbook.set_durable`) does a table that only adds rows to the one
-        this process last wrote grow by its new lines in one ``write`` instead (issue 11's speed);
-        a session with a person in it always gets the atomic replace."""
-        events = self._logged_events()
-        rows = trials_from_events(events)
-        aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
-                   for e in events if e.get("event") == "trial_aborted"}
-        for row in rows:  # an aborted row's trace_file comes from its event
-            if row.get("status") == "aborted":
-                row["trace_file"] = aborted.get((row.get("trial_index"), row.get("attempt")))
-            else:
-                row.setdefault("trace_file", None)
-        text, _ = trials_csv_text(rows)
-        last = self._trials_text                       # (text, its size in bytes) as last written
-        if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
-            return                                      # the same table: nothing to write
-        if not (last is not None and not is_durable() and len(text) > len(last[0])
-                and text.startswith(last[0])
-                and append_text(self.trials_path, text[len(last[0]):], last[1])):
-            atomic_write_text(self.trials_path, text)
-        self._trials_text = (text, len(text.encode("utf-8")))
-
-    def _logged_events(self) -> list:
-        """The events of ``events.jsonl`` as :func:`~experiments.logbook.read_events` reads them,
-        decoding only the lines appended since the last call (the log only grows; any line
-        that does not decode, a torn tail or a shorter file: read whole again)."""
-        offset, events = self._events_read
-        with open(self.events_path, "rb") as fh:
-            if events is not None and os.fstat(fh.fileno()).st_size >= offset:
-                fh.seek(offset)
-            else:
-                offset, events = 0, []
-            data = fh.read()
-        new = []
-        try:
-            if data and not data.endswith(b"\n"):
-                raise ValueError("torn tail")
-            for raw in data.split(b"\n")[:-1]:
-                if raw.strip():
-                    new.append(decode_event(raw))
-        except (ValueError, UnicodeDecodeError):
-            self._events_read = (0, None)
-            return read_events(self.events_path, warn=False)[0]
-        events = events + new      # a new list: rows of earlier calls keep theirs
-        self._events_read = (offset + len(data), events)
-        return events
+        """``trials.csv`` rebuilt from the event log (:class:`.trials_table.TrialsTable`)."""
+        self._trials_table.write()
 
     def _export_bids(self) -> None:
         """The finished session as BIDS behavioural data in ``DATA/bids/`` (:mod:`experiments.bids`).
@@ -547,11 +497,3 @@ def _psychopy_date(epoch_s: float) -> str:
     """PsychoPy's ``data.getDateStr()`` form of a time, e.g. ``2026-11-22_14h05.09.123`` (local)."""
     t = time.localtime(epoch_s)
     return time.strftime("%Y-%m-%d_%Hh%M.%S", t) + f".{int((epoch_s % 1) * 1000):03d}"
-
-
-def _size(path) -> int | None:
-    """A file's size in bytes, None if it is not there."""
-    try:
-        return os.stat(path).st_size
-    except FileNotFoundError:
-        return None

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import types
 
 import numpy as np
 import pytest
@@ -21,7 +20,7 @@ import pytest
 from experiments.hardware.messages import Telemetry
 from experiments.logbook import append_text, read_events, trials_csv_text, trials_from_events
 from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
-from experiments.session.engine import Session
+from experiments.session.trials_table import TrialsTable
 from experiments.session_files import TraceWriter
 
 
@@ -85,7 +84,7 @@ def test_append_text_appends_whole_lines_only_to_the_file_it_expects(tmp_path):
 def test_events_read_a_few_lines_at_a_time_are_read_events(tmp_path):
     path = tmp_path / "events.jsonl"
     path.write_bytes(b"")
-    engine = types.SimpleNamespace(events_path=path, _events_read=(0, None))   # as Session.__init__
+    table = TrialsTable(path, tmp_path / "trials.csv")
     lines = [json.dumps({"event": "e", "seq": i, "x": [i, 0.1 * i]}).encode() + b"\n"
              for i in range(1, 40)]
     chunks = [b"", lines[0], b"".join(lines[1:5]), lines[5][:7], lines[5][7:], b"\n",
@@ -93,7 +92,7 @@ def test_events_read_a_few_lines_at_a_time_are_read_events(tmp_path):
     for chunk in chunks:
         with open(path, "ab") as fh:
             fh.write(chunk)
-        assert Session._logged_events(engine) == read_events(path, warn=False)[0]
+        assert table.events() == read_events(path, warn=False)[0]
 
 
 def test_trials_csv_grows_by_lines_and_is_the_table_of_the_events(tmp_path, monkeypatch):
