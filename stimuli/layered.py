@@ -47,7 +47,7 @@ import numpy as np
 
 from .errors import ModelInputError
 from .exact import INVERSION_ERROR, InversionPlan
-from .properties import Material, Skin, check_positive
+from .properties import Material, Skin, ThermalProperties, check_positive
 
 __all__ = ["Tissue", "TISSUES", "BLOOD_HEAT_CAPACITY", "LayeredTransform", "LayeredContact",
            "layered_skin_response",
@@ -58,7 +58,7 @@ BLOOD_HEAT_CAPACITY = 1060.0 * 3770.0
 
 
 @dataclass(frozen=True)
-class Tissue:
+class Tissue(ThermalProperties):
     """One skin layer (SI).
 
     Parameters
@@ -91,14 +91,6 @@ class Tissue:
             raise ModelInputError(f"{w}: perfusion: expected 0 <= w <= 1 1/s (physiological: "
                                   f"~1e-3), got {self.perfusion!r}")
         object.__setattr__(self, "perfusion", p)
-
-    @property
-    def diffusivity(self) -> float:
-        return self.conductivity / (self.density * self.specific_heat)
-
-    @property
-    def effusivity(self) -> float:
-        return math.sqrt(self.conductivity * self.density * self.specific_heat)
 
     @property
     def sink_rate(self) -> float:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from .errors import ModelInputError
 
-__all__ = ["Skin", "Material", "check_positive"]
+__all__ = ["Skin", "Material", "ThermalProperties", "check_positive"]
 
 
 def check_positive(where: str, name: str, value, *, allow_none: bool = False) -> float | None:
@@ -22,8 +22,25 @@ def check_positive(where: str, name: str, value, *, allow_none: bool = False) ->
     return v
 
 
+class ThermalProperties:
+    """``diffusivity`` and ``effusivity`` of anything with ``conductivity``, ``density`` and
+    ``specific_heat`` (SI): the skin, a material, a skin layer."""
+
+    __slots__ = ()
+
+    @property
+    def diffusivity(self) -> float:
+        """alpha = lambda / (rho c), m^2/s."""
+        return self.conductivity / (self.density * self.specific_heat)
+
+    @property
+    def effusivity(self) -> float:
+        """beta = sqrt(lambda rho c), W s^1/2 / (m^2 K) (the paper's "thermal contact coefficient")."""
+        return math.sqrt(self.conductivity * self.density * self.specific_heat)
+
+
 @dataclass(frozen=True)
-class Skin:
+class Skin(ThermalProperties):
     """The fingertip skin: a slab 0 < x < L held at its initial temperature at x = 0.
 
     Parameters
@@ -87,19 +104,9 @@ class Skin:
         """Epidermis thickness L - d, m."""
         return self.thickness - self.dermis
 
-    @property
-    def diffusivity(self) -> float:
-        """alpha = lambda / (rho c), m^2/s."""
-        return self.conductivity / (self.density * self.specific_heat)
-
-    @property
-    def effusivity(self) -> float:
-        """beta = sqrt(lambda rho c), W s^1/2 / (m^2 K) (the paper's "thermal contact coefficient")."""
-        return math.sqrt(self.conductivity * self.density * self.specific_heat)
-
 
 @dataclass(frozen=True)
-class Material:
+class Material(ThermalProperties):
     """A contacted material: a half-space (``thickness=None``) or a slab with an insulated back.
 
     Parameters
@@ -135,18 +142,8 @@ class Material:
         if not isinstance(self.name, str):
             raise ModelInputError(f"{w}: name: expected a string, got {self.name!r}")
 
-    @property
-    def diffusivity(self) -> float:
-        """alpha = lambda / (rho c), m^2/s."""
-        return self.conductivity / (self.density * self.specific_heat)
-
-    @property
-    def effusivity(self) -> float:
-        """beta = sqrt(lambda rho c), W s^1/2 / (m^2 K)."""
-        return math.sqrt(self.conductivity * self.density * self.specific_heat)
-
-    alpha = diffusivity
-    beta = effusivity
+    alpha = ThermalProperties.diffusivity
+    beta = ThermalProperties.effusivity
 
     def with_thickness(self, thickness: float | None) -> "Material":
         """A copy as a slab of ``thickness`` m (``None``: half-space)."""
