@@ -85,8 +85,6 @@ class Session(TrialSteps):
         self.clock = clock if clock is not None else clock_for_url(display_url)
         self.max_consecutive_faults = int(max_consecutive_faults)
         self.out = out
-        #: Whether this session logs progress lines at all (a cohort's many sessions: off).
-        self.show_progress = True
         #: The experimenter's channel (terminal by default): everything the participant must
         #: not see (:mod:`experiments.responders.experimenter`).
         if experimenter is None:
@@ -189,7 +187,7 @@ class Session(TrialSteps):
     def _say(self, text: str) -> None:
         """A progress line: logged at INFO on ``thermocue.session`` (the CLI prints it on
         stderr; ``--quiet`` silences it) and shown on the experimenter's window if one is open."""
-        if self.show_progress and _log.isEnabledFor(logging.INFO):
+        if _log.isEnabledFor(logging.INFO):     # a study's sessions: the logger is off
             _log.info(text)
             self.experimenter.progress(text)
 

@@ -72,7 +72,6 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
         session = create_session(protocol, participant_path, data_dir,
                                  f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
                                  responder_name="simulated", clock="virtual", out=io.StringIO())
-        session.show_progress = False
         status = session.run(responder)
     finally:
         set_durable(previous)
