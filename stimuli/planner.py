@@ -296,6 +296,17 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             cache["skin"] = _skin(L, L - scene.receptor_depth)     # = scene.skin, made once
         return cache["skin"]
 
+    def layers_screen(cand):
+        # why the layers are kept without evaluation (their screens), or None; asked by the
+        # perfusion step and again by the layers' own step: computed once per (reference, candidate)
+        key = ("layers", ref_model, cand, ref_offset)
+        if key not in cache:
+            why = _layers_matter(scene, skin())
+            if why is None:
+                why = _lower_screen(scene, ref_model, cand, skin(), tol, ref_offset)
+            cache[key] = why
+        return cache[key]
+
     def reference():
         # the model every candidate is compared with: the full model, or the full model without
         # perfusion when its closed-form bound (ref_offset, added to every error) neglected it
@@ -336,9 +347,7 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
         if why is not None:
             decisions.append(Decision(effect, True, math.nan, why))
             continue
-        why = _layers_matter(scene, skin()) if (screen and effect == "layered") else None
-        if why is None and screen and effect == "layered":
-            why = _lower_screen(scene, ref_model, cand, skin(), tol, ref_offset)
+        why = layers_screen(cand) if (screen and effect == "layered") else None
         if why is not None:
             decisions.append(Decision(effect, True, math.nan, why))
             continue
@@ -361,9 +370,7 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             # same transfer matrix: dropping it would save nothing (benchmarks/README.md), so
             # deciding it at the probes would be pure overhead. Kept, unevaluated, bound stated.
             layers_out = _drop(current, "layered", scene) if full.layered else None
-            if layers_out is not None and (
-                    _layers_matter(scene, skin()) is not None
-                    or _lower_screen(scene, ref_model, layers_out, skin(), tol, ref_offset) is not None):
+            if layers_out is not None and layers_screen(layers_out) is not None:
                 decisions.append(Decision(effect, True, b, _NOTES[effect] + "; " + _PERFUSION_KEPT_NOTE))
                 continue
         ref = reference()
