@@ -161,7 +161,7 @@ static PyObject *OutKwnames = NULL;    /* ("out",) */
     X(_touch) X(_air) \
     X(_consts) X(pad) X(hs) X(sensor_state) X(_y_prev) X(_q_prev) X(d_hat) X(sensor_override) \
     X(sensor_frozen) X(stuck_current) X(trip_C) X(tripped) X(sensor) X(same_count) X(current) \
-    X(step) X(clear) X(extend) X(maxlen)
+    X(step) X(extend) X(maxlen)
 
 #define DECL(name) static PyObject *s_##name;
 NAMES(DECL)
@@ -192,6 +192,7 @@ typedef struct {
     /* rate window: the last RATE_WINDOW_TICKS setpoints, oldest first */
     double win[RATE_WINDOW_TICKS];
     int win_n;
+    int win_added;                     /* setpoints appended since the load */
     /* skin (has_skin) */
     int has_skin;
     PyObject *x, *xn, *head_x, *head_xn, *ab_t, *ab_f;     /* borrowed */
@@ -210,93 +211,103 @@ typedef struct {
     Py_ssize_t pnoise_pos;
     double pad, hs, s_state, y_prev, q_prev, d_hat, y, current, trip;
     long long same;
+    /* the instance dictionaries written back (borrowed: their objects hold them) */
+    PyObject *dev_d, *skin_d, *plant_d;
     /* bookkeeping */
     int ticked;                        /* compiled ticks since the last load */
 } St;
 
-/* attribute helpers: 1 ok, 0 not of the type the compiled tick assumes (a float exactly, an
- * int), -1 error (exception set) */
+/* Attribute helpers. They read and write the objects' instance dictionaries (the attributes
+ * are plain instance attributes: no descriptor, no __setattr__ on these classes), which costs
+ * half of a getattr; 1 ok, 0 missing or not of the type the compiled tick assumes (a float
+ * exactly, an int), -1 error (exception set). */
 static int
-get_d(PyObject *o, PyObject *name, double *out)
+get_d(PyObject *d, PyObject *name, double *out)
 {
-    PyObject *v = PyObject_GetAttr(o, name);
+    PyObject *v = PyDict_GetItemWithError(d, name);
     if (v == NULL)
-        return -1;
-    int ok = PyFloat_CheckExact(v);
-    if (ok)
-        *out = PyFloat_AS_DOUBLE(v);
-    Py_DECREF(v);
-    return ok;
+        return PyErr_Occurred() ? -1 : 0;
+    if (!PyFloat_CheckExact(v))
+        return 0;
+    *out = PyFloat_AS_DOUBLE(v);
+    return 1;
 }
 
 static int
-get_ll(PyObject *o, PyObject *name, long long *out)
+as_ll(PyObject *v, long long *out)
 {
-    PyObject *v = PyObject_GetAttr(o, name);
-    if (v == NULL)
-        return -1;
-    if (!PyLong_Check(v)) {
-        Py_DECREF(v);
+    if (!PyLong_Check(v))
         return 0;
-    }
     int overflow;
     *out = PyLong_AsLongLongAndOverflow(v, &overflow);
-    Py_DECREF(v);
     if (*out == -1 && PyErr_Occurred())
         return -1;
     return overflow == 0;
 }
 
 static int
-get_truth(PyObject *o, PyObject *name, int *out)
+get_ll(PyObject *d, PyObject *name, long long *out)
 {
-    PyObject *v = PyObject_GetAttr(o, name);
+    PyObject *v = PyDict_GetItemWithError(d, name);
     if (v == NULL)
-        return -1;
+        return PyErr_Occurred() ? -1 : 0;
+    return as_ll(v, out);
+}
+
+static int
+get_truth(PyObject *d, PyObject *name, int *out)
+{
+    PyObject *v = PyDict_GetItemWithError(d, name);
+    if (v == NULL)
+        return PyErr_Occurred() ? -1 : 0;
     *out = PyObject_IsTrue(v);
-    Py_DECREF(v);
     return *out < 0 ? -1 : 1;
 }
 
 /* None or an int: has = 0 | 1 */
 static int
-get_opt_ll(PyObject *o, PyObject *name, int *has, long long *out)
+get_opt_ll(PyObject *d, PyObject *name, int *has, long long *out)
 {
-    PyObject *v = PyObject_GetAttr(o, name);
+    PyObject *v = PyDict_GetItemWithError(d, name);
     if (v == NULL)
-        return -1;
-    *has = 0;
+        return PyErr_Occurred() ? -1 : 0;
+    *has = v != Py_None;
     *out = 0;
-    if (v == Py_None) {
-        Py_DECREF(v);
-        return 1;
-    }
-    Py_DECREF(v);
-    *has = 1;
-    return get_ll(o, name, out);
+    return v == Py_None ? 1 : as_ll(v, out);
 }
 
 /* the helpers' 1 goes on; their 0 (not applicable) and -1 (error) are load()'s answer */
 #define TRY(expr) do { int r_ = (expr); if (r_ != 1) return r_; } while (0)
+/* var = d[name], borrowed (the object holds it); missing: not applicable */
+#define BORROW(var, d, name) do { \
+        if (((var) = PyDict_GetItemWithError((d), (name))) == NULL) \
+            return PyErr_Occurred() ? -1 : 0; } while (0)
+/* var = the instance dictionary of obj, borrowed; none (slots): not applicable */
+#define DICT(var, obj) do { \
+        PyObject *d_ = PyObject_GenericGetDict((obj), NULL); \
+        if (d_ == NULL) { PyErr_Clear(); return 0; } \
+        Py_DECREF(d_); \
+        if (!PyDict_CheckExact(d_)) return 0; \
+        (var) = d_; } while (0)
 
 static int
-set_d(PyObject *o, PyObject *name, double x)
+set_d(PyObject *d, PyObject *name, double x)
 {
     PyObject *v = PyFloat_FromDouble(x);
     if (v == NULL)
         return -1;
-    int r = PyObject_SetAttr(o, name, v);
+    int r = PyDict_SetItem(d, name, v);
     Py_DECREF(v);
     return r;
 }
 
 static int
-set_ll(PyObject *o, PyObject *name, long long x)
+set_ll(PyObject *d, PyObject *name, long long x)
 {
     PyObject *v = PyLong_FromLongLong(x);
     if (v == NULL)
         return -1;
-    int r = PyObject_SetAttr(o, name, v);
+    int r = PyDict_SetItem(d, name, v);
     Py_DECREF(v);
     return r;
 }
@@ -318,16 +329,6 @@ static inline double
 tuple_d(PyObject *tup, Py_ssize_t i)
 {
     return PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(tup, i));
-}
-
-/* A borrowed attribute kept alive by its owner for the whole call (owner unchanged meanwhile). */
-static PyObject *
-borrow(PyObject *o, PyObject *name)
-{
-    PyObject *v = PyObject_GetAttr(o, name);
-    if (v != NULL)
-        Py_DECREF(v);                  /* the owner still holds it */
-    return v;
 }
 
 static PyObject *
@@ -401,79 +402,79 @@ state_vector(PyObject *arr, PyObject *heads, Py_ssize_t need, double **data, PyO
 static int
 load(St *s, PyObject *dev)
 {
-    PyObject *obj;
+    PyObject *D, *obj;
     long long v;
     int t;
     memset(s, 0, sizeof(*s));
+    DICT(D, dev);
+    s->dev_d = D;
     /* a fault spec or a stall: the faults' own code paths live in Python */
-    TRY(get_truth(dev, s_faults, &t));
+    TRY(get_truth(D, s_faults, &t));
     if (t)
         return 0;
-    TRY(get_truth(dev, s_stalled, &t));
+    TRY(get_truth(D, s_stalled, &t));
     if (t)
         return 0;
-    TRY(get_ll(dev, s_state, &v));
+    TRY(get_ll(D, s_state, &v));
     if (v < IDLE || v >= FAULT)
         return 0;
     s->state = (int)v;
-    TRY(get_ll(dev, s_arm_mode, &v));
+    TRY(get_ll(D, s_arm_mode, &v));
     if (v != PLAYBACK && v != RECORD)
         return 0;
     s->arm_mode = (int)v;
-    TRY(get_ll(dev, s_time_us, &s->time_us));
-    TRY(get_ll(dev, s_boot_us, &s->boot_us));
-    TRY(get_ll(dev, s_last_rx_us, &s->last_rx_us));
-    TRY(get_ll(dev, s_contact_us, &s->contact_us));
-    TRY(get_ll(dev, s_max_duration_us, &s->max_duration_us));
-    TRY(get_opt_ll(dev, s_touch_us, &s->has_touch, &s->touch_us));
-    TRY(get_truth(dev, s_enabled, &s->enabled));
-    TRY(get_truth(dev, s_fresh, &s->fresh));
-    TRY(get_truth(dev, s_ready, &s->ready));
-    TRY(get_ll(dev, s_ready_count, &s->ready_count));
-    TRY(get_ll(dev, s_release_count, &s->release_count));
-    TRY(get_ll(dev, s_counter, &s->counter));
-    TRY(get_ll(dev, s_tx_seq, &v));
+    TRY(get_ll(D, s_time_us, &s->time_us));
+    TRY(get_ll(D, s_boot_us, &s->boot_us));
+    TRY(get_ll(D, s_last_rx_us, &s->last_rx_us));
+    TRY(get_ll(D, s_contact_us, &s->contact_us));
+    TRY(get_ll(D, s_max_duration_us, &s->max_duration_us));
+    TRY(get_opt_ll(D, s_touch_us, &s->has_touch, &s->touch_us));
+    TRY(get_truth(D, s_enabled, &s->enabled));
+    TRY(get_truth(D, s_fresh, &s->fresh));
+    TRY(get_truth(D, s_ready, &s->ready));
+    TRY(get_ll(D, s_ready_count, &s->ready_count));
+    TRY(get_ll(D, s_release_count, &s->release_count));
+    TRY(get_ll(D, s_counter, &s->counter));
+    TRY(get_ll(D, s_tx_seq, &v));
     if (v < 0 || v > 0xFF)
         return 0;
     s->tx_seq = (int)v;
-    TRY(get_d(dev, s_lim_rate, &s->lim_rate));
-    TRY(get_d(dev, s_lim_min, &s->lim_min));
-    TRY(get_d(dev, s_lim_max, &s->lim_max));
-    TRY(get_d(dev, s_tick_s, &s->tick_s));
-    TRY(get_d(dev, s_sp, &s->sp));
-    TRY(get_d(dev, s_neutral, &s->neutral));
-    TRY(get_d(dev, s_threshold, &s->threshold));
-    TRY(get_d(dev, s_finger_C, &s->finger_C));
-    TRY(get_d(dev, s_ambient_C, &s->ambient_C));
-    TRY(get_d(dev, s_contact_C, &s->contact_C));
+    TRY(get_d(D, s_lim_rate, &s->lim_rate));
+    TRY(get_d(D, s_lim_min, &s->lim_min));
+    TRY(get_d(D, s_lim_max, &s->lim_max));
+    TRY(get_d(D, s_tick_s, &s->tick_s));
+    TRY(get_d(D, s_sp, &s->sp));
+    TRY(get_d(D, s_neutral, &s->neutral));
+    TRY(get_d(D, s_threshold, &s->threshold));
+    TRY(get_d(D, s_finger_C, &s->finger_C));
+    TRY(get_d(D, s_ambient_C, &s->ambient_C));
+    TRY(get_d(D, s_contact_C, &s->contact_C));
     /* noise */
-    if ((obj = borrow(dev, s_noise)) == NULL)
-        return -1;
+    BORROW(obj, D, s_noise);
     if (Py_TYPE(obj) != &NormalStreamType)
         return 0;
     s->noise = (NormalStream *)obj;
     s->noise_pos = s->noise->pos;
-    if ((obj = borrow(dev, s_params)) == NULL)
-        return -1;
+    BORROW(obj, D, s_params);
+    DICT(obj, obj);
     TRY(get_d(obj, s_noise_force, &s->noise_force));
     TRY(get_d(obj, s_room, &s->room));
     TRY(get_d(obj, s_noise_ambient, &s->noise_ambient));
     TRY(get_d(obj, s_noise_sensor, &s->noise_sensor));
     /* finger script (the class itself: a subclass may move differently) */
-    if ((obj = borrow(dev, s_finger)) == NULL)
-        return -1;
+    BORROW(obj, D, s_finger);
     if (obj != Py_None) {
         if (strcmp(Py_TYPE(obj)->tp_name, "FingerScript") != 0)
             return 0;
         s->has_fin = 1;
+        DICT(obj, obj);
         TRY(get_opt_ll(obj, s_start_us, &s->fin_started, &s->fin_start_us));
         TRY(get_d(obj, s_press_after_s, &s->press_after));
         TRY(get_d(obj, s_force_N, &s->force_N));
         TRY(get_d(obj, s_hold_s, &s->hold_s));
     }
     /* profile: (values, dt_us) or None */
-    if ((obj = borrow(dev, s_profile)) == NULL)
-        return -1;
+    BORROW(obj, D, s_profile);
     if (obj != Py_None) {
         if (!PyTuple_Check(obj) || PyTuple_GET_SIZE(obj) != 2 || !PyList_Check(PyTuple_GET_ITEM(obj, 0))
                 || !PyLong_CheckExact(PyTuple_GET_ITEM(obj, 1)))
@@ -494,8 +495,7 @@ load(St *s, PyObject *dev)
     if (s->time_us > (1LL << 52) || s->time_us < 0 || s->contact_us > (1LL << 52) || s->contact_us < 0)
         return 0;
     /* rate window */
-    if ((obj = borrow(dev, s__sp_window)) == NULL)
-        return -1;
+    BORROW(obj, D, s__sp_window);
     {
         PyObject *ml = PyObject_GetAttr(obj, s_maxlen);
         if (ml == NULL)
@@ -527,10 +527,11 @@ load(St *s, PyObject *dev)
             return -1;
     }
     /* skin */
-    if ((obj = borrow(dev, s_skin)) == NULL)
-        return -1;
+    BORROW(obj, D, s_skin);
     if (obj != Py_None) {
-        PyObject *skin = obj, *d, *tup;
+        PyObject *skin, *d, *tup;
+        DICT(skin, obj);
+        s->skin_d = skin;
         s->has_skin = 1;
         TRY(get_ll(skin, s_n, &v));
         if (v < 1 || v > 4096)
@@ -539,20 +540,17 @@ load(St *s, PyObject *dev)
         TRY(get_d(skin, s_surface_node, &s->surface_node));
         TRY(get_d(skin, s_flux, &s->flux));
         TRY(get_d(skin, s_conductivity, &s->conductivity));
-        if ((s->x = borrow(skin, s__x)) == NULL || (s->xn = borrow(skin, s__x_next)) == NULL)
-            return -1;
-        if ((d = borrow(skin, s__ab)) == NULL)
-            return -1;
+        BORROW(s->x, skin, s__x);
+        BORROW(s->xn, skin, s__x_next);
+        BORROW(d, skin, s__ab);
         s->ab_t = dict_item(d, Py_True);
         s->ab_f = dict_item(d, Py_False);
         if (s->ab_t == NULL || s->ab_f == NULL)
             return PyErr_Occurred() ? -1 : 0;
-        if ((d = borrow(skin, s__heads)) == NULL)
-            return -1;
+        BORROW(d, skin, s__heads);
         TRY(state_vector(s->x, d, s->n + 2, &s->xd, &s->head_x));
         TRY(state_vector(s->xn, d, s->n + 2, &s->xnd, &s->head_xn));
-        if ((d = borrow(skin, s__g)) == NULL)
-            return -1;
+        BORROW(d, skin, s__g);
         PyObject *gt = dict_item(d, Py_True), *gf = dict_item(d, Py_False);
         if (PyErr_Occurred())
             return -1;
@@ -560,24 +558,21 @@ load(St *s, PyObject *dev)
             return 0;
         s->g_t = PyFloat_AS_DOUBLE(gt);
         s->g_f = PyFloat_AS_DOUBLE(gf);
-        if ((tup = borrow(skin, s__touch)) == NULL)
-            return -1;
+        BORROW(tup, skin, s__touch);
         if (!PyTuple_Check(tup) || PyTuple_GET_SIZE(tup) != 5 || !PyFloat_CheckExact(PyTuple_GET_ITEM(tup, 4)))
             return 0;
         s->w_t = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(tup, 4));
-        if ((tup = borrow(skin, s__air)) == NULL)
-            return -1;
+        BORROW(tup, skin, s__air);
         if (!PyTuple_Check(tup) || PyTuple_GET_SIZE(tup) != 5 || !PyFloat_CheckExact(PyTuple_GET_ITEM(tup, 4)))
             return 0;
         s->w_f = PyFloat_AS_DOUBLE(PyTuple_GET_ITEM(tup, 4));
     }
     /* record mode: the passive sample's curves from the first touch */
     if (s->arm_mode == RECORD && (s->state == ARMED || s->state == RECORDING)) {
-        if ((obj = borrow(dev, s_sample)) == NULL)
-            return -1;
+        BORROW(obj, D, s_sample);
+        DICT(obj, obj);
         TRY(get_d(obj, s_temperature_C, &s->sample_T));
-        if ((obj = borrow(dev, s_curves)) == NULL)
-            return -1;
+        BORROW(obj, D, s_curves);
         if (obj != Py_None) {
             if (!PyTuple_Check(obj) || PyTuple_GET_SIZE(obj) != 3 || !PyLong_CheckExact(PyTuple_GET_ITEM(obj, 0))
                     || !PyList_Check(PyTuple_GET_ITEM(obj, 1)) || !PyList_Check(PyTuple_GET_ITEM(obj, 2)))
@@ -594,12 +589,12 @@ load(St *s, PyObject *dev)
         }
     }
     /* plant */
-    if ((obj = borrow(dev, s_plant)) == NULL)
-        return -1;
+    BORROW(obj, D, s_plant);
     {
-        PyObject *pl = obj, *c, *nz, *ov, *st, *tc;
-        if ((c = borrow(pl, s__consts)) == NULL)
-            return -1;
+        PyObject *pl, *c, *nz, *ov, *st, *tc;
+        DICT(pl, obj);
+        s->plant_d = pl;
+        BORROW(c, pl, s__consts);
         if (!PyTuple_Check(c) || PyTuple_GET_SIZE(c) != 18 || !PyLong_CheckExact(PyTuple_GET_ITEM(c, 1)))
             return 0;
         for (int i = 0; i < 18; i++)
@@ -616,15 +611,14 @@ load(St *s, PyObject *dev)
         s->kp = tuple_d(c, 10); s->imax = tuple_d(c, 11); s->g_obs = tuple_d(c, 12);
         s->lag = tuple_d(c, 13); s->pnoise = tuple_d(c, 14); s->g_hs = tuple_d(c, 15);
         s->p_room = tuple_d(c, 16); s->C_hs = tuple_d(c, 17);
-        if ((nz = borrow(pl, s_noise)) == NULL)
-            return -1;
+        BORROW(nz, pl, s_noise);
         if (Py_TYPE(nz) != &NormalStreamType || nz == (PyObject *)s->noise)
             return 0;
         s->pnz = (NormalStream *)nz;
         s->pnoise_pos = s->pnz->pos;
         /* the fault hooks at rest, no latched trip */
-        if ((ov = borrow(pl, s_sensor_override)) == NULL || (st = borrow(pl, s_stuck_current)) == NULL)
-            return -1;
+        BORROW(ov, pl, s_sensor_override);
+        BORROW(st, pl, s_stuck_current);
         if (ov != Py_None || st != Py_None)
             return 0;
         TRY(get_truth(pl, s_sensor_frozen, &t));
@@ -633,8 +627,7 @@ load(St *s, PyObject *dev)
         TRY(get_truth(pl, s_tripped, &t));
         if (t)
             return 0;
-        if ((tc = borrow(pl, s_trip_C)) == NULL)
-            return -1;
+        BORROW(tc, pl, s_trip_C);
         if (tc == Py_None)
             s->trip = INFINITY;
         else if (PyFloat_CheckExact(tc))
@@ -652,8 +645,7 @@ load(St *s, PyObject *dev)
         TRY(get_ll(pl, s_same_count, &s->same));
     }
     /* forces: (f0, f1, f2, f3) */
-    if ((obj = borrow(dev, s_forces)) == NULL)
-        return -1;
+    BORROW(obj, D, s_forces);
     if (!PyTuple_Check(obj) || PyTuple_GET_SIZE(obj) != 4)
         return 0;
     for (int i = 0; i < 4; i++) {
@@ -666,43 +658,49 @@ load(St *s, PyObject *dev)
 
 /* Write back what a compiled tick changes. 0 ok, -1 error. */
 static int
-store(St *s, PyObject *dev)
+store(St *s)
 {
+    PyObject *D = s->dev_d;
     if (!s->ticked)
         return 0;
     PyObject *o;
     s->noise->pos = s->noise_pos;
     s->pnz->pos = s->pnoise_pos;
-    if (set_ll(dev, s_time_us, s->time_us) < 0 || set_d(dev, s_sp, s->sp) < 0
-            || set_d(dev, s_finger_C, s->finger_C) < 0 || set_d(dev, s_ambient_C, s->ambient_C) < 0
-            || set_d(dev, s_contact_C, s->contact_C) < 0
-            || PyObject_SetAttr(dev, s_fresh, s->fresh ? Py_True : Py_False) < 0
-            || set_ll(dev, s_ready_count, s->ready_count) < 0
-            || set_ll(dev, s_release_count, s->release_count) < 0
-            || set_ll(dev, s_counter, s->counter) < 0 || set_ll(dev, s_tx_seq, s->tx_seq) < 0)
+    if (set_ll(D, s_time_us, s->time_us) < 0 || set_d(D, s_sp, s->sp) < 0
+            || set_d(D, s_finger_C, s->finger_C) < 0 || set_d(D, s_ambient_C, s->ambient_C) < 0
+            || set_d(D, s_contact_C, s->contact_C) < 0
+            || PyDict_SetItem(D, s_fresh, s->fresh ? Py_True : Py_False) < 0
+            || set_ll(D, s_ready_count, s->ready_count) < 0
+            || set_ll(D, s_release_count, s->release_count) < 0
+            || set_ll(D, s_counter, s->counter) < 0 || set_ll(D, s_tx_seq, s->tx_seq) < 0)
         return -1;
     if (s->has_touch) {
-        if (set_ll(dev, s_touch_us, s->touch_us) < 0)
+        if (set_ll(D, s_touch_us, s->touch_us) < 0)
             return -1;
     }
     o = Py_BuildValue("(dddd)", s->f[0], s->f[1], s->f[2], s->f[3]);
-    if (o == NULL || PyObject_SetAttr(dev, s_forces, o) < 0) {
+    if (o == NULL || PyDict_SetItem(D, s_forces, o) < 0) {
         Py_XDECREF(o);
         return -1;
     }
     Py_DECREF(o);
-    /* the window: cleared and refilled (a deque of maxlen RATE_WINDOW_TICKS) */
+    /* the window: the setpoints appended since the load (the deque's maxlen drops the oldest) */
     {
-        PyObject *w = PyObject_GetAttr(dev, s__sp_window), *lst, *r;
-        if (w == NULL)
+        int k = s->win_added < s->win_n ? s->win_added : s->win_n;
+        PyObject *w = PyDict_GetItemWithError(D, s__sp_window), *lst, *r;
+        if (w == NULL) {
+            if (!PyErr_Occurred())
+                PyErr_SetString(PyExc_RuntimeError, "_tick: the device lost its _sp_window");
             return -1;
-        lst = PyList_New(s->win_n);
+        }
+        Py_INCREF(w);
+        lst = PyList_New(k);
         if (lst == NULL) {
             Py_DECREF(w);
             return -1;
         }
-        for (int i = 0; i < s->win_n; i++) {
-            PyObject *v = PyFloat_FromDouble(s->win[i]);
+        for (int i = 0; i < k; i++) {
+            PyObject *v = PyFloat_FromDouble(s->win[s->win_n - k + i]);
             if (v == NULL) {
                 Py_DECREF(lst);
                 Py_DECREF(w);
@@ -710,41 +708,27 @@ store(St *s, PyObject *dev)
             }
             PyList_SET_ITEM(lst, i, v);
         }
-        r = PyObject_CallMethodNoArgs(w, s_clear);
-        if (r == NULL) {
-            Py_DECREF(lst);
-            Py_DECREF(w);
-            return -1;
-        }
-        Py_DECREF(r);
         r = PyObject_CallMethodOneArg(w, s_extend, lst);
         Py_DECREF(lst);
         Py_DECREF(w);
         if (r == NULL)
             return -1;
         Py_DECREF(r);
+        s->win_added = 0;
     }
     if (s->has_skin) {
-        PyObject *skin = PyObject_GetAttr(dev, s_skin);
-        if (skin == NULL)
-            return -1;
-        int bad = PyObject_SetAttr(skin, s__x, s->x) < 0 || PyObject_SetAttr(skin, s__x_next, s->xn) < 0
-                  || set_d(skin, s_surface_node, s->surface_node) < 0 || set_d(skin, s_flux, s->flux) < 0;
-        Py_DECREF(skin);
-        if (bad)
+        PyObject *skin = s->skin_d;
+        if (PyDict_SetItem(skin, s__x, s->x) < 0 || PyDict_SetItem(skin, s__x_next, s->xn) < 0
+                || set_d(skin, s_surface_node, s->surface_node) < 0 || set_d(skin, s_flux, s->flux) < 0)
             return -1;
     }
     {
-        PyObject *pl = PyObject_GetAttr(dev, s_plant);
-        if (pl == NULL)
-            return -1;
-        int bad = set_d(pl, s_pad, s->pad) < 0 || set_d(pl, s_hs, s->hs) < 0
-                  || set_d(pl, s_sensor_state, s->s_state) < 0 || set_d(pl, s__y_prev, s->y_prev) < 0
-                  || set_d(pl, s__q_prev, s->q_prev) < 0 || set_d(pl, s_d_hat, s->d_hat) < 0
-                  || set_d(pl, s_sensor, s->y) < 0 || set_ll(pl, s_same_count, s->same) < 0
-                  || set_d(pl, s_current, s->current) < 0;
-        Py_DECREF(pl);
-        if (bad)
+        PyObject *pl = s->plant_d;
+        if (set_d(pl, s_pad, s->pad) < 0 || set_d(pl, s_hs, s->hs) < 0
+                || set_d(pl, s_sensor_state, s->s_state) < 0 || set_d(pl, s__y_prev, s->y_prev) < 0
+                || set_d(pl, s__q_prev, s->q_prev) < 0 || set_d(pl, s_d_hat, s->d_hat) < 0
+                || set_d(pl, s_sensor, s->y) < 0 || set_ll(pl, s_same_count, s->same) < 0
+                || set_d(pl, s_current, s->current) < 0)
             return -1;
     }
     s->ticked = 0;
@@ -1009,6 +993,7 @@ tick(St *s0, PyObject *frames)
         s->win[RATE_WINDOW_TICKS - 1] = sp;
     } else
         s->win[s->win_n++] = sp;
+    s->win_added++;
     /* physics */
     double load_W = 0.0;
     if (s->has_skin) {
@@ -1129,7 +1114,7 @@ one_tick(Loop *L)
         }
         if (r == TICK_ERROR)
             return -1;
-        if (store(&L->s, L->dev) < 0)
+        if (store(&L->s) < 0)
             return -1;
     }
     PyObject *res = PyObject_CallMethodNoArgs(L->dev, s_step);
@@ -1192,7 +1177,7 @@ read_ticks(PyObject *module, PyObject *args)
                 goto fail;
         }
     }
-    if (L.compiled && store(&L.s, L.dev) < 0)
+    if (L.compiled && store(&L.s) < 0)
         goto fail;
     return Py_BuildValue("(LL)", L.ticks_c, L.ticks_py);
 fail:

@@ -28,7 +28,9 @@ try:
 except ImportError:                     # not built: no C compiler at install time
     _tick = None
 else:
-    _tick.configure(Frame, _dot)
+    # numpy's dot itself, past its __array_function__ dispatcher (the same function, the same
+    # product: the dispatcher only looks for overrides, and the skin's arrays are plain ndarrays)
+    _tick.configure(Frame, getattr(_dot, "_implementation", _dot))
 
 __all__ = ["AVAILABLE", "enabled", "read_ticks"]
 
