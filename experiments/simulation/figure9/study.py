@@ -68,11 +68,15 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     session_log = logging.getLogger("thermocue.session")
     level = session_log.level
     session_log.setLevel(logging.WARNING)
+    # one BLAS thread: a session's products are small (the skin's 32-cell step, the stimuli);
+    # idle BLAS threads only spin, and cost as much CPU as a fifth of the session (issue 11)
+    from threadpoolctl import threadpool_limits
     try:
-        session = create_session(protocol, participant_path, data_dir,
-                                 f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
-                                 responder_name="simulated", clock="virtual", out=io.StringIO())
-        status = session.run(responder)
+        with threadpool_limits(1):
+            session = create_session(protocol, participant_path, data_dir,
+                                     f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
+                                     responder_name="simulated", clock="virtual", out=io.StringIO())
+            status = session.run(responder)
     finally:
         set_durable(previous)
         session_log.setLevel(level)
