@@ -288,6 +288,8 @@ class Serial(SerialBase):
         same order, but the device hands them over without encoding them and the host takes
         them without parsing: with nothing on the line to drop, corrupt or delay, the bytes
         would only be built and taken apart again. The driver's I/O loop uses it when offered.
+        The ticks are the compiled ones when built (:mod:`.compiled_tick`: the same doubles,
+        ``Device.step`` for any tick that changes the device's state).
 
         Returns
         -------
