@@ -28,6 +28,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+# only ROOT's code: an editable install's finder would supply the modules an older tree (a
+# `git archive` of the "before" commit) lacks from the working copy, mixing two commits
+sys.meta_path[:] = [f for f in sys.meta_path if "Editable" not in getattr(f, "__name__", type(f).__name__)]
+sys.path_hooks[:] = [h for h in sys.path_hooks if "Editable" not in getattr(h, "__qualname__", "")]
+sys.path_importer_cache.clear()
 PARTICIPANTS = ("P01", "P16")
 _VOLATILE = re.compile(rb'[0-9]{4}-[0-9]{2}-[0-9]{2}[T_][0-9:.h]+Z?|"(seconds|wall_s|elapsed_s|'
                        rb't_wall|duration_s_wall)": [0-9.e+-]+')
@@ -40,6 +45,15 @@ def _cohort():
     except ImportError:   # main 06e98b2 and before (the "before" of benchmarks/README's round 2)
         from experiments.cohort import run_participant, write_cohort
     return run_participant, write_cohort
+
+
+def _runner(run_participant):
+    """run_participant with ``durable`` when the commit has it (a89728d and before fsync always:
+    their figures include the fsyncs' CPU, and their wall times the disk's)."""
+    import inspect
+    if "durable" in inspect.signature(run_participant).parameters:
+        return run_participant, True
+    return (lambda path, out, seed, durable: run_participant(path, out, seed=seed)), False
 
 
 def fingerprint(folder: Path, tmp: Path) -> str:
@@ -81,8 +95,16 @@ def main(argv=None) -> int:
                     help="fsync as a real session does (the measured sessions only)")
     ns = ap.parse_args(argv)
     run_participant, write_cohort = _cohort()
+    run_participant, has_switch = _runner(run_participant)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; code: {ROOT}")
+    try:
+        from experiments.hardware import compiled_tick
+        ticks = "compiled" if compiled_tick.enabled else (
+            "Python (THERMOCUE_PYTHON_TICK=1)" if compiled_tick.AVAILABLE else "Python (not built)")
+    except ImportError:            # before stop 19
+        ticks = "Python (no compiled tick in this commit)"
+    print(f"device ticks: {ticks}")
     print(f"load average at the start: {os.getloadavg()[0]:.2f}")
     tmp = Path(tempfile.mkdtemp(prefix="bench-emulated-"))
     try:
@@ -106,7 +128,8 @@ def main(argv=None) -> int:
                 cpu.append(1000 * (time.process_time() - c0) / n)
                 wall.append(1000 * (time.perf_counter() - w0) / n)
         print(f"{len(cpu)} sessions ({', '.join(PARTICIPANTS)} x {ns.rounds}), {n} trials each, "
-              f"fsync {'on' if ns.durable else 'off'}")
+              f"fsync {'on' if ns.durable or not has_switch else 'off'}"
+              f"{'' if has_switch else ' (this commit has no switch)'}")
         print(f"CPU : median {statistics.median(cpu):6.2f} ms/trial, best {min(cpu):6.2f}")
         print(f"wall: median {statistics.median(wall):6.2f} ms/trial, best {min(wall):6.2f}")
         print(f"logs fingerprint (round 0): {fingerprint(tmp / 'runs' / 'r0', tmp)}")

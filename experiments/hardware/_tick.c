@@ -1161,6 +1161,8 @@ read_ticks(PyObject *module, PyObject *args)
         return NULL;
     long long k;
     for (k = 0; k < budget; k++) {
+        if ((k & 1023) == 1023 && PyErr_CheckSignals() < 0)   /* a long wait stays interruptible */
+            goto fail;
         if (one_tick(&L) < 0)
             goto fail;
         if (PyList_GET_SIZE(L.frames))
@@ -1181,6 +1183,14 @@ read_ticks(PyObject *module, PyObject *args)
         goto fail;
     return Py_BuildValue("(LL)", L.ticks_c, L.ticks_py);
 fail:
+    /* the ticks done so far stay done (their frames are in the list): keep the state with them */
+    if (L.compiled && L.s.ticked) {
+        PyObject *type, *value, *tb;
+        PyErr_Fetch(&type, &value, &tb);
+        if (store(&L.s) < 0)
+            PyErr_Clear();
+        PyErr_Restore(type, value, tb);
+    }
     return NULL;
 }
 
