@@ -22,6 +22,12 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+/* no fused multiply-add, whatever the build flags (GCC: -ffp-contract=off in setup.py) */
+#if defined(_MSC_VER)
+#pragma fp_contract(off)
+#elif defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#endif
 #include <math.h>
 #include <string.h>
 
@@ -103,6 +109,10 @@ ns_dealloc(NormalStream *self)
 static PyObject *
 ns_next(NormalStream *self)
 {
+    if (self->v == NULL) {
+        PyErr_SetString(PyExc_ValueError, "NormalStream: not initialised");
+        return NULL;
+    }
     double x = self->v[self->pos];
     if (++self->pos == self->n)
         self->pos = 0;
@@ -147,6 +157,14 @@ draw(const NormalStream *s, Py_ssize_t *pos)
 static PyObject *FrameType = NULL;     /* framing.Frame */
 static PyObject *DotFunc = NULL;       /* numpy.dot, as pad_physics calls it */
 static PyObject *OutKwnames = NULL;    /* ("out",) */
+/* The Python methods this file transcribes (configure()): a device, plant, skin or finger
+ * whose class or instance has another one (a subclass, a test's spy) ticks in Python. */
+enum { M_DEVICE_STEP, M_DEVICE_SAMPLE, M_PLANT_STEP, M_SKIN_STEP, M_SKIN_SURFACE, M_FINGER_FORCE,
+       N_METHODS };
+static PyObject *Original[N_METHODS];
+static const char *const MethodOf[N_METHODS] = {"step", "_sample_reading", "step", "step",
+                                                  "surface_C", "force"};
+static PyObject *MethodName[N_METHODS];      /* interned at import */
 
 /* interned attribute names */
 #define NAMES(X) \
@@ -290,6 +308,38 @@ get_opt_ll(PyObject *d, PyObject *name, int *has, long long *out)
         if (!PyDict_CheckExact(d_)) return 0; \
         (var) = d_; } while (0)
 
+/* 1: obj's class has the original method m and its instance dict d does not shadow it. The
+ * answer per class is kept until the class changes (its version tag). */
+static struct {
+    PyTypeObject *type;
+    unsigned int tag;
+} method_ok[N_METHODS][4];
+
+static int
+original_method(PyObject *obj, PyObject *d, int m)
+{
+    PyObject *name = MethodName[m];
+    PyObject *shadow = PyDict_GetItemWithError(d, name);
+    if (shadow != NULL || PyErr_Occurred())
+        return shadow != NULL ? 0 : -1;
+    PyTypeObject *t = Py_TYPE(obj);
+    int tagged = PyType_HasFeature(t, Py_TPFLAGS_VALID_VERSION_TAG);
+    for (int i = 0; tagged && i < 4; i++)
+        if (method_ok[m][i].type == t && method_ok[m][i].tag == t->tp_version_tag)
+            return 1;
+    PyObject *f = PyObject_GetAttr((PyObject *)t, name);
+    if (f == NULL)
+        return -1;
+    int same = f == Original[m];
+    Py_DECREF(f);
+    if (same && PyType_HasFeature(t, Py_TPFLAGS_VALID_VERSION_TAG)) {
+        memmove(&method_ok[m][1], &method_ok[m][0], 3 * sizeof(method_ok[m][0]));
+        method_ok[m][0].type = t;      /* a class is not freed while an instance is alive */
+        method_ok[m][0].tag = t->tp_version_tag;
+    }
+    return same;
+}
+
 static int
 set_d(PyObject *d, PyObject *name, double x)
 {
@@ -370,8 +420,10 @@ state_vector(PyObject *arr, PyObject *heads, Py_ssize_t need, double **data, PyO
     if (h == NULL)
         return PyErr_Occurred() ? -1 : 0;
     Py_buffer b;
-    if (PyObject_GetBuffer(arr, &b, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
-        return -1;
+    if (PyObject_GetBuffer(arr, &b, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0) {
+        PyErr_Clear();                 /* not a writable contiguous array: Python's tick */
+        return 0;
+    }
     const char *f = b.format;
     if (f != NULL && (f[0] == '@' || f[0] == '=' || f[0] == '<'))
         f++;
@@ -408,6 +460,8 @@ load(St *s, PyObject *dev)
     memset(s, 0, sizeof(*s));
     DICT(D, dev);
     s->dev_d = D;
+    TRY(original_method(dev, D, M_DEVICE_STEP));
+    TRY(original_method(dev, D, M_DEVICE_SAMPLE));
     /* a fault spec or a stall: the faults' own code paths live in Python */
     TRY(get_truth(D, s_faults, &t));
     if (t)
@@ -454,6 +508,8 @@ load(St *s, PyObject *dev)
     if (Py_TYPE(obj) != &NormalStreamType)
         return 0;
     s->noise = (NormalStream *)obj;
+    if (s->noise->v == NULL)
+        return 0;
     s->noise_pos = s->noise->pos;
     BORROW(obj, D, s_params);
     DICT(obj, obj);
@@ -464,10 +520,10 @@ load(St *s, PyObject *dev)
     /* finger script (the class itself: a subclass may move differently) */
     BORROW(obj, D, s_finger);
     if (obj != Py_None) {
-        if (strcmp(Py_TYPE(obj)->tp_name, "FingerScript") != 0)
-            return 0;
+        PyObject *fin = obj;
         s->has_fin = 1;
-        DICT(obj, obj);
+        DICT(obj, fin);
+        TRY(original_method(fin, obj, M_FINGER_FORCE));
         TRY(get_opt_ll(obj, s_start_us, &s->fin_started, &s->fin_start_us));
         TRY(get_d(obj, s_press_after_s, &s->press_after));
         TRY(get_d(obj, s_force_N, &s->force_N));
@@ -476,7 +532,7 @@ load(St *s, PyObject *dev)
     /* profile: (values, dt_us) or None */
     BORROW(obj, D, s_profile);
     if (obj != Py_None) {
-        if (!PyTuple_Check(obj) || PyTuple_GET_SIZE(obj) != 2 || !PyList_Check(PyTuple_GET_ITEM(obj, 0))
+        if (!PyTuple_Check(obj) || PyTuple_GET_SIZE(obj) != 2 || !PyList_CheckExact(PyTuple_GET_ITEM(obj, 0))
                 || !PyLong_CheckExact(PyTuple_GET_ITEM(obj, 1)))
             return 0;
         s->vals = PyTuple_GET_ITEM(obj, 0);
@@ -496,14 +552,18 @@ load(St *s, PyObject *dev)
         return 0;
     /* rate window */
     BORROW(obj, D, s__sp_window);
+    if (strcmp(Py_TYPE(obj)->tp_name, "collections.deque") != 0)
+        return 0;
     {
         PyObject *ml = PyObject_GetAttr(obj, s_maxlen);
         if (ml == NULL)
             return -1;
         long maxlen = (ml == Py_None || !PyLong_Check(ml)) ? -1 : PyLong_AsLong(ml);
         Py_DECREF(ml);
-        if (maxlen == -1 && PyErr_Occurred())
-            return -1;
+        if (maxlen == -1 && PyErr_Occurred()) {
+            PyErr_Clear();             /* beyond a C long: not the firmware's window */
+            return 0;
+        }
         if (maxlen != RATE_WINDOW_TICKS)
             return 0;
         Py_ssize_t k = PyObject_Length(obj);
@@ -532,6 +592,8 @@ load(St *s, PyObject *dev)
         PyObject *skin, *d, *tup;
         DICT(skin, obj);
         s->skin_d = skin;
+        TRY(original_method(obj, skin, M_SKIN_STEP));
+        TRY(original_method(obj, skin, M_SKIN_SURFACE));
         s->has_skin = 1;
         TRY(get_ll(skin, s_n, &v));
         if (v < 1 || v > 4096)
@@ -575,7 +637,7 @@ load(St *s, PyObject *dev)
         BORROW(obj, D, s_curves);
         if (obj != Py_None) {
             if (!PyTuple_Check(obj) || PyTuple_GET_SIZE(obj) != 3 || !PyLong_CheckExact(PyTuple_GET_ITEM(obj, 0))
-                    || !PyList_Check(PyTuple_GET_ITEM(obj, 1)) || !PyList_Check(PyTuple_GET_ITEM(obj, 2)))
+                    || !PyList_CheckExact(PyTuple_GET_ITEM(obj, 1)) || !PyList_CheckExact(PyTuple_GET_ITEM(obj, 2)))
                 return 0;
             int overflow;
             s->curves_touch = PyLong_AsLongLongAndOverflow(PyTuple_GET_ITEM(obj, 0), &overflow);
@@ -594,6 +656,7 @@ load(St *s, PyObject *dev)
         PyObject *pl, *c, *nz, *ov, *st, *tc;
         DICT(pl, obj);
         s->plant_d = pl;
+        TRY(original_method(obj, pl, M_PLANT_STEP));
         BORROW(c, pl, s__consts);
         if (!PyTuple_Check(c) || PyTuple_GET_SIZE(c) != 18 || !PyLong_CheckExact(PyTuple_GET_ITEM(c, 1)))
             return 0;
@@ -602,8 +665,10 @@ load(St *s, PyObject *dev)
                 return 0;
         s->dtc = tuple_d(c, 0);
         s->n_sub = PyLong_AsLong(PyTuple_GET_ITEM(c, 1));
-        if (s->n_sub == -1 && PyErr_Occurred())
-            return -1;
+        if (s->n_sub == -1 && PyErr_Occurred()) {
+            PyErr_Clear();
+            return 0;
+        }
         if (s->n_sub < 1 || s->n_sub > 1000)
             return 0;
         s->C = tuple_d(c, 2); s->K = tuple_d(c, 3); s->a = tuple_d(c, 4); s->Re = tuple_d(c, 5);
@@ -612,7 +677,8 @@ load(St *s, PyObject *dev)
         s->lag = tuple_d(c, 13); s->pnoise = tuple_d(c, 14); s->g_hs = tuple_d(c, 15);
         s->p_room = tuple_d(c, 16); s->C_hs = tuple_d(c, 17);
         BORROW(nz, pl, s_noise);
-        if (Py_TYPE(nz) != &NormalStreamType || nz == (PyObject *)s->noise)
+        if (Py_TYPE(nz) != &NormalStreamType || nz == (PyObject *)s->noise
+                || ((NormalStream *)nz)->v == NULL)
             return 0;
         s->pnz = (NormalStream *)nz;
         s->pnoise_pos = s->pnz->pos;
@@ -663,6 +729,7 @@ store(St *s)
     PyObject *D = s->dev_d;
     if (!s->ticked)
         return 0;
+    s->ticked = 0;                     /* a failure below is not retried (the window once) */
     PyObject *o;
     s->noise->pos = s->noise_pos;
     s->pnz->pos = s->pnoise_pos;
@@ -1021,6 +1088,8 @@ tick(St *s0, PyObject *frames)
         else {
             if (!s->has_curves || s->curves_touch != s->touch_us)
                 return TICK_PYTHON;    /* the curves are computed in Python */
+            if (t_us < s->touch_us)
+                return TICK_PYTHON;    /* Python's floor division and negative index */
             long long k = (t_us - s->touch_us) / TICK_US;
             Py_ssize_t len = PyList_GET_SIZE(s->tm);
             if (k >= len)
@@ -1084,21 +1153,43 @@ tick(St *s0, PyObject *frames)
 
 /* ------------------------------------------------------------------ the read loop */
 
+#define N_HELD 12
 typedef struct {
     St s;
+    PyObject *held[N_HELD];            /* the objects the state points into, kept alive */
     int compiled;                      /* load() said the compiled tick applies */
     int python_only;                   /* it did not, after a Python tick: no more loads */
     PyObject *dev, *frames;
     long long ticks_c, ticks_py;
 } Loop;
 
+static void
+loop_release(Loop *L)
+{
+    for (int i = 0; i < N_HELD; i++)
+        Py_CLEAR(L->held[i]);
+}
+
+/* Load the state, and hold what it points into: numpy may release the GIL in its dot, and a
+ * signal handler may run, while the state's borrowed pointers are in use. */
 static int
 loop_load(Loop *L)
 {
+    loop_release(L);
     int r = load(&L->s, L->dev);
     if (r < 0)
         return -1;
     L->compiled = r;
+    if (r) {
+        St *s = &L->s;
+        PyObject *refs[N_HELD] = {s->dev_d, s->skin_d, s->plant_d, (PyObject *)s->noise,
+                                  (PyObject *)s->pnz, s->vals, s->tm, s->ts, s->x, s->xn,
+                                  s->ab_t, s->ab_f};
+        for (int i = 0; i < N_HELD; i++) {
+            Py_XINCREF(refs[i]);
+            L->held[i] = refs[i];
+        }
+    }
     return 0;
 }
 
@@ -1153,7 +1244,7 @@ read_ticks(PyObject *module, PyObject *args)
     memset(&L, 0, sizeof(L));
     if (!PyArg_ParseTuple(args, "OO!L", &L.dev, &PyList_Type, &L.frames, &budget))
         return NULL;
-    if (FrameType == NULL || DotFunc == NULL) {
+    if (FrameType == NULL || DotFunc == NULL || Original[0] == NULL) {
         PyErr_SetString(PyExc_RuntimeError, "_tick.configure() was not called");
         return NULL;
     }
@@ -1161,8 +1252,14 @@ read_ticks(PyObject *module, PyObject *args)
         return NULL;
     long long k;
     for (k = 0; k < budget; k++) {
-        if ((k & 1023) == 1023 && PyErr_CheckSignals() < 0)   /* a long wait stays interruptible */
-            goto fail;
+        if ((k & 1023) == 1023) {      /* a long wait stays interruptible */
+            if (L.compiled && store(&L.s) < 0)
+                goto fail;
+            if (PyErr_CheckSignals() < 0)
+                goto fail;
+            if (!L.python_only && loop_load(&L) < 0)   /* a handler may have changed the device */
+                goto fail;
+        }
         if (one_tick(&L) < 0)
             goto fail;
         if (PyList_GET_SIZE(L.frames))
@@ -1181,6 +1278,7 @@ read_ticks(PyObject *module, PyObject *args)
     }
     if (L.compiled && store(&L.s) < 0)
         goto fail;
+    loop_release(&L);
     return Py_BuildValue("(LL)", L.ticks_c, L.ticks_py);
 fail:
     /* the ticks done so far stay done (their frames are in the list): keep the state with them */
@@ -1191,18 +1289,66 @@ fail:
             PyErr_Clear();
         PyErr_Restore(type, value, tb);
     }
+    loop_release(&L);
     return NULL;
 }
+
+/* The numbers this file writes as literals, against Python's (configure's `constants`). */
+static const struct {
+    const char *name;
+    double value;
+} Literal[] = {
+    {"TICK_US", (double)TICK_US}, {"HARD_MIN_C", HARD_MIN_C}, {"SETPOINT_MAX_C", SETPOINT_MAX_C},
+    {"HARD_RATE_C_PER_S", HARD_RATE_C_PER_S}, {"WATCHDOG_MS", (double)(WATCHDOG_US / 1000)},
+    {"RATE_WINDOW_TICKS", RATE_WINDOW_TICKS}, {"RATE_SLACK_C", RATE_SLACK_C},
+    {"READY_BAND_C", READY_BAND_C}, {"RELEASE_MS", (double)(RELEASE_US / 1000)},
+    {"OVERTEMP_C", OVERTEMP_C}, {"HEATSINK_MAX_C", HEATSINK_MAX_C},
+    {"STUCK_SAMPLES", STUCK_SAMPLES}, {"CONTACT_AREA_M2", CONTACT_AREA_M2}, {"KELVIN", KELVIN},
+    {"TELEMETRY_SIZE", TEL_SIZE}, {"MSG_TELEMETRY", MSG_TELEMETRY},
+    {"SHARE0", 0.27}, {"SHARE1", 0.24}, {"SHARE2", 0.26}, {"SHARE3", 0.23},
+    {"IDLE", IDLE}, {"ARMED", ARMED}, {"PLAYING", PLAYING}, {"RECORDING", RECORDING},
+    {"FAULT", FAULT}, {"PLAYBACK", PLAYBACK}, {"RECORD", RECORD},
+};
 
 static PyObject *
 configure(PyObject *module, PyObject *args)
 {
-    PyObject *frame_type, *dot;
-    if (!PyArg_ParseTuple(args, "O!O", &PyType_Type, &frame_type, &dot))
+    PyObject *frame_type, *dot, *originals, *constants;
+    if (!PyArg_ParseTuple(args, "O!OO!O!", &PyType_Type, &frame_type, &dot, &PyTuple_Type,
+                          &originals, &PyDict_Type, &constants))
         return NULL;
     if (!PyType_IsSubtype((PyTypeObject *)frame_type, &PyTuple_Type)) {
         PyErr_SetString(PyExc_TypeError, "configure: Frame must be a tuple type");
         return NULL;
+    }
+    if (PyTuple_GET_SIZE(originals) != N_METHODS) {
+        PyErr_Format(PyExc_TypeError, "configure: expected %d original methods", N_METHODS);
+        return NULL;
+    }
+    size_t n = sizeof(Literal) / sizeof(Literal[0]);
+    if ((size_t)PyDict_GET_SIZE(constants) != n) {
+        PyErr_Format(PyExc_ValueError, "configure: expected %zu constants, got %zd", n,
+                     PyDict_GET_SIZE(constants));
+        return NULL;
+    }
+    for (size_t i = 0; i < n; i++) {
+        PyObject *v = PyDict_GetItemString(constants, Literal[i].name);
+        double x = v == NULL ? NAN : PyFloat_AsDouble(v);
+        if (x == -1.0 && PyErr_Occurred())
+            return NULL;
+        if (!(x == Literal[i].value)) {
+            PyObject *lit = PyFloat_FromDouble(Literal[i].value);
+            if (lit != NULL)
+                PyErr_Format(PyExc_ValueError, "_tick.c's %s is %R, Python's is %R: the "
+                             "compiled tick transcribes another firmware (edit _tick.c, rebuild)",
+                             Literal[i].name, lit, v == NULL ? Py_None : v);
+            Py_XDECREF(lit);
+            return NULL;
+        }
+    }
+    for (int m = 0; m < N_METHODS; m++) {
+        Py_INCREF(PyTuple_GET_ITEM(originals, m));
+        Py_XSETREF(Original[m], PyTuple_GET_ITEM(originals, m));
     }
     Py_INCREF(frame_type);
     Py_XSETREF(FrameType, frame_type);
@@ -1217,7 +1363,10 @@ static PyMethodDef methods[] = {
      "Serial.read_frames' tick loop on a virtual clock with no fault: tick until `frames` is\n"
      "not empty (at most `budget` ticks), then up to two more while the device is not IDLE."},
     {"configure", configure, METH_VARARGS,
-     "configure(Frame, dot): the frame type and numpy's dot, as the Python tick uses them."},
+     "configure(Frame, dot, originals, constants): the frame type and numpy's dot as the Python\n"
+     "tick uses them, the Python methods transcribed (Device.step, Device._sample_reading,\n"
+     "PadPlant.step, FingerSkin.step, FingerSkin.surface_C, FingerScript.force) and the\n"
+     "constants written here as literals, checked against Python's (ValueError)."},
     {NULL, NULL, 0, NULL}
 };
 
@@ -1234,6 +1383,9 @@ PyInit__tick(void)
 #undef INTERN
     if ((OutKwnames = Py_BuildValue("(s)", "out")) == NULL)
         return NULL;
+    for (int m = 0; m < N_METHODS; m++)
+        if ((MethodName[m] = PyUnicode_InternFromString(MethodOf[m])) == NULL)
+            return NULL;
     if (PyType_Ready(&NormalStreamType) < 0)
         return NULL;
     PyObject *m = PyModule_Create(&module);

@@ -27,10 +27,42 @@ from experiments.hardware.safety import SafetyLimits
 
 
 def test_the_extension_is_built():
-    assert compiled_tick.AVAILABLE, (
-        "experiments/hardware/_tick.c is not built (no C compiler at `pip install -e .`?): "
-        "sessions still run, on Python's ticks, about 3 times slower; scripts/setup installs gcc")
-    assert compiled_tick.enabled
+    # without it sessions still run, on Python's ticks, about 3 times slower
+    assert compiled_tick.AVAILABLE and compiled_tick.enabled, compiled_tick.why_not
+
+
+def test_the_c_files_numbers_are_checked_against_pythons():
+    from experiments.hardware import _tick
+    from experiments.hardware.framing import Frame
+    args = (Frame, np.dot, compiled_tick.ORIGINALS)
+    try:
+        with pytest.raises(ValueError, match="OVERTEMP_C is 44.8, Python's is 44.9"):
+            _tick.configure(*args, {**compiled_tick.CONSTANTS, "OVERTEMP_C": 44.9})
+        with pytest.raises(ValueError, match="expected 27 constants"):
+            _tick.configure(*args, {k: v for k, v in compiled_tick.CONSTANTS.items() if k != "KELVIN"})
+    finally:
+        _tick.configure(Frame, getattr(np.dot, "_implementation", np.dot), compiled_tick.ORIGINALS,
+                        compiled_tick.CONSTANTS)
+
+
+def test_a_replaced_method_sees_every_tick():
+    """A test's spy on Device.step (or a subclass's own tick) is called for every tick."""
+    port = serial.serial_for_url("emulator://?clock=virtual&seed=2", timeout=0.01)
+    seen = []
+    step = port.device.step
+
+    def spy():
+        step()
+        seen.append(port.device.time_us)
+    port.device.step = spy
+    try:
+        t0 = port.device.time_us
+        d = ThermalDisplay(port)
+        d.handshake()
+        d.wait(0.5)
+        assert len(seen) == (port.device.time_us - t0) // 10_000 > 0
+    finally:
+        port.close()
 
 
 def test_the_noise_stream_is_a_cycle_of_its_values():
@@ -43,6 +75,9 @@ def test_the_noise_stream_is_a_cycle_of_its_values():
     assert [next(a) for _ in range(12)] == [next(b) for _ in range(12)]
     with pytest.raises(ValueError):
         NormalStream([])
+    bare = NormalStream.__new__(NormalStream)      # never initialised: an error, not a crash
+    with pytest.raises(ValueError, match="not initialised"):
+        next(bare)
 
 
 # ---------------------------------------------------------------- the state, bit for bit
