@@ -12,7 +12,12 @@
  * but a handful. Any other tick (the watchdog, READY, CONTACT, END, a safety trip, a fault
  * hook, FAULT, a record-mode curve still to compute, a reading whose rounding needs Python's
  * correctly rounded round(v, 3), a telemetry value beyond int16) is handed to Device.step: the
- * compiled tick is computed on a copy of the state and dropped, so Python sees the tick whole.
+ * compiled tick is computed on a copy of the state and dropped, so Python sees the tick whole
+ * (only the skin's boundary cell and its next state vector may already be written: Python's tick
+ * writes both again before it reads them). A replaced tick method (a subclass, a test's spy)
+ * also ticks in Python; the numbers written here as literals are checked against Python's when
+ * the module is configured (compiled_tick.py), and the finger's press curve (FingerScript.force)
+ * by the tick-for-tick tests.
  *
  * Entry point: read_ticks(dev, frames, budget), the tick loop of
  * protocol_emulator.Serial.read_frames on a virtual clock with no fault (tick until the device
