@@ -12,8 +12,11 @@ import json
 import os
 import platform
 import sys
+from array import array
 from importlib import metadata
 from pathlib import Path
+
+import numpy as np
 
 from experiments.logbook import fsync, fsync_dir
 from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
@@ -89,10 +92,10 @@ class TraceWriter:
         self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
         self._n = 0
-        self.time_s: list[float] = []
-        self.target_C: list[float] = []
-        self.contact_C: list[float] = []
-        self.forces_N: list[tuple] = []
+        # per frame: time, target, contact, the four forces (doubles, not objects: a trace's
+        # readings kept as Python floats and tuples cost more than the line written)
+        self._values = array("d")
+        self._arrays = None
 
     def write(self, frame) -> None:
         """Append one :class:`~experiments.hardware.Telemetry` frame."""
@@ -119,10 +122,8 @@ class TraceWriter:
                                 for v, c in zip(fields, TRACE_COLUMNS))
             line = f"{line},{state}\n"
         self._fh.write(line)
-        self.time_s.append(t)
-        self.target_C.append(target)
-        self.contact_C.append(contact)
-        self.forces_N.append(forces)
+        self._values.extend((t, target, contact, f0, f1, f2, f3))
+        self._arrays = None
         self._n += 1
         if self._n % self.flush_every == 0:
             self._fh.flush()
@@ -130,6 +131,34 @@ class TraceWriter:
     @property
     def frames(self) -> int:
         return self._n
+
+    def arrays(self) -> tuple:
+        """The frames written so far as arrays: time_s (s), target_C, contact_C (°C), each
+        ``(n,)``, and forces_N ``(n, 4)`` (N); made once per frame count (do not modify)."""
+        if self._arrays is None:
+            v = np.array(self._values, dtype=float).reshape(-1, 7)
+            self._arrays = (v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(), v[:, 3:7].copy())
+        return self._arrays
+
+    @property
+    def time_s(self) -> list:
+        """Frame times, s."""
+        return self._values[0::7].tolist()
+
+    @property
+    def target_C(self) -> list:
+        """Target temperatures, °C."""
+        return self._values[1::7].tolist()
+
+    @property
+    def contact_C(self) -> list:
+        """Contact temperatures, °C."""
+        return self._values[2::7].tolist()
+
+    @property
+    def forces_N(self) -> list:
+        """The four forces per frame, N."""
+        return [tuple(r) for r in self.arrays()[3].tolist()]
 
     def close(self) -> None:
         """Flush, fsync, close, fsync the folder."""

@@ -49,6 +49,16 @@ def test_trace_lines_are_format_cells_text_for_any_value(tmp_path):
     got = (tmp_path / "trial-001.csv").read_text(encoding="utf-8")
     assert got.splitlines(keepends=True) == want
     assert ",-0," in got and ",0," in got          # -0.0 is not written as 0.0 or vice versa
+    # what the session reads back (contact force, the responder's stimulus): the values as
+    # written, as numpy makes them of the frames' own numbers (nan, -0.0, float32 and all)
+    time_s, target_C, contact_C, forces_N = w.arrays()
+    for got_a, want_a in ((time_s, [f[0] for f in frames]), (target_C, [f[1] for f in frames]),
+                          (contact_C, [f[2] for f in frames]),
+                          (forces_N, [f[5] for f in frames])):
+        want_a = np.asarray(want_a, dtype=float)
+        assert got_a.shape == want_a.shape and got_a.tobytes() == want_a.tobytes()
+    assert forces_N.shape == (3000, 4) and w.arrays()[0] is time_s       # made once
+    assert w.time_s == time_s.tolist() and w.forces_N[7] == tuple(forces_N[7])
 
 
 def test_a_frame_with_telemetrys_field_names_writes_the_same_line(tmp_path):
