@@ -134,3 +134,68 @@ def test_trials_csv_grows_by_lines_and_is_the_table_of_the_events(tmp_path, monk
     want, _ = trials_csv_text(rows)
     with open(os.path.join(session, "trials.csv"), encoding="utf-8", newline="") as fh:
         assert fh.read() == want
+
+
+def test_the_table_formats_each_row_once_and_is_the_table_of_the_events(tmp_path, monkeypatch):
+    # trials.csv after every trial formats only the rows it has not formatted yet, and stays
+    # exactly trials_csv_text of the events: through a new column, an aborted attempt whose
+    # trace_file comes from its event, a second event for an attempt (ignored), a row whose
+    # value changes with its event, and a log rewritten under the table (all read again)
+    import warnings
+
+    import experiments.logbook as logbook
+    calls = []
+    real_format_cell = logbook.format_cell
+    monkeypatch.setattr(logbook, "format_cell", lambda v, c="", *a: calls.append(c) or
+                        real_format_cell(v, c, *a))
+    path = tmp_path / "events.jsonl"
+    path.write_bytes(b"")
+    table = TrialsTable(path, tmp_path / "trials.csv")
+    seq = iter(range(1, 1000))
+
+    def log(**ev):
+        with open(path, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps({"seq": next(seq), "time": "2026-01-01T00:00:00.000Z", **ev}) + "\n")
+
+    def check(new_rows, header=False):
+        calls.clear()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            table.write()
+            formatted = len(calls)
+            rows = trials_from_events(read_events(path, warn=False)[0])
+        aborted = {}
+        for ev in read_events(path, warn=False)[0]:
+            if ev["event"] == "trial_aborted":
+                aborted[(ev["trial_index"], ev["attempt"])] = ev.get("trace_file")
+        for row in rows:
+            if row.get("status") == "aborted":
+                row["trace_file"] = aborted.get((row["trial_index"], row["attempt"]))
+            else:
+                row.setdefault("trace_file", None)
+        want, columns = trials_csv_text(rows)
+        assert (tmp_path / "trials.csv").read_text(encoding="utf-8") == want
+        assert formatted == (new_rows + header) * len(columns), (formatted, new_rows, columns)
+
+    log(event="session_started", participant="P01", session="1")
+    for i in range(1, 6):
+        log(event="trial_started", trial_index=i, attempt=1, block="main", roughness_id=i % 4)
+        log(event="trial_completed", trial_index=i, attempt=1,
+            row={"response_id": i % 3, "rt_s": 0.5 + i / 7, "tracking_rms_C": math.nan})
+        check(new_rows=1, header=i == 1)
+    log(event="trial_started", trial_index=6, attempt=1)
+    log(event="trial_aborted", trial_index=6, attempt=1, reason="no contact",
+        trace_file="traces/trial-006.attempt-1.aborted.csv")
+    check(new_rows=1)
+    log(event="trial_started", trial_index=6, attempt=2)
+    log(event="trial_completed", trial_index=6, attempt=2, row={"new_column_um": 3.25})
+    check(new_rows=7, header=True)                        # a new column: every row again
+    log(event="trial_completed", trial_index=6, attempt=2, row={"new_column_um": 9.0})
+    check(new_rows=0)                                     # a second event: ignored
+    log(event="trial_aborted", trial_index=6, attempt=1, reason="again", trace_file="other.csv")
+    check(new_rows=1)                                     # the aborted row's trace_file changed
+    text = path.read_text(encoding="utf-8").replace('"rt_s": 0.6428571428571428', '"rt_s": 0.25')
+    path.write_text(text[:len(text) // 2], encoding="utf-8")     # a shorter log: read again
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(text[len(text) // 2:])
+    check(new_rows=7)
