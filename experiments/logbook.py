@@ -46,6 +46,7 @@ from experiments.logformat import (  # noqa: F401 - re-exported for the writer's
     LogReport,
     SessionProgress,
     dumps,
+    dumps_jsonable,
     event_problem,
     format_cell,
     read_events,
@@ -331,7 +332,7 @@ class EventLog:
             rec = {"event": event, "seq": self._seq + 1, "time": fields.pop("time", None) or now_iso()}
             rec.update(fields)
             rec = to_jsonable(rec)
-            line = dumps(rec) + "\n"
+            line = dumps_jsonable(rec) + "\n"
             self._write(line.encode("utf-8"))
             self._seq += 1
         return rec

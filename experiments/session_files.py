@@ -7,6 +7,7 @@
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -171,7 +172,15 @@ class TraceWriter:
 
 
 def package_versions() -> dict[str, str]:
-    """Versions of Python, the platform and the packages a session depends on."""
+    """Versions of Python, the platform and the packages a session depends on.
+
+    Read once per process (the packages a process has imported do not change under it; a
+    study's sessions each record them) and returned as a new dict each time."""
+    return dict(_package_versions())
+
+
+@functools.lru_cache(maxsize=1)
+def _package_versions() -> tuple:
     out = {"python": sys.version.split()[0], "platform": platform.platform()}
     for name in ("thermocue", "numpy", "scipy", "pyserial", "jsonschema", "psychopy",
                  "psychtoolbox", "sounddevice"):
@@ -179,7 +188,7 @@ def package_versions() -> dict[str, str]:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             out[name] = None
-    return out
+    return tuple(out.items())
 
 
 def schedule_sha256(schedule) -> str:

@@ -288,15 +288,16 @@ class ThermalDisplay(ProtocolLink):
                 for fr in tr.pending:
                     on_telemetry(fr)
             tr.pending = []
-            start = self._clock()
+            clock, read, dispatch = self._clock, self._read_frames, self._dispatch_all
+            heartbeat = self._heartbeat_if_due
+            start = clock()
             tr.last_frame_clock = start
             host_fault = None
             try:
                 while not tr.ended:
-                    for fr in self._read_frames():
-                        self._dispatch(fr)
-                    self._heartbeat_if_due()
-                    now = self._clock()
+                    dispatch(read())
+                    heartbeat()
+                    now = clock()
                     if now - start > timeout_s:
                         host_fault = ("TRIAL_TIMEOUT", f"no end of trial within {timeout_s} s")
                         break

@@ -140,34 +140,40 @@ class ProtocolLink:
 
     def _dispatch(self, fr) -> None:
         """Route a frame that is not the awaited reply."""
-        t = fr.type
-        if t == _TELEMETRY:
-            try:
-                tel = _decode_telemetry(fr.payload)
-            except Exception:        # a frame with a good CRC but a wrong layout: count, go on
-                self._parser.bad_frames += 1
-                return
-            t_s = tel[1]                                        # device_time_s
-            if t_s < self._dev_time - 0.05:                     # telemetry is never a cached reply
-                self._restarted(f"its time went back from {self._dev_time:.3f} s to "
-                                f"{t_s:.3f} s")
-            self._dev_time = t_s
-            trial = self._trial
-            if trial is not None:
-                trial.last_frame_clock = self._clock()
-                trial.telemetry(tel)
-        elif t == _EVENT:
-            try:
-                ev = DeviceEvent.decode(fr.payload)
-            except Exception:
-                self._parser.bad_frames += 1
-                return
-            self._dev_time = max(self._dev_time, ev.device_time_s)
-            if self._trial is not None:
-                self._trial.event(ev)
-        elif t == _HEARTBEAT_REPLY and len(fr.payload) == _TIME_SIZE:
-            # not a restart test: a retried heartbeat is answered from the device's cache
-            self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
+        self._dispatch_all((fr,))
+
+    def _dispatch_all(self, frames) -> None:
+        """Route frames that are not an awaited reply, in order (the I/O loop's batch of a read:
+        one call for all of them, the commonest, telemetry, first)."""
+        for fr in frames:
+            t = fr.type
+            if t == _TELEMETRY:
+                try:
+                    tel = _decode_telemetry(fr.payload)
+                except Exception:    # a frame with a good CRC but a wrong layout: count, go on
+                    self._parser.bad_frames += 1
+                    continue
+                t_s = tel[1]                                    # device_time_s
+                if t_s < self._dev_time - 0.05:                 # telemetry is never a cached reply
+                    self._restarted(f"its time went back from {self._dev_time:.3f} s to "
+                                    f"{t_s:.3f} s")
+                self._dev_time = t_s
+                trial = self._trial
+                if trial is not None:
+                    trial.last_frame_clock = self._clock()
+                    trial.telemetry(tel)
+            elif t == _EVENT:
+                try:
+                    ev = DeviceEvent.decode(fr.payload)
+                except Exception:
+                    self._parser.bad_frames += 1
+                    continue
+                self._dev_time = max(self._dev_time, ev.device_time_s)
+                if self._trial is not None:
+                    self._trial.event(ev)
+            elif t == _HEARTBEAT_REPLY and len(fr.payload) == _TIME_SIZE:
+                # not a restart test: a retried heartbeat is answered from the device's cache
+                self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
 
     def _restarted(self, why: str) -> None:
         """Note a device restart: the next command raises :class:`DisplayRestarted`."""

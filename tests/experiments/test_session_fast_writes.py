@@ -199,3 +199,49 @@ def test_the_table_formats_each_row_once_and_is_the_table_of_the_events(tmp_path
     with open(path, "a", encoding="utf-8") as fh:
         fh.write(text[len(text) // 2:])
     check(new_rows=7)
+
+
+def test_an_event_is_made_json_ready_once_and_written_as_dumps_writes_it(tmp_path, monkeypatch):
+    import experiments.logbook as logbook
+    import experiments.logformat as logformat
+    from experiments.logformat import dumps
+    top = []
+    real = logformat.to_jsonable
+
+    def counting(obj):                                 # the whole event, wherever it is made ready
+        if isinstance(obj, dict) and obj.get("event") == "note":
+            top.append(1)
+        return real(obj)
+
+    monkeypatch.setattr(logbook, "to_jsonable", counting)
+    monkeypatch.setattr(logformat, "to_jsonable", counting)
+    values = dict(text="Ra 1.6 µm, 20 °C", x=0.1, big=1e300, neg=-0.0, n=np.int64(3),
+                  a=np.array([1.5, np.nan]), nested={"k": [1, {"z": (2, 3.25)}]}, none=None,
+                  inf=math.inf, flag=True, path=tmp_path / "x")
+    with logbook.EventLog(tmp_path / "events.jsonl") as log:
+        rec = log.append("note", time="2026-01-01T00:00:00.000Z", **values)
+    assert len(top) == 1                               # one to_jsonable of the event, not two
+    line = (tmp_path / "events.jsonl").read_text(encoding="utf-8")
+    assert line == dumps({"event": "note", "seq": 1, "time": "2026-01-01T00:00:00.000Z",
+                          **values}) + "\n"
+    assert line == json.dumps(rec, ensure_ascii=False, allow_nan=False,
+                              separators=(",", ":")) + "\n"
+    assert dumps(values, indent=0) == json.dumps(real(values), ensure_ascii=False,
+                                                 allow_nan=False, indent=0, separators=(",", ":"))
+
+
+def test_package_versions_are_read_once_per_process_and_handed_out_as_new_dicts(monkeypatch):
+    import experiments.session_files as sf
+    calls = []
+    real = sf.metadata.version
+    monkeypatch.setattr(sf.metadata, "version", lambda name: calls.append(name) or real(name))
+    sf._package_versions.cache_clear()
+    try:
+        a = sf.package_versions()
+        n = len(calls)
+        b = sf.package_versions()
+        assert n == len(calls) == 8 and a == b and a is not b and a["numpy"] == np.__version__
+        a["numpy"] = "changed"
+        assert sf.package_versions()["numpy"] == np.__version__
+    finally:
+        sf._package_versions.cache_clear()
