@@ -105,7 +105,10 @@ class TraceWriter:
         if not isinstance(frame, tuple):        # any frame with Telemetry's field names
             frame = (None, frame.device_time_s, frame.setpoint_C, frame.contact_C, frame.ambient_C,
                      frame.finger_C, tuple(frame.forces_N), frame.state)
-        _, t, target, contact, ambient, finger, forces, state = frame[:8]
+        try:                                    # Telemetry: nine fields
+            _, t, target, contact, ambient, finger, forces, state, _ = frame
+        except ValueError:
+            _, t, target, contact, ambient, finger, forces, state = frame[:8]
         c = _CELLS
         try:
             f0, f1, f2, f3 = forces
@@ -124,7 +127,6 @@ class TraceWriter:
             line = f"{line},{state}\n"
         self._fh.write(line)
         self._values.extend((t, target, contact, f0, f1, f2, f3))
-        self._arrays = None
         self._n += 1
         if self._n % self.flush_every == 0:
             self._fh.flush()
@@ -136,10 +138,11 @@ class TraceWriter:
     def arrays(self) -> tuple:
         """The frames written so far as arrays: time_s (s), target_C, contact_C (°C), each
         ``(n,)``, and forces_N ``(n, 4)`` (N); made once per frame count (do not modify)."""
-        if self._arrays is None:
+        if self._arrays is None or self._arrays[0] != self._n:
             v = np.array(self._values, dtype=float).reshape(-1, 7)
-            self._arrays = (v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(), v[:, 3:7].copy())
-        return self._arrays
+            self._arrays = (self._n, (v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(),
+                                      v[:, 3:7].copy()))
+        return self._arrays[1]
 
     @property
     def time_s(self) -> list:

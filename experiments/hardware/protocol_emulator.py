@@ -95,7 +95,8 @@ class Serial(SerialBase):
     def __init__(self, *args, **kwargs):
         self.core: EmulatorCore | None = None
         self.virtual = False
-        self._cond = threading.Condition()
+        self._lock = threading.RLock()               # the condition's lock (entered from C)
+        self._cond = threading.Condition(self._lock)
         self._rx = bytearray()
         self._thread = None
         self._stop = False
@@ -339,7 +340,7 @@ class Serial(SerialBase):
         reach the device as they are, and only its replies come back). A silent heartbeat, the
         host's commonest frame, ends in the device's own shortcut (``HostCommands.receive``)."""
         dev = self.core.device
-        with self._cond:
+        with self._lock:
             dev.receive(data)
             if dev.out:
                 self._rx += dev.take_output()
