@@ -12,6 +12,7 @@ import hashlib
 import json
 import os
 import platform
+import struct
 import sys
 from array import array
 from importlib import metadata
@@ -70,6 +71,10 @@ class _Cells(dict):
 
 
 _CELLS = _Cells()
+#: A frame's readings kept by :class:`TraceWriter` (time, target, contact, four forces) as the
+#: bytes of seven C doubles, its ``array("d")``'s items (one C call; ``extend`` converts a tuple
+#: item by item).
+_PACK_READINGS = struct.Struct("@7d").pack
 
 
 class TraceWriter:
@@ -126,7 +131,7 @@ class TraceWriter:
                                 for v, c in zip(fields, TRACE_COLUMNS))
             line = f"{line},{state}\n"
         self._fh.write(line)
-        self._values.extend((t, target, contact, f0, f1, f2, f3))
+        self._values.frombytes(_PACK_READINGS(t, target, contact, f0, f1, f2, f3))
         self._n += 1
         if self._n % self.flush_every == 0:
             self._fh.flush()
