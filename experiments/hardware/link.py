@@ -83,14 +83,16 @@ class ProtocolLink:
         try:
             port = self.port
             if self._virtual:                    # the emulator returns what one wait produced
-                if self._read_direct is not None and not self._parser.buffered:
-                    frames = self._read_direct(65536)
+                parser = self._parser
+                read_direct = self._read_direct
+                if read_direct is not None and not parser.buffered:
+                    frames = read_direct(65536)
                     if frames is not None:
-                        self._parser.frames += len(frames)
+                        parser.frames += len(frames)
                         return frames
                 data = port.read(65536)
-                return self._parser.feed(data) if data else (
-                    self._parser.drop_candidate() if self._parser.buffered else [])
+                return parser.feed(data) if data else (
+                    parser.drop_candidate() if parser.buffered else [])
             n = port.in_waiting
             data = port.read(n if n > 0 else 1)
             if n <= 0 and data:
@@ -132,8 +134,9 @@ class ProtocolLink:
     def _heartbeat_if_due(self) -> None:
         self._touch()
         c = self._clock()
-        if (c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s
-                or (not self._virtual and self._alive - self._last_tx >= self.heartbeat_s)):
+        period = self.heartbeat_s
+        if (c - self._hb_clock >= period or self._dev_time - self._hb_dev >= period
+                or (not self._virtual and self._alive - self._last_tx >= period)):
             self._hb_clock, self._hb_dev = c, self._dev_time
             # silent (no reply wanted): telemetry or the next reply shows the device is alive
             self._write_heartbeat()
