@@ -46,6 +46,7 @@ from experiments.logformat import (  # noqa: F401 - re-exported for the writer's
     LogReport,
     SessionProgress,
     dumps,
+    dumps_jsonable,
     event_problem,
     format_cell,
     read_events,
@@ -70,6 +71,8 @@ __all__ = [
     "trials_from_events",
     "write_trials_csv",
     "trials_csv_text",
+    "trials_csv_columns",
+    "trials_csv_lines",
     "append_text",
     "replay",
     "SessionProgress",
@@ -329,7 +332,7 @@ class EventLog:
             rec = {"event": event, "seq": self._seq + 1, "time": fields.pop("time", None) or now_iso()}
             rec.update(fields)
             rec = to_jsonable(rec)
-            line = dumps(rec) + "\n"
+            line = dumps_jsonable(rec) + "\n"
             self._write(line.encode("utf-8"))
             self._seq += 1
         return rec
@@ -388,16 +391,35 @@ def trials_csv_text(rows: Iterable[Mapping[str, Any]],
                     columns: Iterable[str] | None = None) -> tuple[str, list[str]]:
     """The text :func:`write_trials_csv` writes, and its columns (same parameters)."""
     rows = list(rows)
-    if columns is None:
-        extra = sorted({k for r in rows for k in r} - set(TRIAL_COLUMNS))
-        columns = list(TRIAL_COLUMNS) + extra
-    columns = list(columns)
+    columns = trials_csv_columns(rows) if columns is None else list(columns)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(columns)
     for r in rows:
         w.writerow([format_cell(r.get(c), c) for c in columns])
     return buf.getvalue(), columns
+
+
+def trials_csv_columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
+    """The columns :func:`trials_csv_text` writes by default: :data:`TRIAL_COLUMNS`, then any
+    other keys of the rows, sorted."""
+    extra = sorted({k for r in rows for k in r} - set(TRIAL_COLUMNS))
+    return list(TRIAL_COLUMNS) + extra
+
+
+def trials_csv_lines(rows: Iterable[Mapping[str, Any]], columns: Iterable[str]) -> list[str]:
+    """The lines (with their newline) :func:`trials_csv_text` writes for ``rows`` and
+    ``columns``: its header is ``trials_csv_lines([dict(zip(columns, columns))], columns)``."""
+    columns = list(columns)
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    out = []
+    for r in rows:
+        w.writerow([format_cell(r.get(c), c) for c in columns])
+        out.append(buf.getvalue())
+        buf.seek(0)
+        buf.truncate()
+    return out
 
 
 def append_text(path: str | Path, text: str, expected_size: int, encoding: str = "utf-8") -> bool:

@@ -208,8 +208,19 @@ def to_jsonable(obj: Any) -> Any:
 
 def dumps(obj: Any, indent: int | None = None) -> str:
     """``obj`` as JSON text (:func:`to_jsonable` first); compact unless ``indent`` is given."""
+    if indent is None:
+        return dumps_jsonable(to_jsonable(obj))
     return json.dumps(to_jsonable(obj), ensure_ascii=False, allow_nan=False, indent=indent,
                       separators=None if indent else (",", ":"))
+
+
+#: The compact form of :func:`dumps` (one encoder, made once).
+_COMPACT = json.JSONEncoder(ensure_ascii=False, allow_nan=False, separators=(",", ":"))
+
+
+def dumps_jsonable(obj: Any) -> str:
+    """:func:`dumps` of a value :func:`to_jsonable` has already made JSON-ready (compact)."""
+    return _COMPACT.encode(obj)
 
 
 def format_cell(v: Any, column: str = "", decimals: Mapping[str, Any] = COLUMN_DECIMALS) -> str:

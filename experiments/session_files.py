@@ -7,13 +7,18 @@
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
 import platform
+import struct
 import sys
+from array import array
 from importlib import metadata
 from pathlib import Path
+
+import numpy as np
 
 from experiments.logbook import fsync, fsync_dir
 from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
@@ -66,6 +71,10 @@ class _Cells(dict):
 
 
 _CELLS = _Cells()
+#: A frame's readings kept by :class:`TraceWriter` (time, target, contact, four forces) as the
+#: bytes of seven C doubles, its ``array("d")``'s items (one C call; ``extend`` converts a tuple
+#: item by item).
+_PACK_READINGS = struct.Struct("@7d").pack
 
 
 class TraceWriter:
@@ -89,10 +98,10 @@ class TraceWriter:
         self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
         self._n = 0
-        self.time_s: list[float] = []
-        self.target_C: list[float] = []
-        self.contact_C: list[float] = []
-        self.forces_N: list[tuple] = []
+        # per frame: time, target, contact, the four forces (doubles, not objects: a trace's
+        # readings kept as Python floats and tuples cost more than the line written)
+        self._values = array("d")
+        self._arrays = None
 
     def write(self, frame) -> None:
         """Append one :class:`~experiments.hardware.Telemetry` frame."""
@@ -101,7 +110,10 @@ class TraceWriter:
         if not isinstance(frame, tuple):        # any frame with Telemetry's field names
             frame = (None, frame.device_time_s, frame.setpoint_C, frame.contact_C, frame.ambient_C,
                      frame.finger_C, tuple(frame.forces_N), frame.state)
-        _, t, target, contact, ambient, finger, forces, state = frame[:8]
+        try:                                    # Telemetry: nine fields
+            _, t, target, contact, ambient, finger, forces, state, _ = frame
+        except ValueError:
+            _, t, target, contact, ambient, finger, forces, state = frame[:8]
         c = _CELLS
         try:
             f0, f1, f2, f3 = forces
@@ -119,10 +131,7 @@ class TraceWriter:
                                 for v, c in zip(fields, TRACE_COLUMNS))
             line = f"{line},{state}\n"
         self._fh.write(line)
-        self.time_s.append(t)
-        self.target_C.append(target)
-        self.contact_C.append(contact)
-        self.forces_N.append(forces)
+        self._values.frombytes(_PACK_READINGS(t, target, contact, f0, f1, f2, f3))
         self._n += 1
         if self._n % self.flush_every == 0:
             self._fh.flush()
@@ -130,6 +139,35 @@ class TraceWriter:
     @property
     def frames(self) -> int:
         return self._n
+
+    def arrays(self) -> tuple:
+        """The frames written so far as arrays: time_s (s), target_C, contact_C (°C), each
+        ``(n,)``, and forces_N ``(n, 4)`` (N); made once per frame count (do not modify)."""
+        if self._arrays is None or self._arrays[0] != self._n:
+            v = np.array(self._values, dtype=float).reshape(-1, 7)
+            self._arrays = (self._n, (v[:, 0].copy(), v[:, 1].copy(), v[:, 2].copy(),
+                                      v[:, 3:7].copy()))
+        return self._arrays[1]
+
+    @property
+    def time_s(self) -> list:
+        """Frame times, s."""
+        return self._values[0::7].tolist()
+
+    @property
+    def target_C(self) -> list:
+        """Target temperatures, °C."""
+        return self._values[1::7].tolist()
+
+    @property
+    def contact_C(self) -> list:
+        """Contact temperatures, °C."""
+        return self._values[2::7].tolist()
+
+    @property
+    def forces_N(self) -> list:
+        """The four forces per frame, N."""
+        return [tuple(r) for r in self.arrays()[3].tolist()]
 
     def close(self) -> None:
         """Flush, fsync, close, fsync the folder."""
@@ -142,7 +180,15 @@ class TraceWriter:
 
 
 def package_versions() -> dict[str, str]:
-    """Versions of Python, the platform and the packages a session depends on."""
+    """Versions of Python, the platform and the packages a session depends on.
+
+    Read once per process (the packages a process has imported do not change under it; a
+    study's sessions each record them) and returned as a new dict each time."""
+    return dict(_package_versions())
+
+
+@functools.lru_cache(maxsize=1)
+def _package_versions() -> tuple:
     out = {"python": sys.version.split()[0], "platform": platform.platform()}
     for name in ("thermocue", "numpy", "scipy", "pyserial", "jsonschema", "psychopy",
                  "psychtoolbox", "sounddevice"):
@@ -150,7 +196,7 @@ def package_versions() -> dict[str, str]:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             out[name] = None
-    return out
+    return tuple(out.items())
 
 
 def schedule_sha256(schedule) -> str:

@@ -288,19 +288,21 @@ class ThermalDisplay(ProtocolLink):
                 for fr in tr.pending:
                     on_telemetry(fr)
             tr.pending = []
-            start = self._clock()
+            clock, read, dispatch = self._clock, self._read_frames, self._dispatch_all
+            heartbeat = self._heartbeat_if_due
+            silent_s = max(0.3, 3 * self.reply_timeout_s)   # telemetry this quiet: ask STATUS
+            start = clock()
             tr.last_frame_clock = start
             host_fault = None
             try:
                 while not tr.ended:
-                    for fr in self._read_frames():
-                        self._dispatch(fr)
-                    self._heartbeat_if_due()
-                    now = self._clock()
+                    dispatch(read())
+                    heartbeat()
+                    now = clock()
                     if now - start > timeout_s:
                         host_fault = ("TRIAL_TIMEOUT", f"no end of trial within {timeout_s} s")
                         break
-                    if now - tr.last_frame_clock > max(0.3, 3 * self.reply_timeout_s):
+                    if now - tr.last_frame_clock > silent_s:
                         st = self.status()        # telemetry silent: is the device there at all?
                         tr.last_frame_clock = self._clock()
                         if st.state not in _ACTIVE:

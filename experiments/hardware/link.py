@@ -29,6 +29,14 @@ __all__ = ["ProtocolLink"]
 _REPLY_SIZE = {Cmd.ARM | m.REPLY_BIT: m.COUNTER.size, Cmd.ABORT | m.REPLY_BIT: 0}
 #: The silent heartbeat (payload 0: no reply wanted) of every sequence number, encoded once.
 _SILENT_HEARTBEAT = tuple(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
+# the frame types the I/O loop routes, as plain ints (an enum member's look-up, 100 times a
+# second, costs more than the comparison)
+_HEARTBEAT = int(Cmd.HEARTBEAT)
+_TELEMETRY = int(Msg.TELEMETRY)
+_EVENT = int(Msg.EVENT)
+_HEARTBEAT_REPLY = int(Cmd.HEARTBEAT | m.REPLY_BIT)
+_TIME_SIZE = m.TIME.size
+_decode_telemetry = Telemetry.decode
 
 
 class ProtocolLink:
@@ -37,39 +45,54 @@ class ProtocolLink:
     # ------------------------------------------------------------------ low level
     def _next_seq(self, mtype: int) -> int:
         with self._wlock:
-            s = (self._seq + 1) & 0xFF
-            if self._last_seq_by_type.get(mtype) == s:      # never repeat a type's last number
-                s = (s + 1) & 0xFF
-            if s == 0 and mtype == Cmd.HEARTBEAT:           # 0: the helper's silent heartbeats
-                s = 1 if self._last_seq_by_type.get(mtype) != 1 else 2
-            self._seq = s
-            self._last_seq_by_type[mtype] = s
-            return s
+            return self._take_seq(mtype)
+
+    def _take_seq(self, mtype: int) -> int:
+        """The next sequence number for a frame of type ``mtype`` (``_wlock`` held)."""
+        s = (self._seq + 1) & 0xFF
+        last = self._last_seq_by_type.get(mtype)
+        if last == s:                                   # never repeat a type's last number
+            s = (s + 1) & 0xFF
+        if s == 0 and mtype == _HEARTBEAT:              # 0: the helper's silent heartbeats
+            s = 1 if last != 1 else 2
+        self._seq = s
+        self._last_seq_by_type[mtype] = s
+        return s
 
     def _write(self, data: bytes) -> None:
         with self._wlock:
-            try:
-                self.port.write(data)
-            except (serial.SerialException, OSError) as exc:
-                self._link_error = exc
-                raise DisplayError(f"display: link lost while writing: {exc}") from exc
-            now = time.monotonic()
-            if self._last_tx > 0:
-                self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
-            self._last_tx = now
+            self._write_locked(data)
+
+    def _write_heartbeat(self) -> None:
+        """A silent heartbeat, numbered and written under one hold of ``_wlock``."""
+        with self._wlock:
+            self._write_locked(_SILENT_HEARTBEAT[self._take_seq(_HEARTBEAT)])
+
+    def _write_locked(self, data: bytes) -> None:
+        try:
+            self.port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            self._link_error = exc
+            raise DisplayError(f"display: link lost while writing: {exc}") from exc
+        now = time.monotonic()
+        if self._last_tx > 0:
+            self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
+        self._last_tx = now
 
     def _read_frames(self):
         try:
             port = self.port
             if self._virtual:                    # the emulator returns what one wait produced
-                if self._read_direct is not None and not self._parser.buffered:
-                    frames = self._read_direct(65536)
+                parser = self._parser
+                read_direct = self._read_direct
+                if read_direct is not None and not parser.buffered:
+                    frames = read_direct(65536)
                     if frames is not None:
-                        self._parser.frames += len(frames)
+                        parser.frames += len(frames)
                         return frames
                 data = port.read(65536)
-                return self._parser.feed(data) if data else (
-                    self._parser.drop_candidate() if self._parser.buffered else [])
+                return parser.feed(data) if data else (
+                    parser.drop_candidate() if parser.buffered else [])
             n = port.in_waiting
             data = port.read(n if n > 0 else 1)
             if n <= 0 and data:
@@ -111,40 +134,49 @@ class ProtocolLink:
     def _heartbeat_if_due(self) -> None:
         self._touch()
         c = self._clock()
-        if (c - self._hb_clock >= self.heartbeat_s or self._dev_time - self._hb_dev >= self.heartbeat_s
-                or (not self._virtual and self._alive - self._last_tx >= self.heartbeat_s)):
+        period = self.heartbeat_s
+        if (c - self._hb_clock >= period or self._dev_time - self._hb_dev >= period
+                or (not self._virtual and self._alive - self._last_tx >= period)):
             self._hb_clock, self._hb_dev = c, self._dev_time
             # silent (no reply wanted): telemetry or the next reply shows the device is alive
-            self._write(_SILENT_HEARTBEAT[self._next_seq(Cmd.HEARTBEAT)])
+            self._write_heartbeat()
 
     def _dispatch(self, fr) -> None:
         """Route a frame that is not the awaited reply."""
-        t = fr.type
-        if t == Msg.TELEMETRY:
-            try:
-                tel = Telemetry.decode(fr.payload)
-            except Exception:        # a frame with a good CRC but a wrong layout: count, go on
-                self._parser.bad_frames += 1
-                return
-            if tel.device_time_s < self._dev_time - 0.05:      # telemetry is never a cached reply
-                self._restarted(f"its time went back from {self._dev_time:.3f} s to "
-                                f"{tel.device_time_s:.3f} s")
-            self._dev_time = tel.device_time_s
-            if self._trial is not None:
-                self._trial.last_frame_clock = self._clock()
-                self._trial.telemetry(tel)
-        elif t == Msg.EVENT:
-            try:
-                ev = DeviceEvent.decode(fr.payload)
-            except Exception:
-                self._parser.bad_frames += 1
-                return
-            self._dev_time = max(self._dev_time, ev.device_time_s)
-            if self._trial is not None:
-                self._trial.event(ev)
-        elif t == (Cmd.HEARTBEAT | m.REPLY_BIT) and len(fr.payload) == m.TIME.size:
-            # not a restart test: a retried heartbeat is answered from the device's cache
-            self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
+        self._dispatch_all((fr,))
+
+    def _dispatch_all(self, frames) -> None:
+        """Route frames that are not an awaited reply, in order (the I/O loop's batch of a read:
+        one call for all of them, the commonest, telemetry, first)."""
+        for fr in frames:
+            t = fr.type
+            if t == _TELEMETRY:
+                try:
+                    tel = _decode_telemetry(fr.payload)
+                except Exception:    # a frame with a good CRC but a wrong layout: count, go on
+                    self._parser.bad_frames += 1
+                    continue
+                t_s = tel[1]                                    # device_time_s
+                if t_s < self._dev_time - 0.05:                 # telemetry is never a cached reply
+                    self._restarted(f"its time went back from {self._dev_time:.3f} s to "
+                                    f"{t_s:.3f} s")
+                self._dev_time = t_s
+                trial = self._trial
+                if trial is not None:
+                    trial.last_frame_clock = self._clock()
+                    trial.telemetry(tel)
+            elif t == _EVENT:
+                try:
+                    ev = DeviceEvent.decode(fr.payload)
+                except Exception:
+                    self._parser.bad_frames += 1
+                    continue
+                self._dev_time = max(self._dev_time, ev.device_time_s)
+                if self._trial is not None:
+                    self._trial.event(ev)
+            elif t == _HEARTBEAT_REPLY and len(fr.payload) == _TIME_SIZE:
+                # not a restart test: a retried heartbeat is answered from the device's cache
+                self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
 
     def _restarted(self, why: str) -> None:
         """Note a device restart: the next command raises :class:`DisplayRestarted`."""
@@ -236,7 +268,7 @@ class ProtocolLink:
                 # and nothing written for half a period: heartbeat, whoever holds the I/O lock
                 if (not helper and now - self._alive <= self.host_stall_s
                         and now - self._last_tx >= period / 2):
-                    self._write(_SILENT_HEARTBEAT[self._next_seq(Cmd.HEARTBEAT)])
+                    self._write_heartbeat()
                     self.heartbeats_sent += 1
                 if not self._lock.acquire(blocking=False):
                     continue                   # the I/O thread is reading

@@ -100,20 +100,21 @@ class _Trial:
         self.bad0 = 0
 
     def telemetry(self, fr: Telemetry) -> None:
-        gap = fr.counter - self.last_counter
-        if gap <= 0:
+        counter = fr.counter
+        if counter <= self.last_counter:
             return                       # a stale frame from before arming
-        self.last_counter = fr.counter
+        self.last_counter = counter
         self.frames += 1
         st = fr.state
         if st == "PLAYING" or st == "RECORDING":
             self.active_seen = True
-            if self.contact_s is None:   # CONTACT event lost: the first active frame bounds it
-                self.contact_s = fr.device_time_s
-            if st == "PLAYING" and self.target is not None:
-                x = (fr.device_time_s - self.contact_s) / self.dt
+            contact_s = self.contact_s
+            if contact_s is None:        # CONTACT event lost: the first active frame bounds it
+                self.contact_s = contact_s = fr.device_time_s
+            tgt = self.target
+            if st == "PLAYING" and tgt is not None:
+                x = (fr.device_time_s - contact_s) / self.dt
                 i = int(x)
-                tgt = self.target
                 if i >= self.n_target - 1:
                     y = tgt[-1]
                 elif i < 0:
@@ -123,8 +124,9 @@ class _Trial:
                 e = fr.contact_C - y
                 self.sq += e * e
                 self.n_track += 1
-                if abs(e) > self.max_err:
-                    self.max_err = abs(e)
+                e = abs(e)
+                if e > self.max_err:
+                    self.max_err = e
         elif st == "FAULT" and self.fault is None:
             self.fault = fr.fault or "FAULT"
             self.ended = True
@@ -133,8 +135,9 @@ class _Trial:
             self.ended = True
             if self.end_time_s is None:
                 self.end_time_s = fr.device_time_s
-        if self.callback is not None:
-            self.callback(fr)
+        callback = self.callback
+        if callback is not None:
+            callback(fr)
         elif len(self.pending) < 5000:
             self.pending.append(fr)
 

@@ -12,8 +12,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
-
 from experiments.responders.base import TrialStimulus
 from experiments.session_files import aborted_trace_name, trace_name
 
@@ -55,20 +53,19 @@ def unused_name(path: Path) -> Path:
 
 def contact_force(writer, rec) -> float | None:
     """Mean summed force the display's four sensors measured over the contact, N."""
-    if rec.contact_time_s is None or not writer.time_s:
+    if rec.contact_time_s is None or not writer.frames:
         return None
     from experiments.responders.base import contact_force as mean_force
-    value = mean_force(np.asarray(writer.time_s, dtype=float) - float(rec.contact_time_s),
-                       writer.forces_N)
+    time_s, _, _, forces_N = writer.arrays()
+    value = mean_force(time_s - float(rec.contact_time_s), forces_N)
     return None if value is None else round(value, 2)
 
 
 def trial_stimulus(protocol, spec, writer, rec, profile, sample) -> TrialStimulus:
     """What the responder answers from: the trace (time from contact), the profile, the sample."""
-    t = np.asarray(writer.time_s, dtype=float)
-    if rec.contact_time_s is not None and t.size:
-        t = t - float(rec.contact_time_s)
-    forces = np.asarray(writer.forces_N, dtype=float).reshape(-1, 4)
+    t, target_C, contact_C, forces = writer.arrays()
+    t = t - float(rec.contact_time_s) if rec.contact_time_s is not None and t.size else t.copy()
+    forces = forces.copy()
     material = protocol.material
     sample_info = None
     if spec.mode != "simulated":
@@ -77,7 +74,6 @@ def trial_stimulus(protocol, spec, writer, rec, profile, sample) -> TrialStimulu
                        "temperature_C": protocol.environment.room_temperature_C}
     return TrialStimulus(mode=spec.mode, roughness_id=spec.roughness_id,
                          roughness_um=spec.roughness_um, time_s=t,
-                         target_C=np.asarray(writer.target_C, dtype=float),
-                         contact_C=np.asarray(writer.contact_C, dtype=float), forces_N=forces,
+                         target_C=target_C.copy(), contact_C=contact_C.copy(), forces_N=forces,
                          profile_parameters=None if profile is None else dict(profile.parameters),
                          sample=sample_info, status=rec.status)

@@ -15,7 +15,7 @@ import os
 from pathlib import Path
 
 from experiments.logbook import (append_text, atomic_write_text, is_durable, read_events,
-                                 trials_csv_text, trials_from_events)
+                                 trials_csv_columns, trials_csv_lines, trials_from_events)
 from experiments.logformat import decode_event
 
 __all__ = ["TrialsTable"]
@@ -37,11 +37,16 @@ class TrialsTable:
         self.trials_path = Path(trials_path)
         self._events_read: tuple = (0, None)    # (bytes of events.jsonl decoded, their events)
         self._text: tuple | None = None          # (trials.csv text, its size) as last written
+        # the lines already formatted: (columns, header, {position of the row's event in the
+        # log: (that event, the row, its line)}); a line is used again only for the same event
+        # object at the same position and an equal row under the same columns
+        self._lines: tuple = ((), "", {})
 
     def write(self) -> None:
         """Rebuild the table from the event log and write it (nothing if it is unchanged)."""
         events = self.events()
-        rows = trials_from_events(events)
+        sources: list = []
+        rows = trials_from_events(events, sources=sources)
         aborted = {(e.get("trial_index"), e.get("attempt")): e.get("trace_file")
                    for e in events if e.get("event") == "trial_aborted"}
         for row in rows:  # an aborted row's trace_file comes from its event
@@ -49,7 +54,7 @@ class TrialsTable:
                 row["trace_file"] = aborted.get((row.get("trial_index"), row.get("attempt")))
             else:
                 row.setdefault("trace_file", None)
-        text, _ = trials_csv_text(rows)
+        text = self._table_text(rows, [events[i] for i in sources], sources)
         last = self._text
         if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
             return                                      # the same table: nothing to write
@@ -58,6 +63,28 @@ class TrialsTable:
                 and append_text(self.trials_path, text[len(last[0]):], last[1])):
             atomic_write_text(self.trials_path, text)
         self._text = (text, len(text.encode("utf-8")))
+
+    def _table_text(self, rows, origins, positions) -> str:
+        """``trials_csv_text(rows)[0]``, formatting only the rows not formatted before."""
+        columns = tuple(trials_csv_columns(rows))
+        cols, header, known = self._lines
+        if columns != cols:
+            header = trials_csv_lines([dict(zip(columns, columns))], columns)[0]
+            known = {}
+        lines = [header]
+        todo = []
+        for row, ev, pos in zip(rows, origins, positions):
+            hit = known.get(pos)
+            if hit is not None and hit[0] is ev and hit[1] == row:
+                lines.append(hit[2])
+            else:
+                todo.append((len(lines), row, ev, pos))
+                lines.append(None)
+        for (i, row, ev, pos), line in zip(todo, trials_csv_lines([t[1] for t in todo], columns)):
+            lines[i] = line
+            known[pos] = (ev, row, line)
+        self._lines = (columns, header, known)
+        return "".join(lines)
 
     def events(self) -> list:
         """The events of ``events.jsonl`` as :func:`~experiments.logformat.read_events` reads

@@ -49,6 +49,16 @@ def test_trace_lines_are_format_cells_text_for_any_value(tmp_path):
     got = (tmp_path / "trial-001.csv").read_text(encoding="utf-8")
     assert got.splitlines(keepends=True) == want
     assert ",-0," in got and ",0," in got          # -0.0 is not written as 0.0 or vice versa
+    # what the session reads back (contact force, the responder's stimulus): the values as
+    # written, as numpy makes them of the frames' own numbers (nan, -0.0, float32 and all)
+    time_s, target_C, contact_C, forces_N = w.arrays()
+    for got_a, want_a in ((time_s, [f[0] for f in frames]), (target_C, [f[1] for f in frames]),
+                          (contact_C, [f[2] for f in frames]),
+                          (forces_N, [f[5] for f in frames])):
+        want_a = np.asarray(want_a, dtype=float)
+        assert got_a.shape == want_a.shape and got_a.tobytes() == want_a.tobytes()
+    assert forces_N.shape == (3000, 4) and w.arrays()[0] is time_s       # made once
+    assert w.time_s == time_s.tolist() and w.forces_N[7] == tuple(forces_N[7])
 
 
 def test_a_frame_with_telemetrys_field_names_writes_the_same_line(tmp_path):
@@ -124,3 +134,114 @@ def test_trials_csv_grows_by_lines_and_is_the_table_of_the_events(tmp_path, monk
     want, _ = trials_csv_text(rows)
     with open(os.path.join(session, "trials.csv"), encoding="utf-8", newline="") as fh:
         assert fh.read() == want
+
+
+def test_the_table_formats_each_row_once_and_is_the_table_of_the_events(tmp_path, monkeypatch):
+    # trials.csv after every trial formats only the rows it has not formatted yet, and stays
+    # exactly trials_csv_text of the events: through a new column, an aborted attempt whose
+    # trace_file comes from its event, a second event for an attempt (ignored), a row whose
+    # value changes with its event, and a log rewritten under the table (all read again)
+    import warnings
+
+    import experiments.logbook as logbook
+    calls = []
+    real_format_cell = logbook.format_cell
+    monkeypatch.setattr(logbook, "format_cell", lambda v, c="", *a: calls.append(c) or
+                        real_format_cell(v, c, *a))
+    path = tmp_path / "events.jsonl"
+    path.write_bytes(b"")
+    table = TrialsTable(path, tmp_path / "trials.csv")
+    seq = iter(range(1, 1000))
+
+    def log(**ev):
+        with open(path, "a", encoding="utf-8") as fh:
+            fh.write(json.dumps({"seq": next(seq), "time": "2026-01-01T00:00:00.000Z", **ev}) + "\n")
+
+    def check(new_rows, header=False):
+        calls.clear()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            table.write()
+            formatted = len(calls)
+            rows = trials_from_events(read_events(path, warn=False)[0])
+        aborted = {}
+        for ev in read_events(path, warn=False)[0]:
+            if ev["event"] == "trial_aborted":
+                aborted[(ev["trial_index"], ev["attempt"])] = ev.get("trace_file")
+        for row in rows:
+            if row.get("status") == "aborted":
+                row["trace_file"] = aborted.get((row["trial_index"], row["attempt"]))
+            else:
+                row.setdefault("trace_file", None)
+        want, columns = trials_csv_text(rows)
+        assert (tmp_path / "trials.csv").read_text(encoding="utf-8") == want
+        assert formatted == (new_rows + header) * len(columns), (formatted, new_rows, columns)
+
+    log(event="session_started", participant="P01", session="1")
+    for i in range(1, 6):
+        log(event="trial_started", trial_index=i, attempt=1, block="main", roughness_id=i % 4)
+        log(event="trial_completed", trial_index=i, attempt=1,
+            row={"response_id": i % 3, "rt_s": 0.5 + i / 7, "tracking_rms_C": math.nan})
+        check(new_rows=1, header=i == 1)
+    log(event="trial_started", trial_index=6, attempt=1)
+    log(event="trial_aborted", trial_index=6, attempt=1, reason="no contact",
+        trace_file="traces/trial-006.attempt-1.aborted.csv")
+    check(new_rows=1)
+    log(event="trial_started", trial_index=6, attempt=2)
+    log(event="trial_completed", trial_index=6, attempt=2, row={"new_column_um": 3.25})
+    check(new_rows=7, header=True)                        # a new column: every row again
+    log(event="trial_completed", trial_index=6, attempt=2, row={"new_column_um": 9.0})
+    check(new_rows=0)                                     # a second event: ignored
+    log(event="trial_aborted", trial_index=6, attempt=1, reason="again", trace_file="other.csv")
+    check(new_rows=1)                                     # the aborted row's trace_file changed
+    text = path.read_text(encoding="utf-8").replace('"rt_s": 0.6428571428571428', '"rt_s": 0.25')
+    path.write_text(text[:len(text) // 2], encoding="utf-8")     # a shorter log: read again
+    with open(path, "a", encoding="utf-8") as fh:
+        fh.write(text[len(text) // 2:])
+    check(new_rows=7)
+
+
+def test_an_event_is_made_json_ready_once_and_written_as_dumps_writes_it(tmp_path, monkeypatch):
+    import experiments.logbook as logbook
+    import experiments.logformat as logformat
+    from experiments.logformat import dumps
+    top = []
+    real = logformat.to_jsonable
+
+    def counting(obj):                                 # the whole event, wherever it is made ready
+        if isinstance(obj, dict) and obj.get("event") == "note":
+            top.append(1)
+        return real(obj)
+
+    monkeypatch.setattr(logbook, "to_jsonable", counting)
+    monkeypatch.setattr(logformat, "to_jsonable", counting)
+    values = dict(text="Ra 1.6 µm, 20 °C", x=0.1, big=1e300, neg=-0.0, n=np.int64(3),
+                  a=np.array([1.5, np.nan]), nested={"k": [1, {"z": (2, 3.25)}]}, none=None,
+                  inf=math.inf, flag=True, path=tmp_path / "x")
+    with logbook.EventLog(tmp_path / "events.jsonl") as log:
+        rec = log.append("note", time="2026-01-01T00:00:00.000Z", **values)
+    assert len(top) == 1                               # one to_jsonable of the event, not two
+    line = (tmp_path / "events.jsonl").read_text(encoding="utf-8")
+    assert line == dumps({"event": "note", "seq": 1, "time": "2026-01-01T00:00:00.000Z",
+                          **values}) + "\n"
+    assert line == json.dumps(rec, ensure_ascii=False, allow_nan=False,
+                              separators=(",", ":")) + "\n"
+    assert dumps(values, indent=0) == json.dumps(real(values), ensure_ascii=False,
+                                                 allow_nan=False, indent=0, separators=(",", ":"))
+
+
+def test_package_versions_are_read_once_per_process_and_handed_out_as_new_dicts(monkeypatch):
+    import experiments.session_files as sf
+    calls = []
+    real = sf.metadata.version
+    monkeypatch.setattr(sf.metadata, "version", lambda name: calls.append(name) or real(name))
+    sf._package_versions.cache_clear()
+    try:
+        a = sf.package_versions()
+        n = len(calls)
+        b = sf.package_versions()
+        assert n == len(calls) == 8 and a == b and a is not b and a["numpy"] == np.__version__
+        a["numpy"] = "changed"
+        assert sf.package_versions()["numpy"] == np.__version__
+    finally:
+        sf._package_versions.cache_clear()

@@ -135,3 +135,87 @@ def test_an_emulated_session_logs_the_same_traces_as_before_the_fast_path(tmp_pa
     res = run_participant(paths["P01"], tmp_path / "data", seed=0, durable=False)
     assert res["n_trials"] == 28
     assert traces_digest(Path(res["session_dir"])) == P01_TRACES_SHA256
+
+
+def _device_state(port):
+    """Everything a write can change on the device's side, and what waits for the host."""
+    dev, p = port.device, port.device.parser
+    return (dev.last_rx_us, dev.time_us, dev.state, dev.hello, dict(dev.cache), bytes(dev.out),
+            p.frames, p.bad_frames, p.bytes_skipped, p.buffered, bytes(port._rx))
+
+
+def test_a_write_with_no_link_fault_equals_the_write_through_the_link_tick_for_tick():
+    # the same host bytes, one port writing through EmulatorCore (to_device/to_host), the other
+    # straight to the device: silent heartbeats whole and split, replies, garbage, a retry
+    ports = [serial.serial_for_url("emulator://?clock=virtual&seed=2", timeout=0.01)
+             for _ in range(2)]
+    direct, linked = ports
+    calls = []
+    linked.write = lambda data: calls.append(data) or linked._write_through_link(bytes(data))
+    hb = [encode_frame(s, m.Cmd.HEARTBEAT, b"\x00") for s in range(256)]
+    hello = encode_frame(1, m.Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
+    writes = []
+    for i in range(400):
+        if i == 3:
+            writes.append([hello])
+        elif i == 7:
+            writes.append([hb[9][:3], hb[9][3:]])          # a heartbeat split in two
+        elif i == 11:
+            writes.append([b"\x00\x17" + hb[10]])           # garbage, then a heartbeat
+        elif i == 13:
+            writes.append([encode_frame(4, m.Cmd.HEARTBEAT, b"")] * 2)   # acked, then retried
+        elif i == 17:
+            writes.append([hb[11][:5]])                     # a partial frame left waiting ...
+        elif i == 18:
+            writes.append([hb[11][5:] + hb[12]])            # ... its rest, and one more
+        elif i == 20:
+            writes.append([bytearray(hb[13]), memoryview(hb[14])])   # not bytes: same frames
+        else:
+            writes.append([hb[i % 256]])
+    for i, chunk in enumerate(writes):
+        for data in chunk:
+            assert direct.write(data) == linked.write(data) == len(data)
+            assert _device_state(direct) == _device_state(linked), (i, data)
+        got = [bytes(p.read(65536)) for p in ports]
+        assert got[0] == got[1], i
+        assert _device_state(direct) == _device_state(linked), i
+    assert len(calls) == sum(len(c) for c in writes)
+    dev = direct.device
+    assert dev.hello and dev.parser.frames > 390 and dev.parser.bytes_skipped == 2
+    assert dev.last_rx_us == dev.time_us - 10_000           # the last heartbeat, one read ago
+
+
+@pytest.mark.parametrize("mode", ["playback", "record"])
+def test_a_trial_with_direct_writes_equals_the_trial_through_the_link(mode):
+    direct = serial.serial_for_url("emulator://?clock=virtual&seed=5", timeout=0.01)
+    linked = serial.serial_for_url("emulator://?clock=virtual&seed=5", timeout=0.01)
+    direct_calls = []
+    write_direct = direct._write_direct
+    direct._write_direct = lambda data: direct_calls.append(data) or write_direct(data)
+    linked.write = lambda data: linked._write_through_link(bytes(data))
+    a = _trial(direct, mode)
+    b = _trial(linked, mode)
+    assert len(direct_calls) > 50                         # heartbeats and commands went direct
+    assert repr(a[0]) == repr(b[0]) and a[0].status == "ok"
+    assert a[1] == b[1] and len(a[1]) > 150
+    assert a[2] == b[2]
+    assert a[3:] == b[3:]
+
+
+@pytest.mark.parametrize("url", ["emulator://?clock=virtual&faults=drop=1",
+                                 "emulator://?clock=virtual&faults=disconnect@0.5",
+                                 "emulator://?clock=real"])
+def test_a_write_goes_through_the_link_when_a_fault_or_the_real_clock_is_in_play(url):
+    port = serial.serial_for_url(url, timeout=0.01)
+    try:
+        seen = []
+        to_device = port.core.to_device
+        port.core.to_device = lambda data, at_us=None: seen.append(data) or to_device(data, at_us)
+        port._write_direct = lambda data: pytest.fail("the direct write was used")
+        hb = encode_frame(3, m.Cmd.HEARTBEAT, b"\x00")
+        port.write(hb)
+        assert seen == [hb]
+        if "drop=1" in url:
+            assert port.device.parser.frames == 0         # the link dropped it
+    finally:
+        port.close()
