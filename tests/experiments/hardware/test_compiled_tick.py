@@ -245,3 +245,33 @@ def test_random_trials_tick_the_same(press, force, hold, rate, seed, record, sam
                             limits=SafetyLimits(max_rate_C_per_s=rate), timeout_s=6.0,
                             start_C=start_C, drop_C=min(3.0, rate / 3))
     _assert_same(a, b)
+
+
+def test_a_long_wait_is_interruptible_and_keeps_the_ticks_it_did():
+    """A read with no timeout on an idle device ticks until something is said (nothing, here):
+    a signal handler's exception ends it, and the state is that of the ticks done."""
+    import signal
+
+    class Stop(Exception):
+        pass
+
+    def handler(signum, frame):
+        raise Stop
+
+    port = serial.serial_for_url("emulator://?clock=virtual&seed=4", timeout=None)
+    old = signal.signal(signal.SIGALRM, handler)
+    signal.setitimer(signal.ITIMER_REAL, 0.05)
+    try:
+        with pytest.raises(Stop):
+            port.read_frames(65536)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    dev = port.device
+    ticks = dev.time_us // 10_000
+    assert ticks >= 1024 and dev.direct is None
+    reference = Device(seed=4)
+    for _ in range(ticks):
+        reference.step()
+    assert _snapshot(dev) == _snapshot(reference)
+    port.close()
