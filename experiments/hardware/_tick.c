@@ -878,7 +878,8 @@ plant_step(St *s, double sp0, double sp1, double load_W, int enabled, double *y_
     const double dtc = s->dtc, C = s->C, K = s->K, a = s->a, Re = s->Re, ch = s->ch, kh = s->kh,
                  ah = s->ah, rh = s->rh, kp = s->kp, imax = s->imax, g_obs = s->g_obs,
                  lag = s->lag, noise = s->pnoise, g_hs = s->g_hs, room = s->p_room, C_hs = s->C_hs;
-    double pad = s->pad, hs = s->hs, s_state = s->s_state, y_prev = s->y_prev, q_prev = s->q_prev,
+    /* sens: Python's s_state, the sensor's lagged state */
+    double pad = s->pad, hs = s->hs, sens = s->s_state, y_prev = s->y_prev, q_prev = s->q_prev,
            d_hat = s->d_hat;
     const double trip = s->trip;
     double dsp = (sp1 - sp0) / n;
@@ -886,8 +887,8 @@ plant_step(St *s, double sp0, double sp1, double load_W, int enabled, double *y_
     long long same = s->same;
     double i = 0.0;
     for (long k = 0; k < n; k++) {
-        s_state += lag * (pad - s_state);
-        double v = s_state + noise * draw(s->pnz, &s->pnoise_pos);
+        sens += lag * (pad - sens);
+        double v = sens + noise * draw(s->pnz, &s->pnoise_pos);
         double w = v * 1000.0;
         double kk = round_half_even(w);
         double y_new;
@@ -921,7 +922,7 @@ plant_step(St *s, double sp0, double sp1, double load_W, int enabled, double *y_
         pad += dtc * q_pad / C;
         hs += dtc * q_hs / C_hs;
     }
-    s->pad = pad; s->hs = hs; s->s_state = s_state; s->y_prev = y_prev; s->q_prev = q_prev;
+    s->pad = pad; s->hs = hs; s->s_state = sens; s->y_prev = y_prev; s->q_prev = q_prev;
     s->d_hat = d_hat;
     s->y = y;
     s->same = same;
