@@ -96,7 +96,8 @@ class Serial(SerialBase):
     def __init__(self, *args, **kwargs):
         self.core: EmulatorCore | None = None
         self.virtual = False
-        self._lock = threading.RLock()               # the condition's lock (entered from C)
+        self._lock = threading.RLock()   # the condition's lock: `with self._lock` costs a C call,
+        #                                  `with self._cond` a Python one (the direct write)
         self._cond = threading.Condition(self._lock)
         self._rx = bytearray()
         self._thread = None
