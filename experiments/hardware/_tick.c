@@ -803,7 +803,6 @@ store(St *s)
                 || set_d(pl, s_current, s->current) < 0)
             return -1;
     }
-    s->ticked = 0;
     return 0;
 }
 
