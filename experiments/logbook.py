@@ -72,6 +72,7 @@ __all__ = [
     "write_trials_csv",
     "trials_csv_text",
     "trials_csv_columns",
+    "trials_csv_header",
     "trials_csv_lines",
     "append_text",
     "replay",
@@ -392,12 +393,7 @@ def trials_csv_text(rows: Iterable[Mapping[str, Any]],
     """The text :func:`write_trials_csv` writes, and its columns (same parameters)."""
     rows = list(rows)
     columns = trials_csv_columns(rows) if columns is None else list(columns)
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(columns)
-    for r in rows:
-        w.writerow([format_cell(r.get(c), c) for c in columns])
-    return buf.getvalue(), columns
+    return trials_csv_header(columns) + "".join(trials_csv_lines(rows, columns)), columns
 
 
 def trials_csv_columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
@@ -407,9 +403,16 @@ def trials_csv_columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
     return list(TRIAL_COLUMNS) + extra
 
 
+def trials_csv_header(columns: Iterable[str]) -> str:
+    """The header line (with its newline) :func:`trials_csv_text` writes for ``columns``: the
+    column names as a row (a name is a string, which a cell writes as it is)."""
+    columns = list(columns)
+    return trials_csv_lines([dict(zip(columns, columns))], columns)[0]
+
+
 def trials_csv_lines(rows: Iterable[Mapping[str, Any]], columns: Iterable[str]) -> list[str]:
-    """The lines (with their newline) :func:`trials_csv_text` writes for ``rows`` and
-    ``columns``: its header is ``trials_csv_lines([dict(zip(columns, columns))], columns)``."""
+    """The row lines (each with its newline) :func:`trials_csv_text` writes for ``rows`` and
+    ``columns``, after :func:`trials_csv_header`."""
     columns = list(columns)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")

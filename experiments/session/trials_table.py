@@ -15,7 +15,8 @@ import os
 from pathlib import Path
 
 from experiments.logbook import (append_text, atomic_write_text, is_durable, read_events,
-                                 trials_csv_columns, trials_csv_lines, trials_from_events)
+                                 trials_csv_columns, trials_csv_header, trials_csv_lines,
+                                 trials_from_events)
 from experiments.logformat import decode_event
 
 __all__ = ["TrialsTable"]
@@ -69,7 +70,7 @@ class TrialsTable:
         columns = tuple(trials_csv_columns(rows))
         cols, header, known = self._lines
         if columns != cols:
-            header = trials_csv_lines([dict(zip(columns, columns))], columns)[0]
+            header = trials_csv_header(columns)
             known = {}
         lines = [header]
         todo = []
