@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -24,6 +23,7 @@ from .missing import missing_summary, missing_trials
 from .model_decisions import model_decisions
 from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
 from .proportions import cell_proportions, participant_summary
+from .result import AnalysisResult
 from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
                             rt_table)
 # report.md and the summary live in their own modules; re-exported (tests read the private two)
@@ -31,54 +31,6 @@ from .report_markdown import COLUMN_MEANINGS, _sessions_markdown, report_markdow
 from .summary import _tests_summary, plain_summary  # noqa: F401
 
 __all__ = ["AnalysisResult", "analyze", "plain_summary", "COLUMN_MEANINGS"]
-
-
-@dataclass
-class AnalysisResult:
-    """Everything :func:`analyze` computed and wrote.
-
-    Attributes
-    ----------
-    log : TrialLog
-        The loaded trials (all rows, inclusion marked), sessions and warnings.
-    proportions, participants, confusion, contrasts : pandas.DataFrame
-        The tables (see :func:`analysis.cell_proportions` etc.).
-    gee, bayes : ModelFit
-        The GEE and the (demoted, optional) mean-field Bayesian mixed logit.
-    glmm : ModelFit
-        The mixed logit by maximum likelihood (random intercepts, adaptive
-        Gauss-Hermite; :func:`analysis.glmm.fit_glmm`).
-    glmm_slope : ModelFit
-        The same with a random slope for mode (:func:`analysis.glmm_slope.fit_glmm_slope`).
-    tests : pandas.DataFrame
-        The named tests: primary, omnibus, per-sample (Holm), interaction.
-    chance : pandas.DataFrame
-        Tests against chance per cell and per group × mode.
-    missing : pandas.DataFrame
-        Per participant: scheduled vs answered scored trials, missing ones by reason.
-    extras : dict of str to pandas.DataFrame
-        Information transfer and kappa, Hu, ordinal, covariates, response times.
-    summary : str
-        Plain-language summary.
-    files : dict of str to Path
-        Every file written, by name.
-    """
-
-    log: TrialLog
-    proportions: pd.DataFrame
-    participants: pd.DataFrame
-    confusion: pd.DataFrame
-    gee: ModelFit
-    bayes: ModelFit
-    contrasts: pd.DataFrame
-    summary: str
-    files: dict = field(default_factory=dict)
-    glmm: ModelFit | None = None
-    tests: pd.DataFrame = field(default_factory=pd.DataFrame)
-    chance: pd.DataFrame = field(default_factory=pd.DataFrame)
-    missing: pd.DataFrame = field(default_factory=pd.DataFrame)
-    extras: dict = field(default_factory=dict)
-    glmm_slope: ModelFit | None = None
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> Path:
@@ -226,13 +178,16 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             slope = fit_glmm_slope(trials, glmm.formula or FORMULA, level=level,
                                    intercept_fit=glmm)
         else:
-            glmm = ModelFit("glmm", None, FORMULA, pd.DataFrame(), ["GLMM: not requested"])
-            slope = ModelFit("glmm-slope", None, FORMULA, pd.DataFrame(), [])
+            glmm = ModelFit(kind="glmm", formula=None, requested=FORMULA, table=pd.DataFrame(),
+                            notes=["GLMM: not requested"])
+            slope = ModelFit(kind="glmm-slope", formula=None, requested=FORMULA,
+                             table=pd.DataFrame(), notes=[])
         if bayes:
             say("fitting the mean-field Bayesian mixed logit (comparison only)")
             bfit = fit_bayes(trials, level=level, seed=seed)
         else:
-            bfit = ModelFit("bayes", None, FORMULA, pd.DataFrame(), [])
+            bfit = ModelFit(kind="bayes", formula=None, requested=FORMULA, table=pd.DataFrame(),
+                            notes=[])
     contrasts = group_contrasts(gee, trials, level=level)
     for fit, label in ((glmm, "glmm"), (bfit, "bayes-vb (mean-field: intervals too narrow)")):
         if fit.formula is None:
@@ -291,8 +246,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     if glmm.formula is not None:
         files["glmm_convergence"] = out / "glmm_convergence.json"
         files["glmm_convergence"].write_text(json.dumps(
-            {**glmm.result, "formula": glmm.formula, "notes": glmm.notes,
-             "random_slope_model": {**(slope.result or {}), "formula": slope.formula,
+            {**glmm.convergence, "formula": glmm.formula, "notes": glmm.notes,
+             "random_slope_model": {**(slope.convergence or {}), "formula": slope.formula,
                                     "notes": slope.notes}}, indent=2), "utf-8")
     book = codebook(files)
     files["codebook"] = out / "codebook.json"
@@ -301,12 +256,14 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     files["settings"].write_text(json.dumps(run_settings(
         data_dir=str(data_dir), out_dir=str(out), n_boot=n_boot, level=level, seed=seed,
         mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
-        requested_formula=FORMULA, glmm_method=(glmm.result or {}).get("method"),
+        requested_formula=FORMULA, glmm_method=(glmm.convergence or {}).get("method"),
         primary_test="GEE Wald z of the A-B log odds ratio averaged over samples, real mode",
         multiplicity="Holm over the per-sample A-B tests (both modes)",
         undocumented_columns=check_codebook(book)), indent=2), "utf-8")
-    result = AnalysisResult(log, proportions, participants, confusion, gee, bfit, contrasts,
-                            summary, files, glmm, tests, chance, missing, extras, slope)
+    result = AnalysisResult(log=log, proportions=proportions, participants=participants,
+                            confusion=confusion, gee=gee, bayes=bfit, contrasts=contrasts,
+                            summary=summary, files=files, glmm=glmm, tests=tests, chance=chance,
+                            missing=missing, extras=extras, glmm_slope=slope)
     files["report"] = out / "report.md"
     files["report"].write_text(report_markdown(result, data_dir, n_boot, level, seed), "utf-8")
     return result

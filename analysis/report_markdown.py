@@ -9,7 +9,7 @@ import pandas as pd
 from .model_decisions import model_decisions_markdown
 
 if TYPE_CHECKING:                       # the result type only; report.py imports this module
-    from .report import AnalysisResult
+    from .result import AnalysisResult
 
 __all__ = ["COLUMN_MEANINGS", "report_markdown"]
 
@@ -175,7 +175,7 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
     """The report's statistics sections (models, named tests, chance, psychophysics)."""
     parts = []
     if r.glmm is not None and r.glmm.formula is not None:
-        conv = r.glmm.result
+        conv = r.glmm.convergence
         parts += [
             "## Mixed logit: participant random intercepts, maximum likelihood", "",
             f"Formula: `{r.glmm.formula}` + `(1 | participant)`"
@@ -194,7 +194,7 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
             _md_table(r.glmm.table), ""]
     sl = r.glmm_slope
     if sl is not None and sl.formula is not None:
-        conv = sl.result
+        conv = sl.convergence
         parts += [
             "### With a random slope for mode: `(1 + mode | participant)`", "",
             f"Does the real-vs-simulated difference vary between participants? {conv['method']}: "
