@@ -17,7 +17,9 @@ from .load import TrialLog, load_trials
 from .exports import (cell_counts, check_codebook, codebook, run_settings, wide_table,
                       write_csv)
 from .glmm import fit_glmm
+from .fidelity import equivalence_margin, fidelity_paragraph, mode_contrasts
 from .glmm_slope import fit_glmm_slope
+from .mixed_choice import choose_mixed
 from .inference import chance_tests, holm, interaction_test, omnibus_group_test, primary_test
 from .missing import missing_summary, missing_trials
 from .model_decisions import model_decisions
@@ -41,44 +43,61 @@ def _write_csv(df: pd.DataFrame, path: Path) -> Path:
     return write_csv(df, path)
 
 
+def _t_label(df) -> str:
+    """The reference distribution of a Wald ratio, named: ``Wald t(df)`` or ``Wald z (normal)``."""
+    return f"Wald t({df:g})" if df else "Wald z (normal)"
+
+
 def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
-                trials: pd.DataFrame, level: float = 0.95) -> pd.DataFrame:
+                trials: pd.DataFrame, level: float = 0.95,
+                mixed_note: str = "") -> pd.DataFrame:
     """The named tests (rows: primary, omnibus, per-sample with Holm, interaction).
 
     Parameters
     ----------
-    gee, glmm : ModelFit
+    gee : ModelFit
+    glmm : ModelFit or None
+        The mixed model of the interaction row (:func:`analysis.mixed_choice.choose_mixed`:
+        the random-slope model when it was fitted with the full formula).
     contrasts : pandas.DataFrame
         From :func:`analysis.group_contrasts` (GEE rows used).
     trials : pandas.DataFrame
     level : float
+    mixed_note : str
+        Why that mixed model (goes into the row's ``note``).
 
     Returns
     -------
     pandas.DataFrame
-        ``role, test, model, compares, estimate, se, ci_low, ci_high, statistic, df,
-        p_value, p_holm, difference, difference_ci_low, difference_ci_high, basis``.
+        ``role, test, model, compares, estimate, se, ci_low, ci_high, interval, statistic, df,
+        p_value, p_holm, difference, difference_ci_low, difference_ci_high, basis, note``.
+        ``test`` names the reference distribution (``Wald t(28)``, ``Wald F(8, 22)``); ``df``
+        is its (denominator) degrees of freedom, empty for the normal.
     """
     rows = []
     def from_contrast(role, r, p_holm=np.nan):
-        return {"role": role, "test": "Wald z", "model": r["model"], "compares": r["compares"],
+        return {"role": role, "test": _t_label(gee.df), "model": r["model"],
+                "compares": r["compares"],
                 "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
-                "ci_high": r["ci_high"],
+                "ci_high": r["ci_high"], "interval": _interval_label(gee.df),
                 "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
-                "df": 1, "p_value": r["p_value"], "p_holm": p_holm,
+                "df": gee.df if gee.df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
                 "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
-                "difference_ci_high": r["difference_high"], "basis": r["basis"]}
+                "difference_ci_high": r["difference_high"], "basis": r["basis"],
+                "note": ("per-sample GEE of this sample's trials alone: the full model could not "
+                         "be fitted" if str(r["basis"]).startswith("per-sample") else "")}
     first = primary_test(contrasts)
     if first is not None:
         rows.append(from_contrast("primary", first))
     if gee.formula is not None:
         omni = omnibus_group_test(gee, trials)
         if omni["df"]:
-            rows.append({"role": "omnibus", "test": omni["test"] + f": F({omni['df']}, "
-                         f"{omni['df_denominator']}) from Wald chi2 = {omni['chi2']:.3f}",
+            rows.append({"role": "omnibus", "test": f"Wald F({omni['df']}, "
+                         f"{omni['df_denominator']}), small-sample, from Wald chi2 = "
+                         f"{omni['chi2']:.3f}",
                          "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
                          "df": omni["df"], "p_value": omni["p_value"],
-                         "basis": f"model: {gee.formula}"})
+                         "basis": f"model: {gee.formula}", "note": ""})
     if not contrasts.empty:
         per = contrasts[(contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)]
         adjusted = holm(per["p_value"].to_numpy(float))
@@ -90,18 +109,30 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         if np.isfinite(it["log_odds"]):
             scale = ("population-averaged" if fit.kind == "gee"
                      else "typical participant (u = 0)")
-            rows.append({"role": "interaction", "test": "Wald z", "model": fit.kind,
+            rows.append({"role": "interaction", "test": _t_label(fit.df), "model": fit.kind,
                          "compares": it["compares"] + f"; proportions {scale}",
                          "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
-                         "ci_high": it["ci_high"], "statistic": it["log_odds"] / it["se"],
-                         "df": 1, "p_value": it["p_value"],
+                         "ci_high": it["ci_high"], "interval": _interval_label(fit.df),
+                         "statistic": it["log_odds"] / it["se"],
+                         "df": fit.df if fit.df else np.nan, "p_value": it["p_value"],
                          "difference": it["difference_of_differences"],
                          "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
-                         "basis": f"model: {fit.formula}"})
-    columns = ["role", "test", "model", "compares", "estimate", "se", "ci_low", "ci_high",
-               "statistic", "df", "p_value", "p_holm", "difference", "difference_ci_low",
-               "difference_ci_high", "basis"]
-    return pd.DataFrame(rows, columns=columns)
+                         "basis": f"model: {fit.formula}"
+                                  + (" + (1 + mode | participant)" if fit.kind == "glmm-slope"
+                                     else " + (1 | participant)" if fit.kind == "glmm" else ""),
+                         "note": mixed_note if fit.kind != "gee" else
+                                 "; ".join(fit.notes)})
+    return pd.DataFrame(rows, columns=TESTS_COLUMNS)
+
+
+def _interval_label(df) -> str:
+    return f"Wald, t({df:g})" if df else "Wald, normal"
+
+
+#: Columns of :func:`tests_table`.
+TESTS_COLUMNS = ["role", "test", "model", "compares", "estimate", "se", "ci_low", "ci_high",
+                 "interval", "statistic", "df", "p_value", "p_holm", "difference",
+                 "difference_ci_low", "difference_ci_high", "basis", "note"]
 
 
 # one BLAS thread: the models' many small BLAS calls spin idle threads (10x slower when busy)
@@ -109,7 +140,8 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
 def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed: int = 20261122,
             bayes: bool = False, mixed: bool = True,
             progress: Callable[[str], None] | None = None,
-            sessions: str = "first") -> AnalysisResult:
+            sessions: str = "first",
+            equivalence_margin_pp: float | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -143,6 +175,10 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     sessions : {"first", "latest", "all"}
         Inclusion policy (:func:`analysis.load.load_trials`): each participant's first complete
         session (default), the latest complete one, or every session.
+    equivalence_margin_pp : float, optional
+        Margin of the real-vs-simulated equivalence test, percentage points of proportion
+        correct; None: the protocol's ``[analysis] equivalence_margin_pp``, else 10
+        (:func:`analysis.fidelity.equivalence_margin`).
 
     Returns
     -------
@@ -198,8 +234,17 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             extra["p_value"] = np.nan
         contrasts = pd.concat([contrasts, extra], ignore_index=True) if not contrasts.empty \
             else extra
-    say("tests: primary, omnibus, Holm, interaction, chance; missing data; psychophysics")
-    tests = tests_table(gee, glmm, contrasts, trials, level)
+    say("tests: primary, omnibus, Holm, interaction, real vs simulated, chance; missing data; "
+        "psychophysics")
+    choice = choose_mixed(glmm if mixed else None, slope if mixed else None)
+    tests = tests_table(gee, choice.contrasts, contrasts, trials, level, choice.reason)
+    analysed_folders = log.sessions.loc[log.sessions["analysed"], "path"]
+    margin_pp, margin_source = equivalence_margin(analysed_folders, equivalence_margin_pp)
+    fidelity = mode_contrasts(gee, trials, margin_pp=margin_pp, level=level)
+    if choice.contrasts is not None:
+        more = mode_contrasts(choice.contrasts, trials, margin_pp=margin_pp, level=level)
+        more["note"] = choice.reason
+        fidelity = pd.concat([fidelity, more], ignore_index=True)
     if not contrasts.empty:
         contrasts["p_holm"] = np.nan
         for model in contrasts["model"].unique():
@@ -218,7 +263,9 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                   "force": force_table(trials),
                   "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],
                                                                       "path"])}
-    summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests)
+    summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests,
+                            fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
+                            choice=choice)
     say(f"writing figures and tables to {out}")
     files = {
         "figure9": plot_figure9(proportions, out / "figure9.png"),
@@ -231,6 +278,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         "glmm_slope": _write_csv(slope.table, out / "glmm_slope.csv"),
         "contrasts": _write_csv(contrasts, out / "contrasts.csv"),
         "tests": _write_csv(tests, out / "tests.csv"),
+        "fidelity": _write_csv(fidelity, out / "fidelity.csv"),
         "chance": _write_csv(chance, out / "chance.csv"),
         "missing": _write_csv(missing, out / "missing.csv"),
         "missing_trials": _write_csv(missing_rows, out / "missing_trials.csv"),
@@ -258,12 +306,18 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
         requested_formula=FORMULA, glmm_method=(glmm.convergence or {}).get("method"),
         primary_test="GEE Wald z of the A-B log odds ratio averaged over samples, real mode",
-        multiplicity="Holm over the per-sample A-B tests (both modes)",
+        multiplicity="Holm over the per-sample A-B tests (both modes); Holm over the 8 "
+                     "per-sample real - simulated tests",
+        equivalence_margin_pp=margin_pp, equivalence_margin_source=margin_source,
+        mixed_model_for_mode_contrasts=(choice.contrasts.kind if choice.contrasts is not None
+                                        else None),
         undocumented_columns=check_codebook(book)), indent=2), "utf-8")
     result = AnalysisResult(log=log, proportions=proportions, participants=participants,
                             confusion=confusion, gee=gee, bayes=bfit, contrasts=contrasts,
                             summary=summary, files=files, glmm=glmm, tests=tests, chance=chance,
-                            missing=missing, extras=extras, glmm_slope=slope)
+                            missing=missing, extras=extras, glmm_slope=slope, fidelity=fidelity,
+                            equivalence_margin_pp=margin_pp,
+                            equivalence_margin_source=margin_source, mixed_choice=choice)
     files["report"] = out / "report.md"
     files["report"].write_text(report_markdown(result, data_dir, n_boot, level, seed), "utf-8")
     return result

@@ -103,6 +103,7 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
         f"within group, seed {seed}.", "",
         "## Summary", "", r.summary, "",
         "![Figure 9](figure9.png)", "",
+        *_fidelity_section(r),
         "## Counts", "", _md_table(counts), "",
         "### Excluded from inference", "", _md_table(log.exclusion_counts()), "",
     ]
@@ -140,6 +141,37 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
     ]
     parts += [f"- `{k}`: {v}" for k, v in COLUMN_MEANINGS.items()]
     return "\n".join(parts) + "\n"
+
+
+def _fidelity_section(r: AnalysisResult) -> list[str]:
+    """Display fidelity: real vs simulated, averaged (with the equivalence test) and per sample."""
+    from .fidelity import fidelity_paragraph
+
+    f = r.fidelity
+    parts = ["## Display fidelity: are simulated samples recognised as well as real ones?", "",
+             fidelity_paragraph(f, r.equivalence_margin_pp, r.equivalence_margin_source), ""]
+    if f is None or f.empty:
+        return parts
+    parts += [
+        f"Margin: +-{r.equivalence_margin_pp:g} percentage points of proportion correct "
+        f"({r.equivalence_margin_source}; why this default: docs/analysis.md). Rows: real - "
+        "simulated; `estimate` log odds ratio (Wald interval, reference distribution in "
+        "`interval`), `difference` difference of mean proportions (delta method), TOST on the "
+        "averaged rows (`tost_p_value` < 0.05 and the 90 % interval inside the margin: "
+        "equivalent). Per-sample rows: `p_holm` over the 8 group x sample contrasts of the same "
+        "model. GEE rows are population-averaged; mixed-model rows are for a typical participant "
+        "and come from the model `note` names.", "",
+        _md_table(f[f["role"] == "averaged"].drop(
+            columns=["compares", "basis", "role", "roughness_id", "p_holm", "note"])), ""]
+    notes = sorted({n for n in f["note"].astype(str) if n and n != "nan"})
+    parts += [f"- {n}" for n in notes] + ([""] if notes else [])
+    per = f[(f["role"] == "per-sample") & (f["model"] == "gee")]
+    if not per.empty:
+        parts += ["Per sample (GEE; all models' rows in `fidelity.csv`):", "",
+                  _md_table(per[["group", "roughness_id", "estimate", "ci_low", "ci_high",
+                                 "test", "p_value", "p_holm", "difference",
+                                 "difference_ci_low", "difference_ci_high"]]), ""]
+    return parts
 
 
 def _missing_section(r: AnalysisResult) -> list[str]:
@@ -193,6 +225,10 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
             f"(docs/analysis.md); the estimates agree with R's lme4::glmer (tests).", "",
             _md_table(r.glmm.table), ""]
     sl = r.glmm_slope
+    if sl is not None and sl.notes:
+        parts += ["### Random-slope model: fallbacks and convergence", "",
+                  *[f"- {n}" for n in sl.notes],
+                  f"- {r.mixed_choice.reason}" if r.mixed_choice is not None else "", ""]
     if sl is not None and sl.formula is not None:
         conv = sl.convergence
         parts += [

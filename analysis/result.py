@@ -34,6 +34,13 @@ class AnalysisResult:
         Tests against chance per cell and per group × mode.
     missing : pandas.DataFrame
         Per participant: scheduled vs answered scored trials, missing ones by reason.
+    fidelity : pandas.DataFrame
+        Real vs simulated (:func:`analysis.fidelity.mode_contrasts`): averaged per group and
+        overall with the equivalence test, per sample with Holm; GEE and mixed-model rows.
+    equivalence_margin_pp, equivalence_margin_source : float, str
+        The equivalence margin (percentage points) and where it came from.
+    mixed_choice : analysis.mixed_choice.MixedChoice
+        Which mixed model gave the mode contrasts and the SDs, and why.
     extras : dict of str to pandas.DataFrame
         Information transfer and kappa, Hu, ordinal, covariates, response times.
     summary : str
@@ -57,3 +64,7 @@ class AnalysisResult:
     missing: pd.DataFrame = field(default_factory=pd.DataFrame)
     extras: dict = field(default_factory=dict)
     glmm_slope: ModelFit | None = None
+    fidelity: pd.DataFrame = field(default_factory=pd.DataFrame)
+    equivalence_margin_pp: float = 10.0
+    equivalence_margin_source: str = ""
+    mixed_choice: object = None
