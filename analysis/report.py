@@ -20,7 +20,8 @@ from .glmm import fit_glmm
 from .fidelity import equivalence_margin, fidelity_paragraph, mode_contrasts
 from .glmm_slope import fit_glmm_slope
 from .mixed_choice import choose_mixed
-from .inference import chance_tests, holm, interaction_test, omnibus_group_test, primary_test
+from .inference import (averaged_contrast, chance_tests, holm, interaction_test,
+                        omnibus_group_test, primary_test)
 from .missing import missing_summary, missing_trials
 from .model_decisions import model_decisions
 from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
@@ -125,6 +126,39 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
     return pd.DataFrame(rows, columns=TESTS_COLUMNS)
 
 
+def complete_cases_row(trials: pd.DataFrame, missing: pd.DataFrame,
+                       level: float = 0.95) -> dict | None:
+    """The primary test again on complete cases only (a sensitivity row), or None.
+
+    Returns None when no participant has a missing scored trial (the row would repeat the
+    primary test). Otherwise the GEE refitted on the participants with every scheduled scored
+    trial answered, and the averaged real-mode A - B contrast.
+    """
+    if missing.empty or not (missing["missing"] > 0).any():
+        return None
+    complete = set(missing.loc[missing["missing"] == 0, "participant"].astype(str))
+    sub = trials[trials["participant"].astype(str).isin(complete)]
+    base = {"role": "sensitivity", "model": "gee",
+            "compares": f"primary test on complete cases only ({len(complete)} of "
+                        f"{trials['participant'].nunique()} participants: those with every "
+                        f"scheduled scored trial answered)", "note": ""}
+    if sub.empty or sub["group"].nunique() < 2:
+        return {**base, "test": "not estimable", "note": "fewer than two groups left"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_gee(sub, level=level)
+    row = averaged_contrast(fit, "real", level=level) if fit.formula else None
+    if row is None:
+        return {**base, "test": "not estimable", "note": "; ".join(fit.notes)}
+    q = fit.quantile(level)
+    est, se = row["log_odds_ratio"], row["se"]
+    return {**base, "test": _t_label(fit.df), "estimate": est, "se": se, "ci_low": est - q * se,
+            "ci_high": est + q * se, "interval": _interval_label(fit.df),
+            "statistic": est / se if se else np.nan, "df": fit.df if fit.df else np.nan,
+            "p_value": row["p_value"], "difference": row["difference"],
+            "basis": f"model: {fit.formula}", "note": "; ".join(fit.notes)}
+
+
 def _interval_label(df) -> str:
     return f"Wald, t({df:g})" if df else "Wald, normal"
 
@@ -198,6 +232,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     if trials.empty:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "
                        f"got none of {len(log.trials)} rows")
+    analysed_folders = log.sessions.loc[log.sessions["analysed"], "path"]
+    margin_pp, margin_source = equivalence_margin(analysed_folders, equivalence_margin_pp)
     say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable trials; "
         f"proportions with {n_boot} bootstrap resamples")
     proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
@@ -238,8 +274,12 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         "psychophysics")
     choice = choose_mixed(glmm if mixed else None, slope if mixed else None)
     tests = tests_table(gee, choice.contrasts, contrasts, trials, level, choice.reason)
-    analysed_folders = log.sessions.loc[log.sessions["analysed"], "path"]
-    margin_pp, margin_source = equivalence_margin(analysed_folders, equivalence_margin_pp)
+    missing_rows = missing_trials(log.trials, log.sessions)
+    missing = missing_summary(log.trials, log.sessions, missing_rows)
+    sensitivity = complete_cases_row(trials, missing, level)
+    if sensitivity is not None:
+        tests = pd.concat([tests, pd.DataFrame([sensitivity], columns=TESTS_COLUMNS)],
+                          ignore_index=True)
     fidelity = mode_contrasts(gee, trials, margin_pp=margin_pp, level=level)
     if choice.contrasts is not None:
         more = mode_contrasts(choice.contrasts, trials, margin_pp=margin_pp, level=level)
@@ -253,8 +293,6 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                 continue
             contrasts.loc[sel, "p_holm"] = holm(contrasts.loc[sel, "p_value"].to_numpy(float))
     chance = chance_tests(trials, level=level)
-    missing_rows = missing_trials(log.trials, log.sessions)
-    missing = missing_summary(log.trials, log.sessions, missing_rows)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),

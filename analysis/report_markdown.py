@@ -115,7 +115,8 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
         parts += [f"- {w}" for w in log.warnings] + [""]
     parts += [
         "## Proportion correct (Figure 9)", "",
-        "Intervals: participant bootstrap (participants resampled within group; the design "
+        "Intervals (`boot_low/high`): Wilson at the effective sample size that a "
+        "participant-cluster bootstrap implies (participants resampled within group; the design "
         "effect measures how much one person's answers hang together). Wilson intervals, which "
         "treat trials as independent and covered only 0.92 of the true proportions over 200 "
         "clustered datasets per scenario, are not shown; they are in `proportions.csv` as "
@@ -181,12 +182,22 @@ def _missing_section(r: AnalysisResult) -> list[str]:
         return []
     total = int(m["missing"].sum())
     lead = (f"{int(m['scheduled'].sum())} scored trials were scheduled and "
-            f"{int(m['answered'].sum())} answered; {total} have no analysable answer"
+            f"{int(m['answered'].sum())} answered; {total} have no answer"
             + (": " + ", ".join(f"{int(m[c].sum())} {c}" for c in
-                                ("time-out", "no contact", "fault", "session ended", "other")
+                                ("time_out", "no_contact", "fault", "session_ended", "other")
                                 if m[c].sum()) if total else "") + ". "
             "Re-run attempts that ended with an answer are not missing. Per trial in "
             "`missing_trials.csv`.")
+    partial = m[m["missing"] > 0]
+    if not partial.empty:
+        lead += (f" {len(partial)} participant(s) with missing trials are kept (the GEE and the "
+                 "mixed models use every answered, analysed trial; no complete cases needed): "
+                 + ", ".join(f"{r.participant} ({r.answered} of {r.scheduled})"
+                             for r in partial.itertuples())
+                 + ". The complete-cases sensitivity row of the named tests leaves them out.")
+    if "answered_excluded" in m and m["answered_excluded"].sum():
+        lead += (f" {int(m['answered_excluded'].sum())} answered trial(s) are left out of the "
+                 "models for another reason (`all_trials.csv`, column `exclusion`).")
     shown = m[m["missing"] > 0] if total else m.iloc[:0]
     return ["### Missing data (scheduled scored trials without an answer)", "", lead, "",
             (_md_table(shown) if not shown.empty else "_every scheduled scored trial was answered_"),
