@@ -187,6 +187,9 @@ COLUMNS = {
     "meaning": (_C, "what the coefficient means"),
     # power
     "n_per_group": (_N, "participants per group (group A when groups differ)"),
+    "effect_pp": ("percentage points", "stated A - B difference of population-averaged mean "
+                                       "proportions correct in the tested mode (the smallest "
+                                       "effect of interest), not an observed one"),
     "n_group_A": (_N, "participants in group A"),
     "n_group_B": (_N, "participants in group B"),
     "simulations": (_N, "simulated cohorts"),

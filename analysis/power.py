@@ -427,7 +427,7 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
                 "missing_rate": missing_rate, "cells_scale": cells_scale,
                 "simulations": simulations,
                 "test_description": ("GEE correct ~ group * mode * C(roughness_id) (report's "
-                                     "fallbacks), Wald z of the A-B log odds ratio averaged over "
+                                     "fallbacks), Wald t(participants - 2) of the A-B log odds ratio averaged over "
                                      "samples" if test == "gee" else
                                      "Welch t on per-participant proportions (approximation)"),
                 "n_for_80": n_for_power(out, 0.8), "n_for_90": n_for_power(out, 0.9)}
@@ -484,17 +484,21 @@ def plot_power(result: PowerResult, path) -> Path:
     plt = _pyplot()
     t = result.table
     fig, ax = plt.subplots(figsize=(5.6, 4.2), dpi=150)
-    ax.errorbar(t["n_per_group"], t["power"],
-                yerr=[t["power"] - t["power_low"], t["power_high"] - t["power"]],
-                marker="o", capsize=3, label=f"{result.settings['test']} test")
+    curves = ([(f"A - B {e:+g} points", t[t["effect_pp"] == e]) for e in t["effect_pp"].unique()]
+              if "effect_pp" in t else [(f"{result.settings['test']} test", t)])
+    for label, c in curves:
+        ax.errorbar(c["n_per_group"], c["power"],
+                    yerr=[c["power"] - c["power_low"], c["power_high"] - c["power"]],
+                    marker="o", capsize=3, label=label)
     ax.axhline(0.8, color="0.5", linestyle="--", linewidth=1, label="80 %")
     ax.axhline(result.settings["alpha"], color="0.5", linestyle=":", linewidth=1, label="alpha")
     ax.set_ylim(0, 1)
     ax.set_xlabel("participants per group")
     ax.set_ylabel("power (share of cohorts detecting A ≠ B)")
     s = result.settings
-    ax.set_title(f"Group difference, {s['mode']} mode: expected A−B "
-                 f"{t['expected_difference_A_minus_B'].iloc[0]:+.3f}, SD(u) {s['participant_sd']}",
+    what = ("stated effects (A−B, percentage points)" if "effect_pp" in t else
+             f"expected A−B {t['expected_difference_A_minus_B'].iloc[0]:+.3f}")
+    ax.set_title(f"Group difference, {s['mode']} mode: {what}, SD(u) {s['participant_sd']:.2f}",
                  fontsize=9)
     ax.legend(fontsize=8, frameon=False)
     fig.tight_layout()

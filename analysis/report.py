@@ -343,7 +343,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         data_dir=str(data_dir), out_dir=str(out), n_boot=n_boot, level=level, seed=seed,
         mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
         requested_formula=FORMULA, glmm_method=(glmm.convergence or {}).get("method"),
-        primary_test="GEE Wald z of the A-B log odds ratio averaged over samples, real mode",
+        primary_test="GEE Wald t(participants - 2) of the A-B log odds ratio averaged over samples, real mode",
         multiplicity="Holm over the per-sample A-B tests (both modes); Holm over the 8 "
                      "per-sample real - simulated tests",
         equivalence_margin_pp=margin_pp, equivalence_margin_source=margin_source,

@@ -22,16 +22,23 @@ def register(sub) -> None:
                     "from --from-analysis DIR (the mixed model of `thermocue analyze`), --cells "
                     "FILE, else the simulated-participant model "
                     "(experiments.simulation.prediction.predicted_cell_probabilities).")
-    p.add_argument("--n-per-group", default="5,10,15,20,30,40,60", metavar="N,N,A:B,...",
+    p.add_argument("--n-per-group", default=None, metavar="N,N,A:B,...",
                    help="participants per group, comma-separated; A:B for unequal groups "
-                        "(default 5,10,15,20,30,40,60)")
+                        "(default 5,10,15,20,30,40,60; with --from-analysis the analysed A:B "
+                        "sizes are added)")
     p.add_argument("--simulations", type=int, default=400, metavar="N",
                    help="cohorts per size (default 400)")
     p.add_argument("--cells", metavar="FILE",
                    help="CSV with columns group, mode, roughness_id, p_correct (probability 0-1)")
     p.add_argument("--from-analysis", metavar="DIR",
-                   help="output folder of `thermocue analyze`: cells and participant SD from its "
-                        "mixed model (glmm.csv)")
+                   help="output folder of `thermocue analyze`: the design (group sizes, "
+                        "repetitions, missing rate) and nuisance parameters (participant SD, "
+                        "group B's typical-participant cells) from it; needs --effect-pp "
+                        "(observed power is not computed)")
+    p.add_argument("--effect-pp", metavar="PP,PP,...",
+                   help="stated A - B difference(s) of mean proportions correct in the tested "
+                        "mode, percentage points (the smallest effect of interest; several give "
+                        "a power curve per effect); required with --from-analysis")
     p.add_argument("--cells-scale", choices=("marginal", "conditional"),
                    help="marginal: the cells are population averages (observed proportions, the "
                         "participant model) and are converted to a typical participant's; "
@@ -40,15 +47,18 @@ def register(sub) -> None:
     p.add_argument("--participant-sd", type=float, metavar="SD",
                    help="SD of participant random intercepts, log-odds (default: the mixed "
                         "model's with --from-analysis, else 0.5)")
-    p.add_argument("--missing-rate", type=float, default=0.0, metavar="P",
-                   help="probability that a scheduled trial gives no answer (default 0)")
+    p.add_argument("--missing-rate", type=float, default=None, metavar="P",
+                   help="probability that a scheduled trial gives no answer (default: the "
+                        "analysis's missing share with --from-analysis, else 0)")
     p.add_argument("--mode", choices=MODES, default="real",
                    help="mode whose group difference is tested (default real: the primary test)")
     p.add_argument("--test", choices=("gee", "cluster-t"), default="gee",
                    help="gee: the report's primary test (default); cluster-t: Welch t on "
                         "per-participant proportions (fast approximation)")
     p.add_argument("--alpha", type=float, default=0.05, help="two-sided level (default 0.05)")
-    p.add_argument("--repetitions", type=int, default=3, help="trials per participant and cell (default 3)")
+    p.add_argument("--repetitions", type=int, default=None,
+                   help="trials per participant and cell (default: the analysis's with "
+                        "--from-analysis, else 3)")
     p.add_argument("--seed", type=int, default=20261122)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
     p.set_defaults(func=_run)
@@ -83,19 +93,28 @@ def _model_cells(progress):
 
 
 def _run(ns) -> int:
-    from analysis.power import glmm_cells, plot_power, power_curve, read_cells
+    from analysis.power import power_curve, read_cells
     from experiments.errors import UserInputError
 
     from experiments.cli.paths import check_writable_dir
     check_writable_dir(ns.out, "--out")      # before any computation
-    sizes = _sizes(ns.n_per_group)
+    from analysis.power_design import OBSERVED_POWER_WHY
+    if ns.from_analysis and ns.effect_pp is None:
+        raise UserInputError(f"--effect-pp: expected the smallest A - B difference of interest "
+                             f"in percentage points with --from-analysis, got none: "
+                             f"{OBSERVED_POWER_WHY}")
+    effects = _effects(ns.effect_pp) if ns.effect_pp is not None else None
+    if effects is not None and not ns.from_analysis:
+        raise UserInputError("--effect-pp: expected --from-analysis DIR with it (the cells it "
+                             "shifts), got none")
+    sizes = _sizes(ns.n_per_group or "5,10,15,20,30,40,60")
     if ns.simulations < 1:
         raise UserInputError(f"--simulations: expected an integer >= 1, got {ns.simulations!r}")
     if ns.participant_sd is not None and ns.participant_sd < 0:
         raise UserInputError(f"--participant-sd: expected a number >= 0, got {ns.participant_sd!r}")
     if not 0 < ns.alpha < 1:
         raise UserInputError(f"--alpha: expected a number between 0 and 1, got {ns.alpha!r}")
-    if not 0 <= ns.missing_rate < 1:
+    if ns.missing_rate is not None and not 0 <= ns.missing_rate < 1:
         raise UserInputError(f"--missing-rate: expected a number in [0, 1), got {ns.missing_rate!r}")
     start = time.monotonic()
 
@@ -103,14 +122,29 @@ def _run(ns) -> int:
         log.info("[%6.1f s] %s", time.monotonic() - start, message)
 
     sd, scale = ns.participant_sd, ns.cells_scale
+    reps, missing_rate = ns.repetitions, ns.missing_rate
     if ns.from_analysis:
         if not Path(ns.from_analysis).is_dir():
             raise UserInputError(f"--from-analysis: expected an output folder of thermocue "
                                  f"analyze, got {ns.from_analysis!r}")
-        cells, model_sd = glmm_cells(ns.from_analysis)
-        source = f"{ns.from_analysis} (mixed model)"
-        sd = model_sd if sd is None else sd
-        scale = scale or "conditional"
+        from analysis.power_design import design_from_analysis, power_by_effect
+        design = design_from_analysis(ns.from_analysis)
+        sd = design["participant_sd"] if sd is None else sd
+        reps = design["repetitions"] if reps is None else reps
+        missing_rate = design["missing_rate"] if missing_rate is None else missing_rate
+        if ns.n_per_group is None:
+            observed = (design["n_group_A"], design["n_group_B"])
+            sizes = sorted(set(sizes) | {observed if observed[0] != observed[1] else observed[0]},
+                           key=lambda s: sum(s) / 2 if isinstance(s, tuple) else s)
+        result = power_by_effect(design["cells"], effects, sizes, participant_sd=sd,
+                                 mode=ns.mode, simulations=ns.simulations, repetitions=reps,
+                                 alpha=ns.alpha, test=ns.test, missing_rate=missing_rate,
+                                 seed=ns.seed, progress=progress)
+        source = (f"{ns.from_analysis}: design (n {design['n_group_A']}:{design['n_group_B']}, "
+                  f"{reps} repetitions, missing {missing_rate:.3f}) and participant SD "
+                  f"{sd:.3f} from the analysis; group B's cells from its mixed model; group A's "
+                  f"set by the stated effect(s)")
+        return _write(ns, result, source, sizes, progress)
     elif ns.cells:
         if not Path(ns.cells).is_file():
             raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
@@ -123,10 +157,29 @@ def _run(ns) -> int:
                                  "model is not available")
     sd = 0.5 if sd is None else sd
     scale = scale or "marginal"
-    result = power_curve(cells, sizes, simulations=ns.simulations, repetitions=ns.repetitions,
+    result = power_curve(cells, sizes, simulations=ns.simulations,
+                         repetitions=3 if reps is None else reps,
                          participant_sd=sd, mode=ns.mode, alpha=ns.alpha, test=ns.test,
-                         cells_scale=scale, missing_rate=ns.missing_rate, seed=ns.seed,
+                         cells_scale=scale, missing_rate=missing_rate or 0.0, seed=ns.seed,
                          progress=progress)
+    return _write(ns, result, source, sizes, progress)
+
+
+def _effects(text: str) -> list[float]:
+    from experiments.errors import UserInputError
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        values = []
+    if not values or any(not -100 < v < 100 for v in values):
+        raise UserInputError(f"--effect-pp: expected comma-separated percentage points between "
+                             f"-100 and 100, got {text!r}")
+    return values
+
+
+def _write(ns, result, source, sizes, progress) -> int:
+
+    from analysis.power import plot_power
     out = Path(ns.out)
     out.mkdir(parents=True, exist_ok=True)
     result.table.to_csv(out / "power.csv", index=False)
@@ -142,9 +195,16 @@ def _run(ns) -> int:
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
     print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))
     grid_max = max(max(s) if isinstance(s, tuple) else s for s in sizes)
+    by_effect = result.settings.get("n_for_80_by_effect")
     for target, key in ((80, "n_for_80"), (90, "n_for_90")):
-        n = result.settings[key]
-        print(f"n per group for {target} % power: "
-              + (f"{n:.0f} (interpolated on the grid; Monte Carlo error in power.csv)"
-                 if n is not None else f"not reached up to {grid_max} per group"))
+        found = (result.settings[f"{key}_by_effect"] if by_effect is not None
+                 else {None: result.settings[key]})
+        for effect, n in found.items():
+            where = f" at A - B {float(effect):+g} points" if effect is not None else ""
+            print(f"n per group for {target} % power{where}: "
+                  + (f"{n:.0f} (interpolated on the grid; Monte Carlo error in power.csv)"
+                     if n is not None else f"not reached up to {grid_max} per group"))
+    if by_effect is not None:
+        print("Observed (post-hoc) power is not shown: computed at the effect the study found it "
+              "is a function of the study's p-value and says nothing beyond it.")
     return 0

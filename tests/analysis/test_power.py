@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from analysis import LogError, power_curve
-from analysis.power import read_cells
+from analysis.power import cells_frame, read_cells
 from experiments.cli import main
 
 
@@ -179,7 +179,8 @@ def test_cells_from_the_analysis_mixed_model(study, tmp_path):
 def test_cli_power_bad_analysis_folder_and_sizes_exit_2(tmp_path, capsys):
     empty = tmp_path / "empty"
     empty.mkdir()
-    assert main(["power", "--from-analysis", str(empty), "--out", str(tmp_path / "o")]) == 2
+    assert main(["power", "--from-analysis", str(empty), "--effect-pp", "10",
+                 "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith(f"thermocue power: {empty / 'glmm.csv'}: term: expected") and "\n" not in err
     assert main(["power", "--n-per-group", "13:17:4", "--out", str(tmp_path / "o")]) == 2
@@ -192,3 +193,57 @@ def test_power_tests_are_one_table_and_the_error_names_them():
     assert list(TESTS) == ["gee", "cluster-t"]
     with pytest.raises(ValueError, match="test: expected 'gee' or 'cluster-t', got 'anova'"):
         power_curve(_cells(0.2), (4,), simulations=2, test="anova")
+
+
+def test_from_analysis_refuses_without_a_stated_effect_and_says_why(tmp_path, capsys):
+    """Observed (post-hoc) power is never computed: the effect is the user's."""
+    folder = tmp_path / "results"
+    folder.mkdir()
+    assert main(["power", "--from-analysis", str(folder), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("thermocue power: --effect-pp: expected the smallest") and "\n" not in err
+    assert "observed (post-hoc) power" in err and "p-value" in err
+    assert not (tmp_path / "o").exists()
+
+
+def _marginal_mpmath(p_typical, sd):
+    """E[expit(logit(p) + u)], u ~ N(0, sd^2), by mpmath quadrature (independent of the code)."""
+    import mpmath
+    c = mpmath.log(p_typical / (1 - p_typical))
+    f = lambda u: mpmath.exp(-u * u / (2 * sd * sd)) / (sd * mpmath.sqrt(2 * mpmath.pi)) \
+        / (1 + mpmath.exp(-(c + u)))
+    return float(mpmath.quad(f, [-mpmath.inf, 0, mpmath.inf]))
+
+
+@pytest.mark.parametrize("effect", [0.0, 7.5, -12.0])
+def test_stated_effect_is_the_population_averaged_difference(effect):
+    from analysis.power_design import cells_with_effect
+    cells = _cells(0.0)
+    out = cells_with_effect(cells, effect, participant_sd=0.9).set_index(
+        ["group", "mode", "roughness_id"])["p_correct"]
+    a = np.mean([_marginal_mpmath(out[("A", "real", r)], 0.9) for r in range(1, 5)])
+    b = np.mean([_marginal_mpmath(out[("B", "real", r)], 0.9) for r in range(1, 5)])
+    assert 100 * (a - b) == pytest.approx(effect, abs=1e-6)
+    # group B and the other mode untouched
+    before = cells_frame(cells).set_index(["group", "mode", "roughness_id"])["p_correct"]
+    for key in before.index:
+        if not (key[0] == "A" and key[1] == "real"):
+            assert out[key] == before[key]
+
+
+def test_power_from_analysis_takes_the_design_and_curves_over_effects(study, tmp_path, capsys):
+    from analysis import analyze
+    data, _ = study(n_per_group=5, sigma=0.5, seed=9)
+    analyze(data, tmp_path / "res", n_boot=20)
+    assert main(["power", "--from-analysis", str(tmp_path / "res"), "--effect-pp", "0,25",
+                 "--n-per-group", "6", "--simulations", "40", "--out", str(tmp_path / "p")]) == 0
+    out = capsys.readouterr().out
+    assert "Observed (post-hoc) power is not shown" in out
+    t = pd.read_csv(tmp_path / "p" / "power.csv")
+    assert list(t["effect_pp"]) == [0.0, 25.0]
+    assert list(t["expected_difference_A_minus_B"]) == pytest.approx([0.0, 0.25], abs=1e-9)
+    glmm = pd.read_csv(tmp_path / "res" / "glmm.csv").set_index("term")
+    assert (t["participant_sd"] == glmm.loc["participant_sd", "log_odds"]).all()
+    assert t.loc[0, "power"] <= 0.2 and t.loc[1, "power"] > t.loc[0, "power"]
+    summary = json.loads((tmp_path / "p" / "power_summary.json").read_text())
+    assert summary["repetitions"] == 3 and summary["effects_pp"] == [0.0, 25.0]
