@@ -174,6 +174,10 @@ COLUMNS = {
     "relative_it": (_F, "it_bits_corrected / stimulus_entropy_bits"),
     "kappa": ("ratio", "Cohen's kappa of stimulus vs response"),
     "mean_hu": (_F, "mean of Wagner's unbiased hit rates over the samples"),
+    "measure": (_C, "per-participant measure summarised (it_bits_corrected, kappa, mean_hu)"),
+    "pct_boot_low": ("see measure", "percentile bootstrap interval over participants (resampled "
+                                    "within group), lower end"),
+    "pct_boot_high": ("see measure", "the same interval, upper end"),
     "hit_rate": (_F, "proportion of the sample's trials named correctly"),
     "hu": (_F, "Wagner's unbiased hit rate"),
     "hu_chance": (_F, "chance value of hu for these marginals"),

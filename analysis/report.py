@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from .agreement_participants import agreement_comparison, participant_agreement
 from .confusion import confusion_matrices
 from .errors import LogError
 from .figures import plot_confusion, plot_figure9
@@ -295,7 +296,11 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     chance = chance_tests(trials, level=level)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        per_person = participant_agreement(trials)
         extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),
+                  "agreement_participants": per_person,
+                  "agreement_comparison": agreement_comparison(per_person, n_boot=n_boot,
+                                                               level=level, seed=seed),
                   "ordinal": ordinal_table(trials, level=level),
                   "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
                   "force": force_table(trials),

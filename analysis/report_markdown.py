@@ -204,6 +204,18 @@ def _missing_section(r: AnalysisResult) -> list[str]:
             ""]
 
 
+def _agreement_comparison_md(table) -> list[str]:
+    """Per-participant IT, kappa and Hu: means with bootstrap intervals, A - B with Welch t."""
+    if table is None or table.empty:
+        return []
+    return ["Per participant (each participant's own confusion matrix per mode; participants "
+            "are the units): mean per group x mode with a percentile bootstrap interval "
+            "(participants resampled within group), and group A - B with its bootstrap interval "
+            "and Welch's t-test (`agreement_participants.csv` has every participant's values). "
+            "The coverage of these intervals was not measured.", "",
+            _md_table(table.drop(columns=["interval"])), ""]
+
+
 def _unmeasured_dropped(table: pd.DataFrame) -> pd.DataFrame:
     """``table`` without the interval columns whose coverage was never measured.
 
@@ -301,6 +313,7 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
                   "Information transfer in bits (plug-in and Miller-Madow bias-corrected), Cohen's "
                   "kappa and the mean of Wagner's unbiased hit rates per group x mode (point "
                   "estimates):", "", _md_table(ex["agreement"]), "",
+                  *_agreement_comparison_md(ex.get("agreement_comparison")),
                   "Ordinal agreement (samples are ordered): Spearman rank correlation of stimulus "
                   "and response (pooled; mean of participants' own, t-test across participants) "
                   "and the proportional-odds slope per sample step (participant-cluster-robust "

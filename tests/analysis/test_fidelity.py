@@ -196,3 +196,38 @@ def test_cli_rejects_a_bad_margin_in_one_line(study, tmp_path):
     assert "Traceback" not in done.stderr
     assert "protocol.analysis.equivalence_margin_pp" in done.stderr
     assert not (tmp_path / "out" / "report.md").exists()
+
+
+# ----------------------------------------------------------- IT, kappa, Hu per participant
+def test_per_participant_agreement_against_independent_formulas(trials):
+    from scipy.stats import entropy
+    from statsmodels.stats.inter_rater import cohens_kappa
+    from statsmodels.stats.weightstats import ttest_ind
+
+    from analysis.agreement_participants import agreement_comparison, participant_agreement
+
+    per = participant_agreement(trials)
+    one = per.iloc[3]
+    sel = trials[(trials["participant"] == one["participant"]) & (trials["mode"] == one["mode"])]
+    table = pd.crosstab(sel["roughness_id"], sel["response_id"]).reindex(
+        index=[1, 2, 3, 4], columns=[1, 2, 3, 4], fill_value=0).to_numpy(float)
+    n = table.sum()
+    joint = table[table > 0] / n
+    it = entropy(table.sum(1) / n, base=2) + entropy(table.sum(0) / n, base=2) \
+        - entropy(joint, base=2)
+    r, c = (table.sum(1) > 0).sum(), (table.sum(0) > 0).sum()
+    assert one["it_bits_corrected"] == pytest.approx(
+        max(0.0, it - (r - 1) * (c - 1) / (2 * n * np.log(2))), abs=1e-12)
+    assert one["kappa"] == pytest.approx(cohens_kappa(table, return_results=False), abs=1e-12)
+    comp = agreement_comparison(per, n_boot=400, seed=1)
+    row = comp[(comp["measure"] == "kappa") & (comp["mode"] == "real")
+               & (comp["group"] == "A - B")].iloc[0]
+    real = per[per["mode"] == "real"]
+    a = real.loc[real["group"] == "A", "kappa"].dropna()
+    b = real.loc[real["group"] == "B", "kappa"].dropna()
+    t, p, df = ttest_ind(a, b, usevar="unequal")
+    assert (row["statistic"], row["p_value"], row["df"]) == pytest.approx((t, p, df), rel=1e-9)
+    assert row["test"] == f"Welch t({df:.1f})"
+    assert row["pct_boot_low"] < row["estimate"] < row["pct_boot_high"]
+    means = comp[(comp["measure"] == "kappa") & (comp["mode"] == "real")].set_index("group")
+    assert means.loc["A", "estimate"] == pytest.approx(a.mean())
