@@ -5,7 +5,7 @@ types and their fields, the columns, the cell format) and how they are read back
 tolerant reader, the event -> trial-row projection, replay) is :mod:`experiments.logformat`;
 its names are re-exported here for the writer's users.
 
-What "nothing lost" means on disk (DESIGN.md, Durability):
+What "nothing lost" means on disk (docs/design.md, Durability):
 
 * **Appends** (``events.jsonl``): one JSON object per line, written with a single
   ``write`` on an ``O_APPEND`` descriptor and ``fsync``-ed before :meth:`EventLog.append`
@@ -97,7 +97,7 @@ def set_durable(flag: bool) -> bool:
     order, atomic renames included; only the ``fsync`` calls that make them survive a power cut
     are skipped when off.  For simulated studies on a virtual clock
     (:func:`experiments.simulation.figure9.run_figure9_study`), which are recomputed from their seed: on
-    the shared 2-core machine fsync was 70 % of an emulated session's wall time (issue 11).
+    the shared 2-core machine fsync was 70 % of an emulated session's wall time.
     Never off for a session with a person in it.
     """
     global _DURABLE

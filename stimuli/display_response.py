@@ -1,8 +1,8 @@
-r"""The receptor response to a display-imposed surface temperature (DESIGN.md ``skin_response``).
+r"""The receptor response to a display-imposed surface temperature (docs/design.md ``skin_response``).
 
 On a simulated trial the display imposes a temperature history g(t) on the skin surface x = L;
 the skin 0 < x < L starts uniform at T_S0 and stays at T_S0 at x = 0. In the Laplace domain
-(DESIGN.md) :math:`\hat\theta_S = 1/s + (G(s) - 1/s)\,\sinh(q_S x)/\sinh(q_S L)`; in the time
+(docs/design.md) :math:`\hat\theta_S = 1/s + (G(s) - 1/s)\,\sinh(q_S x)/\sinh(q_S L)`; in the time
 domain the response at depth x is Duhamel's superposition of the slab's exact unit-step
 response S(x, t) over the piecewise-linear history (:mod:`stimuli._slab_series`,
 :mod:`stimuli._duhamel`).

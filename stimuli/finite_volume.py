@@ -232,7 +232,7 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
     """Temperature at one depth after the skin touches a material through a contact resistance.
 
     The numerical method behind ``Contact(..., method="numerical")``: the same problem as
-    DESIGN.md's exact Laplace solution, plus optional layered skin.
+    the exact Laplace solution (docs/design.md), plus optional layered skin.
 
     Parameters
     ----------

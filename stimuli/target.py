@@ -29,7 +29,7 @@ __all__ = ["TargetProfile", "target_profile", "MODEL_REVISION", "SIDES"]
 SIDES = TARGET_SIDES
 
 #: Bumped when a change in the model would change a cached profile (part of the hash).
-MODEL_REVISION = 2   # 2: profiles planned (issue 12), the plan stored with them
+MODEL_REVISION = 2   # 2: profiles planned by the scene planner, the plan stored with them
 _KIND = "target"
 
 

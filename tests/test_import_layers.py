@@ -1,4 +1,4 @@
-"""Dependencies flow downward (DESIGN.md): checked on the source, every import, including those
+"""Dependencies flow downward (docs/design.md, "Layers"): checked on the source, every import, including those
 inside functions.
 
 stimuli -> numpy, scipy, the standard library only; analysis -> nothing of experiments' runtime;

@@ -95,7 +95,7 @@ def _reference_times():
 
 
 def _interface_reference(skin, steel, R, idx, dps=40):
-    """theta_M(L+, t) by mpmath Talbot inversion of DESIGN.md's transform (independent of stimuli)."""
+    """theta_M(L+, t) by mpmath Talbot inversion of the transform in docs/design.md (independent of stimuli)."""
     import mpmath as mp
     with mp.workdps(dps):
         a_s = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))

@@ -1,4 +1,4 @@
-"""The calibration's contact as a scene of the planner (issue 12): the planner's model reduced
+"""The calibration's contact as a scene of the planner: the planner's model reduced
 to the calibration's setup, and the plan of a fitted calibration's contact.
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ def planned_setup(setup: ContactSetup, model) -> ContactSetup:
 
 def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickness: float,
                      tolerance_K: float):
-    """Plan the calibration's contact scene (issue 12): the longest trace's times, its temperatures,
+    """Plan the calibration's contact scene: the longest trace's times, its temperatures,
     ``resistance`` and ``skin_thickness``, the sensor's side as the quantity, ``tolerance_K``.
 
     Returns

@@ -94,7 +94,7 @@ class SessionPlan:
             The folder has become a session in the meantime.
         """
         protocol, assignment = self.protocol, self.assignment
-        # claimed atomically, log locked, before session.json is written (issue 16): of two
+        # claimed atomically, log locked, before session.json is written: of two
         # runs for one participant, one gets the folder; an automatic name moves on to the next
         while True:
             try:

@@ -4,7 +4,7 @@ Every profile of the schedule is computed and checked before the session writes 
 (:func:`experiments.session.setup.check_schedule_profiles`); :class:`SessionProfiles` holds
 those, computes any other on demand (:func:`experiments.session.setup.simulated_target_profile`),
 checks them against an open display's capacity, and tells the experimenter the planner's
-decisions once per profile (issue 12).
+decisions once per profile.
 """
 from __future__ import annotations
 

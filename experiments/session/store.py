@@ -176,7 +176,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
 
 
 def check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
-    """Refuse a ``session.json`` that differs from the log's ``session_started`` (issue 16).
+    """Refuse a ``session.json`` that differs from the log's ``session_started``.
 
     The log is the source of truth: a session.json replaced by another run, or edited by hand
     (seed, schedule, protocol, group, participant, name), must not steer a resume.

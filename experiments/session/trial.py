@@ -231,7 +231,7 @@ class TrialSteps:
         if t.contact_s is not None:
             self.machine.go(active, **ctx, device_time_s=t.contact_s)
         row.update(self._recording_fields(rec))
-        row["contact_force_N"] = contact_force(t.writer, rec)   # Eq. 5's force (issue 12)
+        row["contact_force_N"] = contact_force(t.writer, rec)   # Eq. 5's force
         self._skin_temperature(row, ctx, t.finger_C)
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,

@@ -5,7 +5,7 @@ truth (:func:`~experiments.logformat.trials_from_events`); the table is rebuilt 
 replaced atomically, so it is never half-written. Only where durability is off (a simulated study
 on a virtual clock, recomputed from its seed: :func:`~experiments.logbook.set_durable`) does a
 table that only adds rows to the one this run last wrote grow by its new lines in one ``write``
-(issue 11's speed); a session with a person in it always gets the atomic replace. The log is
+(for speed); a session with a person in it always gets the atomic replace. The log is
 decoded incrementally (only the lines appended since the last trial); anything unusual falls back
 to :func:`~experiments.logformat.read_events`.
 """

@@ -407,7 +407,7 @@ def test_replay(tmp_path):
 
 
 def test_floats_are_rounded_to_the_instruments_resolution(tmp_path):
-    # issue 10: "168.85999999999999" in trials.csv
+    # "168.85999999999999" in trials.csv
     from experiments.logbook import write_trials_csv
     out = tmp_path / "trials.csv"
     write_trials_csv(out, [{"contact_onset_s": 168.85999999999999, "rt_s": 1.2345678,

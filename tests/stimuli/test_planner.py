@@ -42,7 +42,7 @@ def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, la
     [False, True], [1.25e-3, 2e-2], [0.02, 0.3, 2.0])))
 def test_planned_model_within_tolerance_with_a_hypodermis(quantity, geometry, layered, w, tol):
     # a 2 mm hypodermis: the closed forms and the quasi-steady screen cannot decide, the
-    # Laplace-domain bounds often do (speed, issue 12); the planned model stays within tolerance
+    # Laplace-domain bounds often do (speed); the planned model stays within tolerance
     scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
                   hypodermis_m=2e-3, tolerance_K=tol, support="wood" if geometry == "slab-on-support"
                   else None, duration_s=20.0, rate_Hz=200.0)
@@ -173,7 +173,7 @@ def test_planned_temperature_with_no_temperature_difference_stays_put():
 
 
 def test_probe_evaluation_is_evaluate_to_the_last_bit():
-    # the planner's unchecked probe evaluation (speed, issue 12) computes what evaluate does
+    # the planner's unchecked probe evaluation (speed) computes what evaluate does
     from stimuli.planner import _at_probes, _probes, _resolved
     from stimuli.scene import Model, Scene, evaluate
     probes, ip = _probes(20.0, 1000.0)
@@ -187,7 +187,7 @@ def test_probe_evaluation_is_evaluate_to_the_last_bit():
 
 
 def test_probe_inversion_error_bound():
-    # the planner's cheap probe inversion (PROBE_NODES per window, speed, issue 12) is within its
+    # the planner's cheap probe inversion (PROBE_NODES per window, speed) is within its
     # stated PROBE_INVERSION_ERROR x |dT| of the production inversion (itself within 1e-12 of
     # mpmath, tests/stimuli/test_exact.py) for every model the planner compares, over a grid
     from dataclasses import replace
@@ -230,7 +230,7 @@ HARD_PERFUSION = list(itertools.product(
 
 @pytest.mark.parametrize("quantity,sample,layers,skin,run", HARD_PERFUSION)
 def test_perfusion_closed_form_bounds_the_exact_effect(quantity, sample, layers, skin, run):
-    # the planner neglects perfusion by a closed form (speed, issue 12) without evaluating it: it
+    # the planner neglects perfusion by a closed form (speed) without evaluating it: it
     # must be >= what perfusion changes at every sample, computed by the exact models, on hard
     # scenes (copper at R = 0: the largest deficit; 3 mm skin, hypodermis; w up to 0.5 /s, long
     # runs towards the steady state; a warm sample); tightness printed
@@ -275,7 +275,7 @@ def test_perfusion_neglected_by_the_closed_form_without_evaluation():
 
 
 def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
-    # the screen (speed, issue 12) keeps layered skin without evaluating it when its steady effect
+    # the screen (speed) keeps layered skin without evaluating it when its steady effect
     # at the receptor is >= LAYER_SCREEN tolerances; keeping is safe, but it must not keep layers
     # that evaluating them would neglect: on a grid, every screened keep is an evaluated keep
     from stimuli.planner_bounds import _layers_matter

@@ -69,7 +69,7 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     level = session_log.level
     session_log.setLevel(logging.WARNING)
     # one BLAS thread: a session's products are small (the skin's 32-cell step, the stimuli);
-    # idle BLAS threads only spin, and cost as much CPU as a fifth of the session (issue 11)
+    # idle BLAS threads only spin, and cost as much CPU as a fifth of the session
     from threadpoolctl import threadpool_limits
     try:
         with threadpool_limits(1):
