@@ -1,5 +1,5 @@
-"""Dependencies flow downward (docs/design.md, "Layers"): checked on the source, every import, including those
-inside functions.
+"""Dependencies flow downward (docs/design.md, "Layers"): checked on the source, every import,
+including those inside functions.
 
 stimuli -> numpy, scipy, the standard library only; analysis -> nothing of experiments' runtime;
 experiments.hardware -> not the command line, not the session; and inside experiments only the
