@@ -38,8 +38,8 @@ def write_session_json(directory: Path, plan) -> None:
     ``traces/``."""
     from experiments.logbook import atomic_write_json, ensure_dir
 
-    protocol, assignment = plan.protocol, plan.assignment
-    atomic_write_json(directory / "session.json", {
+    protocol, assignment, durable = plan.protocol, plan.assignment, plan.durable
+    atomic_write_json(directory / "session.json", durable=durable, obj={
         "format": SESSION_FORMAT,
         "session": plan.name,
         "created_at": _now_iso(),
@@ -63,7 +63,7 @@ def write_session_json(directory: Path, plan) -> None:
         "max_consecutive_faults": plan.max_consecutive_faults,
         "versions": package_versions(),
     })
-    ensure_dir(directory / "traces")
+    ensure_dir(directory / "traces", durable=durable)
 
 
 @dataclass

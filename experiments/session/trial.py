@@ -186,14 +186,14 @@ class TrialSteps:
         self.machine.go("wait_contact", **ctx)
         if not self.traces_dir.is_dir():
             from experiments.logbook import ensure_dir
-            ensure_dir(self.traces_dir)
+            ensure_dir(self.traces_dir, durable=self.durable)
         trace = self.traces_dir / t.trace
         if trace.exists():   # never overwritten: the log cannot explain it, so keep it aside
             aside = keep_aside(trace, attempt)
             self.log_event("trace_kept_aside", **ctx, trace_file=f"traces/{aside.name}")
             self._report(f"repaired: {trace} existed before trial {spec.trial_index} attempt "
                          f"{attempt} started; kept as {aside.name}")
-        t.writer = writer = TraceWriter(trace)
+        t.writer = writer = TraceWriter(trace, durable=self.durable)
         # [presentation] answer_during_contact: the question goes up at contact and the answer
         # is taken as soon as it is given (the recording runs on to its end regardless).
         early = t.block.response and self.protocol.presentation.answer_during_contact
@@ -301,7 +301,7 @@ class TrialSteps:
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
         self._neutral(disp)
         self.machine.go("write", **ctx)
-        kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault")
+        kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault", durable=self.durable)
         row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
                    trace_file=None if kept is None else f"traces/{kept.name}")
         self._complete(spec, attempt, row)
