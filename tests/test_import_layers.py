@@ -113,6 +113,18 @@ def test_participants_schema_stands_alone(package):
     assert _violations((package,), allowed) == []
 
 
+def test_the_reproduction_of_the_papers_model_results_imports_only_stimuli():
+    # the paper's Figs. 3-6 and Table 2 are the thermal model's results: no session, no display,
+    # no analysis of logs
+    def allowed(target, _):
+        top = target.split(".")[0]
+        return (top in ("numpy", "matplotlib", "stimuli", "__future__")
+                or top in sys.stdlib_module_names or _within(target, ("experiments.reproduction",)))
+    assert _violations(("experiments.reproduction",), allowed) == []
+    assert {m for m, _, _ in IMPORTS if _within(m, ("experiments.reproduction",))} >= {
+        "experiments.reproduction.model_figures", "experiments.reproduction.table2"}
+
+
 #: The parts of experiments that may import analysis.
 ANALYSIS_USERS = ("experiments.simulation.figure9", "experiments.cli")
 
@@ -263,3 +275,66 @@ def test_no_import_cycle_between_packages():
 def test_every_allowed_cycle_still_exists():
     # an allowance outlives its cycle only by mistake: remove it when the cycle is gone
     assert sorted(set(ALLOWED_PACKAGE_CYCLES) - {tuple(c) for c in cycles(PACKAGE_GRAPH)}) == []
+
+
+# --------------------------------------------------------------------------- no private names
+def private_names_imported(module: str, is_package: bool, source: str) -> list:
+    """``(module, defining module, name, line)`` for every ``from M import _name`` in ``source``
+    (module level or inside functions) where M is a module of the tree and ``_name`` is not
+    itself a module (a package's private module, such as ``stimuli._cache``, is fine)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = module.split(".") if is_package else module.split(".")[:-1]
+            base = base[:len(base) - (node.level - 1)]
+            target = ".".join(base + ([node.module] if node.module else []))
+        else:
+            target = node.module
+        if target.split(".")[0] not in PACKAGES:
+            continue
+        for alias in node.names:
+            name = alias.name
+            if (name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+                    and f"{target}.{name}" not in MODULES):
+                found.append((module, target, name, node.lineno))
+    return found
+
+
+def _private_imports() -> list:
+    found = []
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            module, is_package = _module_name(path)
+            found += private_names_imported(module, is_package, path.read_text(encoding="utf-8"))
+    return found
+
+
+#: Private names still imported across modules: defining module -> the reason.
+ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {}
+
+PRIVATE_IMPORTS = _private_imports()
+
+
+def test_the_private_name_scan_finds_what_it_must():
+    source = ("from stimuli import _cache, paper\n"            # a private module: fine
+              "from analysis.models import FORMULA as _F\n"   # a public name, privately aliased
+              "from psychopy.localization import _translate\n"   # not ours
+              "from experiments import __version__\n"
+              "def f():\n"
+              "    from .models import _design, model_data\n")
+    assert private_names_imported("analysis.glmm", False, source) == [
+        ("analysis.glmm", "analysis.models", "_design", 6)]
+    assert private_names_imported("analysis", True, "from .report import _x\n") == [
+        ("analysis", "analysis.report", "_x", 1)]
+
+
+def test_no_private_name_is_imported_from_another_module():
+    found = sorted(f"{m} imports {name} from {t} (line {line})" for m, t, name, line in PRIVATE_IMPORTS
+                   if t not in ALLOWED_PRIVATE_IMPORTS)
+    assert found == []
+
+
+def test_every_private_import_allowance_is_still_needed():
+    assert sorted(set(ALLOWED_PRIVATE_IMPORTS) - {t for _, t, _, _ in PRIVATE_IMPORTS}) == []

@@ -27,7 +27,7 @@ import numpy as np
 from experiments.calibration.errors import CalibrationError, CalibrationRefused
 from experiments.calibration.model import ContactSetup
 # the problem and the planning live in their own modules; re-exported here
-from experiments.calibration.planning import (_GEOMETRY_RANK, _plan_calibration_scene,  # noqa: F401
+from experiments.calibration.planning import (GEOMETRY_RANK, plan_calibration_scene,  # noqa: F401
                                               plan_calibration, planned_setup)
 from experiments.calibration.problem import BOUNDS, SKIN_TEMPERATURE_MODES, FitProblem
 
@@ -341,7 +341,7 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     if forward is not None:
         check = diag["plan"]
         used = forward.model.geometry
-        if _GEOMETRY_RANK.get(check.get("geometry"), -1) > _GEOMETRY_RANK[used]:
+        if GEOMETRY_RANK.get(check.get("geometry"), -1) > GEOMETRY_RANK[used]:
             # at the fitted values the planner keeps what the start values let it drop: refit with it
             return _fit_traces(traces, setup,
                                fit_skin_temperature=fit_skin_temperature,
@@ -395,4 +395,4 @@ def _check_misspecification(fit, skin_temperature_sd_C):
                                 f"{c['size']}) would move {moved}, beyond the interval: the "
                                 f"intervals do not include the model's own uncertainty")
     fit.diagnostics["misspecification"] = shifts
-    fit.diagnostics["plan"] = _plan_calibration_scene(fit)
+    fit.diagnostics["plan"] = plan_calibration_scene(fit)

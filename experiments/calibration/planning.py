@@ -11,7 +11,7 @@ from experiments.calibration.model import ContactSetup
 __all__ = ["planned_setup", "plan_calibration"]
 
 
-_GEOMETRY_RANK = {"half-space": 0, "slab": 1, "slab-on-support": 2}
+GEOMETRY_RANK = {"half-space": 0, "slab": 1, "slab-on-support": 2}
 
 
 def planned_setup(setup: ContactSetup, model) -> ContactSetup:
@@ -71,7 +71,7 @@ def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickn
         return None, {"note": f"not planned: {exc}"}
 
 
-def _plan_calibration_scene(fit):
+def plan_calibration_scene(fit):
     """The scene planner's view of the calibration's contact at the fitted values, at the traces' own
     noise level (tolerance = the residual SD), for a massless sensor."""
     prob = fit.problem

@@ -26,11 +26,11 @@ from experiments.hardware.display_base import Display
 from experiments.session.hooks import SessionHooks, hooks_from_env
 from experiments.session.machine import StateMachine, clock_for_url
 from experiments.session.planning import SessionProfiles
-from experiments.session.setup import _protocol_source, open_session_display
+from experiments.session.setup import protocol_source, open_session_display
 from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
-from experiments.session.trial import TrialSteps, _Trial, clock_text
+from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from experiments.session_files import schedule_sha256
 
 __all__ = ["Session"]
@@ -103,12 +103,12 @@ class Session(TrialSteps):
         self.responder: Responder | None = None
         self.display = None
         self.machine = StateMachine(on_change=self._on_state)
-        self._attempt: _Trial | None = None
+        self._attempt: TrialAttempt | None = None
         self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
         #: The checked target profiles, by (roughness_id, roughness_um).
         self.profiles = SessionProfiles(profiles)
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
-        self.protocol_source = _protocol_source(protocol)
+        self.protocol_source = protocol_source(protocol)
         self.signals = SignalGuard()
         self._fatal = None          # (code, message) of a fault that stops the session
         #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).

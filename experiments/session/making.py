@@ -14,7 +14,7 @@ from pathlib import Path
 from experiments.errors import SessionError, UserInputError
 from experiments.session.engine import Session
 from experiments.session.machine import clock_for_url
-from experiments.session.setup import _check_capacity, _protocol_source, check_schedule_profiles
+from experiments.session.setup import check_capacity, protocol_source, check_schedule_profiles
 from experiments.session.store import read_session_json, write_session_json
 from experiments.session_files import claim_session_folder
 
@@ -84,7 +84,7 @@ class SessionPlan:
 
     def check_display(self, display) -> None:
         """The simulated profiles against the open display's capacity (ProtocolError)."""
-        _check_capacity(self.protocol, self.profiles, display, _protocol_source(self.protocol))
+        check_capacity(self.protocol, self.profiles, display, protocol_source(self.protocol))
 
     def write(self) -> "Session":
         """Write ``session.json`` and ``traces/``; return the :class:`Session`.

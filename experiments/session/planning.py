@@ -8,7 +8,7 @@ decisions once per profile.
 """
 from __future__ import annotations
 
-from experiments.session.setup import _check_capacity, simulated_target_profile
+from experiments.session.setup import check_capacity, simulated_target_profile
 
 __all__ = ["SessionProfiles"]
 
@@ -28,7 +28,7 @@ class SessionProfiles:
 
     def check_display(self, protocol, display, source: str) -> None:
         """The profiles against an open display's capacity (points, step): ProtocolError."""
-        _check_capacity(protocol, self.profiles, display, source)
+        check_capacity(protocol, self.profiles, display, source)
 
     def target(self, session, spec, say):
         """The target profile of a simulated trial of ``session``; ``say`` gets the planner's

@@ -141,7 +141,7 @@ def test_display_probe_inversion_error_bound():
     # rates), each probe value is within PROBE_INVERSION_ERROR of the production inversion
     # (itself within 1e-12 of mpmath, tests/stimuli/test_exact.py)
     from stimuli.display_planner import _step
-    from stimuli.planner import PROBE_INVERSION_ERROR, _probes
+    from stimuli.planner import PROBE_INVERSION_ERROR, probe_plan
     worst = 0.0
     for (duration, rate), L_um, frac, R, layered, w in itertools.product(
             [(20.0, 1000.0), (10.0, 500.0), (2.0, 100.0), (120.0, 1000.0)],
@@ -149,8 +149,8 @@ def test_display_probe_inversion_error_bound():
             [False, True], [None, 1.25e-3, 2e-2]):
         skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
         layers = skin_layers(skin, layered=layered, perfusion=w)
-        _, cheap = _probes(duration, rate, cheap=True)
-        _, prod = _probes(duration, rate)
+        _, cheap = probe_plan(duration, rate, cheap=True)
+        _, prod = probe_plan(duration, rate)
         err = np.max(np.abs(_step(layers, skin.dermis, R, cheap) - _step(layers, skin.dermis, R, prod)))
         worst = max(worst, float(err))
     assert worst <= PROBE_INVERSION_ERROR, worst
