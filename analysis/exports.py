@@ -122,7 +122,7 @@ COLUMNS = {
     "cri_low": (_L, "variational credible interval, lower end"),
     "cri_high": (_L, "variational credible interval, upper end"),
     "model": (_C, "model the row comes from"),
-    # model_decisions.csv: the scene planner's decisions for the simulated profiles (issue 12)
+    # model_decisions.csv: the scene planner's decisions for the simulated profiles
     "effect": (_C, "physical effect of the thermal model (stimuli.scene)"),
     "decision": (_C, "kept or neglected by the scene planner"),
     "n_profiles": (_N, "distinct target profiles with this decision"),

@@ -39,7 +39,7 @@ from .errors import ModelWarning
 
 __all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data"]
 
-#: The requested model (issue 5).
+#: The model the analysis fits (group x mode x sample).
 FORMULA = "correct ~ group * mode * C(roughness_id)"
 _MAX_ABS_COEF = 10.0       # |log odds| beyond this means a separated (infinite) estimate
 _MAX_SE = 20.0

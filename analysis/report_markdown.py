@@ -328,7 +328,7 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
                   "contact, `contact_force_N`; Eq. 5's R depends on it), per group x mode; the "
                   "covariates above include it when it varies:", "",
                   _md_table(ex["force"]) if not ex.get("force", pd.DataFrame()).empty
-                  else "_not logged (sessions before issue 12)_",
+                  else "_not logged (sessions older than the contact-force column)_",
                   "", "Median response times by group, mode, sample and correctness are in "
                   "`rt.csv`; Wagner's Hu per sample in `hu.csv`.", ""]
     return parts

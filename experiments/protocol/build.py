@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from experiments.errors import ProtocolError
-from experiments.protocol.hashing import _canonical
+from experiments.protocol.hashing import canonical_json
 from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MAX_WAIT_S, SKIN_SAFE_MAX_C,
                                          SKIN_SAFE_MIN_C)
 from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
@@ -95,7 +95,7 @@ def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
     return tuple(out)
 
 
-def _build(source: str, data: Any, path: Path | None) -> Protocol:
+def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
     top = _Table(source, data, "")
     p = top.table("protocol")
     name = p.string("name")
@@ -235,7 +235,7 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
                                     f"blocks[{i}] is simulated, got nothing")
     top.done()
 
-    canonical = _canonical(data)
+    canonical = canonical_json(data)
     return Protocol(name=name, title=title, description=description, experiment=experiment,
                     version=version, samples=samples, environment=env, material=mat,
                     contact=contact, display=display, grouping=grouping, simulation=simulation,
