@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from .psychophysics import _matrix, hu_values, information_transfer
+from .psychophysics import confusion_counts, hu_values, information_transfer
 
 __all__ = ["participant_agreement", "agreement_comparison", "MEASURES"]
 
@@ -40,7 +40,7 @@ def participant_agreement(trials: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     for (pid, group, mode), sel in trials.groupby(["participant", "group", "mode"]):
-        n = _matrix(sel)
+        n = confusion_counts(sel)
         total = n.sum()
         po = np.trace(n) / total
         pe = float(n.sum(axis=1) @ n.sum(axis=0)) / total ** 2

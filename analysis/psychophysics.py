@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-__all__ = ["information_transfer", "agreement_table", "hu_table", "ordinal_table",
+__all__ = ["information_transfer", "confusion_counts", "agreement_table", "hu_table", "ordinal_table",
            "covariate_table", "force_table", "rt_table"]
 
 
@@ -81,7 +81,8 @@ def information_transfer(counts) -> dict:
             "relative_it": corrected / h if h > 0 else np.nan}
 
 
-def _matrix(sel: pd.DataFrame) -> np.ndarray:
+def confusion_counts(sel: pd.DataFrame) -> np.ndarray:
+    """The 4 x 4 stimulus (rows) x response (columns) counts of ``sel``'s trials."""
     m = np.zeros((4, 4))
     for (s, r), k in sel.groupby(["roughness_id", "response_id"]).size().items():
         m[int(s) - 1, int(r) - 1] = k
@@ -99,7 +100,7 @@ def agreement_table(trials: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     for (g, m), sel in trials.groupby(["group", "mode"]):
-        n = _matrix(sel)
+        n = confusion_counts(sel)
         total = n.sum()
         po = np.trace(n) / total
         pe = float(n.sum(axis=1) @ n.sum(axis=0)) / total ** 2
@@ -131,7 +132,7 @@ def hu_table(trials: pd.DataFrame) -> pd.DataFrame:
     """
     rows = []
     for (g, m), sel in trials.groupby(["group", "mode"]):
-        n = _matrix(sel)
+        n = confusion_counts(sel)
         hu, chance = hu_values(n)
         for i in range(4):
             if n[i].sum() == 0:
