@@ -49,7 +49,7 @@ def _md_table(df: pd.DataFrame, digits: int = 3) -> str:
     def cell(v):
         if isinstance(v, (float, np.floating)):
             return "" if np.isnan(v) else f"{v:.{digits}f}"
-        return str(v)
+        return str(v).replace("|", "\\|")        # a formula's "(1 | participant)" in a cell
     lines = ["| " + " | ".join(map(str, df.columns)) + " |",
              "|" + "|".join("---" for _ in df.columns) + "|"]
     lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]

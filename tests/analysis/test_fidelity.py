@@ -231,3 +231,9 @@ def test_per_participant_agreement_against_independent_formulas(trials):
     assert row["pct_boot_low"] < row["estimate"] < row["pct_boot_high"]
     means = comp[(comp["measure"] == "kappa") & (comp["mode"] == "real")].set_index("group")
     assert means.loc["A", "estimate"] == pytest.approx(a.mean())
+
+
+def test_markdown_cells_escape_the_bar_of_a_random_effects_formula():
+    from analysis.report_markdown import _md_table
+    line = _md_table(pd.DataFrame({"note": ["(1 + mode | participant)"]})).splitlines()[-1]
+    assert line == "| (1 + mode \\| participant) |"
