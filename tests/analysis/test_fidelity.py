@@ -237,3 +237,28 @@ def test_markdown_cells_escape_the_bar_of_a_random_effects_formula():
     from analysis.report_markdown import _md_table
     line = _md_table(pd.DataFrame({"note": ["(1 + mode | participant)"]})).splitlines()[-1]
     assert line == "| (1 + mode \\| participant) |"
+
+
+# ----------------------------------------------------------- which mixed model for mode
+def _fit(kind, formula, lrt_p=None, notes=()):
+    from analysis.models import ModelFit
+    rows = [] if lrt_p is None else [{"term": "lrt_slope", "p_value": lrt_p}]
+    return ModelFit(kind=kind, formula=formula, requested="correct ~ group * mode * C(roughness_id)",
+                    table=pd.DataFrame(rows, columns=["term", "p_value"]), notes=list(notes))
+
+
+def test_mixed_choice_prefers_the_slope_model_and_says_why():
+    from analysis.mixed_choice import choose_mixed
+    full = "correct ~ group * mode * C(roughness_id)"
+    glmm = _fit("glmm", full)
+    c = choose_mixed(glmm, _fit("glmm-slope", full, lrt_p=0.01))
+    assert c.contrasts.kind == "glmm-slope" and c.spread.kind == "glmm-slope"
+    assert "rejects (p = 0.010)" in c.reason
+    c = choose_mixed(glmm, _fit("glmm-slope", full, lrt_p=0.4))
+    assert c.contrasts.kind == "glmm-slope" and c.spread is glmm
+    # the slope model's fallback is never silent: the intercept model, with the reason
+    simpler = "correct ~ group * mode + C(roughness_id)"
+    c = choose_mixed(glmm, _fit("glmm-slope", simpler, notes=["GLMM slope: did not converge"]))
+    assert c.contrasts is glmm and "fell back" in c.reason and simpler in c.reason
+    c = choose_mixed(glmm, _fit("glmm-slope", None, notes=["GLMM slope: no formula could be fitted"]))
+    assert c.contrasts is glmm and "no formula could be fitted" in c.reason
