@@ -54,5 +54,6 @@ static inline uint8_t *put_u64(uint8_t *p, uint64_t v) { p = put_u32(p, (uint32_
 static inline uint16_t get_u16(const uint8_t *p) { return (uint16_t)(p[0] | (p[1] << 8)); }
 static inline int16_t get_i16(const uint8_t *p) { return (int16_t)get_u16(p); }
 static inline uint32_t get_u32(const uint8_t *p) { return (uint32_t)get_u16(p) | ((uint32_t)get_u16(p + 2) << 16); }
+static inline uint64_t get_u64(const uint8_t *p) { return (uint64_t)get_u32(p) | ((uint64_t)get_u32(p + 4) << 32); }
 
 #endif
