@@ -102,8 +102,8 @@ def main(argv=None) -> int:
         from experiments.hardware import compiled_tick
         ticks = "compiled" if compiled_tick.enabled else (
             "Python (THERMOCUE_PYTHON_TICK=1)" if compiled_tick.AVAILABLE else "Python (not built)")
-    except ImportError:            # before stop 19
-        ticks = "Python (no compiled tick in this commit)"
+    except ImportError:            # before stop 19, and since the compiled tick was retired
+        ticks = "Python"
     print(f"device ticks: {ticks}")
     print(f"load average at the start: {os.getloadavg()[0]:.2f}")
     tmp = Path(tempfile.mkdtemp(prefix="bench-emulated-"))
