@@ -29,14 +29,8 @@ import serial
 
 from experiments.errors import DisplayError, UserInputError
 
+from .display_base import Capabilities
 from .driver import ThermalDisplay
-
-try:   # the display registry (a backend registers its URL scheme by subclassing)
-    from .display_base import Capabilities
-    _REGISTER = {"scheme": "qemu-firmware"}
-except ImportError:   # pragma: no cover - a tree without the registry
-    Capabilities = None
-    _REGISTER = {}
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
            "start_qemu", "parse_url"]
@@ -202,7 +196,7 @@ def _stop(proc) -> None:
             proc.wait(timeout=3)
 
 
-class QemuFirmwareDisplay(ThermalDisplay, **_REGISTER):
+class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
     """The C firmware under QEMU, through the thermocue protocol's driver.
 
     Open it with ``open_display("qemu-firmware://")`` (or :meth:`open`); ``close()`` ends QEMU.
