@@ -63,18 +63,25 @@ int hal_uart_read(void) { return stm32_uart_read(); }
 bool hal_uart_tx_ready(void) { return stm32_uart_tx_ready(); }
 void hal_uart_write(uint8_t b) { stm32_uart_write(b); }
 
-/* One channel, OVERSAMPLE conversions summed. A conversion that never ends (a dead ADC)
- * returns 0, which reads as a sensor failure. */
+/* One channel, OVERSAMPLE conversions summed. A conversion that never ends marks the ADC dead:
+ * every channel then reads 0, which the core takes as a sensor failure (latched), without
+ * waiting for the ADC again (QEMU's model of this ADC never ends a conversion). */
+static bool adc_dead;
+
 static uint32_t adc_read(unsigned ch)
 {
     uint32_t sum = 0;
+    if (adc_dead) return 0;
     ADC_SQR3 = ch;
     for (unsigned k = 0; k < OVERSAMPLE; k++) {
         ADC_SR = 0;
         ADC_CR2 |= ADC_CR2_SWSTART;
         uint32_t i = 0;
         while (!(ADC_SR & ADC_SR_EOC) && i < 10000u) i++;
-        if (i >= 10000u) return 0;
+        if (i >= 10000u) {
+            adc_dead = true;
+            return 0;
+        }
         sum += ADC_DR & 0xFFFu;
     }
     return sum;
