@@ -43,6 +43,8 @@ ARM_CC = "arm-none-eabi-gcc"
 URL_GRAMMAR = "qemu-firmware://[?image=PATH][&build=1|0]"
 #: How long QEMU may take to say which pseudo-terminal it opened, s.
 START_TIMEOUT_S = 20.0
+#: The driver's wait for a reply under QEMU, s (the driver's default, 0.25 s, suits a board).
+QEMU_REPLY_TIMEOUT_S = 3.0
 _PTY_LINE = re.compile(r"char device redirected to (\S+)")
 
 
@@ -245,6 +247,10 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         elif not Path(image).exists():
             raise DisplayError(f"display: qemu-firmware: no image at {image}")
         options.pop("baudrate", None)
+        # QEMU hands the USART one byte per turn of its event loop: about 2.6 kB/s measured
+        # here (a 512-sample chunk frame, 1042 bytes, is answered after ~0.4 s, more on a
+        # loaded machine), slower than the board's 115200 baud; nothing is lost on the pty
+        options.setdefault("reply_timeout_s", QEMU_REPLY_TIMEOUT_S)
         proc, pty = start_qemu(Path(image))
         try:
             port = serial.Serial(pty, 115200, timeout=0.01, write_timeout=1.0)

@@ -40,7 +40,7 @@ void plant_init(plant_t *p, uint32_t seed)
     p->room_C = 20.0f;
     p->pad_C = p->sensor_C = 32.0f;     /* the pad sits at neutral when the firmware starts */
     p->hs_C = 22.0f;
-    p->finger_surface_C = 33.0f;
+    p->finger_surface_C = 35.5f;
     p->skin_C = 35.5f;
     p->sample_temp_C = 20.0f;
     p->rng = seed ? seed : 0x12345678u;
@@ -89,7 +89,7 @@ void plant_advance(plant_t *p, uint64_t now)
             load = G_FINGER_W_PER_K * (p->finger_surface_C - p->pad_C);
             p->finger_surface_C += dt / 0.1f * (0.5f * (p->skin_C + p->pad_C) - p->finger_surface_C);
         } else {
-            p->finger_surface_C += dt / 1.0f * (p->skin_C - 2.0f - p->finger_surface_C);
+            p->finger_surface_C += dt / 0.5f * (p->skin_C - p->finger_surface_C);
         }
         if (touching && !p->touched) {
             p->touched = true;
