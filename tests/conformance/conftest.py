@@ -94,15 +94,19 @@ class RawLink:
                 self.others.append(fr)
         return None
 
-    def pump(self, seconds: float, heartbeat: bool = True) -> None:
-        """Read for ``seconds``, sending a silent heartbeat every 10 ms if ``heartbeat``."""
+    def pump(self, seconds: float, heartbeat: bool = True, until=None) -> None:
+        """Read for ``seconds`` (or until a frame satisfies ``until``), sending a silent
+        heartbeat every 10 ms if ``heartbeat``."""
         end = time.monotonic() + seconds
         nxt = 0.0
         while time.monotonic() < end:
             if heartbeat and time.monotonic() >= nxt:
                 self.send(0, 0x02, b"\x00")
                 nxt = time.monotonic() + 0.01
-            self.others.extend(self.parser.feed(self.port.read(4096)))
+            new = self.parser.feed(self.port.read(4096))
+            self.others.extend(new)
+            if until is not None and any(until(f) for f in new):
+                return
 
     def close(self) -> None:
         self._close()

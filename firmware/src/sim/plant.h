@@ -55,6 +55,8 @@ bool plant_reboot_due(plant_t *p, uint64_t now_us);
 int plant_command(plant_t *p, uint64_t now_us, uint8_t type, const uint8_t *payload, size_t len,
                   uint8_t *reply, size_t cap, int core_state, bool ready);
 void plant_on_ready(plant_t *p, uint64_t now_us);
+/* Append ,"key":seconds to the JSON object of n bytes in reply; returns the new length. */
+int plant_json_add_seconds(uint8_t *reply, size_t n, const char *key, uint64_t us);
 void plant_on_arm(plant_t *p, int mode);
 
 #endif
