@@ -33,7 +33,7 @@ from .display_base import Capabilities
 from .driver import ThermalDisplay
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
-           "start_qemu", "parse_url"]
+           "start_qemu", "await_link", "stop_qemu", "parse_url"]
 
 FIRMWARE_DIR = Path(__file__).resolve().parents[2] / "firmware"
 SIM_IMAGE = FIRMWARE_DIR / "out" / "thermocue-sim.elf"
@@ -148,7 +148,7 @@ def start_qemu(image: Path) -> tuple:
     while not found and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.01)
     if not found:
-        _stop(proc)
+        stop_qemu(proc)
         said = " | ".join(lines[-3:]) or "nothing"
         raise DisplayError(f"display: qemu-firmware: {QEMU} named no pseudo-terminal "
                            f"(it said: {said})")
@@ -156,10 +156,10 @@ def start_qemu(image: Path) -> tuple:
 
 
 #: How long QEMU may take to notice that the pty has a reader, s.
-LINK_TIMEOUT_S = 5.0
+LINK_TIMEOUT_S = 10.0
 
 
-def _await_link(port, pty: str) -> None:
+def await_link(port, pty: str) -> None:
     """Wait until the firmware's answers come through the pty.
 
     QEMU polls a pty for a reader about once a second and drops what the guest sends until it
@@ -188,7 +188,8 @@ def _await_link(port, pty: str) -> None:
                        f"within {LINK_TIMEOUT_S:g} s")
 
 
-def _stop(proc) -> None:
+def stop_qemu(proc) -> None:
+    """End a QEMU process started by :func:`start_qemu` (SIGTERM, then SIGKILL after 3 s)."""
     if proc.poll() is None:
         proc.terminate()
         try:
@@ -255,13 +256,13 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         try:
             port = serial.Serial(pty, 115200, timeout=0.01, write_timeout=1.0)
         except (serial.SerialException, OSError) as exc:
-            _stop(proc)
+            stop_qemu(proc)
             raise DisplayError(f"display: qemu-firmware: cannot open {pty}: {exc}") from exc
         disp = cls(port, limits, **options)
         disp.qemu, disp.image, disp.pty = proc, Path(image), pty
-        disp._finalizer = weakref.finalize(disp, _stop, proc)
+        disp._finalizer = weakref.finalize(disp, stop_qemu, proc)
         try:
-            _await_link(port, pty)
+            await_link(port, pty)
             disp.handshake()          # never a boot banner: bytes sent before we opened are lost
         except BaseException:
             disp._finalizer()

@@ -119,15 +119,15 @@ def raw(backend):
         port = serial.serial_for_url(URLS["emulator"], timeout=0.01)
         link = RawLink(port, port.close)
     else:
-        from experiments.hardware.qemu_firmware import _await_link, _stop, build_image, start_qemu
+        from experiments.hardware.qemu_firmware import await_link, stop_qemu, build_image, start_qemu
         proc, pty = start_qemu(build_image())
         port = serial.Serial(pty, 115200, timeout=0.01)
 
         def close():
             port.close()
-            _stop(proc)
+            stop_qemu(proc)
         try:
-            _await_link(port, pty)
+            await_link(port, pty)
         except BaseException:
             close()
             raise

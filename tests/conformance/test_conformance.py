@@ -148,16 +148,15 @@ def test_host_loss_returns_the_pad_to_neutral(display):
     display.arm("playback", 2.0, 5.0)
     display.wait(0.1)
     parser, frames = FrameParser(), []
-    with display._lock:                          # the driver's reader waits meanwhile
-        display.stop_heartbeat()
-        try:
-            deadline = time.monotonic() + 10.0
-            while time.monotonic() < deadline and not any(
-                    f.type == m.Msg.EVENT and f.payload[0] == m.Event.WATCHDOG for f in frames):
-                frames += parser.feed(display.port.read(4096))
+    display.stop_heartbeat()                     # (its thread was the only other reader)
+    try:
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline and not any(
+                f.type == m.Msg.EVENT and f.payload[0] == m.Event.WATCHDOG for f in frames):
             frames += parser.feed(display.port.read(4096))
-        finally:
-            display.start_heartbeat()
+        frames += parser.feed(display.port.read(4096))
+    finally:
+        display.start_heartbeat()
     events = [m.DeviceEvent.decode(f.payload) for f in frames
               if f.type == m.Msg.EVENT and len(f.payload) >= m.EVENT_HEAD.size]
     wd = [e for e in events if e.kind == "WATCHDOG"]

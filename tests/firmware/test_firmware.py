@@ -61,13 +61,13 @@ def test_board_image_without_sensors_refuses_to_heat():
     the relay open, and refuse ARM (FAULT_LATCHED)."""
     from experiments.hardware.framing import FrameParser, encode_frame
     from experiments.hardware.handshake import decode_hello
-    from experiments.hardware.qemu_firmware import (BOARD_IMAGE, _await_link, _stop, build_image,
+    from experiments.hardware.qemu_firmware import (BOARD_IMAGE, await_link, stop_qemu, build_image,
                                                     start_qemu)
     build_image(BOARD_IMAGE)
     proc, pty = start_qemu(BOARD_IMAGE)
     port = serial.Serial(pty, 115200, timeout=0.01)
     try:
-        _await_link(port, pty)
+        await_link(port, pty)
         parser = FrameParser()
 
         def command(seq, cmd, payload=b""):
@@ -93,4 +93,4 @@ def test_board_image_without_sensors_refuses_to_heat():
         assert nak.type == 0xFF and m.NAK_HEAD.unpack_from(nak.payload)[1] == m.Err.NOT_SUPPORTED
     finally:
         port.close()
-        _stop(proc)
+        stop_qemu(proc)
