@@ -41,6 +41,7 @@ void hal_init(void)
     GPIO_MODER(GPIOA_BASE) |= 0xFFFFu;
     GPIO_MODER(GPIOB_BASE) |= 3u;
     RCC_APB2ENR |= (1u << 8) | (1u << 0);        /* ADC1, TIM1 */
+    ADC_CCR = 1u << 16;                          /* ADC clock APB2 / 4 = 21 MHz (max 36) */
     ADC_CR1 = 0;
     ADC_SMPR2 = 0x3FFFFFFFu;                     /* 480 cycles on IN0..IN9 */
     ADC_SQR1 = 0;                                /* one conversion */

@@ -55,6 +55,7 @@
 #define ADC_SQR1        REG32(ADC1_BASE + 0x2Cu)
 #define ADC_SQR3        REG32(ADC1_BASE + 0x34u)
 #define ADC_DR          REG32(ADC1_BASE + 0x4Cu)
+#define ADC_CCR         REG32(0x40012304u)   /* common: ADCPRE bits 17:16 */
 #define ADC_SR_EOC      (1u << 1)
 #define ADC_CR2_ADON    (1u << 0)
 #define ADC_CR2_SWSTART (1u << 30)
