@@ -1,0 +1,7 @@
+"""A QST.Lab TCS II thermode as a thermocue display.
+
+:mod:`.profile_compiler` turns a target profile into the device's linear segments with a stated
+error; :mod:`.commands` formats and parses its ASCII commands; :mod:`.emulator` is a TCS II in
+software (the ``tcs2emu://`` pyserial URL and ``thermocue emulator --model tcs2``);
+:mod:`.backend` is the display backend of ``tcs2://PORT``. See ``docs/tcs2.md``.
+"""
