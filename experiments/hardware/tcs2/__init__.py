@@ -5,3 +5,10 @@ error; :mod:`.commands` formats and parses its ASCII commands; :mod:`.emulator` 
 software (the ``tcs2emu://`` pyserial URL and ``thermocue emulator --model tcs2``);
 :mod:`.backend` is the display backend of ``tcs2://PORT``. See ``docs/tcs2.md``.
 """
+from __future__ import annotations
+
+import serial as _serial
+
+# pyserial imports ``protocol_<scheme>`` from these packages: tcs2emu:// is the emulator
+if "experiments.hardware.tcs2" not in _serial.protocol_handler_packages:
+    _serial.protocol_handler_packages.append("experiments.hardware.tcs2")
