@@ -68,6 +68,8 @@ _NAN4 = (math.nan,) * 4
 READY_TOLERANCE_C = 0.2
 #: ... and must get there within this after arming, s.
 READY_S = 10.0
+#: Abort attempts after a fault (each waits up to 0.5 s for the device to answer).
+ABORT_ATTEMPTS = 3
 
 
 def parse_tcs2_url(url: str) -> tuple:
@@ -444,10 +446,17 @@ class Tcs2Display(Display, scheme="tcs2"):
             self._trial.end("aborted")
 
     def _safe_abort(self) -> None:
-        try:
-            self.link.send("A")
-        except DisplayError:
-            pass
+        """``A`` until the device shows it is listening (it answers ``?``), then ``A`` once
+        more: an abort sent while the device was not listening is not lost. Never raises."""
+        for _ in range(ABORT_ATTEMPTS):
+            try:
+                self.link.send("A")
+                if self.link.expect("?", "TCS", 0.5):
+                    self.link.send("A")
+                    return
+            except DisplayError:
+                if self.link.lost:
+                    return                # the port is gone: nothing more can be sent
 
     def status(self) -> Status:
         """Temperatures (``E``) and errors (``Q``) now, as a :class:`Status`."""
@@ -495,7 +504,6 @@ class _Run:
         self.duration_s = min(c.duration_s, max_duration_s)
         self.knots = (c.start_C, c.segments)
         self.tr = _Trial("playback", disp._profile)
-        self.script = disp._script
         self.armed_at = disp.link.clock()
         self.started_at = None        # when L was sent / the trigger pulsed
         self.contact_s = None
@@ -507,6 +515,11 @@ class _Run:
         self.end_reason = None
         self.fault = None
         self.deadline = None
+
+    @property
+    def script(self):
+        """The emulated participant's (press_after_s, hold_s), set after arming, or None."""
+        return self.d._script
 
     def attach(self, on_telemetry, on_event) -> None:
         if on_telemetry is not None and self.tr.callback is None:

@@ -279,6 +279,7 @@ class Tcs2Device:
     def _start(self) -> None:
         self.stim_count += 1
         self.stim_t = 0.0
+        self.stim_ticks = 0
         self.state = "stim"
         plans = []
         for z in range(5):
@@ -306,7 +307,7 @@ class Tcs2Device:
 
     def _plan_value(self, z: int, t: float):
         kt, ky = self._plans[z]
-        if t >= kt[-1]:
+        if t > kt[-1] + 1e-9:             # the last line is the profile's end
             return None
         for i in range(1, len(kt)):
             if t <= kt[i]:
@@ -320,7 +321,8 @@ class Tcs2Device:
         self.time_s += TICK_S
         stream = False
         if self.state == "stim":
-            self.stim_t += TICK_S
+            self.stim_ticks += 1
+            self.stim_t = self.stim_ticks * TICK_S
             running = False
             for z in range(5):
                 if self._plans[z] is None:

@@ -160,3 +160,20 @@ class LineLink:
             if skip is None or not skip(line):
                 got.append(line)
         return got
+
+    def expect(self, command: str, want: str, timeout_s: float) -> bool:
+        """Send ``command``; whether a line equal to ``want`` comes back within ``timeout_s``
+        (other lines, junk included, are passed over). Never raises for what it reads."""
+        self._buf.clear()
+        self.send(command)
+        end = self.clock() + timeout_s
+        while self.clock() < end:
+            try:
+                line = self.line(max(0.0, end - self.clock()))
+            except ReplyError:
+                continue
+            if line is None:
+                return False
+            if line.strip() == want:
+                return True
+        return False
