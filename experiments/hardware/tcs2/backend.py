@@ -68,6 +68,8 @@ _NAN4 = (math.nan,) * 4
 READY_TOLERANCE_C = 0.2
 #: ... and must get there within this after arming, s.
 READY_S = 10.0
+#: A stream that stops after this fraction of the profile's lines ended with the profile.
+END_FRACTION = 0.9
 #: Abort attempts after a fault (each waits up to 0.5 s for the device to answer).
 ABORT_ATTEMPTS = 3
 
@@ -604,7 +606,7 @@ class _Run:
                     self.end("fault", ("LINK_TIMEOUT", f"no temperatures within {SILENCE_S:g} s "
                                        f"of L: the device is silent"))
             return
-        played = now - self.contact_s
+        played = self.frames * STEP_S          # device time, from the 100 Hz lines
         if self.script is not None and self.script[1] < self.duration_s and played >= self.script[1]:
             self.d.link.send("A")          # the participant answered and stopped it
             self.end("released")
@@ -617,7 +619,9 @@ class _Run:
             self.q_pending += 1
             self.next_q = now + Q_EVERY_S
         if now - self.last_line_at > SILENCE_S:
-            if played >= self.duration_s + SILENCE_S - 0.05 and not self.d.link.partial:
+            # the stream stopped: at the profile's end (lines lost on the way are counted),
+            # or before it (the device fell silent)
+            if played >= END_FRACTION * self.duration_s and not self.d.link.partial:
                 self._confirm_end()
             elif self.d.link.partial:
                 self.end("fault", ("HALF_LINE", f"a line cut off ({self.d.link.partial[:20]!r}) "

@@ -99,8 +99,10 @@ def parse_faults(spec: str | None) -> tuple:
 class Tcs2Device:
     """The emulated device (see the module docstring)."""
 
-    def __init__(self, faults: str | None = None, seed: int = 0):
+    def __init__(self, faults: str | None = None, seed: int = 0, firmware: str | None = None):
         self.faults, self.drop, self.om_cap = parse_faults(faults)
+        # another firmware string: the emulator passes for a device (no scripted participant)
+        self.firmware = firmware or FIRMWARE
         self.rng = random.Random(seed)
         self.time_s = 0.0
         self.neutral_dC = 320
@@ -172,7 +174,7 @@ class Tcs2Device:
             if c == "?":
                 return ["TCS"]
             if c == "H":
-                return list(HELP_LINES)
+                return [x.replace(FIRMWARE, self.firmware) for x in HELP_LINES]
             if c == "P":
                 return [f"N{self.neutral_dC:03d} Om{self.max_dC:03d} "
                         f"S{''.join(map(str, self.zones))} Ue{''.join(map(str, self.profile_zones))} "
