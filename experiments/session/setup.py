@@ -117,6 +117,18 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
             temperature = limited
             temperature.setflags(write=False)
     params["rate_limited_max_change_C"] = change
+    params["contact_model"] = sim.contact_model
+    if sim.contact_model == "resting":    # the probe rests on the skin: start there, ramp in
+        from experiments.contact_model import resting_profile
+        base = prof.temperature if temperature is None else temperature
+        rested, given_up, catch_up = resting_profile(
+            base, 1.0 / sim.rate_Hz, sim.skin_temperature_C, protocol.display.max_rate_C_per_s,
+            window_s=protocol.display.safety_limits().rate_window_s, resolution_C=sim.resolution_C)
+        rested.setflags(write=False)
+        temperature = rested
+        params["resting_start_C"] = float(rested[0])
+        params["resting_max_change_C"] = given_up
+        params["resting_catch_up_s"] = catch_up
     return _Profile(prof, params, temperature)
 
 
@@ -242,6 +254,14 @@ def _check_backend(protocol, caps, scheme: str, source: str) -> None:
     """
     from experiments.errors import ProtocolError
     needed = {"real": "record", "simulated": "playback"}
+    sim = getattr(protocol, "simulation", None)
+    if (getattr(caps, "contact_detection", None) == "stimulus_start" and sim is not None
+            and sim.contact_model != "resting"
+            and any(getattr(b, "mode", None) == "simulated" for b in protocol.blocks)):
+        raise ProtocolError(
+            f"{source}: simulation.contact_model: expected 'resting' for the display backend "
+            f"{scheme}:// (its probe rests on the skin; contact is the start of stimulation), "
+            f"got {sim.contact_model!r}")
     for i, block in enumerate(protocol.blocks):
         mode = needed.get(getattr(block, "mode", None))
         if mode is not None and mode not in caps.modes:
