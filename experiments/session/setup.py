@@ -254,6 +254,13 @@ def _check_backend(protocol, caps, scheme: str, source: str) -> None:
     """
     from experiments.errors import ProtocolError
     needed = {"real": "record", "simulated": "playback"}
+    for i, block in enumerate(protocol.blocks):
+        mode = needed.get(getattr(block, "mode", None))
+        if mode is not None and mode not in caps.modes:
+            raise ProtocolError(
+                f"{source}: blocks[{i}].mode: the display backend {scheme}:// cannot run "
+                f"{block.mode!r} trials (it offers {', '.join(caps.modes)}); run this block on "
+                f"another display, or use a protocol without it")
     sim = getattr(protocol, "simulation", None)
     if (getattr(caps, "contact_detection", None) == "stimulus_start" and sim is not None
             and sim.contact_model != "resting"
@@ -262,13 +269,6 @@ def _check_backend(protocol, caps, scheme: str, source: str) -> None:
             f"{source}: simulation.contact_model: expected 'resting' for the display backend "
             f"{scheme}:// (its probe rests on the skin; contact is the start of stimulation), "
             f"got {sim.contact_model!r}")
-    for i, block in enumerate(protocol.blocks):
-        mode = needed.get(getattr(block, "mode", None))
-        if mode is not None and mode not in caps.modes:
-            raise ProtocolError(
-                f"{source}: blocks[{i}].mode: the display backend {scheme}:// cannot run "
-                f"{block.mode!r} trials (it offers {', '.join(caps.modes)}); run this block on "
-                f"another display, or use a protocol without it")
 
 
 def _check_capacity(protocol, profiles: dict, display, source: str) -> None:
