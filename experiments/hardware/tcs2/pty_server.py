@@ -11,6 +11,7 @@ import os
 import select
 import signal
 import sys
+import threading
 import time
 import tty
 
@@ -35,7 +36,10 @@ def serve(*, faults: str | None = None, seed: int = 0, speed: float = 1.0, link:
             os.unlink(link)
         os.symlink(path, link)
     stopping = []
-    old = {s: signal.signal(s, lambda n, f: stopping.append(n)) for s in (signal.SIGINT, signal.SIGTERM)}
+    # signals stop it when it runs as the program (a thread, e.g. a test's, uses ``stop``)
+    main = threading.current_thread() is threading.main_thread()
+    old = ({s: signal.signal(s, lambda n, f: stopping.append(n)) for s in (signal.SIGINT, signal.SIGTERM)}
+           if main else {})
     (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
     step = TICK_S / speed
     next_t = time.monotonic()
