@@ -46,7 +46,7 @@ from experiments.errors import DisplayError, DisplayTimeout, SafetyLimitError, U
 from ..display_base import Capabilities, Display, ProfileReceipt
 from ..messages import DeviceEvent, DeviceInfo, Status, Telemetry
 from ..safety import SafetyLimits
-from ..trial_recording import TrialRecording, _Trial
+from ..trial_recording import TrialInProgress, TrialRecording
 from . import commands as cmd
 from .commands import ReplyError
 from .link import LineLink
@@ -505,7 +505,7 @@ class _Run:
         c = disp._compiled
         self.duration_s = min(c.duration_s, max_duration_s)
         self.knots = (c.start_C, c.segments)
-        self.tr = _Trial("playback", disp._profile)
+        self.tr = TrialInProgress("playback", disp._profile)
         self.armed_at = disp.link.clock()
         self.started_at = None        # when L was sent / the trigger pulsed
         self.contact_s = None
