@@ -376,7 +376,13 @@ class Tcs2Display(Display, scheme="tcs2"):
                 if z not in self.zones and enabled:
                     raise DisplayError(f"display {self.name}: Ur: zone {z} plays a profile it "
                                        f"was not given")
-        except ReplyError as exc:
+        except (ReplyError, DisplayError) as exc:
+            self._compiled = None           # nothing is armed with a profile not verified ...
+            try:                            # ... and the device plays none (best effort)
+                self.link.send(cmd.fmt_profile_enable(()))
+            except DisplayError:
+                pass
+            self._safe_abort()
             raise DisplayError(str(exc)) from None
         t = np.asarray(times_s, dtype=float)
         self._compiled = c
@@ -396,6 +402,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         if not (isinstance(max_duration_s, (int, float)) and 0 < max_duration_s <= 3600):
             raise UserInputError(f"display: arm.max_duration_s: expected 0 < value ≤ 3600, got "
                                  f"{max_duration_s!r}")
+        self.link.drain(0.03)               # lines left from an earlier, faulted trial
         self._trial = _Run(self, max_duration_s)
 
     def sim_finger(self, press_after_s: float = 0.3, force_N: float = 2.0, hold_s: float = 20.0,

@@ -104,10 +104,13 @@ def test_a_profile_held_otherwise_is_refused():
     try:
         dev = d.port.device
         real = dev._upload
-        dev._upload = lambda c: real(c[:-3] + "999")[:0] or [] if False else real(c[:-3] + "300")
+        dev._upload = lambda c: real(c[:-3] + "300")      # the last end held as 30.0 °C
         with pytest.raises(DisplayError) as exc:
             d.upload_profile(T, Y)
         assert "Ur" in str(exc.value)
+        assert dev.profile_zones == (0, 0, 0, 0, 0) and dev.commands[-1] == "A"
+        with pytest.raises(UserInputError):        # nothing to arm with
+            d.arm()
     finally:
         d.close()
 
