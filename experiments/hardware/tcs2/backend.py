@@ -511,6 +511,7 @@ class _Run:
         self.d = disp
         c = disp._compiled
         self.duration_s = min(c.duration_s, max_duration_s)
+        self.cut = max_duration_s < c.duration_s - 1e-9
         self.knots = (c.start_C, c.segments)
         self.tr = TrialInProgress("playback", disp._profile)
         self.armed_at = disp.link.clock()
@@ -547,8 +548,9 @@ class _Run:
             self.fault = fault
             self.d._safe_abort()
         now = self.d.link.clock()
-        self.tr.event(DeviceEvent("END", now, {"complete": 0, "released": 1, "aborted": 3}
-                                  .get(reason, 4), fault[0] if fault else ""))
+        self.tr.event(DeviceEvent("END", now, {"complete": 0, "released": 1, "max_duration": 2,
+                                               "aborted": 3}.get(reason, 4),
+                                  fault[0] if fault else ""))
 
     def pump(self, timeout_s, wait: bool = True) -> None:
         """Advance the trial: start it when due, read lines, poll Q, end it."""
@@ -698,14 +700,18 @@ class _Run:
         zone = float(np.mean([temps[z] for z in self.d.zones]))
         self.tr.telemetry(Telemetry(self.frames, t, sp, zone, temps[0], math.nan, _NAN4,
                                     "PLAYING", None))
-        if t_rel + STEP_S >= self.duration_s - 1e-9 and self.frames * STEP_S >= self.duration_s:
-            self.last_line_at = now      # the last expected line: the end is confirmed by Q
-            self._confirm_end()
+        if self.frames * STEP_S >= self.duration_s - 1e-9:
+            self.last_line_at = now
+            if self.cut:                  # the trial's maximum duration, before the profile's end
+                self.d.link.send("A")
+                self.end("max_duration")
+            else:                         # the last expected line: the end is confirmed by Q
+                self._confirm_end()
 
     def recording(self) -> TrialRecording:
         tr = self.tr
         played = self.frames * STEP_S
-        if self.end_reason == "complete":
+        if self.end_reason in ("complete", "max_duration"):
             expected = int(round(self.duration_s / STEP_S))
         elif self.contact_s is not None and self.last_line_at is not None:
             expected = self.frames

@@ -223,3 +223,16 @@ def test_record_mode_is_refused():
             d.sim_sample()
     finally:
         d.close()
+
+
+def test_the_maximum_duration_stops_a_longer_profile():
+    d = _open()
+    try:
+        d.upload_profile(T, Y)
+        d.arm(max_duration_s=2.0)
+        rec = d.run_trial()
+        assert rec.status == "ok" and rec.end_reason == "max_duration" and rec.frames == 200
+        dev = d.port.device
+        assert dev.commands[-1] == "A" and dev.state == "idle"
+    finally:
+        d.close()

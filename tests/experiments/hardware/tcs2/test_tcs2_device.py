@@ -114,3 +114,41 @@ def test_zone_error_sticks_the_zone_and_shows_in_Q():
     dev.take()
     dev.feed(b"Q\r")
     assert dev.take() == b"002000\r\n"
+
+
+def test_C_V_D_stimulation_ramps_holds_and_ends(port):
+    ask(port, "F")
+    ask(port, "Ob")
+    for c in ("C0300", "V00100", "R00100", "D01000"):
+        ask(port, c)
+    assert port.device.C == [300] * 5 and port.device.V == [100] * 5 and port.device.D == [1000] * 5
+    port.write(b"L\r")
+    lines = []
+    while True:
+        data = port.read(65536)
+        if not data:
+            break
+        lines += data.decode().split("\r\n")[:-1]
+    # 2 °C at 10 °C/s (0.2 s), then 1 s at 30 °C: 120 lines of 10 ms
+    assert len(lines) == 120
+    assert abs(cmd.parse_temperatures(lines[-1])[1] - 30.0) < 0.05
+
+
+def test_the_display_between_stimulations_is_1_Hz_and_Oo_prints_nothing(port):
+    assert ask(port, "Oo") == []
+    for _ in range(300):
+        port.device.tick()
+    assert len(port.device.take().split(b"\r\n")) - 1 == 3      # Oa is on by default
+    ask(port, "F")
+    for _ in range(300):
+        port.device.tick()
+    assert port.device.take() == b""
+
+
+def test_the_emulator_trigger_input_starts_only_when_enabled(port):
+    ask(port, "F")
+    ask(port, "#T")
+    assert port.device.state == "idle"
+    ask(port, "Ose")
+    ask(port, "#T")
+    assert port.device.state == "stim" and port.device.stim_count == 1
