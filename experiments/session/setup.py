@@ -291,6 +291,15 @@ def check_capacity(protocol, profiles: dict, display, source: str) -> None:
     if isinstance(min_dt, float) and 1.0 / sim.rate_Hz < min_dt * (1 - 1e-9):
         raise ProtocolError(f"{source}: simulation.rate_Hz: expected at most {1.0 / min_dt:g} Hz "
                             f"(the display's {min_dt * 1e3:g} ms step), got {sim.rate_Hz!r}")
+    # a display that plays profiles its own way (a thermode's segments) says whether it can
+    fits = getattr(display, "check_profile_capacity", None)
+    if callable(fits):
+        for key, prof in sorted(profiles.items(), key=lambda kv: str(kv[0])):
+            try:
+                fits(prof.times, prof.temperature)
+            except UserInputError as exc:
+                raise ProtocolError(f"{source}: simulation: expected profiles the display can "
+                                    f"play, got sample {key[0]} ({key[1]:g} µm): {exc}") from None
 
 
 # --------------------------------------------------------------------------- opening the display

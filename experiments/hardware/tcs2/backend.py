@@ -343,6 +343,17 @@ class Tcs2Display(Display, scheme="tcs2"):
             self._cache[key] = c
         return c
 
+    def check_profile_capacity(self, times_s, target_C) -> None:
+        """Whether the device can play a target within the tolerance (compiled now and kept
+        for the upload); the session asks before its folder is written.
+
+        Raises
+        ------
+        UserInputError, SafetyLimitError
+            As :func:`~.profile_compiler.compile_profile`.
+        """
+        self.compile(times_s, target_C)
+
     def upload_profile(self, times_s, target_C) -> ProfileReceipt:
         """Compile, send by ``Uw``, enable by ``Ue``, read back by ``Ur`` and compare.
 

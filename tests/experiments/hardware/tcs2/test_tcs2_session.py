@@ -79,3 +79,15 @@ def test_a_whole_session_on_the_tcs2_emulator_analyses_and_exports(tcs2_pty, tmp
         report = json.loads(run.stdout[run.stdout.index("{"):])
         assert report["issues"]["errors"] == [], report["issues"]["errors"]
     print(f"28 trials on the pty in {wall:.0f} s")
+
+
+def test_profiles_the_tcs2_cannot_play_are_refused_before_the_folder_is_written(tmp_path, capsys):
+    from experiments.cli import main
+    status = main(["run", "roughness_recognition_tcs2", "--participant", str(P01), "--display",
+                   "tcs2://emulator?clock=virtual&tolerance_C=0.02", "--responder", "simulated",
+                   "--data", str(tmp_path / "d")])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1, err
+    assert "roughness_recognition_tcs2.toml: simulation: expected profiles the display can play" in err
+    assert "within 0.02 °C" in err
+    assert not (tmp_path / "d" / "P01").exists()
