@@ -523,6 +523,7 @@ class _Run:
         c = disp._compiled
         self.duration_s = min(c.duration_s, max_duration_s)
         self.cut = max_duration_s < c.duration_s - 1e-9
+        self.checked = False           # Q asked before the start
         self.knots = (c.start_C, c.segments)
         self.tr = TrialInProgress("playback", disp._profile)
         self.armed_at = disp.link.clock()
@@ -596,6 +597,13 @@ class _Run:
         link = self.d.link
         # the probe must rest at the profile's start (the neutral temperature) before it plays:
         # asked by Oe, within 0.2 °C on every stimulating zone, for up to READY_S
+        if not self.checked:               # a zone still in error from before: say so now
+            (line,) = link.ask("Q", skip=_is_temperature_line)
+            errs = cmd.parse_errors(line)
+            if any(errs):
+                self._zone_fault(errs)
+                return
+            self.checked = True
         (line,) = link.ask("Oe", skip=None)
         temps = cmd.parse_temperatures(line)
         start_C = self.knots[0]

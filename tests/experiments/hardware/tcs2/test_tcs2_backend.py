@@ -236,3 +236,18 @@ def test_the_maximum_duration_stops_a_longer_profile():
         assert dev.commands[-1] == "A" and dev.state == "idle"
     finally:
         d.close()
+
+
+def test_a_zone_still_in_error_faults_the_next_trial_before_it_starts():
+    d = _open("faults=zone%401%3A1.0")
+    try:
+        d.upload_profile(T, Y)
+        d.arm()
+        assert d.run_trial().fault_code == "ZONE_ERROR"
+        n = len(d.port.device.commands)
+        d.arm()
+        rec = d.run_trial()
+        assert rec.fault_code == "ZONE_ERROR" and rec.contact_time_s is None
+        assert "L" not in d.port.device.commands[n:]
+    finally:
+        d.close()
