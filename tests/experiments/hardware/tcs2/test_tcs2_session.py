@@ -21,11 +21,11 @@ VALIDATOR = Path(sys.prefix) / "bids-validator" / "node_modules" / ".bin" / "bid
 
 @pytest.fixture
 def tcs2_pty(tmp_path):
-    """The TCS II emulator on a pty, 10 times faster than wall time; yields its link."""
+    """The TCS II emulator on a pty, 20 times faster than wall time; yields its link."""
     link = tmp_path / "tcs2"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen([sys.executable, "-m", "experiments", "emulator", "--model", "tcs2",
-                             "--link", str(link), "--speed", "10"], env=env,
+                             "--link", str(link), "--speed", "20"], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         first = proc.stdout.readline().strip()       # the pty's path, once it serves
@@ -40,6 +40,7 @@ def tcs2_pty(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)    # 28 trials of 20 s at 20x, analysis, the validator: ~2 min here
 def test_a_whole_session_on_the_tcs2_emulator_analyses_and_exports(tcs2_pty, tmp_path, capsys):
     from experiments.cli import main
     data = tmp_path / "data"
