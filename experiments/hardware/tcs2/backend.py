@@ -36,103 +36,29 @@ from __future__ import annotations
 
 import hashlib
 import math
-import urllib.parse
 
 import numpy as np
 import serial
 
-from experiments.errors import DisplayError, DisplayTimeout, SafetyLimitError, UserInputError
+from experiments.errors import DisplayError, SafetyLimitError, UserInputError
 
 from ..display_base import Capabilities, Display, ProfileReceipt
-from ..messages import DeviceEvent, DeviceInfo, Status, Telemetry
+from ..messages import DeviceInfo, Status
 from ..safety import SafetyLimits
-from ..trial_recording import TrialInProgress, TrialRecording
+from ..trial_recording import TrialRecording
 from . import commands as cmd
 from .commands import ReplyError
 from .link import LineLink
-from .profile_compiler import (MAX_SEGMENTS, MAX_SEGMENT_STEPS, RESOLUTION_C, STEP_S,
-                               compile_profile, segments_to_samples)
+from .profile_compiler import MAX_SEGMENTS, MAX_SEGMENT_STEPS, RESOLUTION_C, compile_profile
+from .trial import TcsTrial
+from .url import URL_GRAMMAR, parse_tcs2_url
 
 __all__ = ["Tcs2Display", "parse_tcs2_url", "URL_GRAMMAR"]
 
-URL_GRAMMAR = ("tcs2://PORT[?zones=12345][&start=command|trigger][&tolerance_C=0.1] | "
-               "tcs2://emulator[?clock=real|virtual][&faults=FAULTS][&seed=N][&speed=K][&zones=...]")
-_HOST_OPTIONS = ("zones", "start", "tolerance_C")
-_EMU_OPTIONS = ("clock", "faults", "seed", "speed")
-#: Stream silence that ends a trial (or, before the profile's end, faults it), s.
-SILENCE_S = 0.3
-#: How often ``Q`` is asked during a stimulation, s.
-Q_EVERY_S = 0.5
-_NAN4 = (math.nan,) * 4
-#: The probe counts as resting at the profile's start within this, °C ...
-READY_TOLERANCE_C = 0.2
-#: ... and must get there within this after arming, s.
-READY_S = 10.0
-#: A stream that stops after this fraction of the profile's lines ended with the profile.
-END_FRACTION = 0.9
 #: Abort attempts after a fault (each waits up to 0.5 s for the device to answer).
 ABORT_ATTEMPTS = 3
+_NAN4 = (math.nan,) * 4
 
-
-def parse_tcs2_url(url: str) -> tuple:
-    """``(pyserial URL, options)`` of a ``tcs2://`` URL.
-
-    Raises
-    ------
-    UserInputError
-        Not ``tcs2://``, no port, an unknown option or a bad value (quotes the grammar).
-    """
-    text = str(url)
-    if not text.lower().startswith("tcs2://"):
-        raise UserInputError(f"display: expected a URL of the form {URL_GRAMMAR!r}, got {text!r}")
-    rest = text[len("tcs2://"):]
-    port, _, query = rest.partition("?")
-    if not port:
-        raise UserInputError(f"display: {text!r}: expected a port after tcs2:// "
-                             f"({URL_GRAMMAR!r})")
-    opts = {"zones": (1, 2, 3, 4, 5), "start": "command", "tolerance_C": RESOLUTION_C}
-    emu = []
-    for key, values in urllib.parse.parse_qs(query, keep_blank_values=True).items():
-        value = values[-1]
-        try:
-            if key == "zones":
-                zones = tuple(sorted({int(c) for c in value}))
-                cmd.fmt_zones(zones)
-                opts["zones"] = zones
-            elif key == "start":
-                if value not in ("command", "trigger"):
-                    raise ValueError(f"expected command or trigger, got {value!r}")
-                opts["start"] = value
-            elif key == "tolerance_C":
-                v = float(value)
-                if not (math.isfinite(v) and 0 < v <= 1.0):
-                    raise ValueError(f"expected 0 < tolerance ≤ 1 °C, got {value!r}")
-                opts["tolerance_C"] = v
-            elif key in _EMU_OPTIONS and port == "emulator":
-                emu.append((key, value))
-            else:
-                raise ValueError(f"unknown option (expected one of "
-                                 f"{', '.join(_HOST_OPTIONS + (_EMU_OPTIONS if port == 'emulator' else ()))})")
-        except ValueError as exc:
-            raise UserInputError(f"display: {text!r}: {key}: {exc}") from None
-    if port == "emulator":
-        pyurl = "tcs2emu://" + ("?" + urllib.parse.urlencode(emu) if emu else "")
-        from .protocol_tcs2emu import parse_url
-        try:
-            parse_url(pyurl)
-        except serial.SerialException as exc:
-            raise UserInputError(f"display: {text!r}: {exc}") from None
-    else:
-        pyurl = port
-    return pyurl, opts
-
-
-def _is_temperature_line(line: str) -> bool:
-    try:
-        cmd.parse_temperatures(line)
-        return True
-    except ReplyError:
-        return False
 
 
 class Tcs2Display(Display, scheme="tcs2"):
@@ -167,11 +93,11 @@ class Tcs2Display(Display, scheme="tcs2"):
         self.max_C: float | None = None
         self.neutral_C: float | None = None
         self.emulated = False
-        self._compiled = None
+        self.compiled = None
         self._cache: dict = {}
-        self._profile = None              # (dt, target list) for the tracking error
+        self.tracking_profile = None              # (dt, target list) for the tracking error
         self._trial = None
-        self._script = None               # the emulated participant: (press_after_s, hold_s)
+        self.script = None               # the emulated participant: (press_after_s, hold_s)
         self.last_recording: TrialRecording | None = None
         self.trials = 0
 
@@ -239,7 +165,7 @@ class Tcs2Display(Display, scheme="tcs2"):
                            f"not using this device")
 
     def _params(self) -> dict:
-        (line,) = self.link.ask("P", skip=_is_temperature_line)
+        (line,) = self.link.ask("P", skip=cmd.is_temperature_line)
         return cmd.parse_parameters(line)
 
     def handshake(self) -> DeviceInfo:
@@ -260,13 +186,13 @@ class Tcs2Display(Display, scheme="tcs2"):
                                  f"{cmd.NEUTRAL_RANGE_C[1]:g} °C for the TCS II, got {lim.neutral_C}")
         try:
             self.link.drain()
-            (ident,) = self.link.ask("?", skip=_is_temperature_line)
+            (ident,) = self.link.ask("?", skip=cmd.is_temperature_line)
             if ident.strip() != "TCS":
                 self._refuse("'?' reply", "'TCS'", ident)
             self.link.send("A")                       # nothing running from an earlier host
             self.link.send("F")                       # no display between stimulations
             self.link.drain()
-            help_lines = self.link.ask_until_quiet("H", skip=_is_temperature_line)
+            help_lines = self.link.ask_until_quiet("H", skip=cmd.is_temperature_line)
             about = cmd.parse_help(help_lines)
             # the maximum first: no temperature is sent before the device holds it
             self.link.send(cmd.fmt_max(lim.max_C))
@@ -302,7 +228,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         return self.info
 
     def _check_errors(self, when: str) -> None:
-        (line,) = self.link.ask("Q", skip=_is_temperature_line)
+        (line,) = self.link.ask("Q", skip=cmd.is_temperature_line)
         errs = cmd.parse_errors(line)
         if any(errs):
             bad = ", ".join(("neutral" if i == 0 else f"zone {i}") + f" error {e}"
@@ -376,7 +302,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         try:
             self.link.send(text)
             self.link.send(cmd.fmt_profile_enable(self.zones))
-            back = cmd.parse_profile_lines(self.link.ask("Ur", n=5, skip=_is_temperature_line))
+            back = cmd.parse_profile_lines(self.link.ask("Ur", n=5, skip=cmd.is_temperature_line))
             sent = tuple((s.steps, s.end_dC) for s in c.segments)
             for z in range(1, cmd.ZONES + 1):
                 enabled, seg = back[z]
@@ -388,17 +314,17 @@ class Tcs2Display(Display, scheme="tcs2"):
                     raise DisplayError(f"display {self.name}: Ur: zone {z} plays a profile it "
                                        f"was not given")
         except (ReplyError, DisplayError) as exc:
-            self._compiled = None           # nothing is armed with a profile not verified ...
+            self.compiled = None           # nothing is armed with a profile not verified ...
             try:                            # ... and the device plays none (best effort)
                 self.link.send(cmd.fmt_profile_enable(()))
             except DisplayError:
                 pass
-            self._safe_abort()
+            self.safe_abort()
             raise DisplayError(str(exc)) from None
         t = np.asarray(times_s, dtype=float)
-        self._compiled = c
-        self._profile = ((t[-1] - t[0]) / (t.size - 1), [float(v) for v in np.asarray(target_C)])
-        return ProfileReceipt(points=int(t.size), step_s=self._profile[0], crc32=None, clamped=0,
+        self.compiled = c
+        self.tracking_profile = ((t[-1] - t[0]) / (t.size - 1), [float(v) for v in np.asarray(target_C)])
+        return ProfileReceipt(points=int(t.size), step_s=self.tracking_profile[0], crc32=None, clamped=0,
                               max_deviation_C=c.max_deviation_C, segments=c.count)
 
     # ------------------------------------------------------------------ trials
@@ -408,13 +334,13 @@ class Tcs2Display(Display, scheme="tcs2"):
         if mode != "playback":
             raise UserInputError(f"display {self.name}: arm.mode: expected 'playback' (the TCS II "
                                  f"has no force plate for real samples), got {mode!r}")
-        if self._compiled is None:
+        if self.compiled is None:
             raise UserInputError("display: arm: expected a profile uploaded before a playback trial")
         if not (isinstance(max_duration_s, (int, float)) and 0 < max_duration_s <= 3600):
             raise UserInputError(f"display: arm.max_duration_s: expected 0 < value ≤ 3600, got "
                                  f"{max_duration_s!r}")
         self.link.drain(0.03)               # lines left from an earlier, faulted trial
-        self._trial = _Run(self, max_duration_s)
+        self._trial = TcsTrial(self, max_duration_s)
 
     def sim_finger(self, press_after_s: float = 0.3, force_N: float = 2.0, hold_s: float = 20.0,
                    skin_thickness_m: float = 650e-6, skin_temperature_C: float = 35.5) -> dict:
@@ -424,7 +350,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         if not self.emulated:
             raise DisplayError("display: sim commands need the emulator; this is a TCS II "
                                f"({self.info.firmware if self.info else '?'})")
-        self._script = (float(press_after_s), float(hold_s))
+        self.script = (float(press_after_s), float(hold_s))
         return {"start_s": float(press_after_s)}
 
     def sim_sample(self, *args, **kwargs) -> dict:
@@ -453,7 +379,7 @@ class Tcs2Display(Display, scheme="tcs2"):
 
     def _finish(self, run) -> TrialRecording:
         self._trial = None
-        self._script = None
+        self.script = None
         self.trials += 1
         rec = run.recording()
         self.last_recording = rec
@@ -465,7 +391,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         if self._trial is not None and not self._trial.done:
             self._trial.end("aborted")
 
-    def _safe_abort(self) -> None:
+    def safe_abort(self) -> None:
         """``A`` until the device shows it is listening (it answers ``?``), then ``A`` once
         more: an abort sent while the device was not listening is not lost. Never raises."""
         for _ in range(ABORT_ATTEMPTS):
@@ -489,18 +415,18 @@ class Tcs2Display(Display, scheme="tcs2"):
         zone = float(np.mean([temps[z] for z in self.zones]))
         return Status("IDLE" if self._trial is None else "ARMED", None, self.link.clock(),
                       self.neutral_C, zone, temps[0], math.nan, math.nan, _NAN4, self.neutral_C,
-                      0 if self._profile is None else len(self._profile[1]), None, 0, 0,
+                      0 if self.tracking_profile is None else len(self.tracking_profile[1]), None, 0, 0,
                       self.trials, 0)
 
     def heartbeat(self) -> float:
         """One ``?`` round trip; return the host's clock (the TCS II has no clock of its own)."""
-        self.link.ask("?", skip=_is_temperature_line)
+        self.link.ask("?", skip=cmd.is_temperature_line)
         return self.link.clock()
 
     def is_awake(self) -> bool:
         """Whether the device answers ``?`` (never raises)."""
         try:
-            return self.link.ask("?", skip=_is_temperature_line, timeout_s=0.3) == ["TCS"]
+            return self.link.ask("?", skip=cmd.is_temperature_line, timeout_s=0.3) == ["TCS"]
         except DisplayError:
             return False
 
@@ -508,243 +434,8 @@ class Tcs2Display(Display, scheme="tcs2"):
         """Abort to neutral (best effort) and close the port."""
         if self.port.is_open:
             if not self.link.lost:
-                self._safe_abort()
+                self.safe_abort()
             try:
                 self.port.close()
             except Exception:
                 pass
-
-
-class _Run:
-    """One armed trial: start, stream, poll ``Q``, end, judge (see the module docstring)."""
-
-    def __init__(self, disp: Tcs2Display, max_duration_s: float):
-        self.d = disp
-        c = disp._compiled
-        self.duration_s = min(c.duration_s, max_duration_s)
-        self.cut = max_duration_s < c.duration_s - 1e-9
-        self.checked = False           # Q asked before the start
-        self.knots = (c.start_C, c.segments)
-        self.tr = TrialInProgress("playback", disp._profile)
-        self.armed_at = disp.link.clock()
-        self.started_at = None        # when L was sent / the trigger pulsed
-        self.contact_s = None
-        self.last_line_at = None
-        self.next_q = None
-        self.q_pending = 0
-        self.frames = 0
-        self.done = False
-        self.end_reason = None
-        self.fault = None
-        self.deadline = None
-
-    @property
-    def script(self):
-        """The emulated participant's (press_after_s, hold_s), set after arming, or None."""
-        return self.d._script
-
-    def attach(self, on_telemetry, on_event) -> None:
-        if on_telemetry is not None and self.tr.callback is None:
-            for fr in self.tr.pending:
-                on_telemetry(fr)
-            self.tr.pending, self.tr.callback = [], on_telemetry
-        if on_event is not None:
-            self.tr.on_event = on_event
-
-    def end(self, reason: str, fault=None) -> None:
-        if self.done:
-            return
-        self.done = True
-        self.end_reason = reason
-        if fault is not None:
-            self.fault = fault
-            self.d._safe_abort()
-        now = self.d.link.clock()
-        self.tr.event(DeviceEvent("END", now, {"complete": 0, "released": 1, "max_duration": 2,
-                                               "aborted": 3}.get(reason, 4),
-                                  fault[0] if fault else ""))
-
-    def pump(self, timeout_s, wait: bool = True) -> None:
-        """Advance the trial: start it when due, read lines, poll Q, end it."""
-        link = self.d.link
-        try:
-            now = link.clock()
-            if self.deadline is None and timeout_s is not None:
-                self.deadline = now + timeout_s
-            if self.started_at is None:
-                press = self.script[0] if self.script else 0.0
-                if now - self.armed_at < press:
-                    link.line(min(0.01, press - (now - self.armed_at))) if wait else None
-                    return
-                self._start()
-                return
-            lines = [link.line(0.01)] if wait else link.poll_lines()
-            for line in lines:
-                if line is None:
-                    continue
-                self._line(line)
-                if self.done:
-                    return
-            self._timers(link.clock())
-        except ReplyError as exc:
-            self.end("fault", ("BAD_REPLY", str(exc)))
-        except DisplayTimeout as exc:
-            self.end("fault", ("LINK_TIMEOUT", str(exc)))
-        except DisplayError as exc:
-            self.end("fault", ("LINK_LOST", str(exc)))
-
-    def _start(self) -> None:
-        link = self.d.link
-        # the probe must rest at the profile's start (the neutral temperature) before it plays:
-        # asked by Oe, within 0.2 °C on every stimulating zone, for up to READY_S
-        if not self.checked:               # a zone still in error from before: say so now
-            (line,) = link.ask("Q", skip=_is_temperature_line)
-            errs = cmd.parse_errors(line)
-            if any(errs):
-                self._zone_fault(errs)
-                return
-            self.checked = True
-        (line,) = link.ask("Oe", skip=None)
-        temps = cmd.parse_temperatures(line)
-        start_C = self.knots[0]
-        if any(abs(temps[z] - start_C) > READY_TOLERANCE_C for z in self.d.zones):
-            if link.clock() - self.armed_at > READY_S:
-                self.end("fault", ("NOT_READY", f"the probe did not reach {start_C:g} °C within "
-                                   f"{READY_S:g} s (zones at "
-                                   f"{', '.join(f'{temps[z]:.2f}' for z in self.d.zones)} °C)"))
-            else:
-                link.line(0.05)           # let it settle (and the clock run)
-            return
-        if self.d.start == "trigger":
-            if self.script is not None:
-                link.send("#T")        # the emulator's trigger input, pulsed by the script
-        else:
-            link.send("L")
-        self.started_at = link.clock()
-
-    def _timers(self, now: float) -> None:
-        if self.contact_s is None:
-            wait = (self.deadline - self.started_at) if self.d.start == "trigger" else SILENCE_S
-            if self.deadline is not None and now > self.deadline:
-                wait = 0.0
-            if now - self.started_at > wait:
-                if self.d.start == "trigger":
-                    self.end("aborted")      # nobody triggered: no contact, run it again
-                else:
-                    self.end("fault", ("LINK_TIMEOUT", f"no temperatures within {SILENCE_S:g} s "
-                                       f"of L: the device is silent"))
-            return
-        played = self.frames * STEP_S          # device time, from the 100 Hz lines
-        if self.script is not None and self.script[1] < self.duration_s and played >= self.script[1]:
-            self.d.link.send("A")          # the participant answered and stopped it
-            self.end("released")
-            return
-        if now >= self.next_q:
-            if self.q_pending:
-                self.end("fault", ("LINK_TIMEOUT", "no reply to Q during the stimulation"))
-                return
-            self.d.link.send("Q")
-            self.q_pending += 1
-            self.next_q = now + Q_EVERY_S
-        if now - self.last_line_at > SILENCE_S:
-            # the stream stopped: at the profile's end (lines lost on the way are counted),
-            # or before it (the device fell silent)
-            if played >= END_FRACTION * self.duration_s and not self.d.link.partial:
-                self._confirm_end()
-            elif self.d.link.partial:
-                self.end("fault", ("HALF_LINE", f"a line cut off ({self.d.link.partial[:20]!r}) "
-                                   f"and {SILENCE_S:g} s of silence, {played:.2f} s into the profile"))
-            else:
-                self.end("fault", ("LINK_TIMEOUT", f"the device fell silent {played:.2f} s into a "
-                                   f"{self.duration_s:g} s profile"))
-
-    def _confirm_end(self) -> None:
-        """The stream stopped at the profile's end: the device must answer Q without error."""
-        link = self.d.link
-        link.send("Q")
-        end = link.clock() + 0.5
-        while link.clock() < end:
-            line = link.line(0.05)
-            if line is None:
-                continue
-            if _is_temperature_line(line):
-                continue
-            errs = cmd.parse_errors(line)
-            if self.q_pending:
-                self.q_pending -= 1
-                if any(errs):
-                    self._zone_fault(errs)
-                    return
-                continue
-            if any(errs):
-                self._zone_fault(errs)
-            else:
-                self.end("complete")
-            return
-        self.end("fault", ("LINK_TIMEOUT", "no reply to Q after the profile"))
-
-    def _zone_fault(self, errs) -> None:
-        bad = ", ".join(("neutral" if i == 0 else f"zone {i}") + f" error {e}"
-                        for i, e in enumerate(errs) if e)
-        self.end("fault", ("ZONE_ERROR", f"Q: {bad}"))
-
-    def _line(self, line: str) -> None:
-        now = self.d.link.clock()
-        try:
-            temps = cmd.parse_temperatures(line)
-        except ReplyError:
-            temps = None
-        if temps is None:
-            try:
-                errs = cmd.parse_errors(line)
-            except ReplyError:
-                raise ReplyError(f"display {self.d.name}: expected a temperature line or a Q "
-                                 f"reply during the stimulation, got {line[:40]!r}") from None
-            self.q_pending = max(0, self.q_pending - 1)
-            if any(errs):
-                self._zone_fault(errs)
-            return
-        if self.contact_s is None:
-            if self.started_at is None:
-                return                  # the display between stimulations (muted; stale)
-            self.contact_s = now
-            self.next_q = now + Q_EVERY_S
-            self.tr.event(DeviceEvent("CONTACT", now, 0, "stimulus start"))
-        self.frames += 1
-        self.last_line_at = now
-        t_rel = (self.frames - 1) * STEP_S
-        t = self.contact_s + t_rel
-        start_C, segs = self.knots
-        sp = float(segments_to_samples(start_C, segs, [t_rel])[0])
-        zone = float(np.mean([temps[z] for z in self.d.zones]))
-        self.tr.telemetry(Telemetry(self.frames, t, sp, zone, temps[0], math.nan, _NAN4,
-                                    "PLAYING", None))
-        if self.frames * STEP_S >= self.duration_s - 1e-9:
-            self.last_line_at = now
-            if self.cut:                  # the trial's maximum duration, before the profile's end
-                self.d.link.send("A")
-                self.end("max_duration")
-            else:                         # the last expected line: the end is confirmed by Q
-                self._confirm_end()
-
-    def recording(self) -> TrialRecording:
-        tr = self.tr
-        played = self.frames * STEP_S
-        if self.end_reason in ("complete", "max_duration"):
-            expected = int(round(self.duration_s / STEP_S))
-        elif self.contact_s is not None and self.last_line_at is not None:
-            expected = self.frames
-        else:
-            expected = 0
-        lost = max(0, expected - self.frames)
-        rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
-        mx = tr.max_err if tr.n_track else float("nan")
-        status, code, msg = "ok", None, None
-        if self.fault is not None:
-            status, (code, msg) = "fault", self.fault
-        elif self.end_reason == "aborted":
-            status = "aborted"
-        elif expected and lost > 0.01 * expected:
-            status, code, msg = "fault", "TELEMETRY_LOSS", f"{lost} of {expected} lines lost"
-        return TrialRecording(status, code, msg, self.contact_s, self.frames, lost, rms, mx,
-                              "playback", self.end_reason, played if self.contact_s else 0.0, 0)

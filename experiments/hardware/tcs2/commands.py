@@ -17,7 +17,7 @@ from experiments.errors import DisplayError
 
 __all__ = ["ZONES", "NEUTRAL_RANGE_C", "SETPOINT_RANGE_C", "fmt_neutral", "fmt_max",
            "fmt_zones", "fmt_temperature", "fmt_speed", "fmt_duration", "fmt_profile",
-           "fmt_profile_enable", "parse_temperatures", "parse_errors", "parse_parameters",
+           "fmt_profile_enable", "parse_temperatures", "is_temperature_line", "parse_errors", "parse_parameters",
            "parse_profile_lines", "parse_help", "ReplyError"]
 
 #: Number of stimulation zones (areas) of the probe.
@@ -121,6 +121,11 @@ def parse_temperatures(line: str) -> tuple:
         raise ReplyError(f"TCS II: expected six temperatures joined by '+', got {line!r}")
     fields = text.lstrip("+").split("+")
     return tuple(int(f) / (10.0 if len(f) == 3 else 100.0) for f in fields)
+
+
+def is_temperature_line(line: str) -> bool:
+    """Whether ``line`` is a temperature line (``E``, ``Oe``, the display of temperatures)."""
+    return bool(_TEMPS.match(line.strip()))
 
 
 def parse_errors(line: str) -> tuple:

@@ -94,7 +94,7 @@ def test_upload_is_read_back_and_reports_its_error():
     try:
         r = d.upload_profile(T, Y)
         assert r.segments == 3 and r.max_deviation_C <= 0.1 + 1e-9 and r.points == 501
-        assert d.port.device.profile[1] == tuple((s.steps, s.end_dC) for s in d._compiled.segments)
+        assert d.port.device.profile[1] == tuple((s.steps, s.end_dC) for s in d.compiled.segments)
     finally:
         d.close()
 
