@@ -46,8 +46,8 @@ import zlib
 import numpy as np
 import serial
 
-from experiments.errors import (DisplayError, DisplayRestarted, DisplayTimeout, SafetyLimitError,
-                                UserInputError)
+from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
+                                SafetyLimitError, UserInputError)
 
 from . import messages as m
 from .framing import FrameParser
@@ -455,13 +455,16 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     tr.fault = st.last_fault or "FAULT"
                     tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
                                     f"its event was lost on the link")
+            except DisplayLinkLost as exc:
+                host_fault = ("LINK_LOST", str(exc))
             except DisplayError as exc:
                 host_fault = ("LINK_TIMEOUT", str(exc))
         if tr.fault is not None:
             status, code, msg = "fault", tr.fault, tr.fault_msg or f"device fault {tr.fault}"
         elif host_fault is not None:
             status, code, msg = "fault", host_fault[0], host_fault[1]
-            self._safe_abort()
+            if self._link_error is None:
+                self._safe_abort()     # (a lost port takes nothing more: the watchdog acts)
         elif tr.end_reason == "aborted":
             status = "aborted"
         else:
@@ -569,7 +572,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                         break
             except (serial.SerialException, OSError) as exc:
                 self._link_error = exc
-                raise DisplayError(f"display: link lost while reading: {exc}") from exc
+                raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
             self._heartbeat_if_due()
         return tr is not None and tr.ended
 
