@@ -36,6 +36,7 @@ import threading
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from experiments.atomicfile import atomic_file
 from experiments.errors import SessionError
 from experiments.logformat import (  # noqa: F401 - re-exported for the writer's users
     COLUMN_DECIMALS,
@@ -173,21 +174,10 @@ def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8") -> N
     text : str
     encoding : str
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", encoding=encoding, newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            tmp.unlink()
-        except FileNotFoundError:
-            pass
-        raise
-    fsync_dir(path.parent)
+    # one helper for every whole-file write (experiments.atomicfile); this module's fsync and
+    # fsync_dir, so that durability off (set_durable) skips them here too
+    with atomic_file(path, encoding=encoding, fsync=fsync, fsync_dir=fsync_dir) as fh:
+        fh.write(text)
 
 
 def atomic_write_json(path: str | Path, obj: Any, indent: int = 2) -> None:
