@@ -355,6 +355,7 @@ class SessionFolder:
     log_hash: str = ""
     notes: list = field(default_factory=list)
     raw_events: bytes | None = None
+    _rows: tuple | None = field(default=None, repr=False)
 
     @property
     def samples(self) -> list[int] | None:
@@ -369,7 +370,13 @@ class SessionFolder:
 
     def trial_rows(self) -> tuple[list[dict], str, list[int]]:
         """``(rows, source file name, line of each row)``: ``trials.csv``'s rows, or the log's
-        when the table is missing or lacks trials the log has (then ``"events.jsonl"``)."""
+        when the table is missing or lacks trials the log has (then ``"events.jsonl"``).
+        Read once; what was damaged is added to ``notes``."""
+        if self._rows is None:
+            self._rows = self._read_rows()
+        return self._rows
+
+    def _read_rows(self) -> tuple[list[dict], str, list[int]]:
         csv_rows: list[dict] = []
         csv_lines: list[int] = []
         if self.trials_csv is not None:
