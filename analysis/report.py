@@ -11,6 +11,8 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from experiments.atomicfile import atomic_file
+
 from .confusion import confusion_matrices
 from .errors import LogError
 from .figures import plot_confusion, plot_figure9
@@ -79,6 +81,12 @@ class AnalysisResult:
     missing: pd.DataFrame = field(default_factory=pd.DataFrame)
     extras: dict = field(default_factory=dict)
     glmm_slope: ModelFit | None = None
+
+
+def _write_text(path: Path, text: str) -> None:
+    """A text output, whole or not at all (:func:`experiments.atomicfile.atomic_file`)."""
+    with atomic_file(path) as fh:
+        fh.write(text)
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> Path:
@@ -157,7 +165,7 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
 def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed: int = 20261122,
             bayes: bool = False, mixed: bool = True,
             progress: Callable[[str], None] | None = None,
-            sessions: str = "first") -> AnalysisResult:
+            sessions: str = "first", before_write: Callable | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -191,6 +199,11 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     sessions : {"first", "latest", "all"}
         Inclusion policy (:func:`analysis.load.load_trials`): each participant's first complete
         session (default), the latest complete one, or every session.
+    before_write : callable, optional
+        Called once, with no argument, just before the first output is written (the command
+        line's :meth:`experiments.atomicfile.OutputFolder.begin`: a refused or failed analysis
+        leaves an earlier run's outputs as they were). Every output is written whole
+        (temporary file, then renamed over the old one).
 
     Returns
     -------
@@ -265,6 +278,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                                                                       "path"])}
     summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests)
     say(f"writing figures and tables to {out}")
+    if before_write is not None:
+        before_write()
     files = {
         "figure9": plot_figure9(proportions, out / "figure9.png"),
         "confusion_png": plot_confusion(confusion, out / "confusion.png"),
@@ -290,23 +305,23 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         files["bayes"] = _write_csv(bfit.table, out / "bayes.csv")
     if glmm.formula is not None:
         files["glmm_convergence"] = out / "glmm_convergence.json"
-        files["glmm_convergence"].write_text(json.dumps(
+        _write_text(files["glmm_convergence"], json.dumps(
             {**glmm.result, "formula": glmm.formula, "notes": glmm.notes,
              "random_slope_model": {**(slope.result or {}), "formula": slope.formula,
-                                    "notes": slope.notes}}, indent=2), "utf-8")
+                                    "notes": slope.notes}}, indent=2))
     book = codebook(files)
     files["codebook"] = out / "codebook.json"
-    files["codebook"].write_text(json.dumps(book, indent=2, ensure_ascii=False), "utf-8")
+    _write_text(files["codebook"], json.dumps(book, indent=2, ensure_ascii=False))
     files["settings"] = out / "settings.json"
-    files["settings"].write_text(json.dumps(run_settings(
+    _write_text(files["settings"], json.dumps(run_settings(
         data_dir=str(data_dir), out_dir=str(out), n_boot=n_boot, level=level, seed=seed,
         mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
         requested_formula=FORMULA, glmm_method=(glmm.result or {}).get("method"),
         primary_test="GEE Wald z of the A-B log odds ratio averaged over samples, real mode",
         multiplicity="Holm over the per-sample A-B tests (both modes)",
-        undocumented_columns=check_codebook(book)), indent=2), "utf-8")
+        undocumented_columns=check_codebook(book)), indent=2))
     result = AnalysisResult(log, proportions, participants, confusion, gee, bfit, contrasts,
                             summary, files, glmm, tests, chance, missing, extras, slope)
     files["report"] = out / "report.md"
-    files["report"].write_text(report_markdown(result, data_dir, n_boot, level, seed), "utf-8")
+    _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
     return result

@@ -177,12 +177,13 @@ class OutputFolder:
             sync_folder(self.path)
         except FileNotFoundError:
             pass
+        import time
         for stale in self.path.rglob(".*.tmp*"):
-            if stale.is_file() and f".{os.getpid()}." not in stale.name:
-                try:
+            try:       # another process's file being written now is younger than a minute
+                if stale.is_file() and stale.stat().st_mtime < time.time() - 60:
                     stale.unlink()
-                except OSError:
-                    pass
+            except OSError:
+                pass
         return self.path
 
     def finish(self, files: Iterable | None = None) -> Path:
