@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.atomicfile import atomic_path
+from experiments.atomicfile import output_path
 
 __all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]
@@ -190,7 +190,7 @@ COLUMNS = {
 
 def write_csv(df: pd.DataFrame, path: Path) -> Path:
     """Write a machine table at full precision (no rounding), whole or not at all."""
-    with atomic_path(path) as tmp:
+    with output_path(path) as tmp:
         df.to_csv(tmp, index=False)
     return path
 

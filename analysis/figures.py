@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.atomicfile import atomic_path
+from experiments.atomicfile import output_path
 from stimuli.paper import SAMPLE_NAMES
 
 __all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
@@ -97,7 +97,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
 
 def _save(fig, path: Path, **options) -> None:
     """``fig.savefig(path)``, whole or not at all (a temporary file renamed over ``path``)."""
-    with atomic_path(path) as tmp:
+    with output_path(path) as tmp:
         fig.savefig(tmp, **options)
 
 

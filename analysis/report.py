@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
-from experiments.atomicfile import atomic_file
+from experiments.atomicfile import output_file
 
 from .confusion import confusion_matrices
 from .errors import LogError
@@ -84,8 +84,8 @@ class AnalysisResult:
 
 
 def _write_text(path: Path, text: str) -> None:
-    """A text output, whole or not at all (:func:`experiments.atomicfile.atomic_file`)."""
-    with atomic_file(path) as fh:
+    """A text output, whole or not at all (:func:`experiments.atomicfile.output_file`)."""
+    with output_file(path) as fh:
         fh.write(text)
 
 

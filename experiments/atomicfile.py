@@ -10,6 +10,9 @@ and ``reproduce`` (:mod:`analysis` may import this module: it is not the experim
   folder fsynced. A reader sees the old file or the new one, never a part of one. A failure
   (disk full, file too large, read-only) removes the temporary file and raises an ``OSError``
   whose ``filename`` is the target, so the command line names it in one line.
+* :func:`output_file` / :func:`output_path`: the same for a command's outputs, without an fsync
+  per file (an output is recomputed, not a record; on the machine that runs the suite an fsync
+  costs ~70 ms): :meth:`OutputFolder.finish` flushes them once (``sync``) before ``COMPLETE``.
 * :class:`OutputFolder`: a folder of outputs holds ``COMPLETE`` (a JSON manifest: the command,
   the files and their sizes) only once every file of the run is in place. :meth:`~OutputFolder.begin`
   removes an old ``COMPLETE`` (and temporary files a killed run left) before the first file is
@@ -25,8 +28,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["atomic_file", "atomic_path", "sync_folder", "OutputFolder", "COMPLETE_NAME",
-           "named_os_error"]
+__all__ = ["atomic_file", "atomic_path", "output_file", "output_path", "sync_folder",
+           "OutputFolder", "COMPLETE_NAME", "named_os_error"]
 
 #: The file that marks a folder of outputs complete (written last).
 COMPLETE_NAME = "COMPLETE"
@@ -145,6 +148,17 @@ def atomic_file(path, mode: str = "w", *, encoding: str | None = "utf-8", newlin
         fsync_dir(path.parent)
 
 
+def output_path(path):
+    """:func:`atomic_path` for a command's outputs: whole or not at all, without an fsync per
+    file (:meth:`OutputFolder.finish` flushes them all once before ``COMPLETE``)."""
+    return atomic_path(path, fsync=None, fsync_dir=None)
+
+
+def output_file(path, mode: str = "w"):
+    """:func:`atomic_file` for a command's outputs (see :func:`output_path`)."""
+    return atomic_file(path, mode, fsync=None, fsync_dir=None)
+
+
 class OutputFolder:
     """A folder of a command's outputs, marked complete only when every file is in place.
 
@@ -201,6 +215,7 @@ class OutputFolder:
             except ValueError:
                 rel = str(p)
             listed[rel] = p.stat().st_size
+        os.sync()           # the outputs (written without an fsync each) on disk before COMPLETE
         manifest = {"command": self.command,
                     "finished_at": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                     "files": listed}

@@ -92,7 +92,7 @@ def run(ns) -> int:
     from experiments.calibration.model import (DEFAULT_SENSOR_HEAT_CAPACITY,
                                                DEFAULT_SENSOR_SKIN_RESISTANCE)
     from experiments.calibration.errors import CalibrationError
-    from experiments.atomicfile import OutputFolder, atomic_file
+    from experiments.atomicfile import OutputFolder, output_file
     from experiments.cli.paths import check_writable_dir
 
     check_writable_dir(ns.out, "--out")      # before the fit (minutes), nothing written
@@ -137,7 +137,7 @@ def run(ns) -> int:
         folder.begin()
         for name in REPORT_FILES:          # no stale report from an earlier run next to a refusal
             (out / name).unlink(missing_ok=True)
-        with atomic_file(out / "refusal.json") as fh:
+        with output_file(out / "refusal.json") as fh:
             json.dump({"session": str(ns.session_dir), "setup": setup.describe(),
                        "reasons": list(exc.reasons), "diagnostics": exc.diagnostics}, fh, indent=2,
                       default=str)

@@ -128,17 +128,17 @@ def _run(ns) -> int:
                          cells_scale=scale, missing_rate=ns.missing_rate, seed=ns.seed,
                          progress=progress)
     from analysis.exports import codebook, write_csv
-    from experiments.atomicfile import OutputFolder, atomic_file
+    from experiments.atomicfile import OutputFolder, output_file
 
     folder = OutputFolder(ns.out, "thermocue power")
     out = folder.begin()                # every file whole (temporary + rename), COMPLETE last
     write_csv(result.table, out / "power.csv")
     write_csv(result.cells, out / "cells.csv")
-    with atomic_file(out / "power_summary.json") as fh:
+    with output_file(out / "power_summary.json") as fh:
         fh.write(json.dumps(
             {**result.settings, "cells_source": source, "n_per_group_grid": [
                 list(s) if isinstance(s, tuple) else s for s in sizes]}, indent=2))
-    with atomic_file(out / "codebook.json") as fh:
+    with output_file(out / "codebook.json") as fh:
         fh.write(json.dumps(codebook({"power": out / "power.csv", "cells": out / "cells.csv"}),
                             indent=2, ensure_ascii=False))
     plot_power(result, out / "power.png")
