@@ -104,16 +104,21 @@ def make_sessions(folder: Path) -> Path:
 def _files(session: Path) -> list[Path]:
     names = [session / n for n in ("session.json", "events.jsonl", "trials.csv")]
     traces = sorted((session / "traces").glob("*.csv")) if (session / "traces").is_dir() else []
-    return [p for p in names if p.is_file()] + traces[:2]
+    small = lambda p: p.is_file() and p.stat().st_size < (10 << 20)   # noqa: E731 - not "huge"
+    return [p for p in names + traces[:1] if small(p)]
 
 
 def _set_cell(path: Path, rng: random.Random, column: str, value: str) -> str:
-    with open(path, newline="", encoding="utf-8") as fh:
-        rows = list(csv.reader(fh))
-    if column not in rows[0] or len(rows) < 2:
+    if path.stat().st_size > (10 << 20):
+        return "not a table (huge)"
+    with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+        rows = [r for r in csv.reader(fh) if r]
+    if len(rows) < 2 or column not in rows[0] or "response_id" not in rows[0]:
         return "no such column"
-    j = rows[0].index(column)
-    answered = [i for i in range(1, len(rows)) if rows[i][rows[0].index("response_id")]]
+    j, k = rows[0].index(column), rows[0].index("response_id")
+    answered = [i for i in range(1, len(rows)) if len(rows[i]) > max(j, k) and rows[i][k]]
+    if not answered:
+        return "no answered row"
     i = rng.choice(answered or list(range(1, len(rows))))
     if value == "flip":
         value = "0" if rows[i][j] == "1" else "1"
@@ -122,6 +127,16 @@ def _set_cell(path: Path, rng: random.Random, column: str, value: str) -> str:
     csv.writer(buf, lineterminator="\n").writerows(rows)
     path.write_text(buf.getvalue(), encoding="utf-8")
     return f"line {i + 1}"
+
+
+def _copy_any(src, dst) -> None:
+    """Copy a file; a FIFO or socket (damage already applied) becomes a FIFO."""
+    import stat
+    mode = os.lstat(src).st_mode
+    if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+        os.mkfifo(dst)
+    else:
+        shutil.copy2(src, dst)
 
 
 def damage(data: Path, rng: random.Random) -> list[str]:
@@ -164,7 +179,7 @@ def damage(data: Path, rng: random.Random) -> list[str]:
         target.write_bytes(b"".join(lines))
     elif kind == "copy_folder":
         name = rng.choice([f"{session.parent.name} copy", "backup", "P03"])
-        shutil.copytree(session.parent, data / name, symlinks=True)
+        shutil.copytree(session.parent, data / name, symlinks=True, copy_function=_copy_any)
         rel = Path(name)
     elif kind == "swap_meta":
         other = next((s for s in sessions if s != session), None)
@@ -214,7 +229,7 @@ def damage(data: Path, rng: random.Random) -> list[str]:
         return [f"{kind} {column}={value!r} ({where}) in {session.relative_to(data)}/trials.csv"]
     elif kind == "bad_event_value":
         path = session / "events.jsonl"
-        if not path.is_file():
+        if not path.is_file() or path.stat().st_size > (10 << 20):
             return [f"{kind}: no events.jsonl in {session.relative_to(data)}"]
         column, value = rng.choice(BAD_CELLS)
         out = []
@@ -338,7 +353,7 @@ def classify(cmd: str, case: Path, data: Path, out: Path, how: str, status, stdo
 def _prepare(i: int, work: Path, base: Path, rng: random.Random) -> tuple:
     case = work / f"case-{i:04d}"
     data = case / "data"
-    shutil.copytree(base, data, symlinks=True)
+    shutil.copytree(base, data, symlinks=True, copy_function=_copy_any)
     done = []
     for _ in range(rng.choice((1, 1, 1, 2, 3))):
         done += damage(data, rng)

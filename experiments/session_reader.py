@@ -152,8 +152,8 @@ def check_text(raw: bytes, path) -> bytes:
         if raw.startswith(bom):
             raise SessionFileError(f"{path}: encoding: expected UTF-8 text, got {name} (byte-order "
                                    f"mark at byte 0); save it as UTF-8")
-    head = raw[:256]
-    if len(head) >= 4 and head.count(0) * 3 >= len(head) and head.rstrip(b"\x00"):
+    head = raw.rstrip(b"\x00")[:256]        # (a power cut's zero fill is not text)
+    if len(head) >= 4 and head.count(0) * 3 >= len(head):
         at = head.index(0)
         raise SessionFileError(f"{path}: encoding: expected UTF-8 text, got UTF-16 or UTF-32 "
                                f"without a byte-order mark (NUL byte at byte {at + offset}); "
