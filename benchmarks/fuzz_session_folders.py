@@ -253,8 +253,12 @@ def damage(data: Path, rng: random.Random) -> list[str]:
 
 
 # --------------------------------------------------------------------------- runs
-def run_forked(args: list[str], out: Path, timeout_s: float) -> tuple[str, int | None, str, str]:
-    """Run ``thermocue ARGS`` in a forked child; ``(how, status, stdout, stderr)``."""
+def run_forked(args: list[str], out: Path, timeout_s: float,
+               fsize: int | None = None) -> tuple[str, int | None, str, str]:
+    """Run ``thermocue ARGS`` in a forked child; ``(how, status, stdout, stderr)``.
+
+    ``how`` is ``"exit"`` or ``"hang"`` (killed after ``timeout_s``); ``fsize``: the child's
+    RLIMIT_FSIZE in bytes (SIGXFSZ ignored, so a write past it fails with EFBIG)."""
     from experiments.cli import main
     out.mkdir(parents=True, exist_ok=True)
     so, se = out / "stdout.txt", out / "stderr.txt"
@@ -270,6 +274,10 @@ def run_forked(args: list[str], out: Path, timeout_s: float) -> tuple[str, int |
             sys.stdout = io.TextIOWrapper(os.fdopen(1, "wb", closefd=False), line_buffering=True)
             sys.stderr = io.TextIOWrapper(os.fdopen(2, "wb", closefd=False), line_buffering=True)
             signal.signal(signal.SIGINT, signal.SIG_DFL)
+            if fsize is not None:
+                import resource
+                signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+                resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
             status = main(args)
         except SystemExit as exc:
             status = exc.code if isinstance(exc.code, int) else 2
