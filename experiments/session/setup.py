@@ -120,7 +120,7 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     return _Profile(prof, params, temperature)
 
 
-def _protocol_source(protocol) -> str:
+def protocol_source(protocol) -> str:
     """How messages name a protocol: its file (a packaged one by its name), else its name."""
     from experiments.protocol import PROTOCOLS_DIR
     if protocol.path is None:
@@ -174,7 +174,7 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware.safety import check_profile, profile_max_rate
 
-    src = source or _protocol_source(protocol)
+    src = source or protocol_source(protocol)
     keys = sorted({(s.roughness_id, s.roughness_um) for s in schedule if s.mode == "simulated"})
     if not keys:
         return {}
@@ -251,7 +251,7 @@ def _check_backend(protocol, caps, scheme: str, source: str) -> None:
                 f"another display, or use a protocol without it")
 
 
-def _check_capacity(protocol, profiles: dict, display, source: str) -> None:
+def check_capacity(protocol, profiles: dict, display, source: str) -> None:
     """The profiles against an open display's capacity (``info.max_points``, ``info.min_dt_s``)."""
     from experiments.errors import ProtocolError
     caps = getattr(display, "capabilities", None)
@@ -306,7 +306,7 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware.registry import backend_for
 
-    src = source or _protocol_source(protocol)
+    src = source or protocol_source(protocol)
     try:
         backend = backend_for(url)
     except UserInputError as exc:
