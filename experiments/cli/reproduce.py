@@ -89,14 +89,21 @@ def _run(ns) -> int:
                                      f"with `reproduce {ns.target}`")
     # figure9 makes its folder itself, once every option has been checked
     out = _out_dir(ns.out, create=ns.target != "figure9")
+    from experiments.atomicfile import OutputFolder
+    folder = OutputFolder(out, f"thermocue reproduce {ns.target}")   # COMPLETE written last
     if ns.target == "figures":
         from experiments.reproduction.model_figures import write_figures
-        for path in write_figures(out):
+        folder.begin()
+        written = write_figures(out)
+        folder.finish(written)
+        for path in written:
             print(path)
         return 0
     if ns.target == "table2":
         from experiments.reproduction.table2 import write_table2
+        folder.begin()
         csv_path, md_path, md = write_table2(out)
+        folder.finish([csv_path, md_path])
         print(md)
         print(csv_path)
         print(md_path)
@@ -104,9 +111,12 @@ def _run(ns) -> int:
     # figure9: the simulated cohort (experiments/simulation/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
     from experiments.simulation.figure9.reproduction import run_reproduction
+    if out.is_dir():          # an earlier run's COMPLETE goes first (the study makes the folder)
+        folder.begin()
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
                      observer=ns.observer, n_studies=400 if ns.studies is None else ns.studies,
                      pool_size=100 if ns.pool_size is None else ns.pool_size,
                      responder_options=responder_options(ns.responder_option))
+    folder.finish()
     return 0
