@@ -132,7 +132,10 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
 
     def end_session(self) -> None:
         if self.win is not None:
-            self._log_off()
+            try:
+                self._clear()     # the last text (the goodbye) up its minimum, then a blank frame
+            except Exception:     # closing must not fail on a window already gone
+                self._log_off()
             try:
                 self.win.close()
             finally:
@@ -157,15 +160,37 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             return 0.0
         return shown.instructions_min_s if state == "instructions" else shown.text_min_s
 
+    def _left_s(self) -> float:
+        """How long the text on screen must stay up yet (its state's minimum from its first
+        flip), s; 0 when there is none."""
+        if self._on is None:
+            return 0.0
+        return self._on[2] + self._min_s(self._on[0]) - self._core.getTime()
+
+    def _hold(self) -> None:
+        """Wait until the text on screen has been up its minimum (``core.wait`` never returns
+        early: it sleeps, then spins on ``core.getTime``)."""
+        left = self._left_s()
+        if left > 0:
+            self._core.wait(left, hogCPUperiod=0)
+
     def _show(self, state: str, text: str, wait: bool = True) -> None:
         """Replace the text on screen by ``text`` once the old one has been up its minimum
-        (``wait=False``: at once, e.g. the question replacing the cue at contact)."""
+        (``wait=False``: the caller has checked :meth:`_left_s` itself, e.g. in the telemetry
+        loop, which must not block)."""
         if wait and self._on is not None and self._on[0] != state:
-            left = self._on[2] + self._min_s(self._on[0]) - self._core.getTime()
-            if left > 0:
-                self._core.wait(left, hogCPUperiod=0)
+            self._hold()
         self._state, self._main_text = state, text
         self._draw()
+
+    def _clear(self) -> None:
+        """Take the text down (after its minimum): a blank frame, logged as its ``text_off``."""
+        if self._on is None:
+            return
+        self._hold()
+        self._state, self._main_text = "", ""
+        t = self.win.flip()
+        self._log_off(float(t) if t is not None else self._core.getTime())
 
     def _draw(self) -> float:
         """Draw the current text and flip; log a new text's first frame; return the flip time."""
@@ -271,9 +296,10 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         """A countdown in the window (escape still ends the session); none on a virtual clock."""
         if seconds <= 0:
             return
-        end = time.monotonic() + seconds
+        self._show("rewarm", f"Rewarm your finger on the hot-water bag\n\n{seconds:.0f} s")
+        end = self._on[2] + seconds
         self.kb.clearEvents()
-        while (left := end - time.monotonic()) > 0:
+        while (left := end - self._core.getTime()) > 0:
             self._state = "rewarm"
             self._main_text = f"Rewarm your finger on the hot-water bag\n\n{left:.0f} s"
             self._draw()
@@ -292,12 +318,25 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
     def begin_answer(self, trial) -> None:
         """The question from the moment of contact (the trace is still being recorded)."""
         self._early = None
-        self._ask(wait=False)      # runs in the telemetry loop: never wait here
         self._asked = trial.trial_index
-        self.log("awaiting_key", keys=[str(i) for i in RESPONSE_IDS], during_contact=True)
+        self._pending = True       # up as soon as the cue has been up its minimum
+        self._ask_when_due()
+
+    def _ask_when_due(self) -> bool:
+        """Put the pending question up if the cue has been up its minimum (never waits: runs
+        in the telemetry loop); True once it is up."""
+        if getattr(self, "_pending", False):
+            if self._left_s() > 0:
+                return False
+            self._pending = False
+            self._ask(wait=False)
+            self.log("awaiting_key", keys=[str(i) for i in RESPONSE_IDS], during_contact=True)
+        return True
 
     def poll_answer(self, trial):
         if getattr(self, "_asked", None) != trial.trial_index:
+            return None
+        if not self._ask_when_due():
             return None
         if getattr(self, "_early", None) is None:
             keys = [str(i) for i in RESPONSE_IDS]
@@ -313,6 +352,9 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         asked, self._asked = getattr(self, "_asked", None) == trial.trial_index, None
         if early is not None:
             return early
+        if asked and getattr(self, "_pending", False):   # contact ended before the cue's minimum
+            self._pending = False
+            asked = False
         if not asked:
             self._ask()
         key = self._wait([str(i) for i in RESPONSE_IDS])
