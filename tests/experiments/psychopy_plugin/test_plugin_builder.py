@@ -61,11 +61,57 @@ def _compile_demo(tmp_path, env):
     (tmp_path / "participants" / "examples").mkdir(parents=True)
     shutil.copy(P01, tmp_path / "participants" / "examples" / "P01.json")
     script = work / "thermal_cue_demo.py"
-    out = subprocess.run([sys.executable, "-m", "experiments.psychopy_plugin.compile",
+    out = subprocess.run([sys.executable, "-m", "experiments", "psyexp", "compile",
                           str(work / "thermal_cue_demo.psyexp"), "-o", str(script)],
                          env=env, capture_output=True, text=True, timeout=180)
     assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == str(script)
     return work, script
+
+
+def test_the_demo_is_what_psychopys_experiment_api_saves(tmp_path, xvfb):
+    """docs/examples/thermal_cue_demo.psyexp is written by make_thermal_cue_demo.py through
+    PsychoPy's Experiment API (``saveToXML``), byte for byte."""
+    out = tmp_path / "demo.psyexp"
+    run = subprocess.run([sys.executable, str(EXAMPLES / "make_thermal_cue_demo.py"), str(out)],
+                         env=gui_env(xvfb), capture_output=True, text=True, timeout=180)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert out.read_bytes() == (EXAMPLES / "thermal_cue_demo.psyexp").read_bytes()
+
+
+def test_psychopys_own_compiler_gives_a_script_that_stops_at_once_with_the_fix(tmp_path, xvfb):
+    """``python -m psychopy.scripts.psyexpCompile`` (no plugins activated) leaves the component
+    out; the script it writes stops on its first lines (plugins.activatePlugins) with one line
+    naming the fix, not with a NameError once the window is open; the fix then works."""
+    env = gui_env(xvfb)
+    work = tmp_path / "exp"
+    work.mkdir()
+    for name in ("thermal_cue_demo.psyexp", "conditions.csv"):
+        shutil.copy(EXAMPLES / name, work / name)
+    script = work / "thermal_cue_demo.py"
+    out = subprocess.run([sys.executable, "-m", "psychopy.scripts.psyexpCompile",
+                          str(work / "thermal_cue_demo.psyexp"), "-o", str(script)],
+                         env=env, capture_output=True, text=True, timeout=180, cwd=work)
+    assert out.returncode == 0, out.stderr[-2000:]
+    code = script.read_text(encoding="utf-8-sig")
+    assert "# Unknown component ignored: thermal" in code          # PsychoPy's own behaviour
+    run = subprocess.run([sys.executable, str(script)], cwd=work, env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 1
+    last = run.stderr.strip().splitlines()[-1]
+    assert last == (f"thermocue: {script}: compiled without the thermocue plugin: PsychoPy left out "
+                    "the Thermal cue component(s) 'thermal' (python -m psychopy.scripts.psyexpCompile "
+                    "does not activate plugins); compile it with `thermocue psyexp compile "
+                    f"{work / 'thermal_cue_demo.psyexp'}` (or from the Builder app), then run it again")
+    assert "NameError" not in run.stderr and "Traceback" not in run.stderr
+    assert not (work / "data").exists()               # stopped before the experiment began
+    # The fix it names: the same experiment compiled with the plugin has the component.
+    fixed = subprocess.run([sys.executable, "-m", "experiments", "psyexp", "compile",
+                            str(work / "thermal_cue_demo.psyexp")], env=env, capture_output=True,
+                           text=True, timeout=180)
+    assert fixed.returncode == 0, fixed.stderr[-2000:]
+    code = script.read_text(encoding="utf-8-sig")
+    assert "Unknown component" not in code and "thermal.start(routineTimer)" in code
 
 
 @pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
