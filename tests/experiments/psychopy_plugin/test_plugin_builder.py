@@ -145,7 +145,12 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
     for r in rows:
         # answered while the profile played: the routine's end put the display to neutral
         assert (r["thermal.status"], r["thermal.end_reason"]) == ("aborted", "aborted")
-        assert r["thermal.fault_code"] in ("", "None")      # PsychoPy writes None as text
+        assert r["thermal.fault_code"] == "" and r["thermal.fault_message"] == ""   # never "None"
+        assert "None" not in {v for k, v in r.items() if k.startswith("thermal.")}
+        assert r["thermal.clock_status"] == "mapped"
+        # durations from one clock: the contact lasted no longer than the routine after it
+        assert float(r["thermal.contact_duration_s"]) <= \
+            float(r["trial.stopped"]) - float(r["trial.started"]) - float(r["thermal.contact_routine_s"]) + 0.05
         armed, contact = float(r["thermal.armed_routine_s"]), float(r["thermal.contact_routine_s"])
         assert 0 <= armed < contact < float(r["trial.stopped"]) - float(r["trial.started"])
         assert float(r["thermal.contact_force_N"]) >= 2.0
