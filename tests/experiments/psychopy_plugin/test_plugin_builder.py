@@ -142,23 +142,34 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
     with open(data_file, newline="", encoding="utf-8-sig") as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["sample"], r["answer.keys"]) for r in rows] == [("1", "1"), ("3", "3")]
+    # The emulator gives up time it was starved of beyond MAX_CATCH_UP_TICKS ticks (a host so
+    # loaded that its loop slept that long): its clock then no longer keeps real time, and the
+    # map must say so rather than give a number.
+    from experiments.hardware.device import TICK_US
+    from experiments.hardware.emulator_core import MAX_CATCH_UP_TICKS
+    lost_time = read_log(log)[-1]["max_late_ms"] >= MAX_CATCH_UP_TICKS * TICK_US * 1e-3
     for r in rows:
+        assert r["thermal.clock_status"] == "mapped" or (
+            lost_time and r["thermal.clock_status"].startswith("unmapped: ")), r["thermal.clock_status"]
         # answered while the profile played: the routine's end put the display to neutral
         assert (r["thermal.status"], r["thermal.end_reason"]) == ("aborted", "aborted")
         assert r["thermal.fault_code"] == "" and r["thermal.fault_message"] == ""   # never "None"
         assert "None" not in {v for k, v in r.items() if k.startswith("thermal.")}
-        assert r["thermal.clock_status"] == "mapped"
-        # durations from one clock: the contact lasted no longer than the routine after it
-        assert float(r["thermal.contact_duration_s"]) <= \
-            float(r["trial.stopped"]) - float(r["trial.started"]) - float(r["thermal.contact_routine_s"]) + 0.05
-        armed, contact = float(r["thermal.armed_routine_s"]), float(r["thermal.contact_routine_s"])
-        assert 0 <= armed < contact < float(r["trial.stopped"]) - float(r["trial.started"])
         assert float(r["thermal.contact_force_N"]) >= 2.0
         assert float(r["thermal.tracking_rms_C"]) < 0.1
         assert int(r["thermal.frames"]) > 30
-        assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert r["thermal.profile_source"].startswith("protocol:roughness_recognition sample")
+        assert float(r["thermal.contact_duration_device_s"]) > 0.2
+        if r["thermal.clock_status"] != "mapped":
+            assert r["thermal.contact_routine_s"] == r["thermal.contact_duration_s"] == ""
+            continue
+        armed, contact = float(r["thermal.armed_routine_s"]), float(r["thermal.contact_routine_s"])
+        assert 0 <= armed < contact < float(r["trial.stopped"]) - float(r["trial.started"])
+        assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert float(r["thermal.contact_duration_s"]) > 0.2
+        # durations from one clock: the contact lasted no longer than the routine after it
+        assert float(r["thermal.contact_duration_s"]) <= \
+            float(r["trial.stopped"]) - float(r["trial.started"]) - contact + 0.05
 
     # --- the emulator's own record
     records = read_log(log)
