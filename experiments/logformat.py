@@ -155,7 +155,7 @@ COLUMN_DECIMALS = {
     "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3, "contact_force_N": 2,
 }
 
-#: Columns every trial row must have for analysis (DESIGN.md, docs/internal-contracts.md
+#: Columns every trial row must have for analysis (docs/design.md, docs/internal-contracts.md
 #: "Trials table"); all of them are in :data:`TRIAL_COLUMNS`.
 REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "mode",
                     "roughness_id", "response_id", "correct", "status")

@@ -29,6 +29,7 @@ SUBCOMMANDS = {
     "run": "run",
     "resume": "resume",
     "emulator": "emulator",
+    "displays": "displays",
     "analyze": "analyze",
     "reproduce": "reproduce",
     "bench": "bench",

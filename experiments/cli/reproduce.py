@@ -1,8 +1,8 @@
 """`thermocue reproduce {figure9,table2,figures} --out DIR`: the paper's results, recomputed.
 
 * ``figures``: Figs. 3, 4a, 4b, 5, 6 as PNG + CSV, each with the paper's formulas as
-  printed, corrected, and the exact solution side by side (:mod:`analysis.model_figures`).
-* ``table2``: Table 2 beside our models, with residuals (:mod:`analysis.table2`); the
+  printed, corrected, and the exact solution side by side (:mod:`experiments.reproduction.model_figures`).
+* ``table2``: Table 2 beside our models, with residuals (:mod:`experiments.reproduction.table2`); the
   markdown table is also printed.
 * ``figure9``: the paper's claims under every (replay hypothesis x observer) scenario from
   many simulated 15 + 15 studies, then the 30-participant study on the emulated display for the
@@ -90,12 +90,12 @@ def _run(ns) -> int:
     # figure9 makes its folder itself, once every option has been checked
     out = _out_dir(ns.out, create=ns.target != "figure9")
     if ns.target == "figures":
-        from analysis.model_figures import write_figures
+        from experiments.reproduction.model_figures import write_figures
         for path in write_figures(out):
             print(path)
         return 0
     if ns.target == "table2":
-        from analysis.table2 import write_table2
+        from experiments.reproduction.table2 import write_table2
         csv_path, md_path, md = write_table2(out)
         print(md)
         print(csv_path)

@@ -1,4 +1,7 @@
-"""The thermal display: serial protocol, pyserial driver, and a device emulator.
+"""The thermal display: the backend registry, the serial protocol, its driver, and emulators.
+
+Displays are opened only through :func:`open_display` (:mod:`.registry`), which picks the
+backend by the URL's scheme; every backend is a :class:`Display` (:mod:`.display_base`).
 
 Importing this package registers it with pyserial, so ``serial.serial_for_url("emulator://")``
 opens the in-process emulator (:mod:`experiments.hardware.protocol_emulator`). The protocol is
@@ -19,10 +22,13 @@ if "experiments.hardware" not in _serial.protocol_handler_packages:
 _EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "messages", "DeviceEvent": "messages",
             "Status": "messages", "Telemetry": "messages", "ContactEvent": "trial_recording",
             "TrialRecording": "trial_recording", "ThermalDisplay": "driver",
-            "open_display": "driver"}
+            "EmulatorDisplay": "driver", "open_display": "registry", "backends": "registry",
+            "backend_for": "registry", "Display": "display_base", "EmulatedDisplay": "display_base",
+            "Capabilities": "display_base", "ProfileReceipt": "display_base"}
 
-__all__ = ["open_display", "ThermalDisplay", "SafetyLimits", "Telemetry", "ContactEvent",
-           "TrialRecording", "DeviceInfo", "DeviceEvent", "Status"]
+__all__ = ["open_display", "backends", "backend_for", "Display", "EmulatedDisplay", "Capabilities",
+           "ProfileReceipt", "ThermalDisplay", "EmulatorDisplay", "SafetyLimits", "Telemetry",
+           "ContactEvent", "TrialRecording", "DeviceInfo", "DeviceEvent", "Status"]
 
 
 def __getattr__(name: str):

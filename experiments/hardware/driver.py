@@ -52,20 +52,24 @@ from experiments.errors import (DisplayError, DisplayRestarted, DisplayTimeout, 
 from . import messages as m
 from .framing import FrameParser
 from .link import ProtocolLink
+from .display_base import Capabilities, EmulatedDisplay, ProfileReceipt
+from .handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from .safety import SafetyLimits, check_profile
-from .trial_recording import (_ACTIVE, _END_NAMES, ContactEvent, TrialRecording, _not_delivered,
-                              _Trial)
+from .trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
+                              TrialInProgress)
 
-__all__ = ["ThermalDisplay", "open_display", "TrialRecording", "ContactEvent"]
+__all__ = ["ThermalDisplay", "EmulatorDisplay", "TrialRecording", "ContactEvent"]
 
 CHUNK = 512                    # samples per upload chunk
 
 
-class ThermalDisplay(ProtocolLink):
-    """A Peltier thermal display (or its emulator) on an open pyserial port.
+class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
+    """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
 
-    Use :func:`open_display`, which also does the handshake and starts the heartbeat.
+    The display backend for a serial device path (``/dev/ttyUSB0``, a pty) and pyserial URLs.
+    Open it with :func:`experiments.hardware.open_display` (or :meth:`open`), which also does
+    the handshake and starts the heartbeat.
 
     Parameters
     ----------
@@ -93,6 +97,9 @@ class ThermalDisplay(ProtocolLink):
         Longest wall-time gap between frames this process wrote itself (commands, heartbeats
         of the I/O loop and of the thread): how long the host's own threads were held off.
     """
+
+    description = "thermocue display protocol (reference firmware, or any device speaking it)"
+    url_grammar = "/dev/ttyUSB0 | COM3 | PTY_PATH | pyserial URL"
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
                  retries: int = 3, heartbeat_s: float = 0.01, max_frame_loss: float = 0.01,
@@ -131,7 +138,7 @@ class ThermalDisplay(ProtocolLink):
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
-        self._trial: _Trial | None = None
+        self._trial: TrialInProgress | None = None
         self._profile = None
         self._hb_thread = None
         self._hb_stop = threading.Event()
@@ -139,6 +146,77 @@ class ThermalDisplay(ProtocolLink):
         self._restart: str | None = None       # why we think the device restarted
         self.last_recording: TrialRecording | None = None
         self.last_contact: ContactEvent | None = None
+
+    # ------------------------------------------------------------------ backend
+    @classmethod
+    def open(cls, url: str, limits: SafetyLimits | None = None, **options) -> "ThermalDisplay":
+        """Open ``url`` with pyserial, shake hands, start the heartbeat.
+
+        Parameters
+        ----------
+        url : str
+            A device path (``/dev/ttyUSB0``), a pty path, ``emulator://[?...]`` or another
+            pyserial URL.
+        limits : SafetyLimits, optional
+        **options
+            ``baudrate`` (default 115200) and the keyword arguments of :class:`ThermalDisplay`.
+
+        Raises
+        ------
+        DisplayError
+            If the port cannot be opened or the device does not answer the handshake, or answers
+            it with numbers the host refuses (:class:`~.handshake.HandshakeRefused`).
+        """
+        baud = options.pop("baudrate", 115200)
+        try:
+            port = serial.serial_for_url(url, baudrate=baud, timeout=0.01, write_timeout=1.0)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
+        disp = cls(port, limits, **options)
+        try:
+            disp.handshake()
+        except BaseException:
+            try:
+                port.close()
+            except Exception:
+                pass
+            raise
+        disp.start_heartbeat()
+        return disp
+
+    @classmethod
+    def declared_capabilities(cls) -> Capabilities:
+        """The protocol's ranges (a device declares its own at the handshake)."""
+        from .handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
+                                PROTOCOL_MIN_C, PROTOCOL_MIN_DT_S)
+        return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
+                            max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,
+                            safe_range_C=(PROTOCOL_MIN_C, PROTOCOL_MAX_SETPOINT_C),
+                            max_rate_C_per_s=PROTOCOL_MAX_RATE_C_PER_S,
+                            modes=("playback", "record"), scripted_bench=False,
+                            notes="numbers as the protocol allows them; the device states its own "
+                                  "at the handshake")
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """What the opened device declared at the handshake (before it: the protocol's ranges)."""
+        info = self.info
+        if info is None:
+            return self.declared_capabilities()
+        modes = tuple(md for md in ("playback", "record") if md in info.capabilities)
+        return Capabilities(contact_detection="force", force_sensing=True,
+                            telemetry_hz=float(info.telemetry_hz), max_profile_points=info.max_points,
+                            min_profile_step_s=info.min_dt_s,
+                            safe_range_C=(info.hard_min_C, info.hard_max_C),
+                            max_rate_C_per_s=info.max_rate_C_per_s,
+                            modes=modes or ("playback", "record"),
+                            scripted_bench="sim" in info.capabilities,
+                            notes=f"{info.device_id}, {info.firmware}")
+
+    @property
+    def port_name(self) -> str:
+        """The port's path or URL, for messages."""
+        return str(getattr(self.port, "port", None) or getattr(self.port, "name", None) or "?")
 
     # ------------------------------------------------------------------ session set-up
     def handshake(self) -> DeviceInfo:
@@ -149,12 +227,8 @@ class ThermalDisplay(ProtocolLink):
             pass
         self._parser.reset()
         p = self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
-        (ver, hz, hmin, hmax, rate, neutral, wd, npts, mindt,
-         boot) = m.HELLO_REPLY_HEAD.unpack_from(p)
-        dev_id, fw, caps = m.decode_strings(p[m.HELLO_REPLY_HEAD.size:], 3)
-        self.info = DeviceInfo(dev_id, fw, tuple(c for c in caps.split(",") if c), ver, hz,
-                               hmin / 100, hmax / 100, rate / 100, neutral / 100, wd, npts,
-                               mindt * 1e-6, boot)
+        self.info = decode_hello(p, self.port_name)
+        rate = int(round(self.info.max_rate_C_per_s * 100))
         self._restart = None
         self._dev_time = 0.0
         lim = self.limits
@@ -190,7 +264,7 @@ class ThermalDisplay(ProtocolLink):
                                f"not hold")
         return held / 100
 
-    def upload_profile(self, times_s, target_C) -> CommitAck:
+    def upload_profile(self, times_s, target_C) -> ProfileReceipt:
         """Check, upload in CRC-verified chunks, and commit a target profile.
 
         Parameters
@@ -230,8 +304,10 @@ class ThermalDisplay(ProtocolLink):
             self._safe_abort()
             raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
                                    f"its own range; refusing to play it")
-        self._profile = (dt, (q.astype(float) / 100.0).tolist())
-        return ack
+        held = q.astype(float) / 100.0
+        self._profile = (dt, held.tolist())
+        return ProfileReceipt(points=ack.points, step_s=dt, crc32=ack.crc32, clamped=ack.clamped,
+                              max_deviation_C=float(np.max(np.abs(held - y))), segments=None)
 
     def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
             max_duration_s: float = 20.0) -> None:
@@ -251,7 +327,7 @@ class ThermalDisplay(ProtocolLink):
         self._check_link()
         md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
         with self._lock:
-            self._trial = _Trial(mode, self._profile if mode == "playback" else None)
+            self._trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
             self._trial.bad0 = self._parser.bad_frames
             try:
                 p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),
@@ -305,7 +381,7 @@ class ThermalDisplay(ProtocolLink):
                     if now - tr.last_frame_clock > silent_s:
                         st = self.status()        # telemetry silent: is the device there at all?
                         tr.last_frame_clock = self._clock()
-                        if st.state not in _ACTIVE:
+                        if st.state not in ACTIVE_STATES:
                             tr.ended = True
                             if st.state == "FAULT" and tr.fault is None:
                                 tr.fault = st.last_fault or "FAULT"
@@ -320,7 +396,7 @@ class ThermalDisplay(ProtocolLink):
                              if rec.contact_time_s is not None else None)
         return rec
 
-    def _finish(self, tr: _Trial, host_fault) -> TrialRecording:
+    def _finish(self, tr: TrialInProgress, host_fault) -> TrialRecording:
         status, code, msg = "ok", None, None
         st = None
         if host_fault is None:
@@ -333,8 +409,8 @@ class ThermalDisplay(ProtocolLink):
                 if st.contact_time_s is not None:
                     tr.contact_s = st.contact_time_s
                     tr.active_seen = True
-                if st.state not in _ACTIVE:
-                    tr.end_reason = _END_NAMES.get(st.end_reason, str(st.end_reason))
+                if st.state not in ACTIVE_STATES:
+                    tr.end_reason = END_NAMES.get(st.end_reason, str(st.end_reason))
                 if st.state == "FAULT" and tr.fault is None:
                     tr.fault = st.last_fault or "FAULT"
                 elif tr.end_reason == "fault" and tr.fault is None:
@@ -352,7 +428,7 @@ class ThermalDisplay(ProtocolLink):
         elif tr.end_reason == "aborted":
             status = "aborted"
         else:
-            why = _not_delivered(st, tr)
+            why = not_delivered(st, tr)
             if why is not None:
                 status, code, msg = "fault", "NOT_DELIVERED", why
                 self._safe_abort()
@@ -508,35 +584,30 @@ class ThermalDisplay(ProtocolLink):
         return False
 
 
-def open_display(url: str, limits: SafetyLimits | None = None, **options) -> ThermalDisplay:
-    """Open a display by pyserial URL, shake hands, start the heartbeat.
+class EmulatorDisplay(ThermalDisplay, scheme="emulator"):
+    """The Python emulator of the thermocue display, in-process (``emulator://[?...]``).
 
-    Parameters
-    ----------
-    url : str
-        A device path (``/dev/ttyUSB0``), a pty path, or ``emulator://[?...]``.
-    limits : SafetyLimits, optional
-    **options
-        ``baudrate`` (default 115200) and the keyword arguments of :class:`ThermalDisplay`.
-
-    Raises
-    ------
-    DisplayError
-        If the port cannot be opened or the device does not answer the handshake.
+    The fast, fault-injecting model of the device (:mod:`.protocol_emulator`): virtual or real
+    clock, link faults, a scripted bench (``sim_sample``, ``sim_finger``).
     """
-    baud = options.pop("baudrate", 115200)
-    try:
-        port = serial.serial_for_url(url, baudrate=baud, timeout=0.01, write_timeout=1.0)
-    except (serial.SerialException, OSError, ValueError) as exc:
-        raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
-    disp = ThermalDisplay(port, limits, **options)
-    try:
-        disp.handshake()
-    except BaseException:
+
+    description = "the Python emulator of the thermocue display, in this process"
+    url_grammar = "emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=ID]"
+
+    @classmethod
+    def check_url(cls, url: str) -> None:
+        from .protocol_emulator import parse_url
         try:
-            port.close()
-        except Exception:
-            pass
-        raise
-    disp.start_heartbeat()
-    return disp
+            parse_url(url)
+        except serial.SerialException as exc:
+            raise UserInputError(str(exc)) from None
+
+    @classmethod
+    def declared_capabilities(cls) -> Capabilities:
+        from . import device_constants as dc
+        return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
+                            max_profile_points=dc.MAX_POINTS, min_profile_step_s=dc.MIN_DT_US * 1e-6,
+                            safe_range_C=(dc.HARD_MIN_C, dc.SETPOINT_MAX_C),
+                            max_rate_C_per_s=dc.HARD_RATE_C_PER_S, modes=("playback", "record"),
+                            scripted_bench=True,
+                            notes="fault injection (faults=SPEC), virtual clock (clock=virtual)")

@@ -19,7 +19,7 @@ __all__ = [
     "centi", "from_centi", "error_name",
     "HELLO_REQ", "CLEAR_FAULT_MAGIC", "HELLO_REPLY_HEAD", "TIME", "CENTI", "LIMITS", "UPLOAD_BEGIN", "UPLOAD_CHUNK_HEAD",
     "UPLOAD_CHUNK_ACK", "COMMIT", "COMMIT_ACK", "ARM", "COUNTER", "STATUS_REPLY", "TELEMETRY", "EVENT_HEAD",
-    "NAK_HEAD", "encode_strings", "decode_strings", "encode_json", "decode_json",
+    "NAK_HEAD", "encode_strings", "encode_json", "decode_json",
 ]
 
 PROTOCOL_VERSION = 2      # 2: frames carry a CRC-8 of their header (docs/display-protocol.md §1)
@@ -153,15 +153,6 @@ def encode_strings(*items: str) -> bytes:
         out.append(len(b))
         out += b
     return bytes(out)
-
-
-def decode_strings(data: bytes, n: int) -> list[str]:
-    out, pos = [], 0
-    for _ in range(n):
-        ln = data[pos]
-        out.append(data[pos + 1:pos + 1 + ln].decode("utf-8", "replace"))
-        pos += 1 + ln
-    return out
 
 
 def encode_json(obj) -> bytes:

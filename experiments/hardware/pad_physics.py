@@ -44,10 +44,6 @@ __all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "FingerScript
            "CONTACT_AREA_M2", "finger_pad_resistance"]
 
 _dot = np.dot
-try:
-    from ._tick import NormalStream as _NormalStream
-except ImportError:                     # the compiled tick is not built (compiled_tick.py)
-    _NormalStream = None
 #: Contact area of the fingertip, m² (paper: 2 N on 135 mm²).
 CONTACT_AREA_M2 = 135e-6
 #: Heat transfer coefficient of the finger to room air, W/(m² K).
@@ -59,12 +55,9 @@ def normal_stream(seed: int, n: int = 65536):
     """An endless iterator of standard normal numbers (a seeded block of ``n``, cycled).
 
     ``next()`` on it costs a few tens of nanoseconds, against a microsecond for
-    ``random.gauss``: the emulator draws seven numbers per 10 ms tick. With the compiled tick
-    built (:mod:`.compiled_tick`) it is its ``NormalStream``, whose position the compiled tick
-    reads and advances; else ``itertools.cycle``. Both give the same numbers.
+    ``random.gauss``: the emulator draws seven numbers per 10 ms tick.
     """
-    values = np.random.default_rng(seed).standard_normal(n).tolist()
-    return itertools.cycle(values) if _NormalStream is None else _NormalStream(values)
+    return itertools.cycle(np.random.default_rng(seed).standard_normal(n).tolist())
 
 
 @dataclass(frozen=True)

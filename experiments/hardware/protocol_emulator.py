@@ -29,7 +29,6 @@ import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
 
-from . import compiled_tick
 from .device import TICK_US, Device
 from .emulator_core import EmulatorCore, JsonLog
 from .faults import parse_faults
@@ -290,8 +289,6 @@ class Serial(SerialBase):
         same order, but the device hands them over without encoding them and the host takes
         them without parsing: with nothing on the line to drop, corrupt or delay, the bytes
         would only be built and taken apart again. The driver's I/O loop uses it when offered.
-        The ticks are the compiled ones when built (:mod:`.compiled_tick`: the same doubles,
-        ``Device.step`` for any tick that changes the device's state).
 
         Returns
         -------
@@ -310,9 +307,6 @@ class Serial(SerialBase):
         with self._cond:
             frames = dev.direct = []
             try:
-                if compiled_tick.enabled and size > _NEVER_SHORT:
-                    compiled_tick.read_ticks(dev, frames, budget)     # the same ticks, compiled
-                    return frames
                 step = dev.step
                 for _ in range(budget):
                     step()

@@ -14,12 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from experiments.errors import ProtocolError
-from experiments.protocol.hashing import _canonical
+from experiments.protocol.hashing import canonical_json
 from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MAX_WAIT_S, SKIN_SAFE_MAX_C,
                                          SKIN_SAFE_MIN_C)
 from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
 from experiments.protocol.limits import WAIT_WHY as _WAIT_WHY
-from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
+from experiments.protocol.model import (DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
+                                        BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
                                         ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_TARGET_SIDES,
                                         SIM_THICKNESS, Block, ContactSettings, DisplaySettings,
                                         Environment, Presentation, Protocol, Sample, SampleMaterial,
@@ -97,7 +98,7 @@ def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
     return tuple(out)
 
 
-def _build(source: str, data: Any, path: Path | None) -> Protocol:
+def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
     top = _Table(source, data, "")
     p = top.table("protocol")
     name = p.string("name")
@@ -218,6 +219,14 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
         )
         pr.done()
 
+    analysis = AnalysisSettings()
+    an = top.table("analysis", required=False)
+    if an is not None:
+        analysis = AnalysisSettings(equivalence_margin_pp=an.number(
+            "equivalence_margin_pp", DEFAULT_EQUIVALENCE_MARGIN_PP, gt=0, lt=50,
+            why="percentage points of proportion correct"))
+        an.done()
+
     blocks = _read_blocks(top, samples)
     n_trials = sum(b.n_trials for b in blocks)
     if n_trials > MAX_TRIALS:
@@ -230,11 +239,12 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
                                     f"blocks[{i}] is simulated, got nothing")
     top.done()
 
-    canonical = _canonical(data)
+    canonical = canonical_json(data)
     return Protocol(name=name, title=title, description=description, experiment=experiment,
                     version=version, samples=samples, environment=env, material=mat,
                     contact=contact, display=display, grouping=grouping, simulation=simulation,
                     block_order=block_order, blocks=blocks, presentation=presentation,
+                    analysis=analysis,
                     hash=hashlib.sha256(canonical).hexdigest(), path=path,
                     data=copy.deepcopy(dict(data)))
 

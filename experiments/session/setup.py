@@ -120,7 +120,7 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     return _Profile(prof, params, temperature)
 
 
-def _protocol_source(protocol) -> str:
+def protocol_source(protocol) -> str:
     """How messages name a protocol: its file (a packaged one by its name), else its name."""
     from experiments.protocol import PROTOCOLS_DIR
     if protocol.path is None:
@@ -174,7 +174,7 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware.safety import check_profile, profile_max_rate
 
-    src = source or _protocol_source(protocol)
+    src = source or protocol_source(protocol)
     keys = sorted({(s.roughness_id, s.roughness_um) for s in schedule if s.mode == "simulated"})
     if not keys:
         return {}
@@ -234,9 +234,29 @@ def _range_message(src, protocol, lo, hi) -> str:
             f"({lo:.2f} to {hi:.2f} °C), got {getattr(disp, field)!r}")
 
 
-def _check_capacity(protocol, profiles: dict, display, source: str) -> None:
+def _check_backend(protocol, caps, scheme: str, source: str) -> None:
+    """Refuse a display backend that cannot run the protocol's trials (before opening it).
+
+    Real trials need the ``record`` mode (a sample on a force plate, its thermometer recorded);
+    simulated trials need ``playback``.
+    """
+    from experiments.errors import ProtocolError
+    needed = {"real": "record", "simulated": "playback"}
+    for i, block in enumerate(protocol.blocks):
+        mode = needed.get(getattr(block, "mode", None))
+        if mode is not None and mode not in caps.modes:
+            raise ProtocolError(
+                f"{source}: blocks[{i}].mode: the display backend {scheme}:// cannot run "
+                f"{block.mode!r} trials (it offers {', '.join(caps.modes)}); run this block on "
+                f"another display, or use a protocol without it")
+
+
+def check_capacity(protocol, profiles: dict, display, source: str) -> None:
     """The profiles against an open display's capacity (``info.max_points``, ``info.min_dt_s``)."""
     from experiments.errors import ProtocolError
+    caps = getattr(display, "capabilities", None)
+    if caps is not None and hasattr(caps, "modes"):
+        _check_backend(protocol, caps, getattr(display, "scheme", None) or "this", source)
     info = getattr(display, "info", None)
     if info is None or not profiles:
         return
@@ -284,19 +304,21 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
     from experiments.errors import ProtocolError, SafetyLimitError
-    from experiments.hardware import open_display
+    from experiments.hardware.registry import backend_for
 
-    src = source or _protocol_source(protocol)
-    if url.startswith("emulator:"):
-        from serial import SerialException
-
-        from experiments.hardware.protocol_emulator import parse_url
-        try:
-            parse_url(url)
-        except SerialException as exc:
-            raise UserInputError(f"{option}: expected a display URL, got {url!r}: {exc}") from None
+    src = source or protocol_source(protocol)
     try:
-        return open_display(url, limits=protocol.display.safety_limits())
+        backend = backend_for(url)
+    except UserInputError as exc:
+        raise UserInputError(f"{option}: expected a display URL or a serial device path, got "
+                             f"{url!r} ({str(exc).split('; ', 1)[-1]})") from None
+    try:
+        backend.check_url(url)
+    except UserInputError as exc:
+        raise UserInputError(f"{option}: expected a display URL, got {url!r}: {exc}") from None
+    _check_backend(protocol, backend.declared_capabilities(), backend.scheme, src)
+    try:
+        return backend.open(url, limits=protocol.display.safety_limits())
     except SafetyLimitError as exc:
         text = str(exc).split(": ", 2)[-1] if str(exc).startswith("display: limits: ") else str(exc)
         raise ProtocolError(f"{src}: display.min_C, display.max_C: {text}") from None

@@ -161,7 +161,7 @@ class Info:
 
 @dataclass
 class ScriptedDisplay:
-    """Follows the driver's contract (:class:`experiments.session.display.EmulatedDisplay`,
+    """Follows the driver's contract (:class:`experiments.hardware.display_base.EmulatedDisplay`,
     frames and recordings of the driver's own types); ``script`` says per run_trial call what happens:
     ``"ok"``, ``"fault"`` (faulted recording), ``"raise"`` (DisplayError), ``"timeout"``
     (DisplayTimeout) or ``"no_contact"``."""

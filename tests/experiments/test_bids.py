@@ -1,5 +1,5 @@
 """BIDS export checked by the reference validator (npm ``bids-validator``, installed by
-scripts/setup), not by hand-written rules (issue 10, item 8)."""
+scripts/setup), not by hand-written rules."""
 from __future__ import annotations
 
 import csv

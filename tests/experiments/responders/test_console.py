@@ -39,7 +39,7 @@ def test_prompt_waits_for_enter():
     r.prompt_experimenter("place sample 2#")
     assert stdin.tell() == 1                       # exactly the confirmation line was read
     # The console is the participant's terminal: the sample to place is the experimenter's
-    # (the session prints it on stderr), never printed here (issue 10: it leaked the answer).
+    # (the session prints it on stderr), never printed here (it leaked the answer).
     assert out.getvalue() == "Please wait (experimenter: press Enter when ready)\n"
 
 

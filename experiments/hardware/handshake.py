@@ -1,0 +1,121 @@
+"""What the host accepts in a device's HELLO reply, and why (``docs/display-protocol.md`` §3, §6).
+
+The host's safety argument rests on numbers the device declares: the watchdog that returns the
+pad to neutral when the host falls silent, the device's own setpoint range and rate (its second
+layer of limits), and the telemetry rate from which the host tells a delivered trial and measures
+the tracking error. A device that declares numbers outside what the argument needs is refused at
+the handshake, with one line naming the port and the field; a reply too short or malformed to
+decode is refused the same way, never with a ``struct.error``.
+
+Bounds (the spec's, not the emulator's):
+
+========================  ============  ===========================================================
+field                     accepted      why
+========================  ============  ===========================================================
+``version``               2             the frame format (a header CRC) of this host
+``watchdog_ms``           50 … 90       ≤ 90: timeout + one 10 ms tick ≤ 100 ms to neutral;
+                                        ≥ 50: at least 5 of the host's 10 ms heartbeats fit in it
+``telemetry_hz``          50 … 250      ≥ 50: contact time and tracking error to ≤ 20 ms;
+                                        ≤ 250: 39-byte frames within 115200 baud (≤ 295 Hz)
+``hard_min_C``            ≥ 10.0        the protocol's coldest setpoint
+``hard_max_C``            ≤ 44.5        the protocol's highest setpoint, below the 45 °C trip
+``max_rate_C_per_s``      0 < r ≤ 100   the protocol's largest setpoint step (1 °C a 10 ms tick)
+``neutral_C``             in range      within the device's own range
+``max_points``            ≥ 2           an upload needs two samples
+``min_dt_s``              ≥ 0.001       the protocol's smallest profile step
+========================  ============  ===========================================================
+"""
+from __future__ import annotations
+
+import struct
+
+from experiments.errors import DisplayError
+
+from . import messages as m
+from .messages import DeviceInfo
+
+__all__ = ["HandshakeRefused", "decode_hello", "WATCHDOG_MS_RANGE", "TELEMETRY_HZ_RANGE",
+           "PROTOCOL_MIN_C", "PROTOCOL_MAX_SETPOINT_C", "PROTOCOL_MAX_RATE_C_PER_S"]
+
+WATCHDOG_MS_RANGE = (50, 90)
+TELEMETRY_HZ_RANGE = (50, 250)
+PROTOCOL_MIN_C = 10.0
+PROTOCOL_MAX_SETPOINT_C = 44.5
+PROTOCOL_MAX_RATE_C_PER_S = 100.0
+PROTOCOL_MIN_DT_S = 1e-3
+
+
+class HandshakeRefused(DisplayError):
+    """The device's HELLO reply is malformed or declares what the host's safety cannot accept."""
+
+
+def decode_hello(payload: bytes, port: str) -> DeviceInfo:
+    """Decode and check a HELLO reply.
+
+    Parameters
+    ----------
+    payload : bytes
+        The ACK's payload.
+    port : str
+        The port's name, for messages.
+
+    Returns
+    -------
+    DeviceInfo
+
+    Raises
+    ------
+    HandshakeRefused
+        One line: ``display {port}: HELLO reply: {field}: expected ..., got ...``.
+    """
+    def refuse(field: str, expected: str, got) -> HandshakeRefused:
+        return HandshakeRefused(f"display {port}: HELLO reply: {field}: expected {expected}, "
+                                f"got {got}; not using this device")
+
+    head = m.HELLO_REPLY_HEAD
+    if len(payload) < head.size + 3:
+        raise refuse("length", f"at least {head.size + 3} bytes", f"{len(payload)}")
+    try:
+        (ver, hz, hmin, hmax, rate, neutral, wd, npts, mindt, boot) = head.unpack_from(payload)
+    except struct.error as exc:   # cannot happen after the length check; kept as a guard
+        raise refuse("header", "the version 2 layout", str(exc)) from None
+    strings, pos = [], head.size
+    for name in ("device_id", "firmware", "capabilities"):
+        if pos >= len(payload):
+            raise refuse(name, "a length-prefixed string", "the end of the reply")
+        n = payload[pos]
+        raw = payload[pos + 1:pos + 1 + n]
+        if len(raw) != n:
+            raise refuse(name, f"{n} bytes", f"{len(raw)}")
+        try:
+            strings.append(raw.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            raise refuse(name, "UTF-8 text", f"a bad byte at offset {exc.start}") from None
+        pos += 1 + n
+    if ver != m.PROTOCOL_VERSION:
+        raise refuse("version", f"protocol {m.PROTOCOL_VERSION}", ver)
+    lo, hi = WATCHDOG_MS_RANGE
+    if not lo <= wd <= hi:
+        raise refuse("watchdog_ms", f"{lo}–{hi} ms (≤ 100 ms from host silence to neutral)", wd)
+    lo, hi = TELEMETRY_HZ_RANGE
+    if not lo <= hz <= hi:
+        raise refuse("telemetry_hz", f"{lo}–{hi} Hz", hz)
+    if hmin / 100 < PROTOCOL_MIN_C:
+        raise refuse("hard_min_C", f"≥ {PROTOCOL_MIN_C} °C (the protocol's range)", hmin / 100)
+    if hmax / 100 > PROTOCOL_MAX_SETPOINT_C:
+        raise refuse("hard_max_C", f"≤ {PROTOCOL_MAX_SETPOINT_C} °C (the protocol's range)",
+                     hmax / 100)
+    if not hmin < hmax:
+        raise refuse("hard_min_C, hard_max_C", "min < max", f"{hmin / 100}, {hmax / 100}")
+    if not 0 < rate / 100 <= PROTOCOL_MAX_RATE_C_PER_S:
+        raise refuse("max_rate_C_per_s", f"0 < rate ≤ {PROTOCOL_MAX_RATE_C_PER_S} °C/s", rate / 100)
+    if not hmin <= neutral <= hmax:
+        raise refuse("neutral_C", f"within {hmin / 100}–{hmax / 100} °C", neutral / 100)
+    if npts < 2:
+        raise refuse("max_points", "≥ 2", npts)
+    if mindt * 1e-6 < PROTOCOL_MIN_DT_S:
+        raise refuse("min_dt_s", f"≥ {PROTOCOL_MIN_DT_S} s", mindt * 1e-6)
+    dev_id, fw, caps = strings
+    return DeviceInfo(dev_id, fw, tuple(c for c in caps.split(",") if c), ver, hz,
+                      hmin / 100, hmax / 100, rate / 100, neutral / 100, wd, npts,
+                      mindt * 1e-6, boot)
