@@ -2,7 +2,7 @@
 
 PsychoPy's command-line compiler (``python -m psychopy.scripts.psyexpCompile``) does not
 activate plugins, so it leaves the Thermal cue component out (a script compiled that way stops
-on its first line with this command as the fix: :mod:`experiments.psychopy_plugin.stripped`).
+on its first line with this command as the fix: :mod:`experiments.psychopy_plugin.component.stripped`).
 This command activates them as the Builder app does, then runs PsychoPy's own compiler
 (``psyexpCompile.compileScript``), and checks that no Thermal cue component was left out.
 """
@@ -42,7 +42,7 @@ def _compile(ns) -> int:
         raise UserInputError(f"--outfile {out}: expected a file in an existing folder, got no "
                              f"folder {out.parent}")
     from experiments.psychopy_plugin.compile import compile_psyexp
-    from experiments.psychopy_plugin.stripped import left_out_components
+    from experiments.psychopy_plugin.component.stripped import left_out_components
     tmp = out.with_name(f".{out.name}.compiling.py")
     try:
         compile_psyexp(src, tmp)
