@@ -30,6 +30,9 @@ from experiments.records import Verbatim as _Note
 from experiments.records import number_text as _fmt
 from participants_schema import GroupRule
 
+#: ``[presentation] answer_mode`` values: the participant keys the answer, or says it.
+ANSWER_MODES = ("keyed", "spoken")
+
 
 def _pad_material(s: _Table) -> str:
     """``[simulation] pad_material``: a ``stimuli.MATERIALS`` name (aliases allowed)."""
@@ -219,6 +222,7 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
             text_min_s=pr.number("text_min_s", 1.0, ge=0, le=60),
             answer_during_contact=pr.boolean("answer_during_contact", False),
             feedback_s=pr.number("feedback_s", 1.5, ge=0, le=60),
+            answer_mode=pr.string("answer_mode", "keyed", choices=ANSWER_MODES),
         )
         pr.done()
 

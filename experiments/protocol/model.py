@@ -145,6 +145,12 @@ class Presentation:
     feedback_s : float, s
         How long the feedback text of a block with ``feedback = true`` and ``response = true``
         stays on screen.
+    answer_mode : {"keyed", "spoken"}
+        ``"keyed"``: the participant reads the screen and presses 1-4 (``rt_s``);
+        ``"spoken"`` (the paper's procedure): the participant's screen stays blank, sound cues
+        mark the touch and the question, the participant says the answer and the experimenter
+        keys it (with a confirm/undo step), timed from the question's cue to the key
+        (``answer_keyed_after_cue_s``, not a response time).
     """
 
     instructions_key: bool = True
@@ -152,6 +158,7 @@ class Presentation:
     text_min_s: float = 1.0
     answer_during_contact: bool = False
     feedback_s: float = 1.5
+    answer_mode: str = "keyed"
 
 
 @dataclass(frozen=True)

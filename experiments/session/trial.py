@@ -257,7 +257,8 @@ class TrialSteps:
             response = t.answered[0] if t.answered else self.responder.respond(spec, stimulus)
             self.log_event("response", **ctx, **response.to_dict(),
                            during_contact=bool(t.answered))
-            row.update(response_id=response.response_id, rt_s=response.rt_s,
+            row.update(response_id=response.response_id, **response.timing(),
+                       answer_mode=response.answer_mode,
                        correct=int(response.response_id == spec.roughness_id),
                        response_source=response.source)
             if block.feedback:   # only where the protocol's block says so
