@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from stimuli.paper import RATE_LIMITS, TARGET_SIDES
+from stimuli.paper import RATE_LIMITS, REPLAY_NAMES, TARGET_SIDES
 
 TARGETS = ("figure9", "table2", "figures")
 
@@ -29,10 +29,12 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing)")
     p.add_argument("--seed", type=int, default=0, help="figure9 only: cohort seed (default 0)")
     # the replay hypotheses are named after the side they replay (test_paper.py checks it)
-    p.add_argument("--replay", choices=TARGET_SIDES, default=None,
-                   help="figure9 only: the headline's replay hypothesis: 'material' (the printed "
-                        "Eq. 7), 'skin' (skin side) or 'compensated'; default: the best match "
-                        "to the paper's evidence")
+    p.add_argument("--replay", choices=REPLAY_NAMES, default=None,
+                   help="figure9 only: the headline's replay hypothesis, named by what the "
+                        "display plays: 'printed' (Eq. 7 as printed, material side, half-space), "
+                        "'halfspace' / 'slab' (exact material side of a half-space / the 3 mm "
+                        "sample), 'skin' (exact skin side) or 'compensated'; default: the best "
+                        "match to the paper's evidence")
     p.add_argument("--observer", choices=("absolute", "relative", "range_frequency",
                                           "display_learned"), default=None,
                    help="figure9 only: the headline's observer model (the simulated "

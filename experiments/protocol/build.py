@@ -20,7 +20,7 @@ from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MA
 from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
 from experiments.protocol.limits import WAIT_WHY as _WAIT_WHY
 from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
-                                        ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_TARGET_SIDES,
+                                        ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_REPLAYED_MATERIALS, SIM_TARGET_SIDES,
                                         SIM_THICKNESS, Block, ContactSettings, DisplaySettings,
                                         Environment, Presentation, Protocol, Sample, SampleMaterial,
                                         Simulation)
@@ -193,6 +193,8 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
             pad_material=_pad_material(s),
             rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
             max_tracking_error_C=s.number("max_tracking_error_C", 1.0, gt=0, le=10),
+            replayed_material=s.string("replayed_material", "sample",
+                                       choices=SIM_REPLAYED_MATERIALS),
         )
         s.done()
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stimuli.paper import DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, TARGET_SIDES
+from stimuli.paper import DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, REPLAY_NAMES
 
 __all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
            "imposed_features"]
@@ -68,7 +68,7 @@ class PersonPool:
     settings: dict = field(default_factory=dict)
 
 
-def build_pool(protocol="roughness_recognition", hypotheses=TARGET_SIDES,
+def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES,
                pool_size: int = 100, seed: int = 0, params=None, receptor_depth_um: float | None = None,
                dermis_fraction=DERMIS_FRACTION_RANGE) -> PersonPool:
     """Draw ``pool_size`` persons per group and compute their noise-free features.

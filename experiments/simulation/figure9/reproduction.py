@@ -25,7 +25,7 @@ __all__ = ["run_reproduction", "claims_screen", "verdict_line", "sessions_claims
 
 #: The paper's method as printed: Eq. 7's material side, judged as the project's original
 #: absolute observer did.
-PRINTED = ("material", "absolute")
+PRINTED = ("printed", "absolute")
 #: A claim is marked as reproduced (✓) in a scenario when at least this share of simulated
 #: studies shows it.
 MAJORITY = 0.5
@@ -190,7 +190,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                              f"comes from the study's --seed), got {options['seed']!r}")
     get_responder("simulated", **options)          # bad options: fail before any work
     if replay is None and target_side is not None:
-        replay = target_side if target_side in REPLAY_HYPOTHESES else None
+        replay = {"material": "slab"}.get(target_side, target_side)
+        replay = replay if replay in REPLAY_HYPOTHESES else None
     if replay is not None:
         replay_hypothesis(replay)
     if observer is not None and observer not in OBSERVERS:

@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, SAMPLE_MATERIAL, TABLE2_ROUGHNESS_UM,
-                          TARGET_SIDES)
+from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_MATERIAL,
+                          TABLE2_ROUGHNESS_UM)
 
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
            "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM"]
@@ -56,20 +56,22 @@ def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM
     """What the display would replay at 20 s under Table 2's conditions, °C, per roughness.
 
     Table 2 (Exp. 1): skin 35 °C, steel 24 °C, read at 20 s; skin 650 µm (dermis 0.6 L), the
-    protocol's 3 mm steel, Eq. 5 contact resistance, the 0.4 µm copper pad for the compensated
+    the hypothesis's formula and material (the 3 mm steel or a half-space), Eq. 5 contact resistance, the 0.4 µm copper pad for the compensated
     replay.  No display rounding.
     """
     from experiments.simulation.replay import replay_hypothesis
     from stimuli import Skin, contact_resistance, material, target_profile
-    side = replay_hypothesis(hypothesis).target_side
+    hyp = replay_hypothesis(hypothesis)
     skin = Skin(650e-6, dermis=0.6 * 650e-6)
     pad_r = float(contact_resistance(PAD_ROUGHNESS_M, skin=skin, material=material(PAD_MATERIAL)))
     out = []
     for ra in roughness_um:
-        prof = target_profile(material=material(SAMPLE_MATERIAL, thickness=3e-3),
-                              roughness=ra * 1e-6, skin=skin, skin_temperature=35.0,
-                              material_temperature=24.0, duration=20.0, rate=10.0, resolution=1e-6,
-                              side=side, pad_resistance=pad_r, cache=False)
+        steel = material(SAMPLE_MATERIAL,
+                         thickness=None if hyp.replayed_material == "half-space" else 3e-3)
+        prof = target_profile(material=steel, roughness=ra * 1e-6, skin=skin,
+                              skin_temperature=35.0, material_temperature=24.0, duration=20.0,
+                              rate=10.0, resolution=1e-6, side=hyp.target_side,
+                              method=hyp.method, pad_resistance=pad_r, cache=False)
         out.append(float(prof.temperature[-1]))
     return np.array(out)
 
@@ -109,7 +111,7 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
     from experiments.simulation.observers import OBSERVERS, get_observer
     from experiments.simulation.studies import simulate_studies
     hypotheses = list(hypotheses or sorted({h for h, _ in pool.simulated},
-                                           key=TARGET_SIDES.index))
+                                           key=REPLAY_NAMES.index))
     observers = list(observers or OBSERVERS)
     claim_rows, prop_rows = [], []
     for hi, h in enumerate(hypotheses):

@@ -149,8 +149,9 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         clock is recomputed from its seed, so a power cut costs a rerun, not data; fsync was
         70 % of a session's wall time on the shared 2-core machine). The files, their order and
         content are the same either way; ``study.json`` records the setting.
-    replay : {"material", "skin", "compensated"}, optional
-        A replay hypothesis (:mod:`experiments.simulation.replay`): sets both of the above.
+    replay : str, optional
+        A replay hypothesis (:data:`stimuli.paper.REPLAY_NAMES`, :mod:`experiments.simulation.
+        replay`): sets the side, the rate limit, the method and the replayed material.
         The variant is built from the protocol's data and recorded in ``out_dir/protocol.json``.
         A responder option ``observer=display_learned`` also adds a familiarisation block on
         the display.
@@ -264,7 +265,8 @@ def _note_simulation(report, protocol) -> None:
     if not report.is_file():
         return
     sim = protocol.simulation
-    side = {"material": "the material side of the interface, T_M(L+), the paper's Eq. 7",
+    side = {"material": f"the material side of the interface, T_M(L+), method {sim.method!r}, "
+                        f"{sim.replayed_material} steel",
             "skin": "the skin side of the interface, T_S(L-)",
             "compensated": "the pad temperature that reproduces the real contact through the "
                            "finger-pad resistance"}[sim.target_side]
@@ -307,11 +309,13 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
             R = contact_resistance(sample.roughness_m, skin, steel)
             real = float(Contact(skin, steel, R, sim.skin_temperature_C,
                                  sim.material_temperature_C).receptor_temperature([at_s])[0])
-            prof = target_profile(material=steel, roughness=sample.roughness_m, skin=skin,
+            played = steel if sim.replayed_material == "sample" else material(protocol.material.name)
+            prof = target_profile(material=played, roughness=sample.roughness_m, skin=skin,
                                   skin_temperature=sim.skin_temperature_C,
                                   material_temperature=sim.material_temperature_C,
                                   duration=at_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
-                                  side=sim.target_side, pad_resistance=r_pad, cache=False)
+                                  side=sim.target_side, pad_resistance=r_pad, cache=False,
+                                  method=sim.method, resistance=R)
             felt = float(skin_response(skin, prof.times, prof.temperature, sim.skin_temperature_C,
                                        resistance=r_pad)[-1])
             cells.append(f"{sample.label} {real:.2f} / {felt:.2f} °C")
@@ -353,7 +357,8 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     changes = {}
     if replay is not None:
         hyp = replay_hypothesis(replay)
-        changes = {"target_side": hyp.target_side, "rate_limit": hyp.rate_limit}
+        changes = {"target_side": hyp.target_side, "rate_limit": hyp.rate_limit,
+                   "method": hyp.method, "replayed_material": hyp.replayed_material}
     for key, value, choices, option in (("target_side", target_side, TARGET_SIDES, "--target-side"),
                                         ("rate_limit", rate_limit, RATE_LIMITS, "--rate-limit")):
         if value is None:
