@@ -42,7 +42,7 @@ def register(sub) -> None:
                         "participants' decision rule); default: the best match")
     p.add_argument("--studies", type=int, default=None, metavar="N",
                    help="figure9 only: simulated 15+15 studies per scenario and per sensitivity "
-                        "row (default 300)")
+                        "row (default 200)")
     p.add_argument("--force-sd-N", type=float, default=None, metavar="N",
                    help="figure9 only: spread (sd, N) of the per-touch contact force about the "
                         "paper's 2 N in the simulated studies (default 0.25: an assumption, the "

@@ -7,8 +7,8 @@ physics (skin thickness L and the dermis' share d / L; the receptor depth follow
 touch (contact force), once per group (:func:`build_pool`, the physics of
 :mod:`experiments.simulation.person`).  Every study then draws a *fresh* cohort, 15 persons per
 group from the cohort's ranges, whose features are interpolated on that grid (bilinear in L and
-d / L, linear in force: within 0.01 K of the direct computation, ``test_studies.py``, against a
-perceptual noise of 0.3 K), then their familiarisation percepts, the real and simulated blocks'
+d / L, linear in force: the drops within 0.01 K and the peak rate within 0.03 K/s of the direct
+computation, ``test_studies.py``, against a perceptual noise of 0.3 K and 0.3 K/s plus 10 %), then their familiarisation percepts, the real and simulated blocks'
 percepts in a random order and the answers of an observer (:mod:`.observers`, the very code the
 simulated responder runs), all vectorised.
 
@@ -61,7 +61,7 @@ GROUPS = ("A", "B")
 #: Contact forces at which features are computed, N; a touch's are interpolated linearly.
 FORCE_GRID_N = (1.0, 2.0, 3.0)
 #: Grid points over each group's thickness range and over d / L.
-GRID_L, GRID_U = 5, 3
+GRID_L, GRID_U = 5, 5
 
 
 @dataclass(frozen=True)
@@ -161,7 +161,8 @@ def _lead(t, T, tau):
 
 def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: int = 0,
                params=None, receptor_depth_um: float | None = None,
-               dermis_fraction=DERMIS_FRACTION_RANGE, sensor_tau_s: float = 0.0) -> PersonPool:
+               dermis_fraction=DERMIS_FRACTION_RANGE, sensor_tau_s: float = 0.0,
+               real_from: PersonPool | None = None) -> PersonPool:
     """Features of the person grid of each group, for the real samples and each replay.
 
     Parameters
@@ -180,6 +181,9 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
         Range of ``d / L`` persons are drawn from (the cohort's 0.55–0.65).
     sensor_tau_s : float, s
         The pad sensor's time constant (0: the pad face is the target).
+    real_from : PersonPool, optional
+        A pool of the same persons (receptor depth, d / L range) whose real-sample features are
+        reused (the sensor lag changes only the replayed ones).
     """
     from experiments.simulation.person import PerceptionParameters, SimulatedPerson
     from experiments.protocol import load_protocol
@@ -196,6 +200,10 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     thick_m = base.material.thickness_m
     sim0 = base.simulation
     fractions = np.linspace(*dermis_fraction, GRID_U) if receptor_depth_um is None else np.array([0.0])
+    if real_from is not None and (real_from.receptor_depth_um != receptor_depth_um
+                                  or tuple(real_from.settings["dermis_fraction"]) != tuple(dermis_fraction)):
+        raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
+                         "depth and d / L range)")
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
     profiles = {}
     for group in GROUPS:
@@ -218,11 +226,14 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                 p = SimulatedPerson(L_um * 1e-6, float(frac), t_ref, params)
                 p1 = SimulatedPerson(L_um * 1e-6, float(frac), t_ref + 1.0, params)
                 for k, force in enumerate(FORCE_GRID_N):
-                    r[i, j, k] = [p.features(*p.feel_real(s.roughness_m, material=base.material.name,
+                    if real_from is not None:
+                        r[i, j, k] = real_from.real[group][i, j, k]
+                    else:
+                        r[i, j, k] = [p.features(*p.feel_real(s.roughness_m, material=base.material.name,
                                                           sample_thickness_m=thick_m,
                                                           material_temperature_C=t_mat,
                                                           force_N=force))
-                                  for s in samples]
+                                      for s in samples]
                     r_pad = float(contact_resistance(sim0.pad_roughness_m, skin=p.skin,
                                                      material=material(sim0.pad_material),
                                                      force=force))

@@ -30,7 +30,7 @@ PRINTED = ("printed", "absolute")
 #: studies shows it.
 MAJORITY = 0.5
 #: Simulated studies per scenario and per sensitivity row by default (``--studies``).
-DEFAULT_STUDIES = 300
+DEFAULT_STUDIES = 200
 
 #: How each reading is named in lines and tables.
 READING_TEXT = {"descriptive": "read descriptively (the direction the paper states, in a "

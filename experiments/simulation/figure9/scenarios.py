@@ -329,11 +329,12 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
                 if key in change:
                     k = (key, change[key])
                     if k not in extra_pools:
+                        same_people = ({"receptor_depth_um": pool.receptor_depth_um,
+                                        "real_from": pool} if key == "sensor_tau_s" else {})
                         extra_pools[k] = build_pool(
                             protocol, hypotheses=(hypothesis,), seed=pool.settings["seed"],
-                            params=pool.params, **{key: change[key]},
-                            **({"receptor_depth_um": pool.receptor_depth_um}
-                               if key != "receptor_depth_um" and pool.receptor_depth_um else {}))
+                            params=pool.params, dermis_fraction=pool.settings["dermis_fraction"],
+                            **{key: change[key]}, **same_people)
                     use_pool = extra_pools[k]
             if "noise" in change:
                 params = dc.replace(params, drop_noise_C=change["noise"],
