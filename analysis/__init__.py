@@ -19,6 +19,8 @@ from .figures import plot_confusion, plot_figure9
 from .report import analyze
 from .result import AnalysisResult
 from .power import PowerResult, power_curve
+from .fidelity import mode_contrasts, tost
+from .mixed_choice import choose_mixed
 
 __all__ = [
     "analyze", "AnalysisResult",
@@ -29,5 +31,6 @@ __all__ = [
     "holm", "omnibus_group_test", "interaction_test", "chance_tests",
     "plot_figure9", "plot_confusion",
     "power_curve", "PowerResult",
+    "mode_contrasts", "tost", "choose_mixed",
     "LogError", "LogWarning", "ModelWarning",
 ]
