@@ -384,3 +384,23 @@ def test_resume_refuses_a_special_file_before_opening_it(data, tmp_path):
     status, _, err = _run(["resume", str(data / "P01" / "S01")], tmp_path)
     assert status == 2
     assert err.strip() == f"thermocue resume: {path}: expected a regular file, got a FIFO (named pipe)"
+
+
+def test_a_duplicated_unanswered_row_is_dropped_not_a_pandas_na_error(data):
+    """An exact duplicate with blank (NA) cells: once a ``TypeError: boolean value of NA``."""
+    import warnings
+
+    from analysis import LogWarning
+    from analysis.load import load_trials
+    (data / "P01" / "S01" / "events.jsonl").unlink()         # the table is then the record
+    table = data / "P01" / "S01" / "trials.csv"
+    lines = table.read_text("utf-8").splitlines(keepends=True)
+    first = lines[1]                                           # familiarisation: no answer
+    assert ",real,1,1.6," in first and ",,," in first
+    table.write_text("".join(lines + [first]), encoding="utf-8")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LogWarning)
+        log = load_trials(data)
+    assert any(f"{table}: line {len(lines) + 1}: exact duplicate of line 2" in str(w.message)
+               for w in caught)
+    assert log.trials.groupby("participant").size().to_dict() == {"P01": 12, "P02": 12}
