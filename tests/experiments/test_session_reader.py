@@ -95,7 +95,7 @@ GOOD = {"participant": "P01", "session": "S01", "status": "ok", "trial_index": "
     ("rt_s", "1e999", "expected a finite time >= 0 s"),
     ("rt_s", "nan?", "expected a finite time >= 0 s"),
     ("rt_s", "inf", "expected a finite time >= 0 s"),
-    ("roughness_um", "-1.6", "expected a roughness Ra in (0, 1000] um"),
+    ("roughness_um", "-1.6", "expected a roughness Ra in (0, 10000] um"),
     ("participant", "P0\x001", "expected text without NUL bytes"),
     ("trial_index", "0", "expected an integer >= 1"),
     ("roughness_id", "9", "expected one of 1, 2, 3, 4"),
@@ -213,7 +213,7 @@ def test_folder_names_that_differ_are_reported_and_the_files_identity_used(data)
     ("status", "ol", "status: expected one of ok, fault, aborted (line {line}), got 'ol'"),
     ("response_id", "7", "response_id: expected one of 1, 2, 3, 4 or blank (line {line}), got '7'"),
     ("correct", "0", "correct: expected 1 for response_id"),
-    ("roughness_um", "-1.6", "roughness_um: expected a roughness Ra in (0, 1000] um (line {line}), "
+    ("roughness_um", "-1.6", "roughness_um: expected a roughness Ra in (0, 10000] um (line {line}), "
                              "got '-1.6'"),
     ("participant", "P02", "participant: expected 'P01' (the session's own"),
 ])
