@@ -501,7 +501,8 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     trials.loc[out_of_policy, "exclusion"] = "session not analysed"
     trials.loc[out_of_policy, "included"] = False
     order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
-             "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
+             "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "answer_mode",
+             "answer_keyed_after_cue_s", "status",
              "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
              "skin_temperature_C", "skin_temperature_in_range", "contact_force_N",
              "abort_reason", "familiarisation", "included", "exclusion", "source", "line"]

@@ -134,7 +134,7 @@ TRIAL_COLUMNS = (
     "target_side", "profile_skin_thickness_um", "profile_resistance_m2K_W",
     "profile_resistance_source", "pad_resistance_m2K_W", "rate_limited_max_change_C", "cue_played",
     # response
-    "response_id", "correct", "rt_s", "response_source",
+    "response_id", "correct", "rt_s", "response_source", "answer_mode", "answer_keyed_after_cue_s",
     # timing
     "started_at", "finished_at", "contact_onset_s", "contact_duration_s",
     # quality
@@ -151,7 +151,7 @@ TRIAL_COLUMNS = (
 COLUMN_DECIMALS = {
     "skin_thickness_um": 1, "roughness_um": 3, "profile_skin_thickness_um": 1,
     "profile_resistance_m2K_W": "sig4", "pad_resistance_m2K_W": "sig4",
-    "rate_limited_max_change_C": 3, "rt_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
+    "rate_limited_max_change_C": 3, "rt_s": 4, "answer_keyed_after_cue_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
     "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3, "contact_force_N": 2,
 }
 
@@ -163,7 +163,8 @@ REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "
 #: defaults to 1).
 OPTIONAL_COLUMNS = {"roughness_um": "float", "repetition": "int", "rt_s": "float",
                     "tracking_rms_C": "float", "skin_thickness_um": "float", "sex": "str",
-                    "attempt": "int", "started_at": "str", "fault_code": "str"}
+                    "attempt": "int", "started_at": "str", "fault_code": "str",
+                    "answer_mode": "str", "answer_keyed_after_cue_s": "float"}
 #: Values of the ``status`` column.
 STATUSES = ("ok", "fault", "aborted")
 
