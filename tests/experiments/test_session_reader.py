@@ -404,3 +404,19 @@ def test_a_duplicated_unanswered_row_is_dropped_not_a_pandas_na_error(data):
     assert any(f"{table}: line {len(lines) + 1}: exact duplicate of line 2" in str(w.message)
                for w in caught)
     assert log.trials.groupby("participant").size().to_dict() == {"P01": 12, "P02": 12}
+
+
+def test_a_damaged_outcome_event_is_reported_not_raised():
+    from experiments.logformat import trials_from_events
+    events = [{"event": "session_started", "participant": "P01", "session": "S01"},
+              {"event": "trial_started", "trial_index": [1], "attempt": 1},
+              {"event": "trial_completed", "seq": 3, "trial_index": [1], "attempt": 1, "row": {}},
+              {"event": "trial_completed", "seq": 4, "trial_index": 2, "attempt": 1, "row": 5},
+              {"event": "trial_completed", "seq": 5, "trial_index": 3, "attempt": 1,
+               "row": {"status": "ok"}}]
+    damage: list = []
+    rows = trials_from_events(events, damage=damage)
+    assert [r["trial_index"] for r in rows] == [3]
+    assert damage == ["trial_completed event (seq 3): trial_index: expected an integer, got [1]; "
+                      "ignored",
+                      "trial_completed event (seq 4): row: expected a mapping, got 5; ignored"]
