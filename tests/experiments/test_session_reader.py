@@ -302,6 +302,12 @@ def test_utf8_with_a_bom_is_read(data):
         path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
     log = load_trials(data)
     assert log.trials.groupby("participant").size().to_dict() == {"P01": 12, "P02": 12}
+    assert list(log.sessions["n_planned"]) == [12, 12]
+    # the analysis' other readers of session.json follow the same rules
+    from analysis.missing import _schedule
+    from analysis.session_meta import read_session_meta
+    assert len(read_session_meta(data / "P01" / "S01")["schedule"]) == 12
+    assert _schedule(data / "P01" / "S01") is not None
 
 
 def test_export_bids_exports_a_session_without_session_json_from_its_log(data, tmp_path, capsys):
