@@ -603,7 +603,11 @@ def read_session_folders(root, exclude: Iterable = ()) -> FolderSet:
             continue
         def named_right(f):
             return (f.path.parent.name, f.path.name) == (f.participant, f.session)
-        if sf.log_hash == other.log_hash:
+        if not sf.log_hash or not other.log_hash:     # one holds neither log nor table
+            keep, drop = (sf, other) if sf.log_hash else (other, sf)
+            why = (f"no event log and no trials table; session {sf.participant}/{sf.session} is "
+                   f"read from {keep.path}")
+        elif sf.log_hash == other.log_hash:
             keep, drop = (sf, other) if named_right(sf) and not named_right(other) else (other, sf)
             why = (f"a copy of {keep.path} (same session {sf.participant}/{sf.session}, same "
                    f"event log); read once")

@@ -426,3 +426,13 @@ def test_a_damaged_outcome_event_is_reported_not_raised():
     assert damage == ["trial_completed event (seq 3): trial_index: expected an integer, got [1]; "
                       "ignored",
                       "trial_completed event (seq 4): row: expected a mapping, got 5; ignored"]
+
+
+def test_a_folder_with_only_a_copy_of_session_json_is_named_not_read(data):
+    stray = data / "spare" / "S01"
+    stray.mkdir(parents=True)
+    shutil.copy(data / "P01" / "S01" / "session.json", stray / "session.json")
+    found = read_session_folders(data)
+    assert [f.path for f in found.folders] == [data / "P01" / "S01", data / "P02" / "S01"]
+    assert found.skipped == [(stray, f"no event log and no trials table; session P01/S01 is read "
+                                     f"from {data / 'P01' / 'S01'}")]
