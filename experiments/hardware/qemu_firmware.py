@@ -45,6 +45,8 @@ URL_GRAMMAR = "qemu-firmware://[?image=PATH][&build=1|0]"
 START_TIMEOUT_S = 20.0
 #: The driver's wait for a reply under QEMU, s (the driver's default, 0.25 s, suits a board).
 QEMU_REPLY_TIMEOUT_S = 3.0
+#: The host's heartbeat period under QEMU, s (the driver's default, 10 ms, suits a board).
+QEMU_HEARTBEAT_S = 0.02
 _PTY_LINE = re.compile(r"char device redirected to (\S+)")
 
 
@@ -252,6 +254,11 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         # here (a 512-sample chunk frame, 1042 bytes, is answered after ~0.4 s, more on a
         # loaded machine), slower than the board's 115200 baud; nothing is lost on the pty
         options.setdefault("reply_timeout_s", QEMU_REPLY_TIMEOUT_S)
+        # ... and on a loaded host that rate falls to that of the heartbeats (1.3 kB/s measured
+        # at a load average of 19 on 2 cores, against 1 kB/s of heartbeats every 10 ms), after
+        # which commands queue behind heartbeats (replies seen 1.4 s late); every 20 ms is four
+        # heartbeats within the device's 90 ms watchdog and leaves the link 60 % of that rate
+        options.setdefault("heartbeat_s", QEMU_HEARTBEAT_S)
         proc, pty = start_qemu(Path(image))
         try:
             port = serial.Serial(pty, 115200, timeout=0.01, write_timeout=1.0)
