@@ -15,7 +15,7 @@ a hardware timer that QEMU runs at host real time: trials take their real durati
 """
 from __future__ import annotations
 
-import fcntl
+import contextlib
 import re
 import shutil
 import subprocess
@@ -89,6 +89,13 @@ def _sources_newer(image: Path) -> bool:
     return (FIRMWARE_DIR / "build").stat().st_mtime > t
 
 
+def _lock_file(fh) -> None:
+    """An exclusive lock on ``fh`` where the system has ``fcntl`` (POSIX); else none."""
+    with contextlib.suppress(ImportError):
+        import fcntl
+        fcntl.flock(fh, fcntl.LOCK_EX)
+
+
 def build_image(image: Path = SIM_IMAGE, force: bool = False) -> Path:
     """Build the firmware images with ``firmware/build`` if ``image`` is missing or stale.
 
@@ -108,7 +115,7 @@ def build_image(image: Path = SIM_IMAGE, force: bool = False) -> Path:
     out = FIRMWARE_DIR / "out"
     out.mkdir(exist_ok=True)
     with open(out / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+        _lock_file(lock)
         if image.exists() and not force and not _sources_newer(image):
             return image
         res = subprocess.run([str(FIRMWARE_DIR / "build")], capture_output=True, text=True)
