@@ -93,7 +93,9 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
                               skin=skin, skin_temperature=sim.skin_temperature_C,
                               material_temperature=sim.material_temperature_C,
                               duration=sim.duration_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
-                              sample_thickness=protocol.material.thickness_m, method=sim.method,
+                              sample_thickness=(None if sim.replayed_material == "half-space"
+                                                else protocol.material.thickness_m),
+                              method=sim.method,
                               resistance=resistance, side=sim.target_side,
                               pad_resistance=pad_resistance)
     except ModelInputError as exc:
@@ -104,6 +106,7 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     params["skin_thickness_source"] = source
     params["resistance_source"] = resistance_source
     params["target_side"] = sim.target_side
+    params["replayed_material"] = sim.replayed_material
     params["pad_resistance_m2K_W"] = pad_resistance
     params["pad_roughness_um"] = sim.pad_roughness_um
     params["pad_material"] = sim.pad_material
