@@ -251,3 +251,15 @@ def test_a_zone_still_in_error_faults_the_next_trial_before_it_starts():
         assert "L" not in d.port.device.commands[n:]
     finally:
         d.close()
+
+
+def test_a_device_error_reply_to_the_upload_refuses_it():
+    d = _open()
+    try:
+        d.port.device._upload = lambda c: ["ERR Uw malformed: " + c[:20]]
+        with pytest.raises(DisplayError) as exc:
+            d.upload_profile(T, Y)
+        assert "ERR Uw" in str(exc.value) and "\n" not in str(exc.value)
+        assert d.compiled is None and d.port.device.commands[-1] == "A"
+    finally:
+        d.close()
