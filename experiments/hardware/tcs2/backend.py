@@ -309,6 +309,7 @@ class Tcs2Display(Display, scheme="tcs2"):
                                    f"maximum {self.max_C} °C")
         text = cmd.fmt_profile(self.zones, c.segments)
         try:
+            self.link.drain(0.02)           # nothing left from the last trial is a reply to Ur
             self.link.send(text)
             self.link.send(cmd.fmt_profile_enable(self.zones))
             back = cmd.parse_profile_lines(self.link.ask("Ur", n=5, skip=cmd.is_temperature_line))
