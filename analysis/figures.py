@@ -78,10 +78,9 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     ax.set_ylim(*Y_LIMITS)
     ax.set_xlabel("Roughness Number (Ra)")
     ax.set_ylabel("Proportions of correct recognition")
-    # (the bootstrap interval is a Wilson interval at the bootstrap's effective sample size:
-    # analysis.proportions; the report says so)
-    which = "participant-cluster bootstrap" if interval == "boot" else "Wilson, trials independent"
     people = int(proportions["n_participants"].max()) if not proportions.empty else 0
+    which = interval_caption(interval, int(proportions["n_participants"].min())
+                             if not proportions.empty else 0)
     trials = int(proportions["n_trials"].max()) if not proportions.empty else 0
     ax.set_title(title or f"Figure 9: correct recognition\n95% {which} intervals; "
                           f"≤ {people} participants, ≤ {trials} trials per point", fontsize=9)
@@ -92,6 +91,21 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     fig.savefig(path.with_suffix(".pdf"))          # vector copy beside the PNG
     plt.close(fig)
     return path
+
+
+def interval_caption(interval: str, min_participants: int) -> str:
+    """What the error bars are, in words (the figure's caption).
+
+    ``boot`` is a Wilson interval at the effective sample size a participant-cluster bootstrap
+    implies (:func:`analysis.proportions.cluster_bootstrap`); with one participant in a cell
+    there is nothing to resample, the design effect is 1 and the bars are plain Wilson
+    intervals, trials treated as independent.
+    """
+    if interval == "wilson":
+        return "Wilson, trials independent"
+    if min_participants < 2:
+        return "Wilson, trials independent (one participant: no participant bootstrap)"
+    return "Wilson at the participant-bootstrap effective n"
 
 
 def _draw_panel(ax, table: pd.DataFrame, value: str, low: str, high: str, title: str) -> None:

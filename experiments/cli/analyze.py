@@ -26,6 +26,10 @@ def register(sub) -> None:
                    help="which sessions of a participant are analysed: the first complete one "
                         "(default), the latest complete one, or all (incomplete ones included); "
                         "the report lists every session and why")
+    p.add_argument("--equivalence-margin-pp", type=float, default=None, metavar="PP",
+                   help="margin of the real-vs-simulated equivalence test, percentage points of "
+                        "proportion correct (default: the protocol's [analysis] "
+                        "equivalence_margin_pp, else 10)")
     p.add_argument("--no-mixed", action="store_true",
                    help="skip the maximum-likelihood mixed logit (faster)")
     p.add_argument("--bayes-vb", action="store_true",
@@ -53,7 +57,8 @@ def _run(ns) -> int:
         warnings.simplefilter("ignore", LogWarning)     # listed in the report and below
         result = analyze(ns.data_dir, ns.out, n_boot=ns.bootstrap, seed=ns.seed,
                          bayes=ns.bayes_vb and not ns.no_bayes, mixed=not ns.no_mixed,
-                         progress=progress, sessions=ns.sessions)
+                         progress=progress, sessions=ns.sessions,
+                         equivalence_margin_pp=ns.equivalence_margin_pp)
     for message in result.log.warnings:
         log.warning("warning: %s", message)
     progress(f"done: {result.files['report']}")

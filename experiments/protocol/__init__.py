@@ -38,6 +38,7 @@ from experiments.protocol.hashing import canonical_json, canonical_hash  # noqa:
 from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS,  # noqa: F401 (re-exported)
                                          MAX_WAIT_S, SKIN_SAFE_MAX_C, SKIN_SAFE_MIN_C)
 from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL,  # noqa: F401 (re-exported)
+                                        DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
                                         DEFAULT_PAD_ROUGHNESS_UM, MODES, ORDERS, SIM_METHODS,
                                         SIM_RATE_LIMITS, SIM_TARGET_SIDES, SIM_THICKNESS, Block,
                                         ContactSettings, DisplaySettings, Environment, Presentation,
@@ -55,6 +56,7 @@ __all__ = [
     "Simulation",
     "Block",
     "Presentation",
+    "AnalysisSettings",
     "load_protocol",
     "parse_protocol",
     "protocol_names",

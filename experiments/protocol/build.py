@@ -19,7 +19,8 @@ from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MA
                                          SKIN_SAFE_MIN_C)
 from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
 from experiments.protocol.limits import WAIT_WHY as _WAIT_WHY
-from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
+from experiments.protocol.model import (DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
+                                        BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
                                         ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_TARGET_SIDES,
                                         SIM_THICKNESS, Block, ContactSettings, DisplaySettings,
                                         Environment, Presentation, Protocol, Sample, SampleMaterial,
@@ -214,6 +215,14 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
         )
         pr.done()
 
+    analysis = AnalysisSettings()
+    an = top.table("analysis", required=False)
+    if an is not None:
+        analysis = AnalysisSettings(equivalence_margin_pp=an.number(
+            "equivalence_margin_pp", DEFAULT_EQUIVALENCE_MARGIN_PP, gt=0, lt=50,
+            why="percentage points of proportion correct"))
+        an.done()
+
     blocks = _read_blocks(top, samples)
     n_trials = sum(b.n_trials for b in blocks)
     if n_trials > MAX_TRIALS:
@@ -231,6 +240,7 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
                     version=version, samples=samples, environment=env, material=mat,
                     contact=contact, display=display, grouping=grouping, simulation=simulation,
                     block_order=block_order, blocks=blocks, presentation=presentation,
+                    analysis=analysis,
                     hash=hashlib.sha256(canonical).hexdigest(), path=path,
                     data=copy.deepcopy(dict(data)))
 

@@ -280,6 +280,27 @@ class Block:
         return len(self.samples) * self.repetitions
 
 
+#: Default of ``[analysis] equivalence_margin_pp``: +-10 percentage points of proportion
+#: correct (real - simulated, averaged over the samples). ``analysis.fidelity`` holds the same
+#: number (it may not import the experiment runtime); a test checks they agree.
+DEFAULT_EQUIVALENCE_MARGIN_PP = 10.0
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """What the analysis needs from the protocol (``[analysis]``, optional).
+
+    Attributes
+    ----------
+    equivalence_margin_pp : float, percentage points
+        Margin of the real-vs-simulated equivalence test: simulated samples count as
+        recognised as well as real ones when the real - simulated difference of mean
+        proportions correct is shown to lie within +-this (two one-sided tests). In (0, 50).
+    """
+
+    equivalence_margin_pp: float = DEFAULT_EQUIVALENCE_MARGIN_PP
+
+
 @dataclass(frozen=True)
 class Protocol:
     """A validated protocol.
@@ -303,6 +324,8 @@ class Protocol:
     blocks : tuple of Block
     presentation : Presentation
         The participant's screen: minimum text durations, instructions, answer timing.
+    analysis : AnalysisSettings
+        The analysis's protocol-stated parameters (the equivalence margin).
     hash : str
         SHA-256 hex of the canonical JSON of :attr:`data`.
     path : Path or None
@@ -330,6 +353,7 @@ class Protocol:
     path: Path | None
     data: dict
     presentation: Presentation = Presentation()
+    analysis: AnalysisSettings = AnalysisSettings()
 
     def sample(self, sample_id: int) -> Sample:
         """The sample with this id (KeyError if none)."""
