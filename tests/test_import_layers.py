@@ -311,18 +311,11 @@ def _private_imports() -> list:
     return found
 
 
-STATS_REWORK = ("analysis's models and report are being rebuilt as declared result objects (fits, "
-                "results, writers); their shared helpers become public names there")
 SIMULATION_REWORK = ("the participant model and the studies are being moved apart (below and above "
                      "the session); the replay variants' helpers become public names there")
 
 #: Private names still imported across modules: defining module -> the reason.
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
-    "analysis.models": STATS_REWORK,
-    "analysis.glmm": STATS_REWORK,
-    "analysis.figures": STATS_REWORK,
-    "analysis.report_markdown": STATS_REWORK,
-    "analysis.summary": STATS_REWORK,
     "experiments.simulation.replay": SIMULATION_REWORK,
     "experiments.simulation.figure9.study": SIMULATION_REWORK,
 }
