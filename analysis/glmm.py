@@ -66,7 +66,7 @@ def ml_wald(theta, hess, p: int, res):
 
     Returns ``(cov_full, beta, cov, se, why)``: the covariance 2 H^-1 of every parameter (NaN
     when H is singular), the ``p`` fixed effects ``theta[:p]``, their covariance and SEs, and
-    why the fit is rejected (None when accepted; see :func:`analysis.models._accepted`).
+    why the fit is rejected (None when accepted; see :func:`analysis.models.accept_candidate`).
     """
     try:
         cov_full = 2.0 * np.linalg.inv(hess)
