@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.atomicfile import output_path
+
 __all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]
 
@@ -40,7 +42,11 @@ COLUMNS = {
     "response_id": (_C, "sample named by the participant (1-4)"),
     "stimulus_roughness_id": (_C, "sample presented (1-4)"),
     "correct": ("0/1", "1 if response_id equals roughness_id"),
-    "rt_s": ("s", "response time (from the answer prompt)"),
+    "rt_s": ("s", "response time (from the answer prompt); empty for spoken answers"),
+    "answer_mode": (_C, "keyed = the participant pressed the answer; spoken = the participant said "
+                        "it and the experimenter keyed it"),
+    "answer_keyed_after_cue_s": ("s", "spoken answers: time from the question's sound cue to the "
+                                      "experimenter's key (not a response time)"),
     "status": (_C, "attempt outcome: ok, fault, aborted"),
     "tracking_rms_C": ("degC", "RMS tracking error of the display"),
     "skin_thickness_um": ("um", "skin thickness of the participant"),
@@ -207,8 +213,9 @@ COLUMNS = {
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> Path:
-    """Write a machine table at full precision (no rounding)."""
-    df.to_csv(path, index=False)
+    """Write a machine table at full precision (no rounding), whole or not at all."""
+    with output_path(path) as tmp:
+        df.to_csv(tmp, index=False)
     return path
 
 
