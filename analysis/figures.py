@@ -27,7 +27,7 @@ DODGE = dict(zip(SERIES, (-0.18, -0.06, 0.06, 0.18)))
 Y_LIMITS = (-0.05, 1.05)
 
 
-def _pyplot():
+def agg_pyplot():
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
@@ -56,7 +56,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     """
     if interval not in ("boot", "wilson"):
         raise ValueError(f"plot_figure9: interval: expected 'boot' or 'wilson', got {interval!r}")
-    plt = _pyplot()
+    plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=150)
     offsets = DODGE
     for key, (label, colour, marker, style) in SERIES.items():
@@ -165,7 +165,7 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
         Axes 0 (left) and 1 (right); each series is an errorbar container whose line has the
         ``gid`` ``"<group>-<mode>"``.
     """
-    plt = _pyplot()
+    plt = agg_pyplot()
     notes = bool(left_note or right_note)
     fig, axes = plt.subplots(1, 2, figsize=(11.5, 7.0 if notes else 5.4), dpi=150, sharey=True)
     _draw_panel(axes[0], predicted, "expected", "study_low", "study_high", left_title)
@@ -186,7 +186,7 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
 
 def plot_figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, path, **titles) -> list:
     """Write :func:`figure9_panels` as ``path`` (PNG) and the same name ``.pdf``; return both."""
-    plt = _pyplot()
+    plt = agg_pyplot()
     fig = figure9_panels(predicted, observed, **titles)
     path = Path(path)
     out = [path, path.with_suffix(".pdf")]
@@ -212,7 +212,7 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
         The file written. Colours are the share of a stimulus's trials given
         each response (rows sum to 1); numbers are trial counts.
     """
-    plt = _pyplot()
+    plt = agg_pyplot()
     panels = list(SERIES)
     fig, axes = plt.subplots(2, 2, figsize=(8, 7.2), dpi=120, squeeze=False)
     image = None

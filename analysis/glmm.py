@@ -46,7 +46,7 @@ from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
 from .errors import ModelWarning
-from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _fit_ok, _separated,
+from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, fit_trouble, refuse_separated,
                      model_data, reference_df, reference_p, reference_quantile)
 
 __all__ = ["fit_glmm", "GLMMData", "glmm_deviance", "ICC_LATENT_VARIANCE"]
@@ -61,12 +61,12 @@ _SIGMA_MAX = 20.0
 ML_COLUMNS = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
 
 
-def _ml_wald(theta, hess, p: int, res):
+def ml_wald(theta, hess, p: int, res):
     """The ML fits' Wald step on the deviance's Hessian ``hess`` (deviance = -2 log L).
 
     Returns ``(cov_full, beta, cov, se, why)``: the covariance 2 H^-1 of every parameter (NaN
     when H is singular), the ``p`` fixed effects ``theta[:p]``, their covariance and SEs, and
-    why the fit is rejected (None when accepted; see :func:`analysis.models._accepted`).
+    why the fit is rejected (None when accepted; see :func:`analysis.models.accept_candidate`).
     """
     try:
         cov_full = 2.0 * np.linalg.inv(hess)
@@ -75,10 +75,10 @@ def _ml_wald(theta, hess, p: int, res):
     beta, cov = theta[:p], cov_full[:p, :p]
     se = np.sqrt(np.diag(cov))
     why = None if res.success else f"did not converge ({res.message})"
-    return cov_full, beta, cov, se, why or _fit_ok(beta, se)
+    return cov_full, beta, cov, se, why or fit_trouble(beta, se)
 
 
-def _wald_table(terms, beta, se, df, q) -> pd.DataFrame:
+def wald_table(terms, beta, se, df, q) -> pd.DataFrame:
     """Fixed effects with Wald ratios, p-values and intervals against t(``df``) (``q`` its
     two-sided quantile; normal without ``df``)."""
     return pd.DataFrame({"term": terms, "log_odds": beta, "se": se, "z": beta / se,
@@ -87,12 +87,12 @@ def _wald_table(terms, beta, se, df, q) -> pd.DataFrame:
                          "interval": f"Wald, t({df:g})" if df else "Wald"})
 
 
-def _profile_cut(level: float, df) -> float:
+def profile_cut(level: float, df) -> float:
     """A profile interval's deviance cut-off: F(1, df)(level), chi2_1(level) without ``df``."""
     return stats.f.ppf(level, 1, df) if df else stats.chi2.ppf(level, 1)
 
 
-def _profile_upper(excess, value_hat: float, hi_try: float, bound: float) -> float:
+def profile_upper(excess, value_hat: float, hi_try: float, bound: float) -> float:
     """A profile interval's upper end: ``hi_try`` doubled (up to ``bound``) until the deviance
     ``excess`` over the cut-off is positive, then Brent's root; inf if it never rises so far."""
     while excess(hi_try) < 0 and hi_try < bound:
@@ -206,7 +206,7 @@ def glmm_deviance(theta, data: GLMMData, n_agq: int = 11, grad: bool = False):
     return dev, -2.0 * np.append(g_beta, g_sigma)
 
 
-def _fd_gradient(fun, t):
+def fd_gradient(fun, t):
     """Central-difference gradient of a scalar function (the Laplace case, see _objective)."""
     g = np.empty(len(t))
     for i in range(len(t)):
@@ -235,7 +235,7 @@ def _objective(data, n_agq, fixed_sigma=None, exact=False):
     def fun(t):
         if fd:
             dev = lambda u: glmm_deviance(full(u), data, n_agq)
-            return dev(t), _fd_gradient(dev, np.asarray(t, float))
+            return dev(t), fd_gradient(dev, np.asarray(t, float))
         d, g = glmm_deviance(full(t), data, n_agq, grad=True)
         return d, (g if fixed_sigma is None else g[:-1])
     return fun
@@ -262,10 +262,10 @@ def _hessian(theta, data, n_agq):
     """Central differences of the gradient, symmetrised (deviance scale)."""
     if n_agq < 7:       # second differences of the deviance itself (see _objective)
         return _hessian_fd(theta, data, n_agq)
-    return _fd_hessian(lambda t: glmm_deviance(t, data, n_agq, True)[1], theta, sd_last=True)
+    return fd_hessian(lambda t: glmm_deviance(t, data, n_agq, True)[1], theta, sd_last=True)
 
 
-def _fd_hessian(grad, theta, *, sd_last: bool = False):
+def fd_hessian(grad, theta, *, sd_last: bool = False):
     """Central differences of ``grad`` (steps 1e-4 max(1, |theta_i|)), symmetrised.
 
     ``sd_last``: the last parameter is an SD (>= 0): where its step would cross 0 the difference
@@ -317,7 +317,7 @@ def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan, df=None)
     point already computed); the ends are found by Brent's method, bracketed first by the
     Wald interval on log sigma.
     """
-    cut = _profile_cut(level, df)
+    cut = profile_cut(level, df)
     sigma_hat, beta_hat = float(theta[-1]), theta[:-1]
     done: dict = {}
 
@@ -342,7 +342,7 @@ def _profile_sigma(data, theta, dev_min, n_agq, level, se_sigma=np.nan, df=None)
             lo_try /= 2
         low = 0.0 if excess(lo_try) < 0 else \
             optimize.brentq(excess, lo_try, sigma_hat, xtol=2e-5, rtol=1e-6)
-    high = _profile_upper(excess, sigma_hat, max(sigma_hat * spread, 0.3), _SIGMA_MAX)
+    high = profile_upper(excess, sigma_hat, max(sigma_hat * spread, 0.3), _SIGMA_MAX)
     return low, high
 
 
@@ -395,10 +395,10 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     df = reference_df(data_t)
     zt = reference_quantile(level, df)           # fixed effects: t(participants - 2)
     columns = ML_COLUMNS
-    for candidate in _candidates(data_t, formula, notes, "GLMM"):
-        if _separated("GLMM", candidate, data_t, notes):
+    for candidate in candidate_formulas(data_t, formula, notes, "GLMM"):
+        if refuse_separated("GLMM", candidate, data_t, notes):
             continue
-        y, x = _design(candidate, data_t)
+        y, x = design_matrices(candidate, data_t)
         data = GLMMData.from_trials(y, x.to_numpy(), data_t["participant"])
         p = x.shape[1]
         start = np.zeros(p + 1)
@@ -410,8 +410,8 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
             res = _minimise(data, start, n_agq)
             theta = res.x.copy()
             hess = _hessian(theta, data, n_agq)
-        cov_full, beta, cov, se, why = _ml_wald(theta, hess, p, res)
-        if not _accepted("GLMM", candidate, formula, why, notes):
+        cov_full, beta, cov, se, why = ml_wald(theta, hess, p, res)
+        if not accept_candidate("GLMM", candidate, formula, why, notes):
             continue
         sigma = float(theta[-1])
         if profile:
@@ -425,7 +425,7 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
             sd_log = np.sqrt(cov_full[-1, -1]) / max(sigma, 1e-12)
             low, high = sigma * np.exp(-z * sd_log), sigma * np.exp(z * sd_log)
             how = "Wald on log SD"
-        table = _wald_table(x.columns, beta, se, df, zt)
+        table = wald_table(x.columns, beta, se, df, zt)
         icc = lambda s: s ** 2 / (s ** 2 + ICC_LATENT_VARIANCE)
         table.loc[len(table)] = ["participant_sd", sigma, np.sqrt(cov_full[-1, -1]), np.nan,
                                  np.nan, low, high, how]

@@ -38,9 +38,9 @@ import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
-from .glmm import (ML_COLUMNS, GLMMData, _fd_gradient, _fd_hessian, _ml_wald, _profile_cut, _profile_upper,
-                   _wald_table)
-from .models import (FORMULA, ModelFit, _accepted, _candidates, _design, _separated, model_data,
+from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, ml_wald, profile_cut, profile_upper,
+                   wald_table)
+from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
                      reference_df, reference_quantile)
 
 __all__ = ["fit_glmm_slope", "slope_deviance"]
@@ -130,7 +130,7 @@ def _objective(data, z, n_agq):
     if n_agq < 5:
         def fun(t):
             dev = lambda u: slope_deviance(u, data, z, n_agq)
-            return dev(t), _fd_gradient(dev, np.asarray(t, float))
+            return dev(t), fd_gradient(dev, np.asarray(t, float))
         return fun
     return lambda t: slope_deviance(t, data, z, n_agq, grad=True)
 
@@ -139,8 +139,8 @@ def _hessian(theta, data, z, n_agq):
     if n_agq >= 5:
         g = lambda t: slope_deviance(t, data, z, n_agq, grad=True)[1]
     else:
-        g = lambda t: _fd_gradient(lambda u: slope_deviance(u, data, z, n_agq), t)
-    return _fd_hessian(g, theta)
+        g = lambda t: fd_gradient(lambda u: slope_deviance(u, data, z, n_agq), t)
+    return fd_hessian(g, theta)
 
 
 def _sd_params(t):
@@ -165,7 +165,7 @@ def _sd_objective(data, z, n_agq, p, fixed_index, fixed_value):
     if n_agq < 5:           # the posterior-expectation gradient is not accurate: differences
         def fun_fd(u):
             dev = lambda w: slope_deviance(theta_of(w), data, z, n_agq)
-            return dev(u), _fd_gradient(dev, np.asarray(u, float))
+            return dev(u), fd_gradient(dev, np.asarray(u, float))
         return fun_fd
 
     def fun(u):
@@ -188,7 +188,7 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
     ``df``). An SD's lower end is 0, and a correlation's end is -1 or 1, when the profile
     never rises that far.
     """
-    cut = _profile_cut(level, df)
+    cut = profile_cut(level, df)
     p = len(theta) - 3
     hat = np.append(theta[:p], _sd_params(theta[-3:]))
     value_hat = hat[p + which]
@@ -228,7 +228,7 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
         low = 0.0
     else:
         low = optimize.brentq(excess, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
-    high = _profile_upper(excess, value_hat, max(2 * value_hat, 0.5), _BOUND)
+    high = profile_upper(excess, value_hat, max(2 * value_hat, 0.5), _BOUND)
     return low, high
 
 
@@ -289,10 +289,10 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         notes.append("GLMM slope: one mode only: no mode slope to fit")
         return ModelFit(kind="glmm-slope", formula=None, requested=formula,
                         table=pd.DataFrame(columns=columns), notes=notes)
-    for candidate in _candidates(data_t, formula, notes, "GLMM slope"):
-        if _separated("GLMM slope", candidate, data_t, notes):
+    for candidate in candidate_formulas(data_t, formula, notes, "GLMM slope"):
+        if refuse_separated("GLMM slope", candidate, data_t, notes):
             continue
-        y, x = _design(candidate, data_t)
+        y, x = design_matrices(candidate, data_t)
         sim = (data_t["mode"] == "simulated").to_numpy(float)
         full = np.column_stack([x.to_numpy(), sim])
         data = GLMMData.from_trials(y, full, data_t["participant"])
@@ -316,14 +316,14 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                 res.nit += first.nit
             theta = res.x.copy()
             hess = _hessian(theta, data, z, n_agq)
-        cov_full, beta, cov, se, why = _ml_wald(theta, hess, p, res)
-        if not _accepted("GLMM slope", candidate, formula, why, notes):
+        cov_full, beta, cov, se, why = ml_wald(theta, hess, p, res)
+        if not accept_candidate("GLMM slope", candidate, formula, why, notes):
             continue
         lam = _lambda(theta[-3:])
         sigma = lam @ lam.T
         sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])
         corr = sigma[0, 1] / (sd0 * sd1) if sd0 > 0 and sd1 > 0 else np.nan
-        table = _wald_table(x.columns, beta, se, df, zq)
+        table = wald_table(x.columns, beta, se, df, zq)
         how = "point estimate"
         cut_df = df if sd_cutoff == "F" else None
         if profile:

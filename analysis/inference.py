@@ -34,7 +34,7 @@ import pandas as pd
 import patsy
 from scipy import special, stats
 
-from .models import ModelFit, _has_group_by_roughness, model_data
+from .models import ModelFit, has_group_by_roughness, model_data
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",
            "averaged_contrast", "CHANCE"]
@@ -100,11 +100,11 @@ def averaged_contrast(fit: ModelFit, mode: str = "real", samples=(1, 2, 3, 4),
     dict or None
         ``log_odds_ratio, se, p_value, difference`` (None without a group term).
     """
-    from .models import _contrast
+    from .models import log_odds_contrast
     if fit.formula is None or "group" not in fit.formula:
         return None
     xa, xb = _rows(fit, ["A"], [mode], samples), _rows(fit, ["B"], [mode], samples)
-    v = _contrast(xa, xb, fit.params, fit.cov, fit.quantile(level), fit.df)
+    v = log_odds_contrast(xa, xb, fit.params, fit.cov, fit.quantile(level), fit.df)
     return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8]}
 
 
@@ -132,7 +132,7 @@ def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
         return out
     modes = sorted(data["mode"].unique())
     samples = sorted(data["roughness_id"].unique())
-    if not _has_group_by_roughness(fit):
+    if not has_group_by_roughness(fit):
         samples = samples[:1]      # the model has one A - B log odds ratio per mode
         out["hypothesis"] += " (the fitted model has no group x sample term: one A - B per mode)"
     xa = _rows(fit, ["A"], modes, samples)

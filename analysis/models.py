@@ -158,7 +158,7 @@ def model_data(trials: pd.DataFrame) -> pd.DataFrame:
     return data
 
 
-def _candidates(data: pd.DataFrame, formula: str, notes: list, kind: str) -> list[str]:
+def candidate_formulas(data: pd.DataFrame, formula: str, notes: list, kind: str) -> list[str]:
     """The requested formula, then the fallbacks (factors with one level left out)."""
     present = [f for f, col in (("group", "group"), ("mode", "mode"),
                                 ("C(roughness_id)", "roughness_id")) if data[col].nunique() > 1]
@@ -182,12 +182,12 @@ def _separated_cells(data: pd.DataFrame) -> list[str]:
             for (g, m, r), v in bad.items()]
 
 
-def _design(formula: str, data: pd.DataFrame):
+def design_matrices(formula: str, data: pd.DataFrame):
     y, x = patsy.dmatrices(formula, data, return_type="dataframe")
     return y.iloc[:, 0].to_numpy(), x
 
 
-def _fit_ok(params, se) -> str | None:
+def fit_trouble(params, se) -> str | None:
     if not (np.all(np.isfinite(params)) and np.all(np.isfinite(se))):
         return "non-finite estimates"
     if np.max(np.abs(params)) > _MAX_ABS_COEF or np.max(se) > _MAX_SE:
@@ -210,7 +210,7 @@ def _fit_trouble(category) -> bool:
                                  sme.HessianInversionWarning))
 
 
-def _separated(kind: str, candidate: str, data: pd.DataFrame, notes: list) -> bool:
+def refuse_separated(kind: str, candidate: str, data: pd.DataFrame, notes: list) -> bool:
     """True, with a note, when ``candidate`` is the full formula and a cell is separated."""
     if candidate != FORMULA:
         return False
@@ -221,7 +221,7 @@ def _separated(kind: str, candidate: str, data: pd.DataFrame, notes: list) -> bo
     return bool(cells)
 
 
-def _accepted(kind: str, candidate: str, formula: str, why: str | None, notes: list) -> bool:
+def accept_candidate(kind: str, candidate: str, formula: str, why: str | None, notes: list) -> bool:
     """One rung of the fallback ladder every model shares: ``why`` (the fit's trouble, or
     None) rejects ``candidate`` with a note; an accepted simpler formula is noted and warned."""
     if why:
@@ -258,10 +258,10 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
     notes: list = []
     df = reference_df(data)
     z = reference_quantile(level, df)
-    for candidate in _candidates(data, formula, notes, "GEE"):
-        if _separated("GEE", candidate, data, notes):
+    for candidate in candidate_formulas(data, formula, notes, "GEE"):
+        if refuse_separated("GEE", candidate, data, notes):
             continue
-        y, x = _design(candidate, data)
+        y, x = design_matrices(candidate, data)
         why = None
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -277,10 +277,10 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
             trouble = [str(w.message) for w in caught if _fit_trouble(w.category)]
             params = np.asarray(res.params)
             se = np.asarray(res.bse)
-            why = "; ".join(trouble) if (trouble or not res.converged) else _fit_ok(params, se)
+            why = "; ".join(trouble) if (trouble or not res.converged) else fit_trouble(params, se)
             if not res.converged and not trouble:
                 why = "did not converge"
-        if not _accepted("GEE", candidate, formula, why, notes):
+        if not accept_candidate("GEE", candidate, formula, why, notes):
             continue
         # statsmodels' res.pvalues / res.conf_int() refer the Wald ratio to the normal; the
         # table refers it to t(participants - 2) (reference_df), so only the ratio is theirs
@@ -329,8 +329,8 @@ def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.
     exog_vc = sparse.csr_matrix((np.ones(len(data)), (np.arange(len(data)), people.codes)),
                                 shape=(len(data), len(people.categories)))
     ident = np.zeros(len(people.categories), dtype=int)
-    for candidate in _candidates(data, formula, notes, "Bayes"):
-        y, x = _design(candidate, data)
+    for candidate in candidate_formulas(data, formula, notes, "Bayes"):
+        y, x = design_matrices(candidate, data)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             try:
@@ -344,8 +344,8 @@ def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.
             if not res.optim_retvals.success or any(_fit_trouble(w.category) for w in caught):
                 why = "did not converge (VB optimiser)"
             else:
-                why = _fit_ok(res.fe_mean, res.fe_sd)
-        if not _accepted("Bayes", candidate, formula, why, notes):
+                why = fit_trouble(res.fe_mean, res.fe_sd)
+        if not accept_candidate("Bayes", candidate, formula, why, notes):
             continue
         mean, sd = np.asarray(res.fe_mean), np.asarray(res.fe_sd)
         table = pd.DataFrame({"term": x.columns, "posterior_mean": mean, "posterior_sd": sd,
@@ -412,7 +412,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     roughness = sorted(data["roughness_id"].unique())
     # A fitted formula without the group x roughness interaction gives every sample the same
     # log odds ratio; per-sample rows then come from a GEE of that sample's trials alone.
-    per_sample = _has_group_by_roughness(fit)
+    per_sample = has_group_by_roughness(fit)
     for mode in sorted(data["mode"].unique()):
         specs = [(r, [r]) for r in roughness] + [(0, roughness)]
         for label, levels in specs:
@@ -426,7 +426,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
             rows.append([fit.kind, mode, label,
-                         *_contrast(x[: len(levels)], x[len(levels):], beta, cov, z, fit.df),
+                         *log_odds_contrast(x[: len(levels)], x[len(levels):], beta, cov, z, fit.df),
                          f"model: {fit.formula}"])
     out = pd.DataFrame(rows, columns=columns)
     out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
@@ -448,7 +448,7 @@ def _compares(mode: str, roughness_id: int, kind: str) -> str:
             f"difference of {scale} proportions correct")
 
 
-def _contrast(xa, xb, beta, cov, z, df=None) -> list:
+def log_odds_contrast(xa, xb, beta, cov, z, df=None) -> list:
     """Group A vs B: log odds ratio, its SE, interval, odds ratio, p-value, both probabilities
     and their difference with a delta-method interval.
 
@@ -468,7 +468,7 @@ def _contrast(xa, xb, beta, cov, z, df=None) -> list:
             pa - pb, pa - pb - z * dse, pa - pb + z * dse]
 
 
-def _has_group_by_roughness(fit: ModelFit) -> bool:
+def has_group_by_roughness(fit: ModelFit) -> bool:
     names = [t.name() for t in fit.design_info.terms]
     return any("group" in n and "roughness_id" in n for n in names)
 
@@ -497,5 +497,5 @@ def _sample_gee_contrast(cell: pd.DataFrame, z: float, df=None) -> list:
                      family=sm.families.Binomial(),
                      cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
     xa, xb = np.array([1.0, 0.0]), np.array([1.0, 1.0])
-    return [*_contrast(xa, xb, np.asarray(res.params), np.asarray(res.cov_params()), z, df),
+    return [*log_odds_contrast(xa, xb, np.asarray(res.params), np.asarray(res.cov_params()), z, df),
             "per-sample GEE: correct ~ group"]

@@ -482,8 +482,8 @@ def plot_power(result: PowerResult, path) -> Path:
     -------
     Path
     """
-    from .figures import _pyplot
-    plt = _pyplot()
+    from .figures import agg_pyplot
+    plt = agg_pyplot()
     t = result.table
     fig, ax = plt.subplots(figsize=(5.6, 4.2), dpi=150)
     curves = ([(f"A - B {e:+g} points", t[t["effect_pp"] == e]) for e in t["effect_pp"].unique()]

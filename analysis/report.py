@@ -33,8 +33,8 @@ from .result import AnalysisResult
 from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
                             rt_table)
 # report.md and the summary live in their own modules; re-exported (tests read the private two)
-from .report_markdown import COLUMN_MEANINGS, _sessions_markdown, report_markdown  # noqa: F401
-from .summary import _tests_summary, plain_summary  # noqa: F401
+from .report_markdown import COLUMN_MEANINGS, sessions_markdown, report_markdown  # noqa: F401
+from .summary import tests_summary, plain_summary  # noqa: F401
 
 __all__ = ["AnalysisResult", "analyze", "plain_summary", "COLUMN_MEANINGS"]
 

@@ -56,7 +56,7 @@ def _md_table(df: pd.DataFrame, digits: int = 3) -> str:
     return "\n".join(lines)
 
 
-def _sessions_markdown(log) -> list:
+def sessions_markdown(log) -> list:
     """Every session and why it was or was not analysed; trials with the skin out of range."""
     cols = ["participant", "session", "complete", "n_done", "n_planned", "analysed", "reason"]
     table = log.sessions[[c for c in cols if c in log.sessions.columns]].copy()
@@ -107,7 +107,7 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
         "## Counts", "", _md_table(counts), "",
         "### Excluded from inference", "", _md_table(log.exclusion_counts()), "",
     ]
-    parts += _sessions_markdown(log)
+    parts += sessions_markdown(log)
     parts += _missing_section(r)
     parts += _not_read_section(log)
     parts += model_decisions_markdown(r.extras.get("model_decisions", pd.DataFrame()), _md_table)

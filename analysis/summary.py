@@ -96,7 +96,7 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                                  f"(named correctly in {_pct(worst.min())} of its trials)")
         out.append("The sample most often confused with the others was, "
                    + "; ".join(worst_by_mode) + ".")
-    out += _tests_summary(contrasts, tests)
+    out += tests_summary(contrasts, tests)
     spread = choice.spread if choice is not None else glmm
     if spread is not None and spread.kind == "glmm-slope" and spread.formula is not None:
         t = spread.table.set_index("term")
@@ -121,7 +121,7 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
     return "\n\n".join(out)
 
 
-def _tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[str]:
+def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[str]:
     """Primary test, omnibus, Holm-adjusted per-sample results, interaction: in words."""
     out = []
     if tests is None or tests.empty:

@@ -325,18 +325,11 @@ def _private_imports() -> list:
     return found
 
 
-STATS_REWORK = ("analysis's models and report are being rebuilt as declared result objects (fits, "
-                "results, writers); their shared helpers become public names there")
 SIMULATION_REWORK = ("the participant model and the studies are being moved apart (below and above "
                      "the session); the replay variants' helpers become public names there")
 
 #: Private names still imported across modules: defining module -> the reason.
 ALLOWED_PRIVATE_IMPORTS: dict[str, str] = {
-    "analysis.models": STATS_REWORK,
-    "analysis.glmm": STATS_REWORK,
-    "analysis.figures": STATS_REWORK,
-    "analysis.report_markdown": STATS_REWORK,
-    "analysis.summary": STATS_REWORK,
     "experiments.simulation.replay": SIMULATION_REWORK,
     "experiments.simulation.figure9.study": SIMULATION_REWORK,
 }
@@ -365,3 +358,75 @@ def test_no_private_name_is_imported_from_another_module():
 
 def test_every_private_import_allowance_is_still_needed():
     assert sorted(set(ALLOWED_PRIVATE_IMPORTS) - {t for _, t, _, _ in PRIVATE_IMPORTS}) == []
+
+
+# --------------------------------------------------------------------------- names that exist
+def top_level_names(source: str) -> set[str] | None:
+    """The names a module binds at its top level (definitions, assignments, imports, also inside
+    top-level ``if``/``try``); None when it has a module ``__getattr__`` (lazy names)."""
+    names: set[str] = set()
+    body = list(ast.parse(source).body)
+    while body:
+        node = body.pop(0)
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            if node.name == "__getattr__":
+                return None
+            names.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                names |= {n.id for n in ast.walk(target) if isinstance(n, ast.Name)}
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names |= {(a.asname or a.name).split(".")[0] for a in node.names}
+        elif isinstance(node, (ast.If, ast.Try, ast.With)):
+            for part in ("body", "orelse", "finalbody", "handlers"):
+                body += getattr(node, part, [])
+        elif isinstance(node, ast.ExceptHandler):
+            body += node.body
+    return names
+
+
+def _source_of(module: str) -> str | None:
+    path = ROOT / Path(*module.split("."))
+    for candidate in (path.with_suffix(".py"), path / "__init__.py"):
+        if candidate.exists():
+            return candidate.read_text(encoding="utf-8")
+    return None
+
+
+def test_every_name_imported_from_the_tree_exists_there():
+    # an import inside a function fails only when that function runs: a name renamed or moved
+    # must not leave such an import behind
+    missing = []
+    defined: dict[str, set[str] | None] = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            module, is_package = _module_name(path)
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if not isinstance(node, ast.ImportFrom):
+                    continue
+                if node.level:
+                    base = module.split(".") if is_package else module.split(".")[:-1]
+                    base = base[:len(base) - (node.level - 1)]
+                    target = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    target = node.module
+                if target.split(".")[0] not in PACKAGES or _source_of(target) is None:
+                    continue
+                if target not in defined:
+                    defined[target] = top_level_names(_source_of(target))
+                names = defined[target]
+                if names is None:
+                    continue
+                missing += [f"{module} line {node.lineno}: {target} has no {a.name}"
+                            for a in node.names if a.name != "*" and a.name not in names
+                            and not (a.name.startswith("__") and a.name.endswith("__"))
+                            and f"{target}.{a.name}" not in MODULES]
+    assert missing == []
+
+
+def test_the_name_check_sees_a_missing_name():
+    assert "agg_pyplot" in top_level_names(_source_of("analysis.figures"))
+    assert "_pyplot" not in top_level_names(_source_of("analysis.figures"))
+    assert top_level_names("def __getattr__(name):\n    pass\n") is None
+    assert top_level_names("try:\n    import a.b as c\nexcept ImportError:\n    d = 1\n") == {"c", "d"}

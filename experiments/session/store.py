@@ -37,6 +37,7 @@ def write_session_json(directory: Path, plan) -> None:
     """Write ``directory/session.json`` for a :class:`~experiments.session.SessionPlan`, and
     ``traces/``."""
     from experiments.logbook import atomic_write_json, ensure_dir
+    from experiments.session.setup import protocol_source
 
     protocol, assignment, durable = plan.protocol, plan.assignment, plan.durable
     atomic_write_json(directory / "session.json", durable=durable, obj={
@@ -49,7 +50,8 @@ def write_session_json(directory: Path, plan) -> None:
         "group": assignment.group,
         "group_assignment": assignment.to_dict(),
         "protocol_name": protocol.name,
-        "protocol_file": None if protocol.path is None else str(protocol.path),
+        # a packaged protocol by its file's name: not where this copy of the code is installed
+        "protocol_file": None if protocol.path is None else protocol_source(protocol),
         "protocol_hash": protocol.hash,
         "protocol": protocol.data,
         "seed": plan.seed,

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from analysis.load import load_trials
-from analysis.report import _sessions_markdown
+from analysis.report_markdown import sessions_markdown
 from experiments.responders.base import Responder, ResponderClosed, Response
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -87,7 +87,7 @@ def test_latest_and_all(data):
 
 
 def test_the_report_lists_every_session_and_the_cold_trials(data):
-    text = "\n".join(_sessions_markdown(load_trials(data)))
+    text = "\n".join(sessions_markdown(load_trials(data)))
     assert "Inclusion policy (`--sessions first`): each participant's first complete session." in text
     assert "| P02 | S01 | no | 6 | 12 | no | incomplete: 6 of 12 trials |" in text
     assert "| P01 | S02 | yes | 12 | 12 | no | repeated session: P01's first complete session is S01 |" in text

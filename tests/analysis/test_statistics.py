@@ -120,7 +120,7 @@ def test_ordinal_slope_is_positive_when_answers_follow_the_order():
 
 
 def test_summary_names_only_holm_adjusted_results():
-    from analysis.report import _tests_summary
+    from analysis.summary import tests_summary
     def table(p_holm):
         rows = [{"role": "per-sample", "model": "gee", "p_value": 0.02, "p_holm": p_holm,
                  "compares": "group A - group B, real sample 2#: log odds ratio", "basis": "model"}]
@@ -128,16 +128,16 @@ def test_summary_names_only_holm_adjusted_results():
                   "compares": f"group A - group B, real sample {r}#: log odds ratio",
                   "basis": "model"} for r in (1, 3, 4)]
         return pd.DataFrame(rows)
-    text = " ".join(_tests_summary(pd.DataFrame(), table(0.08)))
+    text = " ".join(tests_summary(pd.DataFrame(), table(0.08)))
     assert "no single sample shows a group difference" in text and "2#" not in text
-    text = " ".join(_tests_summary(pd.DataFrame(), table(0.03)))
+    text = " ".join(tests_summary(pd.DataFrame(), table(0.03)))
     assert "remains for: group A - group B, real sample 2# (adjusted p = 0.030)" in text
     # the omnibus test comes first: when it does not reject, no sample is named
     gated = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.2,
                                       "statistic": 1.3, "df": 8, "basis": "model",
                                       "test": "Wald F: F(8, 22) from Wald chi2 = 11",
                                       "compares": "no A - B difference"}]), table(0.03)])
-    text = " ".join(_tests_summary(pd.DataFrame(), gated))
+    text = " ".join(tests_summary(pd.DataFrame(), gated))
     assert "omnibus test does not reject (p = 0.200)" in text and "remains for" not in text
 
 

@@ -101,8 +101,11 @@ def test_the_log_records_no_absolute_path(two_sessions):
         assert (session / path).is_file()
 
 
-def test_the_trials_table_and_traces_match_too(two_sessions):
+def test_the_trials_table_traces_and_session_record_match_too(two_sessions):
     first, second, _, _ = two_sessions
+    a, b = ((s / "session.json").read_bytes() for s in (first, second))
+    assert _blank(a) == _blank(b)
+    assert json.loads(a)["protocol_file"] == "roughness_recognition.toml"   # not the code's folder
     assert _blank((first / "trials.csv").read_bytes()) == _blank((second / "trials.csv").read_bytes())
     names = sorted(p.name for p in (first / "traces").iterdir())
     assert names and names == sorted(p.name for p in (second / "traces").iterdir())

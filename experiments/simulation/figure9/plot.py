@@ -79,8 +79,8 @@ def plot_figure9_distribution(left: pd.DataFrame, right: pd.DataFrame, observed,
     observed : pandas.DataFrame or None
         :func:`analysis.cell_proportions` of the emulated study (right panel, on top).
     """
-    from analysis.figures import _pyplot
-    plt = _pyplot()
+    from analysis.figures import agg_pyplot
+    plt = agg_pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 7.6), dpi=150, sharey=True)
     _panel(axes[0], left, left_title)
     _panel(axes[1], right, right_title, observed)
