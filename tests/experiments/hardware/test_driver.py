@@ -200,6 +200,32 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
     assert len(hb) >= 0.5 * held / d.heartbeat_s         # ≥ half the 10 ms ticks got through
 
 
+@pytest.mark.parametrize("hold_s", [0.3])
+def test_the_in_process_emulator_is_heartbeated_by_the_helper_while_the_host_holds_the_gil(hold_s):
+    # emulator:// on a real clock runs the device in this process: a thread heartbeat and the
+    # device's clock thread were held off together, and whichever got the GIL first decided
+    # whether the watchdog tripped (a spurious WATCHDOG in a normal session on a busy machine).
+    # The helper process writes to the emulator's descriptor, read by its clock thread first
+    import random
+    import time
+    with open_display("emulator://?clock=real") as d:
+        assert d._hb_proc is not None and d._hb_proc.running
+        d.arm("record", force_threshold_N=2.0, max_duration_s=20.0)
+        big = [random.random() for _ in range(100_000)]
+        held = 0.0
+        for _ in range(3):                               # 3 holds of ≥ 0.3 s of C calls
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < hold_s:
+                sorted(big)                              # the GIL is ours for the whole call
+            held = max(held, time.monotonic() - t0)
+            d.poll()                                     # a frame loop's pass: the host lives
+            time.sleep(0.03)
+        st = d.status()
+        assert st.state == "ARMED" and st.last_fault is None, (st.state, st.last_fault)
+        d.abort()
+    assert held >= hold_s
+
+
 def test_each_connection_starts_at_a_random_sequence_number():
     # audit 34: every host started at 1, so a restarted host repeated its predecessor's numbers
     # and got its cached replies (the device side is fixed too: HELLO clears them)
