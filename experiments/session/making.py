@@ -136,6 +136,21 @@ def finished_sessions(folder: Path) -> list[Path]:
     return out
 
 
+def unfinished_sessions(folder: Path) -> list[Path]:
+    """The sessions in a participant's folder that started and did not finish (running now, or
+    interrupted, stopped or killed: resumable)."""
+    from experiments.logbook import read_events, replay
+    out = []
+    for events in sorted(Path(folder).glob("*/events.jsonl")):
+        try:
+            log = read_events(events, warn=False)[0]
+            if log and not replay(log).finished:
+                out.append(events.parent)
+        except (OSError, ValueError, SessionError):
+            continue
+    return out
+
+
 def _refuse_existing(directory: Path) -> None:
     events = directory / "events.jsonl"
     if (directory / "session.json").exists() or (events.exists() and events.stat().st_size > 0):
@@ -246,8 +261,10 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     display_url : str, optional
         Default: the stored one.
     clock : {"auto", "real", "virtual"}, optional
-        Default (None or "auto"): from the display URL actually used (virtual iff it says
-        ``clock=virtual``), as for a new session.
+        Default (None): the clock the session ran on (``session.json``'s ``clock``; a resume
+        never switches a virtual-clock session to the real clock, or back, unless told);
+        ``"auto"``: from the display URL actually used (virtual iff it says ``clock=virtual``),
+        as for a new session.
 
     Raises
     ------
@@ -256,7 +273,9 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     """
     stored = read_session_json(session_dir, out=out)
     url = display_url or stored.display_url
-    clock_obj = clock_for_url(url, clock or "auto")
+    if clock is None:
+        clock = stored.clock or "auto"
+    clock_obj = clock_for_url(url, clock)
     profiles = check_schedule_profiles(stored.protocol, stored.participant, stored.group,
                                         stored.schedule, source=stored.source)
     session = Session(Path(session_dir), stored.protocol, stored.participant, stored.group,
