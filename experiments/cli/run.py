@@ -37,8 +37,9 @@ def register(sub) -> None:
 def add_common(p) -> None:
     """Options shared with `thermocue resume`."""
     p.add_argument("--clock", choices=("auto", "real", "virtual"), default=None,
-                   help="virtual: no waiting (rewarming), for simulated sessions; auto (default): "
-                        "virtual iff the display URL has clock=virtual")
+                   help="virtual: no waiting (rewarming), for simulated sessions; auto: virtual "
+                        "iff the display URL has clock=virtual (the default of run; resume's "
+                        "default: the clock the URL names, else the session's own)")
     p.add_argument("--responder-option", action="append", default=[], metavar="KEY=VALUE",
                    help="option passed to the responder (repeatable), e.g. fullscr=true")
     p.add_argument("--max-faults", type=int, default=None, metavar="N",

@@ -136,6 +136,15 @@ def finished_sessions(folder: Path) -> list[Path]:
     return out
 
 
+def _clock_named_in(url: str) -> str | None:
+    """``"virtual"`` or ``"real"`` when the URL's query names the clock, else None."""
+    from urllib.parse import parse_qs, urlsplit
+    if "?" not in str(url):
+        return None
+    value = parse_qs(urlsplit(str(url)).query).get("clock", [""])[-1]
+    return value if value in ("virtual", "real") else None
+
+
 def unfinished_sessions(folder: Path) -> list[Path]:
     """The sessions in a participant's folder that started and did not finish (running now, or
     interrupted, stopped or killed: resumable)."""
@@ -261,8 +270,9 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     display_url : str, optional
         Default: the stored one.
     clock : {"auto", "real", "virtual"}, optional
-        Default (None): the clock the session ran on (``session.json``'s ``clock``; a resume
-        never switches a virtual-clock session to the real clock, or back, unless told);
+        Default (None): the clock the display URL names (``clock=virtual`` or ``clock=real``
+        in its query), else the clock the session ran on (``session.json``'s ``clock``): a
+        resume never switches a virtual-clock session to the real clock, or back, unless told.
         ``"auto"``: from the display URL actually used (virtual iff it says ``clock=virtual``),
         as for a new session.
 
@@ -274,7 +284,8 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     stored = read_session_json(session_dir, out=out)
     url = display_url or stored.display_url
     if clock is None:
-        clock = stored.clock or "auto"
+        named = _clock_named_in(url)
+        clock = named or stored.clock or "auto"
     clock_obj = clock_for_url(url, clock)
     profiles = check_schedule_profiles(stored.protocol, stored.participant, stored.group,
                                         stored.schedule, source=stored.source)

@@ -75,11 +75,15 @@ def test_resume_keeps_the_sessions_clock_unless_told(tmp_path):
     assert not open_session(s.directory, clock="auto").clock.virtual   # follow the URL, as asked
 
 
-def test_resume_of_a_real_clock_session_stays_real(tmp_path):
+def test_a_virtual_clock_session_on_a_pty_resumes_virtual(tmp_path):
+    # `thermocue emulator --clock virtual` on a pty and `run --clock virtual`: the URL is a path
+    # that names no clock, and a resume on it used to switch to the real clock
     proto = write_protocol(tmp_path, real_samples=(), contact_s=0.5)
-    s = create_session(proto, P01, tmp_path / "data", URL, seed=1, responder_name="simulated",
-                       clock="real")
-    assert not open_session(s.directory).clock.virtual    # although the URL says virtual
+    s = create_session(proto, P01, tmp_path / "data", str(tmp_path / "pty"), seed=1,
+                       responder_name="simulated", clock="virtual")
+    assert open_session(s.directory).clock.virtual
+    assert not open_session(s.directory, clock="real").clock.virtual
+    assert not open_session(s.directory, display_url="emulator://?clock=real").clock.virtual
 
 
 def test_resume_of_a_finished_session_says_so_before_anything_else(tmp_path, capsys, monkeypatch):
