@@ -56,8 +56,8 @@ from .display_base import Capabilities, EmulatedDisplay, ProfileReceipt
 from .handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from .safety import SafetyLimits, check_profile
-from .trial_recording import (_ACTIVE, _END_NAMES, ContactEvent, TrialRecording, _not_delivered,
-                              _Trial)
+from .trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
+                              TrialInProgress)
 
 __all__ = ["ThermalDisplay", "EmulatorDisplay", "TrialRecording", "ContactEvent"]
 
@@ -138,7 +138,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
-        self._trial: _Trial | None = None
+        self._trial: TrialInProgress | None = None
         self._profile = None
         self._held_limits: SafetyLimits | None = None   # what the device acknowledged at HELLO
         self._uploaded = False                  # an UPLOAD_BEGIN went out on this connection
@@ -364,7 +364,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._check_link()
         md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
         with self._lock:
-            self._trial = _Trial(mode, self._profile if mode == "playback" else None)
+            self._trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
             self._trial.bad0 = self._parser.bad_frames
             try:
                 p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),
@@ -418,7 +418,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     if now - tr.last_frame_clock > silent_s:
                         st = self.status()        # telemetry silent: is the device there at all?
                         tr.last_frame_clock = self._clock()
-                        if st.state not in _ACTIVE:
+                        if st.state not in ACTIVE_STATES:
                             tr.ended = True
                             if st.state == "FAULT" and tr.fault is None:
                                 tr.fault = st.last_fault or "FAULT"
@@ -433,7 +433,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                              if rec.contact_time_s is not None else None)
         return rec
 
-    def _finish(self, tr: _Trial, host_fault) -> TrialRecording:
+    def _finish(self, tr: TrialInProgress, host_fault) -> TrialRecording:
         status, code, msg = "ok", None, None
         st = None
         if host_fault is None:
@@ -446,8 +446,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 if st.contact_time_s is not None:
                     tr.contact_s = st.contact_time_s
                     tr.active_seen = True
-                if st.state not in _ACTIVE:
-                    tr.end_reason = _END_NAMES.get(st.end_reason, str(st.end_reason))
+                if st.state not in ACTIVE_STATES:
+                    tr.end_reason = END_NAMES.get(st.end_reason, str(st.end_reason))
                 if st.state == "FAULT" and tr.fault is None:
                     tr.fault = st.last_fault or "FAULT"
                 elif tr.end_reason == "fault" and tr.fault is None:
@@ -468,7 +468,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         elif tr.end_reason == "aborted":
             status = "aborted"
         else:
-            why = _not_delivered(st, tr)
+            why = not_delivered(st, tr)
             if why is not None:
                 status, code, msg = "fault", "NOT_DELIVERED", why
                 self._safe_abort()

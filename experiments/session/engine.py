@@ -14,6 +14,7 @@ from __future__ import annotations
 import datetime as _dt
 import errno
 import logging
+import os
 import re
 import time
 from pathlib import Path
@@ -26,11 +27,11 @@ from experiments.hardware.display_base import Display
 from experiments.session.hooks import SessionHooks, hooks_from_env
 from experiments.session.machine import StateMachine, clock_for_url
 from experiments.session.planning import SessionProfiles
-from experiments.session.setup import _protocol_source, open_session_display
+from experiments.session.setup import protocol_source, open_session_display
 from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
-from experiments.session.trial import TrialSteps, _Trial, clock_text
+from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from experiments.session_files import schedule_sha256
 
 __all__ = ["Session"]
@@ -67,13 +68,17 @@ class Session(TrialSteps):
         The responder recorded in ``session.json`` ("" if none).
     hooks : SessionHooks
         Called at the trial's pause points (tests; default from ``THERMOCUE_TEST_PAUSE_AT``).
+    durable : bool
+        Whether the session's writes are fsynced (default True; False only for a simulated
+        study on a virtual clock, recomputed from its seed: same files, same bytes, no fsync).
     """
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
                  responder_name: str = "", profiles: dict | None = None,
-                 experimenter=None, hooks: SessionHooks | None = None):
+                 experimenter=None, hooks: SessionHooks | None = None, durable: bool = True):
         self.directory = Path(directory)
+        self.durable = bool(durable)
         self.protocol = protocol
         self.participant = participant
         self.group = group
@@ -94,17 +99,17 @@ class Session(TrialSteps):
         self.experimenter = experimenter
         self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
         #: trials.csv, rebuilt from events.jsonl after every trial (made anew by each run)
-        self._trials_table = TrialsTable(self.events_path, self.trials_path)
+        self._trials_table = TrialsTable(self.events_path, self.trials_path, durable=durable)
         self.log = None
         self.responder: Responder | None = None
         self.display = None
         self.machine = StateMachine(on_change=self._on_state)
-        self._attempt: _Trial | None = None
+        self._attempt: TrialAttempt | None = None
         self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
         #: The checked target profiles, by (roughness_id, roughness_um).
         self.profiles = SessionProfiles(profiles)
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
-        self.protocol_source = _protocol_source(protocol)
+        self.protocol_source = protocol_source(protocol)
         self.signals = SignalGuard()
         self._fatal = None          # (code, message) of a fault that stops the session
         self._link_lost = None      # (code, message): the display's port failed in this attempt
@@ -216,7 +221,8 @@ class Session(TrialSteps):
             0 when every trial is done; 1 when interrupted or stopped after repeated faults
             (the session can be resumed).
         """
-        self._trials_table = TrialsTable(self.events_path, self.trials_path)   # read afresh
+        self._trials_table = TrialsTable(self.events_path, self.trials_path,   # read afresh
+                                         durable=self.durable)
         events = []
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
@@ -232,7 +238,7 @@ class Session(TrialSteps):
         self._started = time.monotonic() - since
         self._date = _psychopy_date(time.time() - since)
         try:
-            with EventLog(self.events_path) as log:
+            with EventLog(self.events_path, durable=self.durable) as log:
                 if log.repaired:
                     self._report(f"repaired: {log.repaired}")
                 self.log = log
@@ -415,7 +421,7 @@ class Session(TrialSteps):
 
     def _abort_attempt(self, trial_index: int, attempt: int, reason: str, fault_code=None) -> None:
         """Log an attempt as aborted and keep its trace under an ``aborted`` name."""
-        kept = keep_trace(self.traces_dir, trial_index, attempt, "aborted")
+        kept = keep_trace(self.traces_dir, trial_index, attempt, "aborted", durable=self.durable)
         with self.signals.critical():
             self.log_event("trial_aborted", trial_index=trial_index, attempt=attempt, reason=reason,
                            fault_code=fault_code,
@@ -440,7 +446,8 @@ class Session(TrialSteps):
             self.log_event("bids_export_failed", message=f"{type(exc).__name__}: {exc}")
             self._report(f"warning: BIDS export failed ({exc}); run `thermocue export-bids` later")
             return
-        self.log_event("bids_exported", path=str(path))
+        # relative to the session folder: the log must not depend on where the data folder is
+        self.log_event("bids_exported", path=_relative_to(path, self.directory))
 
     def _neutral(self, disp) -> None:
         """Display to neutral whatever state it is in (errors logged, never raised)."""
@@ -527,6 +534,11 @@ class Session(TrialSteps):
                        n_completed=self.n_trials - len(queue))
         self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
         return 1
+
+
+def _relative_to(path, folder) -> str:
+    """``path`` relative to ``folder``, with forward slashes (``../../bids/sub-P01/...``)."""
+    return Path(os.path.relpath(Path(path).resolve(), Path(folder).resolve())).as_posix()
 
 
 def _bare(message: str) -> str:

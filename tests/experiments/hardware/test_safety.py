@@ -78,7 +78,7 @@ def test_messages_print_plain_numbers():
 
 
 def test_the_rate_is_the_span_over_every_window_not_one_lag():
-    # Regression (issue 16): 15 <-> 42 °C alternating every 10 ms has equal ends 0.1 s apart,
+    # Regression: 15 <-> 42 °C alternating every 10 ms has equal ends 0.1 s apart,
     # passed the host's check, was limited by the device and reported ok with a 26.8 °C error.
     y = np.where(np.arange(200) % 2, 42.0, 15.0)
     assert profile_max_rate(y, 0.01, 0.1) == pytest.approx(270.0)
