@@ -227,6 +227,32 @@ def test_the_in_process_emulator_is_heartbeated_by_the_helper_while_the_host_hol
     assert held >= hold_s
 
 
+def test_a_hung_host_on_the_in_process_emulator_still_meets_the_watchdog(tmp_path):
+    # the helper keeps heartbeating only while the host's I/O thread shows signs of life: a host
+    # silent for host_stall_s (here 0.5 s; 2 s by default) lets the watchdog act within
+    # host_stall_s + 100 ms of the host's last sign of life (at the latest, the ARM)
+    import json
+    import time
+    log = tmp_path / "emu.jsonl"
+    with open_display(f"emulator://?clock=real&log={log}", host_stall_s=0.5) as d:
+        assert d._hb_proc is not None and d._hb_proc.running
+        d.wait(0.5)               # the helper up (its own start counts as a sign of life)
+        d.arm("record", force_threshold_N=2.0, max_duration_s=20.0)
+        time.sleep(1.5)                                  # hung: no I/O, no pings
+        st = d.status()
+        late_s = d.port.core.max_late_s                  # bytes read late count as of then
+    assert st.state == "IDLE" and st.last_fault == "WATCHDOG"
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    armed = next(r["t_s"] for r in recs if r["event"] == "state" and r["state"] == "ARMED")
+    trip = next(r["t_s"] for r in recs if r["event"] == "watchdog")
+    # heartbeats went on while the host was silent less than host_stall_s (the last ping may
+    # precede the ARM by up to host_stall_s / 8), and stopped after it: the trip within
+    # host_stall_s + the helper's 10 ms wake-up + 100 ms (+ the emulator's own lateness, by
+    # which the bytes it read late are stamped ahead)
+    assert 0.5 - 0.5 / 8 - 0.02 <= trip - armed <= 0.5 + 0.01 + 0.1 + late_s + 1e-6, \
+        (armed, trip, late_s)
+
+
 def test_each_connection_starts_at_a_random_sequence_number():
     # audit 34: every host started at 1, so a restarted host repeated its predecessor's numbers
     # and got its cached replies (the device side is fixed too: HELLO clears them)
