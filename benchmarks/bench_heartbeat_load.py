@@ -58,7 +58,27 @@ def _start_emulator(log: Path) -> tuple[subprocess.Popen, str]:
     return proc, path
 
 
-def run_load(load: int, trials: int, tmp: Path, transport: str = "pty") -> dict:
+def _gil_holder(ms: float):
+    """A call that holds the GIL for about ``ms`` of CPU (``sorted`` of a list: one C call that
+    never releases it, as a text layout or texture upload of a window can), or None."""
+    if ms <= 0:
+        return None
+    import random
+    rng = random.Random(1)
+    n = 20000
+    while True:
+        data = [rng.random() for _ in range(n)]
+        t0 = time.process_time()
+        sorted(data)
+        took = (time.process_time() - t0) * 1e3
+        if took >= ms or n > 5_000_000:
+            break
+        n = int(n * max(1.5, min(4.0, ms / max(took, 0.01))))
+    return lambda: sorted(data)
+
+
+def run_load(load: int, trials: int, tmp: Path, transport: str = "pty", gil_ms: float = 0.0,
+             gil_every: int = 50) -> dict:
     import numpy as np
     from psychopy import visual
 
@@ -80,7 +100,13 @@ def run_load(load: int, trials: int, tmp: Path, transport: str = "pty") -> dict:
         grating = visual.GratingStim(win, tex="sin", mask="gauss", size=300, sf=0.02)
         text = visual.TextStim(win, text="Touch the sample", pos=(0, -180), height=24)
 
+        hold = _gil_holder(gil_ms)
+        frames = [0]
+
         def draw(frame):
+            frames[0] += 1
+            if hold is not None and frames[0] % gil_every == 0:
+                hold()
             grating.phase += 0.01
             grating.draw()
             text.draw()
@@ -112,7 +138,8 @@ def run_load(load: int, trials: int, tmp: Path, transport: str = "pty") -> dict:
     log_trips = sum(1 for r in records if r.get("event") == "watchdog")
     stop = next((r for r in reversed(records) if "max_late_ms" in r), {})
     trips = outcomes.get("WATCHDOG", 0)
-    return dict(transport=transport, load=load, trials=trials, trial_time_s=round(trial_s, 1), watchdog_trips=trips,
+    return dict(transport=transport, gil_hold_ms=gil_ms, gil_every_frames=gil_every if gil_ms else None,
+                load=load, trials=trials, trial_time_s=round(trial_s, 1), watchdog_trips=trips,
                 trips_per_1000_trials=round(1000.0 * trips / trials, 1),
                 emulator_log_watchdog_records=log_trips, outcomes=dict(outcomes),
                 host_max_tx_gap_ms=round(max_gap_ms, 1),
@@ -127,6 +154,10 @@ def main(argv=None) -> int:
     ap.add_argument("--transport", choices=("pty", "inprocess"), default="pty",
                     help="pty: `thermocue emulator` in its own process (a device's place); "
                          "inprocess: emulator://?clock=real in this process")
+    ap.add_argument("--gil-ms", type=float, default=0.0,
+                    help="also hold the GIL this long (CPU ms, one C call) every --gil-every "
+                         "telemetry frames in the drawing callback (default 0: never)")
+    ap.add_argument("--gil-every", type=int, default=50, help="frames between GIL holds")
     ap.add_argument("--json", type=Path, help="also write the results here")
     a = ap.parse_args(argv)
     if not os.environ.get("DISPLAY"):
@@ -137,7 +168,7 @@ def main(argv=None) -> int:
     results = []
     with tempfile.TemporaryDirectory(prefix="bench-heartbeat-") as tmp:
         for load in (int(x) for x in a.loads.split(",")):
-            r = run_load(load, a.trials, Path(tmp), a.transport)
+            r = run_load(load, a.trials, Path(tmp), a.transport, a.gil_ms, a.gil_every)
             results.append(r)
             print(json.dumps(r), flush=True)
     if a.json:

@@ -1,6 +1,8 @@
 """`thermocue resume`: continue an interrupted session at its first incomplete trial."""
 from __future__ import annotations
 
+import sys
+
 
 def register(sub) -> None:
     from experiments.cli.run import RESPONDERS, add_common
@@ -32,6 +34,10 @@ def _run(ns) -> int:
     from experiments.session_reader import read_session_folder
     read_session_folder(ns.session_dir)
     session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
+    if session.finished:       # first: before the responder, its window or the display
+        print(f"thermocue: session {session.directory} is already finished; nothing to do",
+              file=sys.stderr)
+        return 0
     name = ns.responder
     if name is None:
         name = session.responder_name
@@ -43,8 +49,6 @@ def _run(ns) -> int:
     session.experimenter = experimenter_for(ns)
     check_window(name)
     responder = get_responder(name, **responder_options(ns.responder_option))
-    if session.finished:
-        return session.run(responder)     # says so; the display is not needed
     option = "--display" if ns.display else f"{session.directory / 'session.json'}: display_url"
     display = open_display_or_report("resume", session.protocol, session.display_url, option,
                                      f"nothing was run; resume with `thermocue resume "

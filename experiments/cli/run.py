@@ -27,6 +27,9 @@ def register(sub) -> None:
     p.add_argument("--data", required=True, metavar="DIR", help="data folder (DATA)")
     p.add_argument("--seed", type=int, default=None, metavar="N", help="schedule seed (default: random, stored)")
     p.add_argument("--session", default=None, metavar="NAME", help="session name (default: S01, S02, ...)")
+    p.add_argument("--allow-second-session", action="store_true",
+                   help="run even though the participant has an unfinished session (running now, "
+                        "or interrupted: `thermocue resume` continues it)")
     add_common(p)
     p.set_defaults(func=_run)
 
@@ -34,8 +37,9 @@ def register(sub) -> None:
 def add_common(p) -> None:
     """Options shared with `thermocue resume`."""
     p.add_argument("--clock", choices=("auto", "real", "virtual"), default=None,
-                   help="virtual: no waiting (rewarming), for simulated sessions; auto (default): "
-                        "virtual iff the display URL has clock=virtual")
+                   help="virtual: no waiting (rewarming), for simulated sessions; auto: virtual "
+                        "iff the display URL has clock=virtual (the default of run; resume's "
+                        "default: the clock the URL names, else the session's own)")
     p.add_argument("--responder-option", action="append", default=[], metavar="KEY=VALUE",
                    help="option passed to the responder (repeatable), e.g. fullscr=true")
     p.add_argument("--max-faults", type=int, default=None, metavar="N",
@@ -144,6 +148,7 @@ def _run(ns) -> int:
     plan = plan_session(ns.protocol, ns.participant, ns.data, ns.display, seed=ns.seed,
                         session_name=ns.session, responder_name=ns.responder,
                         clock=ns.clock or "auto", max_consecutive_faults=ns.max_faults or 3)
+    refuse_second_live_session(plan, ns.allow_second_session, experimenter_for(ns))
     if not confirm_another_session(plan, experimenter_for(ns)):
         return 1
     display = open_display_or_report("run", plan.protocol, ns.display, "--display",
@@ -159,6 +164,31 @@ def _run(ns) -> int:
             return session.run(responder, display=display)
         finally:
             remove_if_unused(session.directory)
+
+
+def refuse_second_live_session(plan, allowed: bool, experimenter) -> None:
+    """Refuse a new session while the participant has one that started and did not finish
+    (running in another terminal, or interrupted); with ``--allow-second-session``, warn only.
+
+    Raises
+    ------
+    SessionError
+        Naming the unfinished session(s) and how to go on (exit 2, nothing written).
+    """
+    from experiments.errors import SessionError
+    from experiments.session import unfinished_sessions
+
+    live = [d for d in unfinished_sessions(plan.directory.parent) if d != plan.directory]
+    if not live:
+        return
+    names = ", ".join(str(d) for d in live)
+    what = (f"participant {plan.participant_id} has {len(live)} unfinished session(s): {names} "
+            f"(running now, or interrupted: `thermocue resume {live[0]}` continues it)")
+    if not allowed:
+        raise SessionError(f"{what}; not starting another (give --allow-second-session to run "
+                           f"{plan.directory.name} anyway)")
+    experimenter.tell(f"warning: {what}; starting {plan.directory} as asked "
+                      f"(--allow-second-session)")
 
 
 def confirm_another_session(plan, experimenter) -> bool:

@@ -23,6 +23,7 @@ pyserial finds this module because ``experiments.hardware`` adds itself to
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
 import urllib.parse
@@ -102,6 +103,7 @@ class Serial(SerialBase):
         self._thread = None
         self._stop = False
         self._log = None
+        self._hb_pipe = None                   # real clock: (read end, write end) for the helper
         super().__init__(*args, **kwargs)
 
     @property
@@ -133,6 +135,11 @@ class Serial(SerialBase):
         self.is_open = True
         self._stop = False
         if not self.virtual:
+            # a descriptor for the host's heartbeat helper process (its bytes are read by the
+            # clock thread below, as a device reads its UART): the helper needs no GIL of ours
+            r, w = os.pipe()
+            os.set_blocking(r, False)
+            self._hb_pipe = (r, w)
             self.core.start_real_time(time.monotonic())
             self._thread = threading.Thread(target=self._run_real_time, name="emulator-clock",
                                             daemon=True)
@@ -149,7 +156,25 @@ class Serial(SerialBase):
             self._thread = None
             if self._log is not None:
                 self._log.close()
+            if self._hb_pipe is not None:
+                for end in self._hb_pipe:
+                    try:
+                        os.close(end)
+                    except OSError:
+                        pass
+                self._hb_pipe = None
         super().close()
+
+    @property
+    def fd(self) -> int | None:
+        """Real clock: a descriptor the host's heartbeat helper process may write frames to.
+
+        The bytes reach the device as the clock thread finds them (stamped, when it runs late,
+        with the caught-up time: :meth:`EmulatorCore.late_stamp_us`), like a device's UART
+        that fills while its firmware is busy. None on a virtual clock (the host heartbeats in
+        device time there).
+        """
+        return self._hb_pipe[1] if self._hb_pipe is not None else None
 
     def from_url(self, url):
         """Check an ``emulator://`` URL (see the module docstring); return its options."""
@@ -225,11 +250,35 @@ class Serial(SerialBase):
                 if now < core.next_tick:
                     self._cond.wait(core.next_tick - now)
                     continue
+                self._take_helper_bytes(now)
                 _, data = core.catch_up(now)
                 if data:
                     self._rx += data
                 if self._rx:
                     self._cond.notify_all()
+
+    def _take_helper_bytes(self, now: float) -> None:
+        """What the heartbeat helper wrote since the last tick, into the device (lock held).
+
+        Before the ticks owed are computed: bytes that waited while this process was starved
+        (the GIL held by the host's main thread, the machine loaded) arrived by the caught-up
+        time, and feed the watchdog as of then -- as on a pty (:mod:`.pty_server`)."""
+        pipe = self._hb_pipe
+        if pipe is None:
+            return
+        try:
+            data = os.read(pipe[0], 65536)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            return
+        if not data or self.core.disconnected():
+            return
+        core = self.core
+        core.to_device(data, at_us=core.late_stamp_us(now))
+        out = core.to_host(ticked=False)
+        if out:
+            self._rx += out
 
     # ------------------------------------------------------------------ I/O
     @property

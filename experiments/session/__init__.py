@@ -39,7 +39,7 @@ The package, one concept a module:
 :mod:`~experiments.session.machine`
     The transition table, the state machine, the clocks.
 :mod:`~experiments.session.making`
-    :func:`plan_session`, :func:`create_session`, :func:`open_session`, :func:`finished_sessions`.
+    :func:`plan_session`, :func:`create_session`, :func:`open_session`, :func:`finished_sessions`, :func:`unfinished_sessions`.
 :mod:`~experiments.session.setup`
     What is checked and opened before anything is written (profiles, display).
 :mod:`~experiments.session.store`
@@ -73,6 +73,7 @@ from experiments.session.making import (
     SessionPlan,
     create_session,
     finished_sessions,
+    unfinished_sessions,
     open_session,
     plan_session,
 )
@@ -105,4 +106,5 @@ __all__ = [
     "PauseAt",
     "block_roles",
     "finished_sessions",
+    "unfinished_sessions",
 ]

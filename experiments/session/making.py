@@ -137,6 +137,30 @@ def finished_sessions(folder: Path) -> list[Path]:
     return out
 
 
+def _clock_named_in(url: str) -> str | None:
+    """``"virtual"`` or ``"real"`` when the URL's query names the clock, else None."""
+    from urllib.parse import parse_qs, urlsplit
+    if "?" not in str(url):
+        return None
+    value = parse_qs(urlsplit(str(url)).query).get("clock", [""])[-1]
+    return value if value in ("virtual", "real") else None
+
+
+def unfinished_sessions(folder: Path) -> list[Path]:
+    """The sessions in a participant's folder that started and did not finish (running now, or
+    interrupted, stopped or killed: resumable)."""
+    from experiments.logbook import read_events, replay
+    out = []
+    for events in sorted(Path(folder).glob("*/events.jsonl")):
+        try:
+            log = read_events(events, warn=False)[0]
+            if log and not replay(log).finished:
+                out.append(events.parent)
+        except (OSError, ValueError, SessionError):
+            continue
+    return out
+
+
 def _refuse_existing(directory: Path) -> None:
     events = directory / "events.jsonl"
     if (directory / "session.json").exists() or (events.exists() and events.stat().st_size > 0):
@@ -251,8 +275,11 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     display_url : str, optional
         Default: the stored one.
     clock : {"auto", "real", "virtual"}, optional
-        Default (None or "auto"): from the display URL actually used (virtual iff it says
-        ``clock=virtual``), as for a new session.
+        Default (None): the clock the display URL names (``clock=virtual`` or ``clock=real``
+        in its query), else the clock the session ran on (``session.json``'s ``clock``): a
+        resume never switches a virtual-clock session to the real clock, or back, unless told.
+        ``"auto"``: from the display URL actually used (virtual iff it says ``clock=virtual``),
+        as for a new session.
     durable : bool
         As for :func:`create_session`.
 
@@ -263,7 +290,10 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     """
     stored = read_session_json(session_dir, out=out)
     url = display_url or stored.display_url
-    clock_obj = clock_for_url(url, clock or "auto")
+    if clock is None:
+        named = _clock_named_in(url)
+        clock = named or stored.clock or "auto"
+    clock_obj = clock_for_url(url, clock)
     profiles = check_schedule_profiles(stored.protocol, stored.participant, stored.group,
                                         stored.schedule, source=stored.source)
     session = Session(Path(session_dir), stored.protocol, stored.participant, stored.group,

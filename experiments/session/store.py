@@ -97,6 +97,7 @@ class StoredSession:
     responder: str
     max_consecutive_faults: int
     source: str
+    clock: str | None = None      # "real" | "virtual" as the session ran (None: not stored)
 
 
 def read_session_json(directory, *, out=None) -> StoredSession:
@@ -135,6 +136,9 @@ def read_session_json(directory, *, out=None) -> StoredSession:
     max_faults = table.integer("max_consecutive_faults", 3, ge=1, le=1000,
                                why="faults in a row before a session stops")
     responder = table.string("responder", "", nonempty=False)
+    clock = meta.get("clock")
+    if clock is not None and clock not in ("real", "virtual"):
+        table.fail("clock", "'real' or 'virtual'", clock)
     source = f"{path}: protocol"
     protocol = parse_protocol(meta["protocol"], source=source,
                               path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
@@ -174,7 +178,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
     if not isinstance(meta["display_url"], str) or not meta["display_url"]:
         table.fail("display_url", "a URL", meta["display_url"])
     return StoredSession(path, protocol, participant, group, meta["session"], seed, schedule,
-                         meta["display_url"], responder or "", max_faults, source)
+                         meta["display_url"], responder or "", max_faults, source, clock)
 
 
 def check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:

@@ -218,7 +218,7 @@ def test_an_unedited_session_json_resumes(tmp_path):
 
 # --------------------------------------------------------------------------- 6. clock and elapsed
 def test_resume_takes_the_clock_from_the_display_it_uses(tmp_path):
-    # Regression: the stored clock was kept, against `--clock auto`'s help.
+    # Regression: the stored clock was kept when the new display URL names another clock.
     proto = write_protocol(tmp_path, real_samples=(1,), sim_samples=(2,))
     s = create_session(proto, P01, tmp_path / "data", "/dev/ttyUSB0", seed=7, responder_name="simulated")
     assert json.loads((s.directory / "session.json").read_text())["clock"] == "real"

@@ -14,6 +14,8 @@ import sys
 import termios
 import time
 
+import pytest
+
 from _session_helpers import P01, write_protocol
 from experiments.cli import main
 
@@ -69,6 +71,7 @@ def _on_a_terminal(argv, answer: str):
     return proc.returncode, seen.decode(errors="replace"), err
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_a_second_session_is_told_and_asked_about(tmp_path):
     proto = write_protocol(tmp_path, real_samples=(), sim_samples=(4,), contact_s=0.5)
     data = tmp_path / "data"
@@ -99,6 +102,7 @@ def _console_args(proto, data, participant):
     return args + ["--responder-option", "bell=false"]
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_an_out_of_range_skin_temperature_must_be_confirmed_to_go_on(tmp_path):
     proto = write_protocol(tmp_path, real_samples=(), sim_samples=(4, 2), contact_s=0.5)
     data = tmp_path / "data"

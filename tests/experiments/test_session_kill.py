@@ -289,8 +289,23 @@ def test_kill_while_the_display_plays_over_a_pty_then_resume_on_the_same_device(
     finally:
         emulator.terminate()
         emulator.wait(timeout=10)
-    done = _check(session, schedule, done)
+    # What the design promises, not what a quiet machine does: every trial ends ``ok`` exactly
+    # once, in schedule order; the attempt the kill cut off is kept as ``aborted``; any other
+    # attempt before a trial's ``ok`` (a busy machine's watchdog trip, a lost frame) is a
+    # written ``fault`` that carries its code, and the trial ran again after it.
     rows = _rows(session)
-    assert [(r["trial_index"], r["attempt"], r["status"]) for r in rows] == [
-        ("1", "1", "ok"), ("2", "1", "ok"), ("3", "1", "aborted"), ("3", "2", "ok"), ("4", "1", "ok")]
+    ok = [r["trial_index"] for r in rows if r["status"] == "ok"]
+    assert ok == [str(s["trial_index"]) for s in schedule], rows
+    assert ("3", "1", "aborted") in [(r["trial_index"], r["attempt"], r["status"]) for r in rows]
+    for index in ok:
+        mine = [r for r in rows if r["trial_index"] == index]
+        assert [r["attempt"] for r in mine] == [str(k) for k in range(1, len(mine) + 1)]
+        assert mine[-1]["status"] == "ok"
+        for r in mine[:-1]:
+            assert r["status"] in ("aborted", "fault"), r
+            if r["status"] == "fault":
+                assert r.get("fault_code"), r
+    for index, row in done.items():                   # rows completed before the kill stand
+        now = next(r for r in rows if r["trial_index"] == index and r["status"] == "ok")
+        assert {k: v for k, v in now.items() if v != ""} == row
     _rebuilt_equals_csv(session)

@@ -83,6 +83,7 @@ def test_bad_options_exit_2(tmp_path, capsys):
     assert "expected a session directory" in capsys.readouterr().err
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_calibrate_an_emulated_exp1_session(tmp_path, capsys):
     """Exp. 1 through the real session engine on the emulated display, then calibrate.
 

@@ -1,3 +1,5 @@
+import pytest
+
 from experiments.cli import main
 
 
@@ -16,6 +18,7 @@ def test_help_names_the_options(capsys):
         assert opt in out
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_a_second_emulator_is_refused_the_link_a_running_one_holds(tmp_path):
     """a second ``thermocue emulator --link PATH`` silently took the first one's link and
     deleted it on exit."""

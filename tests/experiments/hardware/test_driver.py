@@ -200,6 +200,59 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
     assert len(hb) >= 0.5 * held / d.heartbeat_s         # ≥ half the 10 ms ticks got through
 
 
+@pytest.mark.parametrize("hold_s", [0.3])
+def test_the_in_process_emulator_is_heartbeated_by_the_helper_while_the_host_holds_the_gil(hold_s):
+    # emulator:// on a real clock runs the device in this process: a thread heartbeat and the
+    # device's clock thread were held off together, and whichever got the GIL first decided
+    # whether the watchdog tripped (a spurious WATCHDOG in a normal session on a busy machine).
+    # The helper process writes to the emulator's descriptor, read by its clock thread first
+    import random
+    import time
+    with open_display("emulator://?clock=real") as d:
+        assert d._hb_proc is not None and d._hb_proc.running
+        d.arm("record", force_threshold_N=2.0, max_duration_s=20.0)
+        big = [random.random() for _ in range(100_000)]
+        held = 0.0
+        for _ in range(3):                               # 3 holds of ≥ 0.3 s of C calls
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < hold_s:
+                sorted(big)                              # the GIL is ours for the whole call
+            held = max(held, time.monotonic() - t0)
+            d.poll()                                     # a frame loop's pass: the host lives
+            time.sleep(0.03)
+        st = d.status()
+        late_s = d.port.core.max_late_s
+        assert st.state == "ARMED" and st.last_fault is None, (st.state, st.last_fault, late_s)
+        d.abort()
+    assert held >= hold_s
+
+
+def test_a_hung_host_on_the_in_process_emulator_still_meets_the_watchdog(tmp_path):
+    # the helper keeps heartbeating only while the host's I/O thread shows signs of life: a host
+    # silent for host_stall_s (here 0.5 s; 2 s by default) lets the watchdog act within
+    # host_stall_s + 100 ms of the host's last sign of life (at the latest, the ARM)
+    import json
+    import time
+    log = tmp_path / "emu.jsonl"
+    with open_display(f"emulator://?clock=real&log={log}", host_stall_s=0.5) as d:
+        assert d._hb_proc is not None and d._hb_proc.running
+        d.wait(0.5)               # the helper up (its own start counts as a sign of life)
+        d.arm("record", force_threshold_N=2.0, max_duration_s=20.0)
+        time.sleep(1.5)                                  # hung: no I/O, no pings
+        st = d.status()
+        late_s = d.port.core.max_late_s                  # bytes read late count as of then
+    assert st.state == "IDLE" and st.last_fault == "WATCHDOG"
+    recs = [json.loads(line) for line in log.read_text().splitlines()]
+    armed = next(r["t_s"] for r in recs if r["event"] == "state" and r["state"] == "ARMED")
+    trip = next(r["t_s"] for r in recs if r["event"] == "watchdog")
+    # heartbeats went on while the host was silent less than host_stall_s (the last ping may
+    # precede the ARM by up to host_stall_s / 8), and stopped after it: the trip within
+    # host_stall_s + the helper's 10 ms wake-up + 100 ms (+ the emulator's own lateness, by
+    # which the bytes it read late are stamped ahead)
+    assert 0.5 - 0.5 / 8 - 0.02 <= trip - armed <= 0.5 + 0.01 + 0.1 + late_s + 1e-6, \
+        (armed, trip, late_s)
+
+
 def test_each_connection_starts_at_a_random_sequence_number():
     # audit 34: every host started at 1, so a restarted host repeated its predecessor's numbers
     # and got its cached replies (the device side is fixed too: HELLO clears them)

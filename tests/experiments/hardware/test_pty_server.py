@@ -190,8 +190,11 @@ def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
             d.upload_profile(t, np.full(t.size, 30.0))
             d.arm("playback", max_duration_s=20.0)
             d.sim_finger(press_after_s=0.1, hold_s=20.0)
-            d.stop_heartbeat()                  # nobody reads; only heartbeats go out
+            # nobody reads; only heartbeats go out (the new helper first: a python started on
+            # a loaded machine may take longer than the watchdog's 90 ms to write its first)
             hb = HeartbeatProcess(d.port.fd, encode_frame(0, 0x02, b"\x00"), 0.01, 60.0)
+            time.sleep(1.0)                     # (< the old helper's 2 s liveness gate)
+            d.stop_heartbeat()
             try:
                 time.sleep(7.0)
             finally:

@@ -190,6 +190,7 @@ def test_a_routine_that_ended_before_the_cue_started(device):
     assert len(cols) == len(__import__("experiments.psychopy_plugin.cue", fromlist=["COLUMNS"]).COLUMNS)
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_a_device_fault_during_the_cue_ends_it_and_is_recorded(tmp_path):
     from psychopy import core
 
@@ -214,6 +215,7 @@ def test_a_device_fault_during_the_cue_ends_it_and_is_recorded(tmp_path):
         dev.close()
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_a_lost_link_ends_the_cue_without_an_exception(tmp_path):
     from psychopy import core
 

@@ -59,6 +59,7 @@ def _check_study(out, n_participants):
     return scored
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_two_participants_end_to_end(tmp_path):
     summary = run_figure9_study(tmp_path, seed=3, workers=2, participants=2)
     assert len(summary["sessions"]) == 2
@@ -186,6 +187,7 @@ def test_the_whole_study_runs_end_to_end(tmp_path, capsys):
     assert scored.groupby("participant")["group"].first().value_counts().to_dict() == {"A": 15, "B": 15}
 
 
+@pytest.mark.slow   # end to end; `./scripts/test -m slow` (CI) runs it
 def test_a_participant_answers_the_same_in_every_run(tmp_path):
     # Worker count and scheduling must not change the study: each participant's session is a
     # function of the seed alone.
