@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.atomicfile import output_path
+
 __all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]
 
@@ -211,8 +213,9 @@ COLUMNS = {
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> Path:
-    """Write a machine table at full precision (no rounding)."""
-    df.to_csv(path, index=False)
+    """Write a machine table at full precision (no rounding), whole or not at all."""
+    with output_path(path) as tmp:
+        df.to_csv(tmp, index=False)
     return path
 
 

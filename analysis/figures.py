@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.atomicfile import output_path
 from stimuli.paper import SAMPLE_NAMES
 
 __all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
@@ -87,10 +88,16 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, frameon=False)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path)
-    fig.savefig(path.with_suffix(".pdf"))          # vector copy beside the PNG
+    _save(fig, path)
+    _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
     plt.close(fig)
     return path
+
+
+def _save(fig, path: Path, **options) -> None:
+    """``fig.savefig(path)``, whole or not at all (a temporary file renamed over ``path``)."""
+    with output_path(path) as tmp:
+        fig.savefig(tmp, **options)
 
 
 def interval_caption(interval: str, min_participants: int) -> str:
@@ -184,7 +191,7 @@ def plot_figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, path, *
     path = Path(path)
     out = [path, path.with_suffix(".pdf")]
     for p in out:
-        fig.savefig(p)
+        _save(fig, p)
     plt.close(fig)
     return out
 
@@ -236,6 +243,6 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
         fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
                      label="share of the stimulus's trials")
     path = Path(path)
-    fig.savefig(path)
+    _save(fig, path)
     plt.close(fig)
     return path

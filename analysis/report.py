@@ -10,6 +10,8 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from experiments.atomicfile import output_file
+
 from .confusion import confusion_matrices
 from .errors import LogError
 from .figures import plot_confusion, plot_figure9
@@ -34,6 +36,12 @@ from .report_markdown import COLUMN_MEANINGS, _sessions_markdown, report_markdow
 from .summary import _tests_summary, plain_summary  # noqa: F401
 
 __all__ = ["AnalysisResult", "analyze", "plain_summary", "COLUMN_MEANINGS"]
+
+
+def _write_text(path: Path, text: str) -> None:
+    """A text output, whole or not at all (:func:`experiments.atomicfile.output_file`)."""
+    with output_file(path) as fh:
+        fh.write(text)
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> Path:
@@ -175,7 +183,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             bayes: bool = False, mixed: bool = True,
             progress: Callable[[str], None] | None = None,
             sessions: str = "first",
-            equivalence_margin_pp: float | None = None) -> AnalysisResult:
+            equivalence_margin_pp: float | None = None,
+            before_write: Callable | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -213,6 +222,11 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         Margin of the real-vs-simulated equivalence test, percentage points of proportion
         correct; None: the protocol's ``[analysis] equivalence_margin_pp``, else 10
         (:func:`analysis.fidelity.equivalence_margin`).
+    before_write : callable, optional
+        Called once, with no argument, just before the first output is written (the command
+        line's :meth:`experiments.atomicfile.OutputFolder.begin`: a refused or failed analysis
+        leaves an earlier run's outputs as they were). Every output is written whole
+        (temporary file, then renamed over the old one).
 
     Returns
     -------
@@ -305,6 +319,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                             fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
                             choice=choice)
     say(f"writing figures and tables to {out}")
+    if before_write is not None:
+        before_write()
     files = {
         "figure9": plot_figure9(proportions, out / "figure9.png"),
         "confusion_png": plot_confusion(confusion, out / "confusion.png"),
@@ -331,15 +347,15 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         files["bayes"] = _write_csv(bfit.table, out / "bayes.csv")
     if glmm.formula is not None:
         files["glmm_convergence"] = out / "glmm_convergence.json"
-        files["glmm_convergence"].write_text(json.dumps(
+        _write_text(files["glmm_convergence"], json.dumps(
             {**glmm.convergence, "formula": glmm.formula, "notes": glmm.notes,
              "random_slope_model": {**(slope.convergence or {}), "formula": slope.formula,
-                                    "notes": slope.notes}}, indent=2), "utf-8")
+                                    "notes": slope.notes}}, indent=2))
     book = codebook(files)
     files["codebook"] = out / "codebook.json"
-    files["codebook"].write_text(json.dumps(book, indent=2, ensure_ascii=False), "utf-8")
+    _write_text(files["codebook"], json.dumps(book, indent=2, ensure_ascii=False))
     files["settings"] = out / "settings.json"
-    files["settings"].write_text(json.dumps(run_settings(
+    _write_text(files["settings"], json.dumps(run_settings(
         data_dir=str(data_dir), out_dir=str(out), n_boot=n_boot, level=level, seed=seed,
         mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
         requested_formula=FORMULA, glmm_method=(glmm.convergence or {}).get("method"),
@@ -349,7 +365,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         equivalence_margin_pp=margin_pp, equivalence_margin_source=margin_source,
         mixed_model_for_mode_contrasts=(choice.contrasts.kind if choice.contrasts is not None
                                         else None),
-        undocumented_columns=check_codebook(book)), indent=2), "utf-8")
+        undocumented_columns=check_codebook(book)), indent=2))
     result = AnalysisResult(log=log, proportions=proportions, participants=participants,
                             confusion=confusion, gee=gee, bayes=bfit, contrasts=contrasts,
                             summary=summary, files=files, glmm=glmm, tests=tests, chance=chance,
@@ -357,5 +373,5 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                             equivalence_margin_pp=margin_pp,
                             equivalence_margin_source=margin_source, mixed_choice=choice)
     files["report"] = out / "report.md"
-    files["report"].write_text(report_markdown(result, data_dir, n_boot, level, seed), "utf-8")
+    _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
     return result

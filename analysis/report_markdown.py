@@ -109,6 +109,7 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
     ]
     parts += _sessions_markdown(log)
     parts += _missing_section(r)
+    parts += _not_read_section(log)
     parts += model_decisions_markdown(r.extras.get("model_decisions", pd.DataFrame()), _md_table)
     if log.warnings:
         parts += ["### Problems in the logs (worked around)", ""]
@@ -142,6 +143,17 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
     ]
     parts += [f"- `{k}`: {v}" for k, v in COLUMN_MEANINGS.items()]
     return "\n".join(parts) + "\n"
+
+
+def _not_read_section(log) -> list[str]:
+    """Session folders found but not read as a session (a copy read once, no trial rows)."""
+    table = getattr(log, "not_read", None)
+    if table is None or table.empty:
+        return []
+    return ["### Session folders not read", "",
+            f"{len(table)} folder(s) under the data folder were not read as a session of their own "
+            "(their trials are not missing from the tables above unless listed there):", "",
+            *[f"- `{row.path}`: {row.reason}" for row in table.itertuples()], ""]
 
 
 def _fidelity_section(r: AnalysisResult) -> list[str]:

@@ -36,6 +36,7 @@ import threading
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from experiments.atomicfile import atomic_file
 from experiments.errors import SessionError
 from experiments.logformat import (  # noqa: F401 - re-exported for the writer's users
     COLUMN_DECIMALS,
@@ -159,21 +160,11 @@ def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8", *,
     durable : bool
         False: the same writes and rename without the fsyncs (a simulated study's files).
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", encoding=encoding, newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            fsync(fh.fileno(), durable)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            tmp.unlink()
-        except FileNotFoundError:
-            pass
-        raise
-    fsync_dir(path.parent, durable)
+    # one helper for every whole-file write (experiments.atomicfile), with this module's fsync
+    # and fsync_dir (looked up at each call), skipped when ``durable`` is False
+    with atomic_file(path, encoding=encoding, fsync=lambda fd: fsync(fd, durable),
+                     fsync_dir=lambda folder: fsync_dir(folder, durable)) as fh:
+        fh.write(text)
 
 
 def atomic_write_json(path: str | Path, obj: Any, indent: int = 2, *, durable: bool = True) -> None:

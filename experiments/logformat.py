@@ -348,7 +348,8 @@ def decode_event(raw: bytes) -> dict:
     return obj
 
 
-def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) -> tuple[list[dict], LogReport]:
+def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True,
+                data: bytes | None = None) -> tuple[list[dict], LogReport]:
     """Read an event log, tolerating damage.
 
     Parameters
@@ -361,6 +362,9 @@ def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) ->
     warn : bool
         Issue a :class:`LogDamageWarning` (naming the file and line) per damaged line; the
         messages are in ``report.damage`` either way.
+    data : bytes, optional
+        The file's content, already read (by :mod:`experiments.session_reader`, which refuses
+        special files and other encodings first); ``path`` then only names it.
 
     Returns
     -------
@@ -381,7 +385,8 @@ def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) ->
     if on_damage not in ("stop", "skip"):
         raise ValueError(f"on_damage: expected 'stop' or 'skip', got {on_damage!r}")
     path = Path(path)
-    data = path.read_bytes()
+    if data is None:
+        data = path.read_bytes()
     lines = data.split(b"\n")
     last_complete = data.endswith(b"\n") or not data
     if last_complete:
@@ -445,7 +450,8 @@ def _decode_prefix(raw: bytes, path: Path, damage: list) -> str:
     return text
 
 
-def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]], list[int], list[str]]:
+def read_csv_prefix(path: str | Path, data: bytes | None = None
+                    ) -> tuple[list[str] | None, list[list[str]], list[int], list[str]]:
     """Read a CSV file (``trials.csv``) up to its first damaged line.
 
     Damage is a NUL or undecodable byte (the lines before its line are read), a torn last
@@ -455,6 +461,8 @@ def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]]
     Parameters
     ----------
     path : str or Path
+    data : bytes, optional
+        The file's content, already read (``path`` then only names it).
 
     Returns
     -------
@@ -470,7 +478,7 @@ def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]]
     """
     path = Path(path)
     damage: list[str] = []
-    text = _decode_prefix(path.read_bytes(), path, damage)
+    text = _decode_prefix(path.read_bytes() if data is None else data, path, damage)
     if text and not text.endswith("\n"):
         torn = text.count("\n") + 1
         damage.append(f"{path}: line {torn}: torn last line (no newline at its end); ignored")
@@ -500,6 +508,16 @@ def session_context(events: Iterable[Mapping[str, Any]]) -> dict:
         if ev.get("event") in ("session_started", "session_resumed"):
             ctx.update({k: ev[k] for k in CONTEXT_KEYS if k in ev})
     return ctx
+
+
+def _shape_problem(kind: str, ev: Mapping[str, Any], key: tuple) -> str:
+    """What makes a trial outcome event unusable as a row (``""`` when nothing)."""
+    for name, value in zip(("trial_index", "attempt"), key):
+        if not isinstance(value, (int, str)) or isinstance(value, bool):
+            return f"{name}: expected an integer, got {value!r}"
+    if kind == "trial_completed" and not isinstance(ev.get("row"), Mapping):
+        return f"row: expected a mapping, got {ev.get('row')!r}"
+    return ""
 
 
 def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | None = None,
@@ -537,9 +555,20 @@ def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | N
         if kind in ("session_started", "session_resumed"):
             ctx.update(session_context([ev]))
         elif kind == "trial_started":
-            starts[(ev.get("trial_index"), ev.get("attempt"))] = ev
+            try:
+                starts[(ev.get("trial_index"), ev.get("attempt"))] = ev
+            except TypeError:           # a damaged event (a list or object as index): no spec
+                pass
         elif kind in ("trial_completed", "trial_aborted"):
             key = (ev.get("trial_index"), ev.get("attempt"))
+            shape = _shape_problem(kind, ev, key)
+            if shape:                   # a damaged event: not a row (reported, not raised)
+                note = f"{kind} event (seq {ev.get('seq')}): {shape}; ignored"
+                if damage is None:
+                    warnings.warn(f"events: {note}", LogDamageWarning, stacklevel=2)
+                else:
+                    damage.append(note)
+                continue
             if key in seen:
                 note = (f"trial {key[0]} attempt {key[1]}: a second {kind} event "
                         f"(seq {ev.get('seq')}) ignored")

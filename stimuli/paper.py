@@ -10,7 +10,7 @@ from __future__ import annotations
 
 __all__ = [
     "SAMPLE_NAMES", "SAMPLE_ROUGHNESS_UM", "TABLE2_ROUGHNESS_UM", "SAMPLE_MATERIAL",
-    "PAD_ROUGHNESS_UM", "PAD_ROUGHNESS_M", "PAD_MATERIAL", "TARGET_SIDES", "RATE_LIMITS",
+    "PAD_ROUGHNESS_UM", "PAD_ROUGHNESS_M", "PAD_MATERIAL", "TARGET_SIDES", "REPLAY_NAMES", "RATE_LIMITS",
     "GROUP_THICKNESS_UM", "GROUP_TARGET_THICKNESS_UM", "SKIN_TEMPERATURE_RANGE_C",
     "TARGET_SKIN_TEMPERATURE_C", "DERMIS_FRACTION_RANGE", "RESPONDER_NAMES", "MODES",
 ]
@@ -34,6 +34,10 @@ PAD_MATERIAL = "copper"
 #: the material side of the interface (the printed Eq. 7), its skin side, or the pad temperature
 #: compensated for the finger–pad contact resistance.
 TARGET_SIDES = ("material", "skin", "compensated")
+#: The replay hypotheses (what the paper's display played, ``reproduce figure9 --replay``), named
+#: by what is played: printed Eq. 7 (material side, half-space), the exact material side of a
+#: half-space and of the 3 mm slab, the exact skin side, the compensated pad temperature.
+REPLAY_NAMES = ("printed", "halfspace", "slab", "skin", "compensated")
 #: ``[simulation] rate_limit``: refuse a profile faster than the display, or slew it.
 RATE_LIMITS = ("refuse", "slew")
 #: The two kinds of trial: the real samples, or the display simulating them.

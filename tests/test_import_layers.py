@@ -83,13 +83,16 @@ def test_stimuli_imports_only_numpy_scipy_and_the_standard_library():
 
 
 #: What analysis must not import: the experiment's runtime. ``experiments.logformat`` (the log
-#: format, standard library only) is the one part of experiments analysis may read.
+#: format), ``experiments.session_reader`` (the one reader of session folders) and
+#: ``experiments.atomicfile`` (files written whole), all standard library only, are the parts of
+#: experiments analysis may use.
 RUNTIME = ("experiments.session", "experiments.records",
            "experiments.session_files", "experiments.hardware", "experiments.responders",
            "experiments.cli", "experiments.protocol", "experiments.logbook",
            "experiments.schedule", "experiments.psychopy_plugin", "experiments.calibration",
            "experiments.simulation", "experiments.bench")
-ANALYSIS_MAY_READ = ("experiments.logformat",)
+ANALYSIS_MAY_READ = ("experiments.logformat", "experiments.session_reader", "experiments.atomicfile",
+                     "experiments.errors")
 
 
 def test_analysis_never_imports_the_experiments_runtime():
@@ -98,6 +101,15 @@ def test_analysis_never_imports_the_experiments_runtime():
             return True
         return not _within(target, RUNTIME) and target != "experiments"
     assert _violations(("analysis",), allowed) == []
+
+
+@pytest.mark.parametrize("module", ANALYSIS_MAY_READ)
+def test_what_analysis_may_use_of_experiments_is_standard_library_only(module):
+    def allowed(target, _):
+        top = target.split(".")[0]
+        return top == "__future__" or top in sys.stdlib_module_names \
+            or _within(target, ANALYSIS_MAY_READ) or target == "experiments"
+    assert _violations((module,), allowed) == []
 
 
 def test_hardware_never_imports_the_cli_or_the_session():
@@ -115,11 +127,13 @@ def test_participants_schema_stands_alone(package):
 
 def test_the_reproduction_of_the_papers_model_results_imports_only_stimuli():
     # the paper's Figs. 3-6 and Table 2 are the thermal model's results: no session, no display,
-    # no analysis of logs
+    # no analysis of logs (files are written whole through experiments.atomicfile, standard
+    # library only)
     def allowed(target, _):
         top = target.split(".")[0]
         return (top in ("numpy", "matplotlib", "stimuli", "__future__")
-                or top in sys.stdlib_module_names or _within(target, ("experiments.reproduction",)))
+                or top in sys.stdlib_module_names
+                or _within(target, ("experiments.reproduction", "experiments.atomicfile")))
     assert _violations(("experiments.reproduction",), allowed) == []
     assert {m for m, _, _ in IMPORTS if _within(m, ("experiments.reproduction",))} >= {
         "experiments.reproduction.model_figures", "experiments.reproduction.table2"}

@@ -10,14 +10,15 @@
   the scenario that best matches the paper's evidence; ``--replay`` and ``--observer`` choose
   it (``--target-side`` / ``--rate-limit`` override single fields); ``study.json`` and
   ``report.md`` say which. ``--participants N`` runs N of
-  the 30 (taken from groups A and B in turn), ``--workers N`` sets the parallel processes,
+  the 30 (taken from groups A and B in turn), ``--workers N`` sets the local dask cluster's worker processes (``--scheduler ADDRESS``: a
+  running cluster instead), ``--force-sd-N`` the per-touch force spread,
   ``--responder-option KEY=VALUE`` passes options to every simulated participant.
 """
 from __future__ import annotations
 
 from pathlib import Path
 
-from stimuli.paper import RATE_LIMITS, TARGET_SIDES
+from stimuli.paper import RATE_LIMITS, REPLAY_NAMES, TARGET_SIDES
 
 TARGETS = ("figure9", "table2", "figures")
 
@@ -29,19 +30,26 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder (created if missing)")
     p.add_argument("--seed", type=int, default=0, help="figure9 only: cohort seed (default 0)")
     # the replay hypotheses are named after the side they replay (test_paper.py checks it)
-    p.add_argument("--replay", choices=TARGET_SIDES, default=None,
-                   help="figure9 only: the headline's replay hypothesis: 'material' (the printed "
-                        "Eq. 7), 'skin' (skin side) or 'compensated'; default: the best match "
-                        "to the paper's evidence")
+    p.add_argument("--replay", choices=REPLAY_NAMES, default=None,
+                   help="figure9 only: the headline's replay hypothesis, named by what the "
+                        "display plays: 'printed' (Eq. 7 as printed, material side, half-space), "
+                        "'halfspace' / 'slab' (exact material side of a half-space / the 3 mm "
+                        "sample), 'skin' (exact skin side) or 'compensated'; default: the best "
+                        "match to the paper's evidence")
     p.add_argument("--observer", choices=("absolute", "relative", "range_frequency",
                                           "display_learned"), default=None,
                    help="figure9 only: the headline's observer model (the simulated "
                         "participants' decision rule); default: the best match")
     p.add_argument("--studies", type=int, default=None, metavar="N",
-                   help="figure9 only: simulated 15+15 studies per scenario (default 400)")
-    p.add_argument("--pool-size", type=int, default=None, metavar="N",
-                   help="figure9 only: simulated persons per group the studies draw from "
-                        "(default 100)")
+                   help="figure9 only: simulated 15+15 studies per scenario and per sensitivity "
+                        "row (default 200)")
+    p.add_argument("--force-sd-N", type=float, default=None, metavar="N",
+                   help="figure9 only: spread (sd, N) of the per-touch contact force about the "
+                        "paper's 2 N in the simulated studies (default 0.25: an assumption, the "
+                        "paper says 'about 2 N'; 0: every touch at 2 N)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="figure9 only: run the simulated studies and the sessions on the dask "
+                        "scheduler at ADDRESS (tcp://host:port) instead of a local cluster")
     p.add_argument("--target-side", choices=TARGET_SIDES, default=None,
                    help="figure9 only: what the display replays on simulated trials: 'material' "
                         "(the paper's Eq. 7), 'skin' or 'compensated' (through the finger-pad "
@@ -54,8 +62,8 @@ def register(sub) -> None:
                    help="figure9 only: run N of the 30 participants, taken from groups A and B "
                         "in turn (P01, P16, P02, ...); default: all 30")
     p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="figure9 only: participants run in N parallel processes (1: in this "
-                        "process); default: twice the CPU count")
+                   help="figure9 only: worker processes of the local dask cluster running the "
+                        "simulated studies and the sessions; default: the CPU count, at most 4")
     p.add_argument("--responder-option", action="append", default=[], metavar="KEY=VALUE",
                    help="figure9 only: option of every simulated participant (repeatable), "
                         "e.g. lapse_rate=0.1 or drop_noise_C=0.2")
@@ -74,7 +82,7 @@ def _out_dir(path: str, create: bool = True) -> Path:
 
 #: Options that only the figure9 study takes (argparse dest, option).
 _FIGURE9_ONLY = (("replay", "--replay"), ("observer", "--observer"), ("studies", "--studies"),
-                 ("pool_size", "--pool-size"),
+                 ("force_sd_N", "--force-sd-N"), ("scheduler", "--scheduler"),
                  ("target_side", "--target-side"), ("rate_limit", "--rate-limit"),
                  ("participants", "--participants"), ("workers", "--workers"),
                  ("responder_option", "--responder-option"))
@@ -89,14 +97,21 @@ def _run(ns) -> int:
                                      f"with `reproduce {ns.target}`")
     # figure9 makes its folder itself, once every option has been checked
     out = _out_dir(ns.out, create=ns.target != "figure9")
+    from experiments.atomicfile import OutputFolder
+    folder = OutputFolder(out, f"thermocue reproduce {ns.target}")   # COMPLETE written last
     if ns.target == "figures":
         from experiments.reproduction.model_figures import write_figures
-        for path in write_figures(out):
+        folder.begin()
+        written = write_figures(out)
+        folder.finish(written)
+        for path in written:
             print(path)
         return 0
     if ns.target == "table2":
         from experiments.reproduction.table2 import write_table2
+        folder.begin()
         csv_path, md_path, md = write_table2(out)
+        folder.finish([csv_path, md_path])
         print(md)
         print(csv_path)
         print(md_path)
@@ -104,9 +119,12 @@ def _run(ns) -> int:
     # figure9: the simulated cohort (experiments/simulation/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
     from experiments.simulation.figure9.reproduction import run_reproduction
+    if out.is_dir():          # an earlier run's COMPLETE goes first (the study makes the folder)
+        folder.begin()
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
-                     observer=ns.observer, n_studies=400 if ns.studies is None else ns.studies,
-                     pool_size=100 if ns.pool_size is None else ns.pool_size,
+                     observer=ns.observer, scheduler=ns.scheduler, force_sd_N=ns.force_sd_N,
+                     **({} if ns.studies is None else {"n_studies": ns.studies}),
                      responder_options=responder_options(ns.responder_option))
+    folder.finish()
     return 0

@@ -142,6 +142,10 @@ class HostCommands:
             n, dt_us = m.UPLOAD_BEGIN.unpack(p)
             if self.state != State.IDLE:
                 return self._nak(seq, cmd, Err.BAD_STATE, f"UPLOAD in state {self.state.name}")
+            # any UPLOAD_BEGIN in IDLE discards the committed profile and any upload, also one
+            # whose arguments are refused: a host that refused a profile is never left with it
+            self.profile = None
+            self.upload = None
             if not (2 <= n <= MAX_POINTS) or dt_us < MIN_DT_US:
                 return self._nak(seq, cmd, Err.OUT_OF_RANGE,
                                  f"n={n} (2..{MAX_POINTS}), dt={dt_us} µs (≥ {MIN_DT_US})")

@@ -40,7 +40,7 @@ from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS,  #
 from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL,  # noqa: F401 (re-exported)
                                         DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
                                         DEFAULT_PAD_ROUGHNESS_UM, MODES, ORDERS, SIM_METHODS,
-                                        SIM_RATE_LIMITS, SIM_TARGET_SIDES, SIM_THICKNESS, Block,
+                                        SIM_CONTACT_MODELS, SIM_RATE_LIMITS, SIM_TARGET_SIDES, SIM_THICKNESS, Block,
                                         ContactSettings, DisplaySettings, Environment, Presentation,
                                         Protocol, Sample, SampleMaterial, Simulation)
 from experiments.records import TableReader

@@ -19,9 +19,9 @@ from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MA
                                          SKIN_SAFE_MIN_C)
 from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
 from experiments.protocol.limits import WAIT_WHY as _WAIT_WHY
-from experiments.protocol.model import (DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
+from experiments.protocol.model import (SIM_CONTACT_MODELS, DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
                                         BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
-                                        ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_TARGET_SIDES,
+                                        ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_REPLAYED_MATERIALS, SIM_TARGET_SIDES,
                                         SIM_THICKNESS, Block, ContactSettings, DisplaySettings,
                                         Environment, Presentation, Protocol, Sample, SampleMaterial,
                                         Simulation)
@@ -197,7 +197,16 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
             pad_material=_pad_material(s),
             rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
             max_tracking_error_C=s.number("max_tracking_error_C", 1.0, gt=0, le=10),
+            contact_model=s.string("contact_model", "press", choices=SIM_CONTACT_MODELS),
+            replayed_material=s.string("replayed_material", "sample",
+                                       choices=SIM_REPLAYED_MATERIALS),
         )
+        if (simulation.contact_model == "resting"
+                and abs(display.neutral_C - simulation.skin_temperature_C) > 1e-9):
+            s.fail("contact_model", f"a resting probe at the skin temperature: display.neutral_C "
+                                    f"= simulation.skin_temperature_C "
+                                    f"({_fmt(simulation.skin_temperature_C)} °C)",
+                   _Note(f"'resting' with display.neutral_C = {_fmt(display.neutral_C)}"))
         s.done()
 
     sch = top.table("schedule", required=False)

@@ -20,6 +20,13 @@ SIM_THICKNESS = ("group", "participant")
 SIM_METHODS = ("exact", "paper", "paper-as-printed", "numerical")
 SIM_TARGET_SIDES = paper.TARGET_SIDES
 SIM_RATE_LIMITS = paper.RATE_LIMITS
+#: How the finger meets the display: ``press`` (the finger presses on a pad already at the
+#: profile's start, the paper's display) or ``resting`` (the probe rests on the skin at the
+#: neutral temperature, a thermode such as the TCS II: the profile starts at skin temperature).
+SIM_CONTACT_MODELS = ("press", "resting")
+#: ``[simulation] replayed_material``: the profile is computed for the protocol's sample
+#: (``[material]``, e.g. a 3 mm slab) or for a half-space of the same material (the closed forms).
+SIM_REPLAYED_MATERIALS = ("sample", "half-space")
 #: The emulated display's pad face (``experiments.hardware.pad_physics.finger_pad_resistance``):
 #: polished copper, R_a 0.4 µm.  The defaults of ``[simulation] pad_roughness_um`` / ``pad_material``.
 DEFAULT_PAD_ROUGHNESS_UM = paper.PAD_ROUGHNESS_UM
@@ -193,6 +200,17 @@ class Simulation:
         Largest |contact − target| of a delivered playback (default 1): a trial the display
         tracked worse is a flagged attempt, run again (the participant did not feel the
         profile asked for).
+    contact_model : {"press", "resting"}
+        ``"press"`` (default): the finger presses on a pad held at the profile's first sample
+        (the paper's display; contact by force). ``"resting"``: the probe already rests on the
+        skin at ``[display] neutral_C`` (which must equal ``skin_temperature_C``); the profile
+        starts at the skin temperature and reaches the target as fast as ``[display]
+        max_rate_C_per_s`` allows (:func:`experiments.contact_model.resting_profile`).
+    replayed_material : {"sample", "half-space"}
+        The material the profile is computed for: ``"sample"`` (default) the protocol's
+        ``[material]`` with its thickness; ``"half-space"`` the same material without a back
+        face (what the paper's closed forms, Eq. 7 among them, assume). Real trials always
+        touch the protocol's sample.
     """
 
     skin_thickness: str
@@ -209,6 +227,8 @@ class Simulation:
     pad_material: str = DEFAULT_PAD_MATERIAL
     rate_limit: str = "refuse"
     max_tracking_error_C: float = 1.0
+    contact_model: str = "press"
+    replayed_material: str = "sample"
 
     @property
     def pad_roughness_m(self) -> float:

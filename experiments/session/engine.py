@@ -15,6 +15,7 @@ import datetime as _dt
 import errno
 import logging
 import os
+import re
 import time
 from pathlib import Path
 
@@ -111,6 +112,8 @@ class Session(TrialSteps):
         self.protocol_source = protocol_source(protocol)
         self.signals = SignalGuard()
         self._fatal = None          # (code, message) of a fault that stops the session
+        self._link_lost = None      # (code, message): the display's port failed in this attempt
+        self._reopened = []         # displays opened again after a lost link (closed at the end)
         #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).
         self.hooks = hooks if hooks is not None else hooks_from_env()
         self._last_block = None
@@ -332,6 +335,13 @@ class Session(TrialSteps):
                 _best_effort(lambda: self.log_event("session_error",
                                                     message=f"{type(exc).__name__}: {exc}"))
             raise
+        finally:
+            for again in self._reopened:
+                try:
+                    again.close()
+                except Exception:
+                    pass
+            self._reopened = []
 
     def _open_display(self):
         disp = open_session_display(self.protocol, self.display_url, source=self.protocol_source)
@@ -381,6 +391,12 @@ class Session(TrialSteps):
                 faults += 1
             if self._fatal is not None:
                 return self._stop_fatal(disp, queue)
+            if self._link_lost is not None:
+                disp = self._reconnect(disp, spec.trial_index)
+                if disp is None:
+                    return self._stop_link_lost(queue)
+                self.machine.go("idle")
+                continue          # the same trial at once, no rewarm (still a consecutive fault)
             if faults >= self.max_consecutive_faults:
                 self.machine.go("idle")
                 self.machine.go("stopped")
@@ -464,6 +480,51 @@ class Session(TrialSteps):
         self._report(f"session interrupted ({reason}); display neutral; resume with "
                      f"`thermocue resume {self.directory}`")
 
+    def _reconnect(self, disp, trial_index: int):
+        """The display's port failed: close it and open it once more.
+
+        Returns the display opened again (its handshake done, neutral set, logged as
+        ``display_reconnected``), or None if that failed too (logged as ``display_error``).
+        """
+        code, message = self._link_lost
+        self._link_lost = None
+        try:
+            disp.close()
+        except Exception:
+            pass
+        if self.display_url is None:
+            self._lost_because = (message, "no display URL to open again")
+            return None
+        try:
+            again = self._open_display()
+        except DisplayError as exc:
+            if isinstance(exc, UserInputError):
+                raise
+            self.log_event("display_error", step="reconnect", message=str(exc))
+            self._lost_because = (message, str(exc))
+            return None
+        self._reopened.append(again)
+        self.display = again
+        info = getattr(again, "info", None)
+        self.log_event("display_reconnected", url=self.display_url, trial_index=trial_index,
+                       device_id=getattr(info, "device_id", None))
+        again.set_neutral(self.protocol.display.neutral_C)
+        self._report(f"trial {trial_index}: the display's link was lost ({_bare(message)}); "
+                     f"connected again, the trial runs again")
+        return again
+
+    def _stop_link_lost(self, queue) -> int:
+        """Stop after a lost link that one reconnect did not cure (resumable once fixed)."""
+        lost, why = self._lost_because
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        self.log_event("session_stopped", reason="display link lost", message=lost,
+                       reconnect=why, n_completed=self.n_trials - len(queue))
+        self._report(f"stopped: the display's link was lost ({_bare(lost)}) and connecting "
+                     f"again failed ({_bare(why)}); check its cable and power, then resume with "
+                     f"`thermocue resume {self.directory}`")
+        return 1
+
     def _stop_fatal(self, disp, queue) -> int:
         """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
         code, message = self._fatal
@@ -480,6 +541,12 @@ class Session(TrialSteps):
 def _relative_to(path, folder) -> str:
     """``path`` relative to ``folder``, with forward slashes (``../../bids/sub-P01/...``)."""
     return Path(os.path.relpath(Path(path).resolve(), Path(folder).resolve())).as_posix()
+
+
+def _bare(message: str) -> str:
+    """A display error's text without its leading ``display:`` (one clean message)."""
+    text = re.sub(r"^(\s*display:\s*)+", "", str(message), flags=re.IGNORECASE).strip()
+    return re.sub(r"^link lost\s*", "", text).strip(" :") or text
 
 
 def _best_effort(call) -> None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from experiments.errors import DisplayError, DisplayRestarted
+from experiments.errors import DisplayError, DisplayLinkLost, DisplayRestarted
 from experiments.logbook import now_iso as _now_iso
 from experiments.session.machine import SessionInterrupted
 from experiments.session.traces import contact_force, keep_aside, keep_trace, trial_stimulus
@@ -299,15 +299,20 @@ class TrialSteps:
                 code = type(exc).__name__
         if isinstance(exc, DisplayRestarted) or str(code) in _FATAL_CODES:
             self._fatal = (str(code), message)
+        lost = isinstance(exc, DisplayLinkLost) or str(code) == "LINK_LOST"
+        if lost:   # the port failed: nothing more goes to it (the device's watchdog acts)
+            self._link_lost = ("LINK_LOST", message)
         self.machine.go("fault", **ctx)
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
-        self._neutral(disp)
+        if not lost:
+            self._neutral(disp)
         self.machine.go("write", **ctx)
         kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault", durable=self.durable)
         row.update(status="fault", fault_code=str(code), finished_at_utc=_now_iso(),
                    trace_file=None if kept is None else f"traces/{kept.name}")
         self._complete(spec, attempt, row)
-        self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
+        if not lost:   # (a lost link is reported once, with the reconnect's outcome)
+            self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
         return "fault"
 
     def _no_contact(self, disp, t: TrialAttempt, rec) -> str:

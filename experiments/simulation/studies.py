@@ -2,31 +2,47 @@
 
 An emulated session (``thermocue run ... --responder simulated``) costs about a second per
 participant; a claim's probability needs hundreds of studies per scenario.  This module
-computes the same participants' noise-free features once (a *pool* of persons per group, the
-physics of :mod:`experiments.simulation.person`), then draws studies: 15 persons per group from
-the pool, their familiarisation percepts, the real and simulated blocks' percepts in a random
-order, and the answers of an observer (:mod:`.observers`, the very code the simulated responder
-runs), all vectorised.
+computes the noise-free features of persons on a grid of the two things that change a person's
+physics (skin thickness L and the dermis' share d / L; the receptor depth follows) and of the
+touch (contact force), once per group (:func:`build_pool`, the physics of
+:mod:`experiments.simulation.person`).  Every study then draws a *fresh* cohort, 15 persons per
+group from the cohort's ranges, whose features are interpolated on that grid (bilinear in L and
+d / L, linear in force: the drops within 0.01 K and the peak rate within 0.03 K/s of the direct
+computation, ``test_studies.py``, against a perceptual noise of 0.3 K and 0.3 K/s plus 10 %), then their familiarisation percepts, the real and simulated blocks'
+percepts in a random order and the answers of an observer (:mod:`.observers`, the very code the
+simulated responder runs), all vectorised.
+
+Variability a lab has (:class:`LabVariability`, each with a sensitivity row in the report):
+
+* per-touch contact force, normal about the paper's 2 N ("trained to contact samples with about
+  2 N", §3.2) with ``force_sd_N`` (default 0.25 N, so 95 % of touches within 1.5-2.5 N: an
+  assumption, the paper gives no spread), clipped to 1-3 N; it sets the Eq. 5 resistance of the
+  real sample and of the finger–pad contact on every touch;
+* the skin temperature between participants (uniform over the paper's 35.5-36 °C) and within a
+  participant from touch to touch (``skin_temperature_sd_C``, default 0.1 K, the simulated
+  responder's :attr:`~.person.PerceptionParameters.skin_temperature_sd_C`);
+* a fresh cohort per study (``cohort_size=None``), or one cohort of ``cohort_size`` persons per
+  group that every study draws from (the earlier design, for the sensitivity row);
+* the pad sensor's lag (:func:`build_pool`'s ``sensor_tau_s``): the display makes its lagging
+  sensor follow the target, so the pad face leads it by tau dT/dt (first order).
 
 Where this differs from emulated sessions (it is *not* exactly equivalent)
 -------------------------------------------------------------------------------
-* The display tracks the target profile perfectly here; in a session the simulated participant
-  feels the emulated pad's recorded contact temperature (controller lag, sensor noise, the
-  finger's heat load): its features differ by at most ~0.005 K (K/s for the rate) against a
-  perceptual noise of 0.3 (``test_studies.py`` measures it on two emulated sessions).
-* Persons are drawn without replacement from a pool of ``pool_size`` per group (default 100),
-  not afresh for every study: between-study variation of the people is that of 15 of 100.
-* The trial-to-trial skin-temperature jitter (``skin_temperature_sd_C``, 0.1 K against a ~15 K
-  skin–sample difference) is left out; each person touches at its own skin temperature.
+* The display tracks the target profile perfectly here (up to the sensor lag above); in a
+  session the simulated participant feels the emulated pad's recorded contact temperature
+  (controller lag, sensor noise, the finger's heat load): its features differ by at most
+  ~0.005 K (K/s for the rate) against a perceptual noise of 0.3 (``test_studies.py`` measures it
+  on two emulated sessions).
+* Features are interpolated on the person grid, not computed per person (see above).
 * Trial order within a block is a uniform random permutation of the 4 × 3 trials (the
   schedule's ``order = "random"`` is also a uniform permutation, from another seed).
-* Random numbers come from one generator per scenario, not from ``(seed, trial_index)`` per
-  person: the same distributions, different draws.
-Everything else is the same: person draws (:func:`~experiments.simulation.person.draw_person`
-ranges), the session's own target profiles (:func:`experiments.session.setup.
-simulated_target_profile`, rate limit included), the finger–pad contact resistance, the
-features, the noise model, the familiarisation (one touch per real sample, by default), the
-lapse rule and the observer's decision (:func:`.observers.answer_block`).
+* Random numbers come from one generator per task of a sweep, not from ``(seed, trial_index)``
+  per person: the same distributions, different draws.
+Everything else is the same: person ranges (:func:`~experiments.simulation.person.draw_person`),
+the session's own target profiles (:func:`experiments.session.setup.simulated_target_profile`,
+rate limit included), the finger–pad contact resistance, the features, the noise model, the
+familiarisation (one touch per real sample, by default), the lapse rule and the observer's
+decision (:func:`.observers.answer_block`).
 """
 from __future__ import annotations
 
@@ -34,44 +50,120 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from stimuli.paper import DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, TARGET_SIDES
+from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, PAD_MATERIAL, PAD_ROUGHNESS_M,
+                          REPLAY_NAMES, SKIN_TEMPERATURE_RANGE_C)
 
 __all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
-           "imposed_features"]
+           "imposed_features", "LabVariability", "DEFAULT_LAB", "FORCE_GRID_N", "person_features"]
 
 #: The two groups and their skin thickness ranges, µm (§3.2).
 GROUPS = ("A", "B")
+#: Contact forces at which features are computed, N; a touch's are interpolated linearly.
+FORCE_GRID_N = (1.0, 2.0, 3.0)
+#: Grid points over each group's thickness range and over d / L.
+GRID_L, GRID_U = 5, 5
+
+
+@dataclass(frozen=True)
+class LabVariability:
+    """Variability of people and touches across and within simulated studies.
+
+    Parameters
+    ----------
+    force_sd_N : float, N
+        Per-touch contact force: normal about ``force_N`` with this spread, clipped to
+        :data:`FORCE_GRID_N`'s range (0: every touch at ``force_N``).
+    force_N : float, N
+        The paper's 2 N.
+    skin_temperature_sd_C : float, K
+        Per-touch skin temperature about the participant's own (within participant).
+    skin_temperature_C : (low, high), °C
+        Participants' skin temperatures, uniform (between participants; the paper's 35.5-36).
+    cohort_size : int or None
+        None: a fresh cohort for every study; else one cohort of this many persons per group
+        that every study draws 15 from without replacement.
+    """
+
+    force_sd_N: float = 0.25
+    force_N: float = 2.0
+    skin_temperature_sd_C: float = 0.1
+    skin_temperature_C: tuple = SKIN_TEMPERATURE_RANGE_C
+    cohort_size: int | None = None
+
+    def __post_init__(self):
+        lo, hi = FORCE_GRID_N[0], FORCE_GRID_N[-1]
+        if not (0 <= self.force_sd_N <= 2.0):
+            raise ValueError(f"LabVariability: force_sd_N: expected 0-2 N, got {self.force_sd_N!r}")
+        if not (lo <= self.force_N <= hi):
+            raise ValueError(f"LabVariability: force_N: expected {lo:g}-{hi:g} N, got {self.force_N!r}")
+        if not (0 <= self.skin_temperature_sd_C <= 2.0):
+            raise ValueError(f"LabVariability: skin_temperature_sd_C: expected 0-2 K, got "
+                             f"{self.skin_temperature_sd_C!r}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready, unit-suffixed."""
+        return {"force_N": self.force_N, "force_sd_N": self.force_sd_N,
+                "skin_temperature_sd_C": self.skin_temperature_sd_C,
+                "skin_temperature_range_C": list(self.skin_temperature_C),
+                "cohort": "fresh per study" if self.cohort_size is None else
+                          f"one cohort of {self.cohort_size} per group"}
+
+
+#: The lab the Monte Carlo simulates by default.
+DEFAULT_LAB = LabVariability()
 
 
 @dataclass
 class PersonPool:
-    """Noise-free features of a pool of simulated persons.
+    """Noise-free features on a grid of persons and forces, per group.
 
     Attributes
     ----------
-    real : dict of str to ndarray (N, C, F)
-        Per group: features of touching each real sample.
-    simulated : dict of (str, str) to ndarray (N, C, F)
-        Per (hypothesis, group): features of touching the display replaying each sample.
-    thickness_um : dict of str to ndarray (N,)
+    grid_L_um : dict of str to ndarray (nL,)
+        Skin thicknesses of the grid, µm.
+    grid_fraction : ndarray (nU,)
+        d / L of the grid (one value, ignored, for an absolute receptor depth).
+    real : dict of str to ndarray (nL, nU, nForce, C, F)
+        Per group: features of touching each real sample at :attr:`skin_reference_C`.
+    simulated, simulated_dts : dict of (str, str) to ndarray (nL, nU, nForce, C, F)
+        Per (hypothesis, group): features of touching the display replaying each sample at
+        :attr:`skin_reference_C`, and their change per kelvin of skin temperature.
     params : PerceptionParameters
     receptor_depth_um : float or None
         Receptors at this depth below the surface for everyone (None: ``dermis_fraction`` of L).
+    skin_reference_C, material_C : float, °C
     """
 
+    grid_L_um: dict
+    grid_fraction: np.ndarray
     real: dict
     simulated: dict
-    thickness_um: dict
+    simulated_dts: dict
     params: object
+    skin_reference_C: float
+    material_C: float
     receptor_depth_um: float | None = None
     roughness_um: tuple = ()
     settings: dict = field(default_factory=dict)
 
+    @property
+    def hypotheses(self) -> list:
+        """Replay hypotheses in the pool, in :data:`stimuli.paper.REPLAY_NAMES` order."""
+        return sorted({h for h, _ in self.simulated}, key=REPLAY_NAMES.index)
 
-def build_pool(protocol="roughness_recognition", hypotheses=TARGET_SIDES,
-               pool_size: int = 100, seed: int = 0, params=None, receptor_depth_um: float | None = None,
-               dermis_fraction=DERMIS_FRACTION_RANGE) -> PersonPool:
-    """Draw ``pool_size`` persons per group and compute their noise-free features.
+
+def _lead(t, T, tau):
+    """The pad face when a sensor of time constant ``tau`` is made to follow ``T``: T + tau T'."""
+    if not tau:
+        return np.asarray(T, dtype=float)
+    return np.asarray(T, dtype=float) + float(tau) * np.gradient(np.asarray(T, float), np.asarray(t, float))
+
+
+def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: int = 0,
+               params=None, receptor_depth_um: float | None = None,
+               dermis_fraction=DERMIS_FRACTION_RANGE, sensor_tau_s: float = 0.0,
+               real_from: PersonPool | None = None) -> PersonPool:
+    """Features of the person grid of each group, for the real samples and each replay.
 
     Parameters
     ----------
@@ -79,63 +171,115 @@ def build_pool(protocol="roughness_recognition", hypotheses=TARGET_SIDES,
         The protocol whose samples, temperatures and simulated profiles are used.
     hypotheses : sequence of str
         Replay hypotheses (:data:`experiments.simulation.replay.REPLAY_HYPOTHESES`).
-    pool_size : int
     seed : int
+        Recorded only (the grid is deterministic; studies draw their persons).
     params : PerceptionParameters, optional
     receptor_depth_um : float, µm, optional
         Put every person's receptors at this depth below the skin surface (both groups alike)
         instead of at ``1 - dermis_fraction`` of their skin thickness.
     dermis_fraction : (low, high)
         Range of ``d / L`` persons are drawn from (the cohort's 0.55–0.65).
+    sensor_tau_s : float, s
+        The pad sensor's time constant (0: the pad face is the target).
+    real_from : PersonPool, optional
+        A pool of the same persons (receptor depth, d / L range) whose real-sample features are
+        reused (the sensor lag changes only the replayed ones).
     """
-    from experiments.simulation.person import PerceptionParameters, SimulatedPerson, draw_person
+    from experiments.simulation.person import PerceptionParameters, SimulatedPerson
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
+    from stimuli import contact_resistance, material
 
     params = params or PerceptionParameters()
     base = protocol if hasattr(protocol, "data") else load_protocol(protocol)
     variants = {h: protocol_variant(base, h) for h in hypotheses}
     samples = base.samples
-    rng = np.random.default_rng([int(seed), 0x9001])
-    real, simulated, thickness = {}, {}, {}
+    t_ref = float(np.mean(SKIN_TEMPERATURE_RANGE_C))
+    t_mat = base.simulation.material_temperature_C
+    thick_m = base.material.thickness_m
+    sim0 = base.simulation
+    fractions = np.linspace(*dermis_fraction, GRID_U) if receptor_depth_um is None else np.array([0.0])
+    if real_from is not None and (real_from.receptor_depth_um != receptor_depth_um
+                                  or tuple(real_from.settings["dermis_fraction"]) != tuple(dermis_fraction)):
+        raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
+                         "depth and d / L range)")
+    grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
+    profiles = {}
     for group in GROUPS:
-        persons = []
-        for _ in range(int(pool_size)):
-            p = draw_person(group, rng, params=params, dermis_fraction=dermis_fraction)
-            if receptor_depth_um is not None:
-                frac = 1.0 - receptor_depth_um * 1e-6 / p.skin_thickness_m
-                if not 0.0 < frac < 1.0:
-                    raise ValueError(f"build_pool: receptor_depth_um: expected a depth inside "
-                                     f"the skin ({p.skin_thickness_m * 1e6:.0f} µm), got "
-                                     f"{receptor_depth_um!r}")
-                p = SimulatedPerson(p.skin_thickness_m, frac, p.skin_temperature_C, params)
-            persons.append(p)
-        thickness[group] = np.array([p.skin_thickness_m * 1e6 for p in persons])
-        t_mat = base.simulation.material_temperature_C
-        thick_m = base.material.thickness_m
-        real[group] = np.array([[p.features(*p.feel_real(s.roughness_m, material=base.material.name,
-                                                         sample_thickness_m=thick_m,
-                                                         material_temperature_C=t_mat))
-                                 for s in samples] for p in persons])
         for h, proto in variants.items():
-            sim = proto.simulation
-            profiles = [simulated_target_profile(proto, {}, group, None, s.id, s.roughness_um)
-                        for s in samples]
-            rows = []
-            for p in persons:
-                r_pad = p.pad_resistance(sim.pad_roughness_m, sim.pad_material)
-                rows.append(imposed_features(p, [(pr.times, pr.temperature) for pr in profiles],
-                                             r_pad))
-            simulated[(h, group)] = np.array(rows)
-    return PersonPool(real=real, simulated=simulated, thickness_um=thickness, params=params,
-                      receptor_depth_um=receptor_depth_um,
+            profiles[(h, group)] = [simulated_target_profile(proto, {}, group, None, s.id,
+                                                             s.roughness_um) for s in samples]
+    for group in GROUPS:
+        Ls = np.linspace(*GROUP_THICKNESS_UM[group], GRID_L)
+        grid_L[group] = Ls
+        r = np.zeros((len(Ls), len(fractions), len(FORCE_GRID_N), len(samples), 4))
+        sims = {h: np.zeros_like(r) for h in variants}
+        dsims = {h: np.zeros_like(r) for h in variants}
+        for i, L_um in enumerate(Ls):
+            for j, frac in enumerate(fractions):
+                if receptor_depth_um is not None:
+                    frac = 1.0 - receptor_depth_um / L_um
+                    if not 0.0 < frac < 1.0:
+                        raise ValueError(f"build_pool: receptor_depth_um: expected a depth inside "
+                                         f"the skin ({L_um:.0f} µm), got {receptor_depth_um!r}")
+                p = SimulatedPerson(L_um * 1e-6, float(frac), t_ref, params)
+                p1 = SimulatedPerson(L_um * 1e-6, float(frac), t_ref + 1.0, params)
+                for k, force in enumerate(FORCE_GRID_N):
+                    if real_from is not None:
+                        r[i, j, k] = real_from.real[group][i, j, k]
+                    else:
+                        r[i, j, k] = [p.features(*p.feel_real(s.roughness_m, material=base.material.name,
+                                                          sample_thickness_m=thick_m,
+                                                          material_temperature_C=t_mat,
+                                                          force_N=force))
+                                      for s in samples]
+                    r_pad = float(contact_resistance(sim0.pad_roughness_m, skin=p.skin,
+                                                     material=material(sim0.pad_material),
+                                                     force=force))
+                    responses = {}     # same skin and resistance: shared by every replay
+                    for h in variants:
+                        surf = [(pr.times, _lead(pr.times, pr.temperature, sensor_tau_s))
+                                for pr in profiles[(h, group)]]
+                        f0 = imposed_features(p, surf, r_pad, responses)
+                        sims[h][i, j, k] = f0
+                        dsims[h][i, j, k] = imposed_features(p1, surf, r_pad, responses) - f0
+        real[group] = r
+        for h in variants:
+            simulated[(h, group)] = sims[h]
+            simulated_dts[(h, group)] = dsims[h]
+    return PersonPool(grid_L_um=grid_L, grid_fraction=fractions, real=real, simulated=simulated,
+                      simulated_dts=simulated_dts, params=params, skin_reference_C=t_ref,
+                      material_C=float(t_mat), receptor_depth_um=receptor_depth_um,
                       roughness_um=tuple(s.roughness_um for s in samples),
-                      settings={"pool_size": int(pool_size), "seed": int(seed),
-                                "dermis_fraction": tuple(dermis_fraction)})
+                      settings={"seed": int(seed), "dermis_fraction": tuple(dermis_fraction),
+                                "sensor_tau_s": float(sensor_tau_s),
+                                "grid": f"{GRID_L} thicknesses x {len(fractions)} d/L x "
+                                        f"{len(FORCE_GRID_N)} forces per group"})
 
 
-def imposed_features(person, surfaces, pad_resistance) -> np.ndarray:
+def _grid_weights(x, grid):
+    """Indices and weights of linear interpolation of ``x`` on the increasing ``grid``."""
+    x = np.clip(x, grid[0], grid[-1])
+    if grid.size == 1:
+        z = np.zeros(x.shape, dtype=int)
+        return z, z, np.zeros(x.shape)
+    i = np.clip(np.searchsorted(grid, x, side="right") - 1, 0, grid.size - 2)
+    w = (x - grid[i]) / (grid[i + 1] - grid[i])
+    return i, i + 1, w
+
+
+def person_features(table, grid_L, grid_fraction, L_um, fraction):
+    """Bilinear interpolation of a grid ``table`` (nL, nU, ...) at persons (L_um, fraction)."""
+    i0, i1, wi = _grid_weights(np.asarray(L_um, float), np.asarray(grid_L, float))
+    j0, j1, wj = _grid_weights(np.asarray(fraction, float), np.asarray(grid_fraction, float))
+    extra = (slice(None),) + (None,) * (table.ndim - 2)
+    wi, wj = wi[extra], wj[extra]
+    return ((1 - wi) * (1 - wj) * table[i0, j0] + wi * (1 - wj) * table[i1, j0]
+            + (1 - wi) * wj * table[i0, j1] + wi * wj * table[i1, j1])
+
+
+def imposed_features(person, surfaces, pad_resistance, cache: dict | None = None) -> np.ndarray:
     """Features of ``person`` touching the pad at each of ``surfaces`` (list of (t, °C)).
 
     The same as ``person.features(*person.feel_imposed(t, T, pad_resistance=...))`` for each,
@@ -147,7 +291,7 @@ def imposed_features(person, surfaces, pad_resistance) -> np.ndarray:
     """
     from stimuli import skin_response
     out = []
-    cache = {}
+    cache = {} if cache is None else cache      # the unit responses: per skin and resistance only
     t_s = person.skin_temperature_C
     skin = person.skin
     for t, surface in surfaces:
@@ -206,9 +350,53 @@ def _percepts(features, params, rng):
     return features + rng.standard_normal(features.shape) * params.noise_sd(features)
 
 
+def _draw_cohorts(pool, group, n_studies, n_per_group, lab, rng):
+    """Persons of every study of one group: (S, n) arrays of L (µm), d / L and skin °C."""
+    lo, hi = GROUP_THICKNESS_UM[group]
+    flo, fhi = pool.settings["dermis_fraction"]
+    tlo, thi = lab.skin_temperature_C
+    if lab.cohort_size is None:
+        shape = (n_studies, n_per_group)
+        return (rng.uniform(lo, hi, shape), rng.uniform(flo, fhi, shape), rng.uniform(tlo, thi, shape))
+    if n_per_group > lab.cohort_size:
+        raise ValueError(f"simulate_studies: n_per_group: expected at most the cohort's "
+                         f"{lab.cohort_size}, got {n_per_group}")
+    crng = np.random.default_rng([pool.settings["seed"], GROUPS.index(group), 0xC0])
+    people = (crng.uniform(lo, hi, lab.cohort_size), crng.uniform(flo, fhi, lab.cohort_size),
+              crng.uniform(tlo, thi, lab.cohort_size))
+    idx = np.argsort(rng.random((n_studies, lab.cohort_size)), axis=1)[:, :n_per_group]
+    return tuple(v[idx] for v in people)
+
+
+def _force_weights(force):
+    """Linear interpolation weights of ``force`` (any shape) on :data:`FORCE_GRID_N`: (..., nForce)."""
+    grid = np.asarray(FORCE_GRID_N, float)
+    i0, i1, w = _grid_weights(force, grid)
+    out = np.zeros(force.shape + (grid.size,))
+    k = np.arange(grid.size)
+    out += (k == i0[..., None]) * (1 - w)[..., None] + (k == i1[..., None]) * w[..., None]
+    return out
+
+
+def _touch_features(base, dts, classes, force_w, skin_delta, real_scale):
+    """Features of touches: base/dts (B, nForce, C, F), classes (B, T), force_w (B, T, nForce).
+
+    Real touches scale exactly with the skin–sample difference (``real_scale`` (B, T)); replayed
+    ones add ``skin_delta`` (B, T) K times their change per kelvin.
+    """
+    b = np.arange(base.shape[0])[:, None]
+    per = base[b, :, classes]                          # (B, T, nForce, F)
+    f = np.einsum("btk,btkf->btf", force_w, per)
+    if dts is not None:
+        f = f + skin_delta[..., None] * np.einsum("btk,btkf->btf", force_w, dts[b, :, classes])
+    if real_scale is not None:
+        f = f * real_scale[..., None]
+    return f
+
+
 def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int = 500,
                      n_per_group: int = 15, repetitions: int = 3, familiarise_reps: int = 1,
-                     params=None, seed: int = 0) -> StudyOutcome:
+                     params=None, seed=0, variability: LabVariability | None = None) -> StudyOutcome:
     """Simulate ``n_studies`` studies of ``n_per_group`` persons per group.
 
     Parameters
@@ -222,40 +410,58 @@ def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int
         ``familiarise_reps`` familiarisation touches per sample (the paper: 1).
     params : PerceptionParameters, optional
         Noise and lapse (default the pool's); the features do not depend on them.
-    seed : int
+    seed : int or tuple of int
+        A tuple names a task of a sweep (:mod:`.sweep`): its random numbers are its own.
+    variability : LabVariability, optional
+        Default :data:`DEFAULT_LAB`.
     """
     from experiments.simulation.observers import BlockContext, answer_block
     params = params or pool.params
-    rng = np.random.default_rng([int(seed), 0x57D1])
-    feats_r, feats_s, groups = [], [], []
+    lab = DEFAULT_LAB if variability is None else variability
+    rng = np.random.default_rng([*(int(w) for w in np.atleast_1d(seed)), 0x57D1])
+    R0, S0, dS, T_s, groups = [], [], [], [], []
     for g in GROUPS:
-        n_pool = pool.real[g].shape[0]
-        if n_per_group > n_pool:
-            raise ValueError(f"simulate_studies: n_per_group: expected at most the pool's "
-                             f"{n_pool}, got {n_per_group}")
-        idx = np.argsort(rng.random((n_studies, n_pool)), axis=1)[:, :n_per_group]   # (S, n)
-        feats_r.append(pool.real[g][idx])
-        feats_s.append(pool.simulated[(hypothesis, g)][idx])
+        L, frac, ts = _draw_cohorts(pool, g, n_studies, n_per_group, lab, rng)
+        args = (pool.grid_L_um[g], pool.grid_fraction, L.ravel(), frac.ravel())
+        R0.append(person_features(pool.real[g], *args).reshape(n_studies, n_per_group, *pool.real[g].shape[2:]))
+        S0.append(person_features(pool.simulated[(hypothesis, g)], *args).reshape(R0[-1].shape))
+        dS.append(person_features(pool.simulated_dts[(hypothesis, g)], *args).reshape(R0[-1].shape))
+        T_s.append(ts)
         groups += [g] * n_per_group
-    real = np.concatenate(feats_r, axis=1)          # (S, P, C, F)
-    simf = np.concatenate(feats_s, axis=1)
-    S, P, C, F = real.shape
+    real, simf, dsim = (np.concatenate(x, axis=1) for x in (R0, S0, dS))   # (S, P, nF, C, F)
+    skin = np.concatenate(T_s, axis=1)                                        # (S, P)
+    S, P, NF, C, F = real.shape
     B = S * P
-    real, simf = real.reshape(B, C, F), simf.reshape(B, C, F)
-    fam = _percepts(np.repeat(real[:, None], familiarise_reps, axis=1), params, rng).mean(axis=1)
+    real, simf, dsim = (x.reshape(B, NF, C, F) for x in (real, simf, dsim))
+    skin = skin.reshape(B)
+    T = C * repetitions
+
+    def touches(n):
+        force = lab.force_N + lab.force_sd_N * rng.standard_normal((B, n))
+        skin_t = skin[:, None] + lab.skin_temperature_sd_C * rng.standard_normal((B, n))
+        real_scale = (skin_t - pool.material_C) / (pool.skin_reference_C - pool.material_C)
+        return _force_weights(force), skin_t - pool.skin_reference_C, real_scale
+
+    def familiarise(base, dts, is_real):
+        classes = np.tile(np.arange(C), familiarise_reps)[None].repeat(B, axis=0)   # (B, reps*C)
+        fw, delta, scale = touches(classes.shape[1])
+        f = _touch_features(base, dts, classes, fw, delta, scale if is_real else None)
+        x = _percepts(f, params, rng).reshape(B, familiarise_reps, C, F)
+        return x.mean(axis=1)
+
     counts = np.full((B, C), float(familiarise_reps))
-    ctx_real = BlockContext(fam, counts, params.noise_sd, repetitions)
+    ctx_real = BlockContext(familiarise(real, None, True), counts, params.noise_sd, repetitions)
     if observer.template_mode_for_simulated == "simulated":
-        fam_s = _percepts(np.repeat(simf[:, None], familiarise_reps, axis=1), params, rng).mean(axis=1)
-        ctx_sim = BlockContext(fam_s, counts, params.noise_sd, repetitions)
+        ctx_sim = BlockContext(familiarise(simf, dsim, False), counts, params.noise_sd, repetitions)
     else:
         ctx_sim = ctx_real
-    T = C * repetitions
     correct = np.zeros((B, 2, C), dtype=int)
     confusion = np.zeros((B, 2, C, C), dtype=int)
-    for m, (feats, ctx) in enumerate(((real, ctx_real), (simf, ctx_sim))):
+    for m, (base, dts, ctx) in enumerate(((real, None, ctx_real), (simf, dsim, ctx_sim))):
         order = np.argsort(rng.random((B, T)), axis=1) % C                  # true classes
-        x = _percepts(np.take_along_axis(feats, order[..., None], axis=1), params, rng)
+        fw, delta, scale = touches(T)
+        f = _touch_features(base, dts, order, fw, delta, scale if m == 0 else None)
+        x = _percepts(f, params, rng)
         lapse = rng.random((B, T)) < params.lapse_rate
         guesses = rng.integers(0, C, (B, T))
         ans = answer_block(observer, x, ctx, lapse, guesses)

@@ -22,7 +22,11 @@ def test_claims_have_statistics_and_criteria():
     assert ids == ["rise_real", "rise_simulated", "confused_1_real", "confused_1_simulated",
                    "above_chance_real", "above_chance_simulated", "no_dominant_answer_simulated",
                    "a_above_b_real", "smaller_diff_simulated", "table2_rises"]
-    assert all(c.statistic and c.criterion and c.quote for c in CLAIMS)
+    assert all(c.statistic and c.descriptive and c.inferential and c.quote for c in CLAIMS)
+    # the criteria that are the project's reading, not the paper's words, say so
+    own = {c.id for c in CLAIMS if c.own}
+    assert "no_dominant_answer_simulated" in own and "confused_1_real" in own
+    assert "a_above_b_real" not in own and "rise_real" not in own
 
 
 def test_rise_and_confusion_follow_the_data():
@@ -155,7 +159,7 @@ def test_dominant_answer_threshold_is_strict_half():
     half = ok.copy()
     half[:, 1] = [[3, 1, 1, 1], [3, 1, 1, 1]]     # pooled 6 2 2 2: 6/12, not < 1/2
     both = evaluate_claims(np.stack([correct, correct]), np.array(["A", "B"]), 3,
-                           answered=np.stack([ok, half]))
+                           answered=np.stack([ok, half]), reading="descriptive")
     stat, holds = both["no_dominant_answer_simulated"]
     np.testing.assert_allclose(stat, [5 / 12, 0.5])
     assert list(holds) == [True, False]
@@ -177,3 +181,58 @@ def test_answers_from_trials_counts_each_participants_answers():
     assert list(groups) == ["A", "B"]
     np.testing.assert_array_equal(got[0], [[0, 2, 0, 0], [0, 1, 0, 0]])
     np.testing.assert_array_equal(got[1], [[1, 0, 0, 0], [0, 0, 0, 3]])
+
+
+# ------------------------------------------------- two readings: descriptive and inferential
+def test_descriptive_reading_is_the_direction_of_the_point_estimates():
+    # A 0.60 vs B 0.55 on average with a wide spread: A - B > 0 (descriptive) without Welch's
+    # test at 5 % (inferential); scipy's Welch test is the independent reference
+    rng = np.random.default_rng(5)
+    one = np.zeros((30, 2, 4))
+    per = np.r_[rng.uniform(0.2, 1.0, 15), rng.uniform(0.15, 0.95, 15)]
+    per[:15] += 0.6 - per[:15].mean()
+    per[15:] += 0.55 - per[15:].mean()
+    one[:, 0] = (per * 3)[:, None]
+    from analysis.claims import evaluate_readings
+    both = evaluate_readings(one, GROUPS, 3)
+    ref = stats.ttest_ind(per[:15], per[15:], equal_var=False, alternative="greater")
+    assert ref.pvalue > 0.05
+    assert both["descriptive"]["a_above_b_real"][1][0]
+    assert not both["inferential"]["a_above_b_real"][1][0]
+    assert both["descriptive"]["a_above_b_real"][0][0] == pytest.approx(0.05)
+
+
+def test_inferential_readings_match_scipys_tests():
+    from analysis.claims import evaluate_readings
+    rng = np.random.default_rng(8)
+    seen = set()
+    for k in range(40):
+        probs = rng.uniform(0.1, 0.9, (30, 2, 4))
+        probs[:, :, 0] -= 0.25 * (k % 3 == 0)               # 1# harder in a third of the studies
+        probs[:15, 0] += 0.3 * (k % 4 == 0)                 # A better on real samples in a quarter
+        c = rng.binomial(3, np.clip(probs, 0, 1))
+        ans = rng.multinomial(12, [0.2, 0.2, 0.2, 0.4] if k % 2 else [0.1, 0.1, 0.1, 0.7],
+                              size=(30, 2))
+        inf = evaluate_readings(c, GROUPS, 3, answered=ans)["inferential"]
+        p = c / 3
+        for m, mode in enumerate(("real", "simulated")):
+            d = p[:, m, 0] - p[:, m, 1:].mean(axis=1)
+            ref = stats.ttest_1samp(d, 0.0, alternative="less")
+            assert bool(inf[f"confused_1_{mode}"][1][0]) == bool(ref.pvalue < 0.05)
+            seen.add(("confused", bool(ref.pvalue < 0.05)))
+        e = p.mean(axis=2)
+        ref = stats.ttest_ind(e[:15, 0] - e[:15, 1], e[15:, 0] - e[15:, 1], equal_var=False,
+                              alternative="greater")
+        assert bool(inf["smaller_diff_simulated"][1][0]) == bool(ref.pvalue < 0.05)
+        seen.add(("smaller", bool(ref.pvalue < 0.05)))
+        pooled = ans[:, 1].sum(axis=0)
+        ref = stats.binomtest(int(pooled.max()), int(pooled.sum()), 0.5, alternative="less")
+        assert bool(inf["no_dominant_answer_simulated"][1][0]) == bool(ref.pvalue < 0.05)
+        seen.add(("dominant", bool(ref.pvalue < 0.05)))
+    # both outcomes of every test occurred: the comparisons above are not vacuous
+    assert len(seen) == 6, seen
+
+
+def test_unknown_reading_is_refused():
+    with pytest.raises(ValueError, match="reading"):
+        evaluate_claims(np.zeros((2, 2, 4)), np.array(["A", "B"]), 3, reading="loose")

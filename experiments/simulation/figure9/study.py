@@ -12,10 +12,8 @@ from __future__ import annotations
 
 import io
 import logging
-import multiprocessing
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -107,7 +105,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
                       analyze: bool = True, participants: int | None = None,
                       target_side: str | None = None, rate_limit: str | None = None,
-                      replay: str | None = None, durable: bool = False) -> dict:
+                      replay: str | None = None, durable: bool = False, sweep=None) -> dict:
     """Run the paper's Figure 9 study end to end with simulated participants.
 
     Parameters
@@ -118,8 +116,8 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     seed : int
         Seeds the cohort, the schedules, the emulator and the responders.
     workers : int, optional
-        Processes running participants in parallel (1: in this process; at most one per
-        participant). Default: twice the CPU count (a session also waits for ``fsync``: every
+        Worker processes of the ``dask.distributed`` LocalCluster running participants in
+        parallel (1: in this process; at most one per participant; ignored with ``sweep``). Default: twice the CPU count (a session also waits for ``fsync``: every
         logged event is made durable before the next step), at most :data:`MAX_DEFAULT_WORKERS`
         so that the whole study stays under 1 GB on any machine. Measured on 2 cores
         (``benchmarks/bench_study.py``): 4 workers 53 s of sessions, 889 MiB summed RSS;
@@ -147,8 +145,11 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         clock is recomputed from its seed, so a power cut costs a rerun, not data; fsync was
         70 % of a session's wall time on the shared 2-core machine). The files, their order and
         content are the same either way; ``study.json`` records the setting.
-    replay : {"material", "skin", "compensated"}, optional
-        A replay hypothesis (:mod:`experiments.simulation.replay`): sets both of the above.
+    sweep : :class:`experiments.simulation.sweep.Sweep`, optional
+        A running cluster to run the sessions on (``reproduce figure9`` passes its own).
+    replay : str, optional
+        A replay hypothesis (:data:`stimuli.paper.REPLAY_NAMES`, :mod:`experiments.simulation.
+        replay`): sets the side, the rate limit, the method and the replayed material.
         The variant is built from the protocol's data and recorded in ``out_dir/protocol.json``.
         A responder option ``observer=display_learned`` also adds a familiarisation block on
         the display.
@@ -205,24 +206,18 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     if workers is None:
         workers = min(2 * (os.cpu_count() or 1), MAX_DEFAULT_WORKERS)
     workers = min(workers, len(jobs))
-    if workers == 1:
+    if workers == 1 and sweep is None:
         for job in jobs:
             results.append(_run_one(job))
             _progress(len(results), len(jobs), start, results[-1]["participant"])
     else:
-        # Import the engine once here so forked workers start with it loaded.
-        import experiments.hardware  # noqa: F401
-        import experiments.session  # noqa: F401
-        import stimuli.contact  # noqa: F401  (the package loads its model on first use)
-        import stimuli.display_response  # noqa: F401
-        import stimuli.target  # noqa: F401
-        method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
-        with ProcessPoolExecutor(max_workers=workers,
-                                 mp_context=multiprocessing.get_context(method)) as pool:
-            futures = [pool.submit(_run_one, job) for job in jobs]
-            for fut in as_completed(futures):
-                results.append(fut.result())
-                _progress(len(results), len(jobs), start, results[-1]["participant"])
+        # the sessions are tasks of a dask.distributed cluster (the sweep's, else a LocalCluster)
+        from contextlib import nullcontext
+
+        from experiments.simulation.sweep import Sweep
+        with (nullcontext(sweep) if sweep is not None
+              else Sweep(workers=workers, label="figure9 sessions")) as runner:
+            results = runner.map(_run_one, [(job,) for job in jobs], what="participants")
     seconds = time.perf_counter() - start
     summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
                "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
@@ -262,7 +257,8 @@ def _note_simulation(report, protocol) -> None:
     if not report.is_file():
         return
     sim = protocol.simulation
-    side = {"material": "the material side of the interface, T_M(L+), the paper's Eq. 7",
+    side = {"material": f"the material side of the interface, T_M(L+), method {sim.method!r}, "
+                        f"{sim.replayed_material} steel",
             "skin": "the skin side of the interface, T_S(L-)",
             "compensated": "the pad temperature that reproduces the real contact through the "
                            "finger-pad resistance"}[sim.target_side]
@@ -305,11 +301,13 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
             R = contact_resistance(sample.roughness_m, skin, steel)
             real = float(Contact(skin, steel, R, sim.skin_temperature_C,
                                  sim.material_temperature_C).receptor_temperature([at_s])[0])
-            prof = target_profile(material=steel, roughness=sample.roughness_m, skin=skin,
+            played = steel if sim.replayed_material == "sample" else material(protocol.material.name)
+            prof = target_profile(material=played, roughness=sample.roughness_m, skin=skin,
                                   skin_temperature=sim.skin_temperature_C,
                                   material_temperature=sim.material_temperature_C,
                                   duration=at_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
-                                  side=sim.target_side, pad_resistance=r_pad, cache=False)
+                                  side=sim.target_side, pad_resistance=r_pad, cache=False,
+                                  method=sim.method, resistance=R)
             felt = float(skin_response(skin, prof.times, prof.temperature, sim.skin_temperature_C,
                                        resistance=r_pad)[-1])
             cells.append(f"{sample.label} {real:.2f} / {felt:.2f} °C")
@@ -351,7 +349,8 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     changes = {}
     if replay is not None:
         hyp = replay_hypothesis(replay)
-        changes = {"target_side": hyp.target_side, "rate_limit": hyp.rate_limit}
+        changes = {"target_side": hyp.target_side, "rate_limit": hyp.rate_limit,
+                   "method": hyp.method, "replayed_material": hyp.replayed_material}
     for key, value, choices, option in (("target_side", target_side, TARGET_SIDES, "--target-side"),
                                         ("rate_limit", rate_limit, RATE_LIMITS, "--rate-limit")):
         if value is None:

@@ -17,12 +17,16 @@ def test_each_hypothesis_is_a_parsed_variant():
         v = protocol_variant(base, name)
         assert v.simulation.target_side == hyp.target_side
         assert v.simulation.rate_limit == hyp.rate_limit
+        assert v.simulation.method == hyp.method
+        assert v.simulation.replayed_material == hyp.replayed_material
         assert v.path is None
         assert [b.name for b in v.blocks] == [b.name for b in base.blocks]
         seen.add(v.hash)
-    assert len(seen) == 3
-    # the printed Eq. 7 is the protocol as written: same content, same hash
-    assert protocol_variant(base, "material").hash == base.hash
+    assert len(seen) == 5
+    # the exact 3 mm slab's material side is the protocol as written: same content, same hash
+    assert protocol_variant(base, "slab").hash == base.hash
+    printed = protocol_variant(base, "printed").data["simulation"]
+    assert (printed["method"], printed["replayed_material"]) == ("paper-as-printed", "half-space")
     assert base.data["simulation"]["target_side"] == "material"      # original untouched
 
 
@@ -37,7 +41,7 @@ def test_display_familiarisation_block_before_the_simulated_block():
 
 
 def test_unknown_hypothesis_is_a_user_error():
-    with pytest.raises(UserInputError, match="--replay: expected one of material, skin, compensated"):
+    with pytest.raises(UserInputError, match="--replay: expected one of printed, halfspace, slab, skin, compensated"):
         protocol_variant("roughness_recognition", "pad")
 
 

@@ -7,15 +7,25 @@ import pytest
 
 from experiments.simulation.prediction import predicted_cell_probabilities
 from experiments.simulation.observers import get_observer
-from experiments.simulation.studies import build_pool, simulate_studies
+from experiments.simulation.studies import (LabVariability, build_pool, person_features,
+                                            simulate_studies)
+
+#: No lab variability: every touch at 2 N and the person's own skin temperature.
+STILL = LabVariability(force_sd_N=0.0, skin_temperature_sd_C=0.0)
+
+
+@pytest.fixture(scope="module")
+def slab_pool():
+    return build_pool(hypotheses=("slab", "compensated"), seed=3)
 
 
 @pytest.mark.slow
 def test_absolute_observer_studies_match_predicted_cell_probabilities():
     # predicted_cell_probabilities is the older, independent Monte Carlo of the same absolute
     # observer (person by person, one test presentation per sample)
-    pool = build_pool(hypotheses=("material",), pool_size=40, seed=3)
-    out = simulate_studies(pool, "material", get_observer("absolute"), n_studies=300, seed=1)
+    pool = build_pool(hypotheses=("slab",), seed=3)
+    out = simulate_studies(pool, "slab", get_observer("absolute"), n_studies=300, seed=1,
+                           variability=STILL)
     ours = out.proportions()                                       # (group, mode, sample)
     ref = predicted_cell_probabilities(n_people=40, n_reps=200, seed=5)
     for gi, g in enumerate("AB"):
@@ -34,8 +44,8 @@ def test_superposed_features_equal_the_direct_computation():
     from experiments.simulation.studies import imposed_features
     person = draw_person("B", 20261124)
     r_pad = person.pad_resistance()
-    for side in ("material", "compensated"):
-        proto = protocol_variant(load_protocol("roughness_recognition"), side)
+    for replay in ("slab", "compensated"):
+        proto = protocol_variant(load_protocol("roughness_recognition"), replay)
         profiles = [simulated_target_profile(proto, {}, "B", None, s.id, s.roughness_um)
                     for s in proto.samples]
         fast = imposed_features(person, [(p.times, p.temperature) for p in profiles], r_pad)
@@ -88,16 +98,109 @@ def test_scenarios_judge_the_simulated_block_for_a_response_bias():
     # the skin-side replay judged by the absolute observer names nearly every
     # simulated sample 4#; the claims table must see it (it was ✓ on every old claim)
     from experiments.simulation.figure9.scenarios import evaluate_scenarios
-    pool = build_pool(hypotheses=("skin", "compensated"), pool_size=20, seed=3)
+    pool = build_pool(hypotheses=("skin", "compensated"), seed=3)
     res = evaluate_scenarios(pool, observers=["absolute"], n_studies=40, seed=2)
     wide = res.wide()
     assert wide.loc[("skin", "absolute"), "no_dominant_answer_simulated"] == 0.0
     assert wide.loc[("skin", "absolute"), "all"] == 0.0
     assert wide.loc[("compensated", "absolute"), "no_dominant_answer_simulated"] >= 0.9
-    stats = res.claims.set_index(["hypothesis", "claim"])["mean_statistic"]
+    claims = res.claims[res.claims.reading == "descriptive"]
+    stats = claims.set_index(["hypothesis", "claim"])["mean_statistic"]
     assert stats[("skin", "no_dominant_answer_simulated")] > 0.5        # share of one answer
     assert stats[("compensated", "no_dominant_answer_simulated")] < 0.5
     # simulated proportion correct: the skin/absolute 4#-for-everything pattern is ~1/4
     p = res.proportions
     sim = p[(p.hypothesis == "skin") & (p["mode"] == "simulated")]
-    assert sim[sim.roughness_id < 4]["expected"].max() < 0.2
+    assert sim[sim.roughness_id < 4]["expected"].max() < 0.25      # 1#-3# below chance
+
+
+def test_grid_features_are_the_direct_computation_within_a_few_hundredths_of_the_noise(slab_pool):
+    # a fresh cohort per study draws persons anywhere in the ranges: their features are
+    # interpolated on the pool's grid; here against the physics computed for each person
+    from experiments.protocol import load_protocol
+    from experiments.session.setup import simulated_target_profile
+    from experiments.simulation.person import SimulatedPerson
+    from experiments.simulation.replay import protocol_variant
+    from experiments.simulation.studies import FORCE_GRID_N, imposed_features
+    from stimuli import contact_resistance, material
+    base = load_protocol("roughness_recognition")
+    proto = protocol_variant(base, "compensated")
+    rng = np.random.default_rng(7)
+    worst = {"real": 0.0, "simulated": 0.0}
+    for group, (lo, hi) in (("A", (600, 750)), ("B", (900, 1200))):
+        profiles = [simulated_target_profile(proto, {}, group, None, s.id, s.roughness_um)
+                    for s in proto.samples]
+        for _ in range(3):
+            L, frac = rng.uniform(lo, hi), rng.uniform(0.55, 0.65)
+            p = SimulatedPerson(L * 1e-6, frac, slab_pool.skin_reference_C)
+            args = (slab_pool.grid_L_um[group], slab_pool.grid_fraction, np.array([L]), np.array([frac]))
+            real = person_features(slab_pool.real[group], *args)[0]
+            sim = person_features(slab_pool.simulated[("compensated", group)], *args)[0]
+            k = FORCE_GRID_N.index(2.0)
+            direct_real = np.array([p.features(*p.feel_real(s.roughness_m, sample_thickness_m=3e-3,
+                                                            material_temperature_C=20.0))
+                                    for s in base.samples])
+            r_pad = float(contact_resistance(0.4e-6, skin=p.skin, material=material("copper")))
+            direct_sim = imposed_features(p, [(q.times, q.temperature) for q in profiles], r_pad)
+            for name, grid, direct in (("real", real[k], direct_real),
+                                       ("simulated", sim[k], direct_sim)):
+                err = np.abs(grid - direct).max(axis=0)              # per feature
+                worst[name] = np.maximum(worst[name], err)
+    # against a perceptual noise of 0.3 K on the drops and 0.3 K/s + 10 % on the peak rate
+    for name in worst:
+        assert np.all(worst[name][:3] < 0.01) and worst[name][3] < 0.03, worst
+
+
+def test_force_moves_the_real_features_as_eq5_says(slab_pool):
+    # a harder press lowers the contact resistance: a larger drop on every real sample
+    r = slab_pool.real["A"]                          # (nL, nU, nForce, C, F)
+    assert np.all(np.diff(r[..., 0], axis=2) > 0)    # first drop feature rises with force
+    # the replayed ones through the finger-pad resistance (Eq. 5 of the 0.4 µm copper face):
+    # also a larger drop, by about as much as 1#'s (a face about as smooth)
+    s = slab_pool.simulated[("slab", "A")]
+    assert np.all(np.diff(s[..., 0], axis=2) > 0)
+    ratio = np.diff(s[..., 0, 0], axis=2) / np.diff(r[..., 0, 0], axis=2)     # 1#, first drop
+    assert np.all((ratio > 0.5) & (ratio < 2.0))
+
+
+def test_touch_to_touch_variability_costs_accuracy(slab_pool):
+    # per-touch force and skin temperature move a sample's features from touch to touch, so
+    # the familiarisation templates fit the test touches less well: measured (400 studies,
+    # seed 4) 0.64 still, 0.60 with the default lab, 0.52 with 0.5 N and 0.3 K; the Monte-Carlo
+    # standard error of each mean is about 0.0013
+    obs = get_observer("absolute")
+    means = []
+    for lab in (STILL, LabVariability(), LabVariability(force_sd_N=0.5, skin_temperature_sd_C=0.3)):
+        out = simulate_studies(slab_pool, "slab", obs, n_studies=400, seed=4, variability=lab)
+        assert np.all(out.answers.sum(axis=-1) == 3)
+        means.append(out.correct[:, :, 0].sum(axis=(1, 2)).mean() / (30 * 12))
+    assert means[0] - means[1] > 0.02 and means[1] - means[2] > 0.04, means
+
+
+def test_a_reused_cohort_needs_enough_persons(slab_pool):
+    obs = get_observer("absolute")
+    out = simulate_studies(slab_pool, "slab", obs, n_studies=20, seed=9,
+                           variability=LabVariability(cohort_size=15))
+    assert out.correct.shape == (20, 30, 2, 4)
+    with pytest.raises(ValueError, match="cohort"):
+        simulate_studies(slab_pool, "slab", obs, n_studies=5, seed=9,
+                         variability=LabVariability(cohort_size=10))
+
+
+@pytest.mark.slow
+def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
+    from experiments.simulation.figure9.scenarios import evaluate_scenarios
+    from experiments.simulation.sweep import Sweep
+    kw = dict(observers=["absolute", "relative"], n_studies=250, seed=5)
+    here = evaluate_scenarios(slab_pool, **kw)
+    with Sweep(workers=1) as one:
+        on_one = evaluate_scenarios(slab_pool, sweep=one, **kw)
+    with Sweep(workers=2) as two:
+        assert two.n_workers == 2
+        on_two = evaluate_scenarios(slab_pool, sweep=two, **kw)
+    import pandas as pd
+    pd.testing.assert_frame_equal(on_one.claims, on_two.claims)
+    pd.testing.assert_frame_equal(here.claims, on_two.claims)
+    pd.testing.assert_frame_equal(on_one.proportions, on_two.proportions)
+    # 250 studies = tasks of 100, 100 and 50: not one chunk per worker
+    assert set(on_two.claims["n_studies"]) == {250}
