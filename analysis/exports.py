@@ -51,7 +51,7 @@ COLUMNS = {
     "tracking_rms_C": ("degC", "RMS tracking error of the display"),
     "skin_thickness_um": ("um", "skin thickness of the participant"),
     "sex": (_C, "participant's sex as recorded"),
-    "started_at": ("ISO 8601 UTC", "time the attempt started"),
+    "started_at_utc": ("ISO 8601 UTC", "time the attempt started"),
     "fault_code": (_C, "display fault code of the attempt, if any"),
     "abort_reason": (_C, "why the attempt was aborted (no_contact, interrupted, killed, error)"),
     "familiarisation": ("bool", "row of a familiarisation (unscored) block"),

@@ -59,6 +59,7 @@ import pandas as pd
 
 from experiments.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES re-exported
     OPTIONAL_COLUMNS,
+    RENAMED_COLUMNS,
     REQUIRED_COLUMNS,
     STATUSES,
     read_csv_prefix,
@@ -346,9 +347,13 @@ def load_session(folder, messages: list | None = None, read: SessionFolder | Non
         return pd.DataFrame(), ""
     rows = rows.reset_index(drop=True)
     require_columns(rows, path)
+    rows = rows.rename(columns={old: new for old, new in RENAMED_COLUMNS.items()
+                                if old in rows.columns and new not in rows.columns})
     if check:
         check_session_rows(rows, path, read)
     missing = [c for c in OPTIONAL_COLUMNS if c not in rows.columns]
+    # a file from before spoken answers (every answer keyed): their columns stay blank, unsaid
+    missing = [c for c in missing if c not in ("answer_mode", "answer_keyed_after_cue_s")]
     if missing:
         how = "blank" + ("; attempt taken as 1" if "attempt" in missing else "")
         _warn(messages, f"{path}: {', '.join(missing)}: expected optional column(s) "
@@ -503,7 +508,7 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
              "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "answer_mode",
              "answer_keyed_after_cue_s", "status",
-             "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
+             "tracking_rms_C", "skin_thickness_um", "sex", "started_at_utc", "fault_code",
              "skin_temperature_C", "skin_temperature_in_range", "contact_force_N",
              "abort_reason", "familiarisation", "included", "exclusion", "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.logformat import OPTIONAL_COLUMNS, REQUIRED_COLUMNS, STATUSES
+from experiments.logformat import OPTIONAL_COLUMNS, RENAMED_COLUMNS, REQUIRED_COLUMNS, STATUSES
 
 from .errors import LogError
 
@@ -85,6 +85,8 @@ def require_columns(df: pd.DataFrame, path: Path) -> None:
 
 def validate_rows(df: pd.DataFrame) -> pd.DataFrame:
     """Type and check rows (of any number of sessions; ``source`` and ``line`` say where from)."""
+    df = df.rename(columns={old: new for old, new in RENAMED_COLUMNS.items()
+                            if old in df.columns and new not in df.columns})
     out = pd.DataFrame(index=df.index)
     for column in ("participant", "session", "group", "block", "mode", "status"):
         out[column] = _as_str(df[column])

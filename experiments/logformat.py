@@ -65,7 +65,7 @@ from typing import Any, Iterable, Mapping
 
 __all__ = [
     "REQUIRED_FIELDS", "event_problem", "CONTEXT_KEYS", "SPEC_KEYS",
-    "TRIAL_COLUMNS", "COLUMN_DECIMALS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "STATUSES",
+    "TRIAL_COLUMNS", "PSYCHOPY_COLUMNS", "RENAMED_COLUMNS", "COLUMN_DECIMALS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "STATUSES",
     "TRACE_COLUMNS", "FORCE_COLUMNS", "TRACE_DECIMALS",
     "to_jsonable", "dumps", "format_cell", "decode_event",
     "LogDamageWarning", "LogReport", "read_events", "read_csv_prefix",
@@ -85,7 +85,7 @@ REQUIRED_FIELDS = {
 
 #: Keys of ``session_started`` / ``session_resumed`` copied onto every trial row.
 CONTEXT_KEYS = ("participant", "group", "session", "skin_thickness_um", "sex", "date", "expName",
-                "protocol_version", "thermocue_version")
+                "expStart", "protocol_version", "thermocue_version")
 #: Keys of ``trial_started`` (the :class:`~experiments.schedule.TrialSpec`) copied onto its rows.
 SPEC_KEYS = ("block", "mode", "roughness_id", "roughness_um", "repetition")
 
@@ -125,24 +125,35 @@ def event_problem(event: Any, fields: Mapping[str, Any]) -> str | None:
 #: "The trial table"): identity, design, stimulus, response, timing, quality. A key a row has
 #: beyond these (none written by this version) follows, sorted.
 TRIAL_COLUMNS = (
-    # identity (PsychoPy's names where PsychoPy has one: date, expName, psychopyVersion)
-    "participant", "session", "group", "sex", "skin_thickness_um", "date", "expName",
-    "protocol_version", "protocol_hash", "thermocue_version", "psychopyVersion",
-    # design
-    "block", "trial_index", "attempt", "repetition", "mode", "roughness_id", "roughness_um",
+    # identity (PsychoPy's names, with PsychoPy's meanings, where PsychoPy has one: date,
+    # expName, expStart, psychopyVersion, frameRate; PSYCHOPY_COLUMNS)
+    "participant", "session", "group", "sex", "skin_thickness_um", "date", "expName", "expStart",
+    "protocol_version", "protocol_hash", "thermocue_version", "psychopyVersion", "frameRate",
+    # design (trial_index and repetition from 1; PsychoPy's loop counters thisN, thisRepN from 0)
+    "block", "trial_index", "thisN", "attempt", "repetition", "thisRepN", "mode", "roughness_id",
+    "roughness_um",
     # stimulus
     "target_side", "profile_skin_thickness_um", "profile_resistance_m2K_W",
     "profile_resistance_source", "pad_resistance_m2K_W", "rate_limited_max_change_C", "cue_played",
     # response
     "response_id", "correct", "rt_s", "response_source", "answer_mode", "answer_keyed_after_cue_s",
     # timing
-    "started_at", "finished_at", "contact_onset_s", "contact_duration_s",
+    "started_at_utc", "finished_at_utc", "contact_onset_s", "contact_duration_s",
     # quality
     "status", "fault_code", "abort_reason", "skin_temperature_C", "skin_temperature_in_range",
     "tracking_rms_C", "tracking_max_C", "frames", "frames_lost", "trace_file",
     # the display's measured contact force (mean summed force over the contact; Eq. 5's force)
     "contact_force_N",
 )
+
+#: Columns named and meant as in PsychoPy's own data files: ``date`` (``data.getDateStr()``,
+#: local time), ``expName``, ``expStart`` (local time with its UTC offset), ``psychopyVersion``
+#: and ``frameRate`` (``n/a`` when no PsychoPy window ran; empty when PsychoPy could not measure
+#: the rate), ``thisN`` / ``thisRepN`` (the trial's and the repetition's 0-based counters).
+PSYCHOPY_COLUMNS = ("date", "expName", "expStart", "psychopyVersion", "frameRate", "thisN",
+                    "thisRepN")
+#: Earlier names of renamed columns (read from older logs and files).
+RENAMED_COLUMNS = {"started_at": "started_at_utc", "finished_at": "finished_at_utc"}
 
 #: Decimals each float column of ``trials.csv`` is written with: the resolution of what
 #: measured it (the display's 0.01 °C and 1 ms device clock, the keyboard's 0.1 ms), or 4
@@ -163,7 +174,7 @@ REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "
 #: defaults to 1).
 OPTIONAL_COLUMNS = {"roughness_um": "float", "repetition": "int", "rt_s": "float",
                     "tracking_rms_C": "float", "skin_thickness_um": "float", "sex": "str",
-                    "attempt": "int", "started_at": "str", "fault_code": "str",
+                    "attempt": "int", "started_at_utc": "str", "fault_code": "str",
                     "answer_mode": "str", "answer_keyed_after_cue_s": "float"}
 #: Values of the ``status`` column.
 STATUSES = ("ok", "fault", "aborted")
@@ -572,9 +583,9 @@ def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | N
             row.update({k: start[k] for k in SPEC_KEYS if k in start})
             row["trial_index"], row["attempt"] = key
             if "time" in start:
-                row["started_at"] = start["time"]
+                row["started_at_utc"] = start["time"]
             if kind == "trial_completed":
-                row.update(ev["row"])
+                row.update({RENAMED_COLUMNS.get(k, k): v for k, v in ev["row"].items()})
                 row.setdefault("status", "ok")
                 if row.get("correct") is None and row.get("response_id") is not None \
                         and row.get("roughness_id") is not None:
@@ -584,10 +595,23 @@ def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | N
                 row["abort_reason"] = ev.get("reason")
                 if ev.get("fault_code") is not None:
                     row["fault_code"] = ev["fault_code"]
+            _psychopy_counters(row)
             rows.append(row)
             if sources is not None:
                 sources.append(position)
     return rows
+
+
+def _psychopy_counters(row: dict) -> None:
+    """PsychoPy's 0-based loop counters beside the 1-based ones; ``n/a`` for what only a
+    PsychoPy window has when none ran."""
+    for one, zero in (("trial_index", "thisN"), ("repetition", "thisRepN")):
+        v = row.get(one)
+        if isinstance(v, int) and not isinstance(v, bool):
+            row[zero] = v - 1
+    if row.get("psychopyVersion") in (None, ""):
+        row["psychopyVersion"] = "n/a"
+        row.setdefault("frameRate", "n/a")
 
 
 # --------------------------------------------------------------------------- replay

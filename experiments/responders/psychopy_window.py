@@ -112,6 +112,7 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self._label = None
         self._on = None            # (state, text, flip time) of the text on screen
         self.psychopy_version = None
+        self.frame_rate = None
 
     # -- life cycle -----------------------------------------------------------------------
     def begin_session(self, session) -> None:
@@ -134,6 +135,13 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             raise SessionError(f"--responder psychopy: expected a display to open a window on "
                                f"(DISPLAY={os.environ.get('DISPLAY')!r}), got "
                                f"{type(exc).__name__}: {exc}") from None
+        # PsychoPy's frameRate (as a Builder script measures it; None when it cannot: no vsync)
+        try:
+            rate = self.win.getActualFrameRate(nIdentical=10, nMaxFrames=120, nWarmUpFrames=10)
+        except Exception:
+            rate = None
+        self.frame_rate = None if rate is None else round(float(rate), 3)
+        self.log("frame_rate", frameRate=self.frame_rate)
         self._stim = visual.TextStim(self.win, text="", height=0.045, wrapWidth=1.2, pos=(0, 0.05))
         self.kb = keyboard.Keyboard(backend="ptb")
         self.keyboard_backend = self.kb.getBackend()

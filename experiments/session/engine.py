@@ -118,6 +118,7 @@ class Session(TrialSteps):
         self.hooks = hooks if hooks is not None else hooks_from_env()
         self._last_block = None
         self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
+        self._exp_start = _psychopy_exp_start(time.time())
 
     # -- paths and context ------------------------------------------------------------------
     @property
@@ -152,7 +153,7 @@ class Session(TrialSteps):
                 "schedule_sha256": schedule_sha256(self.schedule),
                 "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
                 # PsychoPy-style identity of every trial row (date: the session's first start)
-                "date": self._date, "expName": self.protocol.name,
+                "date": self._date, "expName": self.protocol.name, "expStart": self._exp_start,
                 "protocol_version": self.protocol.version, "thermocue_version": thermocue_version()}
 
     def sample_for(self, spec) -> dict:
@@ -237,6 +238,7 @@ class Session(TrialSteps):
         since = _seconds_since_first_start(events)
         self._started = time.monotonic() - since
         self._date = _psychopy_date(time.time() - since)
+        self._exp_start = _psychopy_exp_start(time.time() - since)
         try:
             with EventLog(self.events_path, durable=self.durable) as log:
                 if log.repaired:
@@ -568,6 +570,13 @@ def _seconds_since_first_start(events) -> float:
                 t0 = t0.replace(tzinfo=_dt.timezone.utc)
             return max(0.0, (_dt.datetime.now(_dt.timezone.utc) - t0).total_seconds())
     return 0.0
+
+
+def _psychopy_exp_start(epoch_s: float) -> str:
+    """PsychoPy's ``expStart`` form of a time (local, with its UTC offset), e.g.
+    ``2026-11-22 14h05.09.123456 +0100``."""
+    import datetime as _dt
+    return _dt.datetime.fromtimestamp(epoch_s).astimezone().strftime("%Y-%m-%d %Hh%M.%S.%f %z")
 
 
 def _psychopy_date(epoch_s: float) -> str:

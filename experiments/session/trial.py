@@ -131,9 +131,10 @@ class TrialSteps:
             self.responder.show_label(f"This is sample {sample.label}")
         elif not real:
             self.responder.please_wait()
-        t.row = {"started_at": started_at, "protocol_hash": self.protocol.hash,
+        t.row = {"started_at_utc": started_at, "protocol_hash": self.protocol.hash,
                  "mode": spec.mode, "block": spec.block,
-                 "psychopyVersion": getattr(self.responder, "psychopy_version", None)}
+                 "psychopyVersion": getattr(self.responder, "psychopy_version", None),
+                 "frameRate": getattr(self.responder, "frame_rate", None)}
         return t
 
     def _prepare(self, disp, t: TrialAttempt) -> None:
@@ -273,7 +274,7 @@ class TrialSteps:
     def _write(self, t: TrialAttempt) -> None:
         """``write``: the completed row, logged and written to ``trials.csv``."""
         self.machine.go("write", **t.ctx)
-        t.row.update(status="ok", trace_file=f"traces/{t.trace}", finished_at=_now_iso())
+        t.row.update(status="ok", trace_file=f"traces/{t.trace}", finished_at_utc=_now_iso())
         self._complete(t.spec, t.attempt, t.row)
         self.hooks.at("after_write", t.spec, t.attempt)
 
@@ -307,7 +308,7 @@ class TrialSteps:
             self._neutral(disp)
         self.machine.go("write", **ctx)
         kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault", durable=self.durable)
-        row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
+        row.update(status="fault", fault_code=str(code), finished_at_utc=_now_iso(),
                    trace_file=None if kept is None else f"traces/{kept.name}")
         self._complete(spec, attempt, row)
         if not lost:   # (a lost link is reported once, with the reconnect's outcome)

@@ -361,7 +361,10 @@ def test_trials_from_events(tmp_path):
     for r in rows:
         assert (r["participant"], r["session"], r["group"], r["sex"]) == ("P07", "s1", "A", "female")
         assert r["skin_thickness_um"] == 700.0 and r["block"] == "real"
-        assert r["started_at"].endswith("Z")
+        assert r["started_at_utc"].endswith("Z")
+        # PsychoPy's 0-based counter beside the 1-based one; no window ran: n/a, said so
+        assert r["thisN"] == r["trial_index"] - 1
+        assert (r["psychopyVersion"], r["frameRate"]) == ("n/a", "n/a")
     assert rows[0]["correct"] == 1 and rows[2]["correct"] == 0     # 2 == 2; 4 != 3
     assert rows[1]["abort_reason"] == "interrupted" and rows[1]["roughness_id"] == 3
     assert rows[2]["tracking_rms_C"] is None                     # NaN written as null

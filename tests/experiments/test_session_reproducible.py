@@ -17,8 +17,10 @@ from pathlib import Path
 import pytest
 
 #: Wall-clock values: ISO timestamps (events' ``time``, rows' ``started_at``) and the
-#: ``session_started`` event's PsychoPy-style ``date`` (2026-11-26_19h24.33.838).
-_VOLATILE = re.compile(rb'\d{4}-\d{2}-\d{2}(T[0-9:.]+Z|_\d{2}h\d{2}\.\d{2}\.\d{3})')
+#: ``session_started`` event's PsychoPy-style ``date`` (2026-11-26_19h24.33.838) and ``expStart``
+#: (2026-11-26 19h24.33.838123 +0000).
+_VOLATILE = re.compile(rb'\d{4}-\d{2}-\d{2}(T[0-9:.]+Z|_\d{2}h\d{2}\.\d{2}\.\d{3}'
+                       rb'| \d{2}h\d{2}\.\d{2}\.\d{6} [+-]\d{4})')
 #: Keys whose values are wall-clock durations (none today on a virtual clock; blanked if added).
 _DURATION_KEYS = re.compile(rb'"(seconds|wall_s|elapsed_s|t_wall|duration_s_wall)":\s*[0-9.e+-]+')
 
