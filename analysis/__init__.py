@@ -16,7 +16,8 @@ from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
 from .glmm import fit_glmm
 from .inference import chance_tests, holm, interaction_test, omnibus_group_test
 from .figures import plot_confusion, plot_figure9
-from .report import AnalysisResult, analyze
+from .report import analyze
+from .result import AnalysisResult
 from .power import PowerResult, power_curve
 
 __all__ = [

@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.atomicfile import output_path
+
 __all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]
 
@@ -40,7 +42,11 @@ COLUMNS = {
     "response_id": (_C, "sample named by the participant (1-4)"),
     "stimulus_roughness_id": (_C, "sample presented (1-4)"),
     "correct": ("0/1", "1 if response_id equals roughness_id"),
-    "rt_s": ("s", "response time (from the answer prompt)"),
+    "rt_s": ("s", "response time (from the answer prompt); empty for spoken answers"),
+    "answer_mode": (_C, "keyed = the participant pressed the answer; spoken = the participant said "
+                        "it and the experimenter keyed it"),
+    "answer_keyed_after_cue_s": ("s", "spoken answers: time from the question's sound cue to the "
+                                      "experimenter's key (not a response time)"),
     "status": (_C, "attempt outcome: ok, fault, aborted"),
     "tracking_rms_C": ("degC", "RMS tracking error of the display"),
     "skin_thickness_um": ("um", "skin thickness of the participant"),
@@ -56,18 +62,22 @@ COLUMNS = {
     "path": ("path", "session folder"),
     "n_rows": (_N, "rows read from the session"),
     "skipped": (_C, "why the session was skipped (empty if used)"),
-    "reason": (_C, "missing_trials.csv: why a scheduled trial has no answer (time-out, no contact, "
-                   "fault, session ended); sessions.csv: why the session is or is not analysed"),
+    "reason": (_C, "missing_trials.csv: why a scheduled trial has no answer (time_out, no_contact, "
+                   "fault, session_ended, other); sessions.csv: why the session is or is not "
+                   "analysed"),
     "detail": (_C, "the logged detail behind the reason"),
     "attempts": (_N, "attempts logged for the trial"),
     "sessions": (_N, "session folders of the participant"),
     "scheduled": (_N, "scored trials scheduled"),
-    "answered": (_N, "scheduled scored trials with an analysable answer"),
-    "missing": (_N, "scheduled scored trials without an analysable answer"),
-    "time-out": (_N, "missing trials: time-out"),
-    "no contact": (_N, "missing trials: no touch within the trial time-out"),
+    "answered": (_N, "scheduled scored trials with an answer (an ok attempt)"),
+    "analysed_trials": (_N, "answered trials the models use (included)"),
+    "answered_excluded": (_N, "answered trials left out of the analysis (reason in "
+                              "all_trials.csv's exclusion, e.g. a fingertip out of range)"),
+    "missing": (_N, "scheduled scored trials without an answer (no ok attempt)"),
+    "time_out": (_N, "missing trials: time-out"),
+    "no_contact": (_N, "missing trials: no touch within the trial time-out"),
     "fault": (_N, "missing trials: display or software fault on the last attempt"),
-    "session ended": (_N, "missing trials: the session stopped before or during the trial"),
+    "session_ended": (_N, "missing trials: the session stopped before or during the trial"),
     "other": (_N, "missing trials: another reason (see missing_trials.csv)"),
     "schedule_source": (_C, "where the schedule came from: session.json or the logged trials"),
     "complete": ("bool", "the session's log says it finished (session_finished)"),
@@ -88,8 +98,9 @@ COLUMNS = {
     "proportion_of_stimulus": (_F, "share of the stimulus's trials given this response"),
     "wilson_low": (_F, "Wilson score interval, lower end (trials independent)"),
     "wilson_high": (_F, "Wilson score interval, upper end"),
-    "boot_low": (_F, "participant-cluster bootstrap interval, lower end"),
-    "boot_high": (_F, "participant-cluster bootstrap interval, upper end"),
+    "boot_low": (_F, "Wilson interval at the effective n from a participant-cluster bootstrap's "
+                     "design effect, lower end (plain Wilson with one participant)"),
+    "boot_high": (_F, "the same interval, upper end"),
     "boot_se": (_F, "bootstrap standard error of proportion_correct"),
     "design_effect": ("ratio", "bootstrap variance x m/(m-1) over binomial variance, floored at 1"),
     "median_rt_s": ("s", "median response time"),
@@ -110,19 +121,21 @@ COLUMNS = {
     "p_holm": (_P, "Holm-adjusted p-value within the table's family of tests"),
     "ci_low": (_L, "confidence interval, lower end (same scale as the estimate)"),
     "ci_high": (_L, "confidence interval, upper end"),
-    "interval": (_C, "how the interval was computed (Wald, profile likelihood)"),
+    "interval": (_C, "how the interval was computed and its reference distribution (Wald, "
+                     "t(df) or normal; profile likelihood with its cut-off)"),
     "posterior_mean": (_L, "variational posterior mean (demoted mean-field VB)"),
     "posterior_sd": (_L, "variational posterior SD (too small: mean-field)"),
     "cri_low": (_L, "variational credible interval, lower end"),
     "cri_high": (_L, "variational credible interval, upper end"),
     "model": (_C, "model the row comes from"),
-    # model_decisions.csv: the scene planner's decisions for the simulated profiles (issue 12)
+    # model_decisions.csv: the scene planner's decisions for the simulated profiles
     "effect": (_C, "physical effect of the thermal model (stimuli.scene)"),
     "decision": (_C, "kept or neglected by the scene planner"),
     "n_profiles": (_N, "distinct target profiles with this decision"),
     "max_bound_K": ("K", "largest error neglecting the effect causes over those profiles"),
     "tolerance_K": ("K", "smallest tolerance the planner was asked for"),
-    "note": (_C, "the effect, or why it was kept, in words"),
+    "note": (_C, "model_decisions.csv: the effect, or why it was kept; tests.csv: a fallback, "
+                 "a convergence problem or the choice of model that changes the row"),
     "log_odds_ratio_A_vs_B": (_L, "log odds of correct, group A minus group B"),
     "odds_ratio_A_vs_B": ("ratio", "exp(log_odds_ratio_A_vs_B)"),
     "p_correct_A": (_P, "model probability of a correct answer, group A (averaged row: mean of "
@@ -133,11 +146,24 @@ COLUMNS = {
     "difference_high": (_F, "delta-method interval of the difference, upper end"),
     "basis": (_C, "where the row comes from (fitted model, per-sample GEE, not estimable)"),
     "compares": (_C, "in words: what the row compares"),
-    "test": (_C, "name of the test"),
+    "test": (_C, "name of the test with its reference distribution (Wald t(df), Wald z (normal), "
+                 "Wald F(q, m - q))"),
     "role": (_C, "primary, omnibus, per-sample, interaction"),
     "hypothesis": (_C, "null hypothesis in words"),
-    "statistic": ("see test", "test statistic (z, or F for the omnibus test)"),
-    "df": (_N, "degrees of freedom"),
+    "statistic": ("see test", "test statistic: estimate / se referred to the distribution in "
+                              "test (t or normal), or F for the omnibus test"),
+    "df": (_N, "degrees of freedom of the reference distribution (t: its df; F: the numerator "
+               "df; empty: normal)"),
+    # fidelity.csv: real vs simulated
+    "scale": (_C, "population-averaged (GEE) or typical participant (mixed model, u = 0)"),
+    "difference_se": (_F, "delta-method standard error of difference"),
+    "margin": (_F, "equivalence margin on the proportion scale (protocol's "
+                   "equivalence_margin_pp / 100)"),
+    "tost_p_value": (_P, "two one-sided tests of |difference| >= margin: the larger one-sided "
+                         "p-value (equivalence shown when < 0.05)"),
+    "tost_ci_low": (_F, "90 % interval of difference (the TOST's), lower end"),
+    "tost_ci_high": (_F, "90 % interval of difference, upper end"),
+    "equivalent": ("0/1", "1 if the TOST shows equivalence within the margin"),
     "estimate": ("see compares", "estimate of the compared quantity (log odds unless stated)"),
     "difference": (_F, "the compared quantity as a difference of proportions"),
     "difference_ci_low": (_F, "its interval, lower end"),
@@ -187,8 +213,9 @@ COLUMNS = {
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> Path:
-    """Write a machine table at full precision (no rounding)."""
-    df.to_csv(path, index=False)
+    """Write a machine table at full precision (no rounding), whole or not at all."""
+    with output_path(path) as tmp:
+        df.to_csv(tmp, index=False)
     return path
 
 

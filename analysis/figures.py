@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from experiments.atomicfile import output_path
 from stimuli.paper import SAMPLE_NAMES
 
 __all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
@@ -78,20 +79,40 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     ax.set_ylim(*Y_LIMITS)
     ax.set_xlabel("Roughness Number (Ra)")
     ax.set_ylabel("Proportions of correct recognition")
-    # (the bootstrap interval is a Wilson interval at the bootstrap's effective sample size:
-    # analysis.proportions; the report says so)
-    which = "participant-cluster bootstrap" if interval == "boot" else "Wilson, trials independent"
     people = int(proportions["n_participants"].max()) if not proportions.empty else 0
+    which = interval_caption(interval, int(proportions["n_participants"].min())
+                             if not proportions.empty else 0)
     trials = int(proportions["n_trials"].max()) if not proportions.empty else 0
     ax.set_title(title or f"Figure 9: correct recognition\n95% {which} intervals; "
                           f"≤ {people} participants, ≤ {trials} trials per point", fontsize=9)
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, frameon=False)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path)
-    fig.savefig(path.with_suffix(".pdf"))          # vector copy beside the PNG
+    _save(fig, path)
+    _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
     plt.close(fig)
     return path
+
+
+def _save(fig, path: Path, **options) -> None:
+    """``fig.savefig(path)``, whole or not at all (a temporary file renamed over ``path``)."""
+    with output_path(path) as tmp:
+        fig.savefig(tmp, **options)
+
+
+def interval_caption(interval: str, min_participants: int) -> str:
+    """What the error bars are, in words (the figure's caption).
+
+    ``boot`` is a Wilson interval at the effective sample size a participant-cluster bootstrap
+    implies (:func:`analysis.proportions.cluster_bootstrap`); with one participant in a cell
+    there is nothing to resample, the design effect is 1 and the bars are plain Wilson
+    intervals, trials treated as independent.
+    """
+    if interval == "wilson":
+        return "Wilson, trials independent"
+    if min_participants < 2:
+        return "Wilson, trials independent (one participant: no participant bootstrap)"
+    return "Wilson at the participant-bootstrap effective n"
 
 
 def _draw_panel(ax, table: pd.DataFrame, value: str, low: str, high: str, title: str) -> None:
@@ -170,7 +191,7 @@ def plot_figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, path, *
     path = Path(path)
     out = [path, path.with_suffix(".pdf")]
     for p in out:
-        fig.savefig(p)
+        _save(fig, p)
     plt.close(fig)
     return out
 
@@ -222,6 +243,6 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
         fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
                      label="share of the stimulus's trials")
     path = Path(path)
-    fig.savefig(path)
+    _save(fig, path)
     plt.close(fig)
     return path

@@ -441,10 +441,10 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
                        "participant_sd": sigma, "icc_latent": icc(sigma),
                        "n_participants": int(data.m), "n_trials": int(data.n.sum()),
                        "hessian_positive_definite": bool(np.all(np.linalg.eigvalsh(hess) > 0))}
-        fit = ModelFit("glmm", candidate, formula, table[columns], notes, beta, cov,
-                       x.design_info, convergence, df)
-        fit.theta, fit.cov_full = theta, cov_full
-        return fit
+        return ModelFit(kind="glmm", formula=candidate, requested=formula, table=table[columns],
+                        notes=notes, params=beta, cov=cov, design_info=x.design_info, df=df,
+                        convergence=convergence, theta=theta, cov_full=cov_full)
     notes.append("GLMM: no formula could be fitted")
     warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
-    return ModelFit("glmm", None, formula, pd.DataFrame(columns=columns), notes)
+    return ModelFit(kind="glmm", formula=None, requested=formula,
+                    table=pd.DataFrame(columns=columns), notes=notes)

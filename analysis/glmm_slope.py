@@ -287,7 +287,8 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
     zq = reference_quantile(level, df)
     if data_t["mode"].nunique() < 2:
         notes.append("GLMM slope: one mode only: no mode slope to fit")
-        return ModelFit("glmm-slope", None, formula, pd.DataFrame(columns=columns), notes)
+        return ModelFit(kind="glmm-slope", formula=None, requested=formula,
+                        table=pd.DataFrame(columns=columns), notes=notes)
     for candidate in _candidates(data_t, formula, notes, "GLMM slope"):
         if _separated("GLMM slope", candidate, data_t, notes):
             continue
@@ -337,7 +338,7 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
             table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how]
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
-            lrt = max(0.0, 2 * (loglik - intercept_fit.result["log_likelihood"]))
+            lrt = max(0.0, 2 * (loglik - intercept_fit.convergence["log_likelihood"]))
             pv = 0.5 * stats.chi2.sf(lrt, 1) + 0.5 * stats.chi2.sf(lrt, 2)
             table.loc[len(table)] = ["lrt_slope", lrt, np.nan, np.nan, pv, np.nan, np.nan,
                                      "LR test vs intercept only, 50:50 chi2(1)/chi2(2)"]
@@ -347,9 +348,10 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                 "function_evaluations": int(res.nfev), "log_likelihood": loglik,
                 "theta": theta[-3:].tolist(),
                 "hessian_positive_definite": bool(np.all(np.linalg.eigvalsh(hess) > 0))}
-        fit = ModelFit("glmm-slope", candidate, formula, table[columns], notes, beta, cov,
-                       x.design_info, conv, df)
-        fit.theta, fit.cov_full = theta, cov_full
-        return fit
+        return ModelFit(kind="glmm-slope", formula=candidate, requested=formula,
+                        table=table[columns], notes=notes, params=beta, cov=cov,
+                        design_info=x.design_info, df=df, convergence=conv, theta=theta,
+                        cov_full=cov_full)
     notes.append("GLMM slope: no formula could be fitted")
-    return ModelFit("glmm-slope", None, formula, pd.DataFrame(columns=columns), notes)
+    return ModelFit(kind="glmm-slope", formula=None, requested=formula,
+                    table=pd.DataFrame(columns=columns), notes=notes)

@@ -51,7 +51,6 @@ This module reads session folders and combines them; the parts it calls each hol
 """
 from __future__ import annotations
 
-import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -67,6 +66,9 @@ from experiments.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES r
     session_context,
     trials_from_events,
 )
+
+from experiments.session_reader import (SessionFileError, SessionFolder, read_session_folder,
+                                        read_session_folders, row_problem)
 
 from .errors import LogError, LogWarning
 from .session_meta import block_roles, not_recognition_reason, read_session_meta
@@ -112,6 +114,9 @@ class TrialLog:
     warnings: list = field(default_factory=list)
     #: The inclusion policy the sessions were chosen by ("first", "latest" or "all").
     policy: str = "first"
+    #: Session folders found but not read as a session (``path``, ``reason``): a copy of
+    #: another folder's session (read once), a folder without trial rows.
+    not_read: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=["path", "reason"]))
 
     @property
     def analysable(self) -> pd.DataFrame:
@@ -137,7 +142,7 @@ def _warn(messages: list, text: str) -> None:
     warnings.warn(text, LogWarning, stacklevel=3)
 
 
-def read_trials_csv(path, messages: list | None = None) -> pd.DataFrame:
+def read_trials_csv(path, messages: list | None = None, data: bytes | None = None) -> pd.DataFrame:
     """Read a ``trials.csv`` up to its first damaged line.
 
     Parameters
@@ -146,6 +151,8 @@ def read_trials_csv(path, messages: list | None = None) -> pd.DataFrame:
         The file.
     messages : list of str, optional
         Warnings are appended here (and issued as :class:`LogWarning`).
+    data : bytes, optional
+        The content, already read and checked (:mod:`experiments.session_reader`).
 
     Returns
     -------
@@ -164,7 +171,7 @@ def read_trials_csv(path, messages: list | None = None) -> pd.DataFrame:
     """
     path = Path(path)
     messages = [] if messages is None else messages
-    header, rows, lines, damage = read_csv_prefix(path)
+    header, rows, lines, damage = read_csv_prefix(path, data)
     for text in damage:
         _warn(messages, text)
     if not header or not any(h.strip() for h in header):
@@ -182,7 +189,8 @@ def _scalars(mapping: dict) -> dict:
     return {k: v for k, v in mapping.items() if not isinstance(v, (dict, list))}
 
 
-def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame, dict]:
+def read_trial_events(path, messages: list | None = None,
+                      read: tuple | None = None) -> tuple[pd.DataFrame, dict]:
     """Rebuild the trial rows of an ``events.jsonl``, reading up to its first damaged line.
 
     Parameters
@@ -191,6 +199,8 @@ def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame,
         The event log.
     messages : list of str, optional
         Warnings are appended here (and issued as :class:`LogWarning`).
+    read : (events, report), optional
+        The log, already read (:class:`experiments.session_reader.SessionFolder`).
 
     Returns
     -------
@@ -209,7 +219,7 @@ def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame,
     """
     path = Path(path)
     messages = [] if messages is None else messages
-    events, report = read_events(path, on_damage="stop", warn=False)
+    events, report = read_events(path, on_damage="stop", warn=False) if read is None else read
     for text in report.damage:
         _warn(messages, text)
     sources: list = []
@@ -223,17 +233,9 @@ def read_trial_events(path, messages: list | None = None) -> tuple[pd.DataFrame,
     return pd.DataFrame(table), context
 
 
-def _session_context(folder: Path, messages: list) -> dict:
-    """participant/session/group/sex from ``session.json`` (tolerant); ``{}`` if unreadable."""
-    meta = folder / "session.json"
-    if not meta.exists():
-        return {}
-    try:
-        data = json.loads(meta.read_text("utf-8"))
-    except (ValueError, UnicodeDecodeError):
-        _warn(messages, f"{meta}: not valid JSON; participant and session taken from the event log "
-                        f"or the folder names")
-        return {}
+def _session_context(meta: dict | None) -> dict:
+    """participant/session/group/sex from ``session.json`` (as read); ``{}`` without one."""
+    data = meta
     if not isinstance(data, dict):
         return {}
     found: dict = {}
@@ -257,7 +259,8 @@ def _session_context(folder: Path, messages: list) -> dict:
 
 # --------------------------------------------------------------------------- sessions
 
-def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, str]:
+def load_session(folder, messages: list | None = None, read: SessionFolder | None = None,
+                 check: bool = True) -> tuple[pd.DataFrame, str]:
     """Read and validate one session folder.
 
     Parameters
@@ -266,6 +269,12 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
         A folder with ``trials.csv`` and/or ``events.jsonl``.
     messages : list of str, optional
         Warnings are appended here.
+    read : SessionFolder, optional
+        The folder as :func:`experiments.session_reader.read_session_folder` read it (read
+        here when not given).
+    check : bool
+        Check every row against the trial table's domain and the session's identity here
+        (:func:`check_session_rows`; :func:`load_trials` does it after reading every folder).
 
     Returns
     -------
@@ -279,32 +288,44 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
     Raises
     ------
     LogError
-        Unusable input; the message names the file and the column.
+        Unusable input: a special file, another encoding, a session.json naming another
+        session, a value outside the trial table's domain; the message names the file and
+        the column.
     """
     folder = Path(folder)
     messages = [] if messages is None else messages
+    if read is None:
+        try:
+            read = read_session_folder(folder)
+        except SessionFileError as exc:
+            raise LogError(str(exc)) from None
+        for text in read.notes:
+            _warn(messages, text)
     csv_path, events_path = folder / "trials.csv", folder / "events.jsonl"
     table = events = None
     ev_ctx: dict = {}
-    if events_path.exists():
-        events, ev_ctx = read_trial_events(events_path, messages)
-    if csv_path.exists():
+    if read.events_report is not None:
+        events, ev_ctx = read_trial_events(events_path, messages,
+                                           read=(read.events, read.events_report))
+    if read.trials_csv is not None:
         try:
-            table = read_trials_csv(csv_path, messages)
+            table = read_trials_csv(csv_path, messages, data=read.trials_csv)
         except LogError as exc:             # e.g. an empty file left by a crash
             if events is None or events.empty:
                 raise
             _warn(messages, f"{exc}; using {events_path.name} instead")
-    # session.json first, then the event log, then the folder names
+    # session.json first, then the event log, then the folder names (checked to agree by the
+    # reader; the reader's identity wins for participant and session)
     ctx = {"participant": folder.parent.name, "session": folder.name, **ev_ctx,
-           **_session_context(folder, messages)}
+           **_session_context(read.meta), "participant": read.participant,
+           "session": read.session}
     use_events = False
     if table is None:
         if events is None or events.empty:
             _warn(messages, f"{folder}: no trial rows (no trials.csv, no finished trial in "
                             f"events.jsonl); session skipped")
             return pd.DataFrame(), ""
-        if not csv_path.exists():
+        if read.trials_csv is None:
             _warn(messages, f"{csv_path}: missing; rebuilt {len(events)} rows from {events_path}")
         use_events = True
     elif events is not None and not events.empty and "trial_index" in table.columns:
@@ -325,6 +346,8 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
         return pd.DataFrame(), ""
     rows = rows.reset_index(drop=True)
     require_columns(rows, path)
+    if check:
+        check_session_rows(rows, path, read)
     missing = [c for c in OPTIONAL_COLUMNS if c not in rows.columns]
     if missing:
         how = "blank" + ("; attempt taken as 1" if "attempt" in missing else "")
@@ -334,9 +357,34 @@ def load_session(folder, messages: list | None = None) -> tuple[pd.DataFrame, st
     return rows, path.name
 
 
-def _session_folders(root: Path) -> list[Path]:
-    found = {p.parent for name in ("trials.csv", "events.jsonl") for p in root.rglob(name)}
-    return sorted(found)
+def check_session_rows(rows: pd.DataFrame, path: Path, read: SessionFolder) -> None:
+    """Refuse a row outside the trial table's domain or filed under another session
+    (:class:`LogError`, one line naming the file, the column and the line)."""
+    _check_domain(rows, path, read.samples)
+    _check_identity(rows, path, read)
+
+
+def _check_domain(rows: pd.DataFrame, path: Path, samples) -> None:
+    """Refuse the first row outside the trial table's domain (one line: file, column, line)."""
+    columns = [c for c in rows.columns if c != "line"]
+    for record, line in zip(rows[columns].to_dict("records"), rows["line"]):
+        problem = row_problem(record, samples)
+        if problem:
+            column, expected, value = problem
+            raise LogError(f"{path}: {column}: {expected} (line {line}), got {value!r}")
+
+
+def _check_identity(rows: pd.DataFrame, path: Path, read: SessionFolder) -> None:
+    """Refuse rows filed under another participant or session than the folder's session."""
+    for column, expected in (("participant", read.participant), ("session", read.session)):
+        values = rows[column].map(lambda v: "" if v is None or (isinstance(v, float) and v != v)
+                                  else str(v).strip())
+        bad = (values != "") & (values != expected)
+        if bad.any():
+            i = int(bad.to_numpy().argmax())
+            raise LogError(f"{path}: {column}: expected {expected!r} (the session's own, from "
+                           f"session.json and events.jsonl) (line {rows['line'].iloc[i]}), got "
+                           f"{rows[column].iloc[i]!r}")
 
 
 def load_trials(data_dir, sessions: str = "first") -> TrialLog:
@@ -377,41 +425,55 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     root = Path(data_dir)
     if not root.is_dir():
         raise LogError(f"{root}: data directory: expected an existing directory, got {str(root)!r}")
-    folders = _session_folders(root)
+    try:
+        found = read_session_folders(root)
+    except SessionFileError as exc:
+        raise LogError(str(exc)) from None
+    folders = [sf.path for sf in found.folders]
     if not folders:
         raise LogError(f"{root}: trials.csv: expected session folders holding trials.csv or "
                        f"events.jsonl, got none")
     messages: list = []
     parts, sessions, skipped = [], [], []
-    for folder in folders:
-        meta = read_session_meta(folder)
+    not_read = [{"path": str(path), "reason": reason} for path, reason in found.skipped]
+    for path, reason in found.skipped:
+        _warn(messages, f"{path}: {reason}")
+    for sf in found.folders:
+        folder = sf.path
+        for text in sf.notes:
+            _warn(messages, text)
+        meta = sf.meta or {}
         reason = not_recognition_reason(meta)
         if reason:
             _warn(messages, f"{folder / 'session.json'}: protocol: {reason}; session {folder} "
                             f"skipped")
-            context = _session_context(folder, [])
-            skipped.append({"participant": str(context.get("participant", folder.parent.name)),
+            context = _session_context(meta)
+            skipped.append({"participant": sf.participant,
                             "group": str(context.get("group", "")),
-                            "session": str(context.get("session", folder.name)),
+                            "session": sf.session,
                             "path": str(folder), "source": "session.json", "n_rows": 0,
                             "skipped": reason, **session_state(folder, meta)})
             continue
-        rows, source = load_session(folder, messages)
+        rows, source = load_session(folder, messages, read=sf, check=False)
         if rows.empty:
+            not_read.append({"path": str(folder), "reason": "no trial rows (no trials.csv, no "
+                                                            "finished trial in events.jsonl)"})
             continue
         roles = block_roles(meta)
         if roles:
             blocks = rows["block"].astype(str)
             rows["_scored"] = blocks.map(lambda b: roles[b]["scored"] if b in roles else None)
             rows["_answered"] = blocks.map(lambda b: roles[b]["response"] if b in roles else None)
-        parts.append(rows)
+        parts.append((rows, sf))
         sessions.append({"path": str(folder), "source": source, "n_rows": len(rows),
                          **session_state(folder, meta)})
     if not parts:
         also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
         raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
                        f"{len(folders)} session folder(s) without any{also}")
-    raw = pd.concat(parts, ignore_index=True)
+    for rows, sf in parts:          # after every folder is read: its warnings come first
+        check_session_rows(rows, Path(rows["source"].iloc[0]), sf)
+    raw = pd.concat([rows for rows, _ in parts], ignore_index=True)
     trials = validate_rows(raw)
     first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()
     sessions = pd.DataFrame(sessions)
@@ -439,13 +501,22 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     trials.loc[out_of_policy, "exclusion"] = "session not analysed"
     trials.loc[out_of_policy, "included"] = False
     order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
-             "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
+             "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "answer_mode",
+             "answer_keyed_after_cue_s", "status",
              "tracking_rms_C", "skin_thickness_um", "sex", "started_at", "fault_code",
              "skin_temperature_C", "skin_temperature_in_range", "contact_force_N",
              "abort_reason", "familiarisation", "included", "exclusion", "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
                                        ignore_index=True)
-    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy)
+    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy,
+                    not_read=pd.DataFrame(not_read, columns=["path", "reason"]))
+
+
+def _same(a, b) -> bool:
+    """Two cells equal, missing values (NaN, None, pandas.NA) equal to each other."""
+    if pd.isna(a) or pd.isna(b):
+        return bool(pd.isna(a) and pd.isna(b))
+    return bool(a == b)
 
 
 def _drop_duplicates(trials: pd.DataFrame, messages: list) -> pd.DataFrame:
@@ -456,7 +527,7 @@ def _drop_duplicates(trials: pd.DataFrame, messages: list) -> pd.DataFrame:
     data_cols = [c for c in trials.columns if c not in ("source", "line")]
     for _, group in trials[dup].groupby(key, sort=False):
         a, b = group.iloc[0], group.iloc[1]
-        differ = [c for c in data_cols if not (a[c] == b[c] or (pd.isna(a[c]) and pd.isna(b[c])))]
+        differ = [c for c in data_cols if not _same(a[c], b[c])]
         if differ:
             raise LogError(f"{b['source']}: {differ[0]}: expected one row per (participant, session, "
                            f"trial_index, attempt) = ({a['participant']}, {a['session']}, "

@@ -6,8 +6,11 @@ A session's scheduled scored trials are the entries of ``session.json``'s
 ``session.json`` holds no schedule, the scored trials that were logged stand in
 for it (and the table says so in ``schedule_source``).
 
-A scheduled trial is *answered* when it has an included row (an ``ok``
-attempt). Otherwise its reason comes from its last logged attempt:
+Only analysed sessions count (``TrialLog.sessions``' ``analysed``). A scheduled trial is
+*answered* when it has an ``ok`` attempt, and then it is never missing: when that answer is
+left out of the analysis for another reason (e.g. a fingertip outside the protocol's range) it
+is counted under ``answered_excluded`` with its exclusion in ``all_trials.csv``. Otherwise its
+reason comes from its last logged attempt:
 
 ==========================  =====================================================
 last attempt                reason
@@ -31,7 +34,7 @@ import pandas as pd
 __all__ = ["missing_trials", "missing_summary", "REASONS"]
 
 #: The reasons, in the order the summary lists them.
-REASONS = ("time-out", "no contact", "fault", "session ended", "other")
+REASONS = ("time_out", "no_contact", "fault", "session_ended", "other")
 _UNSCORED = {"familiarise"}
 
 
@@ -56,7 +59,7 @@ def _schedule(path: Path) -> list[dict] | None:
 
 def _reason(last: pd.Series | None) -> tuple[str, str]:
     if last is None:
-        return "session ended", "no attempt logged"
+        return "session_ended", "no attempt logged"
     status = str(last["status"])
     reason = str(last.get("abort_reason", "") or "")
     code = str(last.get("fault_code", "") or "")
@@ -65,11 +68,11 @@ def _reason(last: pd.Series | None) -> tuple[str, str]:
     if status == "aborted":
         low = reason.lower()
         if low == "no_contact":
-            return "no contact", "no touch within the trial time-out"
+            return "no_contact", "no touch within the trial time-out"
         if "timeout" in low or "time-out" in low or "timed_out" in low:
-            return "time-out", reason
+            return "time_out", reason
         if low in ("interrupted", "killed"):
-            return "session ended", f"session {low} during the trial"
+            return "session_ended", f"session {low} during the trial"
         if low == "error":
             return "fault", "software error"
         return "other", f"aborted ({reason or 'no reason logged'})"
@@ -94,14 +97,15 @@ def missing_trials(trials: pd.DataFrame, sessions: pd.DataFrame) -> pd.DataFrame
     """
     rows = []
     for s in sessions.itertuples():
-        if getattr(s, "skipped", ""):
+        if getattr(s, "skipped", "") or not getattr(s, "analysed", True):
             continue
         mine = trials[(trials["participant"] == s.participant) & (trials["session"] == s.session)]
         scheduled = _schedule(Path(s.path))
         if scheduled is None:
             logged = mine[~mine["familiarisation"]].drop_duplicates("trial_index")
             scheduled = logged[["trial_index", "block", "mode", "roughness_id"]].to_dict("records")
-        answered = set(mine.loc[mine["included"], "trial_index"].astype(int))
+        answered = set(mine.loc[mine["included"] | (mine["status"].astype(str) == "ok"),
+                                "trial_index"].astype(int))
         for entry in scheduled:
             index = int(entry["trial_index"])
             if index in answered:
@@ -124,14 +128,18 @@ def missing_summary(trials: pd.DataFrame, sessions: pd.DataFrame,
     Returns
     -------
     pandas.DataFrame
-        ``participant, group, sessions, scheduled, answered, missing`` and one
-        count column per reason (``time-out``, ``no contact``, ``fault``,
-        ``session ended``, ``other``), ``schedule_source`` (``session.json`` or
-        ``logged trials``).
+        ``participant, group, sessions, scheduled, answered`` (an ``ok`` attempt),
+        ``analysed_trials`` (included in the models), ``answered_excluded`` (answered but left out,
+        e.g. a cold fingertip), ``missing`` and one count column per reason (``time_out``,
+        ``no_contact``, ``fault``, ``session_ended``, ``other``), ``schedule_source``
+        (``session.json`` or ``logged trials``).
     """
     missing = missing_trials(trials, sessions) if missing is None else missing
     rows = []
-    for participant, sel in sessions[sessions.get("skipped", "") == ""].groupby("participant"):
+    keep = sessions.get("skipped", "") == ""
+    if "analysed" in sessions:
+        keep = keep & sessions["analysed"].astype(bool)
+    for participant, sel in sessions[keep].groupby("participant"):
         scheduled, sources = 0, set()
         for s in sel.itertuples():
             entries = _schedule(Path(s.path))
@@ -143,8 +151,15 @@ def missing_summary(trials: pd.DataFrame, sessions: pd.DataFrame,
                 scheduled += len(entries)
                 sources.add("session.json")
         gone = missing[missing["participant"] == participant]
+        mine = trials[(trials["participant"] == participant)
+                      & trials["session"].isin(set(sel["session"])) & ~trials["familiarisation"]]
+        ok = mine[mine["status"].astype(str) == "ok"]
+        analysed = int(mine.loc[mine["included"], "trial_index"].nunique())
         row = {"participant": participant, "group": sel["group"].iloc[0], "sessions": len(sel),
-               "scheduled": scheduled, "answered": scheduled - len(gone), "missing": len(gone)}
+               "scheduled": scheduled, "answered": scheduled - len(gone),
+               "analysed_trials": analysed,
+               "answered_excluded": max(int(ok["trial_index"].nunique()) - analysed, 0),
+               "missing": len(gone)}
         row.update({r: int((gone["reason"] == r).sum()) for r in REASONS})
         row["schedule_source"] = ", ".join(sorted(sources))
         rows.append(row)

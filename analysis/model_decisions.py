@@ -83,7 +83,7 @@ def model_decisions_markdown(table: pd.DataFrame, md_table) -> list:
     parts = ["## Model decisions", ""]
     if table.empty:
         return parts + ["_No simulated profile with the scene planner's decisions in the logs "
-                        "(no simulated trials, or sessions before issue 12)._", ""]
+                        "(no simulated trials, or sessions older than the scene planner)._", ""]
     neglected = table[table["decision"] == "neglected"]
     said = ", ".join(f"{r.effect} (<= {r.max_bound_K:.2g} K)" if not math.isnan(r.max_bound_K)
                      else str(r.effect) for r in neglected.itertuples()) or "nothing"

@@ -39,7 +39,7 @@ from .errors import ModelWarning
 
 __all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data"]
 
-#: The requested model (issue 5).
+#: The model the analysis fits (group x mode x sample).
 FORMULA = "correct ~ group * mode * C(roughness_id)"
 _MAX_ABS_COEF = 10.0       # |log odds| beyond this means a separated (infinite) estimate
 _MAX_SE = 20.0
@@ -68,10 +68,17 @@ class ModelFit:
     design_info : patsy.DesignInfo
         For building design rows of new data (contrasts).
     result : object
-        The statsmodels result.
+        The statsmodels result (GEE, Bayes); None for the maximum-likelihood mixed models.
     df : float or None
         Degrees of freedom of the Wald intervals and p-values (participants - 2,
         :func:`reference_df`); None: normal.
+    convergence : dict or None
+        The maximum-likelihood mixed models' optimiser report (method, success, status,
+        message, iterations, evaluations, largest gradient, log-likelihood, Hessian
+        definiteness); None for the GEE and Bayes fits (their ``result`` says it).
+    theta, cov_full : ndarray or None
+        The mixed models' full parameter vector (fixed effects, then the random-effect
+        parameters) and its covariance; None for the others.
     """
 
     kind: str
@@ -84,6 +91,9 @@ class ModelFit:
     design_info: object = None
     result: object = None
     df: float | None = None
+    convergence: dict | None = None
+    theta: np.ndarray | None = None
+    cov_full: np.ndarray | None = None
 
     def quantile(self, level: float) -> float:
         """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""
@@ -278,12 +288,13 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
         table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
                               "z": ratio, "p_value": reference_p(ratio, df),
                               "ci_low": params - z * se, "ci_high": params + z * se})
-        return ModelFit("gee", candidate, formula, table, notes, params,
-                        np.asarray(res.cov_params()), x.design_info, res, df)
+        return ModelFit(kind="gee", formula=candidate, requested=formula, table=table,
+                        notes=notes, params=params, cov=np.asarray(res.cov_params()),
+                        design_info=x.design_info, result=res, df=df)
     notes.append("GEE: no formula could be fitted")
     warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
-    return ModelFit("gee", None, formula, pd.DataFrame(
-        columns=["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high"]), notes)
+    return ModelFit(kind="gee", formula=None, requested=formula, table=pd.DataFrame(
+        columns=["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high"]), notes=notes)
 
 
 def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
@@ -342,11 +353,12 @@ def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.
         lm, ls = float(res.vcp_mean[0]), float(res.vcp_sd[0])
         table.loc[len(table)] = ["participant_sd", np.exp(lm), np.nan, np.exp(lm - z * ls),
                                  np.exp(lm + z * ls)]
-        return ModelFit("bayes", candidate, formula, table, notes, mean, np.diag(sd ** 2),
-                        x.design_info, res)
+        return ModelFit(kind="bayes", formula=candidate, requested=formula, table=table,
+                        notes=notes, params=mean, cov=np.diag(sd ** 2),
+                        design_info=x.design_info, result=res)
     notes.append("Bayes: no formula could be fitted")
-    return ModelFit("bayes", None, formula, pd.DataFrame(
-        columns=["term", "posterior_mean", "posterior_sd", "cri_low", "cri_high"]), notes)
+    return ModelFit(kind="bayes", formula=None, requested=formula, table=pd.DataFrame(
+        columns=["term", "posterior_mean", "posterior_sd", "cri_low", "cri_high"]), notes=notes)
 
 
 def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:

@@ -47,6 +47,8 @@ import pandas as pd
 from scipy import special, stats
 from threadpoolctl import threadpool_limits
 
+from experiments.atomicfile import output_path
+
 from .errors import LogError
 from .proportions import wilson_interval
 
@@ -499,6 +501,7 @@ def plot_power(result: PowerResult, path) -> Path:
     ax.legend(fontsize=8, frameon=False)
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path)
+    with output_path(path) as tmp:
+        fig.savefig(tmp)
     plt.close(fig)
     return path

@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import json
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
+
+from experiments.atomicfile import output_file
 
 from .confusion import confusion_matrices
 from .errors import LogError
@@ -18,12 +19,16 @@ from .load import TrialLog, load_trials
 from .exports import (cell_counts, check_codebook, codebook, run_settings, wide_table,
                       write_csv)
 from .glmm import fit_glmm
+from .fidelity import equivalence_margin, fidelity_paragraph, mode_contrasts
 from .glmm_slope import fit_glmm_slope
-from .inference import chance_tests, holm, interaction_test, omnibus_group_test, primary_test
+from .mixed_choice import choose_mixed
+from .inference import (averaged_contrast, chance_tests, holm, interaction_test,
+                        omnibus_group_test, primary_test)
 from .missing import missing_summary, missing_trials
 from .model_decisions import model_decisions
 from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
 from .proportions import cell_proportions, participant_summary
+from .result import AnalysisResult
 from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
                             rt_table)
 # report.md and the summary live in their own modules; re-exported (tests read the private two)
@@ -33,52 +38,10 @@ from .summary import _tests_summary, plain_summary  # noqa: F401
 __all__ = ["AnalysisResult", "analyze", "plain_summary", "COLUMN_MEANINGS"]
 
 
-@dataclass
-class AnalysisResult:
-    """Everything :func:`analyze` computed and wrote.
-
-    Attributes
-    ----------
-    log : TrialLog
-        The loaded trials (all rows, inclusion marked), sessions and warnings.
-    proportions, participants, confusion, contrasts : pandas.DataFrame
-        The tables (see :func:`analysis.cell_proportions` etc.).
-    gee, bayes : ModelFit
-        The GEE and the (demoted, optional) mean-field Bayesian mixed logit.
-    glmm : ModelFit
-        The mixed logit by maximum likelihood (random intercepts, adaptive
-        Gauss-Hermite; :func:`analysis.glmm.fit_glmm`).
-    glmm_slope : ModelFit
-        The same with a random slope for mode (:func:`analysis.glmm_slope.fit_glmm_slope`).
-    tests : pandas.DataFrame
-        The named tests: primary, omnibus, per-sample (Holm), interaction.
-    chance : pandas.DataFrame
-        Tests against chance per cell and per group × mode.
-    missing : pandas.DataFrame
-        Per participant: scheduled vs answered scored trials, missing ones by reason.
-    extras : dict of str to pandas.DataFrame
-        Information transfer and kappa, Hu, ordinal, covariates, response times.
-    summary : str
-        Plain-language summary.
-    files : dict of str to Path
-        Every file written, by name.
-    """
-
-    log: TrialLog
-    proportions: pd.DataFrame
-    participants: pd.DataFrame
-    confusion: pd.DataFrame
-    gee: ModelFit
-    bayes: ModelFit
-    contrasts: pd.DataFrame
-    summary: str
-    files: dict = field(default_factory=dict)
-    glmm: ModelFit | None = None
-    tests: pd.DataFrame = field(default_factory=pd.DataFrame)
-    chance: pd.DataFrame = field(default_factory=pd.DataFrame)
-    missing: pd.DataFrame = field(default_factory=pd.DataFrame)
-    extras: dict = field(default_factory=dict)
-    glmm_slope: ModelFit | None = None
+def _write_text(path: Path, text: str) -> None:
+    """A text output, whole or not at all (:func:`experiments.atomicfile.output_file`)."""
+    with output_file(path) as fh:
+        fh.write(text)
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> Path:
@@ -89,44 +52,61 @@ def _write_csv(df: pd.DataFrame, path: Path) -> Path:
     return write_csv(df, path)
 
 
+def _t_label(df) -> str:
+    """The reference distribution of a Wald ratio, named: ``Wald t(df)`` or ``Wald z (normal)``."""
+    return f"Wald t({df:g})" if df else "Wald z (normal)"
+
+
 def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
-                trials: pd.DataFrame, level: float = 0.95) -> pd.DataFrame:
+                trials: pd.DataFrame, level: float = 0.95,
+                mixed_note: str = "") -> pd.DataFrame:
     """The named tests (rows: primary, omnibus, per-sample with Holm, interaction).
 
     Parameters
     ----------
-    gee, glmm : ModelFit
+    gee : ModelFit
+    glmm : ModelFit or None
+        The mixed model of the interaction row (:func:`analysis.mixed_choice.choose_mixed`:
+        the random-slope model when it was fitted with the full formula).
     contrasts : pandas.DataFrame
         From :func:`analysis.group_contrasts` (GEE rows used).
     trials : pandas.DataFrame
     level : float
+    mixed_note : str
+        Why that mixed model (goes into the row's ``note``).
 
     Returns
     -------
     pandas.DataFrame
-        ``role, test, model, compares, estimate, se, ci_low, ci_high, statistic, df,
-        p_value, p_holm, difference, difference_ci_low, difference_ci_high, basis``.
+        ``role, test, model, compares, estimate, se, ci_low, ci_high, interval, statistic, df,
+        p_value, p_holm, difference, difference_ci_low, difference_ci_high, basis, note``.
+        ``test`` names the reference distribution (``Wald t(28)``, ``Wald F(8, 22)``); ``df``
+        is its (denominator) degrees of freedom, empty for the normal.
     """
     rows = []
     def from_contrast(role, r, p_holm=np.nan):
-        return {"role": role, "test": "Wald z", "model": r["model"], "compares": r["compares"],
+        return {"role": role, "test": _t_label(gee.df), "model": r["model"],
+                "compares": r["compares"],
                 "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
-                "ci_high": r["ci_high"],
+                "ci_high": r["ci_high"], "interval": _interval_label(gee.df),
                 "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
-                "df": 1, "p_value": r["p_value"], "p_holm": p_holm,
+                "df": gee.df if gee.df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
                 "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
-                "difference_ci_high": r["difference_high"], "basis": r["basis"]}
+                "difference_ci_high": r["difference_high"], "basis": r["basis"],
+                "note": ("per-sample GEE of this sample's trials alone: the full model could not "
+                         "be fitted" if str(r["basis"]).startswith("per-sample") else "")}
     first = primary_test(contrasts)
     if first is not None:
         rows.append(from_contrast("primary", first))
     if gee.formula is not None:
         omni = omnibus_group_test(gee, trials)
         if omni["df"]:
-            rows.append({"role": "omnibus", "test": omni["test"] + f": F({omni['df']}, "
-                         f"{omni['df_denominator']}) from Wald chi2 = {omni['chi2']:.3f}",
+            rows.append({"role": "omnibus", "test": f"Wald F({omni['df']}, "
+                         f"{omni['df_denominator']}), small-sample, from Wald chi2 = "
+                         f"{omni['chi2']:.3f}",
                          "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
                          "df": omni["df"], "p_value": omni["p_value"],
-                         "basis": f"model: {gee.formula}"})
+                         "basis": f"model: {gee.formula}", "note": ""})
     if not contrasts.empty:
         per = contrasts[(contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)]
         adjusted = holm(per["p_value"].to_numpy(float))
@@ -138,18 +118,63 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         if np.isfinite(it["log_odds"]):
             scale = ("population-averaged" if fit.kind == "gee"
                      else "typical participant (u = 0)")
-            rows.append({"role": "interaction", "test": "Wald z", "model": fit.kind,
+            rows.append({"role": "interaction", "test": _t_label(fit.df), "model": fit.kind,
                          "compares": it["compares"] + f"; proportions {scale}",
                          "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
-                         "ci_high": it["ci_high"], "statistic": it["log_odds"] / it["se"],
-                         "df": 1, "p_value": it["p_value"],
+                         "ci_high": it["ci_high"], "interval": _interval_label(fit.df),
+                         "statistic": it["log_odds"] / it["se"],
+                         "df": fit.df if fit.df else np.nan, "p_value": it["p_value"],
                          "difference": it["difference_of_differences"],
                          "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
-                         "basis": f"model: {fit.formula}"})
-    columns = ["role", "test", "model", "compares", "estimate", "se", "ci_low", "ci_high",
-               "statistic", "df", "p_value", "p_holm", "difference", "difference_ci_low",
-               "difference_ci_high", "basis"]
-    return pd.DataFrame(rows, columns=columns)
+                         "basis": f"model: {fit.formula}"
+                                  + (" + (1 + mode | participant)" if fit.kind == "glmm-slope"
+                                     else " + (1 | participant)" if fit.kind == "glmm" else ""),
+                         "note": mixed_note if fit.kind != "gee" else
+                                 "; ".join(fit.notes)})
+    return pd.DataFrame(rows, columns=TESTS_COLUMNS)
+
+
+def complete_cases_row(trials: pd.DataFrame, missing: pd.DataFrame,
+                       level: float = 0.95) -> dict | None:
+    """The primary test again on complete cases only (a sensitivity row), or None.
+
+    Returns None when no participant has a missing scored trial (the row would repeat the
+    primary test). Otherwise the GEE refitted on the participants with every scheduled scored
+    trial answered, and the averaged real-mode A - B contrast.
+    """
+    if missing.empty or not (missing["missing"] > 0).any():
+        return None
+    complete = set(missing.loc[missing["missing"] == 0, "participant"].astype(str))
+    sub = trials[trials["participant"].astype(str).isin(complete)]
+    base = {"role": "sensitivity", "model": "gee",
+            "compares": f"primary test on complete cases only ({len(complete)} of "
+                        f"{trials['participant'].nunique()} participants: those with every "
+                        f"scheduled scored trial answered)", "note": ""}
+    if sub.empty or sub["group"].nunique() < 2:
+        return {**base, "test": "not estimable", "note": "fewer than two groups left"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_gee(sub, level=level)
+    row = averaged_contrast(fit, "real", level=level) if fit.formula else None
+    if row is None:
+        return {**base, "test": "not estimable", "note": "; ".join(fit.notes)}
+    q = fit.quantile(level)
+    est, se = row["log_odds_ratio"], row["se"]
+    return {**base, "test": _t_label(fit.df), "estimate": est, "se": se, "ci_low": est - q * se,
+            "ci_high": est + q * se, "interval": _interval_label(fit.df),
+            "statistic": est / se if se else np.nan, "df": fit.df if fit.df else np.nan,
+            "p_value": row["p_value"], "difference": row["difference"],
+            "basis": f"model: {fit.formula}", "note": "; ".join(fit.notes)}
+
+
+def _interval_label(df) -> str:
+    return f"Wald, t({df:g})" if df else "Wald, normal"
+
+
+#: Columns of :func:`tests_table`.
+TESTS_COLUMNS = ["role", "test", "model", "compares", "estimate", "se", "ci_low", "ci_high",
+                 "interval", "statistic", "df", "p_value", "p_holm", "difference",
+                 "difference_ci_low", "difference_ci_high", "basis", "note"]
 
 
 # one BLAS thread: the models' many small BLAS calls spin idle threads (10x slower when busy)
@@ -157,7 +182,9 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
 def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed: int = 20261122,
             bayes: bool = False, mixed: bool = True,
             progress: Callable[[str], None] | None = None,
-            sessions: str = "first") -> AnalysisResult:
+            sessions: str = "first",
+            equivalence_margin_pp: float | None = None,
+            before_write: Callable | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -191,6 +218,15 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     sessions : {"first", "latest", "all"}
         Inclusion policy (:func:`analysis.load.load_trials`): each participant's first complete
         session (default), the latest complete one, or every session.
+    equivalence_margin_pp : float, optional
+        Margin of the real-vs-simulated equivalence test, percentage points of proportion
+        correct; None: the protocol's ``[analysis] equivalence_margin_pp``, else 10
+        (:func:`analysis.fidelity.equivalence_margin`).
+    before_write : callable, optional
+        Called once, with no argument, just before the first output is written (the command
+        line's :meth:`experiments.atomicfile.OutputFolder.begin`: a refused or failed analysis
+        leaves an earlier run's outputs as they were). Every output is written whole
+        (temporary file, then renamed over the old one).
 
     Returns
     -------
@@ -210,6 +246,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     if trials.empty:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "
                        f"got none of {len(log.trials)} rows")
+    analysed_folders = log.sessions.loc[log.sessions["analysed"], "path"]
+    margin_pp, margin_source = equivalence_margin(analysed_folders, equivalence_margin_pp)
     say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable trials; "
         f"proportions with {n_boot} bootstrap resamples")
     proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
@@ -226,13 +264,16 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             slope = fit_glmm_slope(trials, glmm.formula or FORMULA, level=level,
                                    intercept_fit=glmm)
         else:
-            glmm = ModelFit("glmm", None, FORMULA, pd.DataFrame(), ["GLMM: not requested"])
-            slope = ModelFit("glmm-slope", None, FORMULA, pd.DataFrame(), [])
+            glmm = ModelFit(kind="glmm", formula=None, requested=FORMULA, table=pd.DataFrame(),
+                            notes=["GLMM: not requested"])
+            slope = ModelFit(kind="glmm-slope", formula=None, requested=FORMULA,
+                             table=pd.DataFrame(), notes=[])
         if bayes:
             say("fitting the mean-field Bayesian mixed logit (comparison only)")
             bfit = fit_bayes(trials, level=level, seed=seed)
         else:
-            bfit = ModelFit("bayes", None, FORMULA, pd.DataFrame(), [])
+            bfit = ModelFit(kind="bayes", formula=None, requested=FORMULA, table=pd.DataFrame(),
+                            notes=[])
     contrasts = group_contrasts(gee, trials, level=level)
     for fit, label in ((glmm, "glmm"), (bfit, "bayes-vb (mean-field: intervals too narrow)")):
         if fit.formula is None:
@@ -243,8 +284,21 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             extra["p_value"] = np.nan
         contrasts = pd.concat([contrasts, extra], ignore_index=True) if not contrasts.empty \
             else extra
-    say("tests: primary, omnibus, Holm, interaction, chance; missing data; psychophysics")
-    tests = tests_table(gee, glmm, contrasts, trials, level)
+    say("tests: primary, omnibus, Holm, interaction, real vs simulated, chance; missing data; "
+        "psychophysics")
+    choice = choose_mixed(glmm if mixed else None, slope if mixed else None)
+    tests = tests_table(gee, choice.contrasts, contrasts, trials, level, choice.reason)
+    missing_rows = missing_trials(log.trials, log.sessions)
+    missing = missing_summary(log.trials, log.sessions, missing_rows)
+    sensitivity = complete_cases_row(trials, missing, level)
+    if sensitivity is not None:
+        tests = pd.concat([tests, pd.DataFrame([sensitivity], columns=TESTS_COLUMNS)],
+                          ignore_index=True)
+    fidelity = mode_contrasts(gee, trials, margin_pp=margin_pp, level=level)
+    if choice.contrasts is not None:
+        more = mode_contrasts(choice.contrasts, trials, margin_pp=margin_pp, level=level)
+        more["note"] = choice.reason
+        fidelity = pd.concat([fidelity, more], ignore_index=True)
     if not contrasts.empty:
         contrasts["p_holm"] = np.nan
         for model in contrasts["model"].unique():
@@ -253,8 +307,6 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                 continue
             contrasts.loc[sel, "p_holm"] = holm(contrasts.loc[sel, "p_value"].to_numpy(float))
     chance = chance_tests(trials, level=level)
-    missing_rows = missing_trials(log.trials, log.sessions)
-    missing = missing_summary(log.trials, log.sessions, missing_rows)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),
@@ -263,8 +315,12 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
                   "force": force_table(trials),
                   "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],
                                                                       "path"])}
-    summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests)
+    summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests,
+                            fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
+                            choice=choice)
     say(f"writing figures and tables to {out}")
+    if before_write is not None:
+        before_write()
     files = {
         "figure9": plot_figure9(proportions, out / "figure9.png"),
         "confusion_png": plot_confusion(confusion, out / "confusion.png"),
@@ -276,6 +332,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         "glmm_slope": _write_csv(slope.table, out / "glmm_slope.csv"),
         "contrasts": _write_csv(contrasts, out / "contrasts.csv"),
         "tests": _write_csv(tests, out / "tests.csv"),
+        "fidelity": _write_csv(fidelity, out / "fidelity.csv"),
         "chance": _write_csv(chance, out / "chance.csv"),
         "missing": _write_csv(missing, out / "missing.csv"),
         "missing_trials": _write_csv(missing_rows, out / "missing_trials.csv"),
@@ -290,23 +347,31 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         files["bayes"] = _write_csv(bfit.table, out / "bayes.csv")
     if glmm.formula is not None:
         files["glmm_convergence"] = out / "glmm_convergence.json"
-        files["glmm_convergence"].write_text(json.dumps(
-            {**glmm.result, "formula": glmm.formula, "notes": glmm.notes,
-             "random_slope_model": {**(slope.result or {}), "formula": slope.formula,
-                                    "notes": slope.notes}}, indent=2), "utf-8")
+        _write_text(files["glmm_convergence"], json.dumps(
+            {**glmm.convergence, "formula": glmm.formula, "notes": glmm.notes,
+             "random_slope_model": {**(slope.convergence or {}), "formula": slope.formula,
+                                    "notes": slope.notes}}, indent=2))
     book = codebook(files)
     files["codebook"] = out / "codebook.json"
-    files["codebook"].write_text(json.dumps(book, indent=2, ensure_ascii=False), "utf-8")
+    _write_text(files["codebook"], json.dumps(book, indent=2, ensure_ascii=False))
     files["settings"] = out / "settings.json"
-    files["settings"].write_text(json.dumps(run_settings(
+    _write_text(files["settings"], json.dumps(run_settings(
         data_dir=str(data_dir), out_dir=str(out), n_boot=n_boot, level=level, seed=seed,
         mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
-        requested_formula=FORMULA, glmm_method=(glmm.result or {}).get("method"),
+        requested_formula=FORMULA, glmm_method=(glmm.convergence or {}).get("method"),
         primary_test="GEE Wald z of the A-B log odds ratio averaged over samples, real mode",
-        multiplicity="Holm over the per-sample A-B tests (both modes)",
-        undocumented_columns=check_codebook(book)), indent=2), "utf-8")
-    result = AnalysisResult(log, proportions, participants, confusion, gee, bfit, contrasts,
-                            summary, files, glmm, tests, chance, missing, extras, slope)
+        multiplicity="Holm over the per-sample A-B tests (both modes); Holm over the 8 "
+                     "per-sample real - simulated tests",
+        equivalence_margin_pp=margin_pp, equivalence_margin_source=margin_source,
+        mixed_model_for_mode_contrasts=(choice.contrasts.kind if choice.contrasts is not None
+                                        else None),
+        undocumented_columns=check_codebook(book)), indent=2))
+    result = AnalysisResult(log=log, proportions=proportions, participants=participants,
+                            confusion=confusion, gee=gee, bayes=bfit, contrasts=contrasts,
+                            summary=summary, files=files, glmm=glmm, tests=tests, chance=chance,
+                            missing=missing, extras=extras, glmm_slope=slope, fidelity=fidelity,
+                            equivalence_margin_pp=margin_pp,
+                            equivalence_margin_source=margin_source, mixed_choice=choice)
     files["report"] = out / "report.md"
-    files["report"].write_text(report_markdown(result, data_dir, n_boot, level, seed), "utf-8")
+    _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
     return result

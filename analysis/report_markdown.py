@@ -9,7 +9,7 @@ import pandas as pd
 from .model_decisions import model_decisions_markdown
 
 if TYPE_CHECKING:                       # the result type only; report.py imports this module
-    from .report import AnalysisResult
+    from .result import AnalysisResult
 
 __all__ = ["COLUMN_MEANINGS", "report_markdown"]
 
@@ -103,18 +103,21 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
         f"within group, seed {seed}.", "",
         "## Summary", "", r.summary, "",
         "![Figure 9](figure9.png)", "",
+        *_fidelity_section(r),
         "## Counts", "", _md_table(counts), "",
         "### Excluded from inference", "", _md_table(log.exclusion_counts()), "",
     ]
     parts += _sessions_markdown(log)
     parts += _missing_section(r)
+    parts += _not_read_section(log)
     parts += model_decisions_markdown(r.extras.get("model_decisions", pd.DataFrame()), _md_table)
     if log.warnings:
         parts += ["### Problems in the logs (worked around)", ""]
         parts += [f"- {w}" for w in log.warnings] + [""]
     parts += [
         "## Proportion correct (Figure 9)", "",
-        "Intervals: participant bootstrap (participants resampled within group; the design "
+        "Intervals (`boot_low/high`): Wilson at the effective sample size that a "
+        "participant-cluster bootstrap implies (participants resampled within group; the design "
         "effect measures how much one person's answers hang together). Wilson intervals, which "
         "treat trials as independent and covered only 0.92 of the true proportions over 200 "
         "clustered datasets per scenario, are not shown; they are in `proportions.csv` as "
@@ -142,6 +145,48 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
     return "\n".join(parts) + "\n"
 
 
+def _not_read_section(log) -> list[str]:
+    """Session folders found but not read as a session (a copy read once, no trial rows)."""
+    table = getattr(log, "not_read", None)
+    if table is None or table.empty:
+        return []
+    return ["### Session folders not read", "",
+            f"{len(table)} folder(s) under the data folder were not read as a session of their own "
+            "(their trials are not missing from the tables above unless listed there):", "",
+            *[f"- `{row.path}`: {row.reason}" for row in table.itertuples()], ""]
+
+
+def _fidelity_section(r: AnalysisResult) -> list[str]:
+    """Display fidelity: real vs simulated, averaged (with the equivalence test) and per sample."""
+    from .fidelity import fidelity_paragraph
+
+    f = r.fidelity
+    parts = ["## Display fidelity: are simulated samples recognised as well as real ones?", "",
+             fidelity_paragraph(f, r.equivalence_margin_pp, r.equivalence_margin_source), ""]
+    if f is None or f.empty:
+        return parts
+    parts += [
+        f"Margin: +-{r.equivalence_margin_pp:g} percentage points of proportion correct "
+        f"({r.equivalence_margin_source}; why this default: docs/analysis.md). Rows: real - "
+        "simulated; `estimate` log odds ratio (Wald interval, reference distribution in "
+        "`interval`), `difference` difference of mean proportions (delta method), TOST on the "
+        "averaged rows (`tost_p_value` < 0.05 and the 90 % interval inside the margin: "
+        "equivalent). Per-sample rows: `p_holm` over the 8 group x sample contrasts of the same "
+        "model. GEE rows are population-averaged; mixed-model rows are for a typical participant "
+        "and come from the model `note` names.", "",
+        _md_table(f[f["role"] == "averaged"].drop(
+            columns=["compares", "basis", "role", "roughness_id", "p_holm", "note"])), ""]
+    notes = sorted({n for n in f["note"].astype(str) if n and n != "nan"})
+    parts += [f"- {n}" for n in notes] + ([""] if notes else [])
+    per = f[(f["role"] == "per-sample") & (f["model"] == "gee")]
+    if not per.empty:
+        parts += ["Per sample (GEE; all models' rows in `fidelity.csv`):", "",
+                  _md_table(per[["group", "roughness_id", "estimate", "ci_low", "ci_high",
+                                 "test", "p_value", "p_holm", "difference",
+                                 "difference_ci_low", "difference_ci_high"]]), ""]
+    return parts
+
+
 def _missing_section(r: AnalysisResult) -> list[str]:
     """Scheduled vs answered scored trials per participant, missing ones by reason."""
     m = r.missing
@@ -149,12 +194,22 @@ def _missing_section(r: AnalysisResult) -> list[str]:
         return []
     total = int(m["missing"].sum())
     lead = (f"{int(m['scheduled'].sum())} scored trials were scheduled and "
-            f"{int(m['answered'].sum())} answered; {total} have no analysable answer"
+            f"{int(m['answered'].sum())} answered; {total} have no answer"
             + (": " + ", ".join(f"{int(m[c].sum())} {c}" for c in
-                                ("time-out", "no contact", "fault", "session ended", "other")
+                                ("time_out", "no_contact", "fault", "session_ended", "other")
                                 if m[c].sum()) if total else "") + ". "
             "Re-run attempts that ended with an answer are not missing. Per trial in "
             "`missing_trials.csv`.")
+    partial = m[m["missing"] > 0]
+    if not partial.empty:
+        lead += (f" {len(partial)} participant(s) with missing trials are kept (the GEE and the "
+                 "mixed models use every answered, analysed trial; no complete cases needed): "
+                 + ", ".join(f"{r.participant} ({r.answered} of {r.scheduled})"
+                             for r in partial.itertuples())
+                 + ". The complete-cases sensitivity row of the named tests leaves them out.")
+    if "answered_excluded" in m and m["answered_excluded"].sum():
+        lead += (f" {int(m['answered_excluded'].sum())} answered trial(s) are left out of the "
+                 "models for another reason (`all_trials.csv`, column `exclusion`).")
     shown = m[m["missing"] > 0] if total else m.iloc[:0]
     return ["### Missing data (scheduled scored trials without an answer)", "", lead, "",
             (_md_table(shown) if not shown.empty else "_every scheduled scored trial was answered_"),
@@ -175,7 +230,7 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
     """The report's statistics sections (models, named tests, chance, psychophysics)."""
     parts = []
     if r.glmm is not None and r.glmm.formula is not None:
-        conv = r.glmm.result
+        conv = r.glmm.convergence
         parts += [
             "## Mixed logit: participant random intercepts, maximum likelihood", "",
             f"Formula: `{r.glmm.formula}` + `(1 | participant)`"
@@ -193,8 +248,12 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
             f"(docs/analysis.md); the estimates agree with R's lme4::glmer (tests).", "",
             _md_table(r.glmm.table), ""]
     sl = r.glmm_slope
+    if sl is not None and sl.notes:
+        parts += ["### Random-slope model: fallbacks and convergence", "",
+                  *[f"- {n}" for n in sl.notes],
+                  f"- {r.mixed_choice.reason}" if r.mixed_choice is not None else "", ""]
     if sl is not None and sl.formula is not None:
-        conv = sl.result
+        conv = sl.convergence
         parts += [
             "### With a random slope for mode: `(1 + mode | participant)`", "",
             f"Does the real-vs-simulated difference vary between participants? {conv['method']}: "
@@ -268,7 +327,7 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
                   "contact, `contact_force_N`; Eq. 5's R depends on it), per group x mode; the "
                   "covariates above include it when it varies:", "",
                   _md_table(ex["force"]) if not ex.get("force", pd.DataFrame()).empty
-                  else "_not logged (sessions before issue 12)_",
+                  else "_not logged (sessions older than the contact-force column)_",
                   "", "Median response times by group, mode, sample and correctness are in "
                   "`rt.csv`; Wagner's Hu per sample in `hu.csv`.", ""]
     return parts

@@ -3,7 +3,9 @@
 A session is *complete* when its event log says it finished (``session_finished``), or, for a
 trials table without a log, when the table holds every planned trial. The policy
 (:data:`SESSION_POLICIES`) picks, per participant, the first or the latest complete session, or
-all of them.
+all of them. A participant with no complete session is not dropped: the first (or latest)
+session with at least one completed trial is analysed as a *partial* participant (GEE and mixed
+models need no complete cases), and its reason says how many trials it holds.
 """
 from __future__ import annotations
 
@@ -66,12 +68,20 @@ def apply_policy(sessions: pd.DataFrame, policy: str) -> pd.DataFrame:
             reasons.append("analysed (--sessions all)" + ("" if row["complete"] else
                            f"; incomplete: {row['n_done']} of {int_text(row['n_planned'])} trials"))
             continue
-        mine = sessions[(sessions["participant"] == row["participant"]) & (sessions["skipped"] == "")
-                        & sessions["complete"]].sort_values(["created_at", "session"])
+        usable = sessions[(sessions["participant"] == row["participant"])
+                          & (sessions["skipped"] == "")].sort_values(["created_at", "session"])
+        mine = usable[usable["complete"]]
+        partial = mine.empty
+        if partial:                 # no complete session: the participant's partial one
+            mine = usable[usable["n_done"] > 0]
         chosen = None if mine.empty else (mine.iloc[0] if policy == "first" else mine.iloc[-1])
         if chosen is not None and chosen["path"] == row["path"]:
             analysed.append(True)
-            reasons.append(f"analysed: the {policy} complete session of {row['participant']}")
+            reasons.append(f"analysed: the {policy} complete session of {row['participant']}"
+                           if not partial else
+                           f"analysed, partial: {row['n_done']} of {int_text(row['n_planned'])} "
+                           f"trials ({row['participant']} has no complete session; the "
+                           f"{policy} with completed trials)")
         elif not row["complete"]:
             analysed.append(False)
             reasons.append(f"incomplete: {row['n_done']} of {int_text(row['n_planned'])} trials")

@@ -16,7 +16,8 @@ def _pct(p: float) -> str:
 
 def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFrame,
                   gee: ModelFit, bayes: ModelFit, contrasts: pd.DataFrame,
-                  glmm: ModelFit | None = None, tests: pd.DataFrame | None = None) -> str:
+                  glmm: ModelFit | None = None, tests: pd.DataFrame | None = None,
+                  fidelity: str | None = None, choice=None) -> str:
     """A few sentences a reader without statistics can follow.
 
     Parameters
@@ -24,6 +25,11 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
     log, proportions, confusion, gee, bayes, contrasts, glmm, tests
         As computed by :func:`analyze`. Only Holm-adjusted per-sample results are
         named as significant.
+    fidelity : str, optional
+        The real-vs-simulated paragraph (:func:`analysis.fidelity.fidelity_paragraph`), placed
+        right after the counts.
+    choice : analysis.mixed_choice.MixedChoice, optional
+        Which mixed model's SDs to quote (the random-slope model when its LR test rejects).
 
     Returns
     -------
@@ -36,6 +42,8 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
     out = [f"{a['participant'].nunique()} participants (group A: {int(people.get('A', 0))}, "
            f"group B: {int(people.get('B', 0))}) gave {len(a)} analysable answers; {excluded} "
            f"logged trials were left out (familiarisation, faults, aborted or superseded attempts)."]
+    if fidelity:
+        out.append(fidelity)
     for mode in ("real", "simulated"):
         sel = a[a["mode"] == mode]
         if sel.empty:
@@ -89,7 +97,18 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
         out.append("The sample most often confused with the others was, "
                    + "; ".join(worst_by_mode) + ".")
     out += _tests_summary(contrasts, tests)
-    if glmm is not None and glmm.formula is not None:
+    spread = choice.spread if choice is not None else glmm
+    if spread is not None and spread.kind == "glmm-slope" and spread.formula is not None:
+        t = spread.table.set_index("term")
+        s0, s1 = t.loc["sd_intercept"], t.loc["sd_mode_slope"]
+        out.append(f"The participants differ in how much better they do with real than with "
+                   f"simulated samples (LR test of a random mode slope: p = {choice.lrt_p:.3f}), so "
+                   f"the spread comes from the random-slope mixed logit: participant SD "
+                   f"{s0['log_odds']:.2f} with real samples (95 % profile interval "
+                   f"{s0['ci_low']:.2f}-{s0['ci_high']:.2f}) and SD {s1['log_odds']:.2f} of the "
+                   f"simulated-minus-real effect ({s1['ci_low']:.2f}-{s1['ci_high']:.2f}) on the "
+                   f"log-odds scale.")
+    elif glmm is not None and glmm.formula is not None:
         t = glmm.table.set_index("term")
         sd, icc = t.loc["participant_sd"], t.loc["icc_latent"]
         out.append(f"The mixed logit (maximum likelihood, participant random intercepts) puts the "
@@ -111,14 +130,14 @@ def _tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[
     if "primary" in by_role:
         r = by_role["primary"].iloc[0]
         out.append(f"Primary test (the paper's claim: group A vs B with real samples, averaged "
-                   f"over the four samples; GEE Wald test): log odds ratio {r.estimate:+.2f} "
+                   f"over the four samples; GEE, {r.test}): log odds ratio {r.estimate:+.2f} "
                    f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), p = {r.p_value:.3f}; "
                    f"difference of mean proportions {100 * r.difference:+.1f} percentage points "
                    f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
     if "omnibus" in by_role:
         r = by_role["omnibus"].iloc[0]
-        out.append(f"Omnibus test of any group difference on any sample ({r.test.split(': ')[1]}"
-                   f", small-sample F = {r.statistic:.2f}): p = {r.p_value:.3f}.")
+        out.append(f"Omnibus test of any group difference on any sample ({r.test}; "
+                   f"F = {r.statistic:.2f}): p = {r.p_value:.3f}.")
     per = by_role.get("per-sample")
     if per is not None and not per.empty:
         missing = per[per["p_value"].isna()]
@@ -152,7 +171,8 @@ def _tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[
         if np.isfinite(r.estimate):
             out.append(f"Group x mode interaction (is the A-B gap different with real and simulated "
                        f"samples?): difference of the two A-B log odds ratios {r.estimate:+.2f} "
-                       f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), p = {r.p_value:.3f}; as "
+                       f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), {r.test} p = "
+                       f"{r.p_value:.3f}; as "
                        f"proportions, {100 * r.difference:+.1f} percentage points "
                        f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
     return out

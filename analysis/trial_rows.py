@@ -137,10 +137,10 @@ def validate_rows(df: pd.DataFrame) -> pd.DataFrame:
             if column == "attempt":
                 values = values.fillna(1)
             out[column] = values.astype("Int64") if kind == "int" else values.astype(float)
-    # Written by sessions since issue 10; older logs lack them (blank, without a warning).
+    # Written by newer sessions; older logs lack them (blank, without a warning).
     # (Floats: 1/0/NaN for the flag, blank where no thermometer reading was taken.)
     for column, integer in (("skin_temperature_C", False), ("skin_temperature_in_range", True),
-                            ("contact_force_N", False)):   # the display's force (issue 12)
+                            ("contact_force_N", False)):   # the display's force
         if column in df.columns:
             out[column] = _as_number(df, column, integer=integer, allow_blank=True).astype(float)
         else:

@@ -6,7 +6,7 @@ Runs P01 and P16 of the seed-0 simulated cohort (the default protocol, 24 trials
 ``emulator://?clock=virtual`` with the simulated responder, ``--rounds`` times after one warm-up
 session, and prints per session the CPU time of this process (user + system,
 ``time.process_time``: on a shared machine fairer than wall time) and the wall time, per trial,
-median and best. fsync is off for every session (:func:`experiments.logbook.set_durable`): the
+median and best. fsync is off for every session (``run_participant(..., durable=False)``): the
 figure is the cost of the emulated session, not of the disk (``--durable``: on for the measured
 sessions, as in a real session). It also prints a SHA-256 over every
 file the sessions wrote (trials, traces, events; timestamps and durations stripped), so two

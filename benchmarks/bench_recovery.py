@@ -43,8 +43,10 @@ sys.path.insert(0, str(ROOT / "tests" / "analysis"))
 from analysis import cell_proportions, fit_gee, group_contrasts  # noqa: E402
 from analysis.glmm import fit_glmm  # noqa: E402
 from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
-from analysis.inference import chance_tests  # noqa: E402
+from analysis.inference import chance_tests, interaction_test  # noqa: E402
 from analysis.models import FORMULA  # noqa: E402
+from analysis.fidelity import mode_contrasts  # noqa: E402
+from analysis.mixed_choice import choose_mixed  # noqa: E402
 from analysis.report import tests_table  # noqa: E402
 from generator import effect_cells, generate, null_cells  # noqa: E402
 
@@ -71,6 +73,13 @@ def truths(cells: dict, sigma: float, slope_sd: float = 0.0) -> dict:
             out[(scale, m, 0)] = (lor, diff)
         out[(scale, "interaction")] = tuple(out[(scale, "real", 0)][i] - out[(scale, "simulated", 0)][i]
                                             for i in (0, 1))
+        # real - simulated, averaged over the samples, per group and both groups equally
+        for who, groups in (("A", ["A"]), ("B", ["B"]), ("both", ["A", "B"])):
+            real = [table[(g, "real", r)] for g in groups for r in range(1, 5)]
+            sim = [table[(g, "simulated", r)] for g in groups for r in range(1, 5)]
+            out[(scale, "mode", who)] = (float(np.mean(logit(np.array(real)))
+                                               - np.mean(logit(np.array(sim)))),
+                                         float(np.mean(real) - np.mean(sim)))
     return out
 
 
@@ -96,7 +105,7 @@ class Tally:
 
 
 def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_model=False,
-        slope_sd=None, gee_only=False):
+        slope_sd=None, gee_only=False, slope_profile=True):
     cells = effect_cells() if scenario == "effect" else null_cells()
     if slope_sd is None:
         slope_sd = SLOPE_SD if scenario == "slope" else 0.0
@@ -111,10 +120,12 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
     tally = Tally()
     rejections = {k: 0 for k in ("primary (GEE averaged A-B, real)", "omnibus (GEE, 8 df)",
                                  "any per-sample, unadjusted", "any per-sample, Holm",
-                                 "interaction (GEE)", "interaction (GLMM)",
+                                 "interaction (GEE)", "interaction (mixed model as reported)",
+                                 "interaction (GLMM, intercept only)",
                                  "GLMM group[T.B] (real 1#)",
                                  "slope model: LR test of the random slope")}
     fallbacks = {"gee": 0, "glmm": 0}
+    used = {"slope model": 0, "intercept model": 0}
     glmm_fail = 0
     start = time.process_time()
     for i in range(n):
@@ -151,10 +162,39 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
             tally.add(f"{scale} contrast {which}: log odds ratio", row.ci_low, row.ci_high, lor)
             tally.add(f"{scale} contrast {which}: proportion difference", row.difference_low,
                       row.difference_high, diff)
-        tests = tests_table(gee, glmm if glmm.formula else None, contrasts[contrasts["model"] == "gee"],
+        sl = None
+        if slope_model and glmm.formula is not None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                sl = fit_glmm_slope(trials, glmm.formula, intercept_fit=glmm,
+                                    profile=slope_profile)
+        # the mixed model the report uses for mode contrasts (analysis.mixed_choice)
+        choice = choose_mixed(glmm if glmm.formula else None, sl)
+        reported_ok = choice.contrasts is not None and (
+            choice.contrasts.kind == "glmm-slope" or intercept_model_ok)
+        tests = tests_table(gee, choice.contrasts, contrasts[contrasts["model"] == "gee"],
                             trials)
+        for fit in (gee, choice.contrasts):
+            if fit is None or (fit.kind != "gee" and not reported_ok):
+                continue
+            scale = "gee" if fit.kind == "gee" else "glmm"
+            label = "gee" if fit.kind == "gee" else "mixed (as reported)"
+            fid = mode_contrasts(fit, trials, margin_pp=10)
+            for row in fid[fid["role"] == "averaged"].itertuples():
+                lor, diff = truth[(scale, "mode", row.group)]
+                tally.add(f"{label} real - simulated averaged: log odds", row.ci_low,
+                          row.ci_high, lor)
+                tally.add(f"{label} real - simulated averaged: proportions",
+                          row.difference_ci_low, row.difference_ci_high, diff)
+        if choice.contrasts is not None:
+            used["slope model" if choice.contrasts.kind == "glmm-slope" else "intercept model"] += 1
         for row in tests.itertuples():
-            if row.role == "interaction" and (row.model == "gee" or intercept_model_ok):
+            if row.role == "interaction" and row.model != "gee" and reported_ok:
+                lor, dd = truth[("glmm", "interaction")]
+                tally.add("mixed interaction as reported: log odds", row.ci_low, row.ci_high, lor)
+                tally.add("mixed interaction as reported: proportions", row.difference_ci_low,
+                          row.difference_ci_high, dd)
+            if row.role == "interaction" and row.model == "gee":
                 lor, dd = truth[(row.model, "interaction")]
                 tally.add(f"{row.model} interaction: log odds", row.ci_low, row.ci_high, lor)
                 tally.add(f"{row.model} interaction: proportions", row.difference_ci_low,
@@ -168,7 +208,11 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
         rejections["any per-sample, Holm"] += bool((per["p_holm"] < 0.05).any())
         inter = tests[tests["role"] == "interaction"].set_index("model")["p_value"]
         rejections["interaction (GEE)"] += bool(inter.get("gee", 1) < 0.05)
-        rejections["interaction (GLMM)"] += bool(inter.get("glmm", 1) < 0.05)
+        rejections["interaction (mixed model as reported)"] += bool(
+            inter.drop("gee", errors="ignore").min() < 0.05) if len(inter) > 1 else False
+        it = interaction_test(glmm, trials) if glmm.formula else None
+        rejections["interaction (GLMM, intercept only)"] += bool(
+            it is not None and it["p_value"] < 0.05)
         if glmm.formula == FORMULA and intercept_model_ok:
             x = np.asarray(patsy.build_design_matrices([glmm.design_info], grid)[0])
             beta_true = np.linalg.lstsq(x, cond_logit, rcond=None)[0]
@@ -186,10 +230,7 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
                       t.loc["icc_latent", "ci_high"], sigma ** 2 / (sigma ** 2 + np.pi ** 2 / 3))
         elif glmm.formula is None:
             glmm_fail += 1
-        if slope_model and glmm.formula is not None:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                sl = fit_glmm_slope(trials, glmm.formula, intercept_fit=glmm)
+        if sl is not None:
             if sl.formula is None:
                 glmm_fail += 1
             else:
@@ -201,7 +242,7 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
                         tally.add("slope model fixed effects (Wald)", row.ci_low, row.ci_high, b)
                 for term, truth_v in (("sd_intercept", sigma), ("sd_mode_slope", slope_sd),
                                       ("corr_intercept_slope", 0.0 if slope_sd > 0 else None)):
-                    if truth_v is not None:
+                    if truth_v is not None and slope_profile:
                         tally.add(f"slope model {term} (profile)", t.loc[term, "ci_low"],
                                   t.loc[term, "ci_high"], truth_v)
                 if "lrt_slope" in t.index:
@@ -224,6 +265,7 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
                          "binomial_se": np.sqrt(max(v / n * (1 - v / n), 1e-12) / n)}
                         for k, v in rejections.items()])
     return tally.table(), rej, {"fallbacks": fallbacks, "glmm_failed": glmm_fail,
+                                "mixed_model_for_mode_contrasts": used,
                                 "cpu_s": cpu, "datasets": n, "scenario": scenario,
                                 "sigma": sigma, "slope_sd": slope_sd, "slope_model": slope_model,
                                 "seed0": seed0, "n_boot": n_boot,
@@ -242,11 +284,14 @@ def main(argv=None):
     ap.add_argument("--bootstrap", type=int, default=1000)
     ap.add_argument("--gee-only", action="store_true",
                     help="only the GEE coefficient table's intervals (fast)")
+    ap.add_argument("--no-slope-profile", action="store_true",
+                    help="skip the slope model's profile intervals of the SDs (their coverage "
+                         "is then not measured; about half its CPU)")
     ap.add_argument("--out", type=Path)
     ns = ap.parse_args(argv)
     cov, rej, info = run(ns.datasets, ns.scenario, ns.sigma, ns.seed, ns.bootstrap,
                          slope_model=ns.slope_model or ns.scenario == "slope",
-                         gee_only=ns.gee_only)
+                         gee_only=ns.gee_only, slope_profile=not ns.no_slope_profile)
     pd.set_option("display.width", 200)
     print(f"scenario {ns.scenario}, {ns.datasets} datasets, sigma {ns.sigma}: "
           f"{info['cpu_s']:.0f} s CPU; fallbacks {info['fallbacks']}")

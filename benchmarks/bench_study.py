@@ -5,7 +5,7 @@ Not a test.  Run:  .venv/bin/python benchmarks/bench_study.py [--out DIR] [-- ex
 
 ``--session-rounds N`` instead times single emulated sessions in this process (P01 and P16 of
 the seed-0 cohort, virtual clock), N interleaved rounds of: fsync on (what ``thermocue run``
-does) and fsync off (what a simulated study does, :func:`experiments.logbook.set_durable`), and
+does) and fsync off (what a simulated study does, ``durable=False``), and
 prints the wall time per trial of each (median and best).
 
 Starts ``thermocue reproduce figure9 --out DIR`` as a child process and samples, every 50 ms,

@@ -1,4 +1,4 @@
-"""Fault campaign against the emulated display (issue 16): does anything unsafe or untrue get through?
+"""Fault campaign against the emulated display: does anything unsafe or untrue get through?
 
 One concept (a script of ~700 lines): the campaign, its injected faults and its checks.
 

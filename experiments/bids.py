@@ -29,6 +29,9 @@ import re
 from pathlib import Path
 
 from experiments.logbook import TRIAL_COLUMNS, atomic_write_text, ensure_dir
+from experiments.logformat import format_cell
+from experiments.session_reader import SessionFileError, SessionFolder, read_session_folder, \
+    read_session_folders
 
 __all__ = ["export_session", "export_dataset", "bids_label", "COLUMN_DESCRIPTIONS", "BIDS_VERSION"]
 
@@ -63,8 +66,10 @@ COLUMN_DESCRIPTIONS = {
     "cue_played": ("1 if the sound cue was played, 0 if no audio was available", None),
     "response_id": ("The sample the participant named (1..4); n/a where no answer was asked", None),
     "correct": ("1 if response_id equals roughness_id, else 0", None),
-    "rt_s": ("Response time from the first frame showing the question to the key press", "s"),
+    "rt_s": ("Response time from the first frame showing the question to the key press; n/a for spoken answers", "s"),
     "response_source": ("What produced the answer (keyboard backend, console, simulated model)", None),
+    "answer_mode": ("keyed: the participant pressed the answer; spoken: the participant said it and the experimenter keyed it", None),
+    "answer_keyed_after_cue_s": ("Spoken answers: time from the question's sound cue to the experimenter's key (not a response time)", "s"),
     "started_at": ("UTC time the trial started (ISO 8601)", None),
     "finished_at": ("UTC time the trial was written (ISO 8601)", None),
     "contact_onset_s": ("Display clock at the moment of contact (a time stamp, not a duration)", "s"),
@@ -110,7 +115,7 @@ def _tsv(header: list[str], rows: list[list]) -> str:
                    escapechar="\\")
     w.writerow(header)
     for r in rows:
-        w.writerow(["n/a" if v in (None, "") else str(v).replace("\t", " ") for v in r])
+        w.writerow(["n/a" if v in (None, "") else re.sub(r"[\t\r\n]", " ", str(v)) for v in r])
     return buf.getvalue()
 
 
@@ -168,41 +173,91 @@ def _merge_participants(root: Path, records: dict) -> None:
                       json.dumps(_sidecar(header[1:], _PARTICIPANT_COLUMNS), indent=2) + "\n")
 
 
-def export_session(session_dir, root=None) -> Path:
+def _trial_table(read: SessionFolder) -> tuple[list[str], list[list]]:
+    """The session's trial table (``trials.csv``, or rebuilt from the log when the table is
+    missing or older), every row checked against the table's domain and the session's id."""
+    rows, source, lines = read.trial_rows()
+    if not rows:
+        raise SessionFileError(f"{read.path}: trials: expected trial rows (trials.csv, or finished "
+                               f"trials in events.jsonl), got none")
+    read.check_rows(rows, source, lines)
+    for row, line in zip(rows, lines):
+        for key, own in (("participant", read.participant), ("session", read.session)):
+            value = row.get(key)
+            if value not in (None, "") and str(value).strip() != own:
+                raise SessionFileError(f"{read.path / source}: {key}: expected {own!r} (the "
+                                       f"session's own) (line {line}), got {value!r}")
+    if source == "trials.csv":
+        header = list(rows[0])
+        return header, [[r.get(c) for c in header] for r in rows]
+    extra = sorted({k for r in rows for k in r} - set(TRIAL_COLUMNS))
+    header = list(TRIAL_COLUMNS) + extra
+    return header, [[format_cell(r.get(c), c) for c in header] for r in rows]
+
+
+def _session_meta(read: SessionFolder) -> dict:
+    """``session.json``, or, without one, what the log's ``session_started`` says."""
+    if read.meta is not None:
+        return read.meta
+    started = next((e for e in read.events if e.get("event") == "session_started"), {})
+    return {"group": started.get("group"), "protocol_name": started.get("protocol"),
+            "participant": {"id": read.participant, "sex": started.get("sex"),
+                            "skin_thickness": {"total_um": started.get("skin_thickness_um")}}}
+
+
+def export_session(session_dir, root=None, read: SessionFolder | None = None) -> Path:
     """Write one session's behavioural TSV and sidecar into the BIDS dataset ``root``.
 
     Parameters
     ----------
     session_dir : path-like
-        ``DATA/<participant>/<session>/`` with ``session.json`` and ``trials.csv``.
+        ``DATA/<participant>/<session>/`` with ``session.json`` and ``trials.csv`` (or, without
+        them, ``events.jsonl``: the table rebuilt from it, the participant from its
+        ``session_started``).
     root : path-like, optional
         The BIDS dataset (default ``DATA/bids``, two levels above ``session_dir``).
+    read : SessionFolder, optional
+        The folder as :func:`experiments.session_reader.read_session_folder` read it.
 
     Returns
     -------
     Path
         The ``_beh.tsv`` written.
+
+    Raises
+    ------
+    SessionFileError
+        What the session reader refuses, a session without trial rows, a row outside the trial
+        table's domain or naming another participant or session.
     """
     session_dir = Path(session_dir)
-    meta = json.loads((session_dir / "session.json").read_text(encoding="utf-8"))
+    read = read_session_folder(session_dir) if read is None else read
+    meta = _session_meta(read)
     root = Path(root) if root is not None else session_dir.parent.parent / "bids"
-    participant = meta.get("participant") or {}
-    sub = bids_label(meta.get("participant_id") or participant.get("id"))
-    ses = bids_label(meta.get("session") or session_dir.name)
-    task = bids_label(meta.get("protocol_name") or (meta.get("protocol") or {}).get("protocol", {}).get("name"))
-    with open(session_dir / "trials.csv", newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        header = list(reader.fieldnames or TRIAL_COLUMNS)
-        rows = [[r.get(c) for c in header] for r in reader]
+    participant = meta.get("participant") if isinstance(meta.get("participant"), dict) else {}
+    sub = bids_label(read.participant)
+    ses = bids_label(read.session)
+    header, rows = _trial_table(read)
+    protocol = meta.get("protocol") if isinstance(meta.get("protocol"), dict) else {}
+    head = protocol.get("protocol") if isinstance(protocol.get("protocol"), dict) else {}
+    names = [meta.get("protocol_name"), head.get("name")]
+    names += [r[header.index("expName")] for r in rows[:1] if "expName" in header]
+    name = next((n for n in names if isinstance(n, str) and re.search(r"[A-Za-z0-9]", n)), None)
+    if name is None:
+        raise SessionFileError(f"{session_dir / 'session.json'}: protocol_name: expected the "
+                               f"protocol's name (session.json, or expName in the trials), got "
+                               f"{meta.get('protocol_name')!r}")
+    task = bids_label(name)
     folder = ensure_dir(root / f"sub-{sub}" / f"ses-{ses}" / "beh")
     _describe_dataset(root)
     stem = f"sub-{sub}_ses-{ses}_task-{task}_beh"
     atomic_write_text(folder / f"{stem}.tsv", _tsv(header, rows))
     sidecar = {"TaskName": task,
-               "TaskDescription": (meta.get("protocol") or {}).get("protocol", {}).get("title", ""),
+               "TaskDescription": head.get("title", "") if isinstance(head.get("title"), str) else "",
                **_sidecar(header, COLUMN_DESCRIPTIONS)}
     atomic_write_text(folder / f"{stem}.json", json.dumps(sidecar, indent=2, ensure_ascii=False) + "\n")
-    thickness = (participant.get("skin_thickness") or {}).get("total_um")
+    thickness = participant.get("skin_thickness")
+    thickness = thickness.get("total_um") if isinstance(thickness, dict) else None
     _participants(root, {f"sub-{sub}": {
         "participant_id": f"sub-{sub}", "age": participant.get("age"), "sex": participant.get("sex"),
         "handedness": participant.get("handedness"), "group": meta.get("group"),
@@ -210,12 +265,56 @@ def export_session(session_dir, root=None) -> Path:
     return folder / f"{stem}.tsv"
 
 
-def export_dataset(data_dir, root=None) -> list[Path]:
-    """Export every session folder (``session.json`` + ``trials.csv``) under ``data_dir``."""
+def export_dataset(data_dir, root=None, skipped: list | None = None,
+                   notes: list | None = None, before=None) -> list[Path]:
+    """Export every session folder under ``data_dir`` (read by
+    :func:`experiments.session_reader.read_session_folders`: checked, duplicates once).
+
+    Every folder is read and checked before anything is written.
+
+    Parameters
+    ----------
+    data_dir, root : path-like
+        The data folder and the BIDS dataset (default ``data_dir/bids``, never searched).
+    skipped : list, optional
+        Receives ``(folder, reason)`` for each session folder not exported: a copy of another
+        folder's session (exported once), a folder without trial rows.
+    notes : list, optional
+        Receives what was worked around (one line each, naming the file).
+    before : callable, optional
+        Called once every folder is checked, before the first file is written (the command
+        line's :meth:`experiments.atomicfile.OutputFolder.begin`).
+
+    Raises
+    ------
+    SessionFileError
+        What the reader refuses (naming the file and the field); nothing is written then.
+    """
     data_dir = Path(data_dir)
     root = Path(root) if root is not None else data_dir / "bids"
-    out = []
-    for meta in sorted(data_dir.glob("*/*/session.json")):
-        if (meta.parent / "trials.csv").exists() and root not in meta.parents:
-            out.append(export_session(meta.parent, root))
-    return out
+    skipped = [] if skipped is None else skipped
+    notes = [] if notes is None else notes
+    found = read_session_folders(data_dir, exclude=[root])
+    skipped.extend(found.skipped)
+    ready = []
+    for read in found.folders:
+        notes.extend(read.notes)
+        if not read.trial_rows()[0]:
+            skipped.append((read.path, "no trial rows (no trials.csv, no finished trial in "
+                                       "events.jsonl)"))
+            continue
+        _trial_table(read)                # refuse before anything is written
+        ready.append(read)
+    if ready and before is not None:
+        before()
+    return [export_session(read.path, root, read=read) for read in ready]
+
+
+def mark_complete(folder) -> Path:
+    """Mark a rebuilt dataset complete (an :class:`experiments.atomicfile.OutputFolder`):
+    ``COMPLETE`` written last, and listed in ``.bidsignore`` (it is not a BIDS file)."""
+    ignore = Path(folder.path) / ".bidsignore"
+    listed = ignore.read_text(encoding="utf-8").split() if ignore.is_file() else []
+    if "COMPLETE" not in listed:
+        atomic_write_text(ignore, "".join(f"{line}\n" for line in listed + ["COMPLETE"]))
+    return folder.finish()

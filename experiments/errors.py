@@ -40,6 +40,14 @@ class DisplayTimeout(DisplayError):
     """The display did not answer in time."""
 
 
+class DisplayLinkLost(DisplayError):
+    """The port itself failed (the display unplugged, its pty closed): nothing more can be sent.
+
+    ``code`` is ``"LINK_LOST"``, the fault code a trial cut off by it carries."""
+
+    code = "LINK_LOST"
+
+
 class DisplayRefused(DisplayError):
     """The display answered a command with an error code."""
 

@@ -5,7 +5,7 @@ types and their fields, the columns, the cell format) and how they are read back
 tolerant reader, the event -> trial-row projection, replay) is :mod:`experiments.logformat`;
 its names are re-exported here for the writer's users.
 
-What "nothing lost" means on disk (DESIGN.md, Durability):
+What "nothing lost" means on disk (docs/design.md, Durability):
 
 * **Appends** (``events.jsonl``): one JSON object per line, written with a single
   ``write`` on an ``O_APPEND`` descriptor and ``fsync``-ed before :meth:`EventLog.append`
@@ -16,8 +16,8 @@ What "nothing lost" means on disk (DESIGN.md, Durability):
 * **Whole-file updates** (``session.json``, ``trials.csv``): :func:`atomic_write_text`
   writes a temporary file in the same folder, fsyncs it, renames it over the old one and
   fsyncs the folder: a reader sees the old file or the new one, never half of one.
-  Only with durability off (:func:`set_durable`: a simulated study, recomputed from its seed)
-  does the session grow ``trials.csv`` between two trials by appending its new lines in one
+  Only with durability off (``durable=False``, a setting every writer takes: a simulated
+  study, recomputed from its seed) does the session grow ``trials.csv`` between two trials by appending its new lines in one
   ``write`` (:func:`append_text`) instead; a session with a person in it is always replaced
   atomically.
 * The event log is the source of truth: :func:`~experiments.logformat.trials_from_events`
@@ -36,6 +36,7 @@ import threading
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from experiments.atomicfile import atomic_file
 from experiments.errors import SessionError
 from experiments.logformat import (  # noqa: F401 - re-exported for the writer's users
     COLUMN_DECIMALS,
@@ -64,7 +65,6 @@ __all__ = [
     "atomic_write_json",
     "fsync_dir",
     "fsync",
-    "set_durable", "is_durable",
     "now_iso",
     "ensure_dir",
     "to_jsonable",
@@ -85,47 +85,30 @@ __all__ = [
 ]
 
 # --------------------------------------------------------------------------- fsync helpers
-#: Whether writes are made durable (fsync).  True everywhere except where a study of simulated
-#: participants on a virtual clock turns it off for its own worker (:func:`set_durable`).
-_DURABLE = True
+# Durability is a setting each writer takes (``durable``, default True), not a process-wide flag:
+# every write stays in the same order, atomic renames included; ``durable=False`` skips only the
+# fsyncs that make them survive a power cut. A simulated study on a virtual clock, recomputed from
+# its seed, passes False (on the shared 2-core machine fsync was 70 % of an emulated session's
+# wall time); a session with a person in it never does.
 
 
-def set_durable(flag: bool) -> bool:
-    """Turn fsync on or off for this process; return the previous setting.
-
-    Every write of this module (and of :mod:`experiments.session_files`) stays in the same
-    order, atomic renames included; only the ``fsync`` calls that make them survive a power cut
-    are skipped when off.  For simulated studies on a virtual clock
-    (:func:`experiments.simulation.figure9.run_figure9_study`), which are recomputed from their seed: on
-    the shared 2-core machine fsync was 70 % of an emulated session's wall time (issue 11).
-    Never off for a session with a person in it.
-    """
-    global _DURABLE
-    previous, _DURABLE = _DURABLE, bool(flag)
-    return previous
-
-
-def is_durable() -> bool:
-    """Whether this process writes for a power cut (:func:`set_durable`; on unless a simulated
-    study turned it off)."""
-    return _DURABLE
-
-
-def fsync(fd: int) -> None:
-    """``os.fsync(fd)`` unless durability is off (:func:`set_durable`)."""
-    if _DURABLE:
+def fsync(fd: int, durable: bool = True) -> None:
+    """``os.fsync(fd)`` unless ``durable`` is False."""
+    if durable:
         os.fsync(fd)
 
 
-def fsync_dir(path: str | Path) -> None:
+def fsync_dir(path: str | Path, durable: bool = True) -> None:
     """Flush a folder's entries (new, renamed or removed files) to disk.
 
     Parameters
     ----------
     path : str or Path
         The folder.
+    durable : bool
+        False: do nothing (a simulated study's writes, see above).
     """
-    if not _DURABLE:
+    if not durable:
         return
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     try:
@@ -134,8 +117,9 @@ def fsync_dir(path: str | Path) -> None:
         os.close(fd)
 
 
-def ensure_dir(path: str | Path) -> Path:
-    """Create a folder and any missing parents, fsyncing the parent of each one created.
+def ensure_dir(path: str | Path, *, durable: bool = True) -> Path:
+    """Create a folder and any missing parents, fsyncing the parent of each one created
+    (unless ``durable`` is False).
 
     Returns
     -------
@@ -155,13 +139,14 @@ def ensure_dir(path: str | Path) -> Path:
             d.mkdir()
         except FileExistsError:
             pass
-        fsync_dir(d.parent)
+        fsync_dir(d.parent, durable)
     if not path.is_dir():
         raise NotADirectoryError(errno.ENOTDIR, "expected a folder, got a file", str(path))
     return path
 
 
-def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8") -> None:
+def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8", *,
+                      durable: bool = True) -> None:
     """Replace a file's content atomically and durably.
 
     Writes ``.<name>.<pid>.tmp`` in the same folder, fsyncs it, renames it over ``path``
@@ -172,27 +157,19 @@ def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8") -> N
     path : str or Path
     text : str
     encoding : str
+    durable : bool
+        False: the same writes and rename without the fsyncs (a simulated study's files).
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", encoding=encoding, newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            tmp.unlink()
-        except FileNotFoundError:
-            pass
-        raise
-    fsync_dir(path.parent)
+    # one helper for every whole-file write (experiments.atomicfile), with this module's fsync
+    # and fsync_dir (looked up at each call), skipped when ``durable`` is False
+    with atomic_file(path, encoding=encoding, fsync=lambda fd: fsync(fd, durable),
+                     fsync_dir=lambda folder: fsync_dir(folder, durable)) as fh:
+        fh.write(text)
 
 
-def atomic_write_json(path: str | Path, obj: Any, indent: int = 2) -> None:
+def atomic_write_json(path: str | Path, obj: Any, indent: int = 2, *, durable: bool = True) -> None:
     """Write ``obj`` as JSON (see :func:`to_jsonable`) with :func:`atomic_write_text`."""
-    atomic_write_text(path, dumps(obj, indent=indent) + "\n")
+    atomic_write_text(path, dumps(obj, indent=indent) + "\n", durable=durable)
 
 
 def now_iso() -> str:
@@ -211,6 +188,8 @@ class EventLog:
         created and its folder fsynced; an existing one is continued (``seq`` goes on).
     lock : bool
         Take an exclusive ``flock`` so that a second process cannot write the same log.
+    durable : bool
+        False: appends are written the same way but not fsynced (a simulated study's log).
 
     Raises
     ------
@@ -233,8 +212,9 @@ class EventLog:
     ('note', 1, 'hello')
     """
 
-    def __init__(self, path: str | Path, lock: bool = True):
+    def __init__(self, path: str | Path, lock: bool = True, *, durable: bool = True):
         self.path = Path(path)
+        self.durable = bool(durable)
         self._lock = threading.Lock()   # appends from several threads stay whole and ordered
         existed = self.path.exists()
         self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_APPEND | os.O_CLOEXEC, 0o644)
@@ -251,8 +231,8 @@ class EventLog:
             if existed:
                 torn = self._open_existing()
             else:
-                fsync(self._fd)
-                fsync_dir(self.path.parent)
+                fsync(self._fd, self.durable)
+                fsync_dir(self.path.parent, self.durable)
             if torn is not None:
                 self.append("log_repaired", torn_bytes=len(torn),
                             torn_tail=torn.decode("utf-8", errors="replace"))
@@ -298,7 +278,7 @@ class EventLog:
         while view:
             n = os.write(self._fd, view)
             view = view[n:]
-        fsync(self._fd)
+        fsync(self._fd, self.durable)
 
     def append(self, event: str, **fields: Any) -> dict:
         """Write one event and fsync it.
@@ -360,8 +340,8 @@ class EventLog:
 
 # --------------------------------------------------------------------------- trials table
 def write_trials_csv(path: str | Path, rows: Iterable[Mapping[str, Any]],
-                     columns: Iterable[str] | None = None) -> list[str]:
-    """Write ``trials.csv`` atomically.
+                     columns: Iterable[str] | None = None, *, durable: bool = True) -> list[str]:
+    """Write ``trials.csv`` atomically (fsynced unless ``durable`` is False).
 
     Parameters
     ----------
@@ -384,7 +364,7 @@ def write_trials_csv(path: str | Path, rows: Iterable[Mapping[str, Any]],
     says (else the shortest round-trip form).
     """
     text, columns = trials_csv_text(rows, columns)
-    atomic_write_text(path, text)
+    atomic_write_text(path, text, durable=durable)
     return columns
 
 
@@ -425,9 +405,10 @@ def trials_csv_lines(rows: Iterable[Mapping[str, Any]], columns: Iterable[str]) 
     return out
 
 
-def append_text(path: str | Path, text: str, expected_size: int, encoding: str = "utf-8") -> bool:
-    """Append whole lines to a file in one ``write``, fsynced; False (nothing written) unless
-    the file exists and is exactly ``expected_size`` bytes long.
+def append_text(path: str | Path, text: str, expected_size: int, encoding: str = "utf-8", *,
+                durable: bool = True) -> bool:
+    """Append whole lines to a file in one ``write``, fsynced (unless ``durable`` is False);
+    False (nothing written) unless the file exists and is exactly ``expected_size`` bytes long.
 
     For a file that only ever grows by whole lines (``trials.csv`` between two trials): one
     ``write`` of the new lines at the end, so a killed process leaves the old lines or all the
@@ -447,7 +428,7 @@ def append_text(path: str | Path, text: str, expected_size: int, encoding: str =
         if os.write(fd, data) != len(data):       # a regular file: short only when full
             os.ftruncate(fd, expected_size)
             raise OSError(f"{path}: short write")
-        fsync(fd)
+        fsync(fd, durable)
     finally:
         os.close(fd)
     return True

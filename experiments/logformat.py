@@ -134,7 +134,7 @@ TRIAL_COLUMNS = (
     "target_side", "profile_skin_thickness_um", "profile_resistance_m2K_W",
     "profile_resistance_source", "pad_resistance_m2K_W", "rate_limited_max_change_C", "cue_played",
     # response
-    "response_id", "correct", "rt_s", "response_source",
+    "response_id", "correct", "rt_s", "response_source", "answer_mode", "answer_keyed_after_cue_s",
     # timing
     "started_at", "finished_at", "contact_onset_s", "contact_duration_s",
     # quality
@@ -151,11 +151,11 @@ TRIAL_COLUMNS = (
 COLUMN_DECIMALS = {
     "skin_thickness_um": 1, "roughness_um": 3, "profile_skin_thickness_um": 1,
     "profile_resistance_m2K_W": "sig4", "pad_resistance_m2K_W": "sig4",
-    "rate_limited_max_change_C": 3, "rt_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
+    "rate_limited_max_change_C": 3, "rt_s": 4, "answer_keyed_after_cue_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
     "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3, "contact_force_N": 2,
 }
 
-#: Columns every trial row must have for analysis (DESIGN.md, docs/internal-contracts.md
+#: Columns every trial row must have for analysis (docs/design.md, docs/internal-contracts.md
 #: "Trials table"); all of them are in :data:`TRIAL_COLUMNS`.
 REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "mode",
                     "roughness_id", "response_id", "correct", "status")
@@ -163,7 +163,8 @@ REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "
 #: defaults to 1).
 OPTIONAL_COLUMNS = {"roughness_um": "float", "repetition": "int", "rt_s": "float",
                     "tracking_rms_C": "float", "skin_thickness_um": "float", "sex": "str",
-                    "attempt": "int", "started_at": "str", "fault_code": "str"}
+                    "attempt": "int", "started_at": "str", "fault_code": "str",
+                    "answer_mode": "str", "answer_keyed_after_cue_s": "float"}
 #: Values of the ``status`` column.
 STATUSES = ("ok", "fault", "aborted")
 
@@ -336,7 +337,8 @@ def decode_event(raw: bytes) -> dict:
     return obj
 
 
-def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) -> tuple[list[dict], LogReport]:
+def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True,
+                data: bytes | None = None) -> tuple[list[dict], LogReport]:
     """Read an event log, tolerating damage.
 
     Parameters
@@ -349,6 +351,9 @@ def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) ->
     warn : bool
         Issue a :class:`LogDamageWarning` (naming the file and line) per damaged line; the
         messages are in ``report.damage`` either way.
+    data : bytes, optional
+        The file's content, already read (by :mod:`experiments.session_reader`, which refuses
+        special files and other encodings first); ``path`` then only names it.
 
     Returns
     -------
@@ -369,7 +374,8 @@ def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True) ->
     if on_damage not in ("stop", "skip"):
         raise ValueError(f"on_damage: expected 'stop' or 'skip', got {on_damage!r}")
     path = Path(path)
-    data = path.read_bytes()
+    if data is None:
+        data = path.read_bytes()
     lines = data.split(b"\n")
     last_complete = data.endswith(b"\n") or not data
     if last_complete:
@@ -433,7 +439,8 @@ def _decode_prefix(raw: bytes, path: Path, damage: list) -> str:
     return text
 
 
-def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]], list[int], list[str]]:
+def read_csv_prefix(path: str | Path, data: bytes | None = None
+                    ) -> tuple[list[str] | None, list[list[str]], list[int], list[str]]:
     """Read a CSV file (``trials.csv``) up to its first damaged line.
 
     Damage is a NUL or undecodable byte (the lines before its line are read), a torn last
@@ -443,6 +450,8 @@ def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]]
     Parameters
     ----------
     path : str or Path
+    data : bytes, optional
+        The file's content, already read (``path`` then only names it).
 
     Returns
     -------
@@ -458,7 +467,7 @@ def read_csv_prefix(path: str | Path) -> tuple[list[str] | None, list[list[str]]
     """
     path = Path(path)
     damage: list[str] = []
-    text = _decode_prefix(path.read_bytes(), path, damage)
+    text = _decode_prefix(path.read_bytes() if data is None else data, path, damage)
     if text and not text.endswith("\n"):
         torn = text.count("\n") + 1
         damage.append(f"{path}: line {torn}: torn last line (no newline at its end); ignored")
@@ -488,6 +497,16 @@ def session_context(events: Iterable[Mapping[str, Any]]) -> dict:
         if ev.get("event") in ("session_started", "session_resumed"):
             ctx.update({k: ev[k] for k in CONTEXT_KEYS if k in ev})
     return ctx
+
+
+def _shape_problem(kind: str, ev: Mapping[str, Any], key: tuple) -> str:
+    """What makes a trial outcome event unusable as a row (``""`` when nothing)."""
+    for name, value in zip(("trial_index", "attempt"), key):
+        if not isinstance(value, (int, str)) or isinstance(value, bool):
+            return f"{name}: expected an integer, got {value!r}"
+    if kind == "trial_completed" and not isinstance(ev.get("row"), Mapping):
+        return f"row: expected a mapping, got {ev.get('row')!r}"
+    return ""
 
 
 def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | None = None,
@@ -525,9 +544,20 @@ def trials_from_events(events: Iterable[Mapping[str, Any]], *, sources: list | N
         if kind in ("session_started", "session_resumed"):
             ctx.update(session_context([ev]))
         elif kind == "trial_started":
-            starts[(ev.get("trial_index"), ev.get("attempt"))] = ev
+            try:
+                starts[(ev.get("trial_index"), ev.get("attempt"))] = ev
+            except TypeError:           # a damaged event (a list or object as index): no spec
+                pass
         elif kind in ("trial_completed", "trial_aborted"):
             key = (ev.get("trial_index"), ev.get("attempt"))
+            shape = _shape_problem(kind, ev, key)
+            if shape:                   # a damaged event: not a row (reported, not raised)
+                note = f"{kind} event (seq {ev.get('seq')}): {shape}; ignored"
+                if damage is None:
+                    warnings.warn(f"events: {note}", LogDamageWarning, stacklevel=2)
+                else:
+                    damage.append(note)
+                continue
             if key in seen:
                 note = (f"trial {key[0]} attempt {key[1]}: a second {kind} event "
                         f"(seq {ev.get('seq')}) ignored")

@@ -89,11 +89,14 @@ class TraceWriter:
         The CSV file (created; an existing file is never overwritten: FileExistsError).
     flush_every : int
         Frames between flushes (default 50: 0.5 s of telemetry at 100 Hz).
+    durable : bool
+        False: :meth:`close` does not fsync (a simulated study's traces).
     """
 
-    def __init__(self, path, flush_every: int = 50):
+    def __init__(self, path, flush_every: int = 50, *, durable: bool = True):
         self.path = Path(path)
         self.flush_every = int(flush_every)
+        self.durable = bool(durable)
         # "x": a trace is never overwritten (the session moves an old one aside first)
         self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
@@ -174,9 +177,9 @@ class TraceWriter:
         if self._fh.closed:
             return
         self._fh.flush()
-        fsync(self._fh.fileno())
+        fsync(self._fh.fileno(), self.durable)
         self._fh.close()
-        fsync_dir(self.path.parent)
+        fsync_dir(self.path.parent, self.durable)
 
 
 def package_versions() -> dict[str, str]:
@@ -209,14 +212,15 @@ def schedule_sha256(schedule) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def claim_session_folder(directory):
+def claim_session_folder(directory, *, durable: bool = True):
     """Claim a new session folder for this process; return its locked, empty event log.
 
     The folder is made with ``mkdir`` and ``events.jsonl`` with an exclusive create, then locked
     (:class:`~experiments.logbook.EventLog`) *before* anything else is written: of two runs
     claiming one folder, exactly one gets it, and ``session.json`` is only ever written by the
     holder of the log's lock. A folder left by a run killed while claiming (no ``session.json``,
-    an empty unlocked log) is claimed again.
+    an empty unlocked log) is claimed again. ``durable=False`` skips the fsyncs (a simulated
+    study's session).
 
     Raises
     ------
@@ -227,10 +231,10 @@ def claim_session_folder(directory):
     from experiments.logbook import EventLog, ensure_dir, fsync_dir
 
     directory = Path(directory)
-    ensure_dir(directory.parent)
+    ensure_dir(directory.parent, durable=durable)
     try:
         os.mkdir(directory)
-        fsync_dir(directory.parent)
+        fsync_dir(directory.parent, durable)
     except FileExistsError:
         if not directory.is_dir():
             raise SessionError(f"{directory}: expected a new session folder, got a file") from None
@@ -239,12 +243,12 @@ def claim_session_folder(directory):
                             f"(resume it with `thermocue resume {directory}` or choose --session)")
     try:
         os.close(os.open(events, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o644))
-        fsync_dir(directory)
+        fsync_dir(directory, durable)
     except FileExistsError:
         if (directory / "session.json").exists() or events.stat().st_size > 0:
             raise existing from None
     try:
-        log = EventLog(events)
+        log = EventLog(events, durable=durable)
     except SessionError:
         raise SessionError(f"{directory}: expected a new session folder, got one another run is "
                            f"creating right now (choose --session)") from None

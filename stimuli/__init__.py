@@ -1,6 +1,6 @@
-"""Thermal model of a fingertip touching a material (issue 2).
+"""Thermal model of a fingertip touching a material.
 
-The contract (DESIGN.md, docs/internal-contracts.md): :class:`Skin`,
+The contract (docs/design.md, docs/internal-contracts.md): :class:`Skin`,
 :class:`Material`, :func:`material`, :func:`contact_resistance` (Eq. 5),
 :class:`Contact` (methods "exact", "paper", "paper-as-printed", "numerical"),
 :func:`skin_response` and :func:`target_profile` (display-driven model).

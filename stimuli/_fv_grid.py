@@ -15,8 +15,8 @@ from .errors import ModelInputError
 
 #: Default grid resolution (about 1.3 x this many cells across the skin).
 DEFAULT_CELLS = 32
-_H_RATIO = 50.0      # smallest cell = L / (50 cells)
-_GROWTH = 4.0        # cell size grows by 4 / cells per unit distance from the surface
+H_RATIO = 50.0      # smallest cell = L / (50 cells)
+GROWTH = 4.0        # cell size grows by 4 / cells per unit distance from the surface
 _DROP = 46.0         # a mode is dropped once exp(-lambda t) < e^-46 = 1e-20
 
 
@@ -59,7 +59,7 @@ class Layer:
 
 
 # --------------------------------------------------------------------------- grid
-def _faces(length: float, h_min: float, growth: float, breaks, *, h_max: float | None = None):
+def graded_faces(length: float, h_min: float, growth: float, breaks, *, h_max: float | None = None):
     """Faces on [0, length] measured from the fine end (s = 0), graded h(s) = h_min + growth s.
 
     Every value in ``breaks`` (distances from the fine end) becomes a face.
@@ -96,7 +96,7 @@ def _faces(length: float, h_min: float, growth: float, breaks, *, h_max: float |
 
 
 @dataclass
-class _Grid:
+class FVGrid:
     faces: np.ndarray        # x of every face, ascending, m
     k: np.ndarray            # conductivity per cell
     C: np.ndarray            # rho c per cell
@@ -107,13 +107,13 @@ class _Grid:
         return np.diff(self.faces)
 
 
-def _skin_layers(skin, epidermis_properties):
+def fv_skin_layers(skin, epidermis_properties):
     derm = Layer.of(skin, "skin")
     epi = derm if epidermis_properties is None else Layer.of(epidermis_properties)
     return derm, epi
 
 
-def _split(faces, split):
+def split_cells(faces, split):
     """Each cell cut into ``split`` equal cells (an exactly self-similar refinement)."""
     if split == 1:
         return faces
@@ -123,31 +123,31 @@ def _split(faces, split):
     return np.concatenate([inner.ravel(), f[-1:]])
 
 
-def _skin_grid(skin, cells, depths, epidermis_properties, h_min=None, split=1):
+def skin_grid(skin, cells, depths, epidermis_properties, h_min=None, split=1):
     L, d = skin.thickness, skin.dermis
-    derm, epi = _skin_layers(skin, epidermis_properties)
-    h_min = L / (_H_RATIO * cells) if h_min is None else h_min
-    s_faces = _faces(L, h_min, _GROWTH / cells, [L - d] + [L - x for x in depths])
-    x = _split(np.sort(L - s_faces), split)
+    derm, epi = fv_skin_layers(skin, epidermis_properties)
+    h_min = L / (H_RATIO * cells) if h_min is None else h_min
+    s_faces = graded_faces(L, h_min, GROWTH / cells, [L - d] + [L - x for x in depths])
+    x = split_cells(np.sort(L - s_faces), split)
     x[0], x[-1] = 0.0, L
     centres = 0.5 * (x[:-1] + x[1:])
     in_epi = centres > d
     k = np.where(in_epi, epi.conductivity, derm.conductivity)
     C = np.where(in_epi, epi.density * epi.specific_heat, derm.density * derm.specific_heat)
-    return _Grid(x, k, C)
+    return FVGrid(x, k, C)
 
 
-def _check_cells(cells):
+def check_cells(cells):
     if isinstance(cells, bool) or not isinstance(cells, (int, np.integer)) or cells < 2:
         raise ModelInputError(f"finite_volume: cells: expected an integer >= 2, got {cells!r}")
     return int(cells)
 
 
 # --------------------------------------------------------------------------- operator
-class _Modal:
+class Modal:
     """Tridiagonal operator of a grid, diagonalised: M dT/dt = -K T + boundary terms."""
 
-    def __init__(self, grid: _Grid, g_left: float, g_right: float, r_interface: float = 0.0):
+    def __init__(self, grid: FVGrid, g_left: float, g_right: float, r_interface: float = 0.0):
         h = grid.h
         half = 0.5 * h / grid.k                       # half-cell resistances
         rs = half[:-1] + half[1:]
@@ -179,7 +179,7 @@ class _Modal:
         return self.V.T @ (c / self.sm)
 
 
-def _face_weights(grid: _Grid, half, x: float):
+def face_weights(grid: FVGrid, half, x: float):
     """Output vector c (c . T) for the temperature at interior face x (no resistance there)."""
     i = int(np.argmin(np.abs(grid.faces - x)))
     if not (0 < i < grid.faces.size - 1) or abs(grid.faces[i] - x) > 1e-12 * grid.faces[-1]:
@@ -190,7 +190,7 @@ def _face_weights(grid: _Grid, half, x: float):
     return c
 
 
-def _exp_sum(coef, lam, t):
+def exp_sum(coef, lam, t):
     """sum_k coef_k exp(-lam_k t) for every t (t >= 0, any order), dropping decayed modes."""
     t = np.asarray(t, dtype=float)
     order = np.argsort(t, kind="stable")

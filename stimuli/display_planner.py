@@ -42,8 +42,8 @@ import numpy as np
 from .exact import INVERSION_ERROR
 from .layered import LayeredTransform, layer_rows, layered_skin_response, skin_layers
 from .materials import material as _material
-from .planner import PROBE_INVERSION_ERROR, SAFETY, Decision, _probes
-from .planner_bounds import LAYER_LAPLACE_ST, _real_point, perfusion_factor
+from .planner import PROBE_INVERSION_ERROR, SAFETY, Decision, probe_plan
+from .planner_bounds import LAYER_LAPLACE_ST, real_point, perfusion_factor
 
 __all__ = ["DisplayPlan", "plan_display", "planned_skin_response"]
 
@@ -124,7 +124,7 @@ def plan_display(skin, depth: float, resistance: float, duration_s: float, rate_
     # the scene planner's cheap probe inversion (PROBE_NODES per window, one dense product); its
     # error on a step response (bounded by 1) is within PROBE_INVERSION_ERROR
     # (tests/stimuli/test_display_planner.py::test_display_probe_inversion_error_bound)
-    probes, ip = _probes(float(duration_s), float(rate_Hz), cheap=True)
+    probes, ip = probe_plan(float(duration_s), float(rate_Hz), cheap=True)
     h = np.asarray(h, dtype=float)
     h_sup, h0 = float(np.max(np.abs(h))), float(h[0])
     inv = 2 * INVERSION_ERROR * max(h_sup, 1.0)
@@ -218,7 +218,7 @@ def _layers_matter(skin, depth, resistance, duration_s, rate_Hz, h, tolerance):
 def display_kernel_real(skin, layered: bool, perfusion, depth: float, resistance: float,
                         s: float) -> float:
     """:meth:`stimuli.layered.LayeredTransform.display_kernel` at a real s > 0, in plain floats."""
-    r, Zs = _real_point(layer_rows(skin, layered=layered, perfusion=perfusion), s, depth)
+    r, Zs = real_point(layer_rows(skin, layered=layered, perfusion=perfusion), s, depth)
     return r / (Zs + resistance)
 
 

@@ -1,8 +1,8 @@
-r"""The receptor response to a display-imposed surface temperature (DESIGN.md ``skin_response``).
+r"""The receptor response to a display-imposed surface temperature (docs/design.md ``skin_response``).
 
 On a simulated trial the display imposes a temperature history g(t) on the skin surface x = L;
 the skin 0 < x < L starts uniform at T_S0 and stays at T_S0 at x = 0. In the Laplace domain
-(DESIGN.md) :math:`\hat\theta_S = 1/s + (G(s) - 1/s)\,\sinh(q_S x)/\sinh(q_S L)`; in the time
+(docs/design.md) :math:`\hat\theta_S = 1/s + (G(s) - 1/s)\,\sinh(q_S x)/\sinh(q_S L)`; in the time
 domain the response at depth x is Duhamel's superposition of the slab's exact unit-step
 response S(x, t) over the piecewise-linear history (:mod:`stimuli._slab_series`,
 :mod:`stimuli._duhamel`).
@@ -24,7 +24,7 @@ from . import _slab_series as series
 from ._duhamel import superpose
 from .exact import INVERSION_ERROR, InversionPlan
 from .errors import ModelInputError
-from .finite_volume import (DEFAULT_CELLS, _check_depth, _check_resistance, _uniform_times,
+from .finite_volume import (DEFAULT_CELLS, check_depth, check_resistance, uniform_times,
                             solve_surface)
 
 __all__ = ["skin_response", "ResponseInfo", "METHODS", "ROBIN_METHODS"]
@@ -54,7 +54,7 @@ class ResponseInfo:
 
 
 def _history(t, surface_temperature, initial_temperature, where):
-    t, dt = _uniform_times(t, where)
+    t, dt = uniform_times(t, where)
     g = np.asarray(surface_temperature, dtype=float)
     if g.shape != t.shape or not np.all(np.isfinite(g)):
         raise ModelInputError(f"{where}: surface_temperature: expected {t.size} finite values in °C "
@@ -327,8 +327,8 @@ def skin_response(skin, t, surface_temperature, initial_temperature=35.0, depth=
     """
     where = "skin_response"
     t, dt, h, T0 = _history(t, surface_temperature, initial_temperature, where)
-    x = _check_depth(skin, depth, where)
-    R = _check_resistance(resistance, where)
+    x = check_depth(skin, depth, where)
+    R = check_resistance(resistance, where)
     problem = _Problem(skin, t, dt, h, T0, x, cells, epidermis_properties, R)
     if R > 0.0:
         return _robin(problem, method, tolerance, full_output, where)

@@ -37,14 +37,14 @@ import math
 import numpy as np
 
 from ._duhamel import superpose
-from ._fv_grid import (_GROWTH, _H_RATIO, DEFAULT_CELLS, Layer, _check_cells, _exp_sum, _Grid,
-                       _face_weights, _faces, _Modal, _skin_grid, _skin_layers, _split)
+from ._fv_grid import (GROWTH, H_RATIO, DEFAULT_CELLS, Layer, check_cells, exp_sum, FVGrid,
+                       face_weights, graded_faces, Modal, skin_grid, fv_skin_layers, split_cells)
 from .errors import ModelInputError
 
 __all__ = ["Layer", "solve_surface", "solve_contact", "DEFAULT_CELLS"]
 
 # --------------------------------------------------------------------------- checks
-def _uniform_times(t, where):
+def uniform_times(t, where):
     t = np.asarray(t, dtype=float)
     if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
         raise ModelInputError(f"{where}: t: expected a 1-D array of finite times in s, got shape "
@@ -60,7 +60,7 @@ def _uniform_times(t, where):
     return t, dt
 
 
-def _check_depth(skin, depth, where, *, allow_material=False, material_extent=None):
+def check_depth(skin, depth, where, *, allow_material=False, material_extent=None):
     d = skin.dermis if depth is None else depth
     try:
         d = float(d)
@@ -73,7 +73,7 @@ def _check_depth(skin, depth, where, *, allow_material=False, material_extent=No
     return d
 
 
-def _check_resistance(resistance, where):
+def check_resistance(resistance, where):
     """R in m^2 K/W: None -> 0.0; finite and >= 0, else a ModelInputError naming the field."""
     if resistance is None:
         return 0.0
@@ -101,18 +101,18 @@ def _surface_kernel(skin, depth: float, *, cells: int = DEFAULT_CELLS,
     self-similar refinement used for Richardson extrapolation). ``resistance`` (m^2 K/W): the
     surface value is applied through it (Robin condition) instead of directly (Dirichlet).
     """
-    cells = _check_cells(cells)
+    cells = check_cells(cells)
     L = skin.thickness
     inner = [depth] if depth < L else []
-    grid = _skin_grid(skin, cells, inner, epidermis_properties, split=int(split))
+    grid = skin_grid(skin, cells, inner, epidermis_properties, split=int(split))
     h = grid.h
     g_left = grid.k[0] / (0.5 * h[0])
     half_last = 0.5 * h[-1] / grid.k[-1]
     g_right = grid.k[-1] / (0.5 * h[-1]) if resistance == 0.0 else 1.0 / (half_last + resistance)
-    op = _Modal(grid, g_left, g_right)
+    op = Modal(grid, g_left, g_right)
     feed = 0.0
     if depth < L:
-        c = _face_weights(grid, op.half, depth)
+        c = face_weights(grid, op.half, depth)
     else:
         # face value at L-: (T_last / half + g / R) / (1 / half + 1 / R)
         feed = half_last / (half_last + resistance)
@@ -176,15 +176,15 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
     29.0
     """
     where = "solve_surface"
-    t, dt = _uniform_times(t, where)
+    t, dt = uniform_times(t, where)
     g = np.asarray(surface_temperature, dtype=float)
     if g.shape != t.shape or not np.all(np.isfinite(g)):
         raise ModelInputError(f"{where}: surface_temperature: expected {t.size} finite values in °C "
                               f"(one per time), got shape {g.shape!r}")
     T0 = float(initial_temperature)
-    x = _check_depth(skin, depth, where)
+    x = check_depth(skin, depth, where)
     hist = g - T0
-    R = _check_resistance(resistance, where)
+    R = check_resistance(resistance, where)
     if x <= 0.0:
         return np.full(t.shape, T0)
     if x >= skin.thickness and R == 0.0:
@@ -193,9 +193,9 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
         raise ModelInputError(f"{where}: split: expected an integer >= 1, got {split!r}")
     gain, a, lam = _surface_kernel(skin, x, cells=cells, epidermis_properties=epidermis_properties,
                                   split=split, resistance=R)
-    S = gain - _exp_sum(a / lam, lam, t)
+    S = gain - exp_sum(a / lam, lam, t)
     S[0] = 0.0
-    R_rest = _exp_sum(a / lam ** 2, lam, t) - float(np.sum(a / lam ** 2))
+    R_rest = exp_sum(a / lam ** 2, lam, t) - float(np.sum(a / lam ** 2))
     u = superpose(hist, dt, S, R_rest, gain)
     return T0 + u
 
@@ -203,11 +203,11 @@ def solve_surface(skin, t, surface_temperature, initial_temperature=35.0, depth=
 # --------------------------------------------------------------------------- contact problem
 def _contact_grid(skin, material, t_max, cells, depths, epidermis_properties, split=1):
     L = skin.thickness
-    derm, epi = _skin_layers(skin, epidermis_properties)
-    h_min_s = L / (_H_RATIO * cells)
+    derm, epi = fv_skin_layers(skin, epidermis_properties)
+    h_min_s = L / (H_RATIO * cells)
     alpha_e = epi.conductivity / (epi.density * epi.specific_heat)
     skin_depths = [x for x in depths if 0.0 < x < L]
-    sg = _skin_grid(skin, cells, skin_depths, epidermis_properties, h_min=h_min_s)
+    sg = skin_grid(skin, cells, skin_depths, epidermis_properties, h_min=h_min_s)
     a_m = material.conductivity / (material.density * material.specific_heat)
     h_min_m = h_min_s * math.sqrt(a_m / alpha_e)
     if material.thickness is None:
@@ -216,14 +216,14 @@ def _contact_grid(skin, material, t_max, cells, depths, epidermis_properties, sp
     else:
         extent = material.thickness
     m_depths = [x - L for x in depths if x > L]
-    s = _faces(extent, h_min_m, _GROWTH / cells, m_depths)
-    sf, mf = _split(sg.faces, split), _split(L + s, split)
+    s = graded_faces(extent, h_min_m, GROWTH / cells, m_depths)
+    sf, mf = split_cells(sg.faces, split), split_cells(L + s, split)
     sf[-1] = mf[0] = L
     faces = np.concatenate([sf, mf[1:]])
     ns, nm = sf.size - 1, mf.size - 1
     k = np.concatenate([np.repeat(sg.k, split), np.full(nm, material.conductivity)])
     C = np.concatenate([np.repeat(sg.C, split), np.full(nm, material.density * material.specific_heat)])
-    return _Grid(faces, k, C, interface=ns), extent
+    return FVGrid(faces, k, C, interface=ns), extent
 
 
 def solve_contact(skin, material, resistance, skin_temperature, material_temperature, t,
@@ -232,7 +232,7 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
     """Temperature at one depth after the skin touches a material through a contact resistance.
 
     The numerical method behind ``Contact(..., method="numerical")``: the same problem as
-    DESIGN.md's exact Laplace solution, plus optional layered skin.
+    the exact Laplace solution (docs/design.md), plus optional layered skin.
 
     Parameters
     ----------
@@ -294,8 +294,8 @@ def solve_contact(skin, material, resistance, skin_temperature, material_tempera
     if side not in ("skin", "material"):
         raise ModelInputError(f"{where}: side: expected 'skin' or 'material', got {side!r}")
     Ts0, Tm0 = float(skin_temperature), float(material_temperature)
-    x = _check_depth(skin, depth, where, allow_material=True, material_extent=material.thickness)
-    cells = _check_cells(cells)
+    x = check_depth(skin, depth, where, allow_material=True, material_extent=material.thickness)
+    cells = check_cells(cells)
     if isinstance(split, bool) or not isinstance(split, (int, np.integer)) or split < 1:
         raise ModelInputError(f"{where}: split: expected an integer >= 1, got {split!r}")
     if x <= 0.0:
@@ -329,7 +329,7 @@ def _contact_theta(skin, material, R, t1, t_max, x, side, cells, epidermis_prope
     g_left = 1.0 / half[0]
     far_dirichlet = material.thickness is None
     g_right = 1.0 / half[-1] if far_dirichlet else 0.0
-    op = _Modal(grid, g_left, g_right, r_interface=R)
+    op = Modal(grid, g_left, g_right, r_interface=R)
     n = grid.k.size
     i_m = grid.interface
     # theta = (T - T_M0) / (T_S0 - T_M0): 1 at x = 0, 0 at a truncated half-space's far end
@@ -346,7 +346,7 @@ def _contact_theta(skin, material, R, t1, t_max, x, side, cells, epidermis_prope
                 w = G * half[i_m]
                 c[i_m], c[i_m - 1] = 1.0 - w, w
     else:
-        c = _face_weights(grid, half, x)
+        c = face_weights(grid, half, x)
     b = np.zeros(n)
     b[0] = g_left
     theta_inf = op.steady(b)
@@ -354,12 +354,12 @@ def _contact_theta(skin, material, R, t1, t_max, x, side, cells, epidermis_prope
     theta0[:i_m] = 1.0
     gamma = op.project(c)
     amp = op.V.T @ (op.sm * (theta0 - theta_inf))
-    theta = float(c @ theta_inf) + _exp_sum(gamma * amp, op.lam, t1)
+    theta = float(c @ theta_inf) + exp_sum(gamma * amp, op.lam, t1)
     at0 = t1 == 0.0
     if np.any(at0):   # exactly at contact: the initial temperature of the side asked for
         theta[at0] = 1.0 if (x < L or (x == L and side == "skin")) else 0.0
         if x == L and R == 0.0:   # ... except the t -> 0+ contact value of two touching bodies
-            epi = _skin_layers(skin, epidermis_properties)[1]
+            epi = fv_skin_layers(skin, epidermis_properties)[1]
             bs = math.sqrt(epi.conductivity * epi.density * epi.specific_heat)
             bm = math.sqrt(material.conductivity * material.density * material.specific_heat)
             theta[at0] = bs / (bs + bm)

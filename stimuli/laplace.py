@@ -1,4 +1,4 @@
-r"""The exact contact problem in the Laplace domain (DESIGN.md, "The physics").
+r"""The exact contact problem in the Laplace domain (docs/design.md, "The physics").
 
 Skin slab 0 < x < L held at theta = 1 at x = 0; material x > L, a half-space or
 a slab of thickness D with an insulated back; contact resistance R at x = L.

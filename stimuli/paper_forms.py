@@ -232,7 +232,7 @@ def eq7(P: PaperParameters, t, printed: bool = False):
     Examples
     --------
     >>> P = PaperParameters(650e-6, 0.34 / (1200 * 3340), 1167.36, 0.34, 14.9 / (7900 * 447), 7253.71, 0.0)
-    >>> round(24 + 11 * 2 * (1 + P.gamma) / 2, 2)   # Eq. 7 (R = 0) never exceeds this, DESIGN.md
+    >>> round(24 + 11 * 2 * (1 + P.gamma) / 2, 2)   # Eq. 7 (R = 0) never exceeds this, docs/design.md
     27.05
     >>> bool(24 + 11 * eq7(P, 20.0, printed=True) < 27.05)
     True

@@ -27,8 +27,8 @@ How the error is bounded (cheaply, and checked)
   is neglected without evaluating anything, and the model without it becomes the reference of
   the later drops, its bound added to their errors.
 * Screens (``screen=True``, production) keep an effect without evaluating it when it certainly
-  matters: a warmed-through slab (:func:`_warmed_through`) and, at the receptor, layered skin
-  whose quasi-steady effect is ``LAYER_SCREEN`` tolerances (:func:`_layers_matter`) or whose
+  matters: a warmed-through slab (:func:`warmed_through`) and, at the receptor, layered skin
+  whose quasi-steady effect is ``LAYER_SCREEN`` tolerances (:func:`layers_matter`) or whose
   effect is at least ``LAYER_LOWER_SCREEN`` tolerances by a Laplace-domain lower bound
   (:func:`_effect_lower_bound`, exact transforms at a real s). Keeping
   is always safe; the tests check that every screened keep is an evaluated keep. With these,
@@ -49,8 +49,8 @@ import numpy as np
 
 from .exact import INVERSION_ERROR, WINDOW_RATIO, InversionPlan
 from .scene import Model, Scene, evaluate
-from .planner_bounds import (_PERFUSION_LAPLACE_NOTE, _PERFUSION_NOTE, _half_space, _layers_matter,
-                             _lower_screen, _skin, _warmed_through, perfusion_bound,
+from .planner_bounds import (PERFUSION_LAPLACE_NOTE, PERFUSION_NOTE, as_half_space, layers_matter,
+                             lower_screen, scene_skin, warmed_through, perfusion_bound,
                              perfusion_laplace_bound)
 from .planner_bounds import perfusion_factor  # noqa: F401 (public as stimuli.planner.perfusion_factor)
 
@@ -142,7 +142,7 @@ def _probe_times(scene: Scene) -> np.ndarray:
 
 
 @lru_cache(maxsize=32)
-def _probes(duration_s: float, rate_Hz: float, cheap: bool = False):
+def probe_plan(duration_s: float, rate_Hz: float, cheap: bool = False):
     """Probe times and their inversion plan, shared by every scene of that duration and rate.
 
     ``cheap``: ``PROBE_NODES`` per window, error within ``PROBE_INVERSION_ERROR`` (the scene
@@ -221,7 +221,7 @@ def plan(scene: Scene, *, screen: bool = True) -> Plan:
         Keep, without evaluating it, a slab that is certainly warmed through over the scene
         (D < sqrt(alpha_M t_end) / 2: its back is felt within the scene, by kelvins on metals);
         keeping an effect is always safe, so this only saves the planner's time. Its decision then
-        has ``bound_K = nan``. Likewise layered skin at the receptor (:func:`_layers_matter`), and
+        has ``bound_K = nan``. Likewise layered skin at the receptor (:func:`layers_matter`), and
         perfusion neglected by its closed form (:func:`perfusion_bound`) when that fits.
         ``False`` evaluates every effect (``thermocue explain``).
 
@@ -238,7 +238,7 @@ def plan(scene: Scene, *, screen: bool = True) -> Plan:
     >>> [(d.effect, d.included) for d in p.decisions]
     [('sensor', False), ('perfusion', False), ('slab', True)]
     """
-    return _plan(_resolved(scene), bool(screen))
+    return plan_scene(_resolved(scene), bool(screen))
 
 
 def _resolved(scene: Scene) -> Scene:
@@ -248,7 +248,7 @@ def _resolved(scene: Scene) -> Scene:
     out = object.__new__(Scene)
     out.__dict__.update(scene.__dict__)
     for k, v in (("resistance", scene.contact_resistance),
-                 ("material", _half_space(scene)),
+                 ("material", as_half_space(scene)),
                  ("support", None if scene.support is None else scene.support_object())):
         object.__setattr__(out, k, v)
     return out
@@ -263,8 +263,8 @@ def _at_probes(scene: Scene, model: Model, probes: np.ndarray, ip: InversionPlan
     """
     if model.method != "exact":
         return evaluate(scene, model, probes)
-    from .scene import _contact
-    c = _contact(scene, model)
+    from .scene import scene_contact
+    c = scene_contact(scene, model)
     tr = c.transform
     if scene.quantity == "interface_material":
         theta = ip.apply(tr.material_rise(ip.s, tr.L))
@@ -278,9 +278,9 @@ def _at_probes(scene: Scene, model: Model, probes: np.ndarray, ip: InversionPlan
 
 
 @lru_cache(maxsize=256)
-def _plan(scene: Scene, screen: bool = True) -> Plan:
+def plan_scene(scene: Scene, screen: bool = True) -> Plan:
     full = scene.full_model()
-    probes, ip = _probes(scene.duration_s, scene.rate_Hz, cheap=True)
+    probes, ip = probe_plan(scene.duration_s, scene.rate_Hz, cheap=True)
     dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
     inv = INVERSION_ERROR * dT                  # a production evaluation's inversion error
     pinv = PROBE_INVERSION_ERROR * dT           # a probe value's inversion error
@@ -293,7 +293,7 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
     def skin():
         if "skin" not in cache:
             L = scene.skin_thickness_m
-            cache["skin"] = _skin(L, L - scene.receptor_depth)     # = scene.skin, made once
+            cache["skin"] = scene_skin(L, L - scene.receptor_depth)     # = scene.skin, made once
         return cache["skin"]
 
     def layers_screen(cand):
@@ -301,9 +301,9 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
         # perfusion step and again by the layers' own step: computed once per (reference, candidate)
         key = ("layers", ref_model, cand, ref_offset)
         if key not in cache:
-            why = _layers_matter(scene, skin())
+            why = layers_matter(scene, skin())
             if why is None:
-                why = _lower_screen(scene, ref_model, cand, skin(), tol, ref_offset)
+                why = lower_screen(scene, ref_model, cand, skin(), tol, ref_offset)
             cache[key] = why
         return cache[key]
 
@@ -343,7 +343,7 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             if effect == "slab" and current.geometry == "slab-on-support":
                 decisions.append(Decision("slab", True, math.nan, "kept with its support"))
             continue
-        why = _warmed_through(scene) if (screen and effect == "slab") else None
+        why = warmed_through(scene) if (screen and effect == "slab") else None
         if why is not None:
             decisions.append(Decision(effect, True, math.nan, why))
             continue
@@ -355,14 +355,14 @@ def _plan(scene: Scene, screen: bool = True) -> Plan:
             b = perfusion_bound(scene, skin())
             err = b + inv + inv + sensor_bound
             if err <= tol:          # neglected by the closed form, without evaluating anything
-                decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + _PERFUSION_NOTE))
+                decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + PERFUSION_NOTE))
                 current, current_err, ref_model, ref_offset = cand, err, cand, b
                 continue
             # where heat leaks out of the skin within the scene: the Laplace-domain bound
             b = perfusion_laplace_bound(scene, current, skin(), tol - inv - inv - sensor_bound)
             err = b + inv + inv + sensor_bound
             if err <= tol:
-                decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + _PERFUSION_LAPLACE_NOTE))
+                decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + PERFUSION_LAPLACE_NOTE))
                 current, current_err, ref_model, ref_offset = cand, err, cand, b
                 continue
             # neither bound settles it. Where the layers are kept anyway (their screen says so) the

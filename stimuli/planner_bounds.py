@@ -17,8 +17,8 @@ from .properties import Material
 from .scene import Model, Scene
 
 
-_PERFUSION_NOTE = "bounded in closed form (maximum principle), not evaluated"
-_PERFUSION_LAPLACE_NOTE = ("bounded in the Laplace domain (maximum principle, a majorant that grows "
+PERFUSION_NOTE = "bounded in closed form (maximum principle), not evaluated"
+PERFUSION_LAPLACE_NOTE = ("bounded in the Laplace domain (maximum principle, a majorant that grows "
                            "in time), not evaluated")
 
 
@@ -100,7 +100,7 @@ LAYER_LAPLACE_ST = (8.0, 4.0, 16.0)
 LAYER_LOWER_SCREEN = 2.0
 
 
-def _real_point(rows, s: float, x: float, perfused: bool = True):
+def real_point(rows, s: float, x: float, perfused: bool = True):
     """The deficit at x (from the core) per unit flux into the surface, and Z_S, of the stack
     ``rows`` (:func:`stimuli.layered.layer_rows`) at a real s > 0, in one pass from the core up.
 
@@ -135,7 +135,7 @@ def _real_point(rows, s: float, x: float, perfused: bool = True):
 
 def _real_material(scene: Scene, geometry: str, s: float) -> float:
     """Z_M of the scene's sample in ``geometry`` at a real s > 0."""
-    m = _half_space(scene)
+    m = as_half_space(scene)
     qm = math.sqrt(s / m.diffusivity)
     zm = 1.0 / (m.conductivity * qm)
     if geometry == "half-space":
@@ -161,7 +161,7 @@ def _real_quantity(scene: Scene, model: Model, skin, s: float, Zm: float | None 
     L = 0.0
     for row in rows:
         L += row[0]
-    r, Zs = _real_point(rows, s, L - scene.receptor_depth if scene.quantity == "receptor" else L)
+    r, Zs = real_point(rows, s, L - scene.receptor_depth if scene.quantity == "receptor" else L)
     if Zm is None:
         Zm = _real_material(scene, model.geometry, s)
     F = 1.0 / (s * (scene.contact_resistance + Zs + Zm))
@@ -208,8 +208,8 @@ def perfusion_laplace_bound(scene: Scene, model: Model, skin=None, tolerance: fl
     best = math.inf
     for a in PERFUSION_LAPLACE_ST:
         s = a / T
-        r_p, Zp = _real_point(rows, s, x, True)
-        r_0, Z0 = _real_point(rows, s, x, False)
+        r_p, Zp = real_point(rows, s, x, True)
+        r_0, Z0 = real_point(rows, s, x, False)
         Zm = _real_material(scene, model.geometry, s)
         A = 1.0 / (s * (R + Zp))
         J = A * (Z0 - Zp) / (R + Zm + Z0)
@@ -225,7 +225,7 @@ def perfusion_laplace_bound(scene: Scene, model: Model, skin=None, tolerance: fl
     return best
 
 
-def _lower_screen(scene: Scene, ref: Model, cand: Model, skin, tol: float, offset: float):
+def lower_screen(scene: Scene, ref: Model, cand: Model, skin, tol: float, offset: float):
     """Why dropping ``cand``'s effect from ``ref`` (itself within ``offset`` of the full model)
     certainly breaks the tolerance (screen: the effect kept without evaluation), or None."""
     need = LAYER_LOWER_SCREEN * tol + offset
@@ -260,11 +260,11 @@ def _effect_lower_bound(scene: Scene, ref: Model, cand: Model, skin, need: float
 
 
 #: The layers are kept without evaluation when their steady effect at the receptor is at least
-#: this many tolerances (:func:`_layers_matter`).
+#: this many tolerances (:func:`layers_matter`).
 LAYER_SCREEN = 4.0
 
 
-def _layers_matter(scene: Scene, skin=None) -> str | None:
+def layers_matter(scene: Scene, skin=None) -> str | None:
     """Why the scene's layered skin certainly matters at the receptor (screen), or None.
 
     Once the scene is longer than the skin's diffusion time L^2 / alpha (Table 1's skin), the
@@ -287,7 +287,7 @@ def _layers_matter(scene: Scene, skin=None) -> str | None:
     T = scene.duration_s
     if T < L * L / skin.diffusivity:
         return None
-    m = _half_space(scene)
+    m = as_half_space(scene)
     ell = math.sqrt(m.diffusivity * T)
     Zm = ell / m.conductivity                                   # half-space at s = 1/T
     if scene.geometry != "half-space":
@@ -311,7 +311,7 @@ def _layers_matter(scene: Scene, skin=None) -> str | None:
             f"{effect:.3g} K with the layers (>= {LAYER_SCREEN:g} x the tolerance)")
 
 
-def _half_space(scene: Scene) -> Material:
+def as_half_space(scene: Scene) -> Material:
     """The scene's material as a half-space (the resolved scene holds it: no copy to build)."""
     m = scene.material
     if isinstance(m, Material) and m.thickness is None:
@@ -322,7 +322,7 @@ def _half_space(scene: Scene) -> Material:
 
 
 @lru_cache(maxsize=64)
-def _skin(thickness: float, dermis: float):
+def scene_skin(thickness: float, dermis: float):
     """``Scene.skin`` (an immutable :class:`stimuli.properties.Skin`), validated once per value."""
     from .properties import Skin
     return Skin(thickness, dermis=dermis)
@@ -341,10 +341,10 @@ def _slab_thickness(scene: Scene) -> float:
     return float(D)
 
 
-def _warmed_through(scene: Scene) -> str | None:
+def warmed_through(scene: Scene) -> str | None:
     """Why the scene's slab certainly matters (screen), or None."""
     D = _slab_thickness(scene)
-    reach = math.sqrt(_half_space(scene).diffusivity * scene.duration_s)
+    reach = math.sqrt(as_half_space(scene).diffusivity * scene.duration_s)
     if D < 0.5 * reach:
         return (f"kept without evaluation: the {D * 1e3:.3g} mm slab is warmed through "
                 f"(sqrt(alpha t) = {reach * 1e3:.3g} mm at {scene.duration_s:g} s)")

@@ -296,7 +296,7 @@ class Scene:
         return replace(self, **changes)
 
 
-def _contact(scene: Scene, model: Model):
+def scene_contact(scene: Scene, model: Model):
     from .layered import LayeredContact, skin_layers
     skin = scene.skin
     layers = skin_layers(skin, layered=model.layered,
@@ -323,7 +323,7 @@ def evaluate(scene: Scene, model: Model, t=None, *, plan=None) -> np.ndarray:
                     scene.skin_temperature_C, scene.material_temperature_C)
         T = c.interface_temperature(t, method="paper-as-printed")
     else:
-        c = _contact(scene, model)
+        c = scene_contact(scene, model)
         x = c.thickness - scene.receptor_depth if scene.quantity == "receptor" else None
         if plan is not None:
             T = np.empty(t.shape)

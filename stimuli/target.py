@@ -13,6 +13,7 @@ resistance R_pad feel exactly the real contact (see :func:`target_profile`, Note
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 
@@ -29,7 +30,7 @@ __all__ = ["TargetProfile", "target_profile", "MODEL_REVISION", "SIDES"]
 SIDES = TARGET_SIDES
 
 #: Bumped when a change in the model would change a cached profile (part of the hash).
-MODEL_REVISION = 2   # 2: profiles planned (issue 12), the plan stored with them
+MODEL_REVISION = 2   # 2: profiles planned by the scene planner, the plan stored with them
 _KIND = "target"
 
 
@@ -337,7 +338,10 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
                                  params, cached=True)
 
     planned = _plan_profile(mat, skin, R, Ts, Tm, duration, rate, res, tol, side, physics)
-    params["plan"] = planned if isinstance(planned, dict) else planned.to_dict()
+    # in the form a cache hit gives back (keys sorted, as stored): a profile's parameters, and the
+    # session log that records them, must not depend on whether the cache held the profile
+    params["plan"] = json.loads(json.dumps(planned if isinstance(planned, dict) else planned.to_dict(),
+                                           sort_keys=True))
     model = None if isinstance(planned, dict) or method != "exact" or tol is not None else planned.model
     if model is not None and _needs_scene(model):
         T, used, model_err = _scene_side_temperature(planned, times, side, R_pad)

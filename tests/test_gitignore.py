@@ -1,4 +1,4 @@
-"""Personal data and results are ignored by git (issue 10, item 9), the examples are not."""
+"""Personal data and results are ignored by git, the examples are not."""
 from __future__ import annotations
 
 import shutil

@@ -89,10 +89,14 @@ def main(argv=None) -> int:
             exp.addData("thermal.status", rec.status)
             exp.addData("thermal.tracking_rms_C", rec.tracking_rms_C)
             exp.addData("thermal.contact_device_s", rec.contact_time_s)
-            # contact onset on the trial clock: PsychoPy time of the contact minus the trial start
+            # contact onset on the trial clock: PsychoPy time of the contact minus the trial start;
+            # nothing when the map is implausible (it says why: clock_status)
+            cmap = display.clockMap
+            mapped = cmap.unmapped is None
+            exp.addData("thermal.clock_status", "mapped" if mapped else f"unmapped: {cmap.unmapped}")
             exp.addData("thermal.contact_trial_s",
-                        trial_clock.getTime() - (display.clockNow() - onset))
-            exp.addData("thermal.clock_uncertainty_s", display.clockMap.uncertainty_s)
+                        trial_clock.getTime() - (display.clockNow() - onset) if mapped else "")
+            exp.addData("thermal.clock_uncertainty_s", cmap.uncertainty_s if mapped else "")
             exp.addData("thermal.contact_force_N", contact.force_N)
             exp.nextEntry()
     finally:

@@ -95,7 +95,7 @@ def _reference_times():
 
 
 def _interface_reference(skin, steel, R, idx, dps=40):
-    """theta_M(L+, t) by mpmath Talbot inversion of DESIGN.md's transform (independent of stimuli)."""
+    """theta_M(L+, t) by mpmath Talbot inversion of the transform in docs/design.md (independent of stimuli)."""
     import mpmath as mp
     with mp.workdps(dps):
         a_s = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
@@ -531,7 +531,7 @@ def _layered_reference(layers, steel, R, idx, dps=30):
 def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     """Rows "layered": the exact layered and perfused contact (receptor) and the scene planner."""
     from stimuli.layered import LayeredContact, skin_layers
-    from stimuli.planner import PROBE_INVERSION_ERROR, PROBE_NODES, _plan, plan
+    from stimuli.planner import PROBE_INVERSION_ERROR, PROBE_NODES, plan_scene, plan
     from stimuli.properties import Skin
     from stimuli.scene import Scene, evaluate
 
@@ -563,7 +563,7 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     errors["planned"] = float(np.max(np.abs(planned[ridx] - ref)))   # ref: the perfused model
 
     def cold():
-        _plan.cache_clear()
+        plan_scene.cache_clear()
         return plan(scene)
     # the production scene (a target profile: the material-side interface of the 3 mm slab, to half
     # the display's 0.01 K resolution), planned from cold; compared with the exact slab interface
@@ -574,7 +574,7 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     slab_contact = Contact(skin, steel.with_thickness(3e-3), R, T_SKIN_C, T_MATERIAL_C)
 
     def prod_cold():
-        _plan.cache_clear()
+        plan_scene.cache_clear()
         return plan(prod)
     # a scene the closed forms and the quasi-steady screen cannot decide (a 2 mm hypodermis: the
     # skin is not quasi-steady within 20 s, perfusion's closed form 0.53 K exceeds the 0.3 K): the
@@ -587,11 +587,11 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     hard_x = hard_contact.thickness - skin.epidermis
 
     def hard_cold():
-        _plan.cache_clear()
+        plan_scene.cache_clear()
         return plan(hard)
 
     def near_cold():
-        _plan.cache_clear()
+        plan_scene.cache_clear()
         return plan(near)
     # the display-driven planner (the simulated participant's trials): 20 s at 1 kHz, layers and
     # perfusion stated, pad 1e-4 m^2 K/W, 0.3 K; a decay drive (the quasi-steady screen cannot

@@ -1,4 +1,4 @@
-"""Sensitivity of Figure 9's headline inputs to the scene's physics (issue 12).
+"""Sensitivity of Figure 9's headline inputs to the scene's physics.
 
 Figure 9 compares recognition between the thin- (group A, L = 650 µm) and thick-skinned (group B,
 1000 µm) participants; what the simulated observer recognises are the receptor temperatures of

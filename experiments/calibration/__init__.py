@@ -1,4 +1,4 @@
-"""Per-participant calibration (issue 6): fit contact resistances and skin thickness to traces.
+"""Per-participant calibration: fit contact resistances and skin thickness to traces.
 
 The paper's Remark 3: initial skin temperatures and contact resistances differ between
 people; "we can manage to measure them ... as soon as they are determined, the theoretical

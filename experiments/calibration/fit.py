@@ -27,7 +27,7 @@ import numpy as np
 from experiments.calibration.errors import CalibrationError, CalibrationRefused
 from experiments.calibration.model import ContactSetup
 # the problem and the planning live in their own modules; re-exported here
-from experiments.calibration.planning import (_GEOMETRY_RANK, _plan_calibration_scene,  # noqa: F401
+from experiments.calibration.planning import (GEOMETRY_RANK, plan_calibration_scene,  # noqa: F401
                                               plan_calibration, planned_setup)
 from experiments.calibration.problem import BOUNDS, SKIN_TEMPERATURE_MODES, FitProblem
 
@@ -232,7 +232,7 @@ def fit_traces(traces, setup: ContactSetup | None = None, *, fit_skin_temperatur
         about (:mod:`experiments.calibration.misspecification`, with the geometry and sensor-lag
         checks).
     plan_model : bool
-        Compute the readings with the scene planner's model of the contact (issue 12; planned once
+        Compute the readings with the scene planner's model of the contact (planned once
         per fit at the start values and the traces' white-noise level as tolerance, checked at the
         fitted values and refitted with the stated model when the planner then keeps more).
         ``False``: the exact model of ``setup`` (the reference the planned fit is tested against).
@@ -287,7 +287,7 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     problem = FitProblem(traces, setup, fit_skin_temperature)
     forward, forward_record = None, None
     if plan_model:
-        # the forward model is the planner's (issue 12): the scene planned once, at the start values'
+        # the forward model is the planner's: the scene planned once, at the start values'
         # R and L and the traces' own white-noise level as tolerance; checked at the fitted values below
         start = problem.to_natural(_start_values(problem, skin_thickness_guess)[0])
         noise = float(np.median([tr.noise_C for tr in problem.traces]))
@@ -341,7 +341,7 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     if forward is not None:
         check = diag["plan"]
         used = forward.model.geometry
-        if _GEOMETRY_RANK.get(check.get("geometry"), -1) > _GEOMETRY_RANK[used]:
+        if GEOMETRY_RANK.get(check.get("geometry"), -1) > GEOMETRY_RANK[used]:
             # at the fitted values the planner keeps what the start values let it drop: refit with it
             return _fit_traces(traces, setup,
                                fit_skin_temperature=fit_skin_temperature,
@@ -371,7 +371,7 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
 
 
 def _check_misspecification(fit, skin_temperature_sd_C):
-    """Warn when a plausible misspecification moves an estimate beyond its interval (issue 12);
+    """Warn when a plausible misspecification moves an estimate beyond its interval;
     with ``skin_temperature_sd_C`` (T_S0 given, not fitted) widen the intervals by its effect."""
     from experiments.calibration.misspecification import (MISSPECIFICATIONS, misspecification_shifts,
                                                           propagate_skin_temperature)
@@ -395,4 +395,4 @@ def _check_misspecification(fit, skin_temperature_sd_C):
                                 f"{c['size']}) would move {moved}, beyond the interval: the "
                                 f"intervals do not include the model's own uncertainty")
     fit.diagnostics["misspecification"] = shifts
-    fit.diagnostics["plan"] = _plan_calibration_scene(fit)
+    fit.diagnostics["plan"] = plan_calibration_scene(fit)

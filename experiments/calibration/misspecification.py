@@ -25,6 +25,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from experiments.calibration.problem import FitProblem
+
 __all__ = ["misspecification_shifts", "MISSPECIFICATIONS"]
 
 #: The plausible errors checked, with their default sizes.
@@ -60,8 +62,6 @@ def misspecification_shifts(fit, *, skin_temperature_error_C: float = 0.3,
         relative shift for R and L, K for T_S0) and ``beyond`` (the parameters moved out of their
         interval).
     """
-    from experiments.calibration.fit import FitProblem
-
     prob = fit.problem
     x = np.asarray(fit.coordinates, dtype=float)
     y, J = prob.predict(x, jacobian=True)

@@ -1,6 +1,6 @@
 """Forward model of a measured contact trace: what the temperature sensor reads after contact.
 
-The skin is the slab 0 < x < L of DESIGN.md (inner boundary held at T_S0), the sample is a
+The skin is the slab 0 < x < L of docs/design.md (inner boundary held at T_S0), the sample is a
 half-space or a slab of thickness D with an insulated back (the paper's samples: D = 3 mm),
 and the contact between them has the effective resistance R.  Where the sensor sits is an
 explicit choice (:class:`Sensor`):
@@ -280,7 +280,7 @@ def sensor_response(t, resistance: float, skin_thickness: float, setup: ContactS
     .. math:: \hat\theta_{L^-} = \frac{1}{s}\,\frac{R\sqrt s + z_M}{R\sqrt s + z_S + z_M},\qquad
               \hat\theta_{L^+} = \frac{1}{s}\,\frac{z_M}{R\sqrt s + z_S + z_M}
 
-    which is DESIGN.md's interface flux F(s) multiplied by the material impedance
+    which is the interface flux F(s) (docs/design.md) multiplied by the material impedance
     (material side) or subtracted through the skin impedance (skin side).  The lumped
     sensor node obeys :math:`C(s\hat\theta - 1) = A(1/s - \hat\theta) - B\hat\theta` with
     :math:`A = \sqrt s/(R_1\sqrt s + z_S)`, :math:`B = \sqrt s/(R\sqrt s + z_M)`; with C = 0

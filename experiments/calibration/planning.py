@@ -1,4 +1,4 @@
-"""The calibration's contact as a scene of the planner (issue 12): the planner's model reduced
+"""The calibration's contact as a scene of the planner: the planner's model reduced
 to the calibration's setup, and the plan of a fitted calibration's contact.
 """
 from __future__ import annotations
@@ -11,7 +11,7 @@ from experiments.calibration.model import ContactSetup
 __all__ = ["planned_setup", "plan_calibration"]
 
 
-_GEOMETRY_RANK = {"half-space": 0, "slab": 1, "slab-on-support": 2}
+GEOMETRY_RANK = {"half-space": 0, "slab": 1, "slab-on-support": 2}
 
 
 def planned_setup(setup: ContactSetup, model) -> ContactSetup:
@@ -36,7 +36,7 @@ def planned_setup(setup: ContactSetup, model) -> ContactSetup:
 
 def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickness: float,
                      tolerance_K: float):
-    """Plan the calibration's contact scene (issue 12): the longest trace's times, its temperatures,
+    """Plan the calibration's contact scene: the longest trace's times, its temperatures,
     ``resistance`` and ``skin_thickness``, the sensor's side as the quantity, ``tolerance_K``.
 
     Returns
@@ -71,7 +71,7 @@ def plan_calibration(traces, setup: ContactSetup, resistance: float, skin_thickn
         return None, {"note": f"not planned: {exc}"}
 
 
-def _plan_calibration_scene(fit):
+def plan_calibration_scene(fit):
     """The scene planner's view of the calibration's contact at the fitted values, at the traces' own
     noise level (tolerance = the residual SD), for a massless sensor."""
     prob = fit.problem

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.atomicfile import output_file, output_path
 from experiments.calibration.fit import CalibrationFit
 
 __all__ = ["write_report", "fit_summary", "plot_residuals"]
@@ -112,7 +113,8 @@ def plot_residuals(fit: CalibrationFit, path) -> Path:
     ax2.set_ylabel("data − model (°C)")
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=120)
+    with output_path(path) as tmp:
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)
     return path
 
@@ -130,7 +132,7 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
     summary = fit_summary(fit)
     if extra:
         summary.update(extra)
-    with open(out / "resistances.csv", "w", encoding="utf-8", newline="") as fh:
+    with output_file(out / "resistances.csv") as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(["sample", "roughness_id", "roughness_um", "n_traces", "R_m2K_W", "R_low_m2K_W",
                     "R_high_m2K_W", "R_eq5_m2K_W", "rms_residual_C"])
@@ -146,7 +148,7 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
         ts0_mean = float(np.mean([t["fitted_skin_temperature_C"]["value"] for t in summary["traces"]]))
     else:
         ts0_mean = float(np.mean([t["skin_temperature_C"] for t in summary["traces"]]))
-    with open(out / "skin.csv", "w", encoding="utf-8", newline="") as fh:
+    with output_file(out / "skin.csv") as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(["skin_thickness_um", "skin_thickness_low_um", "skin_thickness_high_um",
                     "skin_temperature_C", "skin_temperature_low_C", "skin_temperature_high_C",
@@ -197,9 +199,10 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
               "properties and perfusion the model leaves out (docs/scene-physics.md)."]
     lines += ["", "R is the *effective* resistance between the sensor's side and the sample for this "
               "sensor placement; it is what simulated trials of this participant should use.", ""]
-    (out / "parameters.md").write_text("\n".join(lines), encoding="utf-8")
+    with output_file(out / "parameters.md") as fh:
+        fh.write("\n".join(lines))
     plot_residuals(fit, out / "residuals.png")
-    with open(out / "fit.json", "w", encoding="utf-8") as fh:
+    with output_file(out / "fit.json") as fh:
         json.dump(summary, fh, indent=2, default=_json_default)
         fh.write("\n")
     return summary

@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -81,10 +81,18 @@ def read_trace_csv(path) -> dict:
     CalibrationError
         Missing file, missing column, unreadable number.
     """
+    from experiments.session_reader import MAX_BYTES, SessionFileError, read_regular_bytes
     path = Path(path)
-    if not path.is_file():
+    if not os.path.lexists(path):
         raise CalibrationError(f"{path}: expected a trace file, got none")
-    raw = path.read_bytes()
+    try:                    # regular files only, bounded, never a blocking open
+        raw = read_regular_bytes(path, MAX_BYTES["trace"])
+    except SessionFileError as exc:
+        raise CalibrationError(str(exc)) from None
+    except FileNotFoundError:
+        raise CalibrationError(f"{path}: expected a trace file, got none") from None
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raw = raw[3:]
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -140,16 +148,6 @@ def _median_finite(x):
     return float(np.median(x)) if x.size else float("nan")
 
 
-def _load_json(path: Path) -> dict:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return json.load(fh)
-    except FileNotFoundError:
-        raise CalibrationError(f"{path}: expected a session.json, got none") from None
-    except json.JSONDecodeError as exc:
-        raise CalibrationError(f"{path}: expected JSON, got a syntax error at line {exc.lineno}") from None
-
-
 def _session_protocol(session: dict, path: Path):
     data = session.get("protocol")
     if not isinstance(data, dict):
@@ -197,14 +195,26 @@ def load_session_traces(session_dir, *, sensor_side: str = "material", skin_temp
     if not session_dir.is_dir():
         raise CalibrationError(f"{session_dir}: expected a session directory, got none")
     spath = session_dir / "session.json"
-    session = _load_json(spath)
+    tpath = session_dir / "trials.csv"
+    # the one reader of session folders: regular UTF-8 files, session.json against the log,
+    # every trial row in the trial table's domain
+    from experiments.session_reader import SessionFileError, read_session_folder
+    try:
+        read = read_session_folder(session_dir)
+        if not os.path.lexists(spath):
+            raise CalibrationError(f"{spath}: expected a session.json, got none")
+        if read.meta is None:
+            raise CalibrationError(f"{spath}: expected a JSON object, got "
+                                   + (read.notes[0].split(": ", 1)[-1] if read.notes else "none"))
+        if read.trials_csv is None:
+            raise CalibrationError(f"{tpath}: expected the trials table, got none")
+        rows, source, lines = read.trial_rows()      # the log's when trials.csv is older
+        read.check_rows(rows, source, lines)
+    except SessionFileError as exc:
+        raise CalibrationError(str(exc)) from None
+    session = read.meta
     protocol = _session_protocol(session, spath)
     participant = _session_participant(session)
-    tpath = session_dir / "trials.csv"
-    if not tpath.is_file():
-        raise CalibrationError(f"{tpath}: expected the trials table, got none")
-    with open(tpath, encoding="utf-8", newline="") as fh:
-        rows = list(csv.DictReader(fh))
     for col in ("mode", "status", "roughness_id", "trial_index"):
         if rows and col not in rows[0]:
             raise CalibrationError(f"{tpath}: {col}: expected a column {col!r}, got columns {list(rows[0])}")

@@ -37,6 +37,7 @@ SUBCOMMANDS = {
     "calibrate": "calibrate",
     "explain": "explain",
     "export-bids": "export_bids",
+    "psyexp": "psyexp",
 }
 
 

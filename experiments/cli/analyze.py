@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import logging
 import time
+from pathlib import Path
 import warnings
 
 log = logging.getLogger("thermocue.analysis")
@@ -26,6 +27,10 @@ def register(sub) -> None:
                    help="which sessions of a participant are analysed: the first complete one "
                         "(default), the latest complete one, or all (incomplete ones included); "
                         "the report lists every session and why")
+    p.add_argument("--equivalence-margin-pp", type=float, default=None, metavar="PP",
+                   help="margin of the real-vs-simulated equivalence test, percentage points of "
+                        "proportion correct (default: the protocol's [analysis] "
+                        "equivalence_margin_pp, else 10)")
     p.add_argument("--no-mixed", action="store_true",
                    help="skip the maximum-likelihood mixed logit (faster)")
     p.add_argument("--bayes-vb", action="store_true",
@@ -49,11 +54,19 @@ def _run(ns) -> int:
     def progress(message: str) -> None:      # analysis.analyze's steps, with the time so far
         log.info("[%6.1f s] %s", time.monotonic() - start, message)
 
+    from experiments.atomicfile import OutputFolder
+    folder = OutputFolder(ns.out, "thermocue analyze")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LogWarning)     # listed in the report and below
         result = analyze(ns.data_dir, ns.out, n_boot=ns.bootstrap, seed=ns.seed,
                          bayes=ns.bayes_vb and not ns.no_bayes, mixed=not ns.no_mixed,
-                         progress=progress, sessions=ns.sessions)
+                         progress=progress, sessions=ns.sessions,
+                         equivalence_margin_pp=ns.equivalence_margin_pp,
+                         before_write=folder.begin)     # COMPLETE removed, written last
+    written = {Path(p) for p in result.files.values()}
+    written |= {p.with_suffix(".pdf") for p in written if p.suffix == ".png"
+                and p.with_suffix(".pdf").is_file()}            # figure9's vector copy
+    folder.finish(written)
     for message in result.log.warnings:
         log.warning("warning: %s", message)
     progress(f"done: {result.files['report']}")

@@ -92,6 +92,7 @@ def run(ns) -> int:
     from experiments.calibration.model import (DEFAULT_SENSOR_HEAT_CAPACITY,
                                                DEFAULT_SENSOR_SKIN_RESISTANCE)
     from experiments.calibration.errors import CalibrationError
+    from experiments.atomicfile import OutputFolder, output_file
     from experiments.cli.paths import check_writable_dir
 
     check_writable_dir(ns.out, "--out")      # before the fit (minutes), nothing written
@@ -126,24 +127,27 @@ def run(ns) -> int:
             raise CalibrationError(f"{ns.write_participant}: id: expected the session's participant "
                                    f"{st.participant_id!r}, got {rec.get('id')!r}")
     out = Path(ns.out)
+    folder = OutputFolder(out, "thermocue calibrate")
     try:
         fit = fit_traces(st.traces, setup, fit_skin_temperature=ns.fit_skin_temperature,
                          skin_thickness_guess=guess, interval=ns.interval, level=ns.level,
                          bootstrap_samples=ns.bootstrap_samples, seed=ns.seed,
                          skin_temperature_sd_C=ns.skin_temperature_sd_C)
     except CalibrationRefused as exc:
-        out.mkdir(parents=True, exist_ok=True)
+        folder.begin()
         for name in REPORT_FILES:          # no stale report from an earlier run next to a refusal
             (out / name).unlink(missing_ok=True)
-        with open(out / "refusal.json", "w", encoding="utf-8") as fh:
+        with output_file(out / "refusal.json") as fh:
             json.dump({"session": str(ns.session_dir), "setup": setup.describe(),
                        "reasons": list(exc.reasons), "diagnostics": exc.diagnostics}, fh, indent=2,
                       default=str)
             fh.write("\n")
         raise CalibrationRefused(f"{ns.session_dir}: {exc}", exc.reasons, exc.diagnostics) from None
+    folder.begin()                   # COMPLETE only once every file of this run is written
     (out / "refusal.json").unlink(missing_ok=True)
     write_report(fit, out, extra={"session": str(ns.session_dir), "participant": st.participant_id,
                                   "skipped_trials": st.skipped})
+    folder.finish()
     L = fit.skin_thickness
     print(f"calibrate: {len(st.traces)} traces, {len(fit.resistances())} samples; "
           f"L = {L.value * 1e6:.0f} µm [{L.low * 1e6:.0f}, {L.high * 1e6:.0f}] ({fit.level:.0%}), "

@@ -2,7 +2,8 @@
 
 The options live in :mod:`experiments.hardware.emulator_options`, the server in
 :mod:`experiments.hardware.pty_server` (hardware never imports the CLI); this module only
-registers the sub-command.
+registers the sub-command. ``--model tcs2`` serves the QST.Lab TCS II emulator instead
+(:mod:`experiments.hardware.tcs2.pty_server`; open it with ``--display tcs2://PATH``).
 """
 from __future__ import annotations
 
@@ -13,12 +14,20 @@ def register(sub) -> None:
         "emulator",
         help="serve the emulated thermal display on a pty (prints the path; SIGINT/SIGTERM stops)",
         description="Serve the emulated thermal display on a real pseudo-terminal. The first line "
-                    "printed is the pty's path; open it with --display PATH. Runs until SIGINT "
-                    "or SIGTERM.")
+                    "printed is the pty's path; open it with --display PATH (--model tcs2: "
+                    "--display tcs2://PATH). Runs until SIGINT or SIGTERM.")
     add_arguments(p)
+    p.add_argument("--model", choices=("thermocue", "tcs2"), default="thermocue",
+                   help="thermocue: the thermocue display (default); tcs2: a QST.Lab TCS II "
+                        "(its ASCII protocol; --faults as in docs/tcs2.md)")
+    p.add_argument("--speed", type=float, default=1.0, metavar="K",
+                   help="--model tcs2 only: run K times faster than wall time (default 1)")
     p.set_defaults(func=_run)
 
 
 def _run(ns) -> int:
+    if ns.model == "tcs2":
+        from experiments.hardware.tcs2.pty_server import run as run_tcs2
+        return run_tcs2(ns)   # UserInputError (bad --faults, --clock virtual) -> exit 2
     from experiments.hardware.pty_server import run
     return run(ns)          # UserInputError (bad --faults, --link held) -> exit 2

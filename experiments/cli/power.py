@@ -127,18 +127,22 @@ def _run(ns) -> int:
                          participant_sd=sd, mode=ns.mode, alpha=ns.alpha, test=ns.test,
                          cells_scale=scale, missing_rate=ns.missing_rate, seed=ns.seed,
                          progress=progress)
-    out = Path(ns.out)
-    out.mkdir(parents=True, exist_ok=True)
-    result.table.to_csv(out / "power.csv", index=False)
-    result.cells.to_csv(out / "cells.csv", index=False)
-    (out / "power_summary.json").write_text(json.dumps(
-        {**result.settings, "cells_source": source, "n_per_group_grid": [
-            list(s) if isinstance(s, tuple) else s for s in sizes]}, indent=2), "utf-8")
-    from analysis.exports import codebook
-    (out / "codebook.json").write_text(json.dumps(codebook(
-        {"power": out / "power.csv", "cells": out / "cells.csv"}), indent=2, ensure_ascii=False),
-        "utf-8")
+    from analysis.exports import codebook, write_csv
+    from experiments.atomicfile import OutputFolder, output_file
+
+    folder = OutputFolder(ns.out, "thermocue power")
+    out = folder.begin()                # every file whole (temporary + rename), COMPLETE last
+    write_csv(result.table, out / "power.csv")
+    write_csv(result.cells, out / "cells.csv")
+    with output_file(out / "power_summary.json") as fh:
+        fh.write(json.dumps(
+            {**result.settings, "cells_source": source, "n_per_group_grid": [
+                list(s) if isinstance(s, tuple) else s for s in sizes]}, indent=2))
+    with output_file(out / "codebook.json") as fh:
+        fh.write(json.dumps(codebook({"power": out / "power.csv", "cells": out / "cells.csv"}),
+                            indent=2, ensure_ascii=False))
     plot_power(result, out / "power.png")
+    folder.finish()
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
     print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))
     grid_max = max(max(s) if isinstance(s, tuple) else s for s in sizes)

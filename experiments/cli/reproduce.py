@@ -1,8 +1,8 @@
 """`thermocue reproduce {figure9,table2,figures} --out DIR`: the paper's results, recomputed.
 
 * ``figures``: Figs. 3, 4a, 4b, 5, 6 as PNG + CSV, each with the paper's formulas as
-  printed, corrected, and the exact solution side by side (:mod:`analysis.model_figures`).
-* ``table2``: Table 2 beside our models, with residuals (:mod:`analysis.table2`); the
+  printed, corrected, and the exact solution side by side (:mod:`experiments.reproduction.model_figures`).
+* ``table2``: Table 2 beside our models, with residuals (:mod:`experiments.reproduction.table2`); the
   markdown table is also printed.
 * ``figure9``: the paper's claims under every (replay hypothesis x observer) scenario from
   many simulated 15 + 15 studies, then the 30-participant study on the emulated display for the
@@ -97,14 +97,21 @@ def _run(ns) -> int:
                                      f"with `reproduce {ns.target}`")
     # figure9 makes its folder itself, once every option has been checked
     out = _out_dir(ns.out, create=ns.target != "figure9")
+    from experiments.atomicfile import OutputFolder
+    folder = OutputFolder(out, f"thermocue reproduce {ns.target}")   # COMPLETE written last
     if ns.target == "figures":
-        from analysis.model_figures import write_figures
-        for path in write_figures(out):
+        from experiments.reproduction.model_figures import write_figures
+        folder.begin()
+        written = write_figures(out)
+        folder.finish(written)
+        for path in written:
             print(path)
         return 0
     if ns.target == "table2":
-        from analysis.table2 import write_table2
+        from experiments.reproduction.table2 import write_table2
+        folder.begin()
         csv_path, md_path, md = write_table2(out)
+        folder.finish([csv_path, md_path])
         print(md)
         print(csv_path)
         print(md_path)
@@ -112,9 +119,12 @@ def _run(ns) -> int:
     # figure9: the simulated cohort (experiments/simulation/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
     from experiments.simulation.figure9.reproduction import run_reproduction
+    if out.is_dir():          # an earlier run's COMPLETE goes first (the study makes the folder)
+        folder.begin()
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
                      observer=ns.observer, scheduler=ns.scheduler, force_sd_N=ns.force_sd_N,
                      **({} if ns.studies is None else {"n_studies": ns.studies}),
                      responder_options=responder_options(ns.responder_option))
+    folder.finish()
     return 0

@@ -27,6 +27,10 @@ def _run(ns) -> int:
     from experiments.session import open_session
 
     check_common(ns)
+    # the one reader of session folders first: a FIFO or device in a file's place, another
+    # encoding or a session.json of another session is refused by name before anything opens it
+    from experiments.session_reader import read_session_folder
+    read_session_folder(ns.session_dir)
     session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
     name = ns.responder
     if name is None:

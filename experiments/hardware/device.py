@@ -35,7 +35,7 @@ from .device_constants import (DEFAULT_NEUTRAL_C, FIRMWARE, HARD_MAX_C, HARD_MIN
                                HARD_RATE_C_PER_S, HEATSINK_MAX_C, LATCHED_FAULTS, MAX_POINTS,
                                MIN_DT_US, OVERTEMP_C, RATE_SLACK_C, RATE_WINDOW_TICKS,
                                READY_BAND_C, RELEASE_MS, SETPOINT_MAX_C, STUCK_SAMPLES, TICK_US,
-                               WATCHDOG_MS, _boot_id)
+                               WATCHDOG_MS, make_boot_id)
 from .device_constants import (END_ABORTED, END_COMPLETE, END_FAULT,  # noqa: F401
                                END_MAX_DURATION, END_RELEASED)
 from .faults import FaultSpec, parse_faults
@@ -100,7 +100,7 @@ class Device(HostCommands):
         self.seed = seed
         self.boots = 0
         self.boot_us = 0                   # device time counts from the last power-up
-        self.boot_id = _boot_id(seed, 0)
+        self.boot_id = make_boot_id(seed, 0)
         self._reboots_done = set()
         self.sp = self.neutral
         self._sp_window = deque([self.sp], maxlen=RATE_WINDOW_TICKS)   # setpoints, last 0.1 s
@@ -206,7 +206,7 @@ class Device(HostCommands):
         """Power-up state again: no HELLO, firmware limits, no profile, new boot id, time 0."""
         self.boots += 1
         self.boot_us = self.time_us
-        self.boot_id = _boot_id(self.seed, self.boots)
+        self.boot_id = make_boot_id(self.seed, self.boots)
         self.parser = FrameParser()
         self.out.clear()
         self.state = State.IDLE

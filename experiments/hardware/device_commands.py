@@ -13,7 +13,7 @@ import zlib
 import numpy as np
 
 from . import messages as m
-from .device_constants import (_BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
+from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
                                LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
                                WATCHDOG_MS)
 from .faults import parse_faults
@@ -72,7 +72,7 @@ class HostCommands:
         return self._send(seq, (cmd | m.REPLY_BIT) & 0xFF, payload)
 
     def _handle(self, seq: int, cmd: int, p: bytes) -> bytes:
-        if not self.hello and cmd not in _BEFORE_HELLO:
+        if not self.hello and cmd not in BEFORE_HELLO:
             return self._nak(seq, cmd, Err.NO_HELLO, "no HELLO since power-up")
         if cmd == Cmd.HEARTBEAT:
             if p == b"\x00":
@@ -142,6 +142,10 @@ class HostCommands:
             n, dt_us = m.UPLOAD_BEGIN.unpack(p)
             if self.state != State.IDLE:
                 return self._nak(seq, cmd, Err.BAD_STATE, f"UPLOAD in state {self.state.name}")
+            # any UPLOAD_BEGIN in IDLE discards the committed profile and any upload, also one
+            # whose arguments are refused: a host that refused a profile is never left with it
+            self.profile = None
+            self.upload = None
             if not (2 <= n <= MAX_POINTS) or dt_us < MIN_DT_US:
                 return self._nak(seq, cmd, Err.OUT_OF_RANGE,
                                  f"n={n} (2..{MAX_POINTS}), dt={dt_us} µs (≥ {MIN_DT_US})")

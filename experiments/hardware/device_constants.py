@@ -36,11 +36,11 @@ STUCK_SAMPLES = 20         # identical raw readings in a row (100 ms at 200 Hz)
 #: Faults that stay latched through ABORT until an operator reset (CLEAR_FAULT).
 LATCHED_FAULTS = (Err.OVER_TEMPERATURE, Err.SENSOR_FAILURE, Err.SENSOR_STUCK)
 #: Commands a device carries out before any HELLO (everything else: NAK NO_HELLO).
-_BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT,
+BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT,
                  Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT)
 
 
-def _boot_id(seed: int, boots: int) -> int:
+def make_boot_id(seed: int, boots: int) -> int:
     """A power-up's boot id (non-zero, different at every power-up of one device)."""
     return (zlib.crc32(f"{seed}:{boots}".encode()) or 1) & 0xFFFFFFFF
 

@@ -46,8 +46,8 @@ import zlib
 import numpy as np
 import serial
 
-from experiments.errors import (DisplayError, DisplayRestarted, DisplayTimeout, SafetyLimitError,
-                                UserInputError)
+from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
+                                SafetyLimitError, UserInputError)
 
 from . import messages as m
 from .framing import FrameParser
@@ -56,8 +56,8 @@ from .display_base import Capabilities, EmulatedDisplay, ProfileReceipt
 from .handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from .safety import SafetyLimits, check_profile
-from .trial_recording import (_ACTIVE, _END_NAMES, ContactEvent, TrialRecording, _not_delivered,
-                              _Trial)
+from .trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
+                              TrialInProgress)
 
 __all__ = ["ThermalDisplay", "EmulatorDisplay", "TrialRecording", "ContactEvent"]
 
@@ -138,8 +138,10 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._dev_time = 0.0
         self._hb_clock = -1e9
         self._hb_dev = -1e9
-        self._trial: _Trial | None = None
+        self._trial: TrialInProgress | None = None
         self._profile = None
+        self._held_limits: SafetyLimits | None = None   # what the device acknowledged at HELLO
+        self._uploaded = False                  # an UPLOAD_BEGIN went out on this connection
         self._hb_thread = None
         self._hb_stop = threading.Event()
         self._link_error: Exception | None = None
@@ -248,6 +250,9 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 f"{sent[2] / 100} °C/s, the device acknowledged {got[0] / 100}–{got[1] / 100} °C "
                 f"at {got[2] / 100} °C/s (a stale reply?); not going on with limits it does "
                 f"not hold")
+        self._held_limits = lim
+        self._profile = None                     # a playback needs an upload on this connection
+        self._uploaded = False
         self.set_neutral(lim.neutral_C)
         return self.info
 
@@ -280,11 +285,27 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         DisplayError
             If the device keeps returning a chunk checksum that does not match.
         """
+        self._profile = None
+        try:
+            return self._upload(times_s, target_C)
+        except BaseException:
+            # refused (by our check, by the device's clamping, a chunk that never matched, a
+            # link error): the device must not keep a profile we refused, nor an older one
+            self._discard_profile()
+            raise
+
+    def _upload(self, times_s, target_C) -> ProfileReceipt:
+        if self._held_limits is not None and self.limits != self._held_limits:
+            raise SafetyLimitError(f"display: limits: changed since the handshake (the device "
+                                   f"holds {self._held_limits}, the host now has {self.limits}); "
+                                   f"refusing to upload: open the display again with the new "
+                                   f"limits")
         max_pts = self.info.max_points if self.info else None
         dt, y = check_profile(times_s, target_C, self.limits, max_points=max_pts)
         q = np.round(y * 100.0).astype("<i2")
         raw = q.tobytes()
         dt_us = int(round(dt * 1e6))
+        self._uploaded = True
         self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(q), dt_us))
         for off in range(0, len(q), CHUNK):
             body = raw[2 * off:2 * min(off + CHUNK, len(q))]
@@ -295,19 +316,35 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 if (ack.offset, ack.count, ack.crc32) == (off, count, zlib.crc32(body)):
                     break
             else:
-                self._safe_abort()
                 raise DisplayError(f"display: upload chunk at {off}: the device's checksum does "
                                    f"not match after {self.retries + 1} attempts")
         ack = CommitAck(*m.COMMIT_ACK.unpack(self._transact(Cmd.UPLOAD_COMMIT,
                                                             m.COMMIT.pack(zlib.crc32(raw)))))
         if ack.clamped:
-            self._safe_abort()
             raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
                                    f"its own range; refusing to play it")
         held = q.astype(float) / 100.0
         self._profile = (dt, held.tolist())
         return ProfileReceipt(points=ack.points, step_s=dt, crc32=ack.crc32, clamped=ack.clamped,
                               max_deviation_C=float(np.max(np.abs(held - y))), segments=None)
+
+    def _discard_profile(self) -> None:
+        """Leave the device with no committed profile (best effort; never raises).
+
+        An UPLOAD_BEGIN discards any profile on every device of this protocol; one of two samples
+        at the smallest step that is never completed leaves nothing ARM could play (ARM in
+        playback is then refused, PROFILE_INCOMPLETE, until a new commit). Nothing is sent when
+        this connection has uploaded nothing (a refusal by the host's own check then sends
+        nothing at all).
+        """
+        self._profile = None
+        if self.info is None or self._link_error is not None or not self._uploaded:
+            return
+        dt_us = max(1000, int(round(self.info.min_dt_s * 1e6)))
+        try:
+            self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(2, dt_us), retries=1)
+        except DisplayError:
+            pass     # link gone: this host arms nothing without a new upload on a new connection
 
     def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
             max_duration_s: float = 20.0) -> None:
@@ -327,7 +364,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._check_link()
         md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
         with self._lock:
-            self._trial = _Trial(mode, self._profile if mode == "playback" else None)
+            self._trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
             self._trial.bad0 = self._parser.bad_frames
             try:
                 p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),
@@ -381,7 +418,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     if now - tr.last_frame_clock > silent_s:
                         st = self.status()        # telemetry silent: is the device there at all?
                         tr.last_frame_clock = self._clock()
-                        if st.state not in _ACTIVE:
+                        if st.state not in ACTIVE_STATES:
                             tr.ended = True
                             if st.state == "FAULT" and tr.fault is None:
                                 tr.fault = st.last_fault or "FAULT"
@@ -396,7 +433,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                              if rec.contact_time_s is not None else None)
         return rec
 
-    def _finish(self, tr: _Trial, host_fault) -> TrialRecording:
+    def _finish(self, tr: TrialInProgress, host_fault) -> TrialRecording:
         status, code, msg = "ok", None, None
         st = None
         if host_fault is None:
@@ -409,8 +446,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 if st.contact_time_s is not None:
                     tr.contact_s = st.contact_time_s
                     tr.active_seen = True
-                if st.state not in _ACTIVE:
-                    tr.end_reason = _END_NAMES.get(st.end_reason, str(st.end_reason))
+                if st.state not in ACTIVE_STATES:
+                    tr.end_reason = END_NAMES.get(st.end_reason, str(st.end_reason))
                 if st.state == "FAULT" and tr.fault is None:
                     tr.fault = st.last_fault or "FAULT"
                 elif tr.end_reason == "fault" and tr.fault is None:
@@ -418,17 +455,20 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     tr.fault = st.last_fault or "FAULT"
                     tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
                                     f"its event was lost on the link")
+            except DisplayLinkLost as exc:
+                host_fault = ("LINK_LOST", str(exc))
             except DisplayError as exc:
                 host_fault = ("LINK_TIMEOUT", str(exc))
         if tr.fault is not None:
             status, code, msg = "fault", tr.fault, tr.fault_msg or f"device fault {tr.fault}"
         elif host_fault is not None:
             status, code, msg = "fault", host_fault[0], host_fault[1]
-            self._safe_abort()
+            if self._link_error is None:
+                self._safe_abort()     # (a lost port takes nothing more: the watchdog acts)
         elif tr.end_reason == "aborted":
             status = "aborted"
         else:
-            why = _not_delivered(st, tr)
+            why = not_delivered(st, tr)
             if why is not None:
                 status, code, msg = "fault", "NOT_DELIVERED", why
                 self._safe_abort()
@@ -532,7 +572,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                         break
             except (serial.SerialException, OSError) as exc:
                 self._link_error = exc
-                raise DisplayError(f"display: link lost while reading: {exc}") from exc
+                raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
             self._heartbeat_if_due()
         return tr is not None and tr.ended
 

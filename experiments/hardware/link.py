@@ -15,7 +15,8 @@ import time
 
 import serial
 
-from experiments.errors import DisplayError, DisplayRefused, DisplayRestarted, DisplayTimeout
+from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRefused, DisplayRestarted,
+                                DisplayTimeout)
 
 from . import messages as m
 from .framing import encode_frame
@@ -73,7 +74,7 @@ class ProtocolLink:
             self.port.write(data)
         except (serial.SerialException, OSError) as exc:
             self._link_error = exc
-            raise DisplayError(f"display: link lost while writing: {exc}") from exc
+            raise DisplayLinkLost(f"display: link lost while writing: {exc}") from exc
         now = time.monotonic()
         if self._last_tx > 0:
             self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
@@ -101,7 +102,7 @@ class ProtocolLink:
                     data += port.read(n)
         except (serial.SerialException, OSError) as exc:
             self._link_error = exc
-            raise DisplayError(f"display: link lost while reading: {exc}") from exc
+            raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
         self._touch()
         if not data:
             return self._stale_candidate() if self._parser.buffered else []
@@ -286,4 +287,4 @@ class ProtocolLink:
     def _check_link(self) -> None:
         if self._link_error is not None:
             exc, self._link_error = self._link_error, None
-            raise DisplayError(f"display: link lost: {exc}")
+            raise DisplayLinkLost(f"display: link lost: {exc}")

@@ -75,6 +75,9 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     int
         0.
     """
+    if link and os.path.lexists(link) and not os.path.islink(link):
+        raise UserInputError(f"--link {link}: expected a new path or a symbolic link, got "
+                             f"a path that is neither (not replaced)")
     jlog = JsonLog(log)
     core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
     dev = core.device
@@ -84,9 +87,13 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     path = os.ttyname(slave)
     made_link = False
     if link:
-        if os.path.islink(link):
-            os.unlink(link)
-        os.symlink(path, link)
+        # a stale link (of an emulator that was killed) is replaced in one step: a new link
+        # under a temporary name renamed over it, so that the path is never missing meanwhile
+        tmp_link = f"{link}.{os.getpid()}.tmp"
+        if os.path.lexists(tmp_link):
+            os.unlink(tmp_link)
+        os.symlink(path, tmp_link)
+        os.replace(tmp_link, link)
         made_link = True
     stopping = []
 

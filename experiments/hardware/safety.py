@@ -13,12 +13,23 @@ import numpy as np
 
 from experiments.errors import SafetyLimitError, UserInputError
 
-__all__ = ["SafetyLimits", "check_profile", "profile_max_rate"]
+__all__ = ["SafetyLimits", "check_profile", "profile_max_rate", "LIMIT_BOUNDS"]
 
 #: Smallest profile time step the protocol carries, s.
 MIN_DT_S = 1e-3
 #: Profile resolution on the wire, °C.
 RESOLUTION_C = 0.01
+#: Bounds of every :class:`SafetyLimits` field, and why (``docs/display-protocol.md`` §6).
+#: The range: the skin-safe range a protocol file may name (a backend narrows it further at its
+#: handshake). The rate: the protocol's largest setpoint step (1 °C a 10 ms tick). The window:
+#: at most the device's own (10 ticks, 0.1 s), so that a profile the host passes is one the
+#: device plays as uploaded (a longer window averages a step away: a 1000 s window let a 12 °C
+#: step within 0.1 s through); at least one 10 ms device tick (the 0.01 °C resolution allowed
+#: over every window is 0.01 °C / w: 1 °C/s at 10 ms, as much as the default limit at 1 ms).
+LIMIT_BOUNDS = {
+    "min_C": (5.0, 45.0), "max_C": (5.0, 45.0), "neutral_C": (5.0, 45.0),
+    "max_rate_C_per_s": (0.0, 100.0), "rate_window_s": (0.01, 0.1),
+}
 
 
 def _num(v) -> str:
@@ -44,6 +55,9 @@ class SafetyLimits:
     rate_window_s : float, s
         Window of the rate measurement.
 
+    Every field is bounded (:data:`LIMIT_BOUNDS`): the range within 5–45 °C, the rate
+    0 < r ≤ 100 °C/s, the window 0.01–0.1 s; anything else raises :class:`UserInputError`.
+
     Notes
     -----
     The rate is measured over a window rather than between consecutive samples because the
@@ -63,12 +77,17 @@ class SafetyLimits:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise UserInputError(f"SafetyLimits: {name}: expected a finite number, got {_num(v)}")
+        for name in ("min_C", "max_C", "max_rate_C_per_s", "rate_window_s"):
+            lo, hi = LIMIT_BOUNDS[name]
+            v = getattr(self, name)
+            low_ok = v > lo if name == "max_rate_C_per_s" else v >= lo
+            if not (low_ok and v <= hi):
+                rel = "<" if name == "max_rate_C_per_s" else "≤"
+                raise UserInputError(f"SafetyLimits: {name}: expected {_num(lo)} {rel} value ≤ "
+                                     f"{_num(hi)}, got {_num(v)}")
         if not self.min_C < self.max_C:
             raise UserInputError(f"SafetyLimits: min_C, max_C: expected min_C < max_C, got "
                                  f"{_num(self.min_C)}, {_num(self.max_C)}")
-        if self.max_rate_C_per_s <= 0 or self.rate_window_s <= 0:
-            raise UserInputError("SafetyLimits: max_rate_C_per_s, rate_window_s: expected > 0, got "
-                                 f"{_num(self.max_rate_C_per_s)}, {_num(self.rate_window_s)}")
         self.check_setpoint(self.neutral_C, "neutral_C")
 
     def check_setpoint(self, value_C: float, field: str = "setpoint") -> float:

@@ -1,9 +1,9 @@
 """The armed trial as the host sees it: streamed book-keeping and the finished recording.
 
-:class:`_Trial` follows one armed trial frame by frame (telemetry counters, contact, tracking
+:class:`TrialInProgress` follows one armed trial frame by frame (telemetry counters, contact, tracking
 error against the uploaded profile, how and when it ended) without keeping the frames;
 :class:`TrialRecording` is what :meth:`ThermalDisplay.run_trial
-<experiments.hardware.driver.ThermalDisplay.run_trial>` returns; :func:`_not_delivered` judges a
+<experiments.hardware.driver.ThermalDisplay.run_trial>` returns; :func:`not_delivered` judges a
 trial against the device's own account (``docs/display-protocol.md`` §5, "A delivered trial").
 """
 from __future__ import annotations
@@ -15,8 +15,8 @@ from .messages import DeviceEvent, Status, Telemetry
 
 __all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS"]
 
-_ACTIVE = ("ARMED", "PLAYING", "RECORDING")
-_END_NAMES = {0: "complete", 1: "released", 2: "max_duration", 3: "aborted", 4: "fault"}
+ACTIVE_STATES = ("ARMED", "PLAYING", "RECORDING")
+END_NAMES = {0: "complete", 1: "released", 2: "max_duration", 3: "aborted", 4: "fault"}
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ class TrialRecording:
         return asdict(self)
 
 
-class _Trial:
+class TrialInProgress:
     """Book-keeping of the armed trial (frames are streamed, not kept)."""
 
     def __init__(self, mode, profile):
@@ -153,7 +153,7 @@ class _Trial:
                 pass
         elif k == "END":
             self.ended = True
-            self.end_reason = _END_NAMES.get(ev.arg, str(ev.arg))
+            self.end_reason = END_NAMES.get(ev.arg, str(ev.arg))
             self.end_time_s = ev.device_time_s
         elif k in ("FAULT", "WATCHDOG"):
             if self.fault is None:
@@ -170,7 +170,7 @@ class _Trial:
 DELIVERED_ENDS = ("complete", "released", "max_duration")
 
 
-def _not_delivered(st: Status | None, tr: _Trial) -> str | None:
+def not_delivered(st: Status | None, tr: TrialInProgress) -> str | None:
     """Why the device's own account does not show the armed trial delivered (None: it does).
 
     Delivered means: the device is idle again, it saw a contact since ARM, and it ended the
@@ -179,7 +179,7 @@ def _not_delivered(st: Status | None, tr: _Trial) -> str | None:
     """
     if st is None:
         return "no STATUS from the device after the trial"
-    if st.state in _ACTIVE:
+    if st.state in ACTIVE_STATES:
         return f"the device is still {st.state} after the trial's end"
     if st.contact_time_s is None:
         return "the device saw no contact since ARM"

@@ -33,13 +33,14 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 from experiments.errors import ProtocolError
-from experiments.protocol.build import _build
-from experiments.protocol.hashing import _canonical, canonical_hash  # noqa: F401 (re-exported)
+from experiments.protocol.build import build_protocol
+from experiments.protocol.hashing import canonical_json, canonical_hash  # noqa: F401 (re-exported)
 from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS,  # noqa: F401 (re-exported)
                                          MAX_WAIT_S, SKIN_SAFE_MAX_C, SKIN_SAFE_MIN_C)
 from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL,  # noqa: F401 (re-exported)
+                                        DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
                                         DEFAULT_PAD_ROUGHNESS_UM, MODES, ORDERS, SIM_METHODS,
-                                        SIM_RATE_LIMITS, SIM_TARGET_SIDES, SIM_THICKNESS, Block,
+                                        SIM_CONTACT_MODELS, SIM_RATE_LIMITS, SIM_TARGET_SIDES, SIM_THICKNESS, Block,
                                         ContactSettings, DisplaySettings, Environment, Presentation,
                                         Protocol, Sample, SampleMaterial, Simulation)
 from experiments.records import TableReader
@@ -55,6 +56,7 @@ __all__ = [
     "Simulation",
     "Block",
     "Presentation",
+    "AnalysisSettings",
     "load_protocol",
     "parse_protocol",
     "protocol_names",
@@ -127,7 +129,7 @@ def load_protocol(path_or_name: str | Path) -> Protocol:
         raise ProtocolError(f"{source}: expected valid TOML, got {exc}") from None
     except OSError as exc:
         raise ProtocolError(f"{source}: expected a readable file, got {exc.strerror}") from None
-    return _build(source, data, path)
+    return build_protocol(source, data, path)
 
 
 def parse_protocol(data: Mapping[str, Any], source: str = "<protocol>", path: Path | None = None) -> Protocol:
@@ -147,4 +149,4 @@ def parse_protocol(data: Mapping[str, Any], source: str = "<protocol>", path: Pa
     Protocol
         With the same :attr:`~Protocol.hash` as the file ``data`` came from.
     """
-    return _build(source, data, path)
+    return build_protocol(source, data, path)

@@ -14,12 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from experiments.errors import ProtocolError
-from experiments.protocol.hashing import _canonical
+from experiments.protocol.hashing import canonical_json
 from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MAX_WAIT_S, SKIN_SAFE_MAX_C,
                                          SKIN_SAFE_MIN_C)
 from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
 from experiments.protocol.limits import WAIT_WHY as _WAIT_WHY
-from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
+from experiments.protocol.model import (SIM_CONTACT_MODELS, DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
+                                        BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
                                         ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_REPLAYED_MATERIALS, SIM_TARGET_SIDES,
                                         SIM_THICKNESS, Block, ContactSettings, DisplaySettings,
                                         Environment, Presentation, Protocol, Sample, SampleMaterial,
@@ -28,6 +29,9 @@ from experiments.records import TableReader as _Table
 from experiments.records import Verbatim as _Note
 from experiments.records import number_text as _fmt
 from participants_schema import GroupRule
+
+#: ``[presentation] answer_mode`` values: the participant keys the answer, or says it.
+ANSWER_MODES = ("keyed", "spoken")
 
 
 def _pad_material(s: _Table) -> str:
@@ -94,7 +98,7 @@ def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
     return tuple(out)
 
 
-def _build(source: str, data: Any, path: Path | None) -> Protocol:
+def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
     top = _Table(source, data, "")
     p = top.table("protocol")
     name = p.string("name")
@@ -193,9 +197,16 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
             pad_material=_pad_material(s),
             rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
             max_tracking_error_C=s.number("max_tracking_error_C", 1.0, gt=0, le=10),
+            contact_model=s.string("contact_model", "press", choices=SIM_CONTACT_MODELS),
             replayed_material=s.string("replayed_material", "sample",
                                        choices=SIM_REPLAYED_MATERIALS),
         )
+        if (simulation.contact_model == "resting"
+                and abs(display.neutral_C - simulation.skin_temperature_C) > 1e-9):
+            s.fail("contact_model", f"a resting probe at the skin temperature: display.neutral_C "
+                                    f"= simulation.skin_temperature_C "
+                                    f"({_fmt(simulation.skin_temperature_C)} °C)",
+                   _Note(f"'resting' with display.neutral_C = {_fmt(display.neutral_C)}"))
         s.done()
 
     sch = top.table("schedule", required=False)
@@ -213,8 +224,17 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
             text_min_s=pr.number("text_min_s", 1.0, ge=0, le=60),
             answer_during_contact=pr.boolean("answer_during_contact", False),
             feedback_s=pr.number("feedback_s", 1.5, ge=0, le=60),
+            answer_mode=pr.string("answer_mode", "keyed", choices=ANSWER_MODES),
         )
         pr.done()
+
+    analysis = AnalysisSettings()
+    an = top.table("analysis", required=False)
+    if an is not None:
+        analysis = AnalysisSettings(equivalence_margin_pp=an.number(
+            "equivalence_margin_pp", DEFAULT_EQUIVALENCE_MARGIN_PP, gt=0, lt=50,
+            why="percentage points of proportion correct"))
+        an.done()
 
     blocks = _read_blocks(top, samples)
     n_trials = sum(b.n_trials for b in blocks)
@@ -228,11 +248,12 @@ def _build(source: str, data: Any, path: Path | None) -> Protocol:
                                     f"blocks[{i}] is simulated, got nothing")
     top.done()
 
-    canonical = _canonical(data)
+    canonical = canonical_json(data)
     return Protocol(name=name, title=title, description=description, experiment=experiment,
                     version=version, samples=samples, environment=env, material=mat,
                     contact=contact, display=display, grouping=grouping, simulation=simulation,
                     block_order=block_order, blocks=blocks, presentation=presentation,
+                    analysis=analysis,
                     hash=hashlib.sha256(canonical).hexdigest(), path=path,
                     data=copy.deepcopy(dict(data)))
 

@@ -10,12 +10,12 @@ import json
 from typing import Any, Mapping
 
 
-def _canonical(data: Any) -> bytes:
+def canonical_json(data: Any) -> bytes:
     return json.dumps(data, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
                       allow_nan=False).encode("utf-8")
 
 
 def canonical_hash(data: Mapping[str, Any]) -> str:
     """SHA-256 hex of ``data`` in canonical JSON (sorted keys, no whitespace, UTF-8)."""
-    return hashlib.sha256(_canonical(data)).hexdigest()
+    return hashlib.sha256(canonical_json(data)).hexdigest()
 

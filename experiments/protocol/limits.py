@@ -13,7 +13,7 @@ from __future__ import annotations
 SKIN_SAFE_MIN_C = 5.0
 SKIN_SAFE_MAX_C = 45.0
 
-#: Upper bounds, so that no value can hang or overflow a session (issue 16): ids and versions,
+#: Upper bounds, so that no value can hang or overflow a session: ids and versions,
 MAX_ID = 1_000_000
 #: presentations of one sample in a block, trials in a whole session,
 MAX_REPETITIONS = 1000

@@ -20,6 +20,10 @@ SIM_THICKNESS = ("group", "participant")
 SIM_METHODS = ("exact", "paper", "paper-as-printed", "numerical")
 SIM_TARGET_SIDES = paper.TARGET_SIDES
 SIM_RATE_LIMITS = paper.RATE_LIMITS
+#: How the finger meets the display: ``press`` (the finger presses on a pad already at the
+#: profile's start, the paper's display) or ``resting`` (the probe rests on the skin at the
+#: neutral temperature, a thermode such as the TCS II: the profile starts at skin temperature).
+SIM_CONTACT_MODELS = ("press", "resting")
 #: ``[simulation] replayed_material``: the profile is computed for the protocol's sample
 #: (``[material]``, e.g. a 3 mm slab) or for a half-space of the same material (the closed forms).
 SIM_REPLAYED_MATERIALS = ("sample", "half-space")
@@ -144,6 +148,12 @@ class Presentation:
     feedback_s : float, s
         How long the feedback text of a block with ``feedback = true`` and ``response = true``
         stays on screen.
+    answer_mode : {"keyed", "spoken"}
+        ``"keyed"``: the participant reads the screen and presses 1-4 (``rt_s``);
+        ``"spoken"`` (the paper's procedure): the participant's screen stays blank, sound cues
+        mark the touch and the question, the participant says the answer and the experimenter
+        keys it (with a confirm/undo step), timed from the question's cue to the key
+        (``answer_keyed_after_cue_s``, not a response time).
     """
 
     instructions_key: bool = True
@@ -151,6 +161,7 @@ class Presentation:
     text_min_s: float = 1.0
     answer_during_contact: bool = False
     feedback_s: float = 1.5
+    answer_mode: str = "keyed"
 
 
 @dataclass(frozen=True)
@@ -189,6 +200,12 @@ class Simulation:
         Largest |contact − target| of a delivered playback (default 1): a trial the display
         tracked worse is a flagged attempt, run again (the participant did not feel the
         profile asked for).
+    contact_model : {"press", "resting"}
+        ``"press"`` (default): the finger presses on a pad held at the profile's first sample
+        (the paper's display; contact by force). ``"resting"``: the probe already rests on the
+        skin at ``[display] neutral_C`` (which must equal ``skin_temperature_C``); the profile
+        starts at the skin temperature and reaches the target as fast as ``[display]
+        max_rate_C_per_s`` allows (:func:`experiments.contact_model.resting_profile`).
     replayed_material : {"sample", "half-space"}
         The material the profile is computed for: ``"sample"`` (default) the protocol's
         ``[material]`` with its thickness; ``"half-space"`` the same material without a back
@@ -210,6 +227,7 @@ class Simulation:
     pad_material: str = DEFAULT_PAD_MATERIAL
     rate_limit: str = "refuse"
     max_tracking_error_C: float = 1.0
+    contact_model: str = "press"
     replayed_material: str = "sample"
 
     @property
@@ -289,6 +307,27 @@ class Block:
         return len(self.samples) * self.repetitions
 
 
+#: Default of ``[analysis] equivalence_margin_pp``: +-10 percentage points of proportion
+#: correct (real - simulated, averaged over the samples). ``analysis.fidelity`` holds the same
+#: number (it may not import the experiment runtime); a test checks they agree.
+DEFAULT_EQUIVALENCE_MARGIN_PP = 10.0
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """What the analysis needs from the protocol (``[analysis]``, optional).
+
+    Attributes
+    ----------
+    equivalence_margin_pp : float, percentage points
+        Margin of the real-vs-simulated equivalence test: simulated samples count as
+        recognised as well as real ones when the real - simulated difference of mean
+        proportions correct is shown to lie within +-this (two one-sided tests). In (0, 50).
+    """
+
+    equivalence_margin_pp: float = DEFAULT_EQUIVALENCE_MARGIN_PP
+
+
 @dataclass(frozen=True)
 class Protocol:
     """A validated protocol.
@@ -312,6 +351,8 @@ class Protocol:
     blocks : tuple of Block
     presentation : Presentation
         The participant's screen: minimum text durations, instructions, answer timing.
+    analysis : AnalysisSettings
+        The analysis's protocol-stated parameters (the equivalence margin).
     hash : str
         SHA-256 hex of the canonical JSON of :attr:`data`.
     path : Path or None
@@ -339,6 +380,7 @@ class Protocol:
     path: Path | None
     data: dict
     presentation: Presentation = Presentation()
+    analysis: AnalysisSettings = AnalysisSettings()
 
     def sample(self, sample_id: int) -> Sample:
         """The sample with this id (KeyError if none)."""

@@ -16,16 +16,32 @@ it holds whatever the delays, and an empty intersection says the device's clock 
 Two bursts (before a trial and after it) give the offset at each end and the drift between.
 The resolution is learned from the replies themselves (the greatest common divisor of their
 differences), so nothing about the device needs configuring. Standard library only.
+
+A map checks its own plausibility (:meth:`ClockMap.from_bursts`): a burst whose bounds cross
+by more than :data:`MAX_CROSSING_S` (a smaller crossing is the device clock's jitter and counts
+in the uncertainty), a drift beyond :data:`MAX_DRIFT_PPM` by more than its own uncertainty (a crystal drifts well under 100 ppm; a clock
+that runs at another rate, such as an emulator on a virtual clock, does not keep real time), or
+a round trip the map puts outside its own bounds by more than the map's uncertainty (the
+residuals) makes the map *unmapped*, with the reason in :attr:`ClockMap.unmapped`: no time is
+mapped through it.
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from functools import reduce
 from statistics import median
 
-__all__ = ["SyncBurst", "ClockMap", "sync_burst", "estimate_burst"]
+__all__ = ["SyncBurst", "ClockMap", "sync_burst", "estimate_burst", "MAX_DRIFT_PPM"]
+
+#: Largest plausible drift of a device clock against the host's, ppm: 20 times a poor crystal's
+#: 100 ppm (a ceramic resonator's 0.5 % is not a clock to time a contact with).
+MAX_DRIFT_PPM = 2000.0
+#: Largest crossing of a burst's bounds still taken as the device clock's jitter (an in-process
+#: emulator's tick thread woken late on a busy host: up to about 2 ms), s; beyond it the clock
+#: jumped. A crossing's full width counts in the map's uncertainty.
+MAX_CROSSING_S = 5e-3
 
 
 @dataclass(frozen=True)
@@ -58,6 +74,7 @@ class SyncBurst:
     rtt_median_s: float
     n: int
     consistent: bool = True
+    samples: tuple = field(default=(), repr=False, compare=False)
 
 
 def _resolution_us(device_us: list[int], fallback_us: int) -> int:
@@ -108,7 +125,8 @@ def estimate_burst(samples, *, fallback_resolution_s: float = 1e-6) -> SyncBurst
     host = 0.5 * (min(s[0] for s in samples) + max(s[2] for s in samples))
     return SyncBurst(host_s=host, offset_s=0.5 * (lo + hi), half_width_s=0.5 * abs(hi - lo),
                      resolution_s=res, rtt_median_s=median(t1 - t0 for t0, _, t1 in samples),
-                     n=len(samples), consistent=consistent)
+                     n=len(samples), consistent=consistent,
+                     samples=tuple((float(a), float(b), float(c)) for a, b, c in samples))
 
 
 def sync_burst(heartbeat, clock, *, duration_s: float = 0.03, min_samples: int = 8,
@@ -178,22 +196,75 @@ class ClockMap:
     uncertainty_s : float, s
         Largest half-width of the bursts used: the bound on the error of a mapped time between
         them, if the drift is linear.
+    unmapped : str or None
+        Why the map is not plausible (then :meth:`to_host` refuses); None for a usable map.
+    max_residual_s : float or None, s
+        Largest distance of a round trip's bounds from the map (0 when every round trip of the
+        bursts agrees with it).
     """
 
     host_ref_s: float
     offset_s: float
     drift: float
     uncertainty_s: float
+    unmapped: str | None = None
+    max_residual_s: float | None = None
 
     @classmethod
-    def from_bursts(cls, first: SyncBurst, last: SyncBurst | None = None) -> "ClockMap":
-        if last is None or last.host_s - first.host_s < 1e-3:
-            return cls(first.host_s, first.offset_s, 0.0, first.half_width_s)
-        drift = (last.offset_s - first.offset_s) / (last.host_s - first.host_s)
-        return cls(first.host_s, first.offset_s, drift, max(first.half_width_s, last.half_width_s))
+    def from_bursts(cls, first: SyncBurst, last: SyncBurst | None = None, *,
+                    max_drift_ppm: float = MAX_DRIFT_PPM) -> "ClockMap":
+        """The map through one burst (offset) or two (offset and drift), checked.
+
+        Parameters
+        ----------
+        first, last : SyncBurst
+        max_drift_ppm : float, ppm
+            Largest plausible drift (:data:`MAX_DRIFT_PPM`).
+        """
+        bursts = (first,) if last is None or last.host_s - first.host_s < 1e-3 else (first, last)
+        # a burst whose bounds crossed: its offset is known only to the crossing's full width
+        uncertainty = max(b.half_width_s if b.consistent else 2 * b.half_width_s for b in bursts)
+        drift = 0.0 if len(bursts) == 1 else \
+            (last.offset_s - first.offset_s) / (last.host_s - first.host_s)
+        cmap = cls(first.host_s, first.offset_s, drift, uncertainty)
+        residual = max(cmap._residual(b) for b in bursts)
+        why = []
+        crossed = max((2 * b.half_width_s for b in bursts if not b.consistent), default=0.0)
+        if crossed > MAX_CROSSING_S:
+            why.append(f"a burst's round trips disagree by {crossed * 1e3:.2f} ms (the device "
+                       "clock jumped, or a reply was stamped outside its round trip)")
+        # the drift is known to within the bursts' uncertainties over the time between them
+        drift_err = 0.0 if len(bursts) == 1 else 2 * uncertainty / (last.host_s - first.host_s)
+        if (abs(drift) - drift_err) * 1e6 > max_drift_ppm:
+            why.append(f"drift {drift * 1e6:.0f} ppm, beyond the plausible {max_drift_ppm:g} ppm "
+                       "(the device clock does not keep real time: an emulator on a virtual "
+                       "clock?)")
+        if residual > uncertainty + 1e-4:
+            why.append(f"round trips up to {residual * 1e3:.2f} ms outside the map's bounds "
+                       f"(stated uncertainty {uncertainty * 1e3:.2f} ms): the clocks do not run "
+                       "at a steady rate")
+        return cls(cmap.host_ref_s, cmap.offset_s, drift, uncertainty,
+                   "; ".join(why) or None, residual)
+
+    def _residual(self, burst: SyncBurst) -> float:
+        """How far, at most, the map's offset lies outside a round trip's bounds, s."""
+        worst = 0.0
+        for t0, d, t1 in burst.samples:
+            lo, hi = d - t1, d + burst.resolution_s - t0
+            o = self.to_device(0.5 * (t0 + t1)) - 0.5 * (t0 + t1)
+            worst = max(worst, lo - o, o - hi)
+        return worst
 
     def to_host(self, device_s: float) -> float:
-        """Host time at which the device's clock read ``device_s``."""
+        """Host time at which the device's clock read ``device_s``.
+
+        Raises
+        ------
+        ValueError
+            When the map is :attr:`unmapped` (the reason in the message).
+        """
+        if self.unmapped is not None:
+            raise ValueError(f"device time not mapped: {self.unmapped}")
         # device = host + offset + drift (host - ref)  =>  host = (device - offset + drift ref) / (1 + drift)
         return (device_s - self.offset_s + self.drift * self.host_ref_s) / (1.0 + self.drift)
 

@@ -27,6 +27,15 @@ TRIGGERS = ("contact force", "routine start")
 ROUTINE_START_THRESHOLD_N = 0.01
 
 
+#: The columns :meth:`ThermalCue.end` writes (``<name>.`` prefixed), all in every row.
+COLUMNS = ("status", "fault_code", "fault_message", "end_reason", "contact_routine_s",
+           "contact_global_s", "contact_device_s", "contact_force_N", "contact_duration_s",
+           "contact_duration_device_s", "armed_routine_s", "tracking_rms_C", "tracking_max_C",
+           "frames", "frames_lost", "clock_status", "clock_offset_s", "clock_drift_ppm",
+           "clock_uncertainty_s", "clock_rtt_s", "trigger", "force_threshold_N",
+           "profile_source", "profile_duration_s")
+
+
 class ThermalCue:
     """A thermal cue played on the display during a routine.
 
@@ -181,7 +190,7 @@ class ThermalCue:
         if self.armed_clock_s is None:         # the routine ended before the cue started
             dev.neutral()
             self.ended = True
-            return {f"{self.name}.status": "not_started"}
+            return {f"{self.name}.{k}": ("not_started" if k == "status" else "") for k in COLUMNS}
         try:
             rec = dev.finishTrial()
         except DisplayError as exc:
@@ -196,33 +205,45 @@ class ThermalCue:
             except DisplayError as exc:
                 cols["fault_message"] = str(exc)
         cmap = dev.clockMap
+        mapped = cmap is not None and cmap.unmapped is None
         if rec is not None:
             cols.update(status=rec.status, fault_code=rec.fault_code, end_reason=rec.end_reason,
                         tracking_rms_C=rec.tracking_rms_C, tracking_max_C=rec.tracking_max_C,
                         frames=rec.frames, frames_lost=rec.frames_lost,
-                        contact_duration_s=rec.duration_s, contact_device_s=rec.contact_time_s)
+                        contact_duration_device_s=rec.duration_s,
+                        contact_device_s=rec.contact_time_s)
+            # A duration beside the routine's times is on PsychoPy's clock: the device's span
+            # through the map's rate; none when the device's clock is not mapped.
+            if mapped and rec.duration_s is not None and rec.contact_time_s is not None:
+                cols["contact_duration_s"] = rec.duration_s / (1.0 + cmap.drift)
         else:
             cols.update(status="fault", fault_code="LINK_LOST")
         contact_dev = rec.contact_time_s if rec is not None else None
-        if contact_dev is not None and cmap is not None:
+        if contact_dev is not None and mapped:
             host = cmap.to_host(contact_dev)
             cols["contact_routine_s"] = clock.getTime() - (dev.clockNow() - host)
             if global_clock is not None:
                 cols["contact_global_s"] = global_clock.getTime() - (dev.clockNow() - host)
-        else:
-            cols["contact_routine_s"] = None
         if self.contact is not None:
             cols["contact_force_N"] = self.contact.force_N
-        if cmap is not None:
-            cols.update(clock_offset_s=cmap.offset_s, clock_drift_ppm=cmap.drift * 1e6,
-                        clock_uncertainty_s=cmap.uncertainty_s,
-                        clock_rtt_s=dev.firstBurst.rtt_median_s if dev.firstBurst else None)
+        if cmap is None:
+            cols["clock_status"] = "unmapped: no clock burst"
+        elif not mapped:
+            cols["clock_status"] = f"unmapped: {cmap.unmapped}"
+        else:
+            cols.update(clock_status="mapped", clock_offset_s=cmap.offset_s,
+                        clock_drift_ppm=cmap.drift * 1e6, clock_uncertainty_s=cmap.uncertainty_s)
+        cols["clock_rtt_s"] = dev.firstBurst.rtt_median_s if dev.firstBurst else None
         cols.update(armed_routine_s=self.armed_clock_s, trigger=self.trigger,
                     force_threshold_N=self.threshold_N(),
                     profile_source=self.profile.source if self.profile else None,
                     profile_duration_s=self.profile.duration_s if self.profile else None)
         self.ended = True
-        return {f"{self.name}.{k}": v for k, v in cols.items()}
+        # Every column in every row, empty where there is no value (PsychoPy writes None as
+        # the text "None").
+        out = {k: cols.get(k) for k in COLUMNS}
+        out.update(cols)
+        return {f"{self.name}.{k}": ("" if v is None else v) for k, v in out.items()}
 
     def stop(self) -> None:
         """Neutral now (the quit handler; never raises)."""

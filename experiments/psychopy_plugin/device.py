@@ -153,7 +153,7 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
         return self._ended
 
     def _toPsychopy(self, device_s: float) -> float:
-        if self.clockMap is None:
+        if self.clockMap is None or self.clockMap.unmapped is not None:
             return float("nan")
         return self.clockMap.to_host(device_s)
 

@@ -97,16 +97,25 @@ def file_profile(path) -> CueProfile:
     Raises
     ------
     UserInputError
-        A missing column or a value that is not a number (names the file, the row and the column).
+        A missing column or a value that is not a number (names the file, the row and the column);
+        a file that is not UTF-8 text (UTF-16, Latin-1: names the file and the byte offset) or
+        not a regular file (:mod:`experiments.session_reader`).
     OSError
         The file cannot be read (the message names the path).
     """
+    import io
+
+    from experiments.session_reader import read_text_file
     p = Path(path)
-    try:
-        fh = open(p, newline="", encoding="utf-8-sig")
+    try:            # a regular UTF-8 file (a byte-order mark allowed): UTF-16, Latin-1, a FIFO
+        text = read_text_file(p)        # or a device are refused naming the file (and byte)
+    except FileNotFoundError as exc:
+        raise OSError(f"{p}: cannot read the profile file: {exc.strerror or exc}") from None
+    except UserInputError:
+        raise
     except OSError as exc:
         raise OSError(f"{p}: cannot read the profile file: {exc.strerror or exc}") from None
-    with fh:
+    with io.StringIO(text, newline="") as fh:
         reader = csv.DictReader(fh)
         cols = reader.fieldnames or []
         for col in ("time_s", "target_C"):

@@ -35,6 +35,8 @@ __all__ = [
 
 #: The answers a participant may give: the four roughness classes 1#..4#.
 RESPONSE_IDS = (1, 2, 3, 4)
+#: How an answer is given (the protocol's ``[presentation] answer_mode``).
+ANSWER_MODES = ("keyed", "spoken")
 
 #: Responder name -> module of this package that defines it (imported on demand).
 _KNOWN_MODULES = {
@@ -66,11 +68,17 @@ class Response:
         Response time, from the response prompt to the answer.
     source : str
         What produced it (``"keyboard"``, ``"console"``, ``"simulated"``, ...).
+    answer_mode : {"keyed", "spoken"}
+        ``"keyed"``: the participant pressed the answer and ``rt_s`` is a response time;
+        ``"spoken"``: the participant said it and the experimenter keyed it, so ``rt_s`` is the
+        time from the question's sound cue to the experimenter's key (logged as
+        ``answer_keyed_after_cue_s``, never as ``rt_s``).
     """
 
     response_id: int
     rt_s: float
     source: str = "unknown"
+    answer_mode: str = "keyed"
 
     def __post_init__(self):
         if isinstance(self.response_id, bool) or not isinstance(self.response_id, (int, np.integer)) \
@@ -82,13 +90,25 @@ class Response:
         if not math.isfinite(rt) or rt < 0:
             raise ValueError(f"Response: rt_s: expected a finite time >= 0 s, got {self.rt_s!r}")
         object.__setattr__(self, "rt_s", rt)
+        if self.answer_mode not in ANSWER_MODES:
+            raise ValueError(f"Response: answer_mode: expected one of {ANSWER_MODES}, "
+                             f"got {self.answer_mode!r}")
 
     def __repr__(self) -> str:
         return f"Response(response_id={self.response_id}, rt_s={self.rt_s:.4f}, source={self.source!r})"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready fields."""
-        return {"response_id": self.response_id, "rt_s": self.rt_s, "source": self.source}
+        """JSON-ready fields; the time under the name of what it measured (:meth:`timing`)."""
+        return {"response_id": self.response_id, **self.timing(), "source": self.source,
+                "answer_mode": self.answer_mode}
+
+    def timing(self) -> dict[str, float | None]:
+        """``{"rt_s": ..., "answer_keyed_after_cue_s": ...}``, one of them None: a keyed
+        answer's response time, or a spoken answer's time from the question's cue to the
+        experimenter's key."""
+        spoken = self.answer_mode == "spoken"
+        return {"rt_s": None if spoken else self.rt_s,
+                "answer_keyed_after_cue_s": self.rt_s if spoken else None}
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ __all__ = ["PsychopyResponder", "WINDOW_TITLE"]
 WINDOW_TITLE = "thermocue"
 
 _CONFIRM_KEYS = ["space", "return"]
+_UNDO_KEYS = ["backspace"]
 _QUIT_KEYS = ["escape"]
 
 #: What the participant's window shows, state by state (docs/session.md, docs/screens/).
@@ -64,6 +65,8 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         for ever.
     require_ptb : bool
         Refuse to run on a keyboard backend other than ``ptb``.
+    question_cue_hz, question_cue_s : float, Hz / s
+        The question's tone in the spoken-answer mode (lower and longer than the touch cue).
 
     Notes
     -----
@@ -71,11 +74,21 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
     key going down; the key counts once released (``waitRelease=True``: with ``False`` the
     ptb backend reports a press again at its release), and keys pressed before the question
     was shown are ignored. Escape ends the session (resumable).
+
+    With the protocol's ``[presentation] answer_mode = "spoken"`` (the paper's procedure) the
+    window stays blank for the whole session (no text is drawn); the touch cue sounds as usual
+    and a second tone asks the question (at contact with ``answer_during_contact``, else once
+    the contact has been recorded). Everything the participant would have read goes to the
+    experimenter's channel (terminal or ``--experimenter-screen``), who keys the spoken answer
+    1-4 on the keyboard, then confirms it with space/return or undoes it with backspace. The
+    answer is timed by the keyboard's clock, reset when the question's tone is started, to the
+    confirmed digit's key press (``answer_keyed_after_cue_s``).
     """
 
     def __init__(self, fullscr: bool = False, size=(1024, 768), check_timing: bool = False,
                  audio_lib: str = "sounddevice", cue_hz: float = 880.0, cue_s: float = 0.2,
-                 max_wait_s: float | None = None, require_ptb: bool = True):
+                 max_wait_s: float | None = None, require_ptb: bool = True,
+                 question_cue_hz: float = 440.0, question_cue_s: float = 0.5):
         super().__init__()
         self.fullscr = bool(fullscr)
         self.size = tuple(int(v) for v in size)
@@ -85,6 +98,11 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self.cue_s = float(cue_s)
         self.max_wait_s = max_wait_s
         self.require_ptb = require_ptb
+        self.question_cue_hz = float(question_cue_hz)
+        self.question_cue_s = float(question_cue_s)
+        self.spoken = False
+        self._question_sound = None
+        self._cued = None          # trial index whose question tone has sounded
         self.win = None
         self.kb = None
         self.keyboard_backend = None
@@ -127,16 +145,43 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             if self.require_ptb:
                 self.end_session()
                 raise SessionError(f"--responder psychopy: {msg}")
+        shown = getattr(getattr(session, "protocol", None), "presentation", None)
+        self.spoken = getattr(shown, "answer_mode", "keyed") == "spoken"
         self._make_sound()
+        if self.spoken:
+            self._question_sound = self._tone(self.question_cue_hz, self.question_cue_s)
+            self.log("participant_screen", blank=True, answer_mode="spoken")
         self._show("welcome", TEXTS["welcome"])
 
     def end_session(self) -> None:
         if self.win is not None:
-            self._log_off()
+            try:
+                self._clear()     # the last text (the goodbye) up its minimum, then a blank frame
+            except Exception:     # closing must not fail on a window already gone
+                self._log_off()
             try:
                 self.win.close()
             finally:
                 self.win = None
+
+    def _tone(self, hz: float, secs: float):
+        """A ``psychopy.sound.Sound``, or None when there is no audio (already reported)."""
+        if self._sound is None:
+            return None
+        from psychopy import sound
+        try:
+            return sound.Sound(hz, secs=secs, stereo=True)
+        except Exception as exc:
+            self.log("cue_unavailable", reason=f"question tone: {type(exc).__name__}: {exc}")
+            return None
+
+    def _tell(self, text: str) -> None:
+        """A line on the experimenter's channel (terminal, or their screen)."""
+        experimenter = getattr(self.session, "experimenter", None)
+        if experimenter is not None:
+            experimenter.tell(text)
+        else:
+            print(text, file=sys.stderr, flush=True)
 
     def _make_sound(self) -> None:
         try:
@@ -157,18 +202,45 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
             return 0.0
         return shown.instructions_min_s if state == "instructions" else shown.text_min_s
 
+    def _left_s(self) -> float:
+        """How long the text on screen must stay up yet (its state's minimum from its first
+        flip), s; 0 when there is none."""
+        if self._on is None:
+            return 0.0
+        return self._on[2] + self._min_s(self._on[0]) - self._core.getTime()
+
+    def _hold(self) -> None:
+        """Wait until the text on screen has been up its minimum (``core.wait`` never returns
+        early: it sleeps, then spins on ``core.getTime``)."""
+        left = self._left_s()
+        if left > 0:
+            self._core.wait(left, hogCPUperiod=0)
+
     def _show(self, state: str, text: str, wait: bool = True) -> None:
         """Replace the text on screen by ``text`` once the old one has been up its minimum
-        (``wait=False``: at once, e.g. the question replacing the cue at contact)."""
+        (``wait=False``: the caller has checked :meth:`_left_s` itself, e.g. in the telemetry
+        loop, which must not block)."""
         if wait and self._on is not None and self._on[0] != state:
-            left = self._on[2] + self._min_s(self._on[0]) - self._core.getTime()
-            if left > 0:
-                self._core.wait(left, hogCPUperiod=0)
+            self._hold()
         self._state, self._main_text = state, text
         self._draw()
 
+    def _clear(self) -> None:
+        """Take the text down (after its minimum): a blank frame, logged as its ``text_off``."""
+        if self._on is None:
+            return
+        self._hold()
+        self._state, self._main_text = "", ""
+        t = self.win.flip()
+        self._log_off(float(t) if t is not None else self._core.getTime())
+
     def _draw(self) -> float:
-        """Draw the current text and flip; log a new text's first frame; return the flip time."""
+        """Draw the current text and flip; log a new text's first frame; return the flip time.
+
+        In the spoken-answer mode the window stays blank: a flip, nothing drawn or logged."""
+        if self.spoken:
+            t = self.win.flip()
+            return float(t) if t is not None else self._core.getTime()
         self._stim.text = self._main_text
         self._stim.draw()
         t = self.win.flip()
@@ -189,13 +261,14 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self._on = None
         self.log("text_off", state=state, flip_s=round(t, 4), shown_s=round(t - t_on, 4))
 
-    def _wait(self, keys: list[str]):
+    def _wait(self, keys: list[str], **note):
         """Wait for one of ``keys`` (or escape); return the key press.
 
         The ptb keyboard reads the X server's queue itself: no window event pumping needed.
+        ``note``: extra fields of the ``awaiting_key`` event (e.g. ``purpose``).
         """
         start = time.monotonic()
-        self.log("awaiting_key", keys=keys)   # experimenters' record; tests wait for it
+        self.log("awaiting_key", keys=keys, **note)   # experimenters' record; tests wait for it
         while True:
             pressed = self.kb.getKeys(keyList=keys + _QUIT_KEYS, waitRelease=True)
             for key in pressed:
@@ -214,7 +287,15 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self._show(state, text)
 
     def show_instructions(self, text: str, min_s: float = 0.0, until_key: bool = False) -> None:
-        """The block's instructions: up at least ``min_s`` s, then (``until_key``) until space."""
+        """The block's instructions: up at least ``min_s`` s, then (``until_key``) until space.
+
+        Spoken-answer mode: the experimenter reads them out and goes on with space."""
+        if self.spoken:
+            self._tell(f"read to the participant: {text!r}; then press space")
+            self.kb.clearEvents()
+            self.kb.clock.reset()
+            self._wait(_CONFIRM_KEYS, purpose="instructions_read")
+            return
         self._show("instructions", text)
         t_on = self._on[2]
         left = t_on + min_s - self._core.getTime()
@@ -234,10 +315,15 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
 
     def show_label(self, text: str | None) -> None:
         self._label = text
-        if text:
+        if text and self.spoken:
+            self._tell(f"say to the participant: {text!r}")
+        elif text:
             self._show("label", text)
 
     def feedback(self, text: str, seconds: float = 0.0) -> None:
+        if self.spoken:
+            self._tell(f"say to the participant: {text!r}")
+            return
         self._show("feedback", text)
         if seconds > 0:
             self._core.wait(seconds, hogCPUperiod=0)
@@ -271,9 +357,20 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         """A countdown in the window (escape still ends the session); none on a virtual clock."""
         if seconds <= 0:
             return
-        end = time.monotonic() + seconds
+        if self.spoken:
+            self._tell(f"the participant rewarms the finger on the hot-water bag ({seconds:.0f} s)")
+            end = self._core.getTime() + seconds
+            self.kb.clearEvents()
+            while (left := end - self._core.getTime()) > 0:
+                self._draw()
+                if self.kb.getKeys(keyList=_QUIT_KEYS, waitRelease=False):
+                    raise ResponderClosed("escape pressed in the PsychoPy window")
+                self._core.wait(min(0.25, left), hogCPUperiod=0)
+            return
+        self._show("rewarm", f"Rewarm your finger on the hot-water bag\n\n{seconds:.0f} s")
+        end = self._on[2] + seconds
         self.kb.clearEvents()
-        while (left := end - time.monotonic()) > 0:
+        while (left := end - self._core.getTime()) > 0:
             self._state = "rewarm"
             self._main_text = f"Rewarm your finger on the hot-water bag\n\n{left:.0f} s"
             self._draw()
@@ -289,15 +386,71 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         self.win.callOnFlip(self.kb.clock.reset)
         self._show("question", TEXTS["question"].format(choices=", ".join(choices)), wait=wait)
 
+    def _question_cue(self, trial) -> None:
+        """Spoken-answer mode: the question's tone; the keyboard's clock is reset as it starts
+        (keys pressed before it are ignored)."""
+        self.kb.clearEvents()
+        self.kb.clock.reset()
+        played = False
+        if self._question_sound is not None:
+            try:
+                self._question_sound.play()
+                played = True
+            except Exception as exc:
+                self.log("cue_unavailable", reason=f"question tone: {type(exc).__name__}: {exc}")
+        self._cued = trial.trial_index
+        self.log("question_cue", trial_index=trial.trial_index, played=played)
+        self._tell(f"trial {trial.trial_index}: question asked; key the participant's spoken "
+                   f"answer 1-4, then space/return to confirm or backspace to undo")
+
+    def _keyed_answer(self, trial) -> Response:
+        """Spoken-answer mode: the experimenter keys the answer, then confirms or undoes it."""
+        digits = [str(i) for i in RESPONSE_IDS]
+        key = self._wait(digits, purpose="spoken_answer")
+        while True:
+            self.log("answer_keyed", trial_index=trial.trial_index, key=key.name,
+                     after_cue_s=round(float(key.rt), 4))
+            self._tell(f"answer {key.name}: space/return confirms, backspace undoes")
+            decision = self._wait(_CONFIRM_KEYS + _UNDO_KEYS + digits, purpose="confirm_answer",
+                                  answer=key.name)
+            if decision.name in _CONFIRM_KEYS:
+                self.log("answer_confirmed", trial_index=trial.trial_index, key=key.name)
+                return Response(int(key.name), float(key.rt), answer_mode="spoken",
+                                source=f"experimenter:keyboard:{self.keyboard_backend}")
+            if decision.name in digits:       # a different digit replaces the one keyed
+                self.log("answer_undone", trial_index=trial.trial_index, key=key.name,
+                         replaced_by=decision.name)
+                key = decision
+                continue
+            self.log("answer_undone", trial_index=trial.trial_index, key=key.name)
+            self._tell("undone: key the answer again")
+            key = self._wait(digits, purpose="spoken_answer")
+
     def begin_answer(self, trial) -> None:
         """The question from the moment of contact (the trace is still being recorded)."""
+        if self.spoken:       # the tone now; the experimenter's keys are read in respond()
+            self._question_cue(trial)
+            return
         self._early = None
-        self._ask(wait=False)      # runs in the telemetry loop: never wait here
         self._asked = trial.trial_index
-        self.log("awaiting_key", keys=[str(i) for i in RESPONSE_IDS], during_contact=True)
+        self._pending = True       # up as soon as the cue has been up its minimum
+        self._ask_when_due()
+
+    def _ask_when_due(self) -> bool:
+        """Put the pending question up if the cue has been up its minimum (never waits: runs
+        in the telemetry loop); True once it is up."""
+        if getattr(self, "_pending", False):
+            if self._left_s() > 0:
+                return False
+            self._pending = False
+            self._ask(wait=False)
+            self.log("awaiting_key", keys=[str(i) for i in RESPONSE_IDS], during_contact=True)
+        return True
 
     def poll_answer(self, trial):
-        if getattr(self, "_asked", None) != trial.trial_index:
+        if self.spoken or getattr(self, "_asked", None) != trial.trial_index:
+            return None
+        if not self._ask_when_due():
             return None
         if getattr(self, "_early", None) is None:
             keys = [str(i) for i in RESPONSE_IDS]
@@ -309,10 +462,18 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
         return self._early
 
     def respond(self, trial, stimulus) -> Response:
+        if self.spoken:
+            if self._cued != trial.trial_index:
+                self._question_cue(trial)
+            self._cued = None
+            return self._keyed_answer(trial)
         early = self.poll_answer(trial)
         asked, self._asked = getattr(self, "_asked", None) == trial.trial_index, None
         if early is not None:
             return early
+        if asked and getattr(self, "_pending", False):   # contact ended before the cue's minimum
+            self._pending = False
+            asked = False
         if not asked:
             self._ask()
         key = self._wait([str(i) for i in RESPONSE_IDS])

@@ -286,7 +286,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                                       sample_thickness_m=sample["thickness_m"],
                                       material_temperature_C=sample["temperature_C"],
                                       skin_temperature_C=skin_temperature,
-                                      force_N=self.trial_force(stimulus))   # Eq. 5 (issue 12)
+                                      force_N=self.trial_force(stimulus))   # Eq. 5
         return t, rec, skin_temperature
 
     def pad_resistance(self) -> float | None:

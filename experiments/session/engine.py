@@ -14,6 +14,8 @@ from __future__ import annotations
 import datetime as _dt
 import errno
 import logging
+import os
+import re
 import time
 from pathlib import Path
 
@@ -25,11 +27,11 @@ from experiments.hardware.display_base import Display
 from experiments.session.hooks import SessionHooks, hooks_from_env
 from experiments.session.machine import StateMachine, clock_for_url
 from experiments.session.planning import SessionProfiles
-from experiments.session.setup import _protocol_source, open_session_display
+from experiments.session.setup import protocol_source, open_session_display
 from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
-from experiments.session.trial import TrialSteps, _Trial, clock_text
+from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from experiments.session_files import schedule_sha256
 
 __all__ = ["Session"]
@@ -66,13 +68,17 @@ class Session(TrialSteps):
         The responder recorded in ``session.json`` ("" if none).
     hooks : SessionHooks
         Called at the trial's pause points (tests; default from ``THERMOCUE_TEST_PAUSE_AT``).
+    durable : bool
+        Whether the session's writes are fsynced (default True; False only for a simulated
+        study on a virtual clock, recomputed from its seed: same files, same bytes, no fsync).
     """
 
     def __init__(self, directory, protocol, participant, group, seed, schedule, name, display_url,
                  *, assignment=None, clock=None, max_consecutive_faults: int = 3, out=None,
                  responder_name: str = "", profiles: dict | None = None,
-                 experimenter=None, hooks: SessionHooks | None = None):
+                 experimenter=None, hooks: SessionHooks | None = None, durable: bool = True):
         self.directory = Path(directory)
+        self.durable = bool(durable)
         self.protocol = protocol
         self.participant = participant
         self.group = group
@@ -93,19 +99,21 @@ class Session(TrialSteps):
         self.experimenter = experimenter
         self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
         #: trials.csv, rebuilt from events.jsonl after every trial (made anew by each run)
-        self._trials_table = TrialsTable(self.events_path, self.trials_path)
+        self._trials_table = TrialsTable(self.events_path, self.trials_path, durable=durable)
         self.log = None
         self.responder: Responder | None = None
         self.display = None
         self.machine = StateMachine(on_change=self._on_state)
-        self._attempt: _Trial | None = None
+        self._attempt: TrialAttempt | None = None
         self._started = time.monotonic()   # the session's first start, on this run's monotonic clock
         #: The checked target profiles, by (roughness_id, roughness_um).
         self.profiles = SessionProfiles(profiles)
         #: How messages name the protocol (its file; ``session.json: protocol`` on resume).
-        self.protocol_source = _protocol_source(protocol)
+        self.protocol_source = protocol_source(protocol)
         self.signals = SignalGuard()
         self._fatal = None          # (code, message) of a fault that stops the session
+        self._link_lost = None      # (code, message): the display's port failed in this attempt
+        self._reopened = []         # displays opened again after a lost link (closed at the end)
         #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).
         self.hooks = hooks if hooks is not None else hooks_from_env()
         self._last_block = None
@@ -213,7 +221,8 @@ class Session(TrialSteps):
             0 when every trial is done; 1 when interrupted or stopped after repeated faults
             (the session can be resumed).
         """
-        self._trials_table = TrialsTable(self.events_path, self.trials_path)   # read afresh
+        self._trials_table = TrialsTable(self.events_path, self.trials_path,   # read afresh
+                                         durable=self.durable)
         events = []
         if self.events_path.exists():
             events, _report = read_events(self.events_path, warn=False)
@@ -229,7 +238,7 @@ class Session(TrialSteps):
         self._started = time.monotonic() - since
         self._date = _psychopy_date(time.time() - since)
         try:
-            with EventLog(self.events_path) as log:
+            with EventLog(self.events_path, durable=self.durable) as log:
                 if log.repaired:
                     self._report(f"repaired: {log.repaired}")
                 self.log = log
@@ -324,6 +333,13 @@ class Session(TrialSteps):
                 _best_effort(lambda: self.log_event("session_error",
                                                     message=f"{type(exc).__name__}: {exc}"))
             raise
+        finally:
+            for again in self._reopened:
+                try:
+                    again.close()
+                except Exception:
+                    pass
+            self._reopened = []
 
     def _open_display(self):
         disp = open_session_display(self.protocol, self.display_url, source=self.protocol_source)
@@ -373,6 +389,12 @@ class Session(TrialSteps):
                 faults += 1
             if self._fatal is not None:
                 return self._stop_fatal(disp, queue)
+            if self._link_lost is not None:
+                disp = self._reconnect(disp, spec.trial_index)
+                if disp is None:
+                    return self._stop_link_lost(queue)
+                self.machine.go("idle")
+                continue          # the same trial at once, no rewarm (still a consecutive fault)
             if faults >= self.max_consecutive_faults:
                 self.machine.go("idle")
                 self.machine.go("stopped")
@@ -399,7 +421,7 @@ class Session(TrialSteps):
 
     def _abort_attempt(self, trial_index: int, attempt: int, reason: str, fault_code=None) -> None:
         """Log an attempt as aborted and keep its trace under an ``aborted`` name."""
-        kept = keep_trace(self.traces_dir, trial_index, attempt, "aborted")
+        kept = keep_trace(self.traces_dir, trial_index, attempt, "aborted", durable=self.durable)
         with self.signals.critical():
             self.log_event("trial_aborted", trial_index=trial_index, attempt=attempt, reason=reason,
                            fault_code=fault_code,
@@ -424,7 +446,8 @@ class Session(TrialSteps):
             self.log_event("bids_export_failed", message=f"{type(exc).__name__}: {exc}")
             self._report(f"warning: BIDS export failed ({exc}); run `thermocue export-bids` later")
             return
-        self.log_event("bids_exported", path=str(path))
+        # relative to the session folder: the log must not depend on where the data folder is
+        self.log_event("bids_exported", path=_relative_to(path, self.directory))
 
     def _neutral(self, disp) -> None:
         """Display to neutral whatever state it is in (errors logged, never raised)."""
@@ -455,6 +478,51 @@ class Session(TrialSteps):
         self._report(f"session interrupted ({reason}); display neutral; resume with "
                      f"`thermocue resume {self.directory}`")
 
+    def _reconnect(self, disp, trial_index: int):
+        """The display's port failed: close it and open it once more.
+
+        Returns the display opened again (its handshake done, neutral set, logged as
+        ``display_reconnected``), or None if that failed too (logged as ``display_error``).
+        """
+        code, message = self._link_lost
+        self._link_lost = None
+        try:
+            disp.close()
+        except Exception:
+            pass
+        if self.display_url is None:
+            self._lost_because = (message, "no display URL to open again")
+            return None
+        try:
+            again = self._open_display()
+        except DisplayError as exc:
+            if isinstance(exc, UserInputError):
+                raise
+            self.log_event("display_error", step="reconnect", message=str(exc))
+            self._lost_because = (message, str(exc))
+            return None
+        self._reopened.append(again)
+        self.display = again
+        info = getattr(again, "info", None)
+        self.log_event("display_reconnected", url=self.display_url, trial_index=trial_index,
+                       device_id=getattr(info, "device_id", None))
+        again.set_neutral(self.protocol.display.neutral_C)
+        self._report(f"trial {trial_index}: the display's link was lost ({_bare(message)}); "
+                     f"connected again, the trial runs again")
+        return again
+
+    def _stop_link_lost(self, queue) -> int:
+        """Stop after a lost link that one reconnect did not cure (resumable once fixed)."""
+        lost, why = self._lost_because
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        self.log_event("session_stopped", reason="display link lost", message=lost,
+                       reconnect=why, n_completed=self.n_trials - len(queue))
+        self._report(f"stopped: the display's link was lost ({_bare(lost)}) and connecting "
+                     f"again failed ({_bare(why)}); check its cable and power, then resume with "
+                     f"`thermocue resume {self.directory}`")
+        return 1
+
     def _stop_fatal(self, disp, queue) -> int:
         """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
         code, message = self._fatal
@@ -466,6 +534,17 @@ class Session(TrialSteps):
                        n_completed=self.n_trials - len(queue))
         self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
         return 1
+
+
+def _relative_to(path, folder) -> str:
+    """``path`` relative to ``folder``, with forward slashes (``../../bids/sub-P01/...``)."""
+    return Path(os.path.relpath(Path(path).resolve(), Path(folder).resolve())).as_posix()
+
+
+def _bare(message: str) -> str:
+    """A display error's text without its leading ``display:`` (one clean message)."""
+    text = re.sub(r"^(\s*display:\s*)+", "", str(message), flags=re.IGNORECASE).strip()
+    return re.sub(r"^link lost\s*", "", text).strip(" :") or text
 
 
 def _best_effort(call) -> None:

@@ -14,7 +14,7 @@ from pathlib import Path
 from experiments.errors import SessionError, UserInputError
 from experiments.session.engine import Session
 from experiments.session.machine import clock_for_url
-from experiments.session.setup import _check_capacity, _protocol_source, check_schedule_profiles
+from experiments.session.setup import check_capacity, protocol_source, check_schedule_profiles
 from experiments.session.store import read_session_json, write_session_json
 from experiments.session_files import claim_session_folder
 
@@ -72,6 +72,7 @@ class SessionPlan:
     profiles: dict
     out: object = None
     auto_name: bool = False       # the name was chosen here (S01, S02, ...): take the next if taken
+    durable: bool = True          # fsync the session's writes (False: a simulated study only)
 
     @property
     def name(self) -> str:
@@ -83,7 +84,7 @@ class SessionPlan:
 
     def check_display(self, display) -> None:
         """The simulated profiles against the open display's capacity (ProtocolError)."""
-        _check_capacity(self.protocol, self.profiles, display, _protocol_source(self.protocol))
+        check_capacity(self.protocol, self.profiles, display, protocol_source(self.protocol))
 
     def write(self) -> "Session":
         """Write ``session.json`` and ``traces/``; return the :class:`Session`.
@@ -94,11 +95,11 @@ class SessionPlan:
             The folder has become a session in the meantime.
         """
         protocol, assignment = self.protocol, self.assignment
-        # claimed atomically, log locked, before session.json is written (issue 16): of two
+        # claimed atomically, log locked, before session.json is written: of two
         # runs for one participant, one gets the folder; an automatic name moves on to the next
         while True:
             try:
-                log = claim_session_folder(self.directory)
+                log = claim_session_folder(self.directory, durable=self.durable)
                 break
             except SessionError:
                 if not self.auto_name:
@@ -116,7 +117,7 @@ class SessionPlan:
                           self.schedule, self.name, self.display_url, assignment=assignment,
                           clock=self.clock, max_consecutive_faults=self.max_consecutive_faults,
                           out=self.out, responder_name=self.responder_name,
-                          profiles=self.profiles)
+                          profiles=self.profiles, durable=self.durable)
         for w in assignment.warnings:
             session._report(f"warning: {w}")
         session._say(f"{self.participant_id}: {assignment.describe()}")
@@ -145,7 +146,7 @@ def _refuse_existing(directory: Path) -> None:
 
 def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
                  session_name: str | None = None, responder_name: str = "", clock: str = "auto",
-                 max_consecutive_faults: int = 3, out=None) -> SessionPlan:
+                 max_consecutive_faults: int = 3, out=None, durable: bool = True) -> SessionPlan:
     """Validate the inputs, plan the schedule and check every simulated profile; write nothing.
 
     Parameters are those of :func:`create_session`.
@@ -184,12 +185,12 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     profiles = check_schedule_profiles(protocol, participant, assignment.group, schedule)
     return SessionPlan(protocol, participant, str(participant_path), assignment, seed, schedule,
                        directory, display_url, clock_obj, responder_name, max_consecutive_faults,
-                       profiles, out=out, auto_name=not session_name)
+                       profiles, out=out, auto_name=not session_name, durable=durable)
 
 
 def create_session(protocol, participant_path, data_dir, display_url: str, *, seed: int | None = None,
                    session_name: str | None = None, responder_name: str = "", clock: str = "auto",
-                   max_consecutive_faults: int = 3, out=None) -> Session:
+                   max_consecutive_faults: int = 3, out=None, durable: bool = True) -> Session:
     """Validate the inputs, plan the schedule and write a new session directory.
 
     Every simulated profile is computed and checked against the protocol's display limits
@@ -217,6 +218,9 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     out : file, optional
         The experimenter's channel (default stderr): errors, warnings, why a run stopped.
         Progress lines are logged on ``thermocue.session`` (INFO) instead.
+    durable : bool
+        Fsync every write (default). False only for a simulated study on a virtual clock,
+        recomputed from its seed: the same files in the same order, without the fsyncs.
 
     Returns
     -------
@@ -230,11 +234,12 @@ def create_session(protocol, participant_path, data_dir, display_url: str, *, se
     """
     return plan_session(protocol, participant_path, data_dir, display_url, seed=seed,
                         session_name=session_name, responder_name=responder_name, clock=clock,
-                        max_consecutive_faults=max_consecutive_faults, out=out).write()
+                        max_consecutive_faults=max_consecutive_faults, out=out,
+                        durable=durable).write()
 
 
 def open_session(session_dir, *, display_url: str | None = None, clock: str | None = None,
-                 out=None) -> Session:
+                 out=None, durable: bool = True) -> Session:
     """Reopen a session directory to resume it (same protocol, participant, seed, schedule).
 
     ``session.json`` is checked, not trusted: the protocol copy against its hash, the seed (an
@@ -248,6 +253,8 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     clock : {"auto", "real", "virtual"}, optional
         Default (None or "auto"): from the display URL actually used (virtual iff it says
         ``clock=virtual``), as for a new session.
+    durable : bool
+        As for :func:`create_session`.
 
     Raises
     ------
@@ -262,6 +269,6 @@ def open_session(session_dir, *, display_url: str | None = None, clock: str | No
     session = Session(Path(session_dir), stored.protocol, stored.participant, stored.group,
                       stored.seed, stored.schedule, stored.name, url, clock=clock_obj,
                       max_consecutive_faults=stored.max_consecutive_faults, out=out,
-                      responder_name=stored.responder, profiles=profiles)
+                      responder_name=stored.responder, profiles=profiles, durable=durable)
     session.protocol_source = stored.source
     return session

@@ -4,11 +4,11 @@ Every profile of the schedule is computed and checked before the session writes 
 (:func:`experiments.session.setup.check_schedule_profiles`); :class:`SessionProfiles` holds
 those, computes any other on demand (:func:`experiments.session.setup.simulated_target_profile`),
 checks them against an open display's capacity, and tells the experimenter the planner's
-decisions once per profile (issue 12).
+decisions once per profile.
 """
 from __future__ import annotations
 
-from experiments.session.setup import _check_capacity, simulated_target_profile
+from experiments.session.setup import check_capacity, simulated_target_profile
 
 __all__ = ["SessionProfiles"]
 
@@ -28,7 +28,7 @@ class SessionProfiles:
 
     def check_display(self, protocol, display, source: str) -> None:
         """The profiles against an open display's capacity (points, step): ProtocolError."""
-        _check_capacity(protocol, self.profiles, display, source)
+        check_capacity(protocol, self.profiles, display, source)
 
     def target(self, session, spec, say):
         """The target profile of a simulated trial of ``session``; ``say`` gets the planner's

@@ -120,10 +120,22 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
             temperature = limited
             temperature.setflags(write=False)
     params["rate_limited_max_change_C"] = change
+    params["contact_model"] = sim.contact_model
+    if sim.contact_model == "resting":    # the probe rests on the skin: start there, ramp in
+        from experiments.contact_model import resting_profile
+        base = prof.temperature if temperature is None else temperature
+        rested, given_up, catch_up = resting_profile(
+            base, 1.0 / sim.rate_Hz, sim.skin_temperature_C, protocol.display.max_rate_C_per_s,
+            window_s=protocol.display.safety_limits().rate_window_s, resolution_C=sim.resolution_C)
+        rested.setflags(write=False)
+        temperature = rested
+        params["resting_start_C"] = float(rested[0])
+        params["resting_max_change_C"] = given_up
+        params["resting_catch_up_s"] = catch_up
     return _Profile(prof, params, temperature)
 
 
-def _protocol_source(protocol) -> str:
+def protocol_source(protocol) -> str:
     """How messages name a protocol: its file (a packaged one by its name), else its name."""
     from experiments.protocol import PROTOCOLS_DIR
     if protocol.path is None:
@@ -177,7 +189,7 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware.safety import check_profile, profile_max_rate
 
-    src = source or _protocol_source(protocol)
+    src = source or protocol_source(protocol)
     keys = sorted({(s.roughness_id, s.roughness_um) for s in schedule if s.mode == "simulated"})
     if not keys:
         return {}
@@ -252,9 +264,17 @@ def _check_backend(protocol, caps, scheme: str, source: str) -> None:
                 f"{source}: blocks[{i}].mode: the display backend {scheme}:// cannot run "
                 f"{block.mode!r} trials (it offers {', '.join(caps.modes)}); run this block on "
                 f"another display, or use a protocol without it")
+    sim = getattr(protocol, "simulation", None)
+    if (getattr(caps, "contact_detection", None) == "stimulus_start" and sim is not None
+            and sim.contact_model != "resting"
+            and any(getattr(b, "mode", None) == "simulated" for b in protocol.blocks)):
+        raise ProtocolError(
+            f"{source}: simulation.contact_model: expected 'resting' for the display backend "
+            f"{scheme}:// (its probe rests on the skin; contact is the start of stimulation), "
+            f"got {sim.contact_model!r}")
 
 
-def _check_capacity(protocol, profiles: dict, display, source: str) -> None:
+def check_capacity(protocol, profiles: dict, display, source: str) -> None:
     """The profiles against an open display's capacity (``info.max_points``, ``info.min_dt_s``)."""
     from experiments.errors import ProtocolError
     caps = getattr(display, "capabilities", None)
@@ -274,6 +294,15 @@ def _check_capacity(protocol, profiles: dict, display, source: str) -> None:
     if isinstance(min_dt, float) and 1.0 / sim.rate_Hz < min_dt * (1 - 1e-9):
         raise ProtocolError(f"{source}: simulation.rate_Hz: expected at most {1.0 / min_dt:g} Hz "
                             f"(the display's {min_dt * 1e3:g} ms step), got {sim.rate_Hz!r}")
+    # a display that plays profiles its own way (a thermode's segments) says whether it can
+    fits = getattr(display, "check_profile_capacity", None)
+    if callable(fits):
+        for key, prof in sorted(profiles.items(), key=lambda kv: str(kv[0])):
+            try:
+                fits(prof.times, prof.temperature)
+            except UserInputError as exc:
+                raise ProtocolError(f"{source}: simulation: expected profiles the display can "
+                                    f"play, got sample {key[0]} ({key[1]:g} µm): {exc}") from None
 
 
 # --------------------------------------------------------------------------- opening the display
@@ -309,7 +338,7 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
     from experiments.errors import ProtocolError, SafetyLimitError
     from experiments.hardware.registry import backend_for
 
-    src = source or _protocol_source(protocol)
+    src = source or protocol_source(protocol)
     try:
         backend = backend_for(url)
     except UserInputError as exc:

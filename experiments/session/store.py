@@ -38,8 +38,8 @@ def write_session_json(directory: Path, plan) -> None:
     ``traces/``."""
     from experiments.logbook import atomic_write_json, ensure_dir
 
-    protocol, assignment = plan.protocol, plan.assignment
-    atomic_write_json(directory / "session.json", {
+    protocol, assignment, durable = plan.protocol, plan.assignment, plan.durable
+    atomic_write_json(directory / "session.json", durable=durable, obj={
         "format": SESSION_FORMAT,
         "session": plan.name,
         "created_at": _now_iso(),
@@ -63,7 +63,7 @@ def write_session_json(directory: Path, plan) -> None:
         "max_consecutive_faults": plan.max_consecutive_faults,
         "versions": package_versions(),
     })
-    ensure_dir(directory / "traces")
+    ensure_dir(directory / "traces", durable=durable)
 
 
 @dataclass
@@ -176,7 +176,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
 
 
 def check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
-    """Refuse a ``session.json`` that differs from the log's ``session_started`` (issue 16).
+    """Refuse a ``session.json`` that differs from the log's ``session_started``.
 
     The log is the source of truth: a session.json replaced by another run, or edited by hand
     (seed, schedule, protocol, group, participant, name), must not steer a resume.

@@ -18,7 +18,8 @@ from experiments.session_files import aborted_trace_name, trace_name
 __all__ = ["keep_trace", "keep_aside", "unused_name", "contact_force", "trial_stimulus"]
 
 
-def keep_trace(traces_dir: Path, trial_index: int, attempt: int, kind: str):
+def keep_trace(traces_dir: Path, trial_index: int, attempt: int, kind: str, *,
+               durable: bool = True):
     """Move an unfinished attempt's trace out of the way of the next attempt.
 
     Returns the kept file (also when a kill came between this rename and the event that
@@ -29,7 +30,7 @@ def keep_trace(traces_dir: Path, trial_index: int, attempt: int, kind: str):
     if trace.exists():
         kept = traces_dir / aborted_trace_name(trial_index, attempt, kind)
         os.replace(trace, kept)
-        fsync_dir(traces_dir)
+        fsync_dir(traces_dir, durable)
         return kept
     earlier = sorted(traces_dir.glob(aborted_trace_name(trial_index, attempt, "*")))
     return earlier[0] if earlier else None

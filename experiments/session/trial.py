@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from experiments.errors import DisplayError, DisplayRestarted
+from experiments.errors import DisplayError, DisplayLinkLost, DisplayRestarted
 from experiments.logbook import now_iso as _now_iso
 from experiments.session.machine import SessionInterrupted
 from experiments.session.traces import contact_force, keep_aside, keep_trace, trial_stimulus
@@ -44,7 +44,7 @@ _FATAL_CODES = {"DEVICE_RESTARTED", "DisplayRestarted", "NO_HELLO"}
 
 
 @dataclass
-class _Trial:
+class TrialAttempt:
     """The attempt being run and what its states pass on to the next."""
 
     spec: object
@@ -94,9 +94,9 @@ class TrialSteps:
         return "ok"
 
     # -- the states, in the table's order -------------------------------------------------------
-    def _prompt(self, spec, attempt: int) -> _Trial:
+    def _prompt(self, spec, attempt: int) -> TrialAttempt:
         """``prompt``: the trial logged as started; the experimenter places a real sample."""
-        t = _Trial(spec, attempt)
+        t = TrialAttempt(spec, attempt)
         ctx = t.ctx
         self.machine.go("prompt", **ctx)
         self._attempt = t
@@ -136,7 +136,7 @@ class TrialSteps:
                  "psychopyVersion": getattr(self.responder, "psychopy_version", None)}
         return t
 
-    def _prepare(self, disp, t: _Trial) -> None:
+    def _prepare(self, disp, t: TrialAttempt) -> None:
         """``prepare``: upload the target profile (simulated) and arm; the finger is scripted."""
         spec, ctx, row, contact = t.spec, t.ctx, t.row, self.protocol.contact
         self.machine.go("prepare", **ctx)
@@ -170,14 +170,14 @@ class TrialSteps:
         self.hooks.at("armed", spec, t.attempt)
         self.responder.touch(spec, disp)
 
-    def _cue(self, t: _Trial) -> None:
+    def _cue(self, t: TrialAttempt) -> None:
         """``cue``: the sound."""
         self.machine.go("cue", **t.ctx)
         played = bool(self.responder.cue())
         t.row["cue_played"] = played
         self.log_event("cue", **t.ctx, played=played)
 
-    def _wait_contact(self, disp, t: _Trial):
+    def _wait_contact(self, disp, t: TrialAttempt):
         """``wait_contact``: the display runs the trial; its telemetry streams to the trace.
 
         Returns the display's recording. The first frame in contact is noted (and, with
@@ -186,14 +186,14 @@ class TrialSteps:
         self.machine.go("wait_contact", **ctx)
         if not self.traces_dir.is_dir():
             from experiments.logbook import ensure_dir
-            ensure_dir(self.traces_dir)
+            ensure_dir(self.traces_dir, durable=self.durable)
         trace = self.traces_dir / t.trace
         if trace.exists():   # never overwritten: the log cannot explain it, so keep it aside
             aside = keep_aside(trace, attempt)
             self.log_event("trace_kept_aside", **ctx, trace_file=f"traces/{aside.name}")
             self._report(f"repaired: {trace} existed before trial {spec.trial_index} attempt "
                          f"{attempt} started; kept as {aside.name}")
-        t.writer = writer = TraceWriter(trace)
+        t.writer = writer = TraceWriter(trace, durable=self.durable)
         # [presentation] answer_during_contact: the question goes up at contact and the answer
         # is taken as soon as it is given (the recording runs on to its end regardless).
         early = t.block.response and self.protocol.presentation.answer_during_contact
@@ -223,7 +223,7 @@ class TrialSteps:
         finally:
             writer.close()
 
-    def _contact(self, disp, t: _Trial, rec):
+    def _contact(self, disp, t: TrialAttempt, rec):
         """``playback`` | ``record``: the recording judged; None when it delivered the trial,
         else the outcome of :meth:`_no_contact` or :meth:`_fault`."""
         ctx, row = t.ctx, t.row
@@ -231,7 +231,7 @@ class TrialSteps:
         if t.contact_s is not None:
             self.machine.go(active, **ctx, device_time_s=t.contact_s)
         row.update(self._recording_fields(rec))
-        row["contact_force_N"] = contact_force(t.writer, rec)   # Eq. 5's force (issue 12)
+        row["contact_force_N"] = contact_force(t.writer, rec)   # Eq. 5's force
         self._skin_temperature(row, ctx, t.finger_C)
         self.log_event("recording", **ctx, status=rec.status, fault_code=rec.fault_code,
                        contact_time_s=rec.contact_time_s, frames=rec.frames,
@@ -246,7 +246,7 @@ class TrialSteps:
             self.machine.go(active, **ctx, device_time_s=rec.contact_time_s)
         return None
 
-    def _respond(self, t: _Trial, rec) -> None:
+    def _respond(self, t: TrialAttempt, rec) -> None:
         """``respond``: the answer (blocks that ask for one) and the block's feedback."""
         spec, ctx, row, block, sample = t.spec, t.ctx, t.row, t.block, t.sample
         self.machine.go("respond", **ctx)
@@ -257,7 +257,8 @@ class TrialSteps:
             response = t.answered[0] if t.answered else self.responder.respond(spec, stimulus)
             self.log_event("response", **ctx, **response.to_dict(),
                            during_contact=bool(t.answered))
-            row.update(response_id=response.response_id, rt_s=response.rt_s,
+            row.update(response_id=response.response_id, **response.timing(),
+                       answer_mode=response.answer_mode,
                        correct=int(response.response_id == spec.roughness_id),
                        response_source=response.source)
             if block.feedback:   # only where the protocol's block says so
@@ -269,7 +270,7 @@ class TrialSteps:
         self._trial_seconds.append(time.monotonic() - t.t0)
         self.hooks.at("after_response", spec, t.attempt)
 
-    def _write(self, t: _Trial) -> None:
+    def _write(self, t: TrialAttempt) -> None:
         """``write``: the completed row, logged and written to ``trials.csv``."""
         self.machine.go("write", **t.ctx)
         t.row.update(status="ok", trace_file=f"traces/{t.trace}", finished_at=_now_iso())
@@ -283,7 +284,7 @@ class TrialSteps:
         self.responder.rewarm(0.0 if self.clock.virtual else seconds)
 
     # -- the side exits ----------------------------------------------------------------------
-    def _fault(self, disp, t: _Trial, exc, rec=None) -> str:
+    def _fault(self, disp, t: TrialAttempt, exc, rec=None) -> str:
         """``fault`` -> ``write``: neutral, the attempt written as a fault (run again)."""
         spec, attempt, ctx, row = t.spec, t.attempt, t.ctx, t.row
         if exc is None:
@@ -297,18 +298,23 @@ class TrialSteps:
                 code = type(exc).__name__
         if isinstance(exc, DisplayRestarted) or str(code) in _FATAL_CODES:
             self._fatal = (str(code), message)
+        lost = isinstance(exc, DisplayLinkLost) or str(code) == "LINK_LOST"
+        if lost:   # the port failed: nothing more goes to it (the device's watchdog acts)
+            self._link_lost = ("LINK_LOST", message)
         self.machine.go("fault", **ctx)
         self.log_event("display_fault", **ctx, fault_code=str(code), message=message)
-        self._neutral(disp)
+        if not lost:
+            self._neutral(disp)
         self.machine.go("write", **ctx)
-        kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault")
+        kept = keep_trace(self.traces_dir, spec.trial_index, attempt, "fault", durable=self.durable)
         row.update(status="fault", fault_code=str(code), finished_at=_now_iso(),
                    trace_file=None if kept is None else f"traces/{kept.name}")
         self._complete(spec, attempt, row)
-        self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
+        if not lost:   # (a lost link is reported once, with the reconnect's outcome)
+            self._report(f"trial {spec.trial_index}: display fault {code}: {message}")
         return "fault"
 
-    def _no_contact(self, disp, t: _Trial, rec) -> str:
+    def _no_contact(self, disp, t: TrialAttempt, rec) -> str:
         """``no_contact``: nobody touched in time; neutral, the attempt aborted (run again)."""
         self.machine.go("no_contact", **t.ctx)
         self._neutral(disp)

@@ -2,10 +2,10 @@
 
 One concept: the table a session keeps beside its event log. The event log is the source of
 truth (:func:`~experiments.logformat.trials_from_events`); the table is rebuilt from it and
-replaced atomically, so it is never half-written. Only where durability is off (a simulated study
-on a virtual clock, recomputed from its seed: :func:`~experiments.logbook.set_durable`) does a
+replaced atomically, so it is never half-written. Only where durability is off (``durable=False``:
+a simulated study on a virtual clock, recomputed from its seed) does a
 table that only adds rows to the one this run last wrote grow by its new lines in one ``write``
-(issue 11's speed); a session with a person in it always gets the atomic replace. The log is
+(for speed); a session with a person in it always gets the atomic replace. The log is
 decoded incrementally (only the lines appended since the last trial); anything unusual falls back
 to :func:`~experiments.logformat.read_events`.
 """
@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from experiments.logbook import (append_text, atomic_write_text, is_durable, read_events,
+from experiments.logbook import (append_text, atomic_write_text, read_events,
                                  trials_csv_columns, trials_csv_header, trials_csv_lines,
                                  trials_from_events)
 from experiments.logformat import decode_event
@@ -31,11 +31,13 @@ def _size(path) -> int | None:
 
 
 class TrialsTable:
-    """``trials.csv`` at ``trials_path``, rebuilt from the events at ``events_path``."""
+    """``trials.csv`` at ``trials_path``, rebuilt from the events at ``events_path``
+    (``durable``: fsynced, and always replaced atomically)."""
 
-    def __init__(self, events_path, trials_path):
+    def __init__(self, events_path, trials_path, *, durable: bool = True):
         self.events_path = Path(events_path)
         self.trials_path = Path(trials_path)
+        self.durable = bool(durable)
         self._events_read: tuple = (0, None)    # (bytes of events.jsonl decoded, their events)
         self._text: tuple | None = None          # (trials.csv text, its size) as last written
         # the lines already formatted: (columns, header, {position of the row's event in the
@@ -59,10 +61,10 @@ class TrialsTable:
         last = self._text
         if last is not None and text == last[0] and _size(self.trials_path) == last[1]:
             return                                      # the same table: nothing to write
-        if not (last is not None and not is_durable() and len(text) > len(last[0])
+        if not (last is not None and not self.durable and len(text) > len(last[0])
                 and text.startswith(last[0])
-                and append_text(self.trials_path, text[len(last[0]):], last[1])):
-            atomic_write_text(self.trials_path, text)
+                and append_text(self.trials_path, text[len(last[0]):], last[1], durable=False)):
+            atomic_write_text(self.trials_path, text, durable=self.durable)
         self._text = (text, len(text.encode("utf-8")))
 
     def _table_text(self, rows, origins, positions) -> str:

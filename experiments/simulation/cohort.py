@@ -93,8 +93,8 @@ def paper_cohort(seed: int = 0, groups=PAPER_GROUPS) -> list[dict]:
                 },
                 "initial_skin_temperature_C": round(float(rng.uniform(*SKIN_TEMPERATURE_RANGE_C)), 2),
                 "consent": {"given": True, "date": "2026-01-01", "form": "simulated participant"},
-                # the module's name before issue 14, kept: the records (and the study's outputs)
-                # stay byte-identical
+                # the module's old name, kept: the records (and the study's outputs) stay
+                # byte-identical
                 "notes": "Simulated participant of the Figure 9 study (experiments.cohort).",
                 "x_simulation": {"group": group.name, "seed": int(seed) * 1000 + n},
             })

@@ -16,7 +16,7 @@ name                   decision rule
 ``absolute``           absolute identification: the maximum-likelihood class under Gaussian
                        templates learned on the real samples (one familiarisation touch each);
                        a simulated trial is judged against the real templates.  The model the
-                       project used before issue 11.
+                       project used before the observer family.
 ``relative``           within-block relative: projects each percept on its own discrimination
                        axis (real templates 1# → 4#), ranks it among the block's percepts so
                        far, and, *knowing the 4 × 3 design* (each sample three times), names

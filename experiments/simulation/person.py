@@ -211,7 +211,7 @@ def receptor_features(t, receptor_C, initial_C, params: PerceptionParameters) ->
         t = np.concatenate(([0.0], t))
         y = np.concatenate(([initial_C], y))
     rise = float(np.max(y)) - float(initial_C)
-    if rise > 0.2:   # the features are drops and a rate of fall: a cooling observer (issue 12)
+    if rise > 0.2:   # the features are drops and a rate of fall: a cooling observer
         raise ValueError(f"receptor_features: receptor_C: expected a cooling trace (a material "
                          f"colder than the skin), got a rise of {rise:.3g} K above {initial_C!r} °C; "
                          f"this observer's features assume cooling and do not describe warm materials")
@@ -376,7 +376,7 @@ class SimulatedPerson:
         grid = self.time_grid(min(self.params.duration_s, float(t_in[-1])))
         surface = np.interp(grid, t_in, g_in)
         skin = self.skin
-        # through the scene planner (issue 12: one chokepoint for every production temperature)
+        # through the scene planner (one chokepoint for every production temperature)
         receptor, self.last_display_plan = planned_skin_response(
             skin, grid, surface, t_s, depth=skin.dermis,
             resistance=None if pad_resistance is None else float(pad_resistance),

@@ -2,7 +2,7 @@
 
 ``write_study`` writes session folders in the documented layout
 (``DATA/<participant>/<session>/`` with ``session.json``, ``events.jsonl`` and
-``trials.csv``; DESIGN.md "Session directory", docs/internal-contracts.md
+``trials.csv``; docs/design.md "Session directory", docs/internal-contracts.md
 "Trials table"; events as ``experiments.logbook`` documents them:
 ``session_started`` with the session context, ``trial_started`` with the trial's
 spec, ``trial_completed`` whose ``row`` holds only the outcome, ``session_finished``) from *known* per-cell probabilities of a correct answer. A

@@ -89,7 +89,7 @@ def test_one_participant_per_group_shows_no_group_difference():
     assert stat[0] == 1.0 and not holds[0]
 
 
-# --------------------------------------------------------------- issue 11: recognition itself
+# --------------------------------------------------------------- recognition itself
 def test_above_chance_is_a_one_sample_t_test_against_a_quarter():
     # correct out of 3 per sample; per-participant proportions over the 12 trials, by hand:
     # real 6/12 3/12 6/12 9/12 -> mean 0.5, deviations 0 -1/4 0 +1/4, s^2 = 0.125/3,

@@ -1,4 +1,4 @@
-"""The display's measured contact force in the analysis (issue 12): read, tabulated, a covariate."""
+"""The display's measured contact force in the analysis: read, tabulated, a covariate."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -63,4 +63,4 @@ def test_report_shows_the_force_and_old_logs_say_it_was_not_logged(tmp_path):
     assert "| force_N |" in report         # the covariate row (the force varies here)
     analyze(tmp_path / "old", tmp_path / "out_old", n_boot=50, mixed=False)
     old = (tmp_path / "out_old" / "report.md").read_text()
-    assert "not logged (sessions before issue 12)" in old and "mean_force_N" not in old
+    assert "not logged (sessions older than the contact-force column)" in old and "mean_force_N" not in old

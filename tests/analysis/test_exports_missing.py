@@ -43,27 +43,59 @@ def test_missing_data_report_gives_each_missing_trial_its_reason(study, tmp_path
     data, _ = study(n_per_group=4, sigma=0.3, seed=61, write_events=False)
     contact, fault, ended = _damage_one_participant(data)
     out = tmp_path / "out"
-    # A00's only session ended early: the default policy (first *complete* session) would not
-    # analyse it at all, so the missing trials are counted over every session here.
-    result = analyze(data, out, n_boot=50, mixed=False, sessions="all")
+    # A00's only session ended early: the default policy keeps it as a partial participant
+    # (the models need no complete cases) and counts its missing trials.
+    result = analyze(data, out, n_boot=50, mixed=False)
+    sessions = result.log.sessions.set_index("participant")
+    assert sessions.loc["A00", "analysed"]
+    assert sessions.loc["A00", "reason"].startswith("analysed, partial: ")
+    assert result.log.analysable["participant"].eq("A00").sum() == 20
     summary = pd.read_csv(out / "missing.csv").set_index("participant")
     a00 = summary.loc["A00"]
     assert (a00["scheduled"], a00["answered"], a00["missing"]) == (24, 20, 4)
-    assert (a00["no contact"], a00["fault"], a00["session ended"], a00["time-out"]) == (1, 1, 2, 0)
+    assert (a00["analysed_trials"], a00["answered_excluded"]) == (20, 0)
+    assert (a00["no_contact"], a00["fault"], a00["session_ended"], a00["time_out"]) == (1, 1, 2, 0)
     assert a00["schedule_source"] == "session.json"
     others = summary.drop(index="A00")
     assert (others["missing"] == 0).all() and (others["scheduled"] == 24).all()
     per_trial = pd.read_csv(out / "missing_trials.csv")
     reasons = dict(zip(per_trial["trial_index"], per_trial["reason"]))
-    assert reasons == {int(contact["trial_index"]): "no contact", int(fault["trial_index"]): "fault",
-                       int(ended[0]["trial_index"]): "session ended",
-                       int(ended[1]["trial_index"]): "session ended"}
+    assert reasons == {int(contact["trial_index"]): "no_contact", int(fault["trial_index"]): "fault",
+                       int(ended[0]["trial_index"]): "session_ended",
+                       int(ended[1]["trial_index"]): "session_ended"}
+    assert "other" not in set(per_trial["reason"])         # no answered trial is ever "missing"
     all_trials = pd.read_csv(out / "all_trials.csv", keep_default_na=False)
     aborted = all_trials[all_trials["status"] == "aborted"]
     assert list(aborted["abort_reason"]) == ["no_contact"]
     report = (out / "report.md").read_text()
-    assert "### Missing data" in report and "1 no contact, 1 fault, 2 session ended" in report
+    assert "### Missing data" in report and "1 no_contact, 1 fault, 2 session_ended" in report
+    assert "are kept" in report and "A00 (20 of 24)" in report
     assert result.missing.set_index("participant").loc["A00", "missing"] == 4
+    # the complete-cases sensitivity row: the primary test without A00, against a GEE refitted
+    # here by statsmodels on the other participants
+    row = result.tests.set_index("role").loc["sensitivity"]
+    assert "7 of 8 participants" in row["compares"]
+    _check_complete_cases(result.log.analysable, row)
+
+
+def _check_complete_cases(trials, row):
+    import statsmodels.api as sm
+    from scipy import stats
+
+    d = trials[trials["participant"] != "A00"].copy()
+    d["cell"] = d["group"] + "_" + d["mode"] + "_" + d["roughness_id"].astype(str)
+    x = pd.get_dummies(d["cell"]).astype(float)
+    res = sm.GEE(d["correct"].astype(float), x, groups=d["participant"],
+                 family=sm.families.Binomial(),
+                 cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
+    w = np.array([(1 if c.startswith("A_real") else -1 if c.startswith("B_real") else 0) / 4
+                  for c in x.columns])
+    est = w @ np.asarray(res.params)
+    se = np.sqrt(w @ np.asarray(res.cov_params()) @ w)
+    assert row["estimate"] == pytest.approx(est, abs=1e-6)
+    assert row["se"] == pytest.approx(se, rel=1e-5)
+    assert row["test"] == "Wald t(5)"
+    assert row["p_value"] == pytest.approx(2 * stats.t.sf(abs(est / se), 5), rel=1e-4)
 
 
 def test_exports_are_full_precision_with_a_complete_codebook(study, tmp_path):

@@ -62,13 +62,13 @@ def test_saturated_model_agrees_with_lme4_glmer(study, tmp_path):
     data, _ = study(paper_like_cells(), sigma=0.8, seed=3, write_events=False)
     trials = load_trials(data).analysable
     fit = fit_glmm(trials, profile=False)
-    assert fit.formula == FORMULA and fit.result["optimiser_success"]
+    assert fit.formula == FORMULA and fit.convergence["optimiser_success"]
     ref = _glmer(trials, FORMULA, tmp_path, 11, profile=False)
     fixed = fit.table.iloc[: len(ref["beta"])]
     np.testing.assert_allclose(fixed["log_odds"], ref["beta"], atol=1e-4)
     np.testing.assert_allclose(fixed["se"], ref["se"], rtol=1e-3)
     assert fit.theta[-1] == pytest.approx(ref["sigma"][0], abs=1e-4)
-    assert fit.result["log_likelihood"] == pytest.approx(ref["loglik"][0], abs=1e-4)
+    assert fit.convergence["log_likelihood"] == pytest.approx(ref["loglik"][0], abs=1e-4)
 
 
 @pytest.mark.slow
@@ -98,7 +98,7 @@ def test_laplace_agrees_with_lme4_default(study, tmp_path):
 def test_convergence_details_and_latent_icc(study):
     data, _ = study(n_per_group=8, sigma=1.0, seed=8, write_events=False)
     fit = fit_glmm(load_trials(data).analysable, profile=False)
-    conv = fit.result
+    conv = fit.convergence
     assert conv["optimiser_success"] and conv["iterations"] > 0 and conv["max_abs_gradient"] < 1e-2
     assert conv["hessian_positive_definite"]
     sigma = conv["participant_sd"]
@@ -143,7 +143,7 @@ def test_random_mode_slope_agrees_with_lme4_laplace(tmp_path):
     np.testing.assert_allclose(fit.params, ref["beta"], atol=1e-4)
     np.testing.assert_allclose(fit.table["se"].iloc[:len(ref["se"])], ref["se"], rtol=1e-3)
     np.testing.assert_allclose(fit.theta[-3:], ref["sigma"], atol=1e-4)   # lme4's theta
-    assert fit.result["log_likelihood"] == pytest.approx(ref["loglik"][0], abs=1e-4)
+    assert fit.convergence["log_likelihood"] == pytest.approx(ref["loglik"][0], abs=1e-4)
     # profile intervals: lme4's confint(method = "profile") rows are sd_(Intercept), cor,
     # sd_mode; it interpolates a spline through its profile points (on the correlation a
     # coarser grid): ends within 1e-3 (SDs) and 3e-3 (correlation). Measured: 2e-4 and 1.9e-3.

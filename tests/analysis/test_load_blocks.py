@@ -1,4 +1,4 @@
-"""Scored blocks come from the session's data, not from block names (issue 10, item 3).
+"""Scored blocks come from the session's data, not from block names.
 
 The packaged roughness_recognition protocol with its commented-out ``review`` block enabled is run
 through the session engine (in-process emulator, virtual clock); the loader must read from

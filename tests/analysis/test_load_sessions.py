@@ -1,4 +1,4 @@
-"""An explicit session-inclusion policy (issue 10, item 6): on the old code a participant's
+"""An explicit session-inclusion policy: on the old code a participant's
 repeated and interrupted sessions were all pooled, unflagged."""
 from __future__ import annotations
 

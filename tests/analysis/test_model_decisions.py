@@ -1,4 +1,4 @@
-"""The report's "Model decisions" section, from the profile_uploaded events (issue 12)."""
+"""The report's "Model decisions" section, from the profile_uploaded events."""
 from __future__ import annotations
 
 import json

@@ -16,7 +16,7 @@ from stimuli import contact_resistance, material
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "participants" / "examples" / "P01.json"
 T_S0, T_M0, L_TRUE = 35.0, 24.0, 700e-6
-# DESIGN.md's session-directory columns: traces/trial-NNN.csv (TRACE_COLUMNS, the writer's) and
+# docs/design.md's session-directory columns: traces/trial-NNN.csv (TRACE_COLUMNS, the writer's) and
 # the trials table's columns analysis requires (a subset of logformat.TRIAL_COLUMNS)
 TRIAL_COLUMNS = ["participant", "group", "session", "block", "trial_index", "mode", "roughness_id",
                  "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",

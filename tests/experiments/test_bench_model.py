@@ -35,7 +35,7 @@ def test_bench_model_quick_writes_table_json_png(tmp_path, capsys):
     assert by[("receptor", "paper-as-printed", "Eq. 8 prefactor")]["max_error_K"] > 1.0
     assert data["ratios"]["skin_response_exact_over_eq7_cost_ratio"] > 0
     assert data["profile"]["points"] == 20001 and data["profile"]["rate_Hz"] == 1000.0
-    # issue 12: layered and perfused skin exact, against mpmath transfer matrices, and the planner
+    # layered and perfused skin exact, against mpmath transfer matrices, and the planner
     assert by[("layered", "exact", "epidermis + dermis")]["max_error_K"] < 1e-9
     assert by[("layered", "exact", "epidermis + dermis, Pennes 1.25e-3 /s")]["max_error_K"] < 1e-9
     planner = [r for r in data["rows"] if r["problem"] == "layered" and r["method"] == "planner"]

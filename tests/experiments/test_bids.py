@@ -1,5 +1,5 @@
 """BIDS export checked by the reference validator (npm ``bids-validator``, installed by
-scripts/setup), not by hand-written rules (issue 10, item 8)."""
+scripts/setup), not by hand-written rules."""
 from __future__ import annotations
 
 import csv
@@ -90,5 +90,6 @@ def test_export_dataset_rebuilds_it_and_labels_are_alphanumeric(study, tmp_path)
 def test_export_bids_command(study, tmp_path, capsys):
     from experiments.cli import main
     assert main(["export-bids", str(study), "--out", str(tmp_path / "b")]) == 0
-    assert capsys.readouterr().out == f"3 session(s) -> {tmp_path / 'b'}\n"
+    assert capsys.readouterr().out == f"3 session(s) of 2 participant(s) -> {tmp_path / 'b'}\n"
+    assert (tmp_path / "b" / "COMPLETE").is_file()
     assert main(["export-bids", str(tmp_path / "nothing")]) == 2

@@ -1,4 +1,4 @@
-"""Every input bounded and finite (issue 16, item 6): one line naming file and field, exit 2.
+"""Every input bounded and finite: one line naming file and field, exit 2.
 
 Regressions from a fuzzing campaign: ``epidermis_um: NaN`` accepted (JSON Schema's
 ``exclusiveMinimum`` lets NaN through, and the session could then never be resumed),

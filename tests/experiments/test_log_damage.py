@@ -1,4 +1,4 @@
-"""Damage is never repaired silently (issue 16, item 4).
+"""Damage is never repaired silently.
 
 Regression: an events.jsonl cut mid-file (damage, a partial copy, a restore) was read as a log
 torn by a crash in its last line: resume dropped completed trials from trials.csv, re-ran them,

@@ -64,7 +64,8 @@ def test_every_append_is_fsynced_and_a_new_file_fsyncs_its_folder(tmp_path, monk
     monkeypatch.setattr(logbook.os, "fsync", lambda fd: (calls.append(fd), real_fsync(fd))[1])
     dir_calls = []
     real_fsync_dir = logbook.fsync_dir
-    monkeypatch.setattr(logbook, "fsync_dir", lambda p: (dir_calls.append(Path(p)), real_fsync_dir(p))[1])
+    monkeypatch.setattr(logbook, "fsync_dir",
+                        lambda p, durable=True: (dir_calls.append(Path(p)), real_fsync_dir(p, durable))[1])
     path = tmp_path / "events.jsonl"
     log = EventLog(path)
     assert dir_calls == [tmp_path]
@@ -293,7 +294,8 @@ def test_sigkill_mid_append_leaves_a_readable_log(tmp_path):
 def test_atomic_write_replaces_and_leaves_no_temp(tmp_path, monkeypatch):
     synced = []
     real = logbook.fsync_dir
-    monkeypatch.setattr(logbook, "fsync_dir", lambda p: (synced.append(Path(p)), real(p))[1])
+    monkeypatch.setattr(logbook, "fsync_dir",
+                        lambda p, durable=True: (synced.append(Path(p)), real(p, durable))[1])
     target = tmp_path / "session.json"
     atomic_write_json(target, {"a": 1, "x": np.int64(3), "p": Path("/tmp")})
     assert json.loads(target.read_text()) == {"a": 1, "x": 3, "p": "/tmp"}
@@ -407,7 +409,7 @@ def test_replay(tmp_path):
 
 
 def test_floats_are_rounded_to_the_instruments_resolution(tmp_path):
-    # issue 10: "168.85999999999999" in trials.csv
+    # "168.85999999999999" in trials.csv
     from experiments.logbook import write_trials_csv
     out = tmp_path / "trials.csv"
     write_trials_csv(out, [{"contact_onset_s": 168.85999999999999, "rt_s": 1.2345678,

@@ -1,4 +1,4 @@
-"""The log format's one home (issue 14): standard library only, and the writer and analysis agree.
+"""The log format's one home: standard library only, and the writer and analysis agree.
 
 The reader, the projection and replay are exercised through the writer in test_logbook.py and
 through analysis in tests/analysis/test_load*.py; here: what importing the module costs, the

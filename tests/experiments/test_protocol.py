@@ -23,7 +23,8 @@ def variant(tmp_path, old, new, name="roughness_recognition.toml", source=RR):
 
 
 def test_packaged_protocols():
-    assert protocol_names() == ["interface_temperature", "roughness_recognition"]
+    assert protocol_names() == ["interface_temperature", "roughness_recognition",
+                                "roughness_recognition_tcs2"]
 
 
 def test_roughness_recognition_matches_the_paper():
@@ -113,7 +114,8 @@ def test_name_or_path(tmp_path):
     with pytest.raises(ProtocolError) as ei:
         load_protocol("roughness_recogniton")
     assert str(ei.value) == ("roughness_recogniton: expected a protocol file or one of the packaged "
-                             "protocols (interface_temperature, roughness_recognition), got no such file")
+                             "protocols (interface_temperature, roughness_recognition, "
+                             "roughness_recognition_tcs2), got no such file")
     assert isinstance(ei.value, UserInputError)
     with pytest.raises(ProtocolError, match="nothere.toml: expected a protocol file"):
         load_protocol(tmp_path / "nothere.toml")

@@ -387,12 +387,12 @@ def test_a_compensated_profile_the_pad_cannot_give_names_protocol_and_field(tmp_
 
 
 def _nothing_logged(directory):
-    """No event written: the claimed log (issue 16: claimed with the folder) is empty."""
+    """No event written: the claimed log (claimed with the folder) is empty."""
     log = directory / "events.jsonl"
     return not log.exists() or log.read_bytes() == b""
 
 
-# --------------------------------------------------------------------------- issue 14: the shape
+# --------------------------------------------------------------------------- the package's shape
 def test_progress_is_logged_on_thermocue_session_and_not_told(tmp_path, caplog):
 
     proto = write_protocol(tmp_path, sim_samples=())

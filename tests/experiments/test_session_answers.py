@@ -4,14 +4,15 @@ The reference (``data/session_answers_seed0.json``) is produced by
 ``tests/experiments/data/make_session_answers.py`` with ``durable=True``: the path every real
 session takes, one fsync per event. This test reruns the same two sessions (P01, P16 of the
 seed-0 cohort, virtual clock, emulator seed 0) on the fast path a simulated study uses
-(``durable=False``, issue 11) and compares every logged answer, response time and percept.
+(``durable=False``) and compares every logged answer, response time and percept.
 
 History: the first reference was made at a89728d, before any speed change, and the fast path
-matched it. Issue 12 then changed the model on purpose (the simulated finger's contact resistance
-from Eq. 5 at the 2.5 N it presses, not 2 N) and issues 10/16 changed what a trial logs, so the
+matched it. The model then changed on purpose (the simulated finger's contact resistance from
+Eq. 5 at the 2.5 N it presses, not 2 N, through the scene planner) and what a trial logs changed
+(delivery checks, what the participant sees), so the
 reference was regenerated, on the durable path, at the commit named in its ``_comment``; and
 again when the simulated participant's real-sample percept took the contact force the display
-measured in each trial (``contact_force_N``, issue 12) instead of the scripted 2.5 N.
+measured in each trial (``contact_force_N``) instead of the scripted 2.5 N.
 """
 import json
 from pathlib import Path

@@ -159,7 +159,7 @@ def test_quiet_still_says_why_the_session_stopped(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 1
     assert "stopped after 3 consecutive faults; resume with `thermocue resume" in err
-    # the sensor fault latches (issue 16): ABORT does not clear it, the next ARMs are refused
+    # the sensor fault latches: ABORT does not clear it, the next ARMs are refused
     assert err.count("trial 1: display fault SENSOR_FAILURE") == 1
     assert err.count("trial 1: display fault FAULT_LATCHED") == 2
     assert "trial 1 of 2" not in err and "group A" not in err     # progress stays quiet
@@ -235,7 +235,7 @@ def test_progress_counts_elapsed_time_from_the_sessions_first_start(tmp_path, ca
     # Regression: "elapsed" restarted at 0:00 on resume.
 
     from experiments.logbook import EventLog, now_iso
-    caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged (issue 14)
+    caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged
     s = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data", "scripted://",
                        seed=7, clock="virtual")
     an_hour_ago = (dt.datetime.now(dt.timezone.utc) - dt.timedelta(hours=1, seconds=5))
@@ -274,12 +274,12 @@ def test_console_cue_without_a_terminal_is_logged_as_not_played(tmp_path, monkey
 
 
 def _nothing_logged(directory):
-    """No event written: the claimed log (issue 16: claimed with the folder) is empty."""
+    """No event written: the claimed log (claimed with the folder) is empty."""
     log = directory / "events.jsonl"
     return not log.exists() or log.read_bytes() == b""
 
 
-# --------------------------------------------------------------------------- issue 16: claims
+# --------------------------------------------------------------------------- claims
 def test_two_runs_claiming_one_session_folder_never_mix(tmp_path):
     # Regression: two concurrent `thermocue run` of one participant: S01/session.json ended up
     # holding the losing process's seed and schedule under the winner's log.

@@ -1,4 +1,4 @@
-"""Write failures end a session cleanly (issue 16, item 5).
+"""Write failures end a session cleanly.
 
 Regression: a full disk or a folder turning read-only mid-session gave a traceback: the display
 went neutral, but the clean-up itself raised again and ``session_error`` was never written.

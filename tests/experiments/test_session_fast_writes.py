@@ -1,4 +1,4 @@
-"""The session's per-frame and per-trial writes (issue 11, speed) give the same bytes as before.
+"""The session's per-frame and per-trial writes (speed) give the same bytes as before.
 
 * a trace line (:class:`~experiments.session_files.TraceWriter`) is the cells of
   :func:`~experiments.logformat.format_cell` whatever the values (remembered hundredths, -0.0,

@@ -1,4 +1,4 @@
-"""Session hygiene (issue 10, item 6): a second session for a participant is told and asked about,
+"""Session hygiene: a second session for a participant is told and asked about,
 a record's id must match its file's name, an out-of-range skin temperature is the
 experimenter's to confirm.
 """

@@ -7,7 +7,7 @@ at a named point (before the upload, while the display plays or records, between
 and the write, ...); the test then kills it with SIGKILL, which no handler can see. A second test
 kills at seeded random times instead, wherever the runner happens to be.
 
-What must hold after every kill and resume (DESIGN.md, "Nothing lost"):
+What must hold after every kill and resume (docs/design.md, "Durability"):
 
 * every trial of the schedule ends with exactly one completed row, in schedule order;
 * a completed trial is never run again and its row never changes;

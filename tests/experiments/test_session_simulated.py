@@ -47,12 +47,12 @@ def test_full_roughness_recognition_session_with_the_simulated_participant(tmp_p
     events, _ = read_events(session / "events.jsonl", warn=False)
     uploads = [e for e in events if e["event"] == "profile_uploaded"]
     assert len(uploads) >= 12 and len({e["content_hash"] for e in uploads}) == 4   # 4 samples
-    # each profile carries the scene planner's decisions (issue 12): the 3 mm slab is kept
+    # each profile carries the scene planner's decisions: the 3 mm slab is kept
     for e in uploads:
         decisions = {d["effect"]: d for d in e["parameters"]["plan"]["decisions"]}
         assert decisions["slab"]["included"]
     err = capsys.readouterr().err
     assert "trial 28 of 28 | block simulated" in err and "session finished" in err
-    # ... and the experimenter reads them, one line per profile (issue 12)
+    # ... and the experimenter reads them, one line per profile
     lines = [x for x in err.splitlines() if x.startswith("profile ") and " um): model " in x]
     assert len(lines) == 4 and all("kept: " in x and "slab" in x for x in lines), lines

@@ -1,4 +1,4 @@
-"""A trial is ``ok`` only when the display delivered it (issue 16, item 1).
+"""A trial is ``ok`` only when the display delivered it.
 
 Regression: a burst of dropped bytes ate the host's heartbeats *and* the device's WATCHDOG
 event; the host then saw the device idle (``end_reason`` fault in STATUS) and logged the trial

@@ -1,4 +1,4 @@
-"""Two audiences (issue 10): the participant's channel never names the sample of a test trial;
+"""Two audiences: the participant's channel never names the sample of a test trial;
 the experimenter's channel says which sample to place; feedback only where a block asks for it.
 
 A whole session on the in-process emulator (virtual clock) answered through the console
@@ -53,7 +53,7 @@ def _protocol(tmp_path):
 
 
 def test_participant_terminal_never_names_a_test_trials_sample(tmp_path, caplog):
-    caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged (issue 14)
+    caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged
     proto = _protocol(tmp_path)
     experimenter = io.StringIO()
     s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&seed=3", seed=11,
@@ -106,7 +106,7 @@ def test_participant_terminal_never_names_a_test_trials_sample(tmp_path, caplog)
 
 
 def test_trials_csv_has_its_whole_header_from_the_first_row(tmp_path):
-    """issue 10: the header grew during a session (28 -> 29 -> 35 columns); contact_time_s was
+    """the header grew during a session (28 -> 29 -> 35 columns); contact_time_s was
     the device clock at contact, read as a duration."""
     from experiments.logbook import TRIAL_COLUMNS
     from experiments.responders.simulated import SimulatedResponder  # noqa: F401 (registers it)

@@ -1,6 +1,6 @@
 """Independent high-precision references (mpmath), shared by the stimuli tests.
 
-The Laplace-domain solution of DESIGN.md is written here again, in mpmath, with
+The Laplace-domain solution of docs/design.md is written here again, in mpmath, with
 plain hyperbolic functions (no rewriting), and inverted with mpmath's own Talbot
 method at 30 significant digits.
 """

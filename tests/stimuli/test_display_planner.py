@@ -67,7 +67,7 @@ def test_layers_are_kept_at_the_perceptual_floor_and_perfusion_is_neglected():
                                          perfusion_per_s=1.25e-3)
     assert plan.layered and not plan.perfusion
     d = {x.effect: x for x in plan.decisions}
-    # screened (issue 12, speed): kept without evaluation, perfusion by its closed form
+    # screened (speed): kept without evaluation, perfusion by its closed form
     assert d["layered"].included and "without evaluation" in d["layered"].note
     assert not d["perfusion"].included and d["perfusion"].bound_K < 0.05
     # evaluated (screen=False): the same decisions, the layers' effect > 0.3 K, perfusion's mK
@@ -91,7 +91,7 @@ def _histories_hard(t):
 @pytest.mark.parametrize("L_um,frac", [(400.0, 0.9), (650.0, 0.6), (3000.0, 0.6), (1000.0, 0.1)])
 @pytest.mark.parametrize("R", [0.0, 1e-3])
 def test_display_perfusion_closed_form_bounds_the_exact_effect(L_um, frac, R):
-    # the display planner's closed form for perfusion (issue 12: perfusion_factor x sup|h|, not
+    # the display planner's closed form for perfusion (perfusion_factor x sup|h|, not
     # evaluated) against the effect the exact models compute at every sample, hard cases: w up
     # to 0.5 /s, 3 mm skin, 60 s, warm and cold drives
     from stimuli.exact import INVERSION_ERROR
@@ -111,7 +111,7 @@ def test_display_perfusion_closed_form_bounds_the_exact_effect(L_um, frac, R):
 
 
 def test_display_layer_screen_keeps_only_layers_the_evaluation_keeps():
-    # the display planner's layer screen (speed, issue 12) must not keep layers that evaluating
+    # the display planner's layer screen (speed) must not keep layers that evaluating
     # them would neglect: over skins, pads, tolerances and drives, every screened keep is an
     # evaluated keep
     from stimuli.display_planner import _layers_matter, plan_display
@@ -136,12 +136,12 @@ def test_display_layer_screen_keeps_only_layers_the_evaluation_keeps():
 
 
 def test_display_probe_inversion_error_bound():
-    # the display planner's probes use the scene planner's cheap inversion (speed, issue 12): on
+    # the display planner's probes use the scene planner's cheap inversion (speed): on
     # every step response it compares (skins, receptor depths, pads, perfusion, durations and
     # rates), each probe value is within PROBE_INVERSION_ERROR of the production inversion
     # (itself within 1e-12 of mpmath, tests/stimuli/test_exact.py)
     from stimuli.display_planner import _step
-    from stimuli.planner import PROBE_INVERSION_ERROR, _probes
+    from stimuli.planner import PROBE_INVERSION_ERROR, probe_plan
     worst = 0.0
     for (duration, rate), L_um, frac, R, layered, w in itertools.product(
             [(20.0, 1000.0), (10.0, 500.0), (2.0, 100.0), (120.0, 1000.0)],
@@ -149,8 +149,8 @@ def test_display_probe_inversion_error_bound():
             [False, True], [None, 1.25e-3, 2e-2]):
         skin = Skin(L_um * 1e-6, dermis=frac * L_um * 1e-6)
         layers = skin_layers(skin, layered=layered, perfusion=w)
-        _, cheap = _probes(duration, rate, cheap=True)
-        _, prod = _probes(duration, rate)
+        _, cheap = probe_plan(duration, rate, cheap=True)
+        _, prod = probe_plan(duration, rate)
         err = np.max(np.abs(_step(layers, skin.dermis, R, cheap) - _step(layers, skin.dermis, R, prod)))
         worst = max(worst, float(err))
     assert worst <= PROBE_INVERSION_ERROR, worst

@@ -105,7 +105,7 @@ def test_eq7_single_term_limits():
     assert abs(pf.eq7(P, [1e-3], printed=True)[0] - c.interface_temperature([1e-3])[0]) < 1e-12
     # finite L at 20 s: the missing images cost 0.080 in theta
     assert c.interface_temperature([20.0])[0] - pf.eq7(P, [20.0], printed=True)[0] == pytest.approx(0.080, abs=0.002)
-    # DESIGN.md: for 35 degC skin on 24 degC steel Eq. 7 never exceeds 27.05 degC, at any R
+    # docs/design.md: for 35 degC skin on 24 degC steel Eq. 7 never exceeds 27.05 degC, at any R
     for R in (0.0, 6.5e-4, 3e-3):
         _, P = _pair(R)
         tt = np.geomspace(1e-4, 1e4, 200)

@@ -42,7 +42,7 @@ def test_planned_model_within_tolerance_of_the_full_model(quantity, geometry, la
     [False, True], [1.25e-3, 2e-2], [0.02, 0.3, 2.0])))
 def test_planned_model_within_tolerance_with_a_hypodermis(quantity, geometry, layered, w, tol):
     # a 2 mm hypodermis: the closed forms and the quasi-steady screen cannot decide, the
-    # Laplace-domain bounds often do (speed, issue 12); the planned model stays within tolerance
+    # Laplace-domain bounds often do (speed); the planned model stays within tolerance
     scene = Scene(quantity=quantity, geometry=geometry, layered=layered, perfusion_per_s=w,
                   hypodermis_m=2e-3, tolerance_K=tol, support="wood" if geometry == "slab-on-support"
                   else None, duration_s=20.0, rate_Hz=200.0)
@@ -173,10 +173,10 @@ def test_planned_temperature_with_no_temperature_difference_stays_put():
 
 
 def test_probe_evaluation_is_evaluate_to_the_last_bit():
-    # the planner's unchecked probe evaluation (speed, issue 12) computes what evaluate does
-    from stimuli.planner import _at_probes, _probes, _resolved
+    # the planner's unchecked probe evaluation (speed) computes what evaluate does
+    from stimuli.planner import _at_probes, probe_plan, _resolved
     from stimuli.scene import Model, Scene, evaluate
-    probes, ip = _probes(20.0, 1000.0)
+    probes, ip = probe_plan(20.0, 1000.0)
     for quantity in ("receptor", "interface_material", "interface_skin"):
         scene = _resolved(Scene(quantity=quantity, perfusion_per_s=1.25e-3, support="wood",
                                 geometry="slab-on-support"))
@@ -187,11 +187,11 @@ def test_probe_evaluation_is_evaluate_to_the_last_bit():
 
 
 def test_probe_inversion_error_bound():
-    # the planner's cheap probe inversion (PROBE_NODES per window, speed, issue 12) is within its
+    # the planner's cheap probe inversion (PROBE_NODES per window, speed) is within its
     # stated PROBE_INVERSION_ERROR x |dT| of the production inversion (itself within 1e-12 of
     # mpmath, tests/stimuli/test_exact.py) for every model the planner compares, over a grid
     from dataclasses import replace
-    from stimuli.planner import (EFFECTS, PROBE_INVERSION_ERROR, _at_probes, _drop, _probes,
+    from stimuli.planner import (EFFECTS, PROBE_INVERSION_ERROR, _at_probes, _drop, probe_plan,
                                  _resolved)
     worst = 0.0
     for (duration, rate), quantity, geometry, layered, w, R in itertools.product(
@@ -202,7 +202,7 @@ def test_probe_inversion_error_bound():
         scene = _resolved(Scene(quantity=quantity, geometry=geometry, layered=layered,
                                 perfusion_per_s=w, resistance=R, duration_s=duration, rate_Hz=rate,
                                 support="wood" if geometry == "slab-on-support" else None))
-        probes, cheap = _probes(duration, rate, cheap=True)
+        probes, cheap = probe_plan(duration, rate, cheap=True)
         dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
         models = [replace(scene.full_model(), sensor=False)]
         for effect in EFFECTS[1:]:          # every model a chain of drops reaches
@@ -230,7 +230,7 @@ HARD_PERFUSION = list(itertools.product(
 
 @pytest.mark.parametrize("quantity,sample,layers,skin,run", HARD_PERFUSION)
 def test_perfusion_closed_form_bounds_the_exact_effect(quantity, sample, layers, skin, run):
-    # the planner neglects perfusion by a closed form (speed, issue 12) without evaluating it: it
+    # the planner neglects perfusion by a closed form (speed) without evaluating it: it
     # must be >= what perfusion changes at every sample, computed by the exact models, on hard
     # scenes (copper at R = 0: the largest deficit; 3 mm skin, hypodermis; w up to 0.5 /s, long
     # runs towards the steady state; a warm sample); tightness printed
@@ -275,10 +275,10 @@ def test_perfusion_neglected_by_the_closed_form_without_evaluation():
 
 
 def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
-    # the screen (speed, issue 12) keeps layered skin without evaluating it when its steady effect
+    # the screen (speed) keeps layered skin without evaluating it when its steady effect
     # at the receptor is >= LAYER_SCREEN tolerances; keeping is safe, but it must not keep layers
     # that evaluating them would neglect: on a grid, every screened keep is an evaluated keep
-    from stimuli.planner_bounds import _layers_matter
+    from stimuli.planner_bounds import layers_matter
     screened = 0
     for material, geometry, R, L, frac, tol, duration, hyp in itertools.product(
             ["copper", "stainless_steel", "glass", "polystyrene_foam"],
@@ -287,7 +287,7 @@ def test_layer_screen_keeps_only_layers_the_evaluation_keeps():
         scene = Scene(quantity="receptor", material=material, geometry=geometry, resistance=R,
                       skin_thickness_m=L, receptor_fraction=frac, layered=True, hypodermis_m=hyp,
                       tolerance_K=tol, duration_s=duration, rate_Hz=100.0)
-        if _layers_matter(scene) is None:
+        if layers_matter(scene) is None:
             continue
         screened += 1
         p = plan(scene)
@@ -304,14 +304,14 @@ def test_real_s_transform_is_the_layered_transform(quantity, geometry):
     # model's transform (stimuli.layered.LayeredTransform) at that s
     from stimuli.planner import _resolved
     from stimuli.planner_bounds import _real_quantity
-    from stimuli.scene import _contact
+    from stimuli.scene import scene_contact
     for layered, w, hyp, L in itertools.product([False, True], [0.0, 2e-2], [None, 2e-3],
                                                 [400e-6, 3e-3]):
         scene = _resolved(Scene(quantity=quantity, geometry=geometry, layered=layered,
                                 perfusion_per_s=w, hypodermis_m=hyp, skin_thickness_m=L,
                                 support="wood" if geometry == "slab-on-support" else None))
         model = scene.full_model()
-        c = _contact(scene, model)
+        c = scene_contact(scene, model)
         tr = c.transform
         s = np.array([1e-3, 0.05, 1.0, 40.0, 3e3])
         if quantity == "interface_material":
@@ -335,13 +335,13 @@ def test_undecided_scene_decided_in_the_laplace_domain_without_evaluation():
     assert perfusion_bound(scene) > 0.3
     calls = []
     real = planner._at_probes
-    planner._plan.cache_clear()
+    planner.plan_scene.cache_clear()
     try:
         planner._at_probes = lambda *a, **k: calls.append(a) or real(*a, **k)
         p = plan(scene)
     finally:
         planner._at_probes = real
-        planner._plan.cache_clear()
+        planner.plan_scene.cache_clear()
     assert calls == []                                  # nothing evaluated
     d = {x.effect: x for x in p.decisions}
     assert not d["perfusion"].included and "Laplace" in d["perfusion"].note
@@ -368,13 +368,13 @@ def test_undecided_perfusion_is_kept_unevaluated_only_where_the_layers_stay():
     def counted(scene, **kw):
         calls = []
         real = planner._at_probes
-        planner._plan.cache_clear()
+        planner.plan_scene.cache_clear()
         try:
             planner._at_probes = lambda *a, **k: calls.append(a) or real(*a, **k)
             return plan(scene, **kw), calls
         finally:
             planner._at_probes = real
-            planner._plan.cache_clear()
+            planner.plan_scene.cache_clear()
 
     near = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3,
                  hypodermis_m=2e-3, duration_s=20.0, rate_Hz=1000.0, tolerance_K=0.1)

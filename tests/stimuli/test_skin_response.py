@@ -1,6 +1,6 @@
 """skin_response (stimuli.display_response) against an independent high-precision reference.
 
-The reference inverts DESIGN.md's Laplace-domain solution with mpmath (Talbot, 30 digits):
+The reference inverts the Laplace-domain solution (docs/design.md) with mpmath (Talbot, 30 digits):
 a unit surface step gives sinh(q x) / (s sinh(q L)), a unit ramp sinh(q x) / (s^2 sinh(q L)),
 q = sqrt(s / alpha). A surface history that is piecewise linear with few kinks, *sampled* at 1 kHz,
 is exactly its own linear interpolant, so its exact response is a short sum of such inversions:

@@ -26,6 +26,12 @@ from psychopy.localization import _translate
 
 __all__ = ["ThermalCueComponent"]
 
+# A script PsychoPy compiled without this plugin imports this module on its first lines
+# (plugins.activatePlugins()): stop it there with the fix rather than with a NameError later.
+from .stripped import check_main_script  # noqa: E402
+
+check_main_script()
+
 _HERE = Path(__file__).parent
 
 

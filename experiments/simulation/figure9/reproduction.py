@@ -264,9 +264,10 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                   sweep=sweep)
         seconds["study_s"] = time.perf_counter() - t1
     # tables
-    result.claims.to_csv(out_dir / "claims.csv", index=False)
-    result.proportions.to_csv(out_dir / "scenario_proportions.csv", index=False)
-    sens.to_csv(out_dir / "sensitivity.csv", index=False)
+    from analysis.exports import write_csv        # whole or not at all
+    write_csv(result.claims, out_dir / "claims.csv")
+    write_csv(result.proportions, out_dir / "scenario_proportions.csv")
+    write_csv(sens, out_dir / "sensitivity.csv")
     # figure
     analysis = study.get("analysis")
     files = []

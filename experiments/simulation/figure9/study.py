@@ -41,8 +41,8 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
                     responder_options: dict | None = None, durable: bool = True) -> dict:
     """Run one participant's session with the emulator (virtual clock) and the simulated responder.
 
-    ``durable=False`` skips the fsyncs of this session's files (:func:`experiments.logbook.
-    set_durable`; same files, same order, same content) and restores the setting after.
+    ``durable=False`` skips the fsyncs of this session's files (the session's ``durable``
+    setting: same files, same order, same content).
 
     Returns
     -------
@@ -57,26 +57,24 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
     extra = record.get("x_simulation")
     options = {"seed": extra.get("seed", seed) if isinstance(extra, dict) else seed}
     options.update(responder_options or {})
-    from experiments.logbook import set_durable
     start = time.perf_counter()
     responder = get_responder("simulated", **options)
-    previous = set_durable(durable)
     # a study's 30 sessions tell nothing line by line (not even the group line written with the
     # folder); the study logs one line per participant instead
     session_log = logging.getLogger("thermocue.session")
     level = session_log.level
     session_log.setLevel(logging.WARNING)
     # one BLAS thread: a session's products are small (the skin's 32-cell step, the stimuli);
-    # idle BLAS threads only spin, and cost as much CPU as a fifth of the session (issue 11)
+    # idle BLAS threads only spin, and cost as much CPU as a fifth of the session
     from threadpoolctl import threadpool_limits
     try:
         with threadpool_limits(1):
             session = create_session(protocol, participant_path, data_dir,
                                      f"emulator://?clock=virtual&seed={int(seed)}", seed=int(seed),
-                                     responder_name="simulated", clock="virtual", out=io.StringIO())
+                                     responder_name="simulated", clock="virtual", out=io.StringIO(),
+                                     durable=durable)
             status = session.run(responder)
     finally:
-        set_durable(previous)
         session_log.setLevel(level)
     if status != 0:
         raise RuntimeError(f"{participant_path}: the session in {session.directory} ended with "

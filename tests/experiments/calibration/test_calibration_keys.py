@@ -1,4 +1,4 @@
-"""One key convention for a record's fitted resistances (issue 10, item 4).
+"""One key convention for a record's fitted resistances.
 
 ``thermocue calibrate`` keys ``calibration.contact_resistance_m2K_W`` by the sample's Ra in µm
 ("1.6", "12.5", ...); the schema, the shipped example P03 and the session use the same keys. On

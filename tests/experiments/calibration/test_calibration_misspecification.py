@@ -1,4 +1,4 @@
-"""Calibration you can trust (issue 12): misspecification checks, T_S0 propagation, correlations.
+"""Calibration you can trust: misspecification checks, T_S0 propagation, correlations.
 
 Synthetic traces: the exact calibration model plus 0.02 °C white noise (as in
 test_calibration_fit.py); the truths are Eq. 5 resistances and L = 800 µm.

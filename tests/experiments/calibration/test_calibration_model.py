@@ -1,7 +1,7 @@
 """The calibration's forward model against independent references.
 
 References: (1) mpmath's own Talbot inversion at 30 digits of the transforms written out
-here from the physics (DESIGN.md's F(s) and the lumped-node balance), (2) stimuli's exact
+here from the physics (docs/design.md's F(s) and the lumped-node balance), (2) stimuli's exact
 Contact (another implementation of the same contact), (3) limits, (4) finite differences for
 the analytic derivatives.
 """

@@ -1,4 +1,4 @@
-"""Calibration's forward model is the scene planner's model (issue 12).
+"""Calibration's forward model is the scene planner's model.
 
 The calibration contact is planned once per fit (start values, the traces' white-noise level as
 tolerance) and the fit's readings are computed with the model the planner returns; at the fitted

@@ -60,7 +60,7 @@ def test_no_usable_trial_and_no_touch_are_errors(tmp_path):
 
 
 def test_a_binary_or_nul_damaged_trace_is_named_with_its_byte_offset(tmp_path):
-    # issue 16: a garbage (non-UTF-8) trace given to calibrate was a UnicodeDecodeError traceback
+    # a garbage (non-UTF-8) trace given to calibrate was a UnicodeDecodeError traceback
     sdir = make_session(tmp_path, samples=(1, 4), duration_s=3.0)
     trace = sorted((sdir / "traces").glob("trial-*.csv"))[0]
     good = trace.read_bytes()

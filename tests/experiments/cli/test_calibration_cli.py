@@ -115,7 +115,7 @@ def test_calibrate_an_emulated_exp1_session(tmp_path, capsys):
     assert len(summary["samples"]) == 5
     for s in summary["samples"]:
         # the emulated finger presses 2.5 N (the protocol's 2 N threshold + 0.5 N) and the
-        # emulator's sample contact follows Eq. 5 at that force (issue 12)
+        # emulator's sample contact follows Eq. 5 at that force
         truth = float(contact_resistance(s["roughness_um"] * 1e-6, skin=skin, material=steel,
                                          force=2.5))
         half = (np.log(s["high_m2K_W"]) - np.log(s["low_m2K_W"])) / 2

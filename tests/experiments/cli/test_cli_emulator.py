@@ -17,7 +17,7 @@ def test_help_names_the_options(capsys):
 
 
 def test_a_second_emulator_is_refused_the_link_a_running_one_holds(tmp_path):
-    """issue 10: a second ``thermocue emulator --link PATH`` silently took the first one's link and
+    """a second ``thermocue emulator --link PATH`` silently took the first one's link and
     deleted it on exit."""
     import os
     import subprocess

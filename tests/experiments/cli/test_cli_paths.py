@@ -1,4 +1,4 @@
-"""File-system failures are one line naming the path, before any work (issue 10, item 5).
+"""File-system failures are one line naming the path, before any work.
 
 On the old code: ``--out`` naming a file was a FileExistsError traceback in analyze and power and
 NotADirectoryError in calibrate; an unwritable ``--data`` a PermissionError after the display was

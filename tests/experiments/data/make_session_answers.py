@@ -27,7 +27,7 @@ def session_answers(participants=PARTICIPANTS, seed: int = SEED, durable: bool =
     """participant -> list of {block, trial_index, roughness_id, response_id, rt_s, percept}.
 
     ``durable=True`` is the slow path every real session takes (fsync per event); a simulated
-    study runs with ``durable=False`` (no fsync, issue 11's speed-up). The reference is made
+    study runs with ``durable=False`` (no fsync, a simulated study's speed-up). The reference is made
     with the former and the test checks the latter against it.
     """
     from experiments.simulation.cohort import write_cohort

@@ -234,7 +234,7 @@ def test_a_corrupted_length_does_not_stall_the_device(host, bit):
     assert [e.kind for e in ev if e.kind == "WATCHDOG"] == [] and dev.state == State.ARMED
 
 
-# --------------------------------------------------------------------------- issue 16: safe alone
+# --------------------------------------------------------------------------- safe alone (no host)
 def test_nothing_but_hello_status_heartbeat_abort_before_a_hello():
     # Regression: a device restarted mid-session took ARM, uploads and raw profiles without a
     # HELLO, with its watchdog off and the firmware's limits, and played on with a silent host.

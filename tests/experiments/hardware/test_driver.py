@@ -244,11 +244,62 @@ def test_limits_and_neutral_not_echoed_are_a_display_error(replay):
         d.close()
 
 
-def test_a_device_rate_below_the_hosts_is_accepted():
-    # the device may lower the rate to its own maximum (100 °C/s): that is not a mismatch
-    limits = SafetyLimits(max_rate_C_per_s=150.0)
+def test_a_device_rate_below_the_hosts_is_accepted(monkeypatch):
+    # the device may lower the rate to its own maximum: that is not a mismatch (the host's own
+    # limit is at most the protocol's 100 °C/s, so the emulator's maximum is lowered to 50 here)
+    import experiments.hardware.device_commands as dc
+    monkeypatch.setattr(dc, "HARD_RATE_C_PER_S", 50.0)
+    limits = SafetyLimits(max_rate_C_per_s=80.0)
     with open_display("emulator://?clock=virtual", limits=limits) as d:
-        assert d.port.device.lim_rate == 100.0
+        assert d.port.device.lim_rate == 50.0
+
+
+def _device_arms_playback(d) -> bool:
+    """ARM in playback sent raw (past the host's own check): whether the device accepts it."""
+    try:
+        d._transact(Cmd.ARM, m.ARM.pack(0, 200, 1000))
+    except DisplayRefused as exc:
+        assert exc.code == m.Err.PROFILE_INCOMPLETE
+        return False
+    d.abort()
+    return True
+
+
+def test_a_profile_the_host_refuses_after_a_clamped_commit_is_not_left_on_the_device():
+    # limits widened on the host after the handshake: the host's check passes a 43 °C sample,
+    # the device clamps it to the 42 °C it holds, the host refuses; the device must hold no
+    # profile (it kept the clamped one, and a raw ARM played it)
+    with open_display("emulator://?clock=virtual") as d:
+        d.upload_profile(T, PROFILE)                    # a good profile first
+        assert _device_arms_playback(d)
+        d._held_limits = None                           # as before the fix: no check of limits
+        d.limits = SafetyLimits(max_C=44.0)
+        y = np.round(np.minimum(26.0 + 8.0 * T, 43.0), 2)   # 8 °C/s up to 43 °C from 2.1 s
+        with pytest.raises(SafetyLimitError, match="clamped"):
+            d.upload_profile(T, y)
+        assert d.port.device.profile is None
+        assert not _device_arms_playback(d)
+        with pytest.raises(Exception, match="profile uploaded before"):
+            d.arm("playback")
+
+
+def test_limits_widened_after_the_handshake_are_refused_and_leave_no_profile():
+    with open_display("emulator://?clock=virtual") as d:
+        d.upload_profile(T, PROFILE)
+        d.limits = SafetyLimits(max_C=44.0)
+        with pytest.raises(SafetyLimitError, match="changed since the handshake"):
+            d.upload_profile(T, PROFILE)
+        assert not _device_arms_playback(d)
+
+
+def test_a_profile_the_host_check_refuses_discards_the_previous_one():
+    with open_display("emulator://?clock=virtual") as d:
+        d.upload_profile(T, PROFILE)
+        with pytest.raises(SafetyLimitError, match="rate"):
+            d.upload_profile(T, np.where(T < 1.0, 26.0, 38.0))
+        assert not _device_arms_playback(d)
+        d.upload_profile(T, PROFILE)                    # a good upload works again
+        assert _device_arms_playback(d)
 
 
 @pytest.mark.parametrize("cmd, frame_type, payload", [

@@ -1,4 +1,4 @@
-"""The one emulator core both transports use (issue 14: layers that hold)."""
+"""The one emulator core both transports use (layers that hold)."""
 from __future__ import annotations
 
 import ast

@@ -1,4 +1,4 @@
-"""The virtual clock's fast path (issue 11, Speed): decoded frames in place of bytes, exactly.
+"""The virtual clock's fast path (speed): decoded frames in place of bytes, exactly.
 
 ``Serial.read_frames`` hands the driver the frames ``read()`` would have returned, without
 encoding and parsing them, when nothing on the line can damage them (virtual clock, no fault

@@ -61,7 +61,7 @@ def test_a_plus_in_the_url_is_the_faults_duration():
 
 
 def test_a_timed_disconnect_ends_and_the_link_comes_back():
-    # Regression (issue 16): on a virtual clock the device advanced only in reads, and reads
+    # Regression: on a virtual clock the device advanced only in reads, and reads
     # failed while disconnected: the clock stopped and disconnect@T+D never ended.
     from experiments.errors import DisplayError
     from experiments.hardware import open_display

@@ -78,7 +78,7 @@ def test_messages_print_plain_numbers():
 
 
 def test_the_rate_is_the_span_over_every_window_not_one_lag():
-    # Regression (issue 16): 15 <-> 42 °C alternating every 10 ms has equal ends 0.1 s apart,
+    # Regression: 15 <-> 42 °C alternating every 10 ms has equal ends 0.1 s apart,
     # passed the host's check, was limited by the device and reported ok with a 26.8 °C error.
     y = np.where(np.arange(200) % 2, 42.0, 15.0)
     assert profile_max_rate(y, 0.01, 0.1) == pytest.approx(270.0)
@@ -88,3 +88,28 @@ def test_the_rate_is_the_span_over_every_window_not_one_lag():
     z = np.full(100, 30.0)
     z[50:55] = 35.0
     assert profile_max_rate(z, 0.01, 0.1) == pytest.approx(50.0)
+
+
+@pytest.mark.parametrize("field, value", [
+    ("rate_window_s", 1000.0), ("rate_window_s", 0.2), ("rate_window_s", 0.001), ("rate_window_s", 0.0),
+    ("max_rate_C_per_s", 0.0), ("max_rate_C_per_s", 150.0), ("max_rate_C_per_s", float("inf")),
+    ("min_C", 4.0), ("min_C", -273.0), ("max_C", 46.0), ("max_C", 1e6),
+])
+def test_every_limit_field_is_bounded(field, value):
+    with pytest.raises(UserInputError, match=f"SafetyLimits: {field}"):
+        SafetyLimits(**{field: value})
+
+
+def test_a_huge_window_no_longer_lets_a_fast_step_through():
+    # a 1000 s window averaged a 12 °C step within 0.1 s down to 0.012 °C/s; the window is at
+    # most the device's own 0.1 s, so the step is measured at 120 °C/s and refused
+    t = np.arange(0, 2.0001, 0.01)
+    step = 25.0 + 12.0 * np.clip((t - 1.0) / 0.1, 0.0, 1.0)
+    for window in (0.01, 0.05, 0.1):
+        with pytest.raises(SafetyLimitError, match="rate"):
+            check_profile(t, step, SafetyLimits(rate_window_s=window))
+
+
+def test_the_bounds_themselves_are_accepted():
+    SafetyLimits(min_C=5.0, max_C=45.0, neutral_C=5.0, max_rate_C_per_s=100.0, rate_window_s=0.01)
+    SafetyLimits(rate_window_s=0.1)

@@ -93,3 +93,45 @@ def test_map_round_trip():
 def test_no_round_trip_is_an_error():
     with pytest.raises(ValueError, match="at least one round trip"):
         estimate_burst([])
+
+
+def test_a_clock_running_at_another_rate_is_unmapped_with_the_drift_in_the_reason():
+    """The rate the issue's virtual-clock emulator showed (858,517 ppm), with tight bursts: the
+    map refuses to map rather than state a sub-millisecond uncertainty."""
+    link = FakeLink(offset=3.0, step=0.01)     # each burst steady, as a virtual clock between steps
+    first = sync_burst(link.heartbeat, link.clock, spacing_s=0)
+    link.now += 7.0
+    link.offset += 0.858517 * (link.now - first.host_s)
+    last = sync_burst(link.heartbeat, link.clock, spacing_s=0)
+    assert first.consistent and last.consistent and max(first.half_width_s, last.half_width_s) < 4e-4
+    cmap = ClockMap.from_bursts(first, last)
+    assert cmap.unmapped is not None and cmap.unmapped.startswith("drift 85")
+    assert "beyond the plausible 2000 ppm" in cmap.unmapped
+    with pytest.raises(ValueError, match="device time not mapped: drift 85"):
+        cmap.to_host(10.0)
+    # the same bursts with a plausible drift map
+    good = FakeLink(offset=3.0, drift=80e-6, step=0.01)
+    first = sync_burst(good.heartbeat, good.clock, spacing_s=0)
+    good.now += 7.0
+    ok = ClockMap.from_bursts(first, sync_burst(good.heartbeat, good.clock, spacing_s=0))
+    assert ok.unmapped is None and ok.max_residual_s <= ok.uncertainty_s
+
+
+def test_a_burst_whose_clock_jumped_is_unmapped_and_small_jitter_widens_the_uncertainty():
+    jumped = estimate_burst([(0.0, 100.0, 0.001), (0.002, 100.02, 0.003)])   # 20 ms jump in 2 ms
+    cmap = ClockMap.from_bursts(jumped)
+    assert cmap.unmapped.startswith("a burst's round trips disagree by ")
+    # 0.4 ms of crossing (a late tick): mapped, uncertain by the whole crossing
+    jitter = estimate_burst([(0.0, 10.0004, 0.0001), (0.0002, 10.0, 0.0003)], fallback_resolution_s=1e-6)
+    assert not jitter.consistent
+    cmap = ClockMap.from_bursts(jitter)
+    assert cmap.unmapped is None and cmap.uncertainty_s == pytest.approx(2 * jitter.half_width_s)
+
+
+def test_residuals_off_the_map_make_it_unmapped():
+    """A device clock that runs at twice the host's rate inside each burst but whose bursts'
+    offsets happen to agree: the round trips lie off the map by far more than it claims."""
+    samples = lambda h: [(h + i * 1e-3, 50.0 + 2 * i * 1e-3, h + i * 1e-3 + 1e-4) for i in range(30)]  # noqa: E731
+    first, last = estimate_burst(samples(0.0)), estimate_burst(samples(10.0))
+    cmap = ClockMap.from_bursts(first, last)
+    assert cmap.unmapped is not None

@@ -58,6 +58,7 @@ def test_coder_example_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
         assert r["thermal.status"] == "aborted"          # answered while the profile played
         assert float(r["thermal.tracking_rms_C"]) < 0.1
         assert 0 < float(r["thermal.contact_trial_s"]) < 10
+        assert r["thermal.clock_status"] == "mapped"
         assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert float(r["thermal.contact_force_N"]) >= 2.0
     states = [r["why"] for r in read_log(log) if r.get("event") == "state"]

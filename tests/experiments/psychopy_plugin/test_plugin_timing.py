@@ -33,6 +33,7 @@ def test_contact_onset_is_placed_on_psychopy_time_within_1_ms(tmp_path):
     rng = np.random.default_rng(20261124)
     trials = []          # (device stamp, mapped, mapped with the first burst only, uncertainty)
     rtts = []
+    unmapped = []        # the reasons of maps that refused
     with serve_stamped(tmp_path) as (link, log):
         dev = ThermalCueDevice(url=link, protocol="roughness_recognition")
         try:
@@ -53,12 +54,21 @@ def test_contact_onset_is_placed_on_psychopy_time_within_1_ms(tmp_path):
                 rec = dev.finishTrial()
                 dev.syncClock()                         # the second burst: drift
                 assert rec.contact_time_s == contact.device_time_s
+                if dev.clockMap.unmapped is not None:    # said so: no number (checked below)
+                    unmapped.append(dev.clockMap.unmapped)
+                    continue
                 trials.append((contact.device_time_s, dev.toPsychopyTime(contact.device_time_s),
                                contact.t, dev.clockMap.uncertainty_s))
                 rtts.append(dev.firstBurst.rtt_median_s)
         finally:
             dev.close()
     records = read_log(log)
+    # A map may refuse only when the emulator's clock really lost time: its loop starved for
+    # longer than it catches up on (MAX_CATCH_UP_TICKS ticks), on a host loaded far beyond 2 cores.
+    from experiments.hardware.device import TICK_US
+    from experiments.hardware.emulator_core import MAX_CATCH_UP_TICKS
+    if unmapped:
+        assert records[-1]["max_late_ms"] >= MAX_CATCH_UP_TICKS * TICK_US * 1e-3, unmapped
     ticks = json.loads((tmp_path / "ticks.json").read_text())
     logged = {round(r["t_s"], 6): r["host_s"] for r in records if r.get("why") == "contact"}
     errors, first_only, late = [], [], []

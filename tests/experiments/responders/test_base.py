@@ -39,7 +39,14 @@ def test_unknown_name_and_option_are_user_errors():
 def test_response_is_typed_frozen_and_json_ready():
     r = Response(3, 1.25, "keyboard:ptb")
     assert repr(r) == "Response(response_id=3, rt_s=1.2500, source='keyboard:ptb')"
-    assert json.loads(json.dumps(r.to_dict())) == {"response_id": 3, "rt_s": 1.25, "source": "keyboard:ptb"}
+    assert json.loads(json.dumps(r.to_dict())) == {"response_id": 3, "rt_s": 1.25, "source": "keyboard:ptb",
+                                                   "answer_keyed_after_cue_s": None,
+                                                   "answer_mode": "keyed"}
+    spoken = Response(2, 0.75, "experimenter:keyboard:ptb", answer_mode="spoken")
+    assert spoken.to_dict() == {"response_id": 2, "rt_s": None, "answer_keyed_after_cue_s": 0.75,
+                                "source": "experimenter:keyboard:ptb", "answer_mode": "spoken"}
+    with pytest.raises(ValueError, match="answer_mode"):
+        Response(1, 1.0, answer_mode="typed")
     with pytest.raises(AttributeError):
         r.response_id = 2
     for bad in (0, 5, "2", True, 2.0):

@@ -39,7 +39,7 @@ def test_prompt_waits_for_enter():
     r.prompt_experimenter("place sample 2#")
     assert stdin.tell() == 1                       # exactly the confirmation line was read
     # The console is the participant's terminal: the sample to place is the experimenter's
-    # (the session prints it on stderr), never printed here (issue 10: it leaked the answer).
+    # (the session prints it on stderr), never printed here (it leaked the answer).
     assert out.getvalue() == "Please wait (experimenter: press Enter when ready)\n"
 
 
@@ -103,3 +103,39 @@ def test_bell_off_is_not_played_even_on_a_terminal(terminal):
     r = ConsoleResponder(stdin=io.StringIO(), stdout=tty, stderr=tty, bell=False)
     assert r.cue() is False
     assert "\a" not in _read_all(master)
+
+
+def test_spoken_answers_on_the_console_session_end_to_end(tmp_path):
+    """``answer_mode = "spoken"`` with the console: the participant's terminal (stdout) gets
+    nothing; the experimenter (stderr prompts) types each spoken answer, undoes a wrong one
+    with ``u`` and confirms with Enter; trials.csv times the answer from the question's bell."""
+    import csv
+    import subprocess
+    import sys
+
+    from _session_helpers import P01, write_protocol
+    proto = write_protocol(tmp_path, contact_s=0.5, real_samples=(2,), sim_samples=(3,))
+    proto.write_text(proto.read_text().replace(
+        "[[blocks]]", '[presentation]\nanswer_mode = "spoken"\n\n[[blocks]]', 1))
+    data = tmp_path / "data"
+    keys = "\n" + "1\nu\n2\n\n" + "4\n3\n\n"     # placed; 1 undone, 2 confirmed; 4 replaced by 3
+    run = subprocess.run([sys.executable, "-m", "experiments", "run", str(proto), "--participant",
+                          str(P01), "--display", "emulator://?clock=virtual&seed=2", "--responder",
+                          "console", "--data", str(data), "--session", "S01"],
+                         input=keys, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    # nothing for the participant to read: stdout holds only the CLI's closing line (the folder)
+    assert run.stdout == f"{data / 'P01' / 'S01'}\n"
+    assert "type the participant's spoken answer (1-4)" in run.stderr
+    assert "say to the participant: 'Thank you: the session is finished.'" in run.stderr
+    with open(data / "P01" / "S01" / "trials.csv", newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if r["status"] == "ok"]
+    assert [(r["roughness_id"], r["response_id"], r["answer_mode"], r["rt_s"], r["response_source"])
+            for r in rows] == [("2", "2", "spoken", "", "experimenter:console"),
+                               ("3", "3", "spoken", "", "experimenter:console")]
+    assert all(float(r["answer_keyed_after_cue_s"]) >= 0 for r in rows)
+    events = [__import__("json").loads(line) for line in
+              (data / "P01" / "S01" / "events.jsonl").read_text().splitlines()]
+    assert [(e["key"], e.get("replaced_by")) for e in events if e["event"] == "answer_undone"] == \
+        [("1", None), ("4", "3")]
+    assert [e["played"] for e in events if e["event"] == "question_cue"] == [False, False]  # no tty

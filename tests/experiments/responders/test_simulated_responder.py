@@ -158,7 +158,7 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
     for r in scored:
         e = percepts[int(r["trial_index"])]
         assert e["answer"] == int(r["response_id"]) and len(e["features"]) == 4
-    # Every trial logs the force the display measured over its contact (issue 12): the emulated
+    # Every trial logs the force the display measured over its contact: the emulated
     # finger presses the protocol's threshold + 0.5 N (2.5 N), overshooting a little at onset.
     forces = [float(r["contact_force_N"]) for r in rows]
     assert all(2.4 <= f <= 2.8 for f in forces), forces
@@ -305,7 +305,7 @@ def test_contact_force_is_the_mean_summed_force_from_contact_on():
 
 
 def test_real_trial_is_felt_at_the_force_the_display_measured():
-    # Eq. 5: a lighter press is a larger contact resistance, a warmer receptor (issue 12: the
+    # Eq. 5: a lighter press is a larger contact resistance, a warmer receptor (the
     # trial's measured force, not the scripted press, sets R in the real-sample percept).
     r = SimulatedResponder(seed=4, skin_thickness_um=650.0, skin_temperature_sd_C=0.0,
                            skin_temperature_C=35.5)

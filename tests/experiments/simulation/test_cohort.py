@@ -108,7 +108,7 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     assert study["workers"] == 2 and study["fsync"] is False
     assert study["headline"] == {"replay": "skin", "observer": "relative"}
     assert study["responder_options"]["observer"] == "relative"
-    # issue 11: the answer first: terminal ends with the claims table, report opens with the verdict
+    # the answer first: terminal ends with the claims table, report opens with the verdict
     assert study["scenario_settings"]["lab"]["force_sd_N"] == 0.3
     printed = capsys.readouterr().out.strip().splitlines()
     assert printed[0].startswith("Figure 9 / Table 2 claims. Read descriptively, ")
@@ -226,7 +226,7 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
     from experiments.protocol import parse_protocol
     copy = parse_protocol(json.loads((tmp_path / "protocol.json").read_text()))
     assert study["protocol_hash"] == copy.hash
-    # built from the data (issue 11: no TOML text edited): only the two fields changed
+    # built from the data (no TOML text edited): only the two fields changed
     packaged = load_protocol("roughness_recognition")
     for key in ("target_side", "rate_limit"):
         packaged.data["simulation"][key] = copy.data["simulation"][key]

@@ -344,7 +344,7 @@ def test_emulated_compensated_trial_feels_like_the_real_sample_and_material_side
 
 
 def test_cooling_features_refuse_a_warm_material():
-    # issue 12: the observer's features are drops and a rate of fall; a warming trace is refused
+    # the observer's features are drops and a rate of fall; a warming trace is refused
     t = np.linspace(0.0, 8.0, 81)
     warm = 35.0 + 3.0 * (1.0 - np.exp(-t))
     with pytest.raises(ValueError, match="expected a cooling trace"):
@@ -352,7 +352,7 @@ def test_cooling_features_refuse_a_warm_material():
 
 
 def test_feel_real_uses_eq5_at_the_given_force():
-    # issue 12: R is Eq. 5 at the contact force; a firmer press lowers R, the smooth sample
+    # R is Eq. 5 at the contact force; a firmer press lowers R, the smooth sample
     # feels colder (1.5 -> 2.5 N moves the 1# receptor by ~0.5 K at 5 s)
     from stimuli import Contact, contact_resistance, material
     p = person(650.0)
@@ -367,7 +367,7 @@ def test_feel_real_uses_eq5_at_the_given_force():
 
 
 def test_display_driven_receptor_goes_through_the_scene_planner():
-    # issue 12: feel_imposed is computed by the planner's model (one chokepoint), which keeps
+    # feel_imposed is computed by the planner's model (one chokepoint), which keeps
     # the skin's layers (kelvins at the receptor) and neglects perfusion (millikelvins)
     from stimuli import skin_response
     from stimuli.layered import layered_skin_response, skin_layers

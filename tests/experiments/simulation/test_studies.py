@@ -95,7 +95,7 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
 
 
 def test_scenarios_judge_the_simulated_block_for_a_response_bias():
-    # issue 11: the skin-side replay judged by the absolute observer names nearly every
+    # the skin-side replay judged by the absolute observer names nearly every
     # simulated sample 4#; the claims table must see it (it was ✓ on every old claim)
     from experiments.simulation.figure9.scenarios import evaluate_scenarios
     pool = build_pool(hypotheses=("skin", "compensated"), seed=3)

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.atomicfile import output_file, output_path
 from stimuli.paper import TABLE2_ROUGHNESS_UM
 
 __all__ = ["FIGURES", "figure_rows", "write_figures", "METHODS", "ROUGHNESS_UM"]
@@ -95,7 +96,7 @@ def figure_rows(name: str):
 
 
 def _write_csv(path: Path, header, rows):
-    with open(path, "w", newline="") as fh:
+    with output_file(path) as fh:
         w = csv.writer(fh)
         w.writerow(header)
         for r in rows:
@@ -130,7 +131,8 @@ def _plot(path: Path, name: str, header, rows):
         axes[-1].legend(title=param.replace("_um", " (µm)"), fontsize=8)
     fig.suptitle(f"{name}: {title}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with output_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 

@@ -2,7 +2,7 @@ import csv
 
 import pytest
 
-from analysis.table2 import MODEL_COLUMNS, PAPER_TABLE2, table2_rows
+from experiments.reproduction.table2 import MODEL_COLUMNS, PAPER_TABLE2, table2_rows
 from experiments.cli import main
 
 

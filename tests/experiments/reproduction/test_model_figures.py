@@ -3,7 +3,7 @@ import csv
 import numpy as np
 import pytest
 
-from analysis.model_figures import FIGURES, METHODS, figure_rows
+from experiments.reproduction.model_figures import FIGURES, METHODS, figure_rows
 from experiments.cli import main
 
 

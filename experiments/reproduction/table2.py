@@ -19,6 +19,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from experiments.atomicfile import output_file
+
 __all__ = ["PAPER_TABLE2", "table2_rows", "write_table2", "MODEL_COLUMNS"]
 
 #: roughness_um: (paper simulation degC, paper experiment degC)
@@ -129,12 +131,13 @@ def write_table2(out_dir) -> tuple[Path, Path, str]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     header, rows = table2_rows()
-    with open(out / "table2.csv", "w", newline="") as fh:
+    with output_file(out / "table2.csv") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         for r in rows:
             w.writerow([f"{v:.6g}" for v in r])
     md = (f"# Table 2: interface temperature at {TIME_S:g} s (skin {SKIN_C:g} °C, steel {ROOM_C:g} °C, "
           f"skin {SKIN_THICKNESS_UM:g} µm)\n\n" + _markdown(header, rows) + _explanation(header, rows))
-    (out / "table2.md").write_text(md)
+    with output_file(out / "table2.md") as fh:
+        fh.write(md)
     return out / "table2.csv", out / "table2.md", md

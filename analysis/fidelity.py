@@ -1,0 +1,277 @@
+"""Real vs simulated samples: does the display's replay feel like the real sample?
+
+The display's own question is an equivalence question: are simulated samples recognised *as
+well as* real ones, within a margin the protocol states? This module answers it from a fitted
+model of ``correct ~ group * mode * C(roughness_id)``:
+
+- the **averaged mode contrast** (real - simulated), per group and overall (the two groups
+  weighted equally), averaged over the samples: on the log-odds scale (the mean log odds of the
+  real cells minus that of the simulated ones) and as a difference of mean proportions (delta
+  method). From the GEE it is population-averaged, from a mixed logit that of a typical
+  participant (random effects 0);
+- the **equivalence test**: two one-sided tests (TOST [1]_) of the overall difference of mean
+  proportions against the margin +-delta: H0 ``|real - simulated| >= delta``; equivalence is
+  shown when both one-sided p-values are below alpha (equivalently, the ``1 - 2 alpha`` interval
+  lies inside +-delta). Reference distribution: t(m - 2), as every Wald test of the report;
+- the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8.
+
+References
+----------
+.. [1] D. J. Schuirmann, "A comparison of the two one-sided tests procedure and the power
+   approach for assessing the equivalence of average bioavailability", J. Pharmacokinet.
+   Biopharm. 15 (1987) 657-680.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import patsy
+from scipy import special, stats
+
+from .errors import LogError
+from .inference import holm
+from .models import ModelFit, model_data, reference_quantile
+
+__all__ = ["DEFAULT_EQUIVALENCE_MARGIN_PP", "mode_contrasts", "tost", "equivalence_margin",
+           "FIDELITY_COLUMNS"]
+
+#: Default equivalence margin, percentage points of proportion correct (real - simulated,
+#: averaged over the samples); the protocol's ``[analysis] equivalence_margin_pp`` overrides it.
+DEFAULT_EQUIVALENCE_MARGIN_PP = 10.0
+_MARGIN_RANGE = (0.0, 50.0)
+
+#: Columns of :func:`mode_contrasts`.
+FIDELITY_COLUMNS = ["role", "model", "scale", "group", "roughness_id", "compares", "estimate",
+                    "se", "ci_low", "ci_high", "interval", "test", "df", "statistic", "p_value",
+                    "p_holm", "difference", "difference_se", "difference_ci_low",
+                    "difference_ci_high", "margin", "tost_p_value", "tost_ci_low",
+                    "tost_ci_high", "equivalent", "basis", "note"]
+
+
+def tost(estimate: float, se: float, margin: float, df: float | None,
+         alpha: float = 0.05) -> dict:
+    """Two one-sided tests of ``|true value| >= margin`` from an estimate and its SE.
+
+    Parameters
+    ----------
+    estimate, se : float
+        The estimate and its standard error (same scale as ``margin``).
+    margin : float
+        The equivalence margin, > 0.
+    df : float or None
+        Degrees of freedom of the t reference (None: normal).
+    alpha : float
+        Size of each one-sided test.
+
+    Returns
+    -------
+    dict
+        ``p_lower`` (H0: value <= -margin), ``p_upper`` (H0: value >= margin), ``p_value``
+        (the larger; equivalence when < alpha), ``ci_low, ci_high`` (the ``1 - 2 alpha``
+        interval), ``equivalent`` (bool).
+
+    Examples
+    --------
+    >>> r = tost(0.01, 0.03, 0.10, None)
+    >>> round(r["p_value"], 4), r["equivalent"]
+    (0.0013, True)
+    """
+    if not (np.isfinite(estimate) and np.isfinite(se) and se > 0):
+        return {"p_lower": np.nan, "p_upper": np.nan, "p_value": np.nan, "ci_low": np.nan,
+                "ci_high": np.nan, "equivalent": False}
+    dist = stats.t(df) if df else stats.norm()
+    p_lower = float(dist.sf((estimate + margin) / se))
+    p_upper = float(dist.cdf((estimate - margin) / se))
+    q = float(dist.ppf(1 - alpha))
+    p = max(p_lower, p_upper)
+    return {"p_lower": p_lower, "p_upper": p_upper, "p_value": p,
+            "ci_low": estimate - q * se, "ci_high": estimate + q * se,
+            "equivalent": bool(p < alpha)}
+
+
+def equivalence_margin(session_folders, override_pp: float | None = None) -> tuple[float, str]:
+    """The equivalence margin (percentage points) and where it came from.
+
+    The protocol stored in each analysed session's ``session.json`` may set
+    ``[analysis] equivalence_margin_pp``; sessions must agree. ``override_pp`` (the command
+    line) wins; without either, :data:`DEFAULT_EQUIVALENCE_MARGIN_PP`.
+
+    Raises
+    ------
+    LogError
+        A stored margin that is not a number in (0, 50), or sessions that disagree (the message
+        names the file and the field).
+    """
+    lo, hi = _MARGIN_RANGE
+    if override_pp is not None:
+        if not (isinstance(override_pp, (int, float)) and lo < override_pp < hi):
+            raise LogError(f"--equivalence-margin-pp: expected a number of percentage points "
+                           f"in ({lo:g}, {hi:g}), got {override_pp!r}")
+        return float(override_pp), "command line (--equivalence-margin-pp)"
+    found: dict[float, str] = {}
+    for folder in session_folders:
+        path = Path(folder) / "session.json"
+        try:
+            meta = json.loads(path.read_text("utf-8"))
+        except (OSError, ValueError):
+            continue                    # the loader reports unreadable session files
+        protocol = meta.get("protocol") if isinstance(meta, dict) else None
+        section = protocol.get("analysis") if isinstance(protocol, dict) else None
+        if not isinstance(section, dict) or "equivalence_margin_pp" not in section:
+            continue
+        value = section["equivalence_margin_pp"]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not lo < value < hi:
+            raise LogError(f"{path}: protocol.analysis.equivalence_margin_pp: expected a number "
+                           f"of percentage points in ({lo:g}, {hi:g}), got {value!r}")
+        found.setdefault(float(value), str(path))
+    if len(found) > 1:
+        (a, pa), (b, pb) = list(found.items())[:2]
+        raise LogError(f"{pb}: protocol.analysis.equivalence_margin_pp: expected the same margin "
+                       f"as {pa} ({a:g}), got {b:g}")
+    if found:
+        (value, path), = found.items()
+        return value, "the protocol ([analysis] equivalence_margin_pp)"
+    return DEFAULT_EQUIVALENCE_MARGIN_PP, "default (the protocol sets none)"
+
+
+def _rows(fit: ModelFit, group, mode, samples) -> np.ndarray:
+    grid = pd.DataFrame([(g, mode, r, 0, "x") for g in group for r in samples],
+                        columns=["group", "mode", "roughness_id", "correct", "participant"])
+    return np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
+
+
+def _contrast(xr, xs, fit: ModelFit, z: float) -> dict:
+    beta, cov = fit.params, fit.cov
+    lvec = xr.mean(axis=0) - xs.mean(axis=0)
+    est, se = float(lvec @ beta), float(np.sqrt(max(lvec @ cov @ lvec, 0.0)))
+    qr, qs = special.expit(xr @ beta), special.expit(xs @ beta)
+    diff = float(qr.mean() - qs.mean())
+    grad = (qr * (1 - qr)) @ xr / len(xr) - (qs * (1 - qs)) @ xs / len(xs)
+    dse = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    p = float(fit.p_value(est / se)) if se > 0 else np.nan
+    return {"estimate": est, "se": se, "ci_low": est - z * se, "ci_high": est + z * se,
+            "statistic": est / se if se > 0 else np.nan, "p_value": p, "difference": diff,
+            "difference_se": dse, "difference_ci_low": diff - z * dse,
+            "difference_ci_high": diff + z * dse}
+
+
+def _test_name(fit: ModelFit) -> str:
+    return f"Wald t({fit.df:g})" if fit.df else "Wald z (normal)"
+
+
+def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
+                   level: float = 0.95, alpha: float = 0.05) -> pd.DataFrame:
+    """Real - simulated contrasts from ``fit``: averaged per group and overall (with TOST), and
+    per group x sample (Holm over those).
+
+    Parameters
+    ----------
+    fit : ModelFit
+        A GEE or mixed logit with ``group`` and ``mode`` terms.
+    trials : pandas.DataFrame
+        Analysable trials (the levels present).
+    margin_pp : float
+        Equivalence margin in percentage points of proportion correct.
+    level : float
+        Level of the two-sided intervals.
+    alpha : float
+        Size of each one-sided test of the TOST.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`FIDELITY_COLUMNS`: ``role`` "averaged" (``group`` A, B or "both") or
+        "per-sample"; ``estimate`` the real - simulated log odds ratio; ``difference`` the
+        difference of mean proportions (0-1); ``margin`` and ``tost_*`` on the proportion
+        scale (averaged rows); ``p_holm`` over the per-sample rows. Empty without both modes.
+    """
+    data = model_data(trials)
+    if fit.formula is None or "mode" not in fit.formula or set(data["mode"]) != {"real",
+                                                                                  "simulated"}:
+        return pd.DataFrame(columns=FIDELITY_COLUMNS)
+    z = reference_quantile(level, fit.df)
+    samples = sorted(data["roughness_id"].unique())
+    groups = sorted(data["group"].unique())
+    scale = ("population-averaged" if fit.kind == "gee" else "typical participant (u = 0)")
+    margin = margin_pp / 100.0
+    basis = f"model: {fit.formula}" + {"glmm": " + (1 | participant)",
+                                       "glmm-slope": " + (1 + mode | participant)"}.get(fit.kind, "")
+    note = "; ".join(fit.notes)
+    rows = []
+    for group in groups + (["both"] if len(groups) > 1 else []):
+        which = groups if group == "both" else [group]
+        c = _contrast(_rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples),
+                      fit, z)
+        t = tost(c["difference"], c["difference_se"], margin, fit.df, alpha)
+        who = "groups A and B weighted equally" if group == "both" else f"group {group}"
+        rows.append({"role": "averaged", "model": fit.kind, "scale": scale, "group": group,
+                     "roughness_id": 0,
+                     "compares": f"real - simulated, {who}, mean over the samples: log odds "
+                                 f"ratio; difference of mean {scale} proportions correct",
+                     **c, "interval": f"Wald, t({fit.df:g})" if fit.df else "Wald, normal",
+                     "test": _test_name(fit), "df": fit.df, "p_holm": np.nan,
+                     "margin": margin, "tost_p_value": t["p_value"],
+                     "tost_ci_low": t["ci_low"], "tost_ci_high": t["ci_high"],
+                     "equivalent": t["equivalent"], "basis": basis, "note": note})
+    per = []
+    for group in groups:
+        for r in samples:
+            c = _contrast(_rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r]),
+                          fit, z)
+            per.append({"role": "per-sample", "model": fit.kind, "scale": scale, "group": group,
+                        "roughness_id": int(r),
+                        "compares": f"real - simulated, group {group}, sample {r}#: log odds "
+                                    f"ratio; difference of {scale} proportions correct",
+                        **c, "interval": f"Wald, t({fit.df:g})" if fit.df else "Wald, normal",
+                        "test": _test_name(fit), "df": fit.df, "margin": np.nan,
+                        "tost_p_value": np.nan, "tost_ci_low": np.nan, "tost_ci_high": np.nan,
+                        "equivalent": False, "basis": basis, "note": note})
+    adjusted = holm([row["p_value"] for row in per])
+    for row, a in zip(per, adjusted):
+        row["p_holm"] = a
+    return pd.DataFrame(rows + per, columns=FIDELITY_COLUMNS)
+
+
+def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
+                       alpha: float = 0.05) -> str:
+    """The report's lead sentence on display fidelity (from the GEE's overall averaged row)."""
+    sel = table[(table["model"] == "gee") & (table["role"] == "averaged")
+                & (table["group"] == "both")]
+    if sel.empty:
+        return ("Real vs simulated: not estimable (both modes and a model with a mode term are "
+                "needed).")
+    r = sel.iloc[0]
+    pp = lambda v: f"{100 * v:+.1f}"
+    verdict = ("shown: simulated samples are recognised as well as real ones within the margin"
+               if r["equivalent"] else
+               "not shown: the data cannot exclude a difference as large as the margin")
+    per = table[(table["model"] == "gee") & (table["role"] == "per-sample")]
+    named = per[per["p_holm"] < alpha]
+    lines = [
+        f"Real vs simulated (the display's question; GEE, population-averaged, both groups "
+        f"weighted equally, mean over the samples): real minus simulated "
+        f"{pp(r['difference'])} percentage points of proportion correct "
+        f"(95 % CI {pp(r['difference_ci_low'])} to {pp(r['difference_ci_high'])}; log odds "
+        f"ratio {r['estimate']:+.2f}, {r['test']} p = {r['p_value']:.3f}). Equivalence "
+        f"within +-{margin_pp:g} points ({source}; two one-sided {r['test']} tests at "
+        f"{alpha:g}, {100 * (1 - 2 * alpha):.0f} % CI {pp(r['tost_ci_low'])} to "
+        f"{pp(r['tost_ci_high'])}): p = {r['tost_p_value']:.3f}, equivalence {verdict}."]
+    for g in ("A", "B"):
+        s = table[(table["model"] == "gee") & (table["role"] == "averaged") & (table["group"] == g)]
+        if not s.empty:
+            s = s.iloc[0]
+            lines.append(f"Group {g}: {pp(s['difference'])} points "
+                         f"({pp(s['difference_ci_low'])} to {pp(s['difference_ci_high'])}), "
+                         f"TOST p = {s['tost_p_value']:.3f}.")
+    if not per.empty:
+        lines.append(
+            "Per sample (8 real - simulated contrasts, Holm-adjusted): "
+            + ("none differs at 0.05 after adjustment" if named.empty else
+               ", ".join(f"group {x.group} {x.roughness_id}# ({pp(x.difference)} points, "
+                         f"p_holm = {x.p_holm:.3f})" for x in named.itertuples()))
+            + f" (smallest adjusted p {per['p_holm'].min():.3f}).")
+    return " ".join(lines)

@@ -1,0 +1,198 @@
+"""Real vs simulated: mode contrasts, the equivalence test and the protocol's margin.
+
+References nobody here wrote: statsmodels' GEE refitted in a different parameterisation (one
+mean per cell; the bias-reduced sandwich is invariant to it), R's lme4::glmer (nAGQ = 11) for the
+participant-scale contrast, statsmodels' ``ttost_paired`` and mpmath's t distribution for the
+TOST.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import warnings
+
+import mpmath
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import special
+
+from analysis import LogError, analyze, fit_gee
+from analysis.fidelity import (DEFAULT_EQUIVALENCE_MARGIN_PP, equivalence_margin,
+                               mode_contrasts, tost)
+from analysis.glmm import fit_glmm
+
+from generator import generate, null_cells
+
+
+@pytest.fixture(scope="module")
+def trials():
+    return generate(null_cells(), n_a=13, n_b=17, sigma=0.8, seed=11)
+
+
+def _cell_means_gee(trials):
+    """statsmodels GEE with one coefficient per cell (no intercept), bias-reduced covariance."""
+    import statsmodels.api as sm
+
+    d = trials.copy()
+    d["cell"] = d["group"] + "_" + d["mode"] + "_" + d["roughness_id"].astype(str)
+    x = pd.get_dummies(d["cell"]).astype(float)
+    res = sm.GEE(d["correct"].astype(float), x, groups=d["participant"],
+                 family=sm.families.Binomial(),
+                 cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
+    return list(x.columns), np.asarray(res.params), np.asarray(res.cov_params())
+
+
+def _weights(names, groups, sign_real=1.0):
+    """Contrast vector over the cell-mean coefficients: mean real - mean simulated."""
+    w = np.zeros(len(names))
+    for i, n in enumerate(names):
+        g, m, _ = n.split("_")
+        if g in groups:
+            w[i] = (1 if m == "real" else -1) / (4 * len(groups))
+    return w
+
+
+def test_gee_mode_contrasts_equal_statsmodels_in_cell_means_coding(trials):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gee = fit_gee(trials)
+        names, beta, cov = _cell_means_gee(trials)
+    table = mode_contrasts(gee, trials, margin_pp=10)
+    m = trials["participant"].nunique()
+    from scipy import stats
+    for group, groups in (("A", ["A"]), ("B", ["B"]), ("both", ["A", "B"])):
+        row = table[(table["role"] == "averaged") & (table["group"] == group)].iloc[0]
+        w = _weights(names, groups)
+        est, se = w @ beta, np.sqrt(w @ cov @ w)
+        assert row["estimate"] == pytest.approx(est, abs=1e-6)
+        assert row["se"] == pytest.approx(se, rel=1e-5)
+        assert row["p_value"] == pytest.approx(2 * stats.t.sf(abs(est / se), m - 2), rel=1e-4)
+        assert row["test"] == f"Wald t({m - 2})" and row["df"] == m - 2
+        # difference of mean proportions and its delta-method SE, from the cell means
+        q = special.expit(beta)
+        pw = np.where(w > 0, 1, np.where(w < 0, -1, 0)) / (4 * len(groups))
+        grad = pw * q * (1 - q)
+        assert row["difference"] == pytest.approx(pw @ q, abs=1e-6)
+        assert row["difference_se"] == pytest.approx(np.sqrt(grad @ cov @ grad), rel=1e-5)
+    # per-sample rows: Holm over the 8, against statsmodels' multipletests
+    from statsmodels.stats.multitest import multipletests
+    per = table[table["role"] == "per-sample"]
+    assert len(per) == 8
+    np.testing.assert_allclose(per["p_holm"], multipletests(per["p_value"], method="holm")[1])
+
+
+R_CONTRAST = r"""
+suppressMessages(library(lme4))
+args <- commandArgs(trailingOnly = TRUE)
+d <- read.csv(args[1])
+d$cell <- factor(paste(d$group, d$mode, d$roughness_id, sep = "_"))
+f <- glmer(correct ~ 0 + cell + (1 | participant), data = d, family = binomial, nAGQ = 11,
+           control = glmerControl(optimizer = "bobyqa", optCtrl = list(maxfun = 1e5)))
+nm <- levels(d$cell)
+w <- ifelse(grepl("_real_", nm), 1, -1) / 8
+b <- fixef(f); V <- as.matrix(vcov(f))
+cat(sprintf("%.12g %.12g", sum(w * b), sqrt(drop(t(w) %*% V %*% w))))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("Rscript") is None, reason="Rscript missing: ./scripts/setup")
+def test_glmm_mode_contrast_equals_lme4(trials, tmp_path):
+    csv = tmp_path / "t.csv"
+    trials[["participant", "group", "mode", "roughness_id", "correct"]].to_csv(csv, index=False)
+    script = tmp_path / "c.R"
+    script.write_text(R_CONTRAST)
+    out = subprocess.run(["Rscript", str(script), str(csv)], capture_output=True, text=True,
+                         timeout=240, check=True).stdout.split()
+    ref_est, ref_se = float(out[0]), float(out[1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        glmm = fit_glmm(trials, profile=False)
+    row = mode_contrasts(glmm, trials, margin_pp=10)
+    row = row[(row["role"] == "averaged") & (row["group"] == "both")].iloc[0]
+    assert row["estimate"] == pytest.approx(ref_est, abs=2e-4)
+    assert row["se"] == pytest.approx(ref_se, rel=2e-3)
+    assert row["scale"] == "typical participant (u = 0)"
+
+
+def _t_sf_mpmath(x, df):
+    """P(T > x) for Student's t, by mpmath's regularised incomplete beta."""
+    x, df = mpmath.mpf(x), mpmath.mpf(df)
+    tail = mpmath.betainc(df / 2, mpmath.mpf(1) / 2, 0, df / (df + x * x), regularized=True) / 2
+    return float(tail if x >= 0 else 1 - tail)
+
+
+@pytest.mark.parametrize("est,se,margin,df", [(0.02, 0.03, 0.10, 28), (-0.07, 0.02, 0.10, 28),
+                                               (0.09, 0.05, 0.10, 10), (0.0, 0.2, 0.1, 5)])
+def test_tost_equals_the_two_one_sided_t_tests_by_mpmath(est, se, margin, df):
+    r = tost(est, se, margin, df)
+    assert r["p_lower"] == pytest.approx(_t_sf_mpmath((est + margin) / se, df), rel=1e-9)
+    assert r["p_upper"] == pytest.approx(_t_sf_mpmath((margin - est) / se, df), rel=1e-9)
+    assert r["p_value"] == max(r["p_lower"], r["p_upper"])
+    # duality: equivalence at alpha iff the 1 - 2 alpha interval lies inside the margin
+    assert r["equivalent"] == (-margin < r["ci_low"] and r["ci_high"] < margin)
+
+
+def test_tost_equals_statsmodels_ttost_paired():
+    from statsmodels.stats.weightstats import ttost_paired
+
+    rng = np.random.default_rng(4)
+    a, b = rng.normal(0.6, 0.1, 30), rng.normal(0.58, 0.1, 30)
+    d = a - b
+    ref_p = ttost_paired(a, b, -0.05, 0.05)[0]
+    mine = tost(d.mean(), d.std(ddof=1) / np.sqrt(len(d)), 0.05, len(d) - 1)
+    assert mine["p_value"] == pytest.approx(ref_p, rel=1e-10)
+
+
+def test_tost_without_a_standard_error_shows_nothing():
+    assert tost(0.0, 0.0, 0.1, 28)["equivalent"] is False
+
+
+def test_default_margin_equals_the_protocols():
+    from experiments.protocol import DEFAULT_EQUIVALENCE_MARGIN_PP as protocol_default
+
+    assert DEFAULT_EQUIVALENCE_MARGIN_PP == protocol_default
+
+
+def _set_margin(data, value):
+    for path in sorted(data.glob("*/*/session.json")):
+        meta = json.loads(path.read_text())
+        meta.setdefault("protocol", {})["analysis"] = {"equivalence_margin_pp": value}
+        path.write_text(json.dumps(meta))
+
+
+def test_margin_from_the_protocol_and_its_validation(study, tmp_path):
+    data, _ = study(n_per_group=3)
+    folders = sorted(p.parent for p in data.glob("*/*/session.json"))
+    assert equivalence_margin(folders) == (10.0, "default (the protocol sets none)")
+    _set_margin(data, 7.5)
+    assert equivalence_margin(folders)[0] == 7.5
+    assert equivalence_margin(folders, 12)[0] == 12          # the command line wins
+    _set_margin(data, 75)
+    with pytest.raises(LogError, match=r"session.json: protocol.analysis.equivalence_margin_pp"):
+        equivalence_margin(folders)
+    _set_margin(data, 5)
+    last = folders[-1] / "session.json"
+    meta = json.loads(last.read_text())
+    meta["protocol"]["analysis"]["equivalence_margin_pp"] = 6
+    last.write_text(json.dumps(meta))
+    with pytest.raises(LogError, match="expected the same margin"):
+        equivalence_margin(folders)
+
+
+def test_cli_rejects_a_bad_margin_in_one_line(study, tmp_path):
+    import os
+    import sys
+
+    data, _ = study(n_per_group=3)
+    _set_margin(data, "ten")
+    done = subprocess.run([sys.executable, "-m", "experiments", "analyze", str(data), "--out",
+                           str(tmp_path / "out"), "--bootstrap", "0", "--no-mixed"],
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": os.getcwd()})
+    assert done.returncode == 2
+    assert "Traceback" not in done.stderr
+    assert "protocol.analysis.equivalence_margin_pp" in done.stderr
+    assert not (tmp_path / "out" / "report.md").exists()

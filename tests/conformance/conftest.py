@@ -1,0 +1,136 @@
+"""Backends of the protocol conformance suite: the Python emulator and the C firmware under QEMU.
+
+Every test of ``test_conformance.py`` runs once per backend (``backend`` parameter). The
+firmware's parametrisation is skipped only when ``qemu-system-arm`` is not installed (CI
+installs it with ``scripts/setup``); a missing ARM toolchain with no built image is an error,
+not a skip. Both backends run on a real clock: the emulator as ``emulator://?clock=real``, the
+firmware on QEMU's emulated real time.
+
+Fixtures: ``backend`` (name), ``display`` (a display opened through the registry, shared by a
+module's tests of one backend), ``fresh_display`` (its own device, for tests that end the
+session) and ``raw`` (a :class:`RawLink` to a just powered-up device: frames by hand, no
+driver).
+"""
+from __future__ import annotations
+
+import shutil
+import time
+
+import pytest
+import serial
+
+QEMU_MISSING = shutil.which("qemu-system-arm") is None
+URLS = {"emulator": "emulator://?clock=real&seed=7", "qemu-firmware": "qemu-firmware://"}
+BACKENDS = [
+    "emulator",
+    pytest.param("qemu-firmware", marks=pytest.mark.skipif(
+        QEMU_MISSING, reason="qemu-system-arm is not installed here (CI installs it with "
+                             "scripts/setup); the firmware's conformance is not tested")),
+]
+
+
+@pytest.fixture(scope="module", params=BACKENDS)
+def backend(request) -> str:
+    return request.param
+
+
+def open_backend(name: str):
+    from experiments.hardware import open_display
+    return open_display(URLS[name])
+
+
+@pytest.fixture(scope="module")
+def shared_display(backend):
+    disp = open_backend(backend)
+    yield disp
+    disp.close()
+
+
+@pytest.fixture
+def display(shared_display):
+    """The module's display of this backend, idle at 32 °C (a latched fault cleared)."""
+    d = shared_display
+    st = d.status()
+    if st.state == "FAULT":
+        d.clear_fault()
+    d.abort()
+    d.set_neutral(32.0)
+    return d
+
+
+@pytest.fixture
+def fresh_display(backend):
+    disp = open_backend(backend)
+    yield disp
+    disp.close()
+
+
+class RawLink:
+    """Frames by hand to a device that has just powered up (no HELLO yet).
+
+    ``command`` writes one frame and returns the reply with its ``seq`` (ACK or NAK), keeping
+    every other frame (telemetry, events) in :attr:`others`.
+    """
+
+    def __init__(self, port, close):
+        from experiments.hardware.framing import FrameParser
+        self.port = port
+        self._close = close
+        self.parser = FrameParser()
+        self.others: list = []
+
+    def send(self, seq: int, mtype: int, payload: bytes = b"") -> None:
+        from experiments.hardware.framing import encode_frame
+        self.port.write(encode_frame(seq, mtype, payload))
+
+    def command(self, seq: int, mtype: int, payload: bytes = b"", timeout_s: float = 1.0):
+        self.send(seq, mtype, payload)
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            for fr in self.parser.feed(self.port.read(4096)):
+                if fr.seq == seq and fr.type in (mtype | 0x80, 0xFF) and not (
+                        fr.type in (0xA0, 0xA1) and len(fr.payload) not in (0, 4)):
+                    return fr
+                self.others.append(fr)
+        return None
+
+    def pump(self, seconds: float, heartbeat: bool = True, until=None) -> None:
+        """Read for ``seconds`` (or until a frame satisfies ``until``), sending a silent
+        heartbeat every 10 ms if ``heartbeat``."""
+        end = time.monotonic() + seconds
+        nxt = 0.0
+        while time.monotonic() < end:
+            if heartbeat and time.monotonic() >= nxt:
+                self.send(0, 0x02, b"\x00")
+                nxt = time.monotonic() + 0.01
+            new = self.parser.feed(self.port.read(4096))
+            self.others.extend(new)
+            if until is not None and any(until(f) for f in new):
+                return
+
+    def close(self) -> None:
+        self._close()
+
+
+@pytest.fixture
+def raw(backend):
+    if backend == "emulator":
+        import experiments.hardware  # noqa: F401  (registers emulator:// with pyserial)
+        port = serial.serial_for_url(URLS["emulator"], timeout=0.01)
+        link = RawLink(port, port.close)
+    else:
+        from experiments.hardware.qemu_firmware import await_link, stop_qemu, build_image, start_qemu
+        proc, pty = start_qemu(build_image())
+        port = serial.Serial(pty, 115200, timeout=0.01)
+
+        def close():
+            port.close()
+            stop_qemu(proc)
+        try:
+            await_link(port, pty)
+        except BaseException:
+            close()
+            raise
+        link = RawLink(port, close)
+    yield link
+    link.close()
