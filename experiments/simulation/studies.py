@@ -5,7 +5,7 @@ participant; a claim's probability needs hundreds of studies per scenario.  This
 computes the noise-free features of persons on a grid of the two things that change a person's
 physics (skin thickness L and the dermis' share d / L; the receptor depth follows) and of the
 touch (contact force), once per group (:func:`build_pool`, the physics of
-:mod:`experiments.simulation.person`).  Every study then draws a *fresh* cohort, 15 persons per
+:mod:`experiments.participant_model.person`).  Every study then draws a *fresh* cohort, 15 persons per
 group from the cohort's ranges, whose features are interpolated on that grid (bilinear in L and
 d / L, linear in force: the drops within 0.01 K and the peak rate within 0.03 K/s of the direct
 computation, ``test_studies.py``, against a perceptual noise of 0.3 K and 0.3 K/s plus 10 %), then their familiarisation percepts, the real and simulated blocks'
@@ -38,7 +38,7 @@ Where this differs from emulated sessions (it is *not* exactly equivalent)
   schedule's ``order = "random"`` is also a uniform permutation, from another seed).
 * Random numbers come from one generator per task of a sweep, not from ``(seed, trial_index)``
   per person: the same distributions, different draws.
-Everything else is the same: person ranges (:func:`~experiments.simulation.person.draw_person`),
+Everything else is the same: person ranges (:func:`~experiments.participant_model.person.draw_person`),
 the session's own target profiles (:func:`experiments.session.setup.simulated_target_profile`,
 rate limit included), the finger–pad contact resistance, the features, the noise model, the
 familiarisation (one touch per real sample, by default), the lapse rule and the observer's
@@ -185,7 +185,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
         A pool of the same persons (receptor depth, d / L range) whose real-sample features are
         reused (the sensor lag changes only the replayed ones).
     """
-    from experiments.simulation.person import PerceptionParameters, SimulatedPerson
+    from experiments.participant_model.person import PerceptionParameters, SimulatedPerson
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
@@ -415,7 +415,7 @@ def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int
     variability : LabVariability, optional
         Default :data:`DEFAULT_LAB`.
     """
-    from experiments.simulation.observers import BlockContext, answer_block
+    from experiments.participant_model.observers import BlockContext, answer_block
     params = params or pool.params
     lab = DEFAULT_LAB if variability is None else variability
     rng = np.random.default_rng([*(int(w) for w in np.atleast_1d(seed)), 0x57D1])

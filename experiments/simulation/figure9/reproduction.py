@@ -199,11 +199,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     from experiments.errors import UserInputError
     from experiments.logbook import atomic_write_json, atomic_write_text
     from experiments.responders import get_responder
-    from experiments.simulation.cohort import paper_cohort
+    from experiments.participant_model.cohort import paper_cohort
     from experiments.simulation.figure9.scenarios import (best_scenario, evaluate_scenarios,
                                                           sensitivity)
     from experiments.simulation.figure9.study import _positive_int, run_figure9_study
-    from experiments.simulation.observers import OBSERVERS
+    from experiments.participant_model.observers import OBSERVERS
     from experiments.simulation.replay import REPLAY_HYPOTHESES, replay_hypothesis
     from experiments.simulation.studies import DEFAULT_LAB, build_pool
     from experiments.simulation.sweep import Sweep

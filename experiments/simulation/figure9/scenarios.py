@@ -106,7 +106,7 @@ def study_task(pool, hypothesis: str, observer: str, n_studies: int, n_per_group
         ``proportions``: per-study proportion correct, shape (S, groups, 2 modes, C).
     """
     from analysis.claims import evaluate_readings
-    from experiments.simulation.observers import get_observer
+    from experiments.participant_model.observers import get_observer
     from experiments.simulation.studies import GROUPS, simulate_studies
     out = simulate_studies(pool, hypothesis, get_observer(observer), n_studies=n_studies,
                            n_per_group=n_per_group, familiarise_reps=familiarise_reps,
@@ -200,7 +200,7 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
     variability : LabVariability, optional
         :class:`..studies.LabVariability` of every study (default: none).
     """
-    from experiments.simulation.observers import OBSERVERS
+    from experiments.participant_model.observers import OBSERVERS
     hypotheses = list(hypotheses or sorted({h for h, _ in pool.simulated},
                                            key=REPLAY_NAMES.index))
     observers = list(observers or OBSERVERS)

@@ -1,4 +1,4 @@
-"""Tests of experiments.simulation.cohort and .figure9: the paper's cohort as records, and the Figure 9 study end to end."""
+"""Tests of experiments.participant_model.cohort and .figure9: the paper's cohort as records, and the Figure 9 study end to end."""
 from __future__ import annotations
 
 import csv
@@ -9,7 +9,7 @@ from collections import Counter
 
 import pytest
 
-from experiments.simulation.cohort import alternate_groups, paper_cohort, write_cohort
+from experiments.participant_model.cohort import alternate_groups, paper_cohort, write_cohort
 from experiments.simulation.figure9.study import run_figure9_study
 from participants_schema import GroupRule, assign_group, load_participant, validate_participant
 

@@ -1,4 +1,4 @@
-"""Tests of experiments.simulation.person and .prediction: physics of the percept, learning, decisions, prediction."""
+"""Tests of experiments.participant_model.person and .prediction: physics of the percept, learning, decisions, prediction."""
 from __future__ import annotations
 
 import math
@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from experiments.simulation.person import (
+from experiments.participant_model.person import (
     PerceptionParameters,
     SimulatedPerson,
     draw_person,
     receptor_features,
 )
-from experiments.simulation.prediction import predicted_cell_probabilities
+from experiments.participant_model.prediction import predicted_cell_probabilities
 
 STEEL_RA_M = (1.6e-6, 12.5e-6, 50e-6, 100e-6)
 
@@ -394,7 +394,7 @@ def test_model_tolerance_is_a_quarter_of_the_smallest_difference_between_the_sti
     # the group profile skins feel them; the closest pair's smallest drop difference, / 4
     import itertools
 
-    from experiments.simulation.person import MODEL_TOLERANCE_C, PerceptionParameters, receptor_features
+    from experiments.participant_model.person import MODEL_TOLERANCE_C, PerceptionParameters, receptor_features
     from stimuli import Contact, Skin, contact_resistance, material
     params = PerceptionParameters()
     steel = material("stainless_steel", thickness=3e-3)
