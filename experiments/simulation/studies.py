@@ -199,7 +199,12 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     t_mat = base.simulation.material_temperature_C
     thick_m = base.material.thickness_m
     sim0 = base.simulation
-    fractions = np.linspace(*dermis_fraction, GRID_U) if receptor_depth_um is None else np.array([0.0])
+    if receptor_depth_um is not None:
+        fractions = np.array([0.0])
+    elif dermis_fraction[0] == dermis_fraction[1]:          # one d / L for everyone
+        fractions = np.array([float(dermis_fraction[0])])
+    else:
+        fractions = np.linspace(*dermis_fraction, GRID_U)
     if real_from is not None and (real_from.receptor_depth_um != receptor_depth_um
                                   or tuple(real_from.settings["dermis_fraction"]) != tuple(dermis_fraction)):
         raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
