@@ -263,6 +263,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                   responder_options={**options, "observer": headline[1]},
                                   sweep=sweep)
         seconds["study_s"] = time.perf_counter() - t1
+        t2 = time.perf_counter()
+        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab)
+        if depth is not None:
+            sens = pd.concat([sens, depth["row"]], ignore_index=True)
+        seconds["depth_fit_s"] = time.perf_counter() - t2
     # tables
     from analysis.exports import write_csv        # whole or not at all
     write_csv(result.claims, out_dir / "claims.csv")
@@ -280,7 +285,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     screen = claims_screen(result, headline)
     verdict = verdict_line(result)
     opening = _report_opening(verdict, screen, result, sens, headline, best, n_studies,
-                              sessions_line, lab)
+                              sessions_line, lab, depth)
     body = report.read_text(encoding="utf-8") if report.is_file() else ""
     atomic_write_text(report, opening + body)
     seconds["total_s"] = time.perf_counter() - t0
@@ -291,7 +296,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                        "best_match": {r: {"replay": b[0], "observer": b[1]}
                                       for r, b in best.items()},
                        "scenario_settings": {**result.settings, "lab": lab.to_dict()},
-                       "verdict": verdict, "reproduction_seconds": seconds})
+                       "verdict": verdict, "reproduction_seconds": seconds,
+                       "receptor_depth_fit": None if depth is None else depth["record"]})
         atomic_write_json(study_json, record)
     log.info("figure9: results in %s (%.1f s)", out_dir, seconds["total_s"])
     print(verdict)
@@ -300,6 +306,48 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     print(screen)
     return {"headline": headline, "best": best, "scenarios": result, "sensitivity": sens,
             "study": study, "seconds": seconds, "files": files, "verdict": verdict}
+
+
+def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
+    """Fit the receptor depth to the emulated study's real block; the headline at that depth.
+
+    Returns None without a study with both groups; else ``row`` (a sensitivity row),
+    ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
+    """
+    import dataclasses as dc
+
+    from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
+    from experiments.simulation.figure9.scenarios import SENSITIVITY_CHOICES, sensitivity
+    from experiments.simulation.studies import build_pool
+    analysis = study.get("analysis")
+    trials = None if analysis is None else analysis.log.analysable
+    if trials is None or trials.empty or trials["group"].nunique() < 2:
+        return None
+    counts = confusion_from_trials(trials, "real")
+    fit = fit_depth(counts, n_studies=20, seed=seed)
+    frac = 1.0 - fit.estimate
+    fitted_pool = build_pool(hypotheses=(headline[0],), dermis_fraction=(frac, frac),
+                             seed=pool.settings["seed"], params=pool.params)
+    setting = (f"depth share {fit.estimate:.2f} of L (95 % LR {fit.interval[0]:.2f}-"
+               f"{fit.interval[1]:.2f}), noise {fit.noise_C:g} (fitted)")
+    params = dc.replace(pool.params, drop_noise_C=fit.noise_C, rate_noise_C_per_s=fit.noise_C)
+    row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
+                      variability=lab,
+                      choices={"receptor depth (fitted)": {setting: {"pool": fitted_pool,
+                                                                      "noise": fit.noise_C}}})
+    profile = ", ".join(f"{d:.2f}: {v - fit.profile.max():+.1f}" for d, v in fit.profile.items())
+    text = (f"Receptor depth fitted to the emulated study's real-block answers (profile "
+            f"likelihood over depth shares {DEPTH_SHARES[0]:g}-{DEPTH_SHARES[-1]:g} of L and noise "
+            f"floors, absolute observer, answers treated as independent): {fit.estimate:.2f} of "
+            f"L, 95 % likelihood-ratio interval {fit.interval[0]:.2f}-{fit.interval[1]:.2f} "
+            f"({'identifiable' if fit.identifiable() else 'not identifiable: the profile is flat'}"
+            f" on this grid), noise {fit.noise_C:g} K; log-likelihood relative to the maximum: "
+            f"{profile}. The paper's own proportions cannot be used the same way: its Figure 9 "
+            f"is printed as a chart without numbers, and the text gives none.")
+    record = {"estimate_share_of_L": fit.estimate, "interval_share_of_L": list(fit.interval),
+              "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
+              "profile": {f"{d:.2f}": float(v) for d, v in fit.profile.items()}}
+    return {"row": row, "record": record, "text": text}
 
 
 def _figure(out_dir, result, analysis, headline, best, n_studies, n_sessions) -> list:
@@ -400,7 +448,7 @@ def _claims_md(result, reading: str) -> str:
 
 
 def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
-                    sessions_line="", lab=None) -> str:
+                    sessions_line="", lab=None, depth=None) -> str:
     from analysis.claims import CLAIMS
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import __doc__ as studies_doc
@@ -449,6 +497,7 @@ def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
             f"each): the claims' probabilities read descriptively (claim columns) and "
             f"inferentially (`_inf`); p_*: expected proportion correct, mean over samples.\n\n"
             f"{_md(sens[sens_cols])}\n\n"
+            + (f"{depth['text']}\n\n" if depth else "") +
             f"The figure: `figure9.png` (and `figure9.pdf`): per cell the median of the "
             f"simulated studies' proportion correct with the middle 50 % and 95 % of them; left, "
             f"the paper's method as printed (printed Eq. 7 replay, absolute observer); right, "

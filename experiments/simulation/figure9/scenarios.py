@@ -324,7 +324,7 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
     scenarios, labels = [], []
     for ci, (choice, settings) in enumerate(choices.items()):
         for si, (label, change) in enumerate(settings.items()):
-            use_pool, params, lab = pool, pool.params, base_lab
+            use_pool, params, lab = change.get("pool", pool), pool.params, base_lab
             for key in ("receptor_depth_um", "sensor_tau_s"):
                 if key in change:
                     k = (key, change[key])
