@@ -210,6 +210,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
         raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
                          "depth and d / L range)")
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
+    people = []
     profiles = {}
     for group in GROUPS:
         for h, proto in variants.items():
@@ -229,6 +230,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                         raise ValueError(f"build_pool: receptor_depth_um: expected a depth inside "
                                          f"the skin ({L_um:.0f} µm), got {receptor_depth_um!r}")
                 p = SimulatedPerson(L_um * 1e-6, float(frac), t_ref, params)
+                people.append(p)
                 p1 = SimulatedPerson(L_um * 1e-6, float(frac), t_ref + 1.0, params)
                 for k, force in enumerate(FORCE_GRID_N):
                     if real_from is not None:
@@ -259,8 +261,17 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                       roughness_um=tuple(s.roughness_um for s in samples),
                       settings={"seed": int(seed), "dermis_fraction": tuple(dermis_fraction),
                                 "sensor_tau_s": float(sensor_tau_s),
+                                "model_tolerance_C": float(params.model_tolerance_C),
+                                "planner_models": _planner_models(people),
                                 "grid": f"{GRID_L} thicknesses x {len(fractions)} d/L x "
                                         f"{len(FORCE_GRID_N)} forces per group"})
+
+
+def _planner_models(people) -> dict:
+    """How often the scene planner chose each model for the persons' real contacts."""
+    from collections import Counter
+    plans = [plan for p in people for plan in p.real_plans.values() if plan is not None]
+    return dict(Counter(plan.to_dict().get("model", "?") for plan in plans))
 
 
 def _grid_weights(x, grid):
