@@ -29,5 +29,9 @@ def _run(ns) -> int:
     if ns.model == "tcs2":
         from experiments.hardware.tcs2.pty_server import run as run_tcs2
         return run_tcs2(ns)   # UserInputError (bad --faults, --clock virtual) -> exit 2
+    if ns.speed != 1.0:
+        from experiments.errors import UserInputError
+        raise UserInputError(f"--speed: expected it only with --model tcs2 (the thermocue "
+                             f"emulator has --clock virtual), got {ns.speed:g}")
     from experiments.hardware.pty_server import run
     return run(ns)          # UserInputError (bad --faults, --link held) -> exit 2

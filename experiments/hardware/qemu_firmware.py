@@ -15,7 +15,7 @@ a hardware timer that QEMU runs at host real time: trials take their real durati
 """
 from __future__ import annotations
 
-import fcntl
+import contextlib
 import re
 import shutil
 import subprocess
@@ -45,6 +45,8 @@ URL_GRAMMAR = "qemu-firmware://[?image=PATH][&build=1|0]"
 START_TIMEOUT_S = 20.0
 #: The driver's wait for a reply under QEMU, s (the driver's default, 0.25 s, suits a board).
 QEMU_REPLY_TIMEOUT_S = 3.0
+#: The host's heartbeat period under QEMU, s (the driver's default, 10 ms, suits a board).
+QEMU_HEARTBEAT_S = 0.02
 _PTY_LINE = re.compile(r"char device redirected to (\S+)")
 
 
@@ -87,6 +89,13 @@ def _sources_newer(image: Path) -> bool:
     return (FIRMWARE_DIR / "build").stat().st_mtime > t
 
 
+def _lock_file(fh) -> None:
+    """An exclusive lock on ``fh`` where the system has ``fcntl`` (POSIX); else none."""
+    with contextlib.suppress(ImportError):
+        import fcntl
+        fcntl.flock(fh, fcntl.LOCK_EX)
+
+
 def build_image(image: Path = SIM_IMAGE, force: bool = False) -> Path:
     """Build the firmware images with ``firmware/build`` if ``image`` is missing or stale.
 
@@ -106,7 +115,7 @@ def build_image(image: Path = SIM_IMAGE, force: bool = False) -> Path:
     out = FIRMWARE_DIR / "out"
     out.mkdir(exist_ok=True)
     with open(out / ".build.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+        _lock_file(lock)
         if image.exists() and not force and not _sources_newer(image):
             return image
         res = subprocess.run([str(FIRMWARE_DIR / "build")], capture_output=True, text=True)
@@ -252,6 +261,11 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         # here (a 512-sample chunk frame, 1042 bytes, is answered after ~0.4 s, more on a
         # loaded machine), slower than the board's 115200 baud; nothing is lost on the pty
         options.setdefault("reply_timeout_s", QEMU_REPLY_TIMEOUT_S)
+        # ... and on a loaded host that rate falls to that of the heartbeats (1.3 kB/s measured
+        # at a load average of 19 on 2 cores, against 1 kB/s of heartbeats every 10 ms), after
+        # which commands queue behind heartbeats (replies seen 1.4 s late); every 20 ms is four
+        # heartbeats within the device's 90 ms watchdog and leaves the link 60 % of that rate
+        options.setdefault("heartbeat_s", QEMU_HEARTBEAT_S)
         proc, pty = start_qemu(Path(image))
         try:
             port = serial.Serial(pty, 115200, timeout=0.01, write_timeout=1.0)

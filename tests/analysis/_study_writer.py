@@ -23,7 +23,8 @@ import numpy as np
 
 COLUMNS = ["participant", "group", "session", "block", "trial_index", "mode", "roughness_id",
            "roughness_um", "repetition", "response_id", "correct", "rt_s", "status",
-           "tracking_rms_C", "skin_thickness_um", "sex", "attempt", "started_at", "fault_code"]
+           "tracking_rms_C", "skin_thickness_um", "sex", "attempt", "started_at", "fault_code",
+           "answer_mode", "answer_keyed_after_cue_s"]
 ROUGHNESS_UM = {1: 1.6, 2: 12.5, 3: 50.0, 4: 100.0}
 
 
@@ -73,7 +74,8 @@ def write_study(root, cells, *, n_per_group=15, reps=3, sigma=0.0, seed=0, famil
                             "mode": "real" if block == "familiarise" else block,
                             "roughness_um": ROUGHNESS_UM[r], "repetition": rep + 1,
                             "skin_thickness_um": thickness, "sex": "F" if i % 2 else "M",
-                            "started_at": f"2026-11-22T04:{index % 60:02d}:00Z"}
+                            "started_at": f"2026-11-22T04:{index % 60:02d}:00Z",
+                            "answer_mode": "keyed", "answer_keyed_after_cue_s": ""}
                     if block != "familiarise" and rng.random() < fault_rate:
                         rows.append({**base, "response_id": "", "correct": "", "rt_s": "",
                                      "status": "fault", "tracking_rms_C": "", "attempt": attempt,

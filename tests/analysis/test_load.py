@@ -65,7 +65,7 @@ def test_wrong_field_count_in_the_middle_stops_there(study):
     lines = path.read_text().splitlines(keepends=True)
     lines[5] = "A00,A,S1,real,5\n"
     path.write_text("".join(lines))
-    with pytest.warns(LogWarning, match=rf"{path}: line 6: expected 19 fields, got 5"):
+    with pytest.warns(LogWarning, match=rf"{path}: line 6: expected 21 fields, got 5"):
         log = load_trials(data)
     assert len(log.trials[log.trials["source"] == str(path)]) == 4
 

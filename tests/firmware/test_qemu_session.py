@@ -44,10 +44,11 @@ def test_four_trial_session_on_the_firmware_under_qemu(tmp_path):
     with open(session / "trials.csv", newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     completed = [r for r in rows if r["status"] == "ok"]
-    assert sorted(int(r["trial_index"]) for r in completed) == [1, 2, 3, 4]
+    why = [(r["trial_index"], r["status"], r.get("fault_code")) for r in rows], res.stderr[-2000:]
+    assert sorted(int(r["trial_index"]) for r in completed) == [1, 2, 3, 4], why
     assert sorted(r["mode"] for r in completed) == ["real", "real", "simulated", "simulated"]
     for r in completed:
-        assert int(r["frames_lost"]) == 0 and int(r["frames"]) > 50
+        assert int(r["frames_lost"]) == 0 and int(r["frames"]) > 50, (r, why)
         assert float(r["contact_force_N"]) >= 2.0 - 0.05
         if r["mode"] == "simulated":
             assert float(r["tracking_max_C"]) < 1.0          # [simulation] default limit

@@ -75,6 +75,15 @@ class Tcs2Display(Display, scheme="tcs2"):
         The profile compiler's bound.
     name : str
         The port, for messages.
+
+    Attributes
+    ----------
+    compiled : CompiledProfile or None
+        The segments uploaded and read back (None: nothing playable).
+    tracking_profile : tuple or None
+        ``(step_s, target_C list)`` of the uploaded target, for the tracking error.
+    script : tuple or None
+        The emulated participant's ``(press_after_s, hold_s)`` (:meth:`sim_finger`).
     """
 
     description = "QST.Lab TCS II thermode (ASCII serial); tcs2://emulator: its emulator here"
@@ -300,6 +309,7 @@ class Tcs2Display(Display, scheme="tcs2"):
                                    f"maximum {self.max_C} °C")
         text = cmd.fmt_profile(self.zones, c.segments)
         try:
+            self.link.drain(0.02)           # nothing left from the last trial is a reply to Ur
             self.link.send(text)
             self.link.send(cmd.fmt_profile_enable(self.zones))
             back = cmd.parse_profile_lines(self.link.ask("Ur", n=5, skip=cmd.is_temperature_line))
@@ -323,8 +333,9 @@ class Tcs2Display(Display, scheme="tcs2"):
             raise DisplayError(str(exc)) from None
         t = np.asarray(times_s, dtype=float)
         self.compiled = c
-        self.tracking_profile = ((t[-1] - t[0]) / (t.size - 1), [float(v) for v in np.asarray(target_C)])
-        return ProfileReceipt(points=int(t.size), step_s=self.tracking_profile[0], crc32=None, clamped=0,
+        dt = (t[-1] - t[0]) / (t.size - 1)
+        self.tracking_profile = (dt, [float(v) for v in np.asarray(target_C)])
+        return ProfileReceipt(points=int(t.size), step_s=dt, crc32=None, clamped=0,
                               max_deviation_C=c.max_deviation_C, segments=c.count)
 
     # ------------------------------------------------------------------ trials

@@ -168,14 +168,19 @@ def compile_profile(times_s, target_C, *, tolerance_C: float = RESOLUTION_C,
                              f"{s0 / 10:g} °C, got {y[0]:.4g} °C")
     max_reach = MAX_SEGMENT_STEPS * every if every > 1 else int(round(MAX_SEGMENT_STEPS * STEP_S / dt))
     eps = 1e-9
-    # breadth-first search: layer k holds the breakpoints reachable with k segments
-    parent: dict = {(0, s0): None}
+    # breadth-first search: layer k holds the breakpoints (sample j, end q in 0.1 °C) reachable
+    # with k segments; each is claimed by the first breakpoint of the layer before that reaches it
+    nq = hi_q - lo_q + 1
+    seen = np.zeros((n, nq), dtype=bool)
+    from_j = np.full((n, nq), -1, dtype=np.int64)
+    from_q = np.zeros((n, nq), dtype=np.int64)
+    seen[0, s0 - lo_q] = True
     layer = [(0, s0)]
     goal = None
     depth = 0
     while layer and goal is None and depth < max_segments:
         depth += 1
-        nxt = []
+        nxt_j, nxt_q = [], []
         for i, u in layer:
             j_end = min(n - 1, i + max_reach)
             if j_end <= i:
@@ -195,48 +200,55 @@ def compile_profile(times_s, target_C, *, tolerance_C: float = RESOLUTION_C,
             if not ok.all():
                 last = int(np.argmin(ok))         # the first infeasible end: none beyond it
                 k, span, m_lo, m_hi = k[:last], span[:last], m_lo[:last], m_hi[:last]
-            grid = (k - 0) % every == 0           # ends on the 10 ms grid only
+            grid = k % every == 0                 # ends on the 10 ms grid only
             k, span, m_lo, m_hi = k[grid], span[grid], m_lo[grid], m_hi[grid]
             if k.size == 0:
                 continue
-            q_lo = np.ceil((base + m_lo * span) * 10 - 1e-6).astype(int)
-            q_hi = np.floor((base + m_hi * span) * 10 + 1e-6).astype(int)
-            q_lo = np.maximum(q_lo, lo_q)
-            q_hi = np.minimum(q_hi, hi_q)
-            # farthest ends first: a path to the last sample ends the search in this layer
-            for idx in range(k.size - 1, -1, -1):
-                j = int(k[idx])
-                # ends nearest the target first: of paths with the fewest segments, the search
-                # keeps the one it reaches first, so this favours the closer ones
-                yj = y[j] * 10
-                for q in sorted(range(int(q_lo[idx]), int(q_hi[idx]) + 1), key=lambda q: abs(q - yj)):
-                    key = (j, q)
-                    if key in parent:
-                        continue
-                    parent[key] = (i, u)
-                    if j == n - 1:
-                        goal = key
-                        break
-                    nxt.append(key)
-                if goal is not None:
-                    break
-            if goal is not None:
+            q_lo = np.maximum(np.ceil((base + m_lo * span) * 10 - 1e-6).astype(np.int64), lo_q)
+            q_hi = np.minimum(np.floor((base + m_hi * span) * 10 + 1e-6).astype(np.int64), hi_q)
+            count = np.maximum(q_hi - q_lo + 1, 0)
+            total = int(count.sum())
+            if total == 0:
+                continue
+            jj = np.repeat(k, count)
+            first = np.repeat(np.cumsum(count) - count, count)
+            qq = np.repeat(q_lo, count) + (np.arange(total) - first)
+            new = ~seen[jj, qq - lo_q]
+            jj, qq = jj[new], qq[new]
+            if jj.size == 0:
+                continue
+            seen[jj, qq - lo_q] = True
+            from_j[jj, qq - lo_q] = i
+            from_q[jj, qq - lo_q] = u
+            at_end = jj == n - 1
+            if at_end.any():                      # the last sample: the end nearest the target
+                qs = qq[at_end]
+                goal = (n - 1, int(qs[np.argmin(np.abs(qs - y[-1] * 10))]))
                 break
-        layer = nxt
+            nxt_j.append(jj)
+            nxt_q.append(qq)
+        if goal is None and nxt_j:
+            jj, qq = np.concatenate(nxt_j), np.concatenate(nxt_q)
+            # farthest first, then nearest the target: of the paths with the fewest segments
+            # the search keeps the one it reaches first, so this favours the closer ones
+            order = np.lexsort((np.abs(qq - y[jj] * 10), -jj))
+            layer = list(zip(jj[order].tolist(), qq[order].tolist()))
+        else:
+            layer = []
     if goal is None:
-        reached = max(j for j, _ in parent) * dt
-        why = (f"more than {max_segments} segments" if layer or depth >= max_segments
+        reached = int(np.max(np.nonzero(seen.any(axis=1))[0])) * dt
+        why = (f"more than {max_segments} segments" if depth >= max_segments
                else f"a breakpoint nearer than 0.1 °C steps allow after {reached:.2f} s")
         raise UserInputError(
             f"{name}: expected a profile the TCS II can play within {tol:g} °C (segments of "
             f"10 ms–9.99 s, ends at 0.1 °C, {limits.min_C:g}–{hi_C:g} °C), "
             f"got one that needs {why}")
     path = []
-    key = goal
-    while parent[key] is not None:
-        prev = parent[key]
-        path.append(Segment(steps=int(round((t[key[0]] - t[prev[0]]) / STEP_S)), end_dC=key[1]))
-        key = prev
+    j, q = goal
+    while j != 0:
+        pj, pq = int(from_j[j, q - lo_q]), int(from_q[j, q - lo_q])
+        path.append(Segment(steps=int(round((t[j] - t[pj]) / STEP_S)), end_dC=int(q)))
+        j, q = pj, pq
     segments = tuple(reversed(path))
     played = segments_to_samples(s0 / 10, segments, t)
     dev = float(np.max(np.abs(played - y)))

@@ -92,10 +92,33 @@ class TcsTrial:
         if fault is not None:
             self.fault = fault
             self.d.safe_abort()
+        elif self.q_pending:
+            self._collect_pending_q()
+            if self.fault is not None:
+                return                  # a late reply to Q showed an error: ended as a fault
         now = self.d.link.clock()
         self.tr.event(DeviceEvent("END", now, {"complete": 0, "released": 1, "max_duration": 2,
                                                "aborted": 3}.get(reason, 4),
                                   fault[0] if fault else ""))
+
+    def _collect_pending_q(self) -> None:
+        """Read the replies to ``Q`` still on their way (up to 0.5 s), so that none is taken
+        for the reply to a later command; one showing an error faults the trial."""
+        link = self.d.link
+        end = link.clock() + 0.5
+        try:
+            while self.q_pending and link.clock() < end:
+                line = link.line(0.05)
+                if line is None or cmd.is_temperature_line(line):
+                    continue
+                errs = cmd.parse_errors(line)
+                self.q_pending -= 1
+                if any(errs):
+                    self.done = False
+                    self._zone_fault(errs)
+                    return
+        except (ReplyError, DisplayError):
+            pass                        # the next command's reply check will say what is wrong
 
     def pump(self, timeout_s, wait: bool = True) -> None:
         """Advance the trial: start it when due, read lines, poll Q, end it."""

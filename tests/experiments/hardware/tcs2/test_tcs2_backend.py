@@ -251,3 +251,31 @@ def test_a_zone_still_in_error_faults_the_next_trial_before_it_starts():
         assert "L" not in d.port.device.commands[n:]
     finally:
         d.close()
+
+
+def test_a_device_error_reply_to_the_upload_refuses_it():
+    d = _open()
+    try:
+        d.port.device._upload = lambda c: ["ERR Uw malformed: " + c[:20]]
+        with pytest.raises(DisplayError) as exc:
+            d.upload_profile(T, Y)
+        assert "ERR Uw" in str(exc.value) and "\n" not in str(exc.value)
+        assert d.compiled is None and d.port.device.commands[-1] == "A"
+    finally:
+        d.close()
+
+
+def test_a_reply_to_Q_still_on_its_way_at_the_end_is_not_taken_for_the_next_reply():
+    # the participant stops the stimulation just after a Q was sent: its reply comes late
+    d = _open()
+    try:
+        d.upload_profile(T, Y)
+        for hold in (0.505, 1.005, 1.51):
+            d.arm()
+            d.sim_finger(press_after_s=0.0, hold_s=hold)
+            assert d.run_trial().status == "ok"
+            d.port.device._out += b"000000\r\n"       # a late reply, as a slow link delivers it
+            r = d.upload_profile(T, Y)                  # Ur must still read its own lines
+            assert r.segments == 3
+    finally:
+        d.close()

@@ -17,6 +17,8 @@ def test_bad_options_are_one_line_exit_2(capsys, tmp_path):
     assert err.count("\n") == 1 and "--faults" in err and "zap@1" in err
     assert main(["emulator", "--model", "tcs2", "--clock", "virtual"]) == 2
     assert "--clock" in capsys.readouterr().err
+    assert main(["emulator", "--speed", "5"]) == 2          # the thermocue emulator: no --speed
+    assert "--speed" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
 
 

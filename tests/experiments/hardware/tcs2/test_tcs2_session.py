@@ -54,13 +54,17 @@ def test_a_whole_session_on_the_tcs2_emulator_analyses_and_exports(tcs2_pty, tmp
     with open(session / "trials.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     ok = [r for r in rows if r["status"] == "ok"]
-    assert len(ok) == 28 and len(rows) == 28, [(r["status"], r["fault_code"]) for r in rows]
+    assert len(ok) == 28, [(r["status"], r["fault_code"]) for r in rows]
+    # An emulator starved of CPU for 0.3 s falls silent to the host, which flags the attempt
+    # (LINK_TIMEOUT) and runs the trial again: the only extra rows a busy machine may add.
+    extra = [(r["status"], r["fault_code"]) for r in rows if r["status"] != "ok"]
+    assert all(e == ("fault", "LINK_TIMEOUT") for e in extra) and len(extra) <= 3, extra
     assert all(int(r["frames"]) >= 100 and r["frames_lost"] == "0" for r in ok)
     assert all(float(r["tracking_max_C"]) < 1.0 for r in ok)
     # the contact model is logged with every profile; each played profile starts at the skin
     events = [json.loads(x) for x in (session / "events.jsonl").read_text().splitlines()]
     uploads = [e for e in events if e.get("kind", e.get("event")) == "profile_uploaded"]
-    assert len(uploads) == 28
+    assert len(uploads) == len(rows)
     assert {e["parameters"]["contact_model"] for e in uploads} == {"resting"}
     assert {e["parameters"]["resting_start_C"] for e in uploads} == {35.5}
     with open(session / ok[0]["trace_file"], newline="") as fh:
