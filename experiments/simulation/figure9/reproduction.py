@@ -369,9 +369,9 @@ def _figure(out_dir, result, analysis, headline, best, n_studies, n_sessions) ->
     return plot_figure9_distribution(
         rows(PRINTED), rows(headline), analysis.proportions, out_dir / "figure9.png",
         left_title=(f"Figure 9 as the paper's method predicts it\n{REPLAY_HYPOTHESES[PRINTED[0]].label}"
-                    f" replay, {PRINTED[1]} observer\n{n_studies} simulated 15+15 studies"),
+                    f" replay\n{PRINTED[1]} observer\n{n_studies} simulated 15+15 studies"),
         right_title=(f"{named}\n{REPLAY_HYPOTHESES[headline[0]].label} replay, {headline[1]} "
-                     f"observer; claims held by ≥ half of studies: {held_d}/{total} "
+                     f"observer\nclaims shown by ≥ half of studies: {held_d}/{total} "
                      f"descriptive, {held_i}/{total} inferential\n{n_studies} simulated "
                      f"studies; ×: the one emulated study ({n_sessions} sessions)"),
         left_note=claims_note(result.claims, PRINTED),

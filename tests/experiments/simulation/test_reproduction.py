@@ -78,3 +78,26 @@ def test_claims_held_and_reproducing_scenarios_per_reading():
     assert reproducing_scenarios(r) == [("compensated", "relative")]
     assert reproducing_scenarios(r, "inferential") == []
     assert claims_held(r, ("skin", "absolute"), "inferential") == (0, 10)
+
+
+def test_distribution_figure_is_written_with_the_study_on_top(tmp_path):
+    from experiments.simulation.figure9.plot import claims_note, plot_figure9_distribution
+    rows, observed = [], []
+    for g in ("A", "B"):
+        for mode in ("real", "simulated"):
+            for rid, um in zip((1, 2, 3, 4), (1.6, 12.5, 50.0, 100.0)):
+                rows.append({"group": g, "mode": mode, "roughness_id": rid, "roughness_um": um,
+                             "study_low": .2, "study_q25": .4, "study_median": .5,
+                             "study_q75": .6, "study_high": .8})
+                observed.append({"group": g, "mode": mode, "roughness_id": rid,
+                                 "proportion_correct": .55})
+    props = pd.DataFrame(rows)
+    r = _result({("printed", "absolute"): PRINTED_ROW})
+    note = claims_note(r.claims, ("printed", "absolute"))
+    assert note.splitlines()[1] == "1.00 / 1.00  proportion correct rises with roughness (real)"
+    assert "0.40 / 0.40  1# is often confused (real) *" in note
+    files = plot_figure9_distribution(props, props, pd.DataFrame(observed), tmp_path / "f.png",
+                                      left_title="l", right_title="r", left_note=note,
+                                      right_note=note)
+    assert [f.name for f in files] == ["f.png", "f.pdf"]
+    assert all(f.stat().st_size > 10_000 for f in files)
