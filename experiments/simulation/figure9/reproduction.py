@@ -314,10 +314,8 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
     Returns None without a study with both groups; else ``row`` (a sensitivity row),
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
-    import dataclasses as dc
-
     from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
-    from experiments.simulation.figure9.scenarios import SENSITIVITY_CHOICES, sensitivity
+    from experiments.simulation.figure9.scenarios import sensitivity
     from experiments.simulation.studies import build_pool
     analysis = study.get("analysis")
     trials = None if analysis is None else analysis.log.analysable
@@ -325,16 +323,24 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
         return None
     counts = confusion_from_trials(trials, "real")
     fit = fit_depth(counts, n_studies=20, seed=seed)
-    frac = 1.0 - fit.estimate
-    fitted_pool = build_pool(hypotheses=(headline[0],), dermis_fraction=(frac, frac),
-                             seed=pool.settings["seed"], params=pool.params)
-    setting = (f"depth share {fit.estimate:.2f} of L (95 % LR {fit.interval[0]:.2f}-"
-               f"{fit.interval[1]:.2f}), noise {fit.noise_C:g} (fitted)")
-    params = dc.replace(pool.params, drop_noise_C=fit.noise_C, rate_noise_C_per_s=fit.noise_C)
+    # the estimate and the ends of its interval: the claims' probabilities across the depths
+    # the study's answers allow (their best noise each)
+    settings = {}
+    for what, share in (("fitted", fit.estimate), ("interval low end", fit.interval[0]),
+                        ("interval high end", fit.interval[1])):
+        if any(abs(share - v[2]) < 1e-9 for v in settings.values()):
+            continue
+        frac = 1.0 - share
+        noise = float(fit.grid.loc[fit.grid.depth_share == share].sort_values("loglik")
+                      ["noise_C"].iloc[-1])
+        depth_pool = build_pool(hypotheses=(headline[0],), dermis_fraction=(frac, frac),
+                                seed=pool.settings["seed"], params=pool.params)
+        label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
+                 f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
+        settings[label] = ({"pool": depth_pool, "noise": noise}, what, share)
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                       variability=lab,
-                      choices={"receptor depth (fitted)": {setting: {"pool": fitted_pool,
-                                                                      "noise": fit.noise_C}}})
+                      choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})
     profile = ", ".join(f"{d:.2f}: {v - fit.profile.max():+.1f}" for d, v in fit.profile.items())
     text = (f"Receptor depth fitted to the emulated study's real-block answers (profile "
             f"likelihood over depth shares {DEPTH_SHARES[0]:g}-{DEPTH_SHARES[-1]:g} of L and noise "

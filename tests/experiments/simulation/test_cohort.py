@@ -7,6 +7,7 @@ import json
 import re
 from collections import Counter
 
+import pandas as pd
 import pytest
 
 from experiments.participant_model.cohort import alternate_groups, paper_cohort, write_cohort
@@ -110,6 +111,16 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     assert study["responder_options"]["observer"] == "relative"
     # the answer first: terminal ends with the claims table, report opens with the verdict
     assert study["scenario_settings"]["lab"]["force_sd_N"] == 0.3
+    # the receptor depth fitted to the study's real block, with its interval and its rows
+    fit = study["receptor_depth_fit"]
+    lo, hi = fit["interval_share_of_L"]
+    assert lo <= fit["estimate_share_of_L"] <= hi and len(fit["profile"]) == 7
+    sens = pd.read_csv(out / "sensitivity.csv")
+    fitted = sens[sens["choice"] == "receptor depth (fitted)"]
+    assert 1 <= len(fitted) <= 3 and fitted["setting"].str.contains("fitted").any()
+    assert set(sens["choice"]) >= {"contact force per touch", "pad sensor lag",
+                                   "skin temperature within participant",
+                                   "skin temperature between participants", "cohort"}
     printed = capsys.readouterr().out.strip().splitlines()
     assert printed[0].startswith("Figure 9 / Table 2 claims. Read descriptively, ")
     assert ". Read inferentially, " in printed[0]
