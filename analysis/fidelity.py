@@ -31,6 +31,8 @@ import pandas as pd
 import patsy
 from scipy import special, stats
 
+from experiments.session_reader import read_text_file
+
 from .errors import LogError
 from .inference import holm
 from .models import ModelFit, model_data, reference_quantile
@@ -115,7 +117,7 @@ def equivalence_margin(session_folders, override_pp: float | None = None) -> tup
     for folder in session_folders:
         path = Path(folder) / "session.json"
         try:
-            meta = json.loads(path.read_text("utf-8"))
+            meta = json.loads(read_text_file(path))     # the session reader's rules
         except (OSError, ValueError):
             continue                    # the loader reports unreadable session files
         protocol = meta.get("protocol") if isinstance(meta, dict) else None

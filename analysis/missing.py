@@ -31,6 +31,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from experiments.session_reader import read_text_file
+
 __all__ = ["missing_trials", "missing_summary", "REASONS"]
 
 #: The reasons, in the order the summary lists them.
@@ -41,7 +43,8 @@ _UNSCORED = {"familiarise"}
 def _schedule(path: Path) -> list[dict] | None:
     """The scored entries of a session's schedule, or None without one."""
     try:
-        meta = json.loads((path / "session.json").read_text("utf-8"))
+        # the session reader's rules (regular file, UTF-8 with or without a byte-order mark)
+        meta = json.loads(read_text_file(path / "session.json"))
     except (OSError, ValueError, UnicodeDecodeError):
         return None
     schedule = meta.get("schedule") if isinstance(meta, dict) else None

@@ -9,13 +9,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from experiments.session_reader import read_text_file
+
 __all__ = ["read_session_meta", "not_recognition_reason", "block_roles"]
 
 
 def read_session_meta(folder: Path) -> dict:
     """``session.json`` as a dict, or ``{}`` when missing or unreadable (reported elsewhere)."""
     try:
-        data = json.loads((folder / "session.json").read_text("utf-8"))
+        data = json.loads(read_text_file(folder / "session.json"))   # the session reader's rules
     except (OSError, ValueError, UnicodeDecodeError):
         return {}
     return data if isinstance(data, dict) else {}

@@ -226,9 +226,11 @@ DOMAIN = {
     "trial_index": ("int", 1, None, "an integer >= 1"),
     "attempt": ("int", 0, None, "an integer >= 0"),
     "repetition": ("int", 1, None, "an integer >= 1"),
-    "roughness_um": ("float", 1e-4, 1e3, "a roughness Ra in (0, 1000] um"),
-    "skin_thickness_um": ("float", 1.0, 1e4, "a skin thickness in [1, 10000] um"),
-    "profile_skin_thickness_um": ("float", 1.0, 1e4, "a skin thickness in [1, 10000] um"),
+    # the protocol's own bounds (experiments.protocol): Ra beyond 1 cm is no surface finish, and
+    # a fingertip's skin is at most 1 cm thick
+    "roughness_um": ("float", 1e-6, 1e4, "a roughness Ra in (0, 10000] um"),
+    "skin_thickness_um": ("float", 1e-6, 1e4, "a skin thickness in (0, 10000] um"),
+    "profile_skin_thickness_um": ("float", 1e-6, 1e4, "a skin thickness in (0, 10000] um"),
     "profile_resistance_m2K_W": ("float", 0.0, 1.0, "a contact resistance in [0, 1] m2K/W"),
     "pad_resistance_m2K_W": ("float", 0.0, 1.0, "a contact resistance in [0, 1] m2K/W"),
     "rate_limited_max_change_C": ("float", 0.0, 100.0, "a temperature change in [0, 100] degC"),
@@ -601,7 +603,11 @@ def read_session_folders(root, exclude: Iterable = ()) -> FolderSet:
             continue
         def named_right(f):
             return (f.path.parent.name, f.path.name) == (f.participant, f.session)
-        if sf.log_hash == other.log_hash:
+        if not sf.log_hash or not other.log_hash:     # one holds neither log nor table
+            keep, drop = (sf, other) if sf.log_hash else (other, sf)
+            why = (f"no event log and no trials table; session {sf.participant}/{sf.session} is "
+                   f"read from {keep.path}")
+        elif sf.log_hash == other.log_hash:
             keep, drop = (sf, other) if named_right(sf) and not named_right(other) else (other, sf)
             why = (f"a copy of {keep.path} (same session {sf.participant}/{sf.session}, same "
                    f"event log); read once")

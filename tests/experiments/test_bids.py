@@ -93,3 +93,15 @@ def test_export_bids_command(study, tmp_path, capsys):
     assert capsys.readouterr().out == f"3 session(s) of 2 participant(s) -> {tmp_path / 'b'}\n"
     assert (tmp_path / "b" / "COMPLETE").is_file()
     assert main(["export-bids", str(tmp_path / "nothing")]) == 2
+
+
+@pytest.mark.slow
+def test_a_rebuilt_dataset_with_its_complete_marker_is_valid_bids(study, tmp_path):
+    """`export-bids` writes COMPLETE last and lists it in .bidsignore: still valid BIDS."""
+    from experiments.cli import main
+    out = tmp_path / "rebuilt"
+    assert main(["export-bids", str(study), "--out", str(out)]) == 0
+    assert (out / "COMPLETE").is_file() and "COMPLETE" in (out / ".bidsignore").read_text().split()
+    report = validate(out)
+    assert report["issues"]["errors"] == [], report["issues"]["errors"]
+    assert report["summary"]["subjects"] == ["P01", "P02"]

@@ -198,3 +198,21 @@ def test_a_read_only_folder_met_while_writing_is_one_line(data, tmp_path):
         assert run.stderr.strip().startswith(f"thermocue export-bids: {out / 'sub-P02'}")
         assert run.stderr.strip().endswith(": Read-only file system")
         _no_partial(out)
+
+
+@pytest.mark.slow
+def test_calibrate_file_too_large_then_a_rerun(tmp_path):
+    from _calibration_helpers import make_session
+    sdir = make_session(tmp_path / "DATA")
+    out = tmp_path / "cal"
+    args = ["calibrate", str(sdir), "--out", str(out), "--sample-thickness-um", "3000"]
+    run = thermocue(args, fsize=2000)           # residuals.png and fit.json are larger
+    assert run.returncode == 1, run.stderr
+    line = run.stderr.strip().splitlines()[-1]
+    assert "Traceback" not in run.stderr
+    assert line.startswith(f"thermocue calibrate: {out}/") and line.endswith(": File too large"), line
+    _no_partial(out)
+    run = thermocue(args)
+    assert run.returncode == 0, run.stderr
+    assert {"residuals.png", "resistances.csv", "skin.csv", "parameters.md", "fit.json"} <= \
+        set(_complete(out)["files"])

@@ -95,7 +95,7 @@ GOOD = {"participant": "P01", "session": "S01", "status": "ok", "trial_index": "
     ("rt_s", "1e999", "expected a finite time >= 0 s"),
     ("rt_s", "nan?", "expected a finite time >= 0 s"),
     ("rt_s", "inf", "expected a finite time >= 0 s"),
-    ("roughness_um", "-1.6", "expected a roughness Ra in (0, 1000] um"),
+    ("roughness_um", "-1.6", "expected a roughness Ra in (0, 10000] um"),
     ("participant", "P0\x001", "expected text without NUL bytes"),
     ("trial_index", "0", "expected an integer >= 1"),
     ("roughness_id", "9", "expected one of 1, 2, 3, 4"),
@@ -213,7 +213,7 @@ def test_folder_names_that_differ_are_reported_and_the_files_identity_used(data)
     ("status", "ol", "status: expected one of ok, fault, aborted (line {line}), got 'ol'"),
     ("response_id", "7", "response_id: expected one of 1, 2, 3, 4 or blank (line {line}), got '7'"),
     ("correct", "0", "correct: expected 1 for response_id"),
-    ("roughness_um", "-1.6", "roughness_um: expected a roughness Ra in (0, 1000] um (line {line}), "
+    ("roughness_um", "-1.6", "roughness_um: expected a roughness Ra in (0, 10000] um (line {line}), "
                              "got '-1.6'"),
     ("participant", "P02", "participant: expected 'P01' (the session's own"),
 ])
@@ -302,6 +302,12 @@ def test_utf8_with_a_bom_is_read(data):
         path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
     log = load_trials(data)
     assert log.trials.groupby("participant").size().to_dict() == {"P01": 12, "P02": 12}
+    assert list(log.sessions["n_planned"]) == [12, 12]
+    # the analysis' other readers of session.json follow the same rules
+    from analysis.missing import _schedule
+    from analysis.session_meta import read_session_meta
+    assert len(read_session_meta(data / "P01" / "S01")["schedule"]) == 12
+    assert _schedule(data / "P01" / "S01") is not None
 
 
 def test_export_bids_exports_a_session_without_session_json_from_its_log(data, tmp_path, capsys):
@@ -384,3 +390,49 @@ def test_resume_refuses_a_special_file_before_opening_it(data, tmp_path):
     status, _, err = _run(["resume", str(data / "P01" / "S01")], tmp_path)
     assert status == 2
     assert err.strip() == f"thermocue resume: {path}: expected a regular file, got a FIFO (named pipe)"
+
+
+def test_a_duplicated_unanswered_row_is_dropped_not_a_pandas_na_error(data):
+    """An exact duplicate with blank (NA) cells: once a ``TypeError: boolean value of NA``."""
+    import warnings
+
+    from analysis import LogWarning
+    from analysis.load import load_trials
+    (data / "P01" / "S01" / "events.jsonl").unlink()         # the table is then the record
+    table = data / "P01" / "S01" / "trials.csv"
+    lines = table.read_text("utf-8").splitlines(keepends=True)
+    first = lines[1]                                           # familiarisation: no answer
+    assert ",real,1,1.6," in first and ",,," in first
+    table.write_text("".join(lines + [first]), encoding="utf-8")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LogWarning)
+        log = load_trials(data)
+    assert any(f"{table}: line {len(lines) + 1}: exact duplicate of line 2" in str(w.message)
+               for w in caught)
+    assert log.trials.groupby("participant").size().to_dict() == {"P01": 12, "P02": 12}
+
+
+def test_a_damaged_outcome_event_is_reported_not_raised():
+    from experiments.logformat import trials_from_events
+    events = [{"event": "session_started", "participant": "P01", "session": "S01"},
+              {"event": "trial_started", "trial_index": [1], "attempt": 1},
+              {"event": "trial_completed", "seq": 3, "trial_index": [1], "attempt": 1, "row": {}},
+              {"event": "trial_completed", "seq": 4, "trial_index": 2, "attempt": 1, "row": 5},
+              {"event": "trial_completed", "seq": 5, "trial_index": 3, "attempt": 1,
+               "row": {"status": "ok"}}]
+    damage: list = []
+    rows = trials_from_events(events, damage=damage)
+    assert [r["trial_index"] for r in rows] == [3]
+    assert damage == ["trial_completed event (seq 3): trial_index: expected an integer, got [1]; "
+                      "ignored",
+                      "trial_completed event (seq 4): row: expected a mapping, got 5; ignored"]
+
+
+def test_a_folder_with_only_a_copy_of_session_json_is_named_not_read(data):
+    stray = data / "spare" / "S01"
+    stray.mkdir(parents=True)
+    shutil.copy(data / "P01" / "S01" / "session.json", stray / "session.json")
+    found = read_session_folders(data)
+    assert [f.path for f in found.folders] == [data / "P01" / "S01", data / "P02" / "S01"]
+    assert found.skipped == [(stray, f"no event log and no trials table; session P01/S01 is read "
+                                     f"from {data / 'P01' / 'S01'}")]
