@@ -53,7 +53,7 @@ import numpy as np
 from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, PAD_MATERIAL, PAD_ROUGHNESS_M,
                           REPLAY_NAMES, SKIN_TEMPERATURE_RANGE_C)
 
-__all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
+__all__ = ["PersonPool", "build_pool", "merge_pools", "StudyOutcome", "simulate_studies", "GROUPS",
            "imposed_features", "LabVariability", "DEFAULT_LAB", "FORCE_GRID_N", "person_features"]
 
 #: The two groups and their skin thickness ranges, µm (§3.2).
@@ -162,7 +162,7 @@ def _lead(t, T, tau):
 def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: int = 0,
                params=None, receptor_depth_um: float | None = None,
                dermis_fraction=DERMIS_FRACTION_RANGE, sensor_tau_s: float = 0.0,
-               real_from: PersonPool | None = None) -> PersonPool:
+               real_from: PersonPool | None = None, groups=GROUPS) -> PersonPool:
     """Features of the person grid of each group, for the real samples and each replay.
 
     Parameters
@@ -184,6 +184,8 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     real_from : PersonPool, optional
         A pool of the same persons (receptor depth, d / L range) whose real-sample features are
         reused (the sensor lag changes only the replayed ones).
+    groups : sequence of str
+        The groups to build (:func:`merge_pools` joins pools of different groups).
     """
     from experiments.participant_model.person import PerceptionParameters, SimulatedPerson
     from experiments.protocol import load_protocol
@@ -212,11 +214,11 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
     people = []
     profiles = {}
-    for group in GROUPS:
+    for group in groups:
         for h, proto in variants.items():
             profiles[(h, group)] = [simulated_target_profile(proto, {}, group, None, s.id,
                                                              s.roughness_um) for s in samples]
-    for group in GROUPS:
+    for group in groups:
         Ls = np.linspace(*GROUP_THICKNESS_UM[group], GRID_L)
         grid_L[group] = Ls
         r = np.zeros((len(Ls), len(fractions), len(FORCE_GRID_N), len(samples), 4))
@@ -265,6 +267,24 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                                 "planner_models": _planner_models(people),
                                 "grid": f"{GRID_L} thicknesses x {len(fractions)} d/L x "
                                         f"{len(FORCE_GRID_N)} forces per group"})
+
+
+def merge_pools(pools) -> PersonPool:
+    """One pool from pools of different groups (same persons' settings, same hypotheses)."""
+    from collections import Counter
+    first = pools[0]
+    out = PersonPool(grid_L_um={}, grid_fraction=first.grid_fraction, real={}, simulated={},
+                     simulated_dts={}, params=first.params,
+                     skin_reference_C=first.skin_reference_C, material_C=first.material_C,
+                     receptor_depth_um=first.receptor_depth_um, roughness_um=first.roughness_um,
+                     settings=dict(first.settings))
+    models = Counter()
+    for p in pools:
+        for name in ("grid_L_um", "real", "simulated", "simulated_dts"):
+            getattr(out, name).update(getattr(p, name))
+        models.update(p.settings.get("planner_models", {}))
+    out.settings["planner_models"] = dict(models)
+    return out
 
 
 def _planner_models(people) -> dict:

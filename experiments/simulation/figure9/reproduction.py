@@ -205,7 +205,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     from experiments.simulation.figure9.study import _positive_int, run_figure9_study
     from experiments.participant_model.observers import OBSERVERS
     from experiments.simulation.replay import REPLAY_HYPOTHESES, replay_hypothesis
-    from experiments.simulation.studies import DEFAULT_LAB, build_pool
+    from experiments.simulation.studies import DEFAULT_LAB, GROUPS, merge_pools
     from experiments.simulation.sweep import Sweep
 
     out_dir = Path(out_dir)
@@ -244,7 +244,9 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     seconds = {}
     t0 = time.perf_counter()
     with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
-        pool = build_pool(hypotheses=tuple(REPLAY_HYPOTHESES), seed=seed)
+        # one person pool per group, built on the cluster's workers
+        pool = merge_pools(sweep.map(_group_pool, [(g, tuple(REPLAY_HYPOTHESES), seed)
+                                                   for g in GROUPS], what="person pools"))
         seconds["pool_s"] = time.perf_counter() - t0
         result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
                                     variability=lab)
@@ -306,6 +308,12 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     print(screen)
     return {"headline": headline, "best": best, "scenarios": result, "sensitivity": sens,
             "study": study, "seconds": seconds, "files": files, "verdict": verdict}
+
+
+def _group_pool(group, hypotheses, seed):
+    """The person pool of one group (a sweep task)."""
+    from experiments.simulation.studies import build_pool
+    return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
 
 
 def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):

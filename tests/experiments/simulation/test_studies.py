@@ -204,3 +204,15 @@ def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     pd.testing.assert_frame_equal(on_one.proportions, on_two.proportions)
     # 250 studies = tasks of 100, 100 and 50: not one chunk per worker
     assert set(on_two.claims["n_studies"]) == {250}
+
+
+def test_pools_built_per_group_merge_into_the_whole_pool(slab_pool):
+    from experiments.simulation.studies import merge_pools
+    parts = [build_pool(hypotheses=("slab", "compensated"), seed=3, groups=(g,)) for g in "AB"]
+    whole = merge_pools(parts)
+    for name in ("real", "simulated", "simulated_dts", "grid_L_um"):
+        mine, ref = getattr(whole, name), getattr(slab_pool, name)
+        assert set(mine) == set(ref)
+        for k in ref:
+            np.testing.assert_array_equal(mine[k], ref[k])
+    assert whole.settings["planner_models"] == slab_pool.settings["planner_models"]
