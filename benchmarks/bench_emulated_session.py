@@ -40,7 +40,7 @@ _VOLATILE = re.compile(rb'[0-9]{4}-[0-9]{2}-[0-9]{2}[T_][0-9:.h]+Z?|"(seconds|wa
 
 def _cohort():
     try:
-        from experiments.simulation.cohort import write_cohort
+        from experiments.participant_model.cohort import write_cohort
         from experiments.simulation.figure9.study import run_participant
     except ImportError:   # main 06e98b2 and before (the "before" of benchmarks/README's round 2)
         from experiments.cohort import run_participant, write_cohort

@@ -138,7 +138,7 @@ def session_speed(rounds: int) -> int:
     """Wall ms per trial of one emulated session, fsync on and off, interleaved rounds."""
     import statistics
 
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant
     print(f"machine: {machine()}")
     tmp = Path(tempfile.mkdtemp(prefix="bench-session-"))

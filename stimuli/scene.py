@@ -72,7 +72,7 @@ QUANTITIES = ("receptor", "interface_material", "interface_skin")
 GEOMETRIES = ("half-space", "slab", "slab-on-support")
 
 #: The default tolerance, K: the simulated observer's sensory noise on a receptor temperature
-#: drop (experiments.simulation.person.PerceptionParameters.drop_noise_C = 0.3 K, of the order
+#: drop (experiments.participant_model.person.PerceptionParameters.drop_noise_C = 0.3 K, of the order
 #: of fingertip cold-detection thresholds for fast changes).
 PERCEPTUAL_FLOOR_K = 0.3
 

@@ -21,7 +21,7 @@ def register(sub) -> None:
                     "and 90 %% power), power.png and cells.csv to --out. The probabilities come "
                     "from --from-analysis DIR (the mixed model of `thermocue analyze`), --cells "
                     "FILE, else the simulated-participant model "
-                    "(experiments.simulation.prediction.predicted_cell_probabilities).")
+                    "(experiments.participant_model.prediction.predicted_cell_probabilities).")
     p.add_argument("--n-per-group", default=None, metavar="N,N,A:B,...",
                    help="participants per group, comma-separated; A:B for unequal groups "
                         "(default 5,10,15,20,30,40,60; with --from-analysis the analysed A:B "
@@ -85,7 +85,7 @@ def _sizes(text: str):
 def _model_cells(progress):
     """Per-cell probabilities from the simulated-participant model, or None if unavailable."""
     try:
-        from experiments.simulation.prediction import predicted_cell_probabilities
+        from experiments.participant_model.prediction import predicted_cell_probabilities
     except ImportError:
         return None
     progress("predicting per-cell probabilities from the simulated-participant model")
@@ -150,7 +150,7 @@ def _run(ns) -> int:
             raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
         cells, source = read_cells(ns.cells), ns.cells
     else:
-        cells, source = _model_cells(progress), "experiments.simulation.prediction"
+        cells, source = _model_cells(progress), "experiments.participant_model.prediction"
         if cells is None:
             raise UserInputError("--cells: expected a CSV of per-cell probabilities (group, mode, "
                                  "roughness_id, p_correct), got none, and the simulated-participant "

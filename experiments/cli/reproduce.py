@@ -116,7 +116,7 @@ def _run(ns) -> int:
         print(csv_path)
         print(md_path)
         return 0
-    # figure9: the simulated cohort (experiments/simulation/cohort.py, figure9.py)
+    # figure9: the simulated cohort (experiments/participant_model/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
     from experiments.simulation.figure9.reproduction import run_reproduction
     if out.is_dir():          # an earlier run's COMPLETE goes first (the study makes the folder)

@@ -1,6 +1,6 @@
 """The simulated participant as a responder: ``--responder simulated``.
 
-It wraps :class:`experiments.simulation.person.SimulatedPerson`: before each trial it scripts the
+It wraps :class:`experiments.participant_model.person.SimulatedPerson`: before each trial it scripts the
 emulator's finger (its own skin thickness and temperature, a ~2 N press) and, on real trials,
 places the trial's sample on the emulator; after the trial it feels what the physics says at its
 receptors (real trials: its skin on the sample through the contact resistance; simulated trials:
@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from experiments.errors import UserInputError
-from experiments.simulation.person import PerceptionParameters, SimulatedPerson, feature_names
+from experiments.participant_model.person import PerceptionParameters, SimulatedPerson, feature_names
 from stimuli.paper import PAD_MATERIAL, PAD_ROUGHNESS_M
 from experiments.responders.base import RESPONSE_IDS, Responder, Response
 from experiments.responders.hand import press
@@ -82,7 +82,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         Feel the display's pad through the finger–pad contact resistance (default); false
         imposes the pad temperature on the skin directly.
     observer : str
-        The decision rule, by name (:data:`experiments.simulation.observers.OBSERVERS`):
+        The decision rule, by name (:data:`experiments.participant_model.observers.OBSERVERS`):
         ``absolute`` (default: maximum likelihood against the real samples' templates),
         ``relative`` (within-block rank, knowing the 4 x 3 design), ``range_frequency``
         (range–frequency judgement over the block so far) or ``display_learned`` (absolute,
@@ -95,7 +95,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
         log-likelihood of each sample, answer), so every answer can be traced to the physics.
     **perception
-        Any field of :class:`~experiments.simulation.person.PerceptionParameters`
+        Any field of :class:`~experiments.participant_model.person.PerceptionParameters`
         (``drop_noise_C``, ``weber_fraction``, ``lapse_rate``, ...).
     """
 
@@ -106,7 +106,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                  log_percepts=True, pad_roughness_um=None, pad_material=None, pad_contact=True,
                  observer="absolute", **perception):
         super().__init__()
-        from experiments.simulation.observers import OBSERVERS, get_observer
+        from experiments.participant_model.observers import OBSERVERS, get_observer
         if observer not in OBSERVERS:
             raise UserInputError(f"responder 'simulated': observer: expected one of "
                                  f"{', '.join(OBSERVERS)}, got {observer!r}")
@@ -363,7 +363,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         The block's earlier percepts and answers are kept (per block name) for the observers
         that judge within the block; the absolute observer ignores them.
         """
-        from experiments.simulation.observers import BlockContext
+        from experiments.participant_model.observers import BlockContext
         person = self._ensure_person()
         mode = kind if kind == "real" else self.observer.template_mode_for_simulated
         templates = person.template_set(mode)

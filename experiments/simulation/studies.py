@@ -5,7 +5,7 @@ participant; a claim's probability needs hundreds of studies per scenario.  This
 computes the noise-free features of persons on a grid of the two things that change a person's
 physics (skin thickness L and the dermis' share d / L; the receptor depth follows) and of the
 touch (contact force), once per group (:func:`build_pool`, the physics of
-:mod:`experiments.simulation.person`).  Every study then draws a *fresh* cohort, 15 persons per
+:mod:`experiments.participant_model.person`).  Every study then draws a *fresh* cohort, 15 persons per
 group from the cohort's ranges, whose features are interpolated on that grid (bilinear in L and
 d / L, linear in force: the drops within 0.01 K and the peak rate within 0.03 K/s of the direct
 computation, ``test_studies.py``, against a perceptual noise of 0.3 K and 0.3 K/s plus 10 %), then their familiarisation percepts, the real and simulated blocks'
@@ -38,7 +38,7 @@ Where this differs from emulated sessions (it is *not* exactly equivalent)
   schedule's ``order = "random"`` is also a uniform permutation, from another seed).
 * Random numbers come from one generator per task of a sweep, not from ``(seed, trial_index)``
   per person: the same distributions, different draws.
-Everything else is the same: person ranges (:func:`~experiments.simulation.person.draw_person`),
+Everything else is the same: person ranges (:func:`~experiments.participant_model.person.draw_person`),
 the session's own target profiles (:func:`experiments.session.setup.simulated_target_profile`,
 rate limit included), the finger–pad contact resistance, the features, the noise model, the
 familiarisation (one touch per real sample, by default), the lapse rule and the observer's
@@ -53,7 +53,7 @@ import numpy as np
 from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, PAD_MATERIAL, PAD_ROUGHNESS_M,
                           REPLAY_NAMES, SKIN_TEMPERATURE_RANGE_C)
 
-__all__ = ["PersonPool", "build_pool", "StudyOutcome", "simulate_studies", "GROUPS",
+__all__ = ["PersonPool", "build_pool", "merge_pools", "StudyOutcome", "simulate_studies", "GROUPS",
            "imposed_features", "LabVariability", "DEFAULT_LAB", "FORCE_GRID_N", "person_features"]
 
 #: The two groups and their skin thickness ranges, µm (§3.2).
@@ -162,7 +162,7 @@ def _lead(t, T, tau):
 def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: int = 0,
                params=None, receptor_depth_um: float | None = None,
                dermis_fraction=DERMIS_FRACTION_RANGE, sensor_tau_s: float = 0.0,
-               real_from: PersonPool | None = None) -> PersonPool:
+               real_from: PersonPool | None = None, groups=GROUPS) -> PersonPool:
     """Features of the person grid of each group, for the real samples and each replay.
 
     Parameters
@@ -184,8 +184,10 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     real_from : PersonPool, optional
         A pool of the same persons (receptor depth, d / L range) whose real-sample features are
         reused (the sensor lag changes only the replayed ones).
+    groups : sequence of str
+        The groups to build (:func:`merge_pools` joins pools of different groups).
     """
-    from experiments.simulation.person import PerceptionParameters, SimulatedPerson
+    from experiments.participant_model.person import PerceptionParameters, SimulatedPerson
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
@@ -199,18 +201,24 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     t_mat = base.simulation.material_temperature_C
     thick_m = base.material.thickness_m
     sim0 = base.simulation
-    fractions = np.linspace(*dermis_fraction, GRID_U) if receptor_depth_um is None else np.array([0.0])
+    if receptor_depth_um is not None:
+        fractions = np.array([0.0])
+    elif dermis_fraction[0] == dermis_fraction[1]:          # one d / L for everyone
+        fractions = np.array([float(dermis_fraction[0])])
+    else:
+        fractions = np.linspace(*dermis_fraction, GRID_U)
     if real_from is not None and (real_from.receptor_depth_um != receptor_depth_um
                                   or tuple(real_from.settings["dermis_fraction"]) != tuple(dermis_fraction)):
         raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
                          "depth and d / L range)")
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
+    people = []
     profiles = {}
-    for group in GROUPS:
+    for group in groups:
         for h, proto in variants.items():
             profiles[(h, group)] = [simulated_target_profile(proto, {}, group, None, s.id,
                                                              s.roughness_um) for s in samples]
-    for group in GROUPS:
+    for group in groups:
         Ls = np.linspace(*GROUP_THICKNESS_UM[group], GRID_L)
         grid_L[group] = Ls
         r = np.zeros((len(Ls), len(fractions), len(FORCE_GRID_N), len(samples), 4))
@@ -224,6 +232,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                         raise ValueError(f"build_pool: receptor_depth_um: expected a depth inside "
                                          f"the skin ({L_um:.0f} µm), got {receptor_depth_um!r}")
                 p = SimulatedPerson(L_um * 1e-6, float(frac), t_ref, params)
+                people.append(p)
                 p1 = SimulatedPerson(L_um * 1e-6, float(frac), t_ref + 1.0, params)
                 for k, force in enumerate(FORCE_GRID_N):
                     if real_from is not None:
@@ -254,8 +263,35 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                       roughness_um=tuple(s.roughness_um for s in samples),
                       settings={"seed": int(seed), "dermis_fraction": tuple(dermis_fraction),
                                 "sensor_tau_s": float(sensor_tau_s),
+                                "model_tolerance_C": float(params.model_tolerance_C),
+                                "planner_models": _planner_models(people),
                                 "grid": f"{GRID_L} thicknesses x {len(fractions)} d/L x "
                                         f"{len(FORCE_GRID_N)} forces per group"})
+
+
+def merge_pools(pools) -> PersonPool:
+    """One pool from pools of different groups (same persons' settings, same hypotheses)."""
+    from collections import Counter
+    first = pools[0]
+    out = PersonPool(grid_L_um={}, grid_fraction=first.grid_fraction, real={}, simulated={},
+                     simulated_dts={}, params=first.params,
+                     skin_reference_C=first.skin_reference_C, material_C=first.material_C,
+                     receptor_depth_um=first.receptor_depth_um, roughness_um=first.roughness_um,
+                     settings=dict(first.settings))
+    models = Counter()
+    for p in pools:
+        for name in ("grid_L_um", "real", "simulated", "simulated_dts"):
+            getattr(out, name).update(getattr(p, name))
+        models.update(p.settings.get("planner_models", {}))
+    out.settings["planner_models"] = dict(models)
+    return out
+
+
+def _planner_models(people) -> dict:
+    """How often the scene planner chose each model for the persons' real contacts."""
+    from collections import Counter
+    plans = [plan for p in people for plan in p.real_plans.values() if plan is not None]
+    return dict(Counter(plan.to_dict().get("model", "?") for plan in plans))
 
 
 def _grid_weights(x, grid):
@@ -415,7 +451,7 @@ def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int
     variability : LabVariability, optional
         Default :data:`DEFAULT_LAB`.
     """
-    from experiments.simulation.observers import BlockContext, answer_block
+    from experiments.participant_model.observers import BlockContext, answer_block
     params = params or pool.params
     lab = DEFAULT_LAB if variability is None else variability
     rng = np.random.default_rng([*(int(w) for w in np.atleast_1d(seed)), 0x57D1])

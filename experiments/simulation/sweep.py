@@ -72,7 +72,7 @@ class Sweep:
                                      f"{self.scheduler!r} ({exc})") from None
         else:
             self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
-                                        processes=True, dashboard_address=None,
+                                        processes=True, dashboard_address=":0",
                                         silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
         return self

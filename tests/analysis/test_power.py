@@ -94,11 +94,11 @@ def test_cli_power_with_cells_file(tmp_path, capsys):
 
 
 def test_cli_power_uses_the_participant_model_when_no_cells(tmp_path, monkeypatch, capsys):
-    fake = types.ModuleType("experiments.simulation.prediction")
+    fake = types.ModuleType("experiments.participant_model.prediction")
     fake.predicted_cell_probabilities = lambda: pd.DataFrame(
         [(g, m, r, p) for (g, m, r), p in _cells(0.1).items()],
         columns=["group", "mode", "roughness_id", "p_correct"])
-    monkeypatch.setitem(sys.modules, "experiments.simulation.prediction", fake)
+    monkeypatch.setitem(sys.modules, "experiments.participant_model.prediction", fake)
     status = main(["power", "--n-per-group", "6", "--simulations", "20", "--test", "cluster-t",
                    "--out", str(tmp_path)])
     assert status == 0
@@ -110,7 +110,7 @@ def test_cli_power_uses_the_participant_model_when_no_cells(tmp_path, monkeypatc
 def test_cli_power_bad_input_exits_2(tmp_path, monkeypatch, capsys):
     assert main(["power", "--n-per-group", "5,x", "--cells", "c.csv", "--out", str(tmp_path)]) == 2
     assert "--n-per-group: expected comma-separated integers" in capsys.readouterr().err
-    monkeypatch.setitem(sys.modules, "experiments.simulation.prediction", None)   # import fails
+    monkeypatch.setitem(sys.modules, "experiments.participant_model.prediction", None)   # import fails
     assert main(["power", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("thermocue power: --cells: expected a CSV") and "\n" not in err

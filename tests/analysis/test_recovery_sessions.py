@@ -45,7 +45,7 @@ class KnownProbabilityResponder(Responder, name="known-probability-test"):
 @pytest.mark.slow
 def test_analysis_recovers_what_a_known_responder_answered_through_the_session_engine(tmp_path):
     from analysis import analyze
-    from experiments.simulation.cohort import alternate_groups, paper_cohort
+    from experiments.participant_model.cohort import alternate_groups, paper_cohort
     import json
     import re
     from importlib.resources import files

@@ -64,7 +64,7 @@ def test_the_default_is_durable_and_there_is_no_process_switch(tmp_path, fsyncs)
 def test_a_non_durable_session_leaves_a_durable_one_durable(tmp_path, fsyncs):
     from experiments.responders import get_responder
     from experiments.session import create_session
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     paths = {p.stem: p for p in write_cohort(tmp_path / "participants", seed=0)}
 
     def run(pid, durable):

@@ -106,7 +106,7 @@ def test_events_read_a_few_lines_at_a_time_are_read_events(tmp_path):
 
 
 def test_trials_csv_grows_by_lines_and_is_the_table_of_the_events(tmp_path, monkeypatch):
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant
     paths = {p.stem: p for p in write_cohort(tmp_path / "participants", seed=0)}
     replaced = []

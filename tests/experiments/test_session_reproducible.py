@@ -42,7 +42,7 @@ def _run(participant: Path, data_dir: Path, *, durable: bool) -> Path:
 @pytest.fixture(scope="module")
 def two_sessions(tmp_path_factory):
     """The same participant and seed in two data folders, cold and then warm profile cache."""
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     import stimuli._cache as cache
     tmp = tmp_path_factory.mktemp("two")
     participant = {p.stem: p for p in write_cohort(tmp / "participants", seed=0)}["P01"]

@@ -80,7 +80,7 @@ def test_responder_names_are_the_registered_responders():
 
 
 def test_cohort_ranges_are_the_papers():
-    from experiments.simulation.cohort import PAPER_GROUPS, paper_cohort
+    from experiments.participant_model.cohort import PAPER_GROUPS, paper_cohort
     assert {g.name: g.thickness_um for g in PAPER_GROUPS} == paper.GROUP_THICKNESS_UM
     for record in paper_cohort(seed=4):
         low, high = paper.GROUP_THICKNESS_UM[record["x_simulation"]["group"]]

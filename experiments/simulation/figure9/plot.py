@@ -87,11 +87,11 @@ def plot_figure9_distribution(left: pd.DataFrame, right: pd.DataFrame, observed,
     axes[0].set_ylabel("Proportions of correct recognition")
     handles, labels = axes[1].get_legend_handles_labels()
     fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=6, frameon=False)
-    fig.subplots_adjust(left=0.06, right=0.99, top=0.87, bottom=0.38, wspace=0.08)
+    fig.subplots_adjust(left=0.06, right=0.99, top=0.84, bottom=0.38, wspace=0.08)
     for ax, note in ((axes[0], left_note), (axes[1], right_note)):
         fig.text(ax.get_position().x0, 0.27, note, ha="left", va="top", fontsize=7,
                  family="DejaVu Sans Mono")
-    fig.text(0.5, 0.955, "markers: median of simulated studies; thick bars: middle 50 %; thin "
+    fig.text(0.5, 0.975, "markers: median of simulated studies; thick bars: middle 50 %; thin "
              "bars: 95 %", ha="center", fontsize=8)
     path = Path(path)
     out = [path, path.with_suffix(".pdf")]

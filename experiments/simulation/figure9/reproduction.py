@@ -199,13 +199,13 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     from experiments.errors import UserInputError
     from experiments.logbook import atomic_write_json, atomic_write_text
     from experiments.responders import get_responder
-    from experiments.simulation.cohort import paper_cohort
+    from experiments.participant_model.cohort import paper_cohort
     from experiments.simulation.figure9.scenarios import (best_scenario, evaluate_scenarios,
                                                           sensitivity)
     from experiments.simulation.figure9.study import _positive_int, run_figure9_study
-    from experiments.simulation.observers import OBSERVERS
+    from experiments.participant_model.observers import OBSERVERS
     from experiments.simulation.replay import REPLAY_HYPOTHESES, replay_hypothesis
-    from experiments.simulation.studies import DEFAULT_LAB, build_pool
+    from experiments.simulation.studies import DEFAULT_LAB, GROUPS, merge_pools
     from experiments.simulation.sweep import Sweep
 
     out_dir = Path(out_dir)
@@ -244,7 +244,9 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     seconds = {}
     t0 = time.perf_counter()
     with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
-        pool = build_pool(hypotheses=tuple(REPLAY_HYPOTHESES), seed=seed)
+        # one person pool per group, built on the cluster's workers
+        pool = merge_pools(sweep.map(_group_pool, [(g, tuple(REPLAY_HYPOTHESES), seed)
+                                                   for g in GROUPS], what="person pools"))
         seconds["pool_s"] = time.perf_counter() - t0
         result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
                                     variability=lab)
@@ -263,6 +265,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                   responder_options={**options, "observer": headline[1]},
                                   sweep=sweep)
         seconds["study_s"] = time.perf_counter() - t1
+        t2 = time.perf_counter()
+        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab)
+        if depth is not None:
+            sens = pd.concat([sens, depth["row"]], ignore_index=True)
+        seconds["depth_fit_s"] = time.perf_counter() - t2
     # tables
     from analysis.exports import write_csv        # whole or not at all
     write_csv(result.claims, out_dir / "claims.csv")
@@ -280,7 +287,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     screen = claims_screen(result, headline)
     verdict = verdict_line(result)
     opening = _report_opening(verdict, screen, result, sens, headline, best, n_studies,
-                              sessions_line, lab)
+                              sessions_line, lab, depth)
     body = report.read_text(encoding="utf-8") if report.is_file() else ""
     atomic_write_text(report, opening + body)
     seconds["total_s"] = time.perf_counter() - t0
@@ -291,7 +298,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                        "best_match": {r: {"replay": b[0], "observer": b[1]}
                                       for r, b in best.items()},
                        "scenario_settings": {**result.settings, "lab": lab.to_dict()},
-                       "verdict": verdict, "reproduction_seconds": seconds})
+                       "verdict": verdict, "reproduction_seconds": seconds,
+                       "receptor_depth_fit": None if depth is None else depth["record"]})
         atomic_write_json(study_json, record)
     log.info("figure9: results in %s (%.1f s)", out_dir, seconds["total_s"])
     print(verdict)
@@ -300,6 +308,60 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     print(screen)
     return {"headline": headline, "best": best, "scenarios": result, "sensitivity": sens,
             "study": study, "seconds": seconds, "files": files, "verdict": verdict}
+
+
+def _group_pool(group, hypotheses, seed):
+    """The person pool of one group (a sweep task)."""
+    from experiments.simulation.studies import build_pool
+    return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
+
+
+def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
+    """Fit the receptor depth to the emulated study's real block; the headline at that depth.
+
+    Returns None without a study with both groups; else ``row`` (a sensitivity row),
+    ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
+    """
+    from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
+    from experiments.simulation.figure9.scenarios import sensitivity
+    from experiments.simulation.studies import build_pool
+    analysis = study.get("analysis")
+    trials = None if analysis is None else analysis.log.analysable
+    if trials is None or trials.empty or trials["group"].nunique() < 2:
+        return None
+    counts = confusion_from_trials(trials, "real")
+    fit = fit_depth(counts, n_studies=20, seed=seed)
+    # the estimate and the ends of its interval: the claims' probabilities across the depths
+    # the study's answers allow (their best noise each)
+    settings = {}
+    for what, share in (("fitted", fit.estimate), ("interval low end", fit.interval[0]),
+                        ("interval high end", fit.interval[1])):
+        if any(abs(share - v[2]) < 1e-9 for v in settings.values()):
+            continue
+        frac = 1.0 - share
+        noise = float(fit.grid.loc[fit.grid.depth_share == share].sort_values("loglik")
+                      ["noise_C"].iloc[-1])
+        depth_pool = build_pool(hypotheses=(headline[0],), dermis_fraction=(frac, frac),
+                                seed=pool.settings["seed"], params=pool.params)
+        label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
+                 f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
+        settings[label] = ({"pool": depth_pool, "noise": noise}, what, share)
+    row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
+                      variability=lab,
+                      choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})
+    profile = ", ".join(f"{d:.2f}: {v - fit.profile.max():+.1f}" for d, v in fit.profile.items())
+    text = (f"Receptor depth fitted to the emulated study's real-block answers (profile "
+            f"likelihood over depth shares {DEPTH_SHARES[0]:g}-{DEPTH_SHARES[-1]:g} of L and noise "
+            f"floors, absolute observer, answers treated as independent): {fit.estimate:.2f} of "
+            f"L, 95 % likelihood-ratio interval {fit.interval[0]:.2f}-{fit.interval[1]:.2f} "
+            f"({'identifiable' if fit.identifiable() else 'not identifiable: the profile is flat'}"
+            f" on this grid), noise {fit.noise_C:g} K; log-likelihood relative to the maximum: "
+            f"{profile}. The paper's own proportions cannot be used the same way: its Figure 9 "
+            f"is printed as a chart without numbers, and the text gives none.")
+    record = {"estimate_share_of_L": fit.estimate, "interval_share_of_L": list(fit.interval),
+              "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
+              "profile": {f"{d:.2f}": float(v) for d, v in fit.profile.items()}}
+    return {"row": row, "record": record, "text": text}
 
 
 def _figure(out_dir, result, analysis, headline, best, n_studies, n_sessions) -> list:
@@ -321,9 +383,9 @@ def _figure(out_dir, result, analysis, headline, best, n_studies, n_sessions) ->
     return plot_figure9_distribution(
         rows(PRINTED), rows(headline), analysis.proportions, out_dir / "figure9.png",
         left_title=(f"Figure 9 as the paper's method predicts it\n{REPLAY_HYPOTHESES[PRINTED[0]].label}"
-                    f" replay, {PRINTED[1]} observer\n{n_studies} simulated 15+15 studies"),
+                    f" replay\n{PRINTED[1]} observer\n{n_studies} simulated 15+15 studies"),
         right_title=(f"{named}\n{REPLAY_HYPOTHESES[headline[0]].label} replay, {headline[1]} "
-                     f"observer; claims held by ≥ half of studies: {held_d}/{total} "
+                     f"observer\nclaims shown by ≥ half of studies: {held_d}/{total} "
                      f"descriptive, {held_i}/{total} inferential\n{n_studies} simulated "
                      f"studies; ×: the one emulated study ({n_sessions} sessions)"),
         left_note=claims_note(result.claims, PRINTED),
@@ -400,7 +462,7 @@ def _claims_md(result, reading: str) -> str:
 
 
 def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
-                    sessions_line="", lab=None) -> str:
+                    sessions_line="", lab=None, depth=None) -> str:
     from analysis.claims import CLAIMS
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import __doc__ as studies_doc
@@ -444,11 +506,17 @@ def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
             f"`scenario_proportions.csv`):\n\n{_md(_expected_table(result))}\n\n"
             f"Claims:\n\n{claim_lines}\n\nReplay hypotheses:\n\n{hyp_lines}\n\n"
             f"Where the simulated studies are not exactly the emulated sessions:\n{note}\n"
+            f"The persons' real contacts went through the scene planner at a tolerance of "
+            f"{result.settings.get('model_tolerance_C', float('nan')):g} K (a quarter of the "
+            f"smallest difference between the samples at the receptors); models chosen: "
+            f"{', '.join(f'{m} ({n})' for m, n in result.settings.get('planner_models', {}).items())}."
+            f"\n\n"
             f"## Sensitivity of the headline scenario\n\n"
             f"The headline scenario with one choice changed at a time ({n_studies} studies "
             f"each): the claims' probabilities read descriptively (claim columns) and "
             f"inferentially (`_inf`); p_*: expected proportion correct, mean over samples.\n\n"
             f"{_md(sens[sens_cols])}\n\n"
+            + (f"{depth['text']}\n\n" if depth else "") +
             f"The figure: `figure9.png` (and `figure9.pdf`): per cell the median of the "
             f"simulated studies' proportion correct with the middle 50 % and 95 % of them; left, "
             f"the paper's method as printed (printed Eq. 7 replay, absolute observer); right, "

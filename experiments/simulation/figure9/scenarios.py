@@ -106,7 +106,7 @@ def study_task(pool, hypothesis: str, observer: str, n_studies: int, n_per_group
         ``proportions``: per-study proportion correct, shape (S, groups, 2 modes, C).
     """
     from analysis.claims import evaluate_readings
-    from experiments.simulation.observers import get_observer
+    from experiments.participant_model.observers import get_observer
     from experiments.simulation.studies import GROUPS, simulate_studies
     out = simulate_studies(pool, hypothesis, get_observer(observer), n_studies=n_studies,
                            n_per_group=n_per_group, familiarise_reps=familiarise_reps,
@@ -200,7 +200,7 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
     variability : LabVariability, optional
         :class:`..studies.LabVariability` of every study (default: none).
     """
-    from experiments.simulation.observers import OBSERVERS
+    from experiments.participant_model.observers import OBSERVERS
     hypotheses = list(hypotheses or sorted({h for h, _ in pool.simulated},
                                            key=REPLAY_NAMES.index))
     observers = list(observers or OBSERVERS)
@@ -296,6 +296,12 @@ SENSITIVITY_CHOICES = {
 }
 
 
+def _build_pool_task(protocol, kwargs):
+    """:func:`..studies.build_pool` as a sweep task."""
+    from experiments.simulation.studies import build_pool
+    return build_pool(protocol, **kwargs)
+
+
 def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed: int = 0,
                 protocol="roughness_recognition", sweep=None, variability=None,
                 extra_pools: dict | None = None, choices=None) -> pd.DataFrame:
@@ -317,25 +323,35 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
         correct, real and simulated, per group (mean over samples).
     """
     import dataclasses as dc
-    from experiments.simulation.studies import DEFAULT_LAB, GROUPS, build_pool
+    from experiments.simulation.studies import DEFAULT_LAB, GROUPS
     base_lab = variability or DEFAULT_LAB
     extra_pools = dict(extra_pools or {})
     choices = SENSITIVITY_CHOICES if choices is None else choices
+    # the pools the settings need, built first (on the sweep's workers when there is one)
+    wanted = {}
+    for settings in choices.values():
+        for change in settings.values():
+            for key in ("receptor_depth_um", "sensor_tau_s"):
+                k = (key, change.get(key))
+                if key in change and k not in extra_pools and k not in wanted:
+                    same_people = ({"receptor_depth_um": pool.receptor_depth_um,
+                                    "real_from": pool} if key == "sensor_tau_s" else {})
+                    wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
+                                 "params": pool.params,
+                                 "dermis_fraction": pool.settings["dermis_fraction"],
+                                 key: change[key], **same_people}
+    if wanted:
+        jobs = [(protocol, kw) for kw in wanted.values()]
+        built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
+                 else [_build_pool_task(*job) for job in jobs])
+        extra_pools.update(zip(wanted, built))
     scenarios, labels = [], []
     for ci, (choice, settings) in enumerate(choices.items()):
         for si, (label, change) in enumerate(settings.items()):
-            use_pool, params, lab = pool, pool.params, base_lab
+            use_pool, params, lab = change.get("pool", pool), pool.params, base_lab
             for key in ("receptor_depth_um", "sensor_tau_s"):
                 if key in change:
-                    k = (key, change[key])
-                    if k not in extra_pools:
-                        same_people = ({"receptor_depth_um": pool.receptor_depth_um,
-                                        "real_from": pool} if key == "sensor_tau_s" else {})
-                        extra_pools[k] = build_pool(
-                            protocol, hypotheses=(hypothesis,), seed=pool.settings["seed"],
-                            params=pool.params, dermis_fraction=pool.settings["dermis_fraction"],
-                            **{key: change[key]}, **same_people)
-                    use_pool = extra_pools[k]
+                    use_pool = extra_pools[(key, change[key])]
             if "noise" in change:
                 params = dc.replace(params, drop_noise_C=change["noise"],
                                     rate_noise_C_per_s=change["noise"])

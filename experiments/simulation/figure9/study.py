@@ -20,7 +20,7 @@ import numpy as np
 
 from stimuli.paper import RATE_LIMITS, TARGET_SIDES
 
-from ..cohort import alternate_groups, paper_cohort, write_cohort
+from experiments.participant_model.cohort import alternate_groups, paper_cohort, write_cohort
 
 __all__ = ["run_figure9_study", "run_participant", "check_group_profiles", "MAX_DEFAULT_WORKERS"]
 
@@ -189,7 +189,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
                              f"comes from the study's --seed), got {responder_options['seed']!r}")
     get_responder("simulated", **dict(responder_options or {}))   # bad options: fail now
     out_dir.mkdir(parents=True, exist_ok=True)      # a target-side protocol copy goes here
-    from experiments.simulation.observers import OBSERVERS
+    from experiments.participant_model.observers import OBSERVERS
     observer = (responder_options or {}).get("observer", "absolute")
     on_display = observer in OBSERVERS and OBSERVERS[observer].familiarise_on_display
     protocol_name = str(protocol)

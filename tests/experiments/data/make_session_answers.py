@@ -2,7 +2,7 @@
 
 Run from the repository root:  .venv/bin/python tests/experiments/data/make_session_answers.py
 
-It runs P01 (group A) and P16 (group B) of ``experiments.simulation.cohort.paper_cohort(0)`` through
+It runs P01 (group A) and P16 (group B) of ``experiments.participant_model.cohort.paper_cohort(0)`` through
 ``roughness_recognition.toml`` on ``emulator://?clock=virtual&seed=0`` with the simulated
 responder (default options) on the durable path (fsync per event) and stores, per trial, the
 logged answer, response time and the percept. tests/experiments/test_session_answers.py checks
@@ -30,7 +30,7 @@ def session_answers(participants=PARTICIPANTS, seed: int = SEED, durable: bool =
     study runs with ``durable=False`` (no fsync, a simulated study's speed-up). The reference is made
     with the former and the test checks the latter against it.
     """
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant
     out = {}
     with tempfile.TemporaryDirectory() as tmp:

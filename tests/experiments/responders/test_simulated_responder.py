@@ -137,7 +137,7 @@ def test_faulted_trial_is_answered_with_a_guess_not_an_error():
 def test_thermocue_run_with_the_simulated_responder(tmp_path):
 
     from experiments.cli import main
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
 
     participant = write_cohort(tmp_path / "people", seed=1)[0]
     status = main(["run", "roughness_recognition", "--participant", str(participant),
@@ -190,7 +190,7 @@ def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule(
 
 def test_simulated_trial_is_felt_through_the_protocols_finger_pad_resistance():
 
-    from experiments.simulation.person import SimulatedPerson
+    from experiments.participant_model.person import SimulatedPerson
     t = np.arange(0, 10.0, 0.01)
     pad = 22.0 + 4.0 * (1 - np.exp(-t / 2.0))
     trial = spec(9, "simulated", "simulated", 2)

@@ -1,4 +1,4 @@
-"""Tests of experiments.simulation.cohort and .figure9: the paper's cohort as records, and the Figure 9 study end to end."""
+"""Tests of experiments.participant_model.cohort and .figure9: the paper's cohort as records, and the Figure 9 study end to end."""
 from __future__ import annotations
 
 import csv
@@ -7,9 +7,10 @@ import json
 import re
 from collections import Counter
 
+import pandas as pd
 import pytest
 
-from experiments.simulation.cohort import alternate_groups, paper_cohort, write_cohort
+from experiments.participant_model.cohort import alternate_groups, paper_cohort, write_cohort
 from experiments.simulation.figure9.study import run_figure9_study
 from participants_schema import GroupRule, assign_group, load_participant, validate_participant
 
@@ -103,23 +104,35 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     assert main(["reproduce", "figure9", "--out", str(out), "--seed", "4", "--participants", "2",
                  "--workers", "2", "--responder-option", "lapse_rate=0.25",
                  "--responder-option", "log_percepts=false", "--studies", "40",
-                 "--pool-size", "20", "--replay", "skin", "--observer", "relative"]) == 0, \
+                 "--force-sd-N", "0.3", "--replay", "skin", "--observer", "relative"]) == 0, \
         capsys.readouterr().err
     study = json.loads((out / "study.json").read_text())
     assert study["workers"] == 2 and study["fsync"] is False
     assert study["headline"] == {"replay": "skin", "observer": "relative"}
     assert study["responder_options"]["observer"] == "relative"
     # the answer first: terminal ends with the claims table, report opens with the verdict
+    assert study["scenario_settings"]["lab"]["force_sd_N"] == 0.3
+    # the receptor depth fitted to the study's real block, with its interval and its rows
+    fit = study["receptor_depth_fit"]
+    lo, hi = fit["interval_share_of_L"]
+    assert lo <= fit["estimate_share_of_L"] <= hi and len(fit["profile"]) == 7
+    sens = pd.read_csv(out / "sensitivity.csv")
+    fitted = sens[sens["choice"] == "receptor depth (fitted)"]
+    assert 1 <= len(fitted) <= 3 and fitted["setting"].str.contains("fitted").any()
+    assert set(sens["choice"]) >= {"contact force per touch", "pad sensor lag",
+                                   "skin temperature within participant",
+                                   "skin temperature between participants", "cohort"}
     printed = capsys.readouterr().out.strip().splitlines()
-    assert printed[0].startswith(("The paper's Figure 9 / Table 2 claims are ",
-                                  "No scenario reproduces the paper's Figure 9 / Table 2 claims"))
-    assert printed[1].startswith("The 2-participant emulated study (skin replay, relative observer) shows: rise R ")
-    assert printed[2].split()[:2] == ["replay", "observer"] and len(printed) == 17
-    assert "skin        relative" in printed[9] and printed[9].endswith("<- headline")
+    assert printed[0].startswith("Figure 9 / Table 2 claims. Read descriptively, ")
+    assert ". Read inferentially, " in printed[0]
+    assert printed[1].startswith("The 2-participant emulated study (skin replay, relative "
+                                 "observer) shows (descriptive, inferential): rise R ")
+    # two tables of 20 scenarios (5 replays x 4 observers), each with a title, header and rule
+    assert printed[2].startswith("DESCRIPTIVE") and printed[3].split()[:2] == ["replay", "observer"]
+    assert "skin        relative" in printed[18] and printed[18].endswith("<- headline")
+    assert printed[26].startswith("INFERENTIAL") and printed[-1].startswith("profile models: ")
     report = (out / "report.md").read_text(encoding="utf-8").splitlines()
-    assert report[0] == ("# Figure 9, not reproduced by any scenario"
-                         if printed[0].startswith("No scenario reproduces") else
-                         "# Figure 9, reproduced") and report[2] == f"**{printed[0]}**"
+    assert report[0].startswith("# Figure 9, ") and report[2] == f"**{printed[0]}**"
     assert report[4] == printed[1]
     assert "## Sensitivity of the headline scenario" in report
     for name in ("claims.csv", "scenario_proportions.csv", "sensitivity.csv", "figure9.pdf"):
@@ -148,7 +161,7 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     (["--responder-option", "seed=3"], "--responder-option: seed: expected no seed"),
     (["--responder-option", "observer=relative"], "--responder-option: observer: expected --observer"),
     (["--studies", "0"], "--studies: expected an integer ≥ 1, got 0"),
-    (["--pool-size", "10"], "--pool-size: expected at least 15"),
+    (["--force-sd-N", "3"], "--force-sd-N: expected a spread from 0 to 1 N, got 3.0"),
 ])
 def test_reproduce_figure9_refuses_bad_options_before_running(tmp_path, capsys, args, message):
     from experiments.cli import main

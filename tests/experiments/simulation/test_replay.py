@@ -48,7 +48,7 @@ def test_unknown_hypothesis_is_a_user_error():
 @pytest.mark.slow
 def test_display_learned_observer_learns_on_the_display_in_a_session(tmp_path):
 
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant
     (path,) = write_cohort(tmp_path / "people", seed=2)[:1]
     proto = protocol_variant("roughness_recognition", "compensated", display_familiarisation=True)

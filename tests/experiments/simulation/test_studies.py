@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from experiments.simulation.prediction import predicted_cell_probabilities
-from experiments.simulation.observers import get_observer
+from experiments.participant_model.prediction import predicted_cell_probabilities
+from experiments.participant_model.observers import get_observer
 from experiments.simulation.studies import (LabVariability, build_pool, person_features,
                                             simulate_studies)
 
@@ -37,7 +37,7 @@ def test_absolute_observer_studies_match_predicted_cell_probabilities():
 
 
 def test_superposed_features_equal_the_direct_computation():
-    from experiments.simulation.person import draw_person
+    from experiments.participant_model.person import draw_person
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
@@ -63,9 +63,9 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
     the emulated pad's recorded contact temperature.  Same person, same trial skin temperature
     (logged), same profile: the features agree to well under the 0.3 perceptual noise.
     """
-    from experiments.simulation.cohort import write_cohort
+    from experiments.participant_model.cohort import write_cohort
     from experiments.simulation.figure9.study import run_participant
-    from experiments.simulation.person import SimulatedPerson
+    from experiments.participant_model.person import SimulatedPerson
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
     from experiments.simulation.studies import imposed_features
@@ -119,7 +119,7 @@ def test_grid_features_are_the_direct_computation_within_a_few_hundredths_of_the
     # interpolated on the pool's grid; here against the physics computed for each person
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
-    from experiments.simulation.person import SimulatedPerson
+    from experiments.participant_model.person import SimulatedPerson
     from experiments.simulation.replay import protocol_variant
     from experiments.simulation.studies import FORCE_GRID_N, imposed_features
     from stimuli import contact_resistance, material
@@ -204,3 +204,15 @@ def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     pd.testing.assert_frame_equal(on_one.proportions, on_two.proportions)
     # 250 studies = tasks of 100, 100 and 50: not one chunk per worker
     assert set(on_two.claims["n_studies"]) == {250}
+
+
+def test_pools_built_per_group_merge_into_the_whole_pool(slab_pool):
+    from experiments.simulation.studies import merge_pools
+    parts = [build_pool(hypotheses=("slab", "compensated"), seed=3, groups=(g,)) for g in "AB"]
+    whole = merge_pools(parts)
+    for name in ("real", "simulated", "simulated_dts", "grid_L_um"):
+        mine, ref = getattr(whole, name), getattr(slab_pool, name)
+        assert set(mine) == set(ref)
+        for k in ref:
+            np.testing.assert_array_equal(mine[k], ref[k])
+    assert whole.settings["planner_models"] == slab_pool.settings["planner_models"]

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from experiments.simulation.person import PerceptionParameters, SimulatedPerson
-from experiments.simulation.observers import (OBSERVERS, BlockContext, answer_block,
+from experiments.participant_model.person import PerceptionParameters, SimulatedPerson
+from experiments.participant_model.observers import (OBSERVERS, BlockContext, answer_block,
                                               discrimination_axis, fit_observer, get_observer)
 
 PARAMS = PerceptionParameters()

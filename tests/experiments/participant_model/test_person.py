@@ -1,4 +1,4 @@
-"""Tests of experiments.simulation.person and .prediction: physics of the percept, learning, decisions, prediction."""
+"""Tests of experiments.participant_model.person and .prediction: physics of the percept, learning, decisions, prediction."""
 from __future__ import annotations
 
 import math
@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from experiments.simulation.person import (
+from experiments.participant_model.person import (
     PerceptionParameters,
     SimulatedPerson,
     draw_person,
     receptor_features,
 )
-from experiments.simulation.prediction import predicted_cell_probabilities
+from experiments.participant_model.prediction import predicted_cell_probabilities
 
 STEEL_RA_M = (1.6e-6, 12.5e-6, 50e-6, 100e-6)
 
@@ -387,3 +387,28 @@ def test_display_driven_receptor_goes_through_the_scene_planner():
                                    person.skin.dermis, 1e-4)
     np.testing.assert_allclose(layered, expect, atol=1e-12)
     assert np.max(np.abs(layered - plain)) > 0.3
+
+
+def test_model_tolerance_is_a_quarter_of_the_smallest_difference_between_the_stimuli():
+    # recomputed with the exact model (stimuli.Contact, not the planner): the four samples as
+    # the group profile skins feel them; the closest pair's smallest drop difference, / 4
+    import itertools
+
+    from experiments.participant_model.person import MODEL_TOLERANCE_C, PerceptionParameters, receptor_features
+    from stimuli import Contact, Skin, contact_resistance, material
+    params = PerceptionParameters()
+    steel = material("stainless_steel", thickness=3e-3)
+    t = np.arange(1, 2001) / 100
+    smallest = np.inf
+    for L in (650e-6, 1000e-6):
+        skin = Skin(L, dermis=0.6 * L)
+        feats = []
+        for ra in (1.6, 12.5, 50.0, 100.0):
+            R = contact_resistance(ra * 1e-6, skin=skin, material=steel)
+            T = Contact(skin, steel, R, 35.5, 20.0).receptor_temperature(t)
+            feats.append(receptor_features(np.r_[0, t], np.r_[35.5, T], 35.5, params)[:3])
+        for a, b in itertools.combinations(feats, 2):
+            smallest = min(smallest, np.abs(a - b).min())
+    assert 0.10 < smallest < 0.13
+    assert MODEL_TOLERANCE_C <= smallest / 4 < MODEL_TOLERANCE_C + 0.005
+    assert params.model_tolerance_C == MODEL_TOLERANCE_C

@@ -26,7 +26,7 @@ the templates of the trial's kind if it has them, else the real samples'; with p
 ``lapse_rate`` it guesses uniformly. A Thurstonian (Case V-like, unequal variance) observer.
 Nothing about the paper's Figure 9 is built in: the pattern of correct answers follows from the
 physics and the noise parameters, all in :class:`PerceptionParameters`.  This decision rule is the
-``absolute`` member of a named family of observer models (:mod:`experiments.simulation.observers`:
+``absolute`` member of a named family of observer models (:mod:`experiments.participant_model.observers`:
 ``absolute``, ``relative``, ``range_frequency``, ``display_learned``), which the simulated
 responder selects with its ``observer`` option.
 

@@ -1,6 +1,6 @@
 r"""Observer models: how a simulated participant turns a percept into an answer 1#..4#.
 
-The simulated participant (:class:`experiments.simulation.person.SimulatedPerson`) feels the
+The simulated participant (:class:`experiments.participant_model.person.SimulatedPerson`) feels the
 physics at its receptors and perceives a noisy feature vector :math:`x` (drops at a few times
 and the peak rate of fall).  *Which answer* it gives is a separate, named choice: the paper does
 not say how its participants decided, and the Figure 9 result depends on it.
@@ -31,14 +31,14 @@ name                   decision rule
 =====================  ========================================================================
 
 Parameters shared by the whole family live in
-:class:`experiments.simulation.person.PerceptionParameters`, with their sources there: the
+:class:`experiments.participant_model.person.PerceptionParameters`, with their sources there: the
 perceptual noise the observer knows it has (0.3 K per drop feature, 0.3 K/s on the rate, Weber
 fraction 0.1) and ``lapse_rate`` (0.02, the usual allowance for inattention); the familiarisation
 (one touch per real sample) is the protocol's.  Observer-specific parameters are listed by
 :meth:`Observer.parameters` with their source (``range_weight`` of ``range_frequency``); the
 design-aware ``relative`` observer takes the design (``repetitions`` per sample) from the
 protocol's block.  :func:`fit_observer` recovers them from percepts and answers (tests in
-``tests/experiments/simulation/test_observers.py``).
+``tests/experiments/participant_model/test_observers.py``).
 
 The same code answers in an emulated session (the simulated responder, one trial at a time) and
 in the fast study simulation (:mod:`experiments.simulation.studies`, thousands of blocks at once):
