@@ -196,7 +196,7 @@ def test_the_whole_study_runs_end_to_end(tmp_path, capsys):
     assert main(["reproduce", "figure9", "--out", str(tmp_path)]) == 0
     scored = _check_study(tmp_path, 30)
     err = capsys.readouterr().err
-    assert "participant 30 of 30" in err and "proportion correct" in err
+    assert "30 of 30 participants" in err and "proportion correct" in err
     assert scored.groupby("participant")["group"].first().value_counts().to_dict() == {"A": 15, "B": 15}
 
 
