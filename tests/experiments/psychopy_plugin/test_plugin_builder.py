@@ -167,9 +167,11 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
         assert 0 <= armed < contact < float(r["trial.stopped"]) - float(r["trial.started"])
         assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert float(r["thermal.contact_duration_s"]) > 0.2
-        # durations from one clock: the contact lasted no longer than the routine after it
+        # durations from one clock: the contact lasted no longer than the routine after it plus
+        # the stop's ABORT round trip, which begins when the routine has ended (one reply wait,
+        # 0.25 s, and a loaded machine's scheduling: 0.12 s measured at load 2 here)
         assert float(r["thermal.contact_duration_s"]) <= \
-            float(r["trial.stopped"]) - float(r["trial.started"]) - contact + 0.05
+            float(r["trial.stopped"]) - float(r["trial.started"]) - contact + 0.5
 
     # --- the emulator's own record
     records = read_log(log)
