@@ -23,7 +23,8 @@ if TYPE_CHECKING:   # the types in the signatures; importing them here would pul
     from .safety import SafetyLimits
     from .trial_recording import TrialRecording
 
-__all__ = ["Capabilities", "ProfileReceipt", "Display", "EmulatedDisplay"]
+__all__ = ["Capabilities", "ProfileReceipt", "Display", "EmulatedDisplay", "open_serial_port",
+           "handshake_or_close"]
 
 #: How a backend learns that the finger touched: a force threshold on the pad's sensors, or the
 #: start of stimulation (a probe that rests on the skin has no force sensor).
@@ -251,3 +252,36 @@ class EmulatedDisplay(Display):
     def sim_finger(self, press_after_s: float = 0.3, force_N: float = 2.0, hold_s: float = 20.0,
                    skin_thickness_m: float = 650e-6, skin_temperature_C: float = 35.5) -> dict:
         """Press the emulated finger ``press_after_s`` after arming, for ``hold_s``."""
+
+
+def open_serial_port(url: str, baudrate: int = 115200):
+    """Open ``url`` with ``serial.serial_for_url`` as every serial backend does (10 ms reads).
+
+    Raises
+    ------
+    DisplayError
+        The port cannot be opened (names the URL).
+    """
+    import serial
+
+    from experiments.errors import DisplayError
+    try:
+        return serial.serial_for_url(url, baudrate=baudrate, timeout=0.01, write_timeout=1.0)
+    except (serial.SerialException, OSError, ValueError) as exc:
+        raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
+
+
+def handshake_or_close(display, port, on_failure=None):
+    """Run ``display.handshake()``; on any failure call ``on_failure`` (if given), close
+    ``port`` (best effort) and re-raise. Returns ``display``."""
+    try:
+        display.handshake()
+    except BaseException:
+        if on_failure is not None:
+            on_failure()
+        try:
+            port.close()
+        except Exception:
+            pass
+        raise
+    return display

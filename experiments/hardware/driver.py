@@ -52,7 +52,8 @@ from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRestarted,
 from . import messages as m
 from .framing import FrameParser
 from .link import ProtocolLink
-from .display_base import Capabilities, EmulatedDisplay, ProfileReceipt
+from .display_base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
+                           open_serial_port)
 from .handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from .safety import SafetyLimits, check_profile
@@ -169,20 +170,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             If the port cannot be opened or the device does not answer the handshake, or answers
             it with numbers the host refuses (:class:`~.handshake.HandshakeRefused`).
         """
-        baud = options.pop("baudrate", 115200)
-        try:
-            port = serial.serial_for_url(url, baudrate=baud, timeout=0.01, write_timeout=1.0)
-        except (serial.SerialException, OSError, ValueError) as exc:
-            raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
-        disp = cls(port, limits, **options)
-        try:
-            disp.handshake()
-        except BaseException:
-            try:
-                port.close()
-            except Exception:
-                pass
-            raise
+        port = open_serial_port(url, options.pop("baudrate", 115200))
+        disp = handshake_or_close(cls(port, limits, **options), port)
         disp.start_heartbeat()
         return disp
 

@@ -29,7 +29,7 @@ import serial
 
 from experiments.errors import DisplayError, UserInputError
 
-from .display_base import Capabilities
+from .display_base import Capabilities, handshake_or_close
 from .driver import ThermalDisplay
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
@@ -277,7 +277,6 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         disp._finalizer = weakref.finalize(disp, stop_qemu, proc)
         try:
             await_link(port, pty)
-            disp.handshake()          # never a boot banner: bytes sent before we opened are lost
         except BaseException:
             disp._finalizer()
             try:
@@ -285,6 +284,8 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
             except Exception:
                 pass
             raise
+        # never a boot banner: bytes sent before we opened are lost
+        handshake_or_close(disp, port, on_failure=disp._finalizer)
         disp.start_heartbeat()
         return disp
 

@@ -42,7 +42,8 @@ import serial
 
 from experiments.errors import DisplayError, SafetyLimitError, UserInputError
 
-from ..display_base import Capabilities, Display, ProfileReceipt
+from ..display_base import (Capabilities, Display, ProfileReceipt, handshake_or_close,
+                            open_serial_port)
 from ..messages import DeviceInfo, Status
 from ..safety import SafetyLimits
 from ..trial_recording import TrialRecording
@@ -130,20 +131,8 @@ class Tcs2Display(Display, scheme="tcs2"):
         baud = options.pop("baudrate", 115200)
         if options:
             raise UserInputError(f"display: {url!r}: unknown option(s) {sorted(options)}")
-        try:
-            port = serial.serial_for_url(pyurl, baudrate=baud, timeout=0.01, write_timeout=1.0)
-        except (serial.SerialException, OSError, ValueError) as exc:
-            raise DisplayError(f"display: cannot open {pyurl!r}: {exc}") from None
-        disp = cls(port, limits, name=str(url).split("?", 1)[0], **opts)
-        try:
-            disp.handshake()
-        except BaseException:
-            try:
-                port.close()
-            except Exception:
-                pass
-            raise
-        return disp
+        port = open_serial_port(pyurl, baud)
+        return handshake_or_close(cls(port, limits, name=str(url).split("?", 1)[0], **opts), port)
 
     @classmethod
     def declared_capabilities(cls) -> Capabilities:
