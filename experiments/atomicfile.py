@@ -71,6 +71,30 @@ def _discard(tmp: Path) -> None:
 
 
 @contextmanager
+def _replacing(path, keep_suffix: bool, fsync_dir: Callable | None) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it over ``path`` on a clean exit.
+
+    On any failure the temporary file is removed and an OSError is re-raised naming ``path``.
+    """
+    path = Path(path)
+    tmp = _temp_name(path, keep_suffix=keep_suffix)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except OSError as exc:
+        _discard(tmp)
+        err = named_os_error(exc, path)
+        if err is exc:
+            raise
+        raise err from exc
+    except BaseException:
+        _discard(tmp)
+        raise
+    if fsync_dir is not None:
+        fsync_dir(path.parent)
+
+
+@contextmanager
 def atomic_path(path, *, fsync: Callable[[int], None] | None = os.fsync,
                 fsync_dir: Callable | None = sync_folder) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on a clean exit rename it over ``path``.
@@ -85,9 +109,7 @@ def atomic_path(path, *, fsync: Callable[[int], None] | None = os.fsync,
         What the writer or the rename raised, naming ``path`` (:func:`named_os_error`); the
         temporary file is removed and ``path`` is untouched.
     """
-    path = Path(path)
-    tmp = _temp_name(path, keep_suffix=True)
-    try:
+    with _replacing(path, True, fsync_dir) as tmp:
         yield tmp
         if fsync is not None:
             fd = os.open(tmp, os.O_RDONLY)
@@ -95,18 +117,6 @@ def atomic_path(path, *, fsync: Callable[[int], None] | None = os.fsync,
                 fsync(fd)
             finally:
                 os.close(fd)
-        os.replace(tmp, path)
-    except OSError as exc:
-        _discard(tmp)
-        err = named_os_error(exc, path)
-        if err is exc:
-            raise
-        raise err from exc
-    except BaseException:
-        _discard(tmp)
-        raise
-    if fsync_dir is not None:
-        fsync_dir(path.parent)
 
 
 @contextmanager
@@ -125,27 +135,13 @@ def atomic_file(path, mode: str = "w", *, encoding: str | None = "utf-8", newlin
         Naming ``path`` (:func:`named_os_error`); the temporary file is removed and ``path``
         keeps its old content.
     """
-    path = Path(path)
-    tmp = _temp_name(path, keep_suffix=False)
     binary = "b" in mode
-    try:
+    with _replacing(path, False, fsync_dir) as tmp:
         with open(tmp, mode, **({} if binary else {"encoding": encoding, "newline": newline})) as fh:
             yield fh
             fh.flush()
             if fsync is not None:
                 fsync(fh.fileno())
-        os.replace(tmp, path)
-    except OSError as exc:
-        _discard(tmp)
-        err = named_os_error(exc, path)
-        if err is exc:
-            raise
-        raise err from exc
-    except BaseException:
-        _discard(tmp)
-        raise
-    if fsync_dir is not None:
-        fsync_dir(path.parent)
 
 
 def _sync_filesystem(folder: Path) -> None:
