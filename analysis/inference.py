@@ -34,7 +34,7 @@ import pandas as pd
 import patsy
 from scipy import special, stats
 
-from .models import ModelFit, has_group_by_roughness, model_data
+from .models import ModelFit, contrast_se, has_group_by_roughness, model_data
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",
            "averaged_contrast", "CHANCE"]
@@ -176,14 +176,14 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
     x = {(g, m): _rows(fit, [g], [m], samples) for g in ("A", "B") for m in ("real", "simulated")}
     sign = {("A", "real"): 1, ("B", "real"): -1, ("A", "simulated"): -1, ("B", "simulated"): 1}
     lvec = sum(s * x[k].mean(axis=0) for k, s in sign.items())
-    est, se = float(lvec @ fit.params), float(np.sqrt(lvec @ fit.cov @ lvec))
+    est, se = float(lvec @ fit.params), contrast_se(fit, lvec)
     grad = np.zeros_like(lvec)
     dd = 0.0
     for k, s in sign.items():
         q = special.expit(x[k] @ fit.params)
         dd += s * q.mean()
         grad += s * (q * (1 - q)) @ x[k] / len(q)
-    dse = float(np.sqrt(grad @ fit.cov @ grad))
+    dse = contrast_se(fit, grad)
     out.update(log_odds=est, se=se, ci_low=est - z * se, ci_high=est + z * se,
                p_value=float(fit.p_value(est / se)) if se > 0 else np.nan,
                difference_of_differences=dd, dd_low=dd - z * dse, dd_high=dd + z * dse)
