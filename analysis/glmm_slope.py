@@ -33,6 +33,8 @@ References
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pandas as pd
 from scipy import optimize, special, stats
@@ -63,10 +65,27 @@ def _curvature(person, w, zt, m):
     return h
 
 
-def _inner(x_eta, z, person, m, k, n, lam, n_agq):
-    """Per participant: log integral, nodes (m, Q, 2), eta at the nodes (rows, Q), posterior."""
+@functools.lru_cache(maxsize=8)
+def _tensor_grid(n_agq: int):
+    """Gauss-Hermite tensor grid: nodes (Q, 2), log weights + |t|^2 (Q,) (read-only)."""
+    t1, w1 = np.polynomial.hermite.hermgauss(n_agq)
+    tt = np.array([(a, c) for a in t1 for c in t1])       # Q x 2
+    ww = np.array([a * c for a in w1 for c in w1])
+    extra = np.sum(tt ** 2, axis=1) + np.log(ww)
+    tt.flags.writeable = extra.flags.writeable = False
+    return tt, extra
+
+
+def _inner(x_eta, z, person, m, k, n, lam, n_agq, b0=None, onehot=None):
+    """Per participant: log integral, nodes (m, Q, 2), eta at the nodes (rows, Q), posterior,
+    and the conditional modes (m, 2).
+
+    ``b0``: starting values of the modes (Newton's method converges to the same unique mode
+    of the log-concave integrand from anywhere; a warm start from the previous evaluation
+    saves iterations). ``onehot``: the (m, rows) participant indicator, if already built.
+    """
     zt = z @ lam                                          # rows x 2: z' Lambda
-    b = np.zeros((m, 2))
+    b = np.zeros((m, 2)) if b0 is None else np.array(b0, float)
     for _ in range(50):
         eta = x_eta + np.einsum("rk,rk->r", zt, b[person])
         p = special.expit(eta)
@@ -78,28 +97,45 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq):
         b += step
         if np.max(np.abs(step)) < 1e-10:
             break
+    else:
+        if b0 is not None:            # a warm start that did not settle: from 0, as cold
+            return _inner(x_eta, z, person, m, k, n, lam, n_agq, None, onehot)
     eta = x_eta + np.einsum("rk,rk->r", zt, b[person])
     p = special.expit(eta)
     w = n * p * (1 - p)
     h = _curvature(person, w, zt, m)
     chol = np.linalg.cholesky(h)                          # h = L L^T
-    t1, w1 = np.polynomial.hermite.hermgauss(n_agq)
-    tt = np.array([(a, c) for a in t1 for c in t1])       # Q x 2
-    ww = np.array([a * c for a in w1 for c in w1])
+    tt, extra = _tensor_grid(n_agq)
     # nodes: b = b_hat + sqrt(2) L^{-T} t
     linv_t = np.linalg.inv(np.transpose(chol, (0, 2, 1)))  # m x 2 x 2
     nodes = b[:, None, :] + np.sqrt(2.0) * np.einsum("mab,qb->mqa", linv_t, tt)
     eta_q = x_eta[:, None] + np.einsum("rk,rqk->rq", zt, nodes[person])
     ll_rows = k[:, None] * eta_q - n[:, None] * np.logaddexp(0.0, eta_q)
-    onehot = np.zeros((m, len(person)))
-    onehot[person, np.arange(len(person))] = 1.0
+    if onehot is None:
+        onehot = np.zeros((m, len(person)))
+        onehot[person, np.arange(len(person))] = 1.0
     ll = onehot @ ll_rows
-    log_terms = ll - 0.5 * np.sum(nodes ** 2, axis=2) + np.sum(tt ** 2, axis=1)[None, :] \
-        + np.log(ww)[None, :]
+    log_terms = ll - 0.5 * np.sum(nodes ** 2, axis=2) + extra[None, :]
     log_det_l = np.log(chol[:, 0, 0]) + np.log(chol[:, 1, 1])
-    log_int = special.logsumexp(log_terms, axis=1) + np.log(2.0) - log_det_l - np.log(2 * np.pi)
-    post = np.exp(log_terms - special.logsumexp(log_terms, axis=1, keepdims=True))
-    return log_int, nodes, eta_q, post
+    norm = special.logsumexp(log_terms, axis=1, keepdims=True)
+    log_int = norm[:, 0] + np.log(2.0) - log_det_l - np.log(2 * np.pi)
+    post = np.exp(log_terms - norm)
+    return log_int, nodes, eta_q, post, b
+
+
+def _modes(data: GLMMData):
+    """The last evaluation's conditional modes on ``data`` (a warm start), or None."""
+    return data.__dict__.get("_slope_modes")
+
+
+def _inner_on(data: GLMMData, x_eta, z, lam, n_agq):
+    """:func:`_inner` on ``data``, warm-started from (and remembering) its last modes."""
+    b0 = _modes(data)
+    if b0 is not None and (b0.shape != (data.m, 2) or not np.all(np.isfinite(b0))):
+        b0 = None
+    out = _inner(x_eta, z, data.person, data.m, data.k, data.n, lam, n_agq, b0, data.onehot)
+    data.__dict__["_slope_modes"] = out[4]
+    return out[:4]
 
 
 def slope_deviance(theta, data: GLMMData, z, n_agq: int = 5, grad: bool = False):
@@ -112,7 +148,7 @@ def slope_deviance(theta, data: GLMMData, z, n_agq: int = 5, grad: bool = False)
     beta, t = theta[:-3], theta[-3:]
     lam = _lambda(t)
     x_eta = data.x @ beta
-    log_int, nodes, eta_q, post = _inner(x_eta, z, data.person, data.m, data.k, data.n, lam, n_agq)
+    log_int, nodes, eta_q, post = _inner_on(data, x_eta, z, lam, n_agq)
     dev = -2.0 * float(log_int.sum())
     if not grad:
         return dev
@@ -146,8 +182,7 @@ def participant_scores(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray:
     """
     theta = np.asarray(theta, float)
     beta = theta[:-3]
-    _, _, eta_q, post = _inner(data.x @ beta, z, data.person, data.m, data.k, data.n,
-                               _lambda(theta[-3:]), n_agq)
+    _, _, eta_q, post = _inner_on(data, data.x @ beta, z, _lambda(theta[-3:]), n_agq)
     resid = data.k[:, None] - data.n[:, None] * special.expit(eta_q)
     per_row = np.einsum("rq,rq->r", post[data.person], resid)
     return data.onehot @ (data.x * per_row[:, None])

@@ -46,7 +46,8 @@ CHANCE = 0.25
 def holm(p) -> np.ndarray:
     """Holm's step-down adjusted p-values (NaN entries left out and kept NaN).
 
-    ``statsmodels.stats.multitest.multipletests(p, method="holm")`` on the finite entries.
+    The same values as ``statsmodels.stats.multitest.multipletests(p, method="holm")`` on the
+    finite entries (the tests compare them), without its ``gc.collect()`` per call (0.1 s each).
 
     Parameters
     ----------
@@ -63,13 +64,17 @@ def holm(p) -> np.ndarray:
     >>> holm([0.01, 0.04, 0.03]).round(3).tolist()
     [0.03, 0.06, 0.06]
     """
-    from statsmodels.stats.multitest import multipletests
-
     p = np.asarray(p, float)
     out = np.full(p.shape, np.nan)
     ok = np.isfinite(p)
     if ok.any():
-        out[ok] = multipletests(p[ok], method="holm")[1]
+        q = p[ok]
+        order = np.argsort(q, kind="stable")
+        # the k-th smallest times (n - k), running maximum, capped at 1
+        stepped = np.maximum.accumulate(q[order] * np.arange(len(q), 0, -1))
+        adjusted = np.empty_like(q)
+        adjusted[order] = np.minimum(stepped, 1.0)
+        out[ok] = adjusted
     return out
 
 

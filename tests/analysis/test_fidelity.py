@@ -294,7 +294,7 @@ def test_participant_sandwich_equals_leave_one_participant_out_refits():
     assert fit.formula == FORMULA and fit.cov_robust is not None
     _, _, data, z = slope_data(FORMULA, model_data(trials))
     sandwich = participant_sandwich(fit.theta, data, z)
-    np.testing.assert_allclose(sandwich, fit.cov_robust, rtol=1e-10)
+    np.testing.assert_allclose(sandwich, fit.cov_robust, rtol=1e-6, atol=1e-12)
     beta, lam = fit.theta[:-3], fit.theta[-3:]
     shifts = []
     for i in range(data.m):
