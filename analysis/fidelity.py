@@ -12,8 +12,14 @@ model of ``correct ~ group * mode * C(roughness_id)``:
 - the **equivalence test**: two one-sided tests (TOST [1]_) of the overall difference of mean
   proportions against the margin +-delta: H0 ``|real - simulated| >= delta``; equivalence is
   shown when both one-sided p-values are below alpha (equivalently, the ``1 - 2 alpha`` interval
-  lies inside +-delta). Reference distribution: t(m - 2), as every Wald test of the report;
+  lies inside +-delta);
 - the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8.
+
+Reference distributions (:func:`contrast_df`): a row of one group is a within-participant
+contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
+row of both groups t(m - 2). From the random-slope mixed model the SE of each contrast is the
+larger of the model-based one and the bias-reduced participant sandwich
+(:func:`analysis.models.contrast_se`).
 
 References
 ----------

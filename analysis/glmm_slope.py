@@ -22,7 +22,11 @@ parametrisation :math:`\\Lambda = [[s_0, 0], [s_1 \\sin\\varphi, s_1 \\cos\\varp
 correlation :math:`\\sin\\varphi`, rises by the F(1, m - 2) cut-off as for
 :mod:`analysis.glmm`'s SD), and a likelihood-ratio test of the random slope against the
 intercept-only model (its null distribution on the boundary is the 50:50 mixture of
-:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Coverage of all these intervals is measured by
+:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Mode contrasts (real - simulated, the interaction) also get
+a bias-reduced participant-cluster sandwich covariance of the fixed effects
+(:func:`participant_sandwich`, :attr:`analysis.models.ModelFit.cov_robust`): the mode-slope
+SD's ML estimate is biased low at 30 participants, and the model-based SEs of those contrasts
+inherit that. Coverage of all these intervals is measured by
 ``benchmarks/bench_recovery.py`` (``--scenario slope``, ``--slope-model``; docs/analysis.md).
 
 References
@@ -203,7 +207,10 @@ def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray
     own pull on the estimate (its leverage); for a GEE it is algebraically the Mancl-DeRouen
     correction :math:`(I - H_{ii})^{-1}` applied to the residuals (push-through identity), i.e.
     the same bias-reduced sandwich as :func:`analysis.fit_gee`'s, here for the mixed model's
-    estimating equations. It does not rely on the fitted random-effect SDs, which with 30
+    estimating equations. Linearised, :math:`A^{-1}(I - A_i A^{-1})^{-1} s_i` is the change of
+    the estimate when participant *i* is left out, so :math:`V` is the one-step
+    delete-one-participant jackknife (``tests/analysis/test_fidelity.py`` compares it with 30
+    real refits). It does not rely on the fitted random-effect SDs, which with 30
     participants are often far from the truth (the mode-slope SD's ML estimate is biased low
     and 0 in some datasets).
 
