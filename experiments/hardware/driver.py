@@ -392,7 +392,9 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         on_telemetry : callable, optional
             Called with each :class:`Telemetry` frame, in order.
         on_event : callable, optional
-            Called with each :class:`DeviceEvent` (READY, CONTACT, END, FAULT, WATCHDOG).
+            Called with each :class:`DeviceEvent` (READY, CONTACT, END, FAULT, WATCHDOG) of the
+            armed trial, those received since :meth:`arm` first (a READY that arrived while
+            the caller drew its cue is not lost).
 
         Returns
         -------
@@ -402,7 +404,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         if tr is None:
             raise UserInputError("display: run_trial: expected arm() first")
         with self._lock:
-            tr.callback, tr.on_event = on_telemetry, on_event
+            tr.callback = on_telemetry
+            tr.attach_on_event(on_event)
             if on_telemetry is not None:
                 for fr in tr.pending:
                     on_telemetry(fr)
@@ -597,7 +600,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     on_telemetry(fr)
                 tr.pending, tr.callback = [], on_telemetry
             if tr is not None and on_event is not None:
-                tr.on_event = on_event
+                tr.attach_on_event(on_event)
             try:
                 while self._virtual or self.port.in_waiting > 0:
                     for fr in self._read_frames():
