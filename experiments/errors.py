@@ -56,6 +56,16 @@ class DisplayRefused(DisplayError):
         self.code = code
 
 
+class DisplayFaultLatched(DisplayError):
+    """The display is latched in FAULT (over-temperature or a sensor fault) from before this
+    connection: the pad's relay is open and it refuses to be armed until an operator has checked
+    the pad and reset it (``thermocue clear-fault URL``). ``code`` is the fault's name."""
+
+    def __init__(self, message: str, code: str | None = None):
+        super().__init__(message)
+        self.code = code
+
+
 class DisplayRestarted(DisplayError):
     """The display restarted since the handshake (boot id changed, time went back, NO_HELLO):
     it no longer holds the session's limits, neutral or profile; the session stops."""

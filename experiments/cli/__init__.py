@@ -30,6 +30,7 @@ SUBCOMMANDS = {
     "resume": "resume",
     "emulator": "emulator",
     "displays": "displays",
+    "clear-fault": "clear_fault",
     "analyze": "analyze",
     "reproduce": "reproduce",
     "bench": "bench",

@@ -46,7 +46,7 @@ import zlib
 import numpy as np
 import serial
 
-from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
+from experiments.errors import (DisplayError, DisplayFaultLatched, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
                                 SafetyLimitError, UserInputError)
 
 from . import messages as m
@@ -219,6 +219,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._parser.reset()
         p = self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
         self.info = decode_hello(p, self.port_name)
+        self._refuse_latched_fault()
         rate = int(round(self.info.max_rate_C_per_s * 100))
         self._restart = None
         self._dev_time = 0.0
@@ -244,6 +245,22 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._uploaded = False
         self.set_neutral(lim.neutral_C)
         return self.info
+
+    def _refuse_latched_fault(self) -> None:
+        """Stop at the handshake, with what to do, if the device is latched in FAULT.
+
+        A latched fault (over-temperature, sensor failure or stuck sensor) happened before this
+        connection, possibly with nobody watching; the device refuses limits and ARM until an
+        operator resets it, and thermocue never does that on its own.
+        """
+        st = Status.decode(self._transact(Cmd.STATUS))
+        if st.state == "FAULT":
+            raise DisplayFaultLatched(
+                f"display: {self.port_name} is latched in FAULT ({st.last_fault or 'no code'}) "
+                f"from before this connection: its Peltier relay is open and it refuses to be "
+                f"armed. Check the pad and its sensors, then reset it as the operator with "
+                f"`thermocue clear-fault {self.port_name}`, or power-cycle it; no session starts "
+                f"on a faulted display", code=st.last_fault)
 
     # ------------------------------------------------------------------ commands
     def set_neutral(self, temperature_C: float) -> float:
@@ -375,7 +392,9 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         on_telemetry : callable, optional
             Called with each :class:`Telemetry` frame, in order.
         on_event : callable, optional
-            Called with each :class:`DeviceEvent` (READY, CONTACT, END, FAULT, WATCHDOG).
+            Called with each :class:`DeviceEvent` (READY, CONTACT, END, FAULT, WATCHDOG) of the
+            armed trial, those received since :meth:`arm` first (a READY that arrived while
+            the caller drew its cue is not lost).
 
         Returns
         -------
@@ -385,7 +404,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         if tr is None:
             raise UserInputError("display: run_trial: expected arm() first")
         with self._lock:
-            tr.callback, tr.on_event = on_telemetry, on_event
+            tr.callback = on_telemetry
+            tr.attach_on_event(on_event)
             if on_telemetry is not None:
                 for fr in tr.pending:
                     on_telemetry(fr)
@@ -510,6 +530,34 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         """
         self._transact(Cmd.CLEAR_FAULT, m.CLEAR_FAULT_MAGIC)
 
+    @classmethod
+    def operator_reset(cls, url: str, baudrate: int = 115200) -> tuple[str, str | None, str]:
+        """The operator's reset of a display latched in FAULT: HELLO, STATUS, CLEAR_FAULT.
+
+        For a person who has checked the pad and its sensors (``thermocue clear-fault URL``);
+        sets no limits and arms nothing. A device that is not in FAULT is left as it is.
+
+        Returns
+        -------
+        (state_before, fault, state_after) : tuple of str, str or None, str
+        """
+        port = open_serial_port(url, baudrate)
+        try:
+            disp = cls(port, None)
+            disp.info = decode_hello(disp._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
+                                     disp.port_name)
+            before = Status.decode(disp._transact(Cmd.STATUS))
+            if before.state != "FAULT":
+                return before.state, before.last_fault, before.state
+            disp.clear_fault()
+            after = Status.decode(disp._transact(Cmd.STATUS))
+            return before.state, before.last_fault, after.state
+        finally:
+            try:
+                port.close()
+            except Exception:
+                pass
+
     def heartbeat(self) -> float:
         """One acknowledged heartbeat; return the device time, s."""
         t = m.TIME.unpack(self._transact(Cmd.HEARTBEAT))[0] * 1e-6
@@ -552,7 +600,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     on_telemetry(fr)
                 tr.pending, tr.callback = [], on_telemetry
             if tr is not None and on_event is not None:
-                tr.on_event = on_event
+                tr.attach_on_event(on_event)
             try:
                 while self._virtual or self.port.in_waiting > 0:
                     for fr in self._read_frames():

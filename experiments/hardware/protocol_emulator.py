@@ -28,9 +28,10 @@ import threading
 import time
 import urllib.parse
 
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
+from serial.serialutil import SerialException, to_bytes
 
 from .device import TICK_US, Device
+from .emulated_port import EmulatedPort
 from .emulator_core import EmulatorCore, JsonLog
 from .faults import parse_faults
 from .framing import HEADER_SIZE
@@ -86,12 +87,14 @@ def parse_url(url: str) -> dict:
     return opts
 
 
-class Serial(SerialBase):
+class Serial(EmulatedPort):
     """An emulated display behind the pyserial API (see the module docstring for the URL).
 
     A thin transport over :class:`~experiments.hardware.emulator_core.EmulatorCore`: it keeps
     the host's receive buffer and runs the core's clock (a thread, or the host's reads).
     """
+
+    parse_url = staticmethod(parse_url)
 
     def __init__(self, *args, **kwargs):
         self.core: EmulatorCore | None = None
@@ -122,10 +125,7 @@ class Serial(SerialBase):
 
     # ------------------------------------------------------------------ pyserial plumbing
     def open(self):
-        if self.is_open:
-            raise SerialException("Port is already open.")
-        if self._port is None:
-            raise SerialException("Port must be configured before it can be used.")
+        self._check_can_open()
         opts = parse_url(self.port)
         self._log = JsonLog(opts["log"])
         self.core = EmulatorCore(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
@@ -141,19 +141,12 @@ class Serial(SerialBase):
             os.set_blocking(r, False)
             self._hb_pipe = (r, w)
             self.core.start_real_time(time.monotonic())
-            self._thread = threading.Thread(target=self._run_real_time, name="emulator-clock",
-                                            daemon=True)
-            self._thread.start()
+            self._start_clock(self._run_real_time, "emulator-clock")
 
     def close(self):
         if self.is_open:
             self.is_open = False
-            with self._cond:
-                self._stop = True
-                self._cond.notify_all()
-            if self._thread is not None and self._thread is not threading.current_thread():
-                self._thread.join(timeout=1.0)
-            self._thread = None
+            self._stop_clock(self._cond)
             if self._log is not None:
                 self._log.close()
             if self._hb_pipe is not None:
@@ -175,46 +168,6 @@ class Serial(SerialBase):
         device time there).
         """
         return self._hb_pipe[1] if self._hb_pipe is not None else None
-
-    def from_url(self, url):
-        """Check an ``emulator://`` URL (see the module docstring); return its options."""
-        return parse_url(url)
-
-    def _reconfigure_port(self):
-        pass
-
-    def _update_break_state(self):
-        pass
-
-    def _update_rts_state(self):
-        pass
-
-    def _update_dtr_state(self):
-        pass
-
-    @property
-    def cts(self):
-        self._check_open()
-        return True
-
-    @property
-    def dsr(self):
-        self._check_open()
-        return True
-
-    @property
-    def ri(self):
-        self._check_open()
-        return False
-
-    @property
-    def cd(self):
-        self._check_open()
-        return True
-
-    def _check_open(self):
-        if not self.is_open:
-            raise PortNotOpenError()
 
     # ------------------------------------------------------------------ the device clock
     @property
@@ -420,14 +373,6 @@ class Serial(SerialBase):
         self._check_open()
         with self._cond:
             self._rx.clear()
-
-    def reset_output_buffer(self):
-        self._check_open()
-
-    @property
-    def out_waiting(self):
-        self._check_open()
-        return 0
 
     def cancel_read(self):
         with self._cond:

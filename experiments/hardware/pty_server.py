@@ -26,6 +26,7 @@ import signal
 import struct
 import sys
 import termios
+import threading
 import time
 import tty
 
@@ -36,7 +37,8 @@ from .emulator_core import EmulatorCore, JsonLog
 from .emulator_options import add_arguments
 from .faults import parse_faults
 
-__all__ = ["serve", "main", "add_arguments", "run", "hold_link", "MAX_PENDING"]
+__all__ = ["serve", "main", "add_arguments", "run", "hold_link", "PtyEndpoint", "stop_signals",
+           "MAX_PENDING"]
 
 #: Output bytes held for a host that does not read (≈ 4 min of telemetry at 100 Hz).
 MAX_PENDING = 1 << 20
@@ -45,6 +47,117 @@ MAX_PENDING = 1 << 20
 def _queued(fd: int) -> int:
     """Bytes waiting in the input queue of tty ``fd``."""
     return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
+
+
+class PtyEndpoint:
+    """The device's end of a pty pair, for an emulator that serves on it.
+
+    The slave side in raw mode, its path (and ``link``, a symbolic link to it, replaced in one
+    step so the path is never missing), the master non-blocking; output the host has not read
+    yet is kept (up to :data:`MAX_PENDING` bytes, beyond which the oldest are dropped and
+    counted). The endpoint keeps the slave open, so a host may close the port and another
+    connect later.
+
+    Raises
+    ------
+    UserInputError
+        ``link`` exists and is not a symbolic link (it is not replaced).
+    """
+
+    def __init__(self, link: str | None = None):
+        if link and os.path.lexists(link) and not os.path.islink(link):
+            raise UserInputError(f"--link {link}: expected a new path or a symbolic link, got "
+                                 f"a path that is neither (not replaced)")
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self.slave)
+        self.link = None
+        if link:
+            # a stale link (of an emulator that was killed) is replaced in one step: a new link
+            # under a temporary name renamed over it
+            tmp_link = f"{link}.{os.getpid()}.tmp"
+            if os.path.lexists(tmp_link):
+                os.unlink(tmp_link)
+            os.symlink(self.path, tmp_link)
+            os.replace(tmp_link, link)
+            self.link = link
+        self.pending = bytearray()            # output the pty could not take yet
+        self.dropped = 0
+        self.max_pending = 0
+        self.connected = True
+
+    def wait(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for host bytes (or room for pending output); True if bytes."""
+        if not self.connected:
+            time.sleep(timeout_s)
+            return False
+        r, _, _ = select.select([self.master], [self.master] if self.pending else [], [],
+                                timeout_s)
+        return bool(r)
+
+    def read(self) -> bytes:
+        """What the host wrote (empty if nothing, or if no host has the slave open)."""
+        try:
+            return os.read(self.master, 65536)
+        except (BlockingIOError, InterruptedError):
+            return b""
+        except OSError:              # EIO: no host has the slave open (we hold it, so rare)
+            return b""
+
+    def send(self, out: bytes) -> bool:
+        """Queue ``out`` and write what the pty takes; True if anything was written."""
+        if not self.connected:
+            return False
+        if out:
+            self.pending += out
+            if len(self.pending) > MAX_PENDING:          # nobody reads: drop the oldest bytes
+                self.dropped += len(self.pending) - MAX_PENDING
+                del self.pending[:len(self.pending) - MAX_PENDING]
+        if not self.pending:
+            return False
+        try:
+            k = os.write(self.master, self.pending)
+        except (BlockingIOError, InterruptedError):
+            return False                                 # the pty is full: retry when writable
+        except OSError:
+            self.dropped += len(self.pending)
+            self.pending.clear()
+            return False
+        self.max_pending = max(self.max_pending, len(self.pending))
+        del self.pending[:k]
+        return True
+
+    def disconnect(self) -> None:
+        """Close the master (an injected disconnect): the host's port fails from now on."""
+        if self.connected:
+            os.close(self.master)
+            self.connected = False
+
+    def close(self) -> None:
+        """Close both ends and remove the link this endpoint made."""
+        self.disconnect()
+        os.close(self.slave)
+        if self.link and os.path.islink(self.link):
+            os.unlink(self.link)
+
+
+class stop_signals:
+    """SIGINT and SIGTERM append to the list this context gives, in the main thread (elsewhere,
+    e.g. a test's thread, the handlers are left alone and the caller's ``stop`` decides)."""
+
+    def __enter__(self) -> list:
+        self.stopping = []
+        self.old = {}
+        if threading.current_thread() is threading.main_thread():
+            self.old = {s: signal.signal(s, lambda n, f: self.stopping.append(n))
+                        for s in (signal.SIGINT, signal.SIGTERM)}
+        return self.stopping
+
+    def __exit__(self, *exc):
+        for s, h in self.old.items():
+            signal.signal(s, h)
+        return False
 
 
 def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None = None,
@@ -75,110 +188,62 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     int
         0.
     """
-    if link and os.path.lexists(link) and not os.path.islink(link):
-        raise UserInputError(f"--link {link}: expected a new path or a symbolic link, got "
-                             f"a path that is neither (not replaced)")
+    pty = PtyEndpoint(link)
     jlog = JsonLog(log)
     core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
     dev = core.device
-    master, slave = os.openpty()
-    tty.setraw(slave)
-    os.set_blocking(master, False)
-    path = os.ttyname(slave)
-    made_link = False
-    if link:
-        # a stale link (of an emulator that was killed) is replaced in one step: a new link
-        # under a temporary name renamed over it, so that the path is never missing meanwhile
-        tmp_link = f"{link}.{os.getpid()}.tmp"
-        if os.path.lexists(tmp_link):
-            os.unlink(tmp_link)
-        os.symlink(path, tmp_link)
-        os.replace(tmp_link, link)
-        made_link = True
-    stopping = []
-
-    def _stop(signum, frame):
-        stopping.append(signum)
-
-    old = {s: signal.signal(s, _stop) for s in (signal.SIGINT, signal.SIGTERM)}
-    jlog(dict(t_s=0.0, event="serve", path=path, clock=clock, pid=os.getpid()))
-    (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
+    path = pty.path
     tick = TICK_US * 1e-6
-    dropped_out = 0
-    pending = bytearray()                 # output the pty could not take yet
-    max_pending = 0
-    connected = True
     last_write, seen_queued = 0.0, False
-    core.start_real_time(time.monotonic())
-    try:
-        while not stopping and not (stop is not None and stop()):
-            now = time.monotonic()
-            virtual_go = False
-            if clock == "virtual" and connected and dev.state != 0 and not dev.out and not pending:
-                # the host has read everything sent (a just-written frame may not have reached
-                # the slave's queue yet: it counts as read only once seen there, or after 2 ms)
-                q = _queued(slave)
-                if q > 0:
-                    seen_queued = True
-                virtual_go = q == 0 and (seen_queued or now - last_write > 0.002)
-            wait = 0.0 if virtual_go else max(0.0, core.next_tick - now)
-            if clock == "virtual" and dev.state != 0:
-                wait = min(wait, 0.0002)          # poll the host's progress
-            if connected:
-                r, _, _ = select.select([master], [master] if pending else [], [],
-                                        min(wait, 0.05) if not virtual_go else 0)
-            else:
-                time.sleep(min(wait, 0.05)); r = []
-            now = time.monotonic()
-            if r:
-                try:
-                    data = os.read(master, 65536)
-                except (BlockingIOError, InterruptedError):
-                    data = b""
-                except OSError:          # EIO: no host has the slave open (we hold it, so rare)
-                    data = b""
-                if data:
-                    # the bytes arrived by now: stamp them with the device time we catch up to
-                    core.to_device(data, at_us=None if virtual_go else core.late_stamp_us(now))
-            if virtual_go:
-                out = core.tick()
-                core.next_tick = now + tick
-            else:
-                _, out = core.catch_up(now)
-            out += core.to_host(ticked=False)         # replies to the host bytes just read
-            if connected and core.disconnected():
-                jlog(dict(t_s=core.time_s, event="disconnect"))
-                os.close(master)
-                connected = False
-            if out and connected:
-                pending += out
-                if len(pending) > MAX_PENDING:          # nobody reads: drop the oldest bytes
-                    dropped_out += len(pending) - MAX_PENDING
-                    del pending[:len(pending) - MAX_PENDING]
-            if pending and connected:
-                try:
-                    k = os.write(master, pending)
-                    max_pending = max(max_pending, len(pending))
-                    del pending[:k]
+    with stop_signals() as stopping:
+        jlog(dict(t_s=0.0, event="serve", path=path, clock=clock, pid=os.getpid()))
+        (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
+        core.start_real_time(time.monotonic())
+        try:
+            while not stopping and not (stop is not None and stop()):
+                now = time.monotonic()
+                virtual_go = False
+                if (clock == "virtual" and pty.connected and dev.state != 0 and not dev.out
+                        and not pty.pending):
+                    # the host has read everything sent (a just-written frame may not have
+                    # reached the slave's queue yet: it counts as read only once seen there,
+                    # or after 2 ms)
+                    q = _queued(pty.slave)
+                    if q > 0:
+                        seen_queued = True
+                    virtual_go = q == 0 and (seen_queued or now - last_write > 0.002)
+                wait = 0.0 if virtual_go else max(0.0, core.next_tick - now)
+                if clock == "virtual" and dev.state != 0:
+                    wait = min(wait, 0.0002)          # poll the host's progress
+                readable = pty.wait(min(wait, 0.05) if not virtual_go else 0)
+                now = time.monotonic()
+                if readable:
+                    data = pty.read()
+                    if data:
+                        # the bytes arrived by now: stamp them with the device time we catch
+                        # up to
+                        core.to_device(data,
+                                       at_us=None if virtual_go else core.late_stamp_us(now))
+                if virtual_go:
+                    out = core.tick()
+                    core.next_tick = now + tick
+                else:
+                    _, out = core.catch_up(now)
+                out += core.to_host(ticked=False)         # replies to the host bytes just read
+                if pty.connected and core.disconnected():
+                    jlog(dict(t_s=core.time_s, event="disconnect"))
+                    pty.disconnect()
+                if pty.send(out):
                     last_write, seen_queued = time.monotonic(), False
-                except (BlockingIOError, InterruptedError):
-                    pass                                # the pty is full: retry when writable
-                except OSError:
-                    dropped_out += len(pending)
-                    pending.clear()
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
-        jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop", dropped_output_bytes=dropped_out + len(pending),
-                  max_late_ms=round(core.max_late_s * 1e3, 1), max_pending_bytes=max_pending,
-                  state=dev.state.name, last_fault=dev.last_fault, setpoint_C=round(dev.sp, 3),
-                  pad_C=round(dev.plant.pad, 3)))
-        jlog.close()
-        if connected:
-            os.close(master)
-        os.close(slave)
-        if made_link and os.path.islink(link):
-            os.unlink(link)
+        finally:
+            jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop",
+                      dropped_output_bytes=pty.dropped + len(pty.pending),
+                      max_late_ms=round(core.max_late_s * 1e3, 1),
+                      max_pending_bytes=pty.max_pending, state=dev.state.name,
+                      last_fault=dev.last_fault, setpoint_C=round(dev.sp, 3),
+                      pad_C=round(dev.plant.pad, 3)))
+            jlog.close()
+            pty.close()
     return 0
 
 

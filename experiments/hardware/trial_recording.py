@@ -83,6 +83,7 @@ class TrialInProgress:
         self.frames = 0
         self.pending: list = []          # frames before run_trial() attaches a callback
         self.callback = None
+        self.pending_events: list = []   # events before run_trial() or poll() attach on_event
         self.on_event = None
         self.contact_s = None
         self.contact_force = None
@@ -164,6 +165,18 @@ class TrialInProgress:
             self.end_time_s = ev.device_time_s
         if self.on_event is not None:
             self.on_event(ev)
+        elif len(self.pending_events) < 1000:
+            self.pending_events.append(ev)
+
+    def attach_on_event(self, on_event) -> None:
+        """Send ``on_event`` every event from now on, after those received before, in order."""
+        if on_event is None or self.on_event is not None:
+            self.on_event = on_event or self.on_event
+            return
+        for ev in self.pending_events:
+            on_event(ev)
+        self.pending_events = []
+        self.on_event = on_event
 
 
 #: How a delivered trial ends (the device's end reasons other than aborted and fault).

@@ -16,7 +16,7 @@ import zlib
 import numpy as np
 import pytest
 
-from experiments.errors import DisplayRefused, DisplayRestarted
+from experiments.errors import DisplayFaultLatched, DisplayRefused, DisplayRestarted
 from experiments.hardware import messages as m
 
 SPEC_MAX_TRACKING_C = 1.0      # [simulation] max_tracking_error_C's default (§4)
@@ -221,7 +221,13 @@ def test_stuck_contact_sensor_is_latched(display):
     assert st.state == "FAULT" and st.last_fault == "SENSOR_STUCK"
     display.abort()
     assert display.status().state == "FAULT"
+    # a host connecting now is refused at the handshake, before any limits are sent
+    with pytest.raises(DisplayFaultLatched) as exc:
+        display.handshake()
+    assert exc.value.code == "SENSOR_STUCK" and "clear-fault" in str(exc.value)
     display.clear_fault()
+    assert display.status().state == "IDLE"
+    display.handshake()                           # the shared display's limits and neutral again
     assert display.status().state == "IDLE"
 
 

@@ -21,8 +21,9 @@ import threading
 import time
 import urllib.parse
 
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+from serial.serialutil import SerialException
 
+from ..emulated_port import EmulatedPort
 from .device import TICK_S, Tcs2Device
 
 __all__ = ["Serial", "URL_GRAMMAR", "parse_url"]
@@ -65,8 +66,10 @@ def parse_url(url: str) -> dict:
     return opts
 
 
-class Serial(SerialBase):
+class Serial(EmulatedPort):
     """An emulated TCS II behind the pyserial API (see the module docstring)."""
+
+    parse_url = staticmethod(parse_url)
 
     def __init__(self, *args, **kwargs):
         self.device: Tcs2Device | None = None
@@ -78,10 +81,7 @@ class Serial(SerialBase):
         super().__init__(*args, **kwargs)
 
     def open(self):
-        if self.is_open:
-            raise SerialException("Port is already open.")
-        if self._port is None:
-            raise SerialException("Port must be configured before it can be used.")
+        self._check_can_open()
         opts = parse_url(self.port)
         self.device = Tcs2Device(opts["faults"], seed=opts["seed"])
         self.virtual = opts["clock"] == "virtual"
@@ -90,38 +90,16 @@ class Serial(SerialBase):
         self._stop = False
         self.is_open = True
         if not self.virtual:
-            self._thread = threading.Thread(target=self._run, name="tcs2emu-clock", daemon=True)
-            self._thread.start()
+            self._start_clock(self._run, "tcs2emu-clock")
 
     def close(self):
         if self.is_open:
             self.is_open = False
-            with self._lock:
-                self._stop = True
-                self._lock.notify_all()
-            if self._thread is not None and self._thread is not threading.current_thread():
-                self._thread.join(timeout=1.0)
-            self._thread = None
+            self._stop_clock(self._lock)
         super().close()
 
-    def from_url(self, url):
-        return parse_url(url)
-
-    def _reconfigure_port(self):
-        pass
-
-    def _update_break_state(self):
-        pass
-
-    def _update_rts_state(self):
-        pass
-
-    def _update_dtr_state(self):
-        pass
-
     def _check(self):
-        if not self.is_open:
-            raise PortNotOpenError()
+        self._check_open()
         if self.device.disconnected:
             raise SerialException("tcs2emu: the device is disconnected (injected fault)")
 
@@ -188,22 +166,3 @@ class Serial(SerialBase):
         self._check()
         with self._lock:
             self._buf.clear()
-
-    def reset_output_buffer(self):
-        self._check()
-
-    @property
-    def cts(self):
-        return True
-
-    @property
-    def dsr(self):
-        return True
-
-    @property
-    def ri(self):
-        return False
-
-    @property
-    def cd(self):
-        return True

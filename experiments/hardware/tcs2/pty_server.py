@@ -7,17 +7,12 @@ or SIGTERM. A host opens the path as ``tcs2://PATH``.
 """
 from __future__ import annotations
 
-import os
-import select
-import signal
 import sys
-import threading
 import time
-import tty
 
 from experiments.errors import UserInputError
 
-from ..pty_server import hold_link
+from ..pty_server import PtyEndpoint, hold_link, stop_signals
 from .device import TICK_S, Tcs2Device
 
 __all__ = ["serve", "run"]
@@ -27,61 +22,30 @@ def serve(*, faults: str | None = None, seed: int = 0, speed: float = 1.0, link:
           sim: bool = True, announce=None, stop=None) -> int:
     """Run the emulated TCS II on a new pty until a signal (or ``stop()`` is true); return 0."""
     dev = Tcs2Device(faults, seed=seed, firmware=None if sim else "012")
-    master, slave = os.openpty()
-    tty.setraw(slave)
-    os.set_blocking(master, False)
-    path = os.ttyname(slave)
-    if link:
-        if os.path.islink(link):
-            os.unlink(link)
-        os.symlink(path, link)
-    stopping = []
-    # signals stop it when it runs as the program (a thread, e.g. a test's, uses ``stop``)
-    main = threading.current_thread() is threading.main_thread()
-    old = ({s: signal.signal(s, lambda n, f: stopping.append(n)) for s in (signal.SIGINT, signal.SIGTERM)}
-           if main else {})
-    (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
+    pty = PtyEndpoint(link)
     step = TICK_S / speed
-    next_t = time.monotonic()
-    pending = bytearray()
-    try:
-        while not stopping and not (stop is not None and stop()):
-            wait = max(0.0, next_t - time.monotonic())
-            r, _, _ = select.select([master], [master] if pending else [], [], min(wait, 0.05))
-            if r:
-                try:
-                    data = os.read(master, 65536)
-                except (BlockingIOError, InterruptedError, OSError):
-                    data = b""
-                if data and not dev.disconnected:
-                    dev.feed(data)
-            now = time.monotonic()
-            ticks = 0
-            while now >= next_t and ticks < 20:
-                dev.tick()
-                next_t += step
-                ticks += 1
-            if now - next_t > 0.5:
-                next_t = now                    # starved: do not race to catch up
-            if not dev.disconnected:
-                pending += dev.take()
-            else:
-                dev.take()
-            if pending:
-                try:
-                    k = os.write(master, pending)
-                    del pending[:k]
-                except (BlockingIOError, InterruptedError):
-                    pass
-                except OSError:
-                    pending.clear()
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
-        os.close(master)
-        os.close(slave)
-        if link and os.path.islink(link):
-            os.unlink(link)
+    with stop_signals() as stopping:
+        (announce or (lambda p: (print(p), sys.stdout.flush())))(pty.path)
+        next_t = time.monotonic()
+        try:
+            while not stopping and not (stop is not None and stop()):
+                wait = max(0.0, next_t - time.monotonic())
+                if pty.wait(min(wait, 0.05)):
+                    data = pty.read()
+                    if data and not dev.disconnected:
+                        dev.feed(data)
+                now = time.monotonic()
+                ticks = 0
+                while now >= next_t and ticks < 20:
+                    dev.tick()
+                    next_t += step
+                    ticks += 1
+                if now - next_t > 0.5:
+                    next_t = now                    # starved: do not race to catch up
+                out = dev.take()                    # a disconnected device's output is lost
+                pty.send(b"" if dev.disconnected else out)
+        finally:
+            pty.close()
     return 0
 
 

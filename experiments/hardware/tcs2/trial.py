@@ -82,7 +82,7 @@ class TcsTrial:
                 on_telemetry(fr)
             self.tr.pending, self.tr.callback = [], on_telemetry
         if on_event is not None:
-            self.tr.on_event = on_event
+            self.tr.attach_on_event(on_event)
 
     def end(self, reason: str, fault=None) -> None:
         if self.done:

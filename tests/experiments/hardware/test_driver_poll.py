@@ -28,13 +28,13 @@ def test_poll_runs_a_trial_without_blocking(real_clock_display):
     d.upload_profile(T, PROFILE)
     d.arm("playback", force_threshold_N=2.0, max_duration_s=10.0)
     d.sim_finger(press_after_s=0.1, force_N=2.5, hold_s=5.0)
-    frames, events, polls, longest = [], [], 0, 0.0
+    frames, events, polls, took = [], [], 0, []
     deadline = time.monotonic() + 15.0
     ended = False
     while not ended and time.monotonic() < deadline:
         t0 = time.monotonic()
         ended = d.poll(on_telemetry=frames.append, on_event=events.append)
-        longest = max(longest, time.monotonic() - t0)
+        took.append(time.monotonic() - t0)
         polls += 1
         time.sleep(1 / 60)                       # a frame of the caller's loop
     assert ended
@@ -44,8 +44,10 @@ def test_poll_runs_a_trial_without_blocking(real_clock_display):
     assert rec.contact_time_s == events[1].device_time_s
     assert rec.frames == len(frames) and rec.frames_lost == 0
     assert rec.tracking_rms_C < 0.05
-    # polling never waited for bytes: each call took far less than the 10 ms telemetry period
-    assert polls > 60 and longest < 0.01
+    # polling never waits for bytes: a waiting read would take its 10 ms timeout on every call;
+    # the median call takes far less (the median, so that a call pre-empted by another process
+    # on a loaded machine does not decide)
+    assert polls > 60 and float(np.median(took)) < 0.005
     assert d.status().state == "IDLE"
 
 
@@ -78,3 +80,23 @@ def test_abort_during_polling_ends_the_trial_as_aborted(real_clock_display):
         time.sleep(0.01)
     st = d.status()
     assert st.state == "IDLE" and st.setpoint_C == 32.0
+
+
+def test_events_before_the_callback_is_attached_are_replayed_in_order(real_clock_display):
+    """READY (and even CONTACT) may arrive while the caller is still drawing its cue, before it
+    attaches ``on_event``: they reach the callback first, not lost."""
+    d = real_clock_display
+    d.upload_profile(T, PROFILE)
+    d.arm("playback", force_threshold_N=2.0, max_duration_s=10.0)
+    d.sim_finger(press_after_s=0.2, force_N=2.5, hold_s=5.0)
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and d._trial.contact_s is None:
+        d.poll()                                  # routes frames and events; no callbacks yet
+        time.sleep(0.01)
+    assert d._trial.contact_s is not None, "no contact within 10 s"
+    events = []
+    rec = d.run_trial(timeout_s=10.0, on_event=events.append)
+    assert rec.status == "ok"
+    kinds = [e.kind for e in events]
+    assert kinds[:2] == ["READY", "CONTACT"] and kinds[-1] == "END"
+    assert events[1].device_time_s == rec.contact_time_s

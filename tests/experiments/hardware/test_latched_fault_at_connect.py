@@ -1,0 +1,70 @@
+"""A display latched in FAULT before the host connects: refused at the handshake with what to do,
+and reset only by the operator's `thermocue clear-fault` (the emulator on a real pty)."""
+import subprocess
+import sys
+import time
+
+import pytest
+
+from experiments.errors import DisplayFaultLatched
+from experiments.hardware import open_display
+
+from test_pty_server import read_log, start_emulator, stop
+
+
+def _wait_for_fault(log, within_s=30.0):
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline:
+        if log.exists() and any(r.get("event") == "fault" for r in read_log(log)):
+            return
+        time.sleep(0.05)
+    pytest.fail(f"the emulator logged no fault within {within_s} s")
+
+
+def _thermocue(*args, stdin=subprocess.DEVNULL):
+    return subprocess.run([sys.executable, "-m", "experiments", *args], capture_output=True,
+                          text=True, stdin=stdin, timeout=60)
+
+
+def test_a_latched_fault_is_refused_at_the_handshake_and_cleared_only_by_the_operator(tmp_path):
+    # the Peltier driver sticks at full heating 0.2 s after power-up, with no host connected
+    proc, path, log = start_emulator(tmp_path, "--faults", "overtemp@0.2+1")
+    try:
+        _wait_for_fault(log)
+        with pytest.raises(DisplayFaultLatched) as exc:
+            open_display(path)
+        msg = str(exc.value)
+        assert exc.value.code == "OVER_TEMPERATURE"
+        assert path in msg and "OVER_TEMPERATURE" in msg and f"thermocue clear-fault {path}" in msg
+        # the handshake stopped after HELLO and STATUS: no limits, no neutral reached the device
+        events = [r["event"] for r in read_log(log)]
+        assert "hello" in events
+        assert "limits" not in events and "neutral" not in events
+
+        # no confirmation, no terminal: refused (exit 2), the fault stays
+        r = _thermocue("clear-fault", path)
+        assert r.returncode == 2, r.stderr
+        assert "--yes" in r.stderr
+        with pytest.raises(DisplayFaultLatched):
+            open_display(path)
+
+        r = _thermocue("clear-fault", path, "--yes")
+        assert r.returncode == 0, r.stderr
+        assert "was FAULT (OVER_TEMPERATURE), now IDLE" in r.stdout
+
+        events = [r["event"] for r in read_log(log)]
+        assert events.count("fault_cleared") == 1 and "limits" not in events
+        with open_display(path) as disp:
+            assert disp.status().state == "IDLE"
+        assert "limits" in [r["event"] for r in read_log(log)]
+
+        r = _thermocue("clear-fault", path, "--yes")
+        assert r.returncode == 0 and "not in FAULT" in r.stdout
+    finally:
+        stop(proc)
+
+
+def test_clear_fault_speaks_only_the_thermocue_protocol():
+    r = _thermocue("clear-fault", "tcs2:///dev/ttyACM0", "--yes")
+    assert r.returncode == 2
+    assert "tcs2://" in r.stderr and "thermocue display protocol" in r.stderr
