@@ -55,6 +55,7 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--profile", type=Path, help="also profile one run; top 25 to this file")
     ns = ap.parse_args(argv)
+    ns.data = ns.data.resolve()          # analyze runs with the repository as its folder
     if not ns.data.is_dir():
         print(f"{ns.data}: not a folder", file=sys.stderr)
         return 2
