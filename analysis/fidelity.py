@@ -159,12 +159,14 @@ def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str) -> float | None:
     group's mode contrast rests on that group's participants alone (its sandwich sums only their
     scores): a one-sample problem with ``m_g`` clusters, so ``m_g - 1`` (as a paired t-test of
     the group's participants). The contrast over both groups averages two such independent
-    means: ``m - 2`` (two groups, one mean each), as every other Wald row. ``None`` (normal)
-    when the fit has no ``df``.
+    means: ``m - 2`` (two groups, one mean each), as every other Wald row. A fallback formula
+    without a group x mode term has one mode effect for both groups, estimated from all
+    participants: ``m - 2`` for every row then. ``None`` (normal) when the fit has no ``df``.
     """
     if not fit.df:
         return None
-    if group == "both":
+    names = [t.name() for t in fit.design_info.terms]
+    if group == "both" or not any("group" in n and "mode" in n for n in names):
         return fit.df
     m_g = data.loc[data["group"] == group, "participant"].nunique()
     return float(m_g - 1) if m_g > 1 else None

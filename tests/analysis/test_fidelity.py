@@ -328,3 +328,16 @@ def test_participant_sandwich_equals_leave_one_participant_out_refits():
         model = np.sqrt(lvec @ fit.cov @ lvec)
         assert row.se == pytest.approx(max(sw, model), rel=1e-9)
         assert "bias-reduced participant sandwich" in row.interval
+
+
+def test_a_formula_without_group_by_mode_keeps_t_m_minus_2_on_every_row(trials):
+    # the additive fallback has one mode effect for both groups (all participants): no
+    # per-group df then
+    from analysis.models import FORMULA
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gee = fit_gee(trials, "correct ~ group + mode + C(roughness_id)")
+    assert gee.formula != FORMULA
+    table = mode_contrasts(gee, trials, margin_pp=10)
+    m = trials["participant"].nunique()
+    assert set(table["df"]) == {m - 2} and set(table["test"]) == {f"Wald t({m - 2})"}
