@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from _session_helpers import P01, write_protocol
+from _xkeys import send_key
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow]
 
@@ -40,9 +41,8 @@ def _events(path: Path) -> list[dict]:
 
 
 def _key(env, key: str) -> None:
-    subprocess.run(["xdotool", "search", "--sync", "--name", "^thermocue$", "windowfocus", "--sync",
-                    "key", "--delay", "30", key], env=env, timeout=15, check=True,
-                   capture_output=True)
+    """A real key press in the participant's window (:func:`_xkeys.send_key`)."""
+    send_key(env, key)
 
 
 def _run_answering(cmd, env, events_path, timeout_s=75):

@@ -34,7 +34,7 @@ check_main_script()
 
 # Every Builder script shows PsychoPy's experiment-info dialog unless "Show info dlg" is off: where
 # Qt cannot start (its X11 libraries missing), ask it on the terminal rather than abort.
-from ..info_dialog import install as _install_info_dialog  # noqa: E402
+from .info_dialog import install as _install_info_dialog  # noqa: E402
 
 _install_info_dialog()
 
