@@ -128,6 +128,12 @@ def _draw_panel(ax, table: pd.DataFrame, value: str, low: str, high: str, title:
         ax.errorbar(x, y, yerr=yerr, label=label, color=colour, marker=marker, linestyle=style,
                     capsize=3, linewidth=1.4, markersize=6, gid=f"{key[0]}-{key[1]}",
                     markerfacecolor=colour if key[1] == "real" else "white")
+    roughness_axes(ax, table, title)
+
+
+def roughness_axes(ax, table: pd.DataFrame, title: str) -> None:
+    """Figure 9's frame on ``ax``: chance line, the four samples (number and Ra in µm, from
+    ``table``'s ``roughness_id``/``roughness_um``) on x, proportion 0–1 on y, ``title``."""
     ax.axhline(CHANCE, color="0.4", linestyle=":", linewidth=1, label="chance (0.25)")
     ticks = table.drop_duplicates("roughness_id").set_index("roughness_id")["roughness_um"]
     ax.set_xticks([1, 2, 3, 4], [f"{r}#\n{ticks[r]:g} µm" if r in ticks.index else f"{r}#"

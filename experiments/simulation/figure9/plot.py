@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 __all__ = ["plot_figure9_distribution", "claims_note"]
@@ -35,7 +34,7 @@ def claims_note(probabilities: pd.DataFrame, scenario) -> str:
 
 
 def _panel(ax, props: pd.DataFrame, title: str, observed: pd.DataFrame | None = None):
-    from analysis.figures import CHANCE, DODGE, SERIES, Y_LIMITS
+    from analysis.figures import DODGE, SERIES, roughness_axes
     for key, (label, colour, marker, style) in SERIES.items():
         sel = props[(props["group"] == key[0]) & (props["mode"] == key[1])].sort_values("roughness_id")
         if sel.empty:
@@ -54,16 +53,7 @@ def _panel(ax, props: pd.DataFrame, title: str, observed: pd.DataFrame | None = 
                         linestyle="none", marker="x", color="black", markersize=7,
                         markeredgewidth=1.6, gid=f"study-{key[0]}-{key[1]}",
                         label="the emulated study" if key == ("A", "real") else None)
-    ax.axhline(CHANCE, color="0.4", linestyle=":", linewidth=1, label="chance (0.25)")
-    ticks = props.drop_duplicates("roughness_id").set_index("roughness_id")["roughness_um"]
-    ax.set_xticks([1, 2, 3, 4], [f"{r}#\n{ticks[r]:g} µm" if r in ticks.index else f"{r}#"
-                                 for r in (1, 2, 3, 4)])
-    ax.set_xlim(0.5, 4.5)
-    ax.set_ylim(*Y_LIMITS)
-    ax.set_yticks(np.linspace(0, 1, 6))
-    ax.grid(axis="y", color="0.9", linewidth=0.8)
-    ax.set_xlabel("Roughness Number (Ra)")
-    ax.set_title(title, fontsize=9)
+    roughness_axes(ax, props, title)
 
 
 def plot_figure9_distribution(left: pd.DataFrame, right: pd.DataFrame, observed, path, *,
