@@ -28,28 +28,31 @@ __all__ = ["install", "qt_problem", "TerminalDlgFromDict", "QT_LIBRARIES"]
 QT_LIBRARIES = ("libxcb-cursor0 libxcb-icccm4 libxcb-keysyms1 libxcb-image0 libxcb-render-util0 "
                 "libxcb-randr0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 libegl1 libfontconfig1")
 
-_PROBE = "from PyQt6 import QtWidgets; QtWidgets.QApplication([])"
+_PROBE = "from {lib} import QtWidgets; QtWidgets.QApplication([])"
 _checked: dict = {}
 
 
-def qt_problem(timeout_s: float = 60.0) -> str | None:
+def qt_problem(lib: str = "PyQt6", timeout_s: float = 60.0) -> str | None:
     """Why Qt cannot start here, in its own words; None when it can (checked once per process).
 
-    The check runs ``QApplication([])`` in a child process with this process's environment
-    (``DISPLAY``, ``QT_QPA_PLATFORM``), since a Qt that cannot start aborts its process.
+    The check runs ``QApplication([])`` of ``lib`` (PsychoPy's ``gui.haveQt``) in a child
+    process with this process's environment (``DISPLAY``, ``QT_QPA_PLATFORM``), since a Qt that
+    cannot start aborts its process.
     """
     if "problem" not in _checked:
         try:
-            from PyQt6 import QtWidgets
-            if QtWidgets.QApplication.instance() is not None:
+            import importlib
+            widgets = importlib.import_module(f"{lib}.QtWidgets")
+            if widgets.QApplication.instance() is not None:
                 _checked["problem"] = None          # Qt is already running in this process
                 return None
         except ImportError as exc:
-            _checked["problem"] = f"PyQt6 cannot be imported ({exc})"
+            _checked["problem"] = f"{lib} cannot be imported ({exc})"
             return _checked["problem"]
         try:
-            run = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True,
-                                 timeout=timeout_s, stdin=subprocess.DEVNULL)
+            run = subprocess.run([sys.executable, "-c", _PROBE.format(lib=lib)],
+                                 capture_output=True, text=True, timeout=timeout_s,
+                                 stdin=subprocess.DEVNULL)
             problem = None
             if run.returncode != 0:
                 lines = [ln.strip() for ln in run.stderr.splitlines() if ln.strip()]
@@ -175,7 +178,8 @@ def install() -> None:
         return                       # wxPython's dialog (the Builder app): not ours to change
 
     def DlgFromDict(*args, **kwargs):
-        reason = "neither PyQt nor wxPython can be imported" if original is None else qt_problem()
+        reason = ("neither PyQt nor wxPython can be imported" if original is None
+                  else qt_problem(gui.haveQt))
         if reason is None:
             return original(*args, **kwargs)
         return _fallback(reason, args, kwargs)
