@@ -495,7 +495,7 @@ def build(out: Path, env: dict, keep: Path | None = None) -> str:
         "if any text was shorter than its minimum. Minimums are lower bounds: how much longer a text",
         "stays depends on the participant, the experimenter and the display (the cue stays up until",
         "the contact has been recorded, the question until the key; the keys here come 0.3 s after",
-        "the window asks, so the question and the instructions show their minimum). Against the",
+        "the window asks, so the question and the instructions stay about their minimum). Against the",
         "emulator the stand-in hand presses as soon as the display is armed, before the cue is up,",
         "so the cue's time here is shorter than the contact; with a person it includes the reach.",
         f"Load average while it ran: {load[0]:.2f}, {load[1]:.2f}, {load[2]:.2f}.",
