@@ -38,6 +38,18 @@ def qt_problem(lib: str = "PyQt6", timeout_s: float = 60.0) -> str | None:
     The check runs ``QApplication([])`` of ``lib`` (PsychoPy's ``gui.haveQt``) in a child
     process with this process's environment (``DISPLAY``, ``QT_QPA_PLATFORM``), since a Qt that
     cannot start aborts its process.
+
+    Parameters
+    ----------
+    lib : str
+        The Qt binding PsychoPy's ``gui`` uses (``"PyQt6"`` or ``"PyQt5"``).
+    timeout_s : float, s
+        How long the child process may take to start Qt.
+
+    Returns
+    -------
+    str or None
+        Qt's own message (its ``qt.qpa.*`` lines, else its last line), or None.
     """
     if "problem" not in _checked:
         try:
