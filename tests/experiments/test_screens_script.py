@@ -23,6 +23,7 @@ pytestmark = [pytest.mark.gui, pytest.mark.slow,
 SCRIPT = Path(__file__).resolve().parents[2] / "docs" / "screens" / "make_screens.py"
 
 
+@pytest.mark.timeout(900)      # two sessions on the real clock: ~90 s on 2 cores at load 5
 def test_make_screens_writes_every_state_with_times_at_least_their_minimum(tmp_path, xvfb):
     out = tmp_path / "screens"
     run = subprocess.run([sys.executable, str(SCRIPT), str(out)], env={**os.environ, **xvfb},
