@@ -39,8 +39,11 @@ def _run(ns) -> int:
         if not sys.stdin.isatty():
             raise UserInputError("not resetting without confirmation: check the pad and its "
                                  "sensors, then run again with --yes")
-        answer = input(f"Have the pad and its sensors on {ns.url} been checked? "
-                       f"Type 'reset' to clear the fault: ")
+        try:
+            answer = input(f"Have the pad and its sensors on {ns.url} been checked? "
+                           f"Type 'reset' to clear the fault: ")
+        except EOFError:                      # Ctrl-D at the prompt: no confirmation
+            answer = ""
         if answer.strip().lower() != "reset":
             print("thermocue clear-fault: not reset", file=sys.stderr)
             return 1

@@ -68,3 +68,23 @@ def test_clear_fault_speaks_only_the_thermocue_protocol():
     r = _thermocue("clear-fault", "tcs2:///dev/ttyACM0", "--yes")
     assert r.returncode == 2
     assert "tcs2://" in r.stderr and "thermocue display protocol" in r.stderr
+
+
+def test_clear_fault_cancelled_at_the_prompt_with_ctrl_d_is_one_line_not_a_traceback():
+    import os
+    master, slave = os.openpty()
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "experiments", "clear-fault",
+                                 "/dev/thermocue-no-such-port"], stdin=slave,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.close(slave)
+        slave = None
+        os.write(master, b"\x04")                 # Ctrl-D at the confirmation prompt
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if slave is not None:
+            os.close(slave)
+        os.close(master)
+    assert proc.returncode == 1, err
+    assert "Traceback" not in err and "not reset" in err
+    assert len(err.strip().splitlines()) == 1
