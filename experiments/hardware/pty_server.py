@@ -188,9 +188,13 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     int
         0.
     """
-    pty = PtyEndpoint(link)
-    jlog = JsonLog(log)
-    core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
+    jlog = JsonLog(log)               # before the pty and its link: a bad --log leaves nothing
+    try:
+        core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
+        pty = PtyEndpoint(link)
+    except BaseException:
+        jlog.close()
+        raise
     dev = core.device
     path = pty.path
     tick = TICK_US * 1e-6
