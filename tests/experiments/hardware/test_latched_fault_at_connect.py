@@ -88,3 +88,18 @@ def test_clear_fault_cancelled_at_the_prompt_with_ctrl_d_is_one_line_not_a_trace
     assert proc.returncode == 1, err
     assert "Traceback" not in err and "not reset" in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_clear_fault_on_a_display_not_in_fault_leaves_it_as_it_is(tmp_path):
+    """STATUS only (allowed before HELLO): no HELLO, which would make the device drop a running
+    host's half-done profile upload and the replies it keeps for that host's retries."""
+    from test_pty_server import start_emulator as start, stop as stop_emulator
+    proc, path, log = start(tmp_path)
+    try:
+        r = _thermocue("clear-fault", path, "--yes")
+        assert r.returncode == 0, r.stderr
+        assert "not in FAULT (state IDLE)" in r.stdout
+        events = [rec["event"] for rec in read_log(log)]
+        assert "hello" not in events and "fault_cleared" not in events
+    finally:
+        stop_emulator(proc)
