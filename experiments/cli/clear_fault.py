@@ -3,9 +3,9 @@
 A display that overheated or lost a sensor latches in FAULT (relay open, no arming), and a
 session refuses to start on it. Only a person who has checked the pad and its sensors should
 clear it; thermocue never does it on its own. The command asks for that confirmation (typed
-``reset`` on a terminal, or ``--yes`` in a script), asks STATUS and, only if the display is in FAULT, sends HELLO and CLEAR_FAULT on the
-thermocue display protocol, and prints the state before and after. A display that is not in
-FAULT is left as it is.
+``reset`` on a terminal, or ``--yes`` in a script), asks STATUS and, only if the display is
+in FAULT, sends HELLO and CLEAR_FAULT on the thermocue display protocol, and prints the state
+before and after. A display that is not in FAULT is left as it is (no HELLO).
 """
 from __future__ import annotations
 
