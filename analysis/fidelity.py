@@ -17,7 +17,8 @@ model of ``correct ~ group * mode * C(roughness_id)``:
 
 Reference distributions (:func:`contrast_df`): a row of one group is a within-participant
 contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
-row of both groups t(m - 2). From the random-slope mixed model the SE of each contrast is the
+row of both groups t(m - 2). A group of one participant has no reference: its rows and the
+both-groups row get no p-value, interval or equivalence test (``test`` says why). From the random-slope mixed model the SE of each contrast is the
 larger of the model-based one and the bias-reduced participant sandwich
 (:func:`analysis.models.contrast_se`).
 
