@@ -267,3 +267,26 @@ def test_an_unwritable_log_leaves_no_link_behind(tmp_path):
     assert r.returncode == 1 and str(log) in r.stderr and "Traceback" not in r.stderr
     assert not os.path.lexists(link)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("model", ["thermocue", "tcs2"])
+def test_an_emulator_whose_stdout_is_gone_leaves_no_link_behind(tmp_path, model):
+    """Its path cannot be printed (stdout a pipe nobody reads, e.g. `| head -0`): it stops,
+    and removes the --link it made (which would otherwise point at a closed pty number)."""
+    link = tmp_path / "display"
+    read_end, write_end = os.pipe()
+    os.close(read_end)                    # before the emulator starts: its print fails
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "experiments", "emulator", "--model",
+                                 model, "--link", str(link)], stdout=write_end,
+                                stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    finally:
+        os.close(write_end)
+    try:
+        proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode != 0
+    assert not os.path.lexists(link)
