@@ -11,8 +11,13 @@ from pathlib import Path
 import pytest
 
 from _session_helpers import P01, ROOT
-from experiments.bids import bids_label, export_dataset
+from experiments.bids import PARTICIPANT_LEVEL_COLUMNS, bids_label, export_dataset
+from experiments.bids_events import EVENT_COLUMNS, TRIAL_TYPES
 from experiments.logbook import TRIAL_COLUMNS
+
+#: The study's authors, in its protocol's [protocol] table.
+AUTHORS = ["Ada Lovelace", "Charles Babbage"]
+BEH_COLUMNS = [c for c in TRIAL_COLUMNS if c not in PARTICIPANT_LEVEL_COLUMNS]
 
 VALIDATOR = ROOT / ".venv" / "bids-validator" / "node_modules" / ".bin" / "bids-validator"
 
@@ -25,13 +30,30 @@ def validate(root: Path) -> dict:
     return json.loads(run.stdout[start:])
 
 
+def _with_authors(proto: Path, authors) -> Path:
+    """``proto`` with ``authors`` in its [protocol] table."""
+    text = proto.read_text()
+    listed = ", ".join(json.dumps(a) for a in authors)
+    proto.write_text(text.replace("[protocol]\n", f"[protocol]\nauthors = [{listed}]\n", 1))
+    return proto
+
+
+def _read_tsv(path: Path) -> list[dict]:
+    with open(path, newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh, delimiter="\t"))
+
+
+def _hidden(root: Path) -> list[str]:
+    return sorted(p.relative_to(root).as_posix() for p in root.rglob(".*"))
+
+
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     """Two participants, P01 with two sessions, through `thermocue run` (simulated answers)."""
     from experiments.cli import main
     from test_two_audiences import _protocol
     tmp = tmp_path_factory.mktemp("bids")
-    proto = _protocol(tmp)
+    proto = _with_authors(_protocol(tmp), AUTHORS)
     data = tmp / "data"
     for record in (P01, P01, ROOT / "participants" / "examples" / "P02.json"):
         assert main(["run", str(proto), "--participant", str(record), "--display",
@@ -47,23 +69,39 @@ def test_every_finished_session_is_valid_bids(study):
     assert beh == ["sub-P01/ses-S01/beh/sub-P01_ses-S01_task-mini_beh.tsv",
                    "sub-P01/ses-S02/beh/sub-P01_ses-S02_task-mini_beh.tsv",
                    "sub-P02/ses-S01/beh/sub-P02_ses-S01_task-mini_beh.tsv"]
+    events = sorted(p.relative_to(root).as_posix() for p in root.rglob("*_events.tsv"))
+    assert events == [b.replace("_beh.tsv", "_events.tsv") for b in beh]
     report = validate(root)
     assert report["issues"]["errors"] == [], report["issues"]["errors"]
-    # Warnings only: no authors in dataset_description.json (the lab adds them), and P02 lacks
-    # the second session P01 has (true of this data).
-    assert {w["key"] for w in report["issues"]["warnings"]} == {"NO_AUTHORS", "MISSING_SESSION"}
+    # The one warning: P02 lacks the second session P01 has (true of this data, nothing to fix).
+    # No NO_AUTHORS: the protocol's [protocol] authors are the dataset's Authors.
+    assert [w["key"] for w in report["issues"]["warnings"]] == ["MISSING_SESSION"]
+    assert json.loads((root / "dataset_description.json").read_text())["Authors"] == AUTHORS
     assert report["summary"]["subjects"] == ["P01", "P02"] and report["summary"]["tasks"] == ["mini"]
-    # The TSV is the session's trials.csv (missing values n/a); the sidecar describes each column.
+    assert set(report["summary"]["dataTypes"]) == {"beh", "events"}
+    # The TSV is the session's trials.csv (missing values n/a) without the participant's own
+    # columns; the sidecar describes each column.
     tsv = (root / beh[0]).read_text().splitlines()
     with open(study / "P01" / "S01" / "trials.csv", newline="") as fh:
         table = list(csv.reader(fh))
-    assert tsv[0].split("\t") == list(TRIAL_COLUMNS) and len(tsv) == len(table)
+    assert table[0] == list(TRIAL_COLUMNS)
+    assert tsv[0].split("\t") == BEH_COLUMNS and len(tsv) == len(table)
+    assert not {"sex", "group", "skin_thickness_um", "age"} & set(tsv[0].split("\t"))
     sidecar = json.loads((root / beh[0].replace(".tsv", ".json")).read_text())
     assert sidecar["rt_s"]["Units"] == "s" and "question" in sidecar["rt_s"]["Description"]
-    assert set(TRIAL_COLUMNS) <= set(sidecar)
-    with open(root / "participants.tsv", newline="") as fh:
-        people = list(csv.DictReader(fh, delimiter="\t"))
+    assert set(BEH_COLUMNS) <= set(sidecar) and "sex" not in sidecar
+    # The participant's own values: once, in participants.tsv, as the sessions' rows had them.
+    people = _read_tsv(root / "participants.tsv")
     assert [(p["participant_id"], p["group"]) for p in people] == [("sub-P01", "A"), ("sub-P02", "B")]
+    for person, folder in zip(people, ("P01/S01", "P02/S01")):
+        with open(study / folder / "trials.csv", newline="") as fh:
+            first = next(csv.DictReader(fh))
+        assert (person["sex"], person["group"]) == (first["sex"], first["group"])
+        assert float(person["skin_thickness_um"]) == float(first["skin_thickness_um"])
+    described = json.loads((root / "participants.json").read_text())
+    assert set(described["group"]["Levels"]) == {"A", "B"} and described["skin_thickness_um"]["Units"] == "um"
+    # Nothing hidden left in the dataset (the participants.tsv lock is on the folder itself).
+    assert _hidden(root) == []
 
 
 @pytest.mark.slow
@@ -105,3 +143,170 @@ def test_a_rebuilt_dataset_with_its_complete_marker_is_valid_bids(study, tmp_pat
     report = validate(out)
     assert report["issues"]["errors"] == [], report["issues"]["errors"]
     assert report["summary"]["subjects"] == ["P01", "P02"]
+
+
+def _log(folder: Path) -> list[dict]:
+    return [json.loads(line) for line in (folder / "events.jsonl").read_text().splitlines()]
+
+
+def _utc(text: str):
+    import datetime as dt
+    return dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
+
+
+@pytest.mark.slow
+def test_events_tsv_times_every_trial_on_the_log_clock(study):
+    """Each session's events.tsv against its own log and trials.csv: onsets in seconds from
+    session_started on the log's clock, contact for real trials, playback for simulated ones,
+    the answer inside its trial, the trial's values on every row."""
+    root = study / "bids"
+    for folder, stem in ((study / "P01" / "S01", "sub-P01/ses-S01/beh/sub-P01_ses-S01_task-mini"),
+                         (study / "P02" / "S01", "sub-P02/ses-S01/beh/sub-P02_ses-S01_task-mini")):
+        rows = _read_tsv(root / f"{stem}_events.tsv")
+        assert list(rows[0]) == list(EVENT_COLUMNS)
+        log = _log(folder)
+        zero = _utc(log[0]["time"])
+        assert log[0]["event"] == "session_started"
+        onsets = [float(r["onset"]) for r in rows]
+        assert onsets == sorted(onsets) and onsets[0] >= 0
+        with open(folder / "trials.csv", newline="") as fh:
+            trials = list(csv.DictReader(fh))
+        assert {r["trial_type"] for r in rows} <= set(TRIAL_TYPES)
+        for trial in trials:
+            mine = [r for r in rows if r["trial_index"] == trial["trial_index"]
+                    and r["attempt"] == trial["attempt"]]
+            kinds = [r["trial_type"] for r in mine]
+            touch = "contact" if trial["mode"] == "real" else "playback"
+            answered = trial["response_id"] != ""
+            assert kinds[0] == "trial" and kinds.count(touch) == 1 and kinds.count("cue") == 1
+            assert kinds.count("response") == int(answered)
+            assert ("contact" if touch == "playback" else "playback") not in kinds
+            for r in mine:      # the trial's values on each of its rows
+                assert (r["sample"], r["mode"], r["block"], r["status"]) == (
+                    trial["roughness_id"], trial["mode"], trial["block"], trial["status"])
+                assert r["response"] == (trial["response_id"] or "n/a")
+                assert r["correct"] == (trial["correct"] or "n/a")
+            # Times: the log's stamps of the trial's own events, minus session_started's.
+            started = next(e for e in log if e["event"] == "trial_started"
+                           and e["trial_index"] == int(trial["trial_index"]))
+            ended = next(e for e in log if e["event"] == "trial_completed"
+                         and e["trial_index"] == int(trial["trial_index"]))
+            whole = mine[0]
+            assert float(whole["onset"]) == pytest.approx((_utc(started["time"]) - zero).total_seconds(), abs=5e-4)
+            assert float(whole["duration"]) == pytest.approx(
+                (_utc(ended["time"]) - _utc(started["time"])).total_seconds(), abs=5e-4)
+            state = "record" if touch == "contact" else "playback"     # the engine's state
+            entered = next(e for e in log if e["event"] == "state" and e.get("to") == state
+                           and e.get("trial_index") == int(trial["trial_index"]))
+            contact = next(r for r in mine if r["trial_type"] == touch)
+            assert float(contact["onset"]) == pytest.approx((_utc(entered["time"]) - zero).total_seconds(), abs=5e-4)
+            t0, t1 = float(whole["onset"]), float(whole["onset"]) + float(whole["duration"])
+            for r in mine:
+                assert t0 <= float(r["onset"]) <= t1 + 1e-9
+                if r["duration"] != "n/a":
+                    assert float(r["onset"]) + float(r["duration"]) <= t1 + 1e-9
+            if answered:
+                answer = next(r for r in mine if r["trial_type"] == "response")
+                assert float(answer["onset"]) >= float(contact["onset"]) + float(contact["duration"]) - 1e-9
+                assert answer["duration"] == "0.0"
+        sidecar = json.loads((root / f"{stem}_events.json").read_text())
+        assert set(sidecar) == set(EVENT_COLUMNS)
+        assert sidecar["onset"]["Units"] == sidecar["duration"]["Units"] == "s"
+        assert set(sidecar["trial_type"]["Levels"]) == set(TRIAL_TYPES)
+        assert sidecar["roughness_um"]["Units"] == "um"
+
+
+def test_an_attempt_without_contact_or_end_gets_no_made_up_time():
+    """An attempt aborted before contact has no contact row; an attempt whose end was never
+    logged (the session killed) has duration n/a and status n/a."""
+    from experiments.bids_events import event_rows
+    def ev(kind, t, **fields):
+        return {"event": kind, "time": f"2026-01-01T10:00:{t:06.3f}Z", **fields}
+    spec = {"block": "real", "mode": "real", "roughness_id": 2, "roughness_um": 12.5, "repetition": 1}
+    log = [ev("session_started", 0.0, session="S01", participant="P01", protocol_hash="x", seed=1),
+           ev("trial_started", 1.0, trial_index=1, attempt=1, **spec),
+           ev("cue", 1.5, trial_index=1, attempt=1, played=True),
+           ev("state", 1.6, trial_index=1, attempt=1, **{"from": "cue", "to": "wait_contact"}),
+           ev("state", 6.6, trial_index=1, attempt=1, **{"from": "wait_contact", "to": "no_contact"}),
+           ev("trial_aborted", 6.7, trial_index=1, attempt=1, reason="no contact"),
+           ev("trial_started", 8.0, trial_index=1, attempt=2, **spec),
+           ev("cue", 8.25, trial_index=1, attempt=2, played=False),
+           ev("state", 9.0, trial_index=1, attempt=2, **{"from": "wait_contact", "to": "record"})]
+    rows = [dict(zip(EVENT_COLUMNS, r)) for r in event_rows(log)]
+    assert [(r["onset"], r["duration"], r["trial_type"], r["attempt"], r["status"]) for r in rows] == [
+        (1.0, 5.7, "trial", 1, "aborted"), (1.5, None, "cue", 1, "aborted"),
+        (8.0, None, "trial", 2, None), (9.0, None, "contact", 2, None)]
+    assert all(r["response"] is None and r["correct"] is None and r["sample"] == 2 for r in rows)
+    assert event_rows(log[1:]) is None          # no session start: no onsets to give
+
+
+@pytest.mark.slow
+def test_authors_from_the_command_line_or_one_line_saying_how(study, tmp_path, capsys):
+    """--author NAME (repeatable) replaces the protocol's; a study without either is exported,
+    with one warning line naming the file and both ways to add them."""
+    from experiments.cli import main
+    out = tmp_path / "given"
+    assert main(["export-bids", str(study), "--out", str(out), "--author", "Grace Hopper",
+                 "--author", "Alan Turing"]) == 0
+    assert json.loads((out / "dataset_description.json").read_text())["Authors"] == [
+        "Grace Hopper", "Alan Turing"]
+    assert "Authors" not in capsys.readouterr().err
+    report = validate(out)
+    assert report["issues"]["errors"] == []
+    assert [w["key"] for w in report["issues"]["warnings"]] == ["MISSING_SESSION"]
+    # A protocol without authors, no --author: written, and told.
+    from test_two_audiences import _protocol
+    data = tmp_path / "data"
+    assert main(["run", str(_protocol(tmp_path)), "--participant", str(P01), "--display",
+                 "emulator://?clock=virtual", "--responder", "simulated", "--data", str(data),
+                 "--quiet"]) == 0
+    capsys.readouterr()
+    bare = tmp_path / "bare"
+    assert main(["export-bids", str(data), "--out", str(bare)]) == 0
+    err = [line for line in capsys.readouterr().err.splitlines() if "Authors" in line]
+    assert err == [f"thermocue export-bids: warning: {bare / 'dataset_description.json'}: Authors: "
+                   f"none given (the BIDS validator warns NO_AUTHORS); add `authors = [\"Name\", "
+                   f"...]` to the protocol's [protocol] table, or pass --author NAME (once per author)"]
+    assert "Authors" not in json.loads((bare / "dataset_description.json").read_text())
+    assert [w["key"] for w in validate(bare)["issues"]["warnings"]] == ["NO_AUTHORS"]
+
+
+def test_protocol_authors_are_checked(tmp_path):
+    from test_two_audiences import _protocol
+    from experiments.errors import ProtocolError
+    from experiments.protocol import load_protocol
+    proto = _protocol(tmp_path)
+    assert load_protocol(proto).authors == ()
+    assert load_protocol(_with_authors(proto, ["A. B.", "C. D."])).authors == ("A. B.", "C. D.")
+    for bad, what in (("\"A. B.\"", "a list of author names"), ("[\"A\", \"\"]", "non-empty"),
+                      ("[\"A\", \"A\"]", "each author once")):
+        text = _protocol(tmp_path).read_text().replace("[protocol]\n", f"[protocol]\nauthors = {bad}\n", 1)
+        proto.write_text(text)
+        with pytest.raises(ProtocolError, match=r"protocol\.authors: expected .*" + what):
+            load_protocol(proto)
+
+
+def _merge_many(root, worker, n):
+    from experiments.bids import _participants
+    for i in range(n):
+        _participants(Path(root), {f"sub-W{worker}N{i}": {"participant_id": f"sub-W{worker}N{i}",
+                                                           "group": "A"}})
+
+
+def test_parallel_sessions_lose_no_participant_and_leave_no_lock_file(tmp_path):
+    """Sessions finishing at once (separate processes) each merge their participant into
+    participants.tsv: all of them are there, and no lock file is left in the dataset."""
+    import multiprocessing
+    root = tmp_path / "bids"
+    root.mkdir()
+    (root / ".participants.lock").write_text("")        # left by an earlier version: removed
+    ctx = multiprocessing.get_context("fork")
+    workers = [ctx.Process(target=_merge_many, args=(str(root), w, 40)) for w in range(4)]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join(120)
+        assert w.exitcode == 0
+    ids = [r["participant_id"] for r in _read_tsv(root / "participants.tsv")]
+    assert sorted(ids) == sorted(f"sub-W{w}N{i}" for w in range(4) for i in range(40))
+    assert _hidden(root) == []
