@@ -16,14 +16,28 @@ Rows (``trial_type``), one per event that was logged, sorted by onset:
     the contact cue (a sound) was played (``cue`` with ``played`` true); duration ``n/a`` (its
     length is not logged).
 ``contact`` / ``playback``
-    the finger touched the sample (real trial: the ``record`` state) or the display (simulated
-    trial: the ``playback`` state); duration until the engine left that state.
+    the finger touched the sample (real trial) or the display (simulated trial), until the
+    display's recording ended. The end is the host's time the recording returned (the
+    ``record`` / ``playback`` state event's ``ended_at_utc``, on the log's clock); the duration is
+    the recording's own length from the contact (``contact_duration_s`` of the attempt's row,
+    timed by the display to 1 ms; over a recording of at most minutes the two clocks' rates
+    differ by well under 1 ms); the onset is the end minus that duration. (The host's time of
+    reading the first frame in contact, ``contact_at_utc``, is not used there: frames may queue
+    while the host shows a text, and it then reads the contact late.) A session on a *virtual*
+    clock (``session_started`` ``clock = "virtual"``: the emulator as fast as possible) has no
+    real-time length to place on the host's clock: its row runs from ``contact_at_utc`` to
+    ``ended_at_utc``, the host's times as it ran (no frame queues in that emulator). Without
+    these (an attempt interrupted before its row, a log written by an earlier version) there is
+    no such row.
 ``question``
     the question's first frame on the participant's window (``text_on`` of the ``question``
     screen) until its ``text_off``; ``question_cue``: the question's sound in the spoken-answer
     mode (duration ``n/a``).
 ``response``
-    the answer was logged (``response``); duration 0 (a key press).
+    the answer: a keyed answer when it was logged (``response``, right after the key), a spoken
+    one when the experimenter keyed it (its ``answer_keyed`` event, before the confirmation);
+    duration 0 (a key press). The precise response time is ``rt_s`` of ``beh.tsv`` (the
+    keyboard's clock, from the question's first frame).
 ``feedback``
     the practice block's feedback was given; duration ``n/a``.
 
@@ -130,17 +144,19 @@ class _Attempt:
         self.status: str | None = None
         self.response: Mapping = {}
         self.marks: list[tuple[str, _dt.datetime, _dt.datetime | None, bool]] = []
-        self.open_state: tuple[str, _dt.datetime] | None = None
+        self.touch: tuple | None = None   # (trial_type, contact frame read, recording's end)
         self.open_question: _dt.datetime | None = None
+        self.keyed: dict[str, _dt.datetime] = {}      # spoken answers: key -> when keyed
 
     def mark(self, kind, t, end=None, instant=False):
         self.marks.append((kind, t, end, instant))
 
 
-def _attempts(events: Iterable[Mapping]) -> list[_Attempt]:
+def _attempts(events: Iterable[Mapping], virtual: bool = False) -> list[_Attempt]:
     attempts: list[_Attempt] = []
     by_key: dict[tuple[int, int], _Attempt] = {}
     current: _Attempt | None = None
+    asked: _Attempt | None = None          # the attempt whose question is on screen
     for e in events:
         kind = e.get("event")
         t = event_time(e)
@@ -149,6 +165,13 @@ def _attempts(events: Iterable[Mapping]) -> list[_Attempt]:
             current = _Attempt(e, t)
             attempts.append(current)
             by_key[key] = current
+            continue
+        if kind == "text_off" and e.get("state") == "question" and asked is not None:
+            when = event_time(e)             # the question may stay up past the trial's end
+            if when is not None and asked.open_question is not None:
+                asked.mark("question", asked.open_question, when)
+                asked.open_question = None
+            asked = None
             continue
         a = by_key.get(key) if key[0] is not None and "attempt" in e else current
         if a is None or (key[0] is not None and _int(a.spec.get("trial_index")) != key[0]):
@@ -160,38 +183,54 @@ def _attempts(events: Iterable[Mapping]) -> list[_Attempt]:
             row = e.get("row") if isinstance(e.get("row"), Mapping) else {}
             a.row = row
             a.status = "aborted" if kind == "trial_aborted" else (row.get("status") or None)
-            _close(a, t)
             current = None
-        elif kind == "state":
-            if a.open_state is not None:
-                a.mark(_CONTACT_STATES[a.open_state[0]], a.open_state[1], t)
-                a.open_state = None
-            if e.get("to") in _CONTACT_STATES:
-                a.open_state = (e.get("to"), t)
+        elif kind == "state" and e.get("to") in _CONTACT_STATES:
+            ended = event_time({"time": e.get("ended_at_utc")})
+            if ended is not None:
+                a.touch = (_CONTACT_STATES[e["to"]], event_time({"time": e.get("contact_at_utc")}),
+                           ended)
         elif kind == "cue" and e.get("played") is True:
             a.mark("cue", t)
         elif kind == "question_cue" and e.get("played") is True:
             a.mark("question_cue", t)
         elif kind == "text_on" and e.get("state") == "question":
-            a.open_question = t
-        elif kind == "text_off" and e.get("state") == "question" and a.open_question is not None:
-            a.mark("question", a.open_question, t)
-            a.open_question = None
+            _close(a)
+            a.open_question, asked = t, a
+        elif kind == "answer_keyed":
+            a.keyed[str(e.get("key"))] = t
         elif kind == "response":
             a.response = e
-            a.mark("response", t, instant=True)
+            keyed = a.keyed.get(str(e.get("response_id")))
+            spoken = e.get("answer_mode") == "spoken" and keyed is not None
+            a.mark("response", keyed if spoken else t, instant=True)
         elif kind == "feedback":
             a.mark("feedback", t)
     for a in attempts:
-        _close(a, None)
+        _close(a)
+        if a.touch is None:
+            continue
+        kind, read, ended = a.touch
+        length = _seconds_value(a.row.get("contact_duration_s"))
+        if virtual and read is not None and read <= ended:
+            a.mark(kind, read, ended)
+        elif not virtual and length is not None:
+            a.mark(kind, ended - _dt.timedelta(seconds=length), ended)
     return attempts
 
 
-def _close(a: _Attempt, t: _dt.datetime | None) -> None:
-    """An open contact state or question ends at ``t`` (None: its end was not logged)."""
-    if a.open_state is not None:
-        a.mark(_CONTACT_STATES[a.open_state[0]], a.open_state[1], t)
-        a.open_state = None
+def _seconds_value(v: Any) -> float | None:
+    """A finite non-negative number of seconds, or None."""
+    if isinstance(v, bool) or v is None or v == "":
+        return None
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) and f >= 0 else None
+
+
+def _close(a: _Attempt) -> None:
+    """A question whose end was not logged: its row, duration ``n/a``."""
     if a.open_question is not None:
         a.mark("question", a.open_question, None)
         a.open_question = None
@@ -216,11 +255,12 @@ def event_rows(events: list[Mapping]) -> list[list] | None:
     list of list or None
         Sorted by onset (then by the log's order).
     """
-    zero = next((event_time(e) for e in events if e.get("event") == "session_started"), None)
+    started = next((e for e in events if e.get("event") == "session_started"), {})
+    zero = event_time(started)
     if zero is None:
         return None
     rows = []
-    for a in _attempts(events):
+    for a in _attempts(events, virtual=started.get("clock") == "virtual"):
         spec, row, resp = a.spec, a.row, a.response
         response = _int(resp.get("response_id")) if resp else _int(row.get("response_id"))
         correct = _int(row.get("correct"))

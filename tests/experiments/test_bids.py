@@ -199,7 +199,12 @@ def test_events_tsv_times_every_trial_on_the_log_clock(study):
             entered = next(e for e in log if e["event"] == "state" and e.get("to") == state
                            and e.get("trial_index") == int(trial["trial_index"]))
             contact = next(r for r in mine if r["trial_type"] == touch)
-            assert float(contact["onset"]) == pytest.approx((_utc(entered["time"]) - zero).total_seconds(), abs=5e-4)
+            # a virtual-clock session: the host's time of reading the first frame in contact and
+            # of the recording's end, logged with the state once the trial ended
+            assert _utc(entered["contact_at_utc"]) <= _utc(entered["ended_at_utc"]) <= _utc(entered["time"])
+            assert float(contact["onset"]) == pytest.approx((_utc(entered["contact_at_utc"]) - zero).total_seconds(), abs=5e-4)
+            assert float(contact["duration"]) == pytest.approx(
+                (_utc(entered["ended_at_utc"]) - _utc(entered["contact_at_utc"])).total_seconds(), abs=5e-4)
             t0, t1 = float(whole["onset"]), float(whole["onset"]) + float(whole["duration"])
             for r in mine:
                 assert t0 <= float(r["onset"]) <= t1 + 1e-9
@@ -231,13 +236,52 @@ def test_an_attempt_without_contact_or_end_gets_no_made_up_time():
            ev("trial_aborted", 6.7, trial_index=1, attempt=1, reason="no contact"),
            ev("trial_started", 8.0, trial_index=1, attempt=2, **spec),
            ev("cue", 8.25, trial_index=1, attempt=2, played=False),
-           ev("state", 9.0, trial_index=1, attempt=2, **{"from": "wait_contact", "to": "record"})]
+           ev("state", 9.0, trial_index=1, attempt=2, contact_at_utc="2026-01-01T10:00:08.500Z",
+              ended_at_utc="2026-01-01T10:00:08.900Z", **{"from": "wait_contact", "to": "record"})]
     rows = [dict(zip(EVENT_COLUMNS, r)) for r in event_rows(log)]
+    # Real clock: the recording's length is the row's (never written here): no contact row.
     assert [(r["onset"], r["duration"], r["trial_type"], r["attempt"], r["status"]) for r in rows] == [
         (1.0, 5.7, "trial", 1, "aborted"), (1.5, None, "cue", 1, "aborted"),
-        (8.0, None, "trial", 2, None), (9.0, None, "contact", 2, None)]
+        (8.0, None, "trial", 2, None)]
     assert all(r["response"] is None and r["correct"] is None and r["sample"] == 2 for r in rows)
     assert event_rows(log[1:]) is None          # no session start: no onsets to give
+    # Virtual clock: the host's own times of the contact and of the recording's end.
+    virtual = [{**log[0], "clock": "virtual"}] + log[1:]
+    assert [(r[0], r[1], r[2]) for r in event_rows(virtual)][-1] == (8.5, 0.4, "contact")
+    # A state logged without those times (an earlier version's log): no contact row.
+    old = [{k: v for k, v in e.items() if not k.endswith("_at_utc")} for e in virtual]
+    assert "contact" not in [r[2] for r in event_rows(old)]
+
+
+def test_spoken_answers_are_timed_when_keyed_and_a_question_may_outlast_its_trial():
+    from experiments.bids_events import event_rows
+    def ev(kind, t, **fields):
+        return {"event": kind, "time": f"2026-01-01T10:00:{t:06.3f}Z", **fields}
+    spec = {"block": "real", "mode": "simulated", "roughness_id": 3, "roughness_um": 50.0}
+    log = [ev("session_started", 0.0, session="S01", participant="P01", protocol_hash="x", seed=1),
+           ev("trial_started", 1.0, trial_index=1, attempt=1, **spec),
+           ev("state", 4.0, trial_index=1, attempt=1, contact_at_utc="2026-01-01T10:00:02.900Z",
+              ended_at_utc="2026-01-01T10:00:03.250Z", **{"from": "wait_contact", "to": "playback"}),
+           ev("question_cue", 4.5, trial_index=1, played=True),
+           ev("answer_keyed", 6.0, trial_index=1, key="2", after_cue_s=1.5),
+           ev("answer_undone", 6.5, trial_index=1, key="2", replaced_by="3"),
+           ev("answer_keyed", 7.0, trial_index=1, key="3", after_cue_s=2.5),
+           ev("answer_confirmed", 8.0, trial_index=1, key="3"),
+           ev("response", 8.1, trial_index=1, attempt=1, response_id=3, answer_mode="spoken"),
+           ev("trial_completed", 8.2, trial_index=1, attempt=1,
+              row={"status": "ok", "correct": 1, "contact_duration_s": 1.25}),
+           ev("trial_started", 10.0, trial_index=2, attempt=1, **spec),
+           ev("text_on", 11.0, state="question", text="Which sample?"),
+           ev("response", 12.0, trial_index=2, attempt=1, response_id=1, answer_mode="keyed"),
+           ev("trial_completed", 12.1, trial_index=2, attempt=1, row={"status": "ok", "correct": 0}),
+           ev("text_off", 13.0, state="question")]
+    rows = [dict(zip(EVENT_COLUMNS, r)) for r in event_rows(log)]
+    assert [(r["onset"], r["duration"], r["trial_type"], r["trial_index"], r["response"], r["correct"],
+             r["answer_mode"]) for r in rows] == [
+        (1.0, 7.2, "trial", 1, 3, 1, "spoken"), (2.0, 1.25, "playback", 1, 3, 1, "spoken"),
+        (4.5, None, "question_cue", 1, 3, 1, "spoken"), (7.0, 0.0, "response", 1, 3, 1, "spoken"),
+        (10.0, 2.1, "trial", 2, 1, 0, "keyed"), (11.0, 2.0, "question", 2, 1, 0, "keyed"),
+        (12.0, 0.0, "response", 2, 1, 0, "keyed")]
 
 
 @pytest.mark.slow
@@ -310,3 +354,67 @@ def test_parallel_sessions_lose_no_participant_and_leave_no_lock_file(tmp_path):
     ids = [r["participant_id"] for r in _read_tsv(root / "participants.tsv")]
     assert sorted(ids) == sorted(f"sub-W{w}N{i}" for w in range(4) for i in range(40))
     assert _hidden(root) == []
+
+
+@pytest.mark.slow
+@pytest.mark.gui
+def test_a_window_session_on_the_real_clock_has_its_question_and_real_durations(tmp_path, xvfb):
+    """A PsychoPy-window session on the real clock (real X keys, the emulator on a pty): its
+    events.tsv has the question rows, and the contact lasted, on the log's clock, at least the
+    protocol's recording time (the device records record_s = 1 s from the contact on)."""
+    import os
+    if shutil.which("xdotool") is None:
+        pytest.skip("xdotool is not installed")
+    from _session_helpers import write_protocol
+    from test_session_gui import THERMOCUE, _run_answering, emulator_pty  # noqa: F401 (fixture)
+    link = tmp_path / "thermo-pty"
+    emulator = subprocess.Popen(THERMOCUE + ["emulator", "--link", str(link)],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        import time
+        deadline = time.monotonic() + 20
+        while not link.exists():
+            assert emulator.poll() is None and time.monotonic() < deadline, "emulator did not start"
+            time.sleep(0.05)
+        proto = _with_authors(write_protocol(tmp_path, contact_s=1.0, rewarm_s=0.0,
+                                             real_samples=(2,), sim_samples=(3,)), AUTHORS)
+        data = tmp_path / "data"
+        run, _, _, err = _run_answering(
+            THERMOCUE + ["run", str(proto), "--participant", str(P01), "--display", str(link),
+                         "--responder", "psychopy", "--data", str(data), "--session", "S01",
+                         "--responder-option", "max_wait_s=40"],
+            {**os.environ, **xvfb}, data / "P01" / "S01" / "events.jsonl")
+    finally:
+        emulator.terminate()
+        emulator.wait(timeout=10)
+    assert run.returncode == 0, err[-2000:]
+    root = data / "bids"
+    rows = _read_tsv(root / "sub-P01/ses-S01/beh/sub-P01_ses-S01_task-mini_events.tsv")
+    log = _log(data / "P01" / "S01")
+    assert log[0]["clock"] == "real"
+    with open(data / "P01" / "S01" / "trials.csv", newline="") as fh:
+        trials = [t for t in csv.DictReader(fh) if t["status"] == "ok"]
+    assert [(t["mode"], t["roughness_id"]) for t in trials] == [("real", "2"), ("simulated", "3")]
+    for t in trials:
+        mine = [r for r in rows if (r["trial_index"], r["attempt"]) == (t["trial_index"], t["attempt"])]
+        kinds = [r["trial_type"] for r in mine]
+        touch = "contact" if t["mode"] == "real" else "playback"
+        assert kinds.count(touch) == 1 and kinds.count("question") == 1 and kinds.count("response") == 1
+        contact = mine[kinds.index(touch)]
+        question = mine[kinds.index("question")]
+        answer = mine[kinds.index("response")]
+        # The recording's length (the display's clock) ending when the host had it back: with
+        # the engine's state event's ended_at_utc, on the log's clock.
+        assert float(contact["duration"]) == pytest.approx(float(t["contact_duration_s"]), abs=1e-3)
+        entered = next(e for e in log if e["event"] == "state" and e.get("to") == ("record" if touch == "contact" else "playback")
+                       and e.get("trial_index") == int(t["trial_index"]) and e.get("attempt") == int(t["attempt"]))
+        end = (_utc(entered["ended_at_utc"]) - _utc(log[0]["time"])).total_seconds()
+        assert float(contact["onset"]) + float(contact["duration"]) == pytest.approx(end, abs=2e-3)
+        # the question came after the touch ended, the answer while it was up (or as it went)
+        assert float(question["onset"]) >= end - 0.002
+        assert float(question["onset"]) <= float(answer["onset"])
+        if question["duration"] != "n/a":
+            assert float(answer["onset"]) <= float(question["onset"]) + float(question["duration"]) + 0.002
+        assert answer["response"] == t["response_id"] == t["roughness_id"]
+    report = validate(root)
+    assert report["issues"]["errors"] == [] and report["issues"]["warnings"] == [], report["issues"]
