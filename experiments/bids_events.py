@@ -11,7 +11,9 @@ session stays one run: its onsets go on counting from the first start (the pause
 Rows (``trial_type``), one per event that was logged, sorted by onset:
 
 ``trial``
-    ``trial_started`` to the attempt's ``trial_completed`` or ``trial_aborted``.
+    ``trial_started`` to the attempt's ``trial_completed`` or ``trial_aborted``. An attempt cut
+    by a killed process is marked aborted only when the session is resumed: that time is not
+    the attempt's end, so its duration is ``n/a``.
 ``cue``
     the contact cue (a sound) was played (``cue`` with ``played`` true); duration ``n/a`` (its
     length is not logged).
@@ -136,8 +138,9 @@ def _int(v: Any) -> int | None:
 class _Attempt:
     """What the log says about one trial attempt."""
 
-    def __init__(self, spec: Mapping, t: _dt.datetime | None):
+    def __init__(self, spec: Mapping, t: _dt.datetime | None, run: int = 0):
         self.spec = spec
+        self.run = run                # which start of the session (0, then each resume) ran it
         self.start = t
         self.end: _dt.datetime | None = None
         self.row: Mapping = {}
@@ -157,12 +160,16 @@ def _attempts(events: Iterable[Mapping], virtual: bool = False) -> list[_Attempt
     by_key: dict[tuple[int, int], _Attempt] = {}
     current: _Attempt | None = None
     asked: _Attempt | None = None          # the attempt whose question is on screen
+    run = -1
     for e in events:
         kind = e.get("event")
         t = event_time(e)
         key = (_int(e.get("trial_index")), _int(e.get("attempt")) or 1)
+        if kind in ("session_started", "session_resumed"):
+            run, current, asked = run + 1, None, None
+            continue
         if kind == "trial_started":
-            current = _Attempt(e, t)
+            current = _Attempt(e, t, run)
             attempts.append(current)
             by_key[key] = current
             continue
@@ -179,7 +186,7 @@ def _attempts(events: Iterable[Mapping], virtual: bool = False) -> list[_Attempt
         if t is None:
             continue
         if kind in ("trial_completed", "trial_aborted"):
-            a.end = t
+            a.end = t if run == a.run else None      # logged by a later run: not its end
             row = e.get("row") if isinstance(e.get("row"), Mapping) else {}
             a.row = row
             a.status = "aborted" if kind == "trial_aborted" else (row.get("status") or None)

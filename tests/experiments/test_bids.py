@@ -248,6 +248,14 @@ def test_an_attempt_without_contact_or_end_gets_no_made_up_time():
     # Virtual clock: the host's own times of the contact and of the recording's end.
     virtual = [{**log[0], "clock": "virtual"}] + log[1:]
     assert [(r[0], r[1], r[2]) for r in event_rows(virtual)][-1] == (8.5, 0.4, "contact")
+    # An attempt cut by a killed process, marked aborted when the session resumed: its end is
+    # not known (the resume's time is not it).
+    killed = log + [ev("session_resumed", 30.0, session="S01", participant="P01", protocol_hash="x",
+                       seed=1),
+                    ev("trial_aborted", 30.1, trial_index=1, attempt=2, reason="killed")]
+    rows = [dict(zip(EVENT_COLUMNS, r)) for r in event_rows(killed)]
+    assert [(r["onset"], r["duration"], r["attempt"], r["status"]) for r in rows if r["trial_type"] == "trial"] \
+        == [(1.0, 5.7, 1, "aborted"), (8.0, None, 2, "aborted")]
     # A state logged without those times (an earlier version's log): no contact row.
     old = [{k: v for k, v in e.items() if not k.endswith("_at_utc")} for e in virtual]
     assert "contact" not in [r[2] for r in event_rows(old)]
