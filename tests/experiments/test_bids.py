@@ -374,7 +374,7 @@ def test_a_window_session_on_the_real_clock_has_its_question_and_real_durations(
     if shutil.which("xdotool") is None:
         pytest.skip("xdotool is not installed")
     from _session_helpers import write_protocol
-    from test_session_gui import THERMOCUE, _run_answering, emulator_pty  # noqa: F401 (fixture)
+    from test_session_gui import THERMOCUE, _run_answering
     link = tmp_path / "thermo-pty"
     emulator = subprocess.Popen(THERMOCUE + ["emulator", "--link", str(link)],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
