@@ -426,3 +426,34 @@ def test_a_window_session_on_the_real_clock_has_its_question_and_real_durations(
         assert answer["response"] == t["response_id"] == t["roughness_id"]
     report = validate(root)
     assert report["issues"]["errors"] == [] and report["issues"]["warnings"] == [], report["issues"]
+
+
+def test_faulted_and_contactless_attempts_in_the_events_and_still_valid_bids(tmp_path):
+    """The engine's own outcomes (the scripted stand-in display: a link error, a faulted
+    recording, no contact): every attempt has its trial row with its status; a contact row only
+    where the display saw contact; no response where none was asked; valid BIDS."""
+    from _session_helpers import ScriptedDisplay, ScriptedResponder, write_protocol
+    from experiments.bids import export_session
+    from experiments.session import create_session
+    proto = _with_authors(write_protocol(tmp_path, sim_samples=()), AUTHORS)
+    s = create_session(proto, P01, tmp_path / "data", "scripted://", seed=7,
+                       responder_name="scripted-test", clock="virtual")
+    assert s.run(ScriptedResponder(), display=ScriptedDisplay(
+        script=["ok", "raise", "fault", "ok", "no_contact", "ok"])) == 0
+    beh = export_session(s.directory, tmp_path / "bids")
+    rows = _read_tsv(beh.with_name(beh.name.replace("_beh.tsv", "_events.tsv")))
+    seen = [(r["trial_index"], r["attempt"], r["trial_type"], r["status"], r["response"])
+            for r in rows if r["trial_index"] in ("2", "3") and r["trial_type"] != "cue"]
+    with open(s.directory / "trials.csv", newline="") as fh:
+        answers = {t["trial_index"]: t["response_id"] for t in csv.DictReader(fh) if t["status"] == "ok"}
+    two, three = answers["2"], answers["3"]
+    assert two and three
+    assert seen == [
+        ("2", "1", "trial", "fault", "n/a"),                 # the link error: no recording
+        ("2", "2", "trial", "fault", "n/a"), ("2", "2", "contact", "fault", "n/a"),  # then a fault
+        ("2", "3", "trial", "ok", two), ("2", "3", "contact", "ok", two), ("2", "3", "response", "ok", two),
+        ("3", "1", "trial", "aborted", "n/a"),               # no contact
+        ("3", "2", "trial", "ok", three), ("3", "2", "contact", "ok", three),
+        ("3", "2", "response", "ok", three)]
+    report = validate(tmp_path / "bids")
+    assert report["issues"]["errors"] == [] and report["issues"]["warnings"] == [], report["issues"]
