@@ -37,6 +37,7 @@ import io
 import json
 import os
 import re
+from contextlib import contextmanager
 from pathlib import Path
 
 from experiments.bids_events import EVENT_COLUMNS, EVENT_SIDECAR, event_rows
@@ -199,22 +200,31 @@ def _describe_dataset(root: Path, authors: list[str], override: bool = False) ->
             "logs and the contact traces. Written by thermocue (experiments/bids.py).\n"))
 
 
-def _participants(root: Path, records: dict) -> None:
-    """Write participants.tsv/json from ``records`` (label -> row), merged with the old file.
+@contextmanager
+def _dataset_lock(root: Path):
+    """Hold an exclusive ``flock`` on the dataset folder itself (opened read-only).
 
-    Sessions finishing at once (``reproduce --workers``) take turns: an exclusive ``flock`` on
-    the dataset folder itself (opened read-only) around the read-merge-write, so that no
-    participant is lost and no lock file is left in the dataset."""
+    Sessions finishing at once (``reproduce --workers``) take turns on the files they
+    read-merge-write (``participants.tsv``, ``dataset_description.json``), so that no participant
+    is lost; no lock file is left in the dataset (an earlier version's ``.participants.lock`` is
+    removed)."""
     fd = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
-        _merge_participants(root, records)
-        try:                          # the lock file of earlier versions, hidden in the dataset
+        yield
+        try:
             os.unlink(root / ".participants.lock")
         except FileNotFoundError:
             pass
     finally:
         os.close(fd)
+
+
+def _participants(root: Path, records: dict) -> None:
+    """Write participants.tsv/json from ``records`` (label -> row), merged with the old file,
+    under :func:`_dataset_lock`."""
+    with _dataset_lock(root):
+        _merge_participants(root, records)
 
 
 def _merge_participants(root: Path, records: dict) -> None:
@@ -323,8 +333,9 @@ def export_session(session_dir, root=None, read: SessionFolder | None = None,
     keep = [i for i, c in enumerate(header) if c not in PARTICIPANT_LEVEL_COLUMNS]
     header, rows = [header[i] for i in keep], [[r[i] for i in keep] for r in rows]
     folder = ensure_dir(root / f"sub-{sub}" / f"ses-{ses}" / "beh")
-    _describe_dataset(root, list(dict.fromkeys(authors)) if authors else protocol_authors(meta),
-                      override=bool(authors) and override_authors)
+    with _dataset_lock(root):
+        _describe_dataset(root, list(dict.fromkeys(authors)) if authors else protocol_authors(meta),
+                          override=bool(authors) and override_authors)
     stem = f"sub-{sub}_ses-{ses}_task-{task}"
     atomic_write_text(folder / f"{stem}_beh.tsv", _tsv(header, rows))
     described = {"TaskName": task,
