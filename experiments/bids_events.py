@@ -5,7 +5,8 @@ taken from one clock, the host's UTC clock that stamps each event of ``events.js
 ``time``, millisecond resolution): ``onset`` is an event's time minus the session's
 ``session_started`` time, in seconds; ``duration`` is the time from that event to the event that
 ends it, on the same clock. The device's clock (``contact_onset_s``, traces) and the keyboard's
-(``rt_s``) are other clocks: they stay in ``beh.tsv`` and are never mixed in here. A resumed
+(``rt_s``) are other clocks: they stay in ``beh.tsv``, and no time of theirs is put on the log's
+clock; the one thing taken from the device is a length, the contact's (below). A resumed
 session stays one run: its onsets go on counting from the first start (the pause shows).
 
 Rows (``trial_type``), one per event that was logged, sorted by onset:
@@ -86,7 +87,9 @@ EVENT_SIDECAR = {
                              "session_started event), on the " + _CLOCK, "Units": "s"},
     "duration": {"Description": "Time from the event to the event that ended it, on the same "
                                 "clock; 0 for an instant (a key press); n/a when the end was not "
-                                "logged", "Units": "s"},
+                                "logged. contact and playback rows: the recording's length from "
+                                "the contact as the display timed it (1 ms), ending when the "
+                                "host had the recording back", "Units": "s"},
     "trial_type": {"Description": "What happened", "Levels": TRIAL_TYPES},
     "trial_index": {"Description": "Trial number in the session's schedule, from 1 (the "
                                    "trial_index of beh.tsv)"},
