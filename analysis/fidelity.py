@@ -13,7 +13,8 @@ model of ``correct ~ group * mode * C(roughness_id)``:
   proportions against the margin +-delta: H0 ``|real - simulated| >= delta``; equivalence is
   shown when both one-sided p-values are below alpha (equivalently, the ``1 - 2 alpha`` interval
   lies inside +-delta);
-- the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8.
+- the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8 (over
+  those tested: the rows of a group of one participant have no p-value).
 
 Reference distributions (:func:`contrast_df`): a row of one group is a within-participant
 contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
