@@ -55,5 +55,11 @@ def _run(ns) -> int:
     if before != "FAULT":
         print(f"{ns.url}: not in FAULT (state {before}); nothing to clear")
         return 0
-    print(f"{ns.url}: was FAULT ({fault or 'no code'}), now {after}")
-    return 0 if after == "IDLE" else 1
+    if after == "IDLE":
+        print(f"{ns.url}: was FAULT ({fault or 'no code'}), now IDLE")
+        return 0
+    print(f"thermocue clear-fault: {ns.url}: was FAULT ({fault or 'no code'}) and is {after} "
+          f"after the reset: the cause is still there (a sensor reading out of range or stuck, "
+          f"the pad too hot); check the pad, its sensors and their wiring before trying again",
+          file=sys.stderr)
+    return 1

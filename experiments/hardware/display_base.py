@@ -15,6 +15,7 @@ so a test's stand-in needs no inheritance, and something without ``run_trial`` i
 from __future__ import annotations
 
 import abc
+import time
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar
 
@@ -29,6 +30,10 @@ __all__ = ["Capabilities", "ProfileReceipt", "Display", "EmulatedDisplay", "open
 #: How a backend learns that the finger touched: a force threshold on the pad's sensors, or the
 #: start of stimulation (a probe that rests on the skin has no force sensor).
 CONTACT_DETECTION = ("force", "stimulus_start")
+
+#: How long a port locked by another program is tried again before the open fails, s: the lock
+#: of a host that has just died lasts until its heartbeat helper has exited (milliseconds).
+IN_USE_WAIT_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -265,10 +270,25 @@ def open_serial_port(url: str, baudrate: int = 115200):
     import serial
 
     from experiments.errors import DisplayError
-    try:
-        return serial.serial_for_url(url, baudrate=baudrate, timeout=0.01, write_timeout=1.0)
-    except (serial.SerialException, OSError, ValueError) as exc:
-        raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
+    # exclusive: a second program on the same port (another session, the PsychoPy plugin,
+    # `thermocue clear-fault`) would read half of this one's replies and telemetry. A host that
+    # has just died holds the lock until its heartbeat helper sees the closed pipe and exits
+    # (milliseconds), so a busy port is tried again for up to IN_USE_WAIT_S.
+    deadline = time.monotonic() + IN_USE_WAIT_S
+    while True:
+        try:
+            return serial.serial_for_url(url, baudrate=baudrate, timeout=0.01,
+                                         write_timeout=1.0, exclusive=True)
+        except (serial.SerialException, OSError, ValueError) as exc:
+            in_use = "exclusively lock" in str(exc)
+            if in_use and time.monotonic() < deadline:
+                time.sleep(0.05)
+                continue
+            if in_use:
+                raise DisplayError(f"display: cannot open {url!r}: it is in use by another "
+                                   f"program (another thermocue session, a PsychoPy experiment "
+                                   f"or thermocue clear-fault); close that first") from exc
+            raise DisplayError(f"display: cannot open {url!r}: {exc}") from exc
 
 
 def handshake_or_close(display, port, on_failure=None):

@@ -65,6 +65,10 @@ __all__ = ["ThermalDisplay", "EmulatorDisplay", "TrialRecording", "ContactEvent"
 CHUNK = 512                    # samples per upload chunk
 
 
+#: After an operator's reset, how long the device is watched for a fault that trips again, s
+#: (a stuck sensor takes 20 identical readings, 0.2 s; an out-of-range one trips at once).
+RESET_WATCH_S = 1.0
+
 class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
 
@@ -535,6 +539,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         """The operator's reset of a display latched in FAULT: STATUS, then HELLO and CLEAR_FAULT.
 
         For a person who has checked the pad and its sensors (``thermocue clear-fault URL``);
+        the device is watched for :data:`RESET_WATCH_S` after the reset, so that a cause still
+        there (a sensor out of range or stuck) is reported as FAULT, not as a successful reset;
         sets no limits and arms nothing. A device that is not in FAULT is left as it is: it is
         asked STATUS alone (allowed before a HELLO), since a HELLO starts a new host's session
         on the device (a host using it would lose its half-done upload and its retry replies).
@@ -552,7 +558,13 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             disp.info = decode_hello(disp._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
                                      disp.port_name)
             disp.clear_fault()
+            # a cause still there (a sensor out of range or stuck) trips it again at once:
+            # watch it for RESET_WATCH_S before calling the reset done
+            end = disp._clock() + RESET_WATCH_S
             after = Status.decode(disp._transact(Cmd.STATUS))
+            while after.state != "FAULT" and disp._clock() < end:
+                disp.wait(0.05)
+                after = Status.decode(disp._transact(Cmd.STATUS))
             return before.state, before.last_fault, after.state
         finally:
             try:

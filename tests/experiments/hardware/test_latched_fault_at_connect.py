@@ -103,3 +103,37 @@ def test_clear_fault_on_a_display_not_in_fault_leaves_it_as_it_is(tmp_path):
         assert "hello" not in events and "fault_cleared" not in events
     finally:
         stop_emulator(proc)
+
+
+def test_a_port_in_use_is_refused_not_shared(tmp_path):
+    """Two programs on one port read each other's replies and telemetry: the second is refused
+    with one line, and the first keeps working."""
+    from experiments.errors import DisplayError
+    proc, path, log = start_emulator(tmp_path)
+    try:
+        with open_display(path) as first:
+            with pytest.raises(DisplayError) as exc:
+                open_display(path)
+            assert "in use by another program" in str(exc.value) and path in str(exc.value)
+            r = _thermocue("clear-fault", path, "--yes")
+            assert r.returncode == 1 and "in use by another program" in r.stderr, r.stderr
+            assert first.status().state == "IDLE"
+        with open_display(path) as again:             # free once the first has closed it
+            assert again.status().state == "IDLE"
+    finally:
+        stop(proc)
+
+
+def test_a_fault_whose_cause_remains_is_said_so_after_the_reset(tmp_path):
+    # the contact thermometer reads out of range (an open wire) from 0.2 s on and stays so:
+    # the device trips again at once after the operator's reset
+    proc, path, log = start_emulator(tmp_path, "--faults", "sensor_range@0.2")
+    try:
+        _wait_for_fault(log)
+        r = _thermocue("clear-fault", path, "--yes")
+        assert r.returncode == 1, (r.stdout, r.stderr)
+        assert "the cause is still there" in r.stderr and "SENSOR_FAILURE" in r.stderr
+        assert "Traceback" not in r.stderr
+        assert [e["event"] for e in read_log(log)].count("fault_cleared") == 1
+    finally:
+        stop(proc)
