@@ -135,7 +135,37 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
                                      else " + (1 | participant)" if fit.kind == "glmm" else ""),
                          "note": mixed_note if fit.kind != "gee" else
                                  "; ".join(fit.notes)})
-    return pd.DataFrame(rows, columns=TESTS_COLUMNS)
+    return _withhold_lone_group_tests(pd.DataFrame(rows, columns=TESTS_COLUMNS), trials)
+
+
+#: Rows of :func:`tests_table` that compare group A with group B.
+GROUP_COMPARISON_ROLES = ("primary", "omnibus", "per-sample", "interaction")
+
+
+def _withhold_lone_group_tests(table: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
+    """A group of one participant has no between-participant variance of its own: a comparison
+    of the groups would take its SE from the other group alone and read far surer than it is.
+    Such rows keep their estimates and lose their test, interval and p-values, with the reason.
+    """
+    if table.empty or "group" not in trials:
+        return table
+    counts = trials.groupby("group")["participant"].nunique()
+    lone = [g for g in ("A", "B") if g in counts.index and counts[g] < 2]
+    if not lone:
+        return table
+    reason = (f"not tested: group {lone[0]} has {int(counts[lone[0]])} participant (a comparison "
+              f"of the groups needs at least 2 in each: no between-participant variance in "
+              f"group {lone[0]})")
+    rows = table["role"].isin(GROUP_COMPARISON_ROLES)
+    table = table.copy()
+    table.loc[rows, "test"] = reason
+    for col in ("se", "ci_low", "ci_high", "statistic", "df", "p_value", "p_holm",
+                "difference_ci_low", "difference_ci_high"):
+        if col in table:
+            table.loc[rows, col] = np.nan
+    if "interval" in table:
+        table.loc[rows, "interval"] = "none (see test)"
+    return table
 
 
 def complete_cases_row(trials: pd.DataFrame, missing: pd.DataFrame,

@@ -126,6 +126,12 @@ def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[s
     out = []
     if tests is None or tests.empty:
         return out
+    withheld = tests[tests["test"].astype(str).str.startswith("not tested")]
+    if not withheld.empty:
+        reason = str(withheld["test"].iloc[0]).removeprefix("not tested: ")
+        out.append(f"No comparison of the groups is tested ({', '.join(sorted(set(withheld['role'])))}): "
+                   f"{reason}. Their estimates, without intervals or p-values, are in tests.csv.")
+        tests = tests.drop(withheld.index)
     by_role = {role: sel for role, sel in tests.groupby("role")}
     if "primary" in by_role:
         r = by_role["primary"].iloc[0]

@@ -370,3 +370,38 @@ def test_a_group_of_one_participant_gets_no_test_and_no_interval():
     from analysis.fidelity import fidelity_paragraph
     text = fidelity_paragraph(table, 10, "the protocol")
     assert "group B has 1 participant" in text and "nan" not in text
+
+
+def test_a_group_of_one_participant_gets_no_group_comparison_test():
+    """The same 13 + 1 study: the comparisons of the groups (primary, omnibus, per-sample,
+    interaction) took group B's variance from one participant and printed p-values (the
+    interaction p = 0.70 with a variance from group A alone). They now keep their estimates
+    and say why there is no test; the summary says it in one sentence, never 'nan'."""
+    from analysis import group_contrasts
+    from analysis.report import GROUP_COMPARISON_ROLES, tests_table
+    from analysis.summary import tests_summary
+
+    full = generate(null_cells(), n_a=13, n_b=17, reps=12, sigma=0.3, seed=11)
+    trials = full[(full["group"] == "A") | (full["participant"] == "B00")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gee = fit_gee(trials)
+        contrasts = group_contrasts(gee, trials)
+        table = tests_table(gee, None, contrasts, trials)
+    compared = table[table["role"].isin(GROUP_COMPARISON_ROLES)]
+    assert set(compared["role"]) == {"primary", "omnibus", "per-sample", "interaction"}
+    assert compared["test"].str.startswith("not tested: group B has 1 participant").all()
+    assert compared["p_value"].isna().all() and compared["ci_low"].isna().all()
+    assert compared.loc[compared["role"] == "primary", "estimate"].notna().all()
+    text = " ".join(tests_summary(contrasts, table))
+    assert "No comparison of the groups is tested" in text and "group B has 1 participant" in text
+    assert "nan" not in text
+
+    # two participants in B: tested as before
+    trials2 = full[(full["group"] == "A") | full["participant"].isin(["B00", "B01"])]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gee2 = fit_gee(trials2)
+        table2 = tests_table(gee2, None, group_contrasts(gee2, trials2), trials2)
+    assert not table2["test"].str.startswith("not tested").any()
+    assert table2.loc[table2["role"] == "primary", "p_value"].notna().all()
