@@ -162,6 +162,31 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
     # finger presses the protocol's threshold + 0.5 N (2.5 N), overshooting a little at onset.
     forces = [float(r["contact_force_N"]) for r in rows]
     assert all(2.4 <= f <= 2.8 for f in forces), forces
+    # Every model evaluation went through the scene planner and its decision is in the log:
+    # what the simulated participant felt (at its own tolerance, not the perceptual floor) ...
+    from experiments.participant_model.person import MODEL_TOLERANCE_C
+    felt = {}
+    for e in events:
+        if e.get("event") == "simulated_receptor_model":
+            felt.setdefault(e["trial_index"], []).append(e)
+    assert sorted(felt) == sorted(int(r["trial_index"]) for r in rows)
+    for r in rows:
+        for e in felt[int(r["trial_index"])]:
+            assert e["felt_as"] == r["mode"]
+            assert e["tolerance_K"] == MODEL_TOLERANCE_C < 0.3
+            assert 0.0 <= e["bound_K"] <= e["tolerance_K"] and e["model"].startswith("exact")
+            assert e["method"] == "exact" and isinstance(e["neglected"], list)
+    # ... and what the emulated finger touched: the passive sample's interface, planned
+    fingers = {e["trial_index"]: e for e in events if e.get("event") == "emulated_finger_model"}
+    assert sorted(fingers) == sorted(int(r["trial_index"]) for r in rows)
+    for r in rows:
+        e = fingers[int(r["trial_index"])]
+        if r["mode"] == "real":
+            for side in ("interface_material", "interface_skin"):
+                d = e["sample_model"][side]
+                assert d["tolerance_K"] == 0.005 and 0.0 <= d["bound_K"] <= 0.005, d
+        else:
+            assert e["finger_on_pad_model"]["method"] == "plant state"
 
 
 def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule():
