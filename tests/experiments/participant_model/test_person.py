@@ -412,3 +412,19 @@ def test_model_tolerance_is_a_quarter_of_the_smallest_difference_between_the_sti
     assert 0.10 < smallest < 0.13
     assert MODEL_TOLERANCE_C <= smallest / 4 < MODEL_TOLERANCE_C + 0.005
     assert params.model_tolerance_C == MODEL_TOLERANCE_C
+
+
+def test_real_and_displayed_contacts_are_planned_at_the_participants_tolerance():
+    # both paths through the scene planner, at a quarter of the smallest difference between the
+    # samples (MODEL_TOLERANCE_C), not the 0.3 K perceptual floor; the decision kept for the log
+    from experiments.participant_model.person import MODEL_TOLERANCE_C, SimulatedPerson
+    p = SimulatedPerson(800e-6)
+    p.feel_real(12.5e-6)
+    assert p.last_plan["felt_as"] == "real"
+    assert p.last_plan["tolerance_K"] == MODEL_TOLERANCE_C
+    assert 0.0 <= p.last_plan["bound_K"] <= MODEL_TOLERANCE_C
+    t = np.arange(0, 5.0, 0.01)
+    p.feel_imposed(t, 22.0 + 6.0 * np.exp(-t / 2.0), pad_resistance=1e-4)
+    assert p.last_display_plan.tolerance_K == MODEL_TOLERANCE_C
+    assert p.last_plan["felt_as"] == "simulated"
+    assert p.last_plan["tolerance_K"] == MODEL_TOLERANCE_C < 0.3

@@ -30,6 +30,16 @@ class FakeDisplay:
         self.calls.append(("sim_finger", kw))
 
 
+class LoggingSession(SimpleNamespace):
+    """A session stand-in that keeps the events a responder logs."""
+
+    def __init__(self, **kw):
+        super().__init__(events=[], **kw)
+
+    def log_event(self, kind, **fields):
+        self.events.append((kind, fields))
+
+
 def spec(index, block, mode, rid, rep=1):
     return TrialSpec(trial_index=index, block=block, mode=mode, roughness_id=rid,
                      roughness_um=RA_UM[rid], repetition=rep)
@@ -230,9 +240,13 @@ def test_simulated_trial_is_felt_through_the_protocols_finger_pad_resistance():
     np.testing.assert_allclose(felt, expected, atol=1e-9)
     # the protocol's pad: a rough steel face has a larger resistance, so the same pad feels warmer
     r = SimulatedResponder(**opts)
-    r.session = SimpleNamespace(protocol=SimpleNamespace(
+    r.session = LoggingSession(protocol=SimpleNamespace(
         simulation=SimpleNamespace(pad_roughness_um=50.0, pad_material="stainless_steel")))
     _, rough, _ = r.feel(trial, stim)
+    # the display path's decision is logged, at the participant's tolerance (not 0.3 K)
+    (kind, e), = r.session.events
+    assert kind == "simulated_receptor_model" and e["felt_as"] == "simulated"
+    assert e["tolerance_K"] == r.params.model_tolerance_C < 0.1 and e["bound_K"] <= e["tolerance_K"]
     assert r.pad_resistance() == pytest.approx(person.pad_resistance(50e-6, "stainless_steel"), rel=1e-12)
     assert np.all(rough[100:] > felt[100:] + 0.05)
     # pad_contact=false: the pad temperature imposed on the skin, colder still than through R
@@ -283,7 +297,7 @@ def test_hold_depends_on_whether_the_block_asks_for_an_answer():
 
     protocol = load_protocol("roughness_recognition")
     r = SimulatedResponder(seed=1, skin_thickness_um=700.0)
-    r.session = SimpleNamespace(protocol=protocol)
+    r.session = LoggingSession(protocol=protocol)
     answered = r.params.duration_s + 0.5          # feels, answers, lets go
 
     def hold(trial, responder=r):
@@ -300,12 +314,12 @@ def test_hold_depends_on_whether_the_block_asks_for_an_answer():
     exp1 = load_protocol("interface_temperature")
     (block,) = exp1.blocks
     assert not block.response and not block.feedback
-    r.session = SimpleNamespace(protocol=exp1)
+    r.session = LoggingSession(protocol=exp1)
     assert hold(spec(1, block.name, "real", 1)) == pytest.approx(
         max(answered, exp1.contact.record_s + HOLD_MARGIN_S))
-    r.session = SimpleNamespace(protocol=protocol)
+    r.session = LoggingSession(protocol=protocol)
     given = SimulatedResponder(seed=1, skin_thickness_um=700.0, hold_s="3.0")
-    given.session = SimpleNamespace(protocol=protocol)
+    given.session = LoggingSession(protocol=protocol)
     assert hold(spec(1, "familiarise", "real", 1), given) == 3.0      # an explicit option wins
 
 
