@@ -148,6 +148,17 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     session = json.loads(next((out / "data").glob("P16/*/session.json")).read_text())
     assert session["protocol"]["simulation"]["target_side"] == "skin"
     assert not [e for e in events if e["event"] == "simulated_percept"]   # log_percepts=false
+    # ... but every model decision is: what the participant felt and what the finger touched
+    trials = {e["trial_index"] for e in events if e["event"] == "trial_completed"}
+    felt = [e for e in events if e["event"] == "simulated_receptor_model"]
+    assert {e["trial_index"] for e in felt} == trials and all(e["tolerance_K"] < 0.3 for e in felt)
+    assert {e["trial_index"] for e in events if e["event"] == "emulated_finger_model"} == trials
+    # the Monte Carlo's decisions are in the report and in study.json
+    text = "\n".join(report)
+    assert "Every receptor temperature of the simulated persons went through the scene planner" in text
+    assert "real contacts: exact" in text and "replayed profiles felt on the pad: exact" in text
+    dec = study["scenario_settings"]["planner_decisions"]
+    assert dec["real"] and dec["display"]
 
 
 @pytest.mark.parametrize("args, message", [
