@@ -12,8 +12,14 @@ model of ``correct ~ group * mode * C(roughness_id)``:
 - the **equivalence test**: two one-sided tests (TOST [1]_) of the overall difference of mean
   proportions against the margin +-delta: H0 ``|real - simulated| >= delta``; equivalence is
   shown when both one-sided p-values are below alpha (equivalently, the ``1 - 2 alpha`` interval
-  lies inside +-delta). Reference distribution: t(m - 2), as every Wald test of the report;
+  lies inside +-delta);
 - the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8.
+
+Reference distributions (:func:`contrast_df`): a row of one group is a within-participant
+contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
+row of both groups t(m - 2). From the random-slope mixed model the SE of each contrast is the
+larger of the model-based one and the bias-reduced participant sandwich
+(:func:`analysis.models.contrast_se`).
 
 References
 ----------
@@ -35,7 +41,7 @@ from experiments.session_reader import read_text_file
 
 from .errors import LogError
 from .inference import holm
-from .models import ModelFit, model_data, reference_quantile
+from .models import ModelFit, contrast_se, model_data, reference_p, reference_quantile
 
 __all__ = ["DEFAULT_EQUIVALENCE_MARGIN_PP", "mode_contrasts", "tost", "equivalence_margin",
            "FIDELITY_COLUMNS"]
@@ -146,23 +152,50 @@ def _rows(fit: ModelFit, group, mode, samples) -> np.ndarray:
     return np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
 
 
-def _contrast(xr, xs, fit: ModelFit, z: float) -> dict:
-    beta, cov = fit.params, fit.cov
+def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str) -> float | None:
+    """Degrees of freedom of a real - simulated contrast's t reference.
+
+    The mode effect is within participants, and in the fitted ``group * mode * sample`` model a
+    group's mode contrast rests on that group's participants alone (its sandwich sums only their
+    scores): a one-sample problem with ``m_g`` clusters, so ``m_g - 1`` (as a paired t-test of
+    the group's participants). The contrast over both groups averages two such independent
+    means: ``m - 2`` (two groups, one mean each), as every other Wald row. A fallback formula
+    without a group x mode term has one mode effect for both groups, estimated from all
+    participants: ``m - 2`` for every row then. ``None`` (normal) when the fit has no ``df``.
+    """
+    if not fit.df:
+        return None
+    names = [t.name() for t in fit.design_info.terms]
+    if group == "both" or not any("group" in n and "mode" in n for n in names):
+        return fit.df
+    m_g = data.loc[data["group"] == group, "participant"].nunique()
+    return float(m_g - 1) if m_g > 1 else None
+
+
+def _contrast(xr, xs, fit: ModelFit, z: float, df: float | None) -> dict:
+    beta = fit.params
     lvec = xr.mean(axis=0) - xs.mean(axis=0)
-    est, se = float(lvec @ beta), float(np.sqrt(max(lvec @ cov @ lvec, 0.0)))
+    est, se = float(lvec @ beta), contrast_se(fit, lvec)
     qr, qs = special.expit(xr @ beta), special.expit(xs @ beta)
     diff = float(qr.mean() - qs.mean())
     grad = (qr * (1 - qr)) @ xr / len(xr) - (qs * (1 - qs)) @ xs / len(xs)
-    dse = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
-    p = float(fit.p_value(est / se)) if se > 0 else np.nan
+    dse = contrast_se(fit, grad)
+    p = float(reference_p(est / se, df)) if se > 0 else np.nan
     return {"estimate": est, "se": se, "ci_low": est - z * se, "ci_high": est + z * se,
             "statistic": est / se if se > 0 else np.nan, "p_value": p, "difference": diff,
             "difference_se": dse, "difference_ci_low": diff - z * dse,
             "difference_ci_high": diff + z * dse}
 
 
-def _test_name(fit: ModelFit) -> str:
-    return f"Wald t({fit.df:g})" if fit.df else "Wald z (normal)"
+def _test_name(df: float | None) -> str:
+    return f"Wald t({df:g})" if df else "Wald z (normal)"
+
+
+def _interval_name(fit: ModelFit, df: float | None) -> str:
+    ref = f"t({df:g})" if df else "normal"
+    if fit.cov_robust is not None:
+        return f"Wald, {ref}; SE the larger of model-based and bias-reduced participant sandwich"
+    return f"Wald, {ref}"
 
 
 def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
@@ -195,7 +228,6 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     if fit.formula is None or "mode" not in fit.formula or set(data["mode"]) != {"real",
                                                                                   "simulated"}:
         return pd.DataFrame(columns=FIDELITY_COLUMNS)
-    z = reference_quantile(level, fit.df)
     samples = sorted(data["roughness_id"].unique())
     groups = sorted(data["group"].unique())
     scale = ("population-averaged" if fit.kind == "gee" else "typical participant (u = 0)")
@@ -206,30 +238,32 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     rows = []
     for group in groups + (["both"] if len(groups) > 1 else []):
         which = groups if group == "both" else [group]
+        df = contrast_df(fit, data, group)
         c = _contrast(_rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples),
-                      fit, z)
-        t = tost(c["difference"], c["difference_se"], margin, fit.df, alpha)
+                      fit, reference_quantile(level, df), df)
+        t = tost(c["difference"], c["difference_se"], margin, df, alpha)
         who = "groups A and B weighted equally" if group == "both" else f"group {group}"
         rows.append({"role": "averaged", "model": fit.kind, "scale": scale, "group": group,
                      "roughness_id": 0,
                      "compares": f"real - simulated, {who}, mean over the samples: log odds "
                                  f"ratio; difference of mean {scale} proportions correct",
-                     **c, "interval": f"Wald, t({fit.df:g})" if fit.df else "Wald, normal",
-                     "test": _test_name(fit), "df": fit.df, "p_holm": np.nan,
+                     **c, "interval": _interval_name(fit, df), "test": _test_name(df),
+                     "df": df, "p_holm": np.nan,
                      "margin": margin, "tost_p_value": t["p_value"],
                      "tost_ci_low": t["ci_low"], "tost_ci_high": t["ci_high"],
                      "equivalent": t["equivalent"], "basis": basis, "note": note})
     per = []
     for group in groups:
+        df = contrast_df(fit, data, group)
         for r in samples:
             c = _contrast(_rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r]),
-                          fit, z)
+                          fit, reference_quantile(level, df), df)
             per.append({"role": "per-sample", "model": fit.kind, "scale": scale, "group": group,
                         "roughness_id": int(r),
                         "compares": f"real - simulated, group {group}, sample {r}#: log odds "
                                     f"ratio; difference of {scale} proportions correct",
-                        **c, "interval": f"Wald, t({fit.df:g})" if fit.df else "Wald, normal",
-                        "test": _test_name(fit), "df": fit.df, "margin": np.nan,
+                        **c, "interval": _interval_name(fit, df), "test": _test_name(df),
+                        "df": df, "margin": np.nan,
                         "tost_p_value": np.nan, "tost_ci_low": np.nan, "tost_ci_high": np.nan,
                         "equivalent": False, "basis": basis, "note": note})
     adjusted = holm([row["p_value"] for row in per])

@@ -37,6 +37,7 @@ References
 """
 from __future__ import annotations
 
+import functools
 import warnings
 from dataclasses import dataclass
 
@@ -145,24 +146,43 @@ class GLMMData:
         return cls(x[order], k, n, codes[order], len(people))
 
 
+@functools.lru_cache(maxsize=8)
+def _hermgauss(n_agq: int):
+    """Gauss-Hermite nodes and weights (read-only; computed once per node count)."""
+    z, w = np.polynomial.hermite.hermgauss(n_agq)
+    z.flags.writeable = w.flags.writeable = False
+    return z, w
+
+
 def _inner(data: GLMMData, eta0, sigma, n_agq):
-    """Per participant: log integral, and quadrature nodes/weights (posterior over b)."""
+    """Per participant: log integral, and quadrature nodes/weights (posterior over b).
+
+    Newton's method for each participant's mode starts from the previous evaluation's modes on
+    ``data`` (the integrand is log-concave: one mode, reached from anywhere; the warm start
+    saves iterations), and from 0 again if that does not settle.
+    """
     m = data.m
-    b = np.zeros(m)
-    for _ in range(50):
-        eta = eta0 + sigma * b[data.person]
-        p = special.expit(eta)
-        g = sigma * np.bincount(data.person, data.k - data.n * p, m) - b
-        h = sigma ** 2 * np.bincount(data.person, data.n * p * (1 - p), m) + 1.0
-        step = g / h
-        b += step
-        if np.max(np.abs(step)) < 1e-10:
-            break
+    warm = data.__dict__.get("_modes")
+    for b in ([warm.copy()] if warm is not None and np.all(np.isfinite(warm)) else []) \
+            + [np.zeros(m)]:
+        for _ in range(50):
+            eta = eta0 + sigma * b[data.person]
+            p = special.expit(eta)
+            g = sigma * np.bincount(data.person, data.k - data.n * p, m) - b
+            h = sigma ** 2 * np.bincount(data.person, data.n * p * (1 - p), m) + 1.0
+            step = g / h
+            b += step
+            if np.max(np.abs(step)) < 1e-10:
+                break
+        else:
+            continue
+        break
+    data.__dict__["_modes"] = b.copy()
     eta = eta0 + sigma * b[data.person]
     p = special.expit(eta)
     h = sigma ** 2 * np.bincount(data.person, data.n * p * (1 - p), m) + 1.0
     s = 1.0 / np.sqrt(h)
-    z, w = np.polynomial.hermite.hermgauss(n_agq)
+    z, w = _hermgauss(n_agq)
     nodes = b[:, None] + np.sqrt(2.0) * s[:, None] * z[None, :]          # (m, q)
     eta_q = eta0[:, None] + sigma * nodes[data.person]                    # (rows, q)
     ll_rows = data.k[:, None] * eta_q - data.n[:, None] * np.logaddexp(0.0, eta_q)

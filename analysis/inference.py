@@ -34,7 +34,7 @@ import pandas as pd
 import patsy
 from scipy import special, stats
 
-from .models import ModelFit, has_group_by_roughness, model_data
+from .models import ModelFit, contrast_se, has_group_by_roughness, model_data
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",
            "averaged_contrast", "CHANCE"]
@@ -46,7 +46,8 @@ CHANCE = 0.25
 def holm(p) -> np.ndarray:
     """Holm's step-down adjusted p-values (NaN entries left out and kept NaN).
 
-    ``statsmodels.stats.multitest.multipletests(p, method="holm")`` on the finite entries.
+    The same values as ``statsmodels.stats.multitest.multipletests(p, method="holm")`` on the
+    finite entries (the tests compare them), without its ``gc.collect()`` per call (0.1 s each).
 
     Parameters
     ----------
@@ -63,13 +64,17 @@ def holm(p) -> np.ndarray:
     >>> holm([0.01, 0.04, 0.03]).round(3).tolist()
     [0.03, 0.06, 0.06]
     """
-    from statsmodels.stats.multitest import multipletests
-
     p = np.asarray(p, float)
     out = np.full(p.shape, np.nan)
     ok = np.isfinite(p)
     if ok.any():
-        out[ok] = multipletests(p[ok], method="holm")[1]
+        q = p[ok]
+        order = np.argsort(q, kind="stable")
+        # the k-th smallest times (n - k), running maximum, capped at 1
+        stepped = np.maximum.accumulate(q[order] * np.arange(len(q), 0, -1))
+        adjusted = np.empty_like(q)
+        adjusted[order] = np.minimum(stepped, 1.0)
+        out[ok] = adjusted
     return out
 
 
@@ -176,14 +181,14 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
     x = {(g, m): _rows(fit, [g], [m], samples) for g in ("A", "B") for m in ("real", "simulated")}
     sign = {("A", "real"): 1, ("B", "real"): -1, ("A", "simulated"): -1, ("B", "simulated"): 1}
     lvec = sum(s * x[k].mean(axis=0) for k, s in sign.items())
-    est, se = float(lvec @ fit.params), float(np.sqrt(lvec @ fit.cov @ lvec))
+    est, se = float(lvec @ fit.params), contrast_se(fit, lvec)
     grad = np.zeros_like(lvec)
     dd = 0.0
     for k, s in sign.items():
         q = special.expit(x[k] @ fit.params)
         dd += s * q.mean()
         grad += s * (q * (1 - q)) @ x[k] / len(q)
-    dse = float(np.sqrt(grad @ fit.cov @ grad))
+    dse = contrast_se(fit, grad)
     out.update(log_odds=est, se=se, ci_low=est - z * se, ci_high=est + z * se,
                p_value=float(fit.p_value(est / se)) if se > 0 else np.nan,
                difference_of_differences=dd, dd_low=dd - z * dse, dd_high=dd + z * dse)

@@ -196,13 +196,13 @@ def _po_slope(sel: pd.DataFrame, level: float = 0.95) -> tuple[float, float, flo
 
 
 def _gee_terms(data: pd.DataFrame, formula: str, terms, level: float) -> list[dict]:
-    import statsmodels.api as sm
-    import statsmodels.formula.api as smf
+    from statsmodels.genmod import cov_struct, families
+    from statsmodels.genmod.generalized_estimating_equations import GEE
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = smf.gee(formula, "participant", data, family=sm.families.Binomial(),
-                          cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
+            res = GEE.from_formula(formula, "participant", data, family=families.Binomial(),
+                                   cov_struct=cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
         except (ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return []
     out = []

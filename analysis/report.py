@@ -122,7 +122,10 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
             rows.append({"role": "interaction", "test": _t_label(fit.df), "model": fit.kind,
                          "compares": it["compares"] + f"; proportions {scale}",
                          "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
-                         "ci_high": it["ci_high"], "interval": _interval_label(fit.df),
+                         "ci_high": it["ci_high"],
+                         "interval": _interval_label(fit.df) + (
+                             "; SE the larger of model-based and bias-reduced participant "
+                             "sandwich" if fit.cov_robust is not None else ""),
                          "statistic": it["log_odds"] / it["se"],
                          "df": fit.df if fit.df else np.nan, "p_value": it["p_value"],
                          "difference": it["difference_of_differences"],

@@ -186,6 +186,11 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
                           row.ci_high, lor)
                 tally.add(f"{label} real - simulated averaged: proportions",
                           row.difference_ci_low, row.difference_ci_high, diff)
+                # the same by row: group A (t(12)), group B (t(16)), both groups (t(28))
+                tally.add(f"{label} real - simulated, group {row.group}: log odds", row.ci_low,
+                          row.ci_high, lor)
+                tally.add(f"{label} real - simulated, group {row.group}: proportions",
+                          row.difference_ci_low, row.difference_ci_high, diff)
         if choice.contrasts is not None:
             used["slope model" if choice.contrasts.kind == "glmm-slope" else "intercept model"] += 1
         for row in tests.itertuples():

@@ -7,13 +7,24 @@ behavioural data: https://bids-specification.readthedocs.io, "Behavioral experim
     DATA/bids/participants.tsv, participants.json
     DATA/bids/sub-<id>/ses-<n>/beh/sub-<id>_ses-<n>_task-<protocol>_beh.tsv
     DATA/bids/sub-<id>/ses-<n>/beh/sub-<id>_ses-<n>_task-<protocol>_beh.json
+    DATA/bids/sub-<id>/ses-<n>/beh/sub-<id>_ses-<n>_task-<protocol>_events.tsv, _events.json
 
 ``<id>`` is the participant id, ``<n>`` the session's name and ``<protocol>`` the protocol's
 name, each with every character other than a letter or a digit removed (BIDS labels are
 alphanumeric: ``roughness_recognition`` -> ``roughnessrecognition``, ``S01`` -> ``S01``). The
-TSV holds every column of ``trials.csv`` (missing values ``n/a``); the JSON sidecar describes
-each column with its unit. :func:`export_session` is called by the session when it finishes;
-:func:`export_dataset` rebuilds the whole dataset from the session folders.
+``_beh.tsv`` holds the columns of ``trials.csv`` (missing values ``n/a``) but the participant's
+own (:data:`PARTICIPANT_LEVEL_COLUMNS`: ``group``, ``sex``, ``skin_thickness_um``), which are in
+``participants.tsv`` only; the JSON sidecar describes each column with its unit. The
+``_events.tsv`` (BIDS allows it beside ``_beh.tsv`` in ``beh/``) holds when each trial, cue,
+contact or playback, question and answer happened, in seconds from the session's start, on the
+session log's one clock (:mod:`experiments.bids_events`).
+
+``dataset_description.json`` ``Authors``: the ``authors`` argument (``export-bids --author``),
+else the ``[protocol] authors`` of the sessions' protocols; with neither the dataset has no
+``Authors`` and :func:`export_dataset` says so in ``notes``. :func:`export_session` is called by
+the session when it finishes; :func:`export_dataset` rebuilds the whole dataset from the session
+folders. Nothing hidden is left in the dataset: sessions finishing at once take turns on
+``participants.tsv`` with a lock on the dataset folder itself.
 
 Checked in the test suite by the reference BIDS validator (``bids-validator`` from npm, installed
 by ``scripts/setup``).
@@ -26,14 +37,17 @@ import io
 import json
 import os
 import re
+from contextlib import contextmanager
 from pathlib import Path
 
+from experiments.bids_events import EVENT_COLUMNS, EVENT_SIDECAR, event_rows
 from experiments.logbook import TRIAL_COLUMNS, atomic_write_text, ensure_dir
 from experiments.logformat import format_cell
 from experiments.session_reader import SessionFileError, SessionFolder, read_session_folder, \
     read_session_folders
 
-__all__ = ["export_session", "export_dataset", "bids_label", "COLUMN_DESCRIPTIONS", "BIDS_VERSION"]
+__all__ = ["export_session", "export_dataset", "bids_label", "COLUMN_DESCRIPTIONS", "BIDS_VERSION",
+           "PARTICIPANT_LEVEL_COLUMNS", "NO_AUTHORS_NOTE", "protocol_authors", "mark_complete"]
 
 BIDS_VERSION = "1.9.0"
 
@@ -96,9 +110,19 @@ _PARTICIPANT_COLUMNS = {
     "age": ("Age from the participant record", "year"),
     "sex": ("Sex from the participant record", None),
     "handedness": ("Handedness from the participant record", None),
-    "group": ("Skin-thickness group of the participant's sessions", None),
-    "skin_thickness_um": ("Fingertip skin thickness", "um"),
+    "group": ("Skin-thickness group of the participant's sessions (A below the protocol's "
+              "threshold, B above)", None),
+    "skin_thickness_um": ("Fingertip skin thickness from the participant record", "um"),
 }
+
+#: Columns of ``trials.csv`` that describe the participant, not the trial: written to
+#: ``participants.tsv`` only, never repeated on every row of a ``_beh.tsv``.
+PARTICIPANT_LEVEL_COLUMNS = ("group", "sex", "skin_thickness_um")
+
+#: What :func:`export_dataset` notes when the dataset has no authors (``{path}``: the file).
+NO_AUTHORS_NOTE = ("{path}: Authors: none given (the BIDS validator warns NO_AUTHORS); add "
+                   "`authors = [\"Name\", ...]` to the protocol's [protocol] table, or pass "
+                   "--author NAME (once per author)")
 
 
 def bids_label(text: str) -> str:
@@ -131,36 +155,76 @@ def _sidecar(columns, described: dict) -> dict:
     return out
 
 
-def _describe_dataset(root: Path) -> None:
+def protocol_authors(meta: dict) -> list[str]:
+    """The ``[protocol] authors`` of the protocol stored in ``session.json`` (``[]``: none)."""
+    protocol = meta.get("protocol") if isinstance(meta.get("protocol"), dict) else {}
+    head = protocol.get("protocol") if isinstance(protocol.get("protocol"), dict) else {}
+    listed = head.get("authors")
+    if not isinstance(listed, list):
+        return []
+    return [a.strip() for a in listed if isinstance(a, str) and a.strip()]
+
+
+def _describe_dataset(root: Path, authors: list[str], override: bool = False) -> None:
+    """Write ``dataset_description.json`` (and ``README``) unless there; ``authors`` are added
+    to one without ``Authors``, or replace them (``override``: given on the command line)."""
     path = root / "dataset_description.json"
-    if not path.exists():
-        atomic_write_text(path, json.dumps({
+    old = None
+    if path.exists():
+        try:
+            old = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            old = None
+    if not isinstance(old, dict):
+        description = {
             "Name": "thermocue sessions: thermal-tactile roughness recognition",
             "BIDSVersion": BIDS_VERSION, "DatasetType": "raw",
-            "GeneratedBy": [{"Name": "thermocue", "Description": "experiments.bids"}],
-        }, indent=2) + "\n")
+            "GeneratedBy": [{"Name": "thermocue", "Description": "experiments.bids"}]}
+        if authors:
+            description["Authors"] = list(dict.fromkeys(authors))
+        atomic_write_text(path, json.dumps(description, indent=2, ensure_ascii=False) + "\n")
+    elif authors and (not old.get("Authors") or (override and old["Authors"] != authors)):
+        old["Authors"] = list(dict.fromkeys(authors))
+        atomic_write_text(path, json.dumps(old, indent=2, ensure_ascii=False) + "\n")
     readme = root / "README"
     if not readme.exists():
         atomic_write_text(readme, (
             "Behavioural data of thermocue sessions: thermal-tactile roughness recognition with\n"
             "real stainless-steel samples and a Peltier display replaying their temperature.\n\n"
             "Each sub-<id>/ses-<n>/beh/*_beh.tsv is a session's trials.csv, one row per trial\n"
-            "attempt (status ok, fault or aborted); its JSON sidecar describes every column and\n"
-            "unit. The session folders (DATA/<participant>/<session>/) hold the event logs and\n"
-            "the contact traces. Written by thermocue (experiments/bids.py).\n"))
+            "attempt (status ok, fault or aborted), without the participant's own columns (in\n"
+            "participants.tsv); its JSON sidecar describes every column and unit. Beside it,\n"
+            "*_events.tsv says when each trial, cue, contact or playback, question and answer\n"
+            "happened (onset and duration in seconds from the session's start, on the session\n"
+            "log's clock). The session folders (DATA/<participant>/<session>/) hold the event\n"
+            "logs and the contact traces. Written by thermocue (experiments/bids.py).\n"))
+
+
+@contextmanager
+def _dataset_lock(root: Path):
+    """Hold an exclusive ``flock`` on the dataset folder itself (opened read-only).
+
+    Sessions finishing at once (``reproduce --workers``) take turns on the files they
+    read-merge-write (``participants.tsv``, ``dataset_description.json``), so that no participant
+    is lost; no lock file is left in the dataset (an earlier version's ``.participants.lock`` is
+    removed)."""
+    fd = os.open(root, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+        try:
+            os.unlink(root / ".participants.lock")
+        except FileNotFoundError:
+            pass
+    finally:
+        os.close(fd)
 
 
 def _participants(root: Path, records: dict) -> None:
-    """Write participants.tsv/json from ``records`` (label -> row), merged with the old file.
-
-    Sessions finishing at once (``reproduce --workers``) take turns: an exclusive lock on
-    ``.participants.lock`` around the read-merge-write, so that no participant is lost."""
-    fd = os.open(root / ".participants.lock", os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+    """Write participants.tsv/json from ``records`` (label -> row), merged with the old file,
+    under :func:`_dataset_lock`."""
+    with _dataset_lock(root):
         _merge_participants(root, records)
-    finally:
-        os.close(fd)
 
 
 def _merge_participants(root: Path, records: dict) -> None:
@@ -173,8 +237,18 @@ def _merge_participants(root: Path, records: dict) -> None:
     rows.update(records)
     header = list(_PARTICIPANT_COLUMNS)
     atomic_write_text(path, _tsv(header, [[rows[k].get(c) for c in header] for k in sorted(rows)]))
-    atomic_write_text(root / "participants.json",
-                      json.dumps(_sidecar(header[1:], _PARTICIPANT_COLUMNS), indent=2) + "\n")
+    sidecar = _sidecar(header[1:], _PARTICIPANT_COLUMNS)
+    for column in ("sex", "handedness", "group"):
+        levels = sorted({str(r.get(column)) for r in rows.values()} - {"None", "", "n/a"})
+        if levels:
+            sidecar[column]["Levels"] = {v: _LEVELS.get((column, v), v) for v in levels}
+    atomic_write_text(root / "participants.json", json.dumps(sidecar, indent=2) + "\n")
+
+
+_LEVELS = {("group", "A"): "skin thinner than the protocol's threshold",
+           ("group", "B"): "skin thicker than the protocol's threshold",
+           ("handedness", "right"): "right-handed", ("handedness", "left"): "left-handed",
+           ("handedness", "R"): "right-handed", ("handedness", "L"): "left-handed"}
 
 
 def _trial_table(read: SessionFolder) -> tuple[list[str], list[list]]:
@@ -209,7 +283,8 @@ def _session_meta(read: SessionFolder) -> dict:
                             "skin_thickness": {"total_um": started.get("skin_thickness_um")}}}
 
 
-def export_session(session_dir, root=None, read: SessionFolder | None = None) -> Path:
+def export_session(session_dir, root=None, read: SessionFolder | None = None,
+                   authors: list[str] | None = None, override_authors: bool = False) -> Path:
     """Write one session's behavioural TSV and sidecar into the BIDS dataset ``root``.
 
     Parameters
@@ -222,6 +297,9 @@ def export_session(session_dir, root=None, read: SessionFolder | None = None) ->
         The BIDS dataset (default ``DATA/bids``, two levels above ``session_dir``).
     read : SessionFolder, optional
         The folder as :func:`experiments.session_reader.read_session_folder` read it.
+    authors : list of str, optional
+        ``dataset_description.json``'s ``Authors`` (default: the protocol's ``authors``),
+        written when the file is new or has none (``override_authors``: also replacing others).
 
     Returns
     -------
@@ -252,25 +330,35 @@ def export_session(session_dir, root=None, read: SessionFolder | None = None) ->
                                f"protocol's name (session.json, or expName in the trials), got "
                                f"{meta.get('protocol_name')!r}")
     task = bids_label(name)
+    keep = [i for i, c in enumerate(header) if c not in PARTICIPANT_LEVEL_COLUMNS]
+    header, rows = [header[i] for i in keep], [[r[i] for i in keep] for r in rows]
     folder = ensure_dir(root / f"sub-{sub}" / f"ses-{ses}" / "beh")
-    _describe_dataset(root)
-    stem = f"sub-{sub}_ses-{ses}_task-{task}_beh"
-    atomic_write_text(folder / f"{stem}.tsv", _tsv(header, rows))
-    sidecar = {"TaskName": task,
-               "TaskDescription": head.get("title", "") if isinstance(head.get("title"), str) else "",
-               **_sidecar(header, COLUMN_DESCRIPTIONS)}
-    atomic_write_text(folder / f"{stem}.json", json.dumps(sidecar, indent=2, ensure_ascii=False) + "\n")
+    with _dataset_lock(root):
+        _describe_dataset(root, list(dict.fromkeys(authors)) if authors else protocol_authors(meta),
+                          override=bool(authors) and override_authors)
+    stem = f"sub-{sub}_ses-{ses}_task-{task}"
+    atomic_write_text(folder / f"{stem}_beh.tsv", _tsv(header, rows))
+    described = {"TaskName": task,
+                 "TaskDescription": head.get("title", "") if isinstance(head.get("title"), str) else ""}
+    sidecar = {**described, **_sidecar(header, COLUMN_DESCRIPTIONS)}
+    atomic_write_text(folder / f"{stem}_beh.json", json.dumps(sidecar, indent=2, ensure_ascii=False) + "\n")
+    events = event_rows(read.events)
+    if events is not None:
+        atomic_write_text(folder / f"{stem}_events.tsv", _tsv(list(EVENT_COLUMNS), events))
+        atomic_write_text(folder / f"{stem}_events.json",
+                          json.dumps(EVENT_SIDECAR, indent=2, ensure_ascii=False) + "\n")
     thickness = participant.get("skin_thickness")
     thickness = thickness.get("total_um") if isinstance(thickness, dict) else None
     _participants(root, {f"sub-{sub}": {
         "participant_id": f"sub-{sub}", "age": participant.get("age"), "sex": participant.get("sex"),
         "handedness": participant.get("handedness"), "group": meta.get("group"),
         "skin_thickness_um": thickness}})
-    return folder / f"{stem}.tsv"
+    return folder / f"{stem}_beh.tsv"
 
 
 def export_dataset(data_dir, root=None, skipped: list | None = None,
-                   notes: list | None = None, before=None) -> list[Path]:
+                   notes: list | None = None, before=None,
+                   authors: list[str] | None = None) -> list[Path]:
     """Export every session folder under ``data_dir`` (read by
     :func:`experiments.session_reader.read_session_folders`: checked, duplicates once).
 
@@ -288,6 +376,11 @@ def export_dataset(data_dir, root=None, skipped: list | None = None,
     before : callable, optional
         Called once every folder is checked, before the first file is written (the command
         line's :meth:`experiments.atomicfile.OutputFolder.begin`).
+    authors : list of str, optional
+        ``dataset_description.json``'s ``Authors`` (``export-bids --author``); default: the
+        ``[protocol] authors`` of the sessions' protocols, in the order first met. With neither
+        (and none in an existing ``dataset_description.json``), :data:`NO_AUTHORS_NOTE` is added
+        to ``notes`` and the dataset is written without them.
 
     Raises
     ------
@@ -311,7 +404,23 @@ def export_dataset(data_dir, root=None, skipped: list | None = None,
         ready.append(read)
     if ready and before is not None:
         before()
-    return [export_session(read.path, root, read=read) for read in ready]
+    given = bool(authors)
+    if not authors:
+        found = [a for read in ready for a in protocol_authors(read.meta or {})]
+        authors = list(dict.fromkeys(found))
+    written = [export_session(read.path, root, read=read, authors=authors, override_authors=given)
+               for read in ready]
+    if written and not _has_authors(root):
+        notes.append(NO_AUTHORS_NOTE.format(path=root / "dataset_description.json"))
+    return written
+
+
+def _has_authors(root: Path) -> bool:
+    try:
+        described = json.loads((root / "dataset_description.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(described, dict) and bool(described.get("Authors"))
 
 
 def mark_complete(folder) -> Path:

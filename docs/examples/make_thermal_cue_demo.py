@@ -4,7 +4,8 @@
 
 Two trials (``conditions.csv``: samples 1 and 3 of the packaged ``roughness_recognition``
 protocol for participant ``participants/examples/P01.json``), each a routine with the Thermal cue
-component, a text prompt and a keyboard (1-4) that ends the routine. The display URL is
+component, a text prompt and a keyboard (1-4) that ends the routine; PsychoPy's experiment-info
+dialog (participant, session) opens first, as Builder's default settings have it. The display URL is
 ``$THERMOCUE_DISPLAY`` (default ``emulator://``) and the emulated finger is on, so it runs with no
 one at the display. ``tests/experiments/psychopy_plugin/test_plugin_builder.py`` checks that the
 committed file is what this script writes.
@@ -32,7 +33,8 @@ def build():
     settings["Full-screen window"].val = False
     settings["Save log file"].val = False
     settings["Save psydat file"].val = False
-    settings["Show info dlg"].val = False   # PsychoPy's info dialog needs wx (no Linux wheel)
+    # "Show info dlg" stays on (PsychoPy's default): the participant/session dialog opens first
+    # (PsychoPy draws it with PyQt6; docs/psychopy-plugin.md says what it needs)
 
     comps = getAllComponents()
     trial = exp.addRoutine("trial")

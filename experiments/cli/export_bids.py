@@ -15,9 +15,15 @@ def register(sub) -> None:
                     "(regular UTF-8 files, session.json against the log, every value in its "
                     "domain): a refusal names the file and the field, exit 2, nothing written. "
                     "Folders not exported (a copy of another folder's session, no trial rows) "
-                    "are named on stderr with the reason; COMPLETE is written last.")
+                    "are named on stderr with the reason; COMPLETE is written last. "
+                    "dataset_description.json's Authors: every --author, else the [protocol] "
+                    "authors of the sessions' protocols; with neither, the dataset is written "
+                    "without them and one warning line says how to add them.")
     p.add_argument("data_dir", metavar="DATA_DIR", help="data directory holding the session folders")
     p.add_argument("--out", default=None, metavar="DIR", help="the BIDS dataset (default DATA_DIR/bids)")
+    p.add_argument("--author", action="append", default=[], metavar="NAME",
+                   help="an author of the dataset (repeat for each, in order; default: the "
+                        "protocol's [protocol] authors)")
     p.set_defaults(func=_run)
 
 
@@ -33,7 +39,11 @@ def _run(ns) -> int:
     folder = OutputFolder(out, "thermocue export-bids")
     skipped: list = []
     notes: list = []
-    written = export_dataset(ns.data_dir, out, skipped=skipped, notes=notes, before=folder.begin)
+    authors = [a.strip() for a in ns.author]
+    if any(not a for a in authors):
+        raise UserInputError(f"--author: expected a name, got {ns.author!r}")
+    written = export_dataset(ns.data_dir, out, skipped=skipped, notes=notes, before=folder.begin,
+                             authors=list(dict.fromkeys(authors)))
     for text in notes:
         print(f"thermocue export-bids: warning: {text}", file=sys.stderr)
     for path, reason in skipped:

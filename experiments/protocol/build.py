@@ -98,6 +98,17 @@ def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
     return tuple(out)
 
 
+def _read_authors(p: _Table) -> tuple[str, ...]:
+    """``[protocol] authors``: the study's authors, one name per item (the BIDS export's
+    ``dataset_description.json`` ``Authors``); default none."""
+    listed = p._get("authors", [], "a list of author names (strings)")
+    if not isinstance(listed, list) or any(not isinstance(a, str) or not a.strip() for a in listed):
+        p.fail("authors", "a list of author names, one non-empty string per author", listed)
+    if len({a.strip() for a in listed}) != len(listed):
+        p.fail("authors", "each author once", listed)
+    return tuple(a.strip() for a in listed)
+
+
 def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
     top = _Table(source, data, "")
     p = top.table("protocol")
@@ -106,6 +117,7 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
     description = p.string("description", "", nonempty=False).strip()
     experiment = p.integer("experiment", 0, ge=0, le=MAX_ID)
     version = p.integer("version", 1, ge=1, le=MAX_ID)
+    authors = _read_authors(p)
     p.done()
 
     e = top.table("environment")
@@ -253,7 +265,7 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
                     version=version, samples=samples, environment=env, material=mat,
                     contact=contact, display=display, grouping=grouping, simulation=simulation,
                     block_order=block_order, blocks=blocks, presentation=presentation,
-                    analysis=analysis,
+                    analysis=analysis, authors=authors,
                     hash=hashlib.sha256(canonical).hexdigest(), path=path,
                     data=copy.deepcopy(dict(data)))
 

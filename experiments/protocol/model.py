@@ -353,6 +353,8 @@ class Protocol:
         The participant's screen: minimum text durations, instructions, answer timing.
     analysis : AnalysisSettings
         The analysis's protocol-stated parameters (the equivalence margin).
+    authors : tuple of str
+        ``[protocol] authors``: the study's authors (the BIDS dataset's ``Authors``); may be empty.
     hash : str
         SHA-256 hex of the canonical JSON of :attr:`data`.
     path : Path or None
@@ -381,6 +383,7 @@ class Protocol:
     data: dict
     presentation: Presentation = Presentation()
     analysis: AnalysisSettings = AnalysisSettings()
+    authors: tuple[str, ...] = ()
 
     def sample(self, sample_id: int) -> Sample:
         """The sample with this id (KeyError if none)."""

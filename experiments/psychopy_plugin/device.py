@@ -113,20 +113,42 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
 
     @staticmethod
     def getAvailableDevices():
-        """The emulator, and the serial ports the system lists now (none is opened or probed).
+        """Every display backend thermocue has (its display registry), and the serial ports the
+        system lists now; nothing is opened or probed.
 
-        A port listed is only a candidate: a thermal display is recognised when opened (the
-        handshake names its firmware).
+        The emulators (``emulator://``, ``tcs2://emulator``, and ``qemu-firmware://`` where
+        ``qemu-system-arm`` is installed) are listed as they are; each serial port is listed
+        once per backend that speaks over one (the thermocue protocol: the port's path; the
+        TCS II: ``tcs2://PORT``). A backend registered by another package is listed by its
+        scheme and description. A port listed is only a candidate: a display is recognised when
+        opened (the handshake names its firmware).
         """
+        import shutil
+
         from serial.tools import list_ports
-        profiles = [{"deviceName": "Thermal display (emulator)", "url": "emulator://",
-                     "deviceClass": "experiments.psychopy_plugin.device.ThermalCueDevice"}]
-        for port in list_ports.comports():
-            if port.hwid == "n/a":
-                continue                   # a legacy UART entry with no hardware behind it
-            profiles.append({"deviceName": f"Thermal display on {port.device}", "url": port.device,
-                             "description": port.description,
-                             "deviceClass": "experiments.psychopy_plugin.device.ThermalCueDevice"})
+
+        from experiments.hardware.registry import backends
+        cls_name = "experiments.psychopy_plugin.device.ThermalCueDevice"
+        per_port = {"serial": ("Thermal display", "{port}"), "tcs2": ("TCS II", "tcs2://{port}")}
+        fixed = {"emulator": [("Thermal display (emulator)", "emulator://")],
+                 "tcs2": [("TCS II (emulator)", "tcs2://emulator")],
+                 "qemu-firmware": [("Thermal display firmware under QEMU", "qemu-firmware://")]
+                 if shutil.which("qemu-system-arm") else []}
+        ports = [p for p in list_ports.comports() if p.hwid != "n/a"]   # n/a: a legacy UART
+        profiles = []
+        for backend in backends():
+            scheme, about = backend.scheme, backend.description
+            listed = [{"deviceName": name, "url": url} for name, url in fixed.get(scheme, [])]
+            if scheme in per_port:
+                name, url = per_port[scheme]
+                listed += [{"deviceName": f"{name} on {p.device}", "url": url.format(port=p.device),
+                            "port": p.device, "portDescription": p.description} for p in ports]
+            elif scheme not in fixed:
+                listed.append({"deviceName": about or scheme, "url": f"{scheme}://"})
+            profiles += [dict(p, scheme=scheme, description=about, deviceClass=cls_name)
+                         for p in listed]
+        order = {"emulator://": 0}
+        profiles.sort(key=lambda p: order.get(p["url"], 1))    # the emulator first, as before
         return profiles
 
     def getDeviceProfile(self):

@@ -291,7 +291,11 @@ class PsychopyResponder(Responder, name="psychopy", aliases=("window",)):
 
     # -- the Responder interface -------------------------------------------------------------
     def show_text(self, text: str) -> None:
+        """A text for the participant (the goodbye); in the spoken-answer mode the window stays
+        blank and the experimenter is told to say it."""
         state = "finished" if text == TEXTS["finished"] else "text"
+        if self.spoken:
+            self._tell(f"say to the participant: {text!r}")
         self._show(state, text)
 
     def show_instructions(self, text: str, min_s: float = 0.0, until_key: bool = False) -> None:

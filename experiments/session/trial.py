@@ -59,6 +59,8 @@ class TrialAttempt:
     profile: object = None
     writer: object = None
     contact_s: float | None = None                # device time of the first frame in contact
+    contact_at_utc: str | None = None             # host UTC time that frame was read (log clock)
+    ended_at_utc: str | None = None               # host UTC time the display's recording returned
     finger_C: float | None = None                 # the IR thermometer's last reading before it
     answered: list = field(default_factory=list)  # an answer given during contact
 
@@ -211,6 +213,7 @@ class TrialSteps:
             if t.contact_s is None:
                 if frame.state in _ACTIVE_STATES:
                     t.contact_s = float(frame.device_time_s)
+                    t.contact_at_utc = _now_iso()      # no write here: logged with the state
                     if early:
                         self.responder.begin_answer(spec)
                     self.hooks.at("playback", spec, attempt)
@@ -222,6 +225,7 @@ class TrialSteps:
             return disp.run_trial(timeout_s=c.trial_timeout_s + c.max_contact_s + 5.0,
                                   on_telemetry=on_frame)
         finally:
+            t.ended_at_utc = _now_iso()
             writer.close()
 
     def _contact(self, disp, t: TrialAttempt, rec):
@@ -230,7 +234,11 @@ class TrialSteps:
         ctx, row = t.ctx, t.row
         active = "record" if t.real else "playback"
         if t.contact_s is not None:
-            self.machine.go(active, **ctx, device_time_s=t.contact_s)
+            # logged once the trial ends: the host's times of reading the contact frame (late
+            # when frames queued meanwhile) and of the recording's end ride along (the BIDS
+            # events' contact/playback row)
+            self.machine.go(active, **ctx, device_time_s=t.contact_s,
+                            contact_at_utc=t.contact_at_utc, ended_at_utc=t.ended_at_utc)
         row.update(self._recording_fields(rec))
         row["contact_force_N"] = contact_force(t.writer, rec)   # Eq. 5's force
         self._skin_temperature(row, ctx, t.finger_C)
@@ -244,7 +252,8 @@ class TrialSteps:
         if rec.status != "ok":
             return self._fault(disp, t, None, rec=rec)
         if self.machine.state == "wait_contact":   # contact seen by the device only
-            self.machine.go(active, **ctx, device_time_s=rec.contact_time_s)
+            self.machine.go(active, **ctx, device_time_s=rec.contact_time_s,
+                            ended_at_utc=t.ended_at_utc)
         return None
 
     def _respond(self, t: TrialAttempt, rec) -> None:

@@ -68,8 +68,18 @@ def test_gee_mode_contrasts_equal_statsmodels_in_cell_means_coding(trials):
         est, se = w @ beta, np.sqrt(w @ cov @ w)
         assert row["estimate"] == pytest.approx(est, abs=1e-6)
         assert row["se"] == pytest.approx(se, rel=1e-5)
-        assert row["p_value"] == pytest.approx(2 * stats.t.sf(abs(est / se), m - 2), rel=1e-4)
-        assert row["test"] == f"Wald t({m - 2})" and row["df"] == m - 2
+        # a group's mode contrast rests on that group's participants: t(m_g - 1); both: t(m - 2)
+        df = m - 2 if group == "both" else trials.loc[trials["group"] == group,
+                                                      "participant"].nunique() - 1
+        assert df == {"A": 12, "B": 16, "both": 28}[group]
+        assert row["p_value"] == pytest.approx(2 * stats.t.sf(abs(est / se), df), rel=1e-4)
+        assert row["test"] == f"Wald t({df})" and row["df"] == df
+        q = stats.t.ppf(0.975, df)
+        assert (row["ci_low"], row["ci_high"]) == pytest.approx((est - q * se, est + q * se),
+                                                                rel=1e-5)
+        tq = stats.t.ppf(0.95, df)
+        assert row["tost_ci_low"] == pytest.approx(row["difference"] - tq * row["difference_se"],
+                                                   rel=1e-9)
         # difference of mean proportions and its delta-method SE, from the cell means
         q = special.expit(beta)
         pw = np.where(w > 0, 1, np.where(w < 0, -1, 0)) / (4 * len(groups))
@@ -80,6 +90,7 @@ def test_gee_mode_contrasts_equal_statsmodels_in_cell_means_coding(trials):
     from statsmodels.stats.multitest import multipletests
     per = table[table["role"] == "per-sample"]
     assert len(per) == 8
+    assert per.set_index("group")["df"].to_dict() == {"A": 12, "B": 16}
     np.testing.assert_allclose(per["p_holm"], multipletests(per["p_value"], method="holm")[1])
 
 
@@ -262,3 +273,71 @@ def test_mixed_choice_prefers_the_slope_model_and_says_why():
     assert c.contrasts is glmm and "fell back" in c.reason and simpler in c.reason
     c = choose_mixed(glmm, _fit("glmm-slope", None, notes=["GLMM slope: no formula could be fitted"]))
     assert c.contrasts is glmm and "no formula could be fitted" in c.reason
+
+
+def test_participant_sandwich_equals_leave_one_participant_out_refits():
+    """The bias-reduced sandwich of the slope model is the one-step delete-one-participant
+    jackknife: sum_i (beta_(-i) - beta)(beta_(-i) - beta)'. Reference: each participant left
+    out in turn and the fixed effects refitted by scipy (random-effect parameters held at the
+    estimate), 30 real refits."""
+    from scipy import optimize
+
+    from analysis.glmm import GLMMData
+    from analysis.glmm_slope import (fit_glmm_slope, participant_sandwich, slope_data,
+                                     slope_deviance)
+    from analysis.models import FORMULA, model_data
+
+    trials = generate(null_cells(), n_a=13, n_b=17, sigma=0.8, seed=7, slope_sd=0.8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_glmm_slope(trials, profile=False)
+    assert fit.formula == FORMULA and fit.cov_robust is not None
+    _, _, data, z = slope_data(FORMULA, model_data(trials))
+    sandwich = participant_sandwich(fit.theta, data, z)
+    np.testing.assert_allclose(sandwich, fit.cov_robust, rtol=1e-6, atol=1e-12)
+    beta, lam = fit.theta[:-3], fit.theta[-3:]
+    shifts = []
+    for i in range(data.m):
+        keep = data.person != i
+        person = np.searchsorted(np.unique(data.person[keep]), data.person[keep])
+        d = GLMMData(data.x[keep], data.k[keep], data.n[keep], person, data.m - 1)
+
+        def fun(b, d=d, zk=z[keep]):
+            dev, g = slope_deviance(np.append(b, lam), d, zk, 5, grad=True)
+            return dev, g[:-3]
+        res = optimize.minimize(fun, beta, jac=True, method="L-BFGS-B",
+                                options={"ftol": 1e-14, "gtol": 1e-9, "maxiter": 500})
+        shifts.append(res.x - beta)
+    shifts = np.array(shifts)
+    jackknife = shifts.T @ shifts
+    # the contrasts the report prints: real - simulated per group and both, the interaction
+    table = mode_contrasts(fit, trials, margin_pp=10)
+    for row in table[table["role"] == "averaged"].itertuples():
+        groups = ["A", "B"] if row.group == "both" else [row.group]
+        grid = pd.DataFrame([(g, m, r, 0, "x") for g in groups for m in ("real", "simulated")
+                             for r in (1, 2, 3, 4)],
+                            columns=["group", "mode", "roughness_id", "correct", "participant"])
+        import patsy
+        x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
+        sign = np.where(grid["mode"] == "real", 1.0, -1.0) / (4 * len(groups))
+        lvec = sign @ x
+        assert row.estimate == pytest.approx(lvec @ beta, abs=1e-9)
+        jk = np.sqrt(lvec @ jackknife @ lvec)
+        sw = np.sqrt(lvec @ sandwich @ lvec)
+        assert sw == pytest.approx(jk, rel=0.05)          # one-step vs full refits
+        model = np.sqrt(lvec @ fit.cov @ lvec)
+        assert row.se == pytest.approx(max(sw, model), rel=1e-9)
+        assert "bias-reduced participant sandwich" in row.interval
+
+
+def test_a_formula_without_group_by_mode_keeps_t_m_minus_2_on_every_row(trials):
+    # the additive fallback has one mode effect for both groups (all participants): no
+    # per-group df then
+    from analysis.models import FORMULA
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gee = fit_gee(trials, "correct ~ group + mode + C(roughness_id)")
+    assert gee.formula != FORMULA
+    table = mode_contrasts(gee, trials, margin_pp=10)
+    m = trials["participant"].nunique()
+    assert set(table["df"]) == {m - 2} and set(table["test"]) == {f"Wald t({m - 2})"}

@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from _session_helpers import P01, write_protocol
+from _xkeys import send_key
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow]
 
@@ -40,9 +41,8 @@ def _events(path: Path) -> list[dict]:
 
 
 def _key(env, key: str) -> None:
-    subprocess.run(["xdotool", "search", "--sync", "--name", "^thermocue$", "windowfocus", "--sync",
-                    "key", "--delay", "30", key], env=env, timeout=15, check=True,
-                   capture_output=True)
+    """A real key press in the participant's window (:func:`_xkeys.send_key`)."""
+    send_key(env, key)
 
 
 def _run_answering(cmd, env, events_path, timeout_s=75):
@@ -174,8 +174,6 @@ def test_no_audio_device_makes_the_cue_a_logged_no_op(tmp_path, xvfb):
 RECORDER = Path(__file__).with_name("_draw_recorder.py")
 PACKAGED = Path(__file__).resolve().parents[2] / "experiments" / "protocols" / "roughness_recognition.toml"
 SCREEN_STATES = ("welcome", "instructions", "please_wait", "label", "cue", "question", "finished")
-#: Set to a folder (e.g. docs/screens) to keep one screenshot per participant-screen state there.
-SCREENS_ENV = "THERMOCUE_SCREENSHOTS"
 
 
 def _whole_protocol(folder: Path) -> Path:
@@ -257,8 +255,7 @@ def test_whole_session_the_participant_window_never_shows_a_test_trials_sample(t
                         for e in offs if e["state"] not in ("finished",)), offs
     ons = [e["state"] for e in events if e["event"] == "text_on"]
     assert set(SCREEN_STATES) <= set(ons)
-    # One screenshot per state, for docs/session.md (kept when THERMOCUE_SCREENSHOTS is set).
-    keep = os.environ.get(SCREENS_ENV)
+    # A screenshot of each state was taken (docs/screens/make_screens.py makes the docs' ones).
     firsts = {}
     for e in events:
         if e["event"] == "text_on" and e["state"] not in firsts:
@@ -268,9 +265,6 @@ def test_whole_session_the_participant_window_never_shows_a_test_trials_sample(t
     for state in (*SCREEN_STATES, "instructions_key"):
         shot = next(d["shot"] for d in drawn if d["text"] == firsts[state] and d["shot"])
         assert Path(shot).stat().st_size > 1000
-        if keep:
-            Path(keep).mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(shot, Path(keep) / f"{state}.png")
 
 
 @pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")
@@ -353,8 +347,3 @@ def test_feedback_only_after_the_answer_in_a_feedback_block_and_the_rewarm_count
     assert rewarm and rewarm[0]["shot"]
     ons = {e["state"] for e in events if e["event"] == "text_on"}
     assert {"feedback", "rewarm"} <= ons
-    keep = os.environ.get(SCREENS_ENV)
-    if keep:
-        feedback = next(d["shot"] for d in drawn if d["text"].startswith("Correct") and d["shot"])
-        shutil.copyfile(feedback, Path(keep) / "feedback.png")
-        shutil.copyfile(rewarm[0]["shot"], Path(keep) / "rewarm.png")

@@ -103,6 +103,8 @@ def test_spoken_session_blank_window_experimenter_keys_with_undo(tmp_path, xvfb,
     # The experimenter read the instructions and keyed the answers on their channel (stderr).
     assert "read to the participant: \"Say the sample's number.\"" in err
     assert "key the participant's spoken answer 1-4" in err
+    # the goodbye too (the window drew nothing; it once reached nobody)
+    assert "say to the participant: 'Thank you: the session is finished.'" in err
     with open(data / "P01" / "S01" / "trials.csv", newline="") as fh:
         rows = [r for r in csv.DictReader(fh) if r["status"] == "ok"]
     assert len(rows) == 3

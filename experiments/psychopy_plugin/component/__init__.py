@@ -32,6 +32,12 @@ from .stripped import check_main_script  # noqa: E402
 
 check_main_script()
 
+# Every Builder script shows PsychoPy's experiment-info dialog unless "Show info dlg" is off: where
+# Qt cannot start (its X11 libraries missing), ask it on the terminal rather than abort.
+from .info_dialog import install as _install_info_dialog  # noqa: E402
+
+_install_info_dialog()
+
 _HERE = Path(__file__).parent
 
 

@@ -18,6 +18,8 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from _xkeys import PSYCHOPY_TITLE, send_key
+
 REPO = Path(__file__).resolve().parents[3]
 P01 = REPO / "participants" / "examples" / "P01.json"
 
@@ -108,10 +110,9 @@ def stop_emulator(proc) -> None:
             fh.close()
 
 
-def xdotool_key(env: dict, key: str, title: str = "^PsychoPy$") -> None:
-    subprocess.run(["xdotool", "search", "--sync", "--name", title, "windowfocus", "--sync",
-                    "key", "--delay", "30", key], env=env, timeout=15, check=True,
-                   capture_output=True)
+def xdotool_key(env: dict, key: str, title: str = PSYCHOPY_TITLE) -> None:
+    """A real key press in PsychoPy's window (:func:`_xkeys.send_key`)."""
+    send_key(env, key, title)
 
 
 def gui_env(xvfb: dict) -> dict:

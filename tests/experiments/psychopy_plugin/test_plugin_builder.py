@@ -3,7 +3,8 @@
 ``docs/examples/thermal_cue_demo.psyexp`` (two trials, samples 1 and 3 of the packaged protocol
 for participant P01, a text prompt and a keyboard) is compiled by PsychoPy's own compiler
 (``psyexpCompile.compileScript``, plugins activated as the Builder app does), and the script runs
-under Xvfb against the emulator on a real pty. The emulator's scripted finger presses after
+under Xvfb against the emulator on a real pty. Its experiment-info dialog (PsychoPy's, drawn by
+Qt: Builder's default "Show info dlg") is filled in with real keys first. The emulator's scripted finger presses after
 arming (the component's dry-run option); once the emulator's log shows the contact, xdotool
 answers with the sample's number. The PsychoPy data file must hold the thermal columns; the
 emulator's own log must show each profile playing and the pad back at neutral at the end.
@@ -20,6 +21,7 @@ import numpy as np
 import pytest
 
 from _plugin_helpers import P01, REPO, gui_env, read_log, serve_stamped, xdotool_key
+from _xkeys import send_key, type_text, wait_for_window, window_open
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow]
 EXAMPLES = REPO / "docs" / "examples"
@@ -27,6 +29,27 @@ EXAMPLES = REPO / "docs" / "examples"
 
 def _contacts(log):
     return [r for r in read_log(log) if r.get("event") == "state" and r.get("why") == "contact"]
+
+
+#: PsychoPy's experiment-info dialog is titled with the experiment's name.
+DIALOG = "^thermal_cue_demo$"
+
+
+def _fill_info_dialog(run, env, participant: str) -> int:
+    """PsychoPy's experiment-info dialog (Builder's "Show info dlg", drawn by Qt): the
+    participant's id typed over the one offered, then OK (Return). Returns how many times the
+    keys had to be sent again (the dialog was still open)."""
+    assert wait_for_window(env, DIALOG, run), "PsychoPy's experiment-info dialog never opened"
+    for attempt in range(3):
+        send_key(env, "ctrl+a", DIALOG)
+        type_text(env, participant, DIALOG)
+        send_key(env, "Return", DIALOG)
+        t0 = time.monotonic()
+        while window_open(env, DIALOG) and time.monotonic() - t0 < 4 and run.poll() is None:
+            time.sleep(0.1)
+        if not window_open(env, DIALOG):
+            return attempt
+    raise AssertionError("the experiment-info dialog did not close")
 
 
 def _answer_after_each_contact(run, env, log, keys, timeout_s=90):
@@ -127,6 +150,7 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
                                env={**env, "THERMOCUE_DISPLAY": link},
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
+            dialog_resent = _fill_info_dialog(run, env, "P07")
             sent, resent = _answer_after_each_contact(run, env, log, ["1", "3"])
             _, err = run.communicate(timeout=60)
         finally:
@@ -135,13 +159,15 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
                 run.communicate()
         time.sleep(1.5)      # the pad slews back to neutral at the protocol's 10 °C/s
     assert run.returncode == 0, err[-3000:]
-    assert sent == ["1", "3"] and resent <= 1
+    assert sent == ["1", "3"] and resent + dialog_resent <= 1
 
-    # --- PsychoPy's own data file
+    # --- PsychoPy's own data file, named by the participant typed in the info dialog
     (data_file,) = (work / "data").glob("*.csv")
+    assert data_file.name.startswith("P07_thermal_cue_demo_"), data_file.name
     with open(data_file, newline="", encoding="utf-8-sig") as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["sample"], r["answer.keys"]) for r in rows] == [("1", "1"), ("3", "3")]
+    assert {(r["participant"], r["session"]) for r in rows} == {("P07", "001")}
     # The emulator gives up time it was starved of beyond MAX_CATCH_UP_TICKS ticks (a host so
     # loaded that its loop slept that long): its clock then no longer keeps real time, and the
     # map must say so rather than give a number.
@@ -202,6 +228,7 @@ def test_escape_during_the_cue_puts_the_display_to_neutral(tmp_path, xvfb):
                                env={**env, "THERMOCUE_DISPLAY": link},
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         try:
+            _fill_info_dialog(run, env, "P08")
             deadline = time.monotonic() + 60
             while not _contacts(log) and run.poll() is None and time.monotonic() < deadline:
                 time.sleep(0.05)

@@ -105,6 +105,35 @@ def test_available_devices_lists_without_opening():
     assert all(p["deviceClass"].endswith("ThermalCueDevice") for p in profiles)
 
 
+def test_available_devices_list_every_backend_of_the_registry(monkeypatch):
+    """Each scheme the display registry knows (the thermocue protocol, its emulator, the TCS II,
+    the firmware under QEMU where QEMU is installed) is listed with a URL the registry routes to
+    that backend; a serial port the system lists appears once per backend that takes a port."""
+    import shutil
+    from types import SimpleNamespace
+
+    import serial.tools.list_ports as lp
+
+    from experiments.hardware.registry import backend_for, backends
+    from experiments.psychopy_plugin.device import ThermalCueDevice
+    port = SimpleNamespace(device="/dev/ttyUSB7", hwid="USB VID:PID=0403:6001", description="FT232R")
+    legacy = SimpleNamespace(device="/dev/ttyS0", hwid="n/a", description="n/a")
+    monkeypatch.setattr(lp, "comports", lambda *a, **k: [port, legacy])
+    profiles = ThermalCueDevice.getAvailableDevices()
+    urls = [p["url"] for p in profiles]
+    assert urls[0] == "emulator://"
+    assert {"emulator://", "tcs2://emulator", "/dev/ttyUSB7", "tcs2:///dev/ttyUSB7"} <= set(urls)
+    assert not any("ttyS0" in u for u in urls)
+    assert ("qemu-firmware://" in urls) == (shutil.which("qemu-system-arm") is not None)
+    schemes = {b.scheme for b in backends()}
+    assert {"serial", "emulator", "tcs2", "qemu-firmware"} <= schemes
+    listed = {p["scheme"] for p in profiles}
+    assert listed == schemes if shutil.which("qemu-system-arm") else listed == schemes - {"qemu-firmware"}
+    for p in profiles:        # each URL reaches the backend it is listed under (nothing opened)
+        assert backend_for(p["url"]).scheme == p["scheme"], p
+        assert p["description"] == backend_for(p["url"]).description
+
+
 def test_contact_and_release_are_responses_on_psychopy_time(manager, emulator):
     link, log = emulator
     dev = manager.addDevice(deviceClass="thermocue", deviceName="thermal", url=link,

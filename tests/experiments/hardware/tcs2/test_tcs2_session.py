@@ -56,9 +56,11 @@ def test_a_whole_session_on_the_tcs2_emulator_analyses_and_exports(tcs2_pty, tmp
     ok = [r for r in rows if r["status"] == "ok"]
     assert len(ok) == 28, [(r["status"], r["fault_code"]) for r in rows]
     # An emulator starved of CPU for 0.3 s falls silent to the host, which flags the attempt
-    # (LINK_TIMEOUT) and runs the trial again: the only extra rows a busy machine may add.
+    # (LINK_TIMEOUT, or HALF_LINE when the silence came mid-line) and runs the trial again:
+    # the only extra rows a busy machine may add.
     extra = [(r["status"], r["fault_code"]) for r in rows if r["status"] != "ok"]
-    assert all(e == ("fault", "LINK_TIMEOUT") for e in extra) and len(extra) <= 3, extra
+    assert all(e in {("fault", "LINK_TIMEOUT"), ("fault", "HALF_LINE")} for e in extra), extra
+    assert len(extra) <= 3, extra
     assert all(int(r["frames"]) >= 100 and r["frames_lost"] == "0" for r in ok)
     assert all(float(r["tracking_max_C"]) < 1.0 for r in ok)
     # the contact model is logged with every profile; each played profile starts at the skin
