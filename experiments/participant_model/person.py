@@ -72,12 +72,15 @@ __all__ = [
 
 _SD_FLOOR = 1e-6
 
-#: K: the model error the simulated participant's physics may carry.  The paper's four samples,
-#: felt by the group-B profile skin (1000 µm, d = 0.6 L, 35.5 °C on 20 °C steel, exact model),
-#: differ least between 1# and 2#, by 0.115 K in the 8 s drop (group A: 0.12 K); a quarter of
-#: that, rounded down, keeps the model's error from confusing them (the perceptual floor, 0.3 K,
-#: would not: it exceeds the difference).  ``test_person.py`` recomputes it.
-MODEL_TOLERANCE_C = 0.025
+#: K: the model error the simulated participant's physics may carry: a quarter of the smallest
+#: difference between the stimuli it must tell apart, rounded down, so that the model's error
+#: cannot confuse them (the perceptual floor, 0.3 K, would: it exceeds every difference).  The
+#: stimuli are the paper's four samples, real and as each replay hypothesis plays them, felt by
+#: the group profile skins (650 and 1000 µm, d = 0.6 L, 35.5 °C on 20 °C steel, the display
+#: through the 0.4 µm copper pad): the real 1# and 2# differ least by 0.115 K (8 s drop, group
+#: B), the replayed ones by 0.0122 K (printed Eq. 7, group A, a drop feature).
+#: ``test_person.py`` recomputes both with the exact models, not the planner.
+MODEL_TOLERANCE_C = 0.003
 
 
 @dataclass(frozen=True)
@@ -115,8 +118,9 @@ class PerceptionParameters:
     model_tolerance_C : float, K
         Largest error the scene planner may leave in a receptor temperature the person feels
         (:func:`stimuli.planner.planned_temperature`): :data:`MODEL_TOLERANCE_C`, a quarter of
-        the smallest difference between the paper's stimuli that the person must tell apart,
-        not the perceptual floor (a model error as large as the noise would blur 1# and 2#).
+        the smallest difference between the paper's stimuli (real and replayed) that the person
+        must tell apart, not the perceptual floor (a model error as large as the noise would
+        blur 1# and 2#).
 
     Notes
     -----
