@@ -474,8 +474,8 @@ def planner_note(settings: dict) -> str:
         parts.append(f"{what}: {models or 'none recorded'}")
     return (f"Every receptor temperature of the simulated persons went through the scene planner "
             f"at a tolerance of {settings.get('model_tolerance_C', float('nan')):g} K (a quarter "
-            f"of the smallest difference between the samples at the receptors, not the "
-            f"perceptual floor); models chosen: " + "; ".join(parts) + ".")
+            f"of the smallest difference at the receptors between the stimuli to tell apart, real "
+            f"and replayed, not the perceptual floor); models chosen: " + "; ".join(parts) + ".")
 
 
 def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
