@@ -13,11 +13,13 @@ model of ``correct ~ group * mode * C(roughness_id)``:
   proportions against the margin +-delta: H0 ``|real - simulated| >= delta``; equivalence is
   shown when both one-sided p-values are below alpha (equivalently, the ``1 - 2 alpha`` interval
   lies inside +-delta);
-- the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8.
+- the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8 (over
+  those tested: the rows of a group of one participant have no p-value).
 
 Reference distributions (:func:`contrast_df`): a row of one group is a within-participant
 contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
-row of both groups t(m - 2). From the random-slope mixed model the SE of each contrast is the
+row of both groups t(m - 2). A group of one participant has no reference: its rows and the
+both-groups row get no p-value, interval or equivalence test (``test`` says why). From the random-slope mixed model the SE of each contrast is the
 larger of the model-based one and the bias-reduced participant sandwich
 (:func:`analysis.models.contrast_se`).
 
@@ -162,14 +164,36 @@ def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str) -> float | None:
     means: ``m - 2`` (two groups, one mean each), as every other Wald row. A fallback formula
     without a group x mode term has one mode effect for both groups, estimated from all
     participants: ``m - 2`` for every row then. ``None`` (normal) when the fit has no ``df``.
+    NaN (no test, no interval: :func:`_lone_group`) when a group's contrast rests on a single
+    participant, for that group's rows and the both-groups row that averages it in.
     """
+    if _lone_group(fit, data, group) is not None:
+        return np.nan
     if not fit.df:
         return None
-    names = [t.name() for t in fit.design_info.terms]
-    if group == "both" or not any("group" in n and "mode" in n for n in names):
+    if group == "both" or not _group_by_mode(fit):
         return fit.df
     m_g = data.loc[data["group"] == group, "participant"].nunique()
-    return float(m_g - 1) if m_g > 1 else None
+    return float(m_g - 1)
+
+
+def _group_by_mode(fit: ModelFit) -> bool:
+    names = [t.name() for t in fit.design_info.terms]
+    return any("group" in n and "mode" in n for n in names)
+
+
+def _lone_group(fit: ModelFit, data: pd.DataFrame, group: str) -> str | None:
+    """The group (``group`` itself, or either for "both") whose mode contrast rests on one
+    participant, or None. With one participant there is no between-participant variation to
+    refer the contrast to (a participant-cluster sandwich of one cluster is its score, which
+    sums to 0 at the estimate; a t reference would have 0 df)."""
+    if not _group_by_mode(fit):
+        return None                   # one mode effect from all participants
+    groups = sorted(data["group"].unique()) if group == "both" else [group]
+    for g in groups:
+        if data.loc[data["group"] == g, "participant"].nunique() < 2:
+            return g
+    return None
 
 
 def _contrast(xr, xs, fit: ModelFit, z: float, df: float | None) -> dict:
@@ -187,11 +211,16 @@ def _contrast(xr, xs, fit: ModelFit, z: float, df: float | None) -> dict:
             "difference_ci_high": diff + z * dse}
 
 
-def _test_name(df: float | None) -> str:
+def _test_name(df: float | None, lone: str | None = None) -> str:
+    if lone is not None:
+        return (f"not tested: group {lone} has 1 participant (no between-participant "
+                f"reference for its mode contrast)")
     return f"Wald t({df:g})" if df else "Wald z (normal)"
 
 
 def _interval_name(fit: ModelFit, df: float | None) -> str:
+    if df is not None and np.isnan(df):
+        return "none (see test)"
     ref = f"t({df:g})" if df else "normal"
     if fit.cov_robust is not None:
         return f"Wald, {ref}; SE the larger of model-based and bias-reduced participant sandwich"
@@ -247,7 +276,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
                      "roughness_id": 0,
                      "compares": f"real - simulated, {who}, mean over the samples: log odds "
                                  f"ratio; difference of mean {scale} proportions correct",
-                     **c, "interval": _interval_name(fit, df), "test": _test_name(df),
+                     **c, "interval": _interval_name(fit, df),
+                     "test": _test_name(df, _lone_group(fit, data, group)),
                      "df": df, "p_holm": np.nan,
                      "margin": margin, "tost_p_value": t["p_value"],
                      "tost_ci_low": t["ci_low"], "tost_ci_high": t["ci_high"],
@@ -262,7 +292,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
                         "roughness_id": int(r),
                         "compares": f"real - simulated, group {group}, sample {r}#: log odds "
                                     f"ratio; difference of {scale} proportions correct",
-                        **c, "interval": _interval_name(fit, df), "test": _test_name(df),
+                        **c, "interval": _interval_name(fit, df),
+                        "test": _test_name(df, _lone_group(fit, data, group)),
                         "df": df, "margin": np.nan,
                         "tost_p_value": np.nan, "tost_ci_low": np.nan, "tost_ci_high": np.nan,
                         "equivalent": False, "basis": basis, "note": note})
@@ -282,6 +313,11 @@ def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
                 "needed).")
     r = sel.iloc[0]
     pp = lambda v: f"{100 * v:+.1f}"
+    if r["test"].startswith("not tested"):
+        return (f"Real vs simulated (GEE, population-averaged, both groups weighted equally, "
+                f"mean over the samples): real minus simulated {pp(r['difference'])} "
+                f"percentage points of proportion correct; {r['test']}: no interval and no "
+                f"equivalence test.")
     verdict = ("shown: simulated samples are recognised as well as real ones within the margin"
                if r["equivalent"] else
                "not shown: the data cannot exclude a difference as large as the margin")
@@ -300,6 +336,9 @@ def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
         s = table[(table["model"] == "gee") & (table["role"] == "averaged") & (table["group"] == g)]
         if not s.empty:
             s = s.iloc[0]
+            if s["test"].startswith("not tested"):
+                lines.append(f"Group {g}: {pp(s['difference'])} points; {s['test']}.")
+                continue
             lines.append(f"Group {g}: {pp(s['difference'])} points "
                          f"({pp(s['difference_ci_low'])} to {pp(s['difference_ci_high'])}), "
                          f"TOST p = {s['tost_p_value']:.3f}.")

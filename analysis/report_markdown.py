@@ -172,7 +172,7 @@ def _fidelity_section(r: AnalysisResult) -> list[str]:
         "`interval`), `difference` difference of mean proportions (delta method), TOST on the "
         "averaged rows (`tost_p_value` < 0.05 and the 90 % interval inside the margin: "
         "equivalent). Per-sample rows: `p_holm` over the 8 group x sample contrasts of the same "
-        "model. GEE rows are population-averaged; mixed-model rows are for a typical participant "
+        "model (over those with a p-value). GEE rows are population-averaged; mixed-model rows are for a typical participant "
         "and come from the model `note` names.", "",
         _md_table(f[f["role"] == "averaged"].drop(
             columns=["compares", "basis", "role", "roughness_id", "p_holm", "note"])), ""]

@@ -397,14 +397,93 @@ def _fmt(values) -> str:
     return f"{min(values):.3f}–{max(values):.3f} (n = {len(values)})"
 
 
-def _copy(shot, out: Path, name: str) -> str:
-    shutil.copyfile(shot, out / f"{name}.png")
-    return f"{name}.png"
+def collect(keyed: dict, spoken: dict):
+    """The page's rows from both sessions (:func:`_session`'s dicts), writing nothing.
+
+    Returns
+    -------
+    rows, exp_rows : list of tuple
+        The participant's and the experimenter's table rows.
+    copies : list of (str, str)
+        Each screenshot to copy: its path, and its file name in the output folder.
+    problems : list of str
+        Why the page must not be written (a state with no screenshot, no measured time, or a
+        time shorter than its minimum); empty when it may.
+    """
+    rows, exp_rows, copies, problems = [], [], [], []
+
+    def _copy(shot, name: str) -> str:
+        copies.append((shot, f"{name}.png"))
+        return f"{name}.png"
+
+    # --- the participant's window, keyed mode
+    shown = participant_times(keyed["events"])
+    draws = [r for r in keyed["records"] if r["kind"] == "draw"]
+    part = [r for r in draws if r["window"] == "thermocue"]
+    for key, state, what, rule in PARTICIPANT_STATES:
+        times = [s["shown_s"] for s in shown
+                 if s["state"] == state and _key_of(state, s["text"]) == key]
+        if key == "instructions_key":
+            times = []           # the same text_on as "instructions": one time for both
+            match = [r for r in part if r["text"].endswith("Press space to continue")]
+        else:
+            texts = {s["text"] for s in shown if s["state"] == state
+                     and _key_of(state, s["text"]) == key}
+            match = [r for r in part if r["text"] in texts or (
+                state == "rewarm" and r["text"].startswith("Rewarm"))]
+        shot = next((r["shot"] for r in match if r["shot"]), None)
+        if shot is None:
+            problems.append(f"no screenshot of the participant's {key}")
+            continue
+        minimum = _minimum_s(rule)
+        if key != "instructions_key" and not times:
+            problems.append(f"{key}: no time on screen measured (no text_off after its "
+                            f"text_on)")
+        short = [t for t in times if t < minimum - 1e-4]
+        if short:
+            problems.append(f"{key} shown {min(short):.4f} s < its minimum {minimum} s")
+        rows.append((key, _copy(shot, key), what, f"{rule} = {minimum:g} s"
+                     if key != "instructions_key" else rule,
+                     _fmt(times) if key != "instructions_key" else "(in the row above)"))
+
+    # --- the participant's window, spoken mode: blank for the whole session
+    flips = [r for r in spoken["records"] if r["kind"] == "flip" and r["window"] == "thermocue"]
+    blank = next((r["blank_shot"] for r in flips if r["blank_shot"]), None)
+    spoken_texts = [r for r in spoken["records"] if r["kind"] == "draw"
+                    and r["window"] == "thermocue"]
+    if blank is None or spoken_texts or any(e["event"] == "text_on" for e in spoken["events"]):
+        problems.append("the spoken mode's participant window was not blank")
+    else:
+        span = flips[-1]["flip_s"] - flips[0]["flip_s"]
+        rows.append(("spoken_blank", _copy(blank, "spoken_blank"),
+                     "spoken mode: the participant's window, blank from the first frame to "
+                     "the last (no text is drawn)", "—", f"{span:.3f} (whole session)"))
+
+    # --- the experimenter's window (both sessions)
+    for key, pattern, what in EXPERIMENTER_LINES:
+        for run in (keyed, spoken):
+            ed = [r for r in run["records"] if r["kind"] == "draw"
+                  and r["window"] == "thermocue experimenter"]
+            hit = next((i for i, r in enumerate(ed) if r["shot"] and
+                        re.search(pattern, r["text"].splitlines()[-1])), None)
+            if hit is None:
+                continue
+            later = [r for r in ed[hit + 1:] if r["text"] != ed[hit]["text"]]
+            until = later[0]["t"] if later else None
+            up = "until the window closed" if until is None else f"{until - ed[hit]['t']:.3f}"
+            exp_rows.append((key, _copy(ed[hit]["shot"], f"experimenter_{key}"), what, up))
+            break
+        else:
+            problems.append(f"no experimenter's line matching {pattern!r}")
+    return rows, exp_rows, copies, problems
 
 
 def build(out: Path, env: dict, keep: Path | None = None) -> str:
-    """Run both sessions, write the PNGs and README.md into ``out``; return the README text."""
-    out.mkdir(parents=True, exist_ok=True)
+    """Run both sessions, write the PNGs and README.md into ``out``; return the README text.
+
+    Nothing is written into ``out`` unless every check passes (:func:`collect`): a failed run
+    leaves the previous screenshots and page as they were.
+    """
     with tempfile.TemporaryDirectory(prefix="thermocue-screens-") as tmp:
         work = Path(tmp) if keep is None else keep
         work.mkdir(parents=True, exist_ok=True)
@@ -416,67 +495,14 @@ def build(out: Path, env: dict, keep: Path | None = None) -> str:
         keyed = _session("keyed", work, env)
         spoken = _session("spoken", work, env)
         load = os.getloadavg()
-        rows, problems = [], []
-
-        # --- the participant's window, keyed mode
-        shown = participant_times(keyed["events"])
-        draws = [r for r in keyed["records"] if r["kind"] == "draw"]
-        part = [r for r in draws if r["window"] == "thermocue"]
-        for key, state, what, rule in PARTICIPANT_STATES:
-            times = [s["shown_s"] for s in shown
-                     if s["state"] == state and _key_of(state, s["text"]) == key]
-            if key == "instructions_key":
-                times = []           # the same text_on as "instructions": one time for both
-                match = [r for r in part if r["text"].endswith("Press space to continue")]
-            else:
-                texts = {s["text"] for s in shown if s["state"] == state
-                         and _key_of(state, s["text"]) == key}
-                match = [r for r in part if r["text"] in texts or (
-                    state == "rewarm" and r["text"].startswith("Rewarm"))]
-            shot = next((r["shot"] for r in match if r["shot"]), None)
-            if shot is None:
-                problems.append(f"no screenshot of the participant's {key}")
-                continue
-            minimum = _minimum_s(rule)
-            short = [t for t in times if t < minimum - 1e-4]
-            if short:
-                problems.append(f"{key} shown {min(short):.4f} s < its minimum {minimum} s")
-            rows.append((key, _copy(shot, out, key), what, f"{rule} = {minimum:g} s"
-                         if key != "instructions_key" else rule,
-                         _fmt(times) if key != "instructions_key" else "(in the row above)"))
-
-        # --- the participant's window, spoken mode: blank for the whole session
-        flips = [r for r in spoken["records"] if r["kind"] == "flip" and r["window"] == "thermocue"]
-        blank = next((r["blank_shot"] for r in flips if r["blank_shot"]), None)
-        spoken_texts = [r for r in spoken["records"] if r["kind"] == "draw"
-                        and r["window"] == "thermocue"]
-        if blank is None or spoken_texts or any(e["event"] == "text_on" for e in spoken["events"]):
-            problems.append("the spoken mode's participant window was not blank")
-        else:
-            span = flips[-1]["flip_s"] - flips[0]["flip_s"]
-            rows.append(("spoken_blank", _copy(blank, out, "spoken_blank"),
-                         "spoken mode: the participant's window, blank from the first frame to "
-                         "the last (no text is drawn)", "—", f"{span:.3f} (whole session)"))
-
-        # --- the experimenter's window (both sessions)
-        exp_rows = []
-        for key, pattern, what in EXPERIMENTER_LINES:
-            for run in (keyed, spoken):
-                ed = [r for r in run["records"] if r["kind"] == "draw"
-                      and r["window"] == "thermocue experimenter"]
-                hit = next((i for i, r in enumerate(ed) if r["shot"] and
-                            re.search(pattern, r["text"].splitlines()[-1])), None)
-                if hit is None:
-                    continue
-                later = [r for r in ed[hit + 1:] if r["text"] != ed[hit]["text"]]
-                until = later[0]["t"] if later else None
-                up = "until the window closed" if until is None else f"{until - ed[hit]['t']:.3f}"
-                exp_rows.append((key, _copy(ed[hit]["shot"], out, f"experimenter_{key}"), what, up))
-                break
-            else:
-                problems.append(f"no experimenter's line matching {pattern!r}")
-    if problems:
-        raise SystemExit("make_screens: " + "; ".join(problems))
+        rows, exp_rows, copies, problems = collect(keyed, spoken)
+        if problems:
+            raise SystemExit("make_screens: " + "; ".join(problems))
+        out.mkdir(parents=True, exist_ok=True)
+        for shot, name in copies:
+            tmp_png = out / f".{name}.tmp"
+            shutil.copyfile(shot, tmp_png)
+            tmp_png.replace(out / name)
 
     lines = [
         "# The windows, state by state (screenshots on the real clock)",

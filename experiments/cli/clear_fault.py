@@ -3,9 +3,9 @@
 A display that overheated or lost a sensor latches in FAULT (relay open, no arming), and a
 session refuses to start on it. Only a person who has checked the pad and its sensors should
 clear it; thermocue never does it on its own. The command asks for that confirmation (typed
-``reset`` on a terminal, or ``--yes`` in a script), sends HELLO, STATUS and CLEAR_FAULT on the
-thermocue display protocol, and prints the state before and after. A display that is not in
-FAULT is left as it is.
+``reset`` on a terminal, or ``--yes`` in a script), asks STATUS and, only if the display is
+in FAULT, sends HELLO and CLEAR_FAULT on the thermocue display protocol, and prints the state
+before and after. A display that is not in FAULT is left as it is (no HELLO).
 """
 from __future__ import annotations
 
@@ -39,8 +39,11 @@ def _run(ns) -> int:
         if not sys.stdin.isatty():
             raise UserInputError("not resetting without confirmation: check the pad and its "
                                  "sensors, then run again with --yes")
-        answer = input(f"Have the pad and its sensors on {ns.url} been checked? "
-                       f"Type 'reset' to clear the fault: ")
+        try:
+            answer = input(f"Have the pad and its sensors on {ns.url} been checked? "
+                           f"Type 'reset' to clear the fault: ")
+        except EOFError:                      # Ctrl-D at the prompt: no confirmation
+            answer = ""
         if answer.strip().lower() != "reset":
             print("thermocue clear-fault: not reset", file=sys.stderr)
             return 1

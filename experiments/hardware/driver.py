@@ -532,10 +532,12 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
     @classmethod
     def operator_reset(cls, url: str, baudrate: int = 115200) -> tuple[str, str | None, str]:
-        """The operator's reset of a display latched in FAULT: HELLO, STATUS, CLEAR_FAULT.
+        """The operator's reset of a display latched in FAULT: STATUS, then HELLO and CLEAR_FAULT.
 
         For a person who has checked the pad and its sensors (``thermocue clear-fault URL``);
-        sets no limits and arms nothing. A device that is not in FAULT is left as it is.
+        sets no limits and arms nothing. A device that is not in FAULT is left as it is: it is
+        asked STATUS alone (allowed before a HELLO), since a HELLO starts a new host's session
+        on the device (a host using it would lose its half-done upload and its retry replies).
 
         Returns
         -------
@@ -544,11 +546,11 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         port = open_serial_port(url, baudrate)
         try:
             disp = cls(port, None)
-            disp.info = decode_hello(disp._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
-                                     disp.port_name)
             before = Status.decode(disp._transact(Cmd.STATUS))
             if before.state != "FAULT":
                 return before.state, before.last_fault, before.state
+            disp.info = decode_hello(disp._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
+                                     disp.port_name)
             disp.clear_fault()
             after = Status.decode(disp._transact(Cmd.STATUS))
             return before.state, before.last_fault, after.state

@@ -188,18 +188,23 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     int
         0.
     """
-    pty = PtyEndpoint(link)
-    jlog = JsonLog(log)
-    core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
+    jlog = JsonLog(log)               # before the pty and its link: a bad --log leaves nothing
+    try:
+        core = EmulatorCore(seed=seed, faults=faults, sim=sim, log=jlog)
+        pty = PtyEndpoint(link)
+    except BaseException:
+        jlog.close()
+        raise
     dev = core.device
     path = pty.path
     tick = TICK_US * 1e-6
     last_write, seen_queued = 0.0, False
     with stop_signals() as stopping:
-        jlog(dict(t_s=0.0, event="serve", path=path, clock=clock, pid=os.getpid()))
-        (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
-        core.start_real_time(time.monotonic())
         try:
+            # inside the try: a path that cannot be announced (stdout gone) still removes the link
+            jlog(dict(t_s=0.0, event="serve", path=path, clock=clock, pid=os.getpid()))
+            (announce or (lambda p: (print(p), sys.stdout.flush())))(path)
+            core.start_real_time(time.monotonic())
             while not stopping and not (stop is not None and stop()):
                 now = time.monotonic()
                 virtual_go = False

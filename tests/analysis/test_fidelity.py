@@ -341,3 +341,32 @@ def test_a_formula_without_group_by_mode_keeps_t_m_minus_2_on_every_row(trials):
     table = mode_contrasts(gee, trials, margin_pp=10)
     m = trials["participant"].nunique()
     assert set(table["df"]) == {m - 2} and set(table["test"]) == {f"Wald t({m - 2})"}
+
+
+def test_a_group_of_one_participant_gets_no_test_and_no_interval():
+    """A group's mode contrast rests on its own participants; with one there is no
+    between-participant variation to refer it to (its sandwich is one cluster's score, which
+    sums to 0): its rows, and the both-groups row that averages it in, carry no p-value,
+    interval or equivalence, and say why. Before: df None, "Wald z (normal)", p < 1e-5."""
+    from analysis.models import FORMULA
+
+    full = generate(null_cells(), n_a=13, n_b=17, reps=12, sigma=0.3, seed=11)
+    trials = full[(full["group"] == "A") | (full["participant"] == "B00")]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gee = fit_gee(trials)
+    assert gee.formula == FORMULA          # group x mode estimated, B from one participant
+    table = mode_contrasts(gee, trials, margin_pp=10)
+    withheld = table[table["group"].isin(["B", "both"])]
+    assert len(withheld) == 6
+    for row in withheld.itertuples():
+        assert np.isnan(row.p_value) and np.isnan(row.df) and np.isnan(row.ci_low)
+        assert np.isnan(row.difference_ci_low) and not row.equivalent
+        assert "group B has 1 participant" in row.test
+        assert np.isfinite(row.estimate)   # the estimate itself is still reported
+    kept = table[table["group"] == "A"]
+    assert set(kept["df"]) == {12.0} and kept["p_value"].notna().all()
+    assert kept.loc[kept["role"] == "per-sample", "p_holm"].notna().all()
+    from analysis.fidelity import fidelity_paragraph
+    text = fidelity_paragraph(table, 10, "the protocol")
+    assert "group B has 1 participant" in text and "nan" not in text

@@ -25,9 +25,10 @@ def serve(*, faults: str | None = None, seed: int = 0, speed: float = 1.0, link:
     pty = PtyEndpoint(link)
     step = TICK_S / speed
     with stop_signals() as stopping:
-        (announce or (lambda p: (print(p), sys.stdout.flush())))(pty.path)
-        next_t = time.monotonic()
         try:
+            # inside the try: a path that cannot be announced (stdout gone) still removes the link
+            (announce or (lambda p: (print(p), sys.stdout.flush())))(pty.path)
+            next_t = time.monotonic()
             while not stopping and not (stop is not None and stop()):
                 wait = max(0.0, next_t - time.monotonic())
                 if pty.wait(min(wait, 0.05)):

@@ -68,3 +68,38 @@ def test_clear_fault_speaks_only_the_thermocue_protocol():
     r = _thermocue("clear-fault", "tcs2:///dev/ttyACM0", "--yes")
     assert r.returncode == 2
     assert "tcs2://" in r.stderr and "thermocue display protocol" in r.stderr
+
+
+def test_clear_fault_cancelled_at_the_prompt_with_ctrl_d_is_one_line_not_a_traceback():
+    import os
+    master, slave = os.openpty()
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "experiments", "clear-fault",
+                                 "/dev/thermocue-no-such-port"], stdin=slave,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        os.close(slave)
+        slave = None
+        os.write(master, b"\x04")                 # Ctrl-D at the confirmation prompt
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if slave is not None:
+            os.close(slave)
+        os.close(master)
+    assert proc.returncode == 1, err
+    assert "Traceback" not in err and "not reset" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_clear_fault_on_a_display_not_in_fault_leaves_it_as_it_is(tmp_path):
+    """STATUS only (allowed before HELLO): no HELLO, which would make the device drop a running
+    host's half-done profile upload and the replies it keeps for that host's retries."""
+    from test_pty_server import start_emulator as start, stop as stop_emulator
+    proc, path, log = start(tmp_path)
+    try:
+        r = _thermocue("clear-fault", path, "--yes")
+        assert r.returncode == 0, r.stderr
+        assert "not in FAULT (state IDLE)" in r.stdout
+        events = [rec["event"] for rec in read_log(log)]
+        assert "hello" not in events and "fault_cleared" not in events
+    finally:
+        stop_emulator(proc)

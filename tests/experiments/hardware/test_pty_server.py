@@ -253,3 +253,40 @@ def test_a_second_host_gets_its_own_limits_and_neutral(tmp_path):
     assert limits_set == [(15.0, 42.0, 10.0), (20.0, 38.0, 10.0)]
     assert [r["neutral_C"] for r in recs if r["event"] == "neutral"] == [32.0, 30.0]
     assert [r["event"] for r in recs].count("hello") == 2
+
+
+def test_an_unwritable_log_leaves_no_link_behind(tmp_path):
+    """--log in a missing folder: one line naming the path, exit 1, and no --link left pointing
+    at a closed pty (the kernel gives its number to the next terminal opened, which a host
+    would then open as the display)."""
+    link = tmp_path / "display"
+    log = tmp_path / "no-such-folder" / "log.jsonl"
+    r = subprocess.run([sys.executable, "-m", "experiments", "emulator", "--link", str(link),
+                        "--log", str(log)], capture_output=True, text=True, timeout=60,
+                       stdin=subprocess.DEVNULL)
+    assert r.returncode == 1 and str(log) in r.stderr and "Traceback" not in r.stderr
+    assert not os.path.lexists(link)
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("model", ["thermocue", "tcs2"])
+def test_an_emulator_whose_stdout_is_gone_leaves_no_link_behind(tmp_path, model):
+    """Its path cannot be printed (stdout a pipe nobody reads, e.g. `| head -0`): it stops,
+    and removes the --link it made (which would otherwise point at a closed pty number)."""
+    link = tmp_path / "display"
+    read_end, write_end = os.pipe()
+    os.close(read_end)                    # before the emulator starts: its print fails
+    try:
+        proc = subprocess.Popen([sys.executable, "-m", "experiments", "emulator", "--model",
+                                 model, "--link", str(link)], stdout=write_end,
+                                stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    finally:
+        os.close(write_end)
+    try:
+        proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode != 0
+    assert not os.path.lexists(link)
