@@ -157,6 +157,8 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     text = "\n".join(report)
     assert "Every receptor temperature of the simulated persons went through the scene planner" in text
     assert "real contacts: exact" in text and "replayed profiles felt on the pad: exact" in text
+    assert ("The 'T2 rise' claim's replayed Table 2 temperatures (20 s, 35 °C skin on 24 °C "
+            "steel), per replay: printed: paper-as-printed, material side, half-space") in text
     dec = study["scenario_settings"]["planner_decisions"]
     assert dec["real"] and dec["display"]
 

@@ -183,3 +183,18 @@ def test_a_profile_asked_by_method_records_that_method_not_the_planners():
                                       "material"))
         assert abs(T[i] - exact) <= plan["bound_K"] + 0.005 + 1e-9
         assert plan["planner"]["method"] == "exact"          # the planner's answer, kept beside
+
+
+def test_the_table2_replay_records_the_model_its_label_says():
+    # the "T2 rise" claim's temperatures: each replay's recorded profile model is its own
+    from experiments.simulation.figure9.scenarios import replay_models, table2_replay_temperatures
+    from experiments.simulation.replay import REPLAY_HYPOTHESES
+    for name, h in REPLAY_HYPOTHESES.items():
+        plans = []
+        temps = table2_replay_temperatures(name, decisions=plans)
+        assert len(plans) == len(temps)
+        (model,) = replay_models(plans)
+        assert model["method"] == h.method and model["count"] == len(temps), (name, model)
+        assert ("half-space" in model["model"]) == (h.replayed_material == "half-space")
+        if h.method == "exact":
+            assert model["max_bound_K"] <= model["tolerance_K"] <= 1e-6
