@@ -288,3 +288,26 @@ def test_cli_power_runs_on_a_local_cluster_with_progress(tmp_path, capsys):
     pd.testing.assert_frame_equal(pd.read_csv(out / "power.csv"), here, check_dtype=False)
     assert main(["power", "--cells", str(cells), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
     assert "--workers: expected an integer >= 1" in capsys.readouterr().err
+
+
+def test_cli_power_sends_the_cohorts_to_a_running_scheduler(tmp_path, capsys):
+    # --scheduler ADDRESS: no local cluster of its own; the cluster's workers run the tasks
+    import logging
+
+    from distributed import Client, LocalCluster
+    cells = tmp_path / "cells.csv"
+    _write_cells(cells, _cells(0.2))
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        assert main(["power", "--cells", str(cells), "--n-per-group", "6", "--simulations", "30",
+                     "--test", "cluster-t", "--seed", "13", "--scheduler",
+                     cluster.scheduler_address, "--out", str(tmp_path / "p")]) == 0
+        # that scheduler ran the cohort tasks (30 cohorts: tasks of 25 and 5)
+        prefixes = client.run_on_scheduler(lambda dask_scheduler: {
+            name: dict(p.state_counts) for name, p in dask_scheduler.task_prefixes.items()})
+    assert "power: 30 of 30 cohorts" in capsys.readouterr().err
+    here = power_curve(read_cells(cells), (6,), simulations=30, test="cluster-t", seed=13,
+                       participant_sd=0.5, cells_scale="marginal").table
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv"), here,
+                                  check_dtype=False)
+    assert prefixes["cohort_task"]["memory"] == 2, prefixes     # each computed once, there
