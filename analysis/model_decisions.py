@@ -62,6 +62,15 @@ def model_decisions(session_folders) -> pd.DataFrame:
     rows = []
     for folder in session_folders:
         for plan in _plans(folder):
+            if not plan.get("decisions") and plan.get("method") not in (None, "none"):
+                # a profile computed by the method asked for (e.g. the printed Eq. 7), not
+                # planned: one row naming it, its bound its distance from the exact model
+                b = plan.get("bound_K")
+                rows.append({"model": str(plan.get("model", "")), "effect": "(not planned)",
+                             "decision": "as asked",
+                             "bound": math.nan if b is None else float(b),
+                             "tolerance": float(plan.get("tolerance_K") or math.nan),
+                             "note": str(plan.get("note", ""))})
             for d in plan.get("decisions") or []:
                 b = d.get("bound_K")
                 rows.append({"model": str(plan.get("model", "")), "effect": str(d.get("effect")),
@@ -87,8 +96,12 @@ def model_decisions_markdown(table: pd.DataFrame, md_table) -> list:
     neglected = table[table["decision"] == "neglected"]
     said = ", ".join(f"{r.effect} (<= {r.max_bound_K:.2g} K)" if not math.isnan(r.max_bound_K)
                      else str(r.effect) for r in neglected.itertuples()) or "nothing"
+    asked = table[table["decision"] == "as asked"]
+    asked_text = "".join(
+        f" Computed by the method asked for, not planned: {r.model} in {r.n_profiles} "
+        f"profile(s), at most {r.max_bound_K:.2g} K from the exact model." for r in asked.itertuples())
     return parts + [
         "The simulated stimuli's target profiles were computed by the scene planner's model "
         "(`stimuli.planner`): for each physical effect, whether it was kept or neglected, and the "
         "error its neglect causes (largest over the profiles, K, against the tolerance asked). "
-        f"Neglected: {said}.", "", md_table(table), ""]
+        f"Neglected: {said}.{asked_text}", "", md_table(table), ""]

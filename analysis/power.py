@@ -34,10 +34,15 @@ Power is the share of cohorts rejecting "no group difference" at ``alpha``
 ``power_right_sign`` counts only rejections with group A higher;
 ``fallbacks`` the share fitted with a simpler formula (separation).
 :func:`n_for_power` interpolates the n per group reaching a target power.
+
+The cohorts are simulated in fixed tasks of :data:`COHORTS_PER_TASK` (:func:`cohort_task`), each
+from its own seed, run here or handed to ``map_tasks`` (``thermocue power`` runs them on a
+``dask.distributed`` cluster): the same seed gives the same table whoever runs the tasks.
 """
 from __future__ import annotations
 
 import json
+import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,7 +58,7 @@ from .errors import LogError
 from .proportions import wilson_interval
 
 __all__ = ["PowerResult", "power_curve", "read_cells", "cells_frame", "plot_power", "n_for_power",
-           "to_conditional", "glmm_cells"]
+           "to_conditional", "glmm_cells", "cohort_task", "cohort_chunks", "COHORTS_PER_TASK"]
 
 _CELL_COLUMNS = ("group", "mode", "roughness_id", "p_correct")
 
@@ -298,6 +303,67 @@ def _cluster_t(k, n, groups, keys, prop, mode, alpha, samples):
     return pv < alpha, prop["A"].mean() - prop["B"].mean(), False
 
 
+#: Simulated cohorts per task: fixed, so that the tasks (hence their seeds and results) are the
+#: same whoever runs them (this process, or any number of workers of a cluster).
+COHORTS_PER_TASK = 25
+
+
+def cohort_chunks(simulations: int, size: int = COHORTS_PER_TASK) -> list[int]:
+    """Cohort counts of the tasks that make ``simulations``: ``size`` each, the rest last."""
+    full, rest = divmod(int(simulations), int(size))
+    return [size] * full + ([rest] if rest else [])
+
+
+@threadpool_limits.wrap(limits=1)   # small BLAS calls per cohort: threads only spin
+def cohort_task(test, q, keys, n_a, n_b, repetitions, participant_sd, missing_rate, mode, alpha,
+                ids, in_mode, n_cohorts, seed):
+    """``n_cohorts`` simulated cohorts of one size and the test on each (one task of a sweep).
+
+    Module level and picklable, so that a cluster's workers can run it; its random numbers come
+    from ``seed`` alone (:func:`numpy.random.default_rng`).
+
+    Returns
+    -------
+    tuple of lists
+        Per cohort: rejected, estimate > 0, fitted with a fallback formula, the A - B difference
+        of the mean per-participant proportions in ``mode``.
+    """
+    rng = np.random.default_rng(list(seed))
+    reject, sign, fallback, diffs = [], [], [], []
+    for _ in range(int(n_cohorts)):
+        k, n, groups = _simulate_arrays(q, keys, n_a, n_b, repetitions, participant_sd,
+                                        missing_rate, rng)
+        prop = {}
+        for kg, ng, g in zip(k, n, groups):
+            kk, nn = kg[:, in_mode[g]].sum(axis=1), ng[:, in_mode[g]].sum(axis=1)
+            prop[g] = kk[nn > 0] / nn[nn > 0]
+        diffs.append(float(prop["A"].mean() - prop["B"].mean()))
+        r, est, fb = TESTS[test](k, n, groups, keys, prop, mode, alpha, ids)
+        reject.append(bool(r))
+        sign.append(bool(est > 0))
+        fallback.append(bool(fb))
+    return reject, sign, fallback, diffs
+
+
+def _local_map(progress):
+    """A ``map_tasks`` that runs the tasks here, in order, saying how far and how long is left."""
+    def run(fn, tasks, what="tasks", weights=None):
+        weights = list(weights) if weights is not None else [1] * len(tasks)
+        total, done, start, last = sum(weights), 0, time.perf_counter(), time.perf_counter()
+        out = []
+        for task, w in zip(tasks, weights):
+            out.append(fn(*task))
+            done += w
+            now = time.perf_counter()
+            if progress and (now - last >= 2.0 or done == total):
+                elapsed = now - start
+                progress(f"{done} of {total} {what}; elapsed {elapsed:5.1f} s, remaining "
+                         f"{elapsed / done * (total - done):5.1f} s")
+                last = now
+        return out
+    return run
+
+
 #: The tests :func:`power_curve` simulates: name -> ``f(k, n, groups, keys, prop, mode, alpha,
 #: samples) -> (rejected, estimate, fallback)`` for one cohort (the ``solve_ivp`` ``METHODS`` shape).
 TESTS = {"gee": _gee_cohort, "cluster-t": _cluster_t}
@@ -307,7 +373,8 @@ TESTS = {"gee": _gee_cohort, "cluster-t": _cluster_t}
 def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: int = 400,
                 repetitions: int = 3, participant_sd: float = 0.5, mode: str = "real",
                 alpha: float = 0.05, test: str = "gee", cells_scale: str = "conditional",
-                missing_rate: float = 0.0, seed: int = 20261122, progress=None) -> PowerResult:
+                missing_rate: float = 0.0, seed: int = 20261122, progress=None,
+                map_tasks=None) -> PowerResult:
     """Estimate the power of the report's primary test for each cohort size.
 
     Parameters
@@ -337,7 +404,15 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
         Probability that a scheduled trial yields no answer, 0-1.
     seed : int
     progress : callable, optional
-        Called with a message per cohort size.
+        Called with a message per cohort size and, running here, with the cohorts done and the
+        time remaining.
+    map_tasks : callable, optional
+        ``map_tasks(fn, tasks, what=..., weights=...) -> [fn(*task) for task in tasks]`` in the
+        order of ``tasks``: runs the simulated cohorts elsewhere, e.g. on a ``dask.distributed``
+        cluster (``thermocue power`` passes :meth:`experiments.simulation.sweep.Sweep.map`).
+        Default: here, in order. The cohorts come in fixed tasks of :data:`COHORTS_PER_TASK`,
+        each from its own seed ``(seed, n_A, n_B, task)``, so the result is the same whoever
+        runs them and with how many workers.
 
     Returns
     -------
@@ -389,29 +464,30 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
     marg = {k: _marginal(special.logit(v), participant_sd, z, w) for k, v in zip(keys, q)}
     expected = float(np.mean([marg[("A", mode, r)] for r in ids])
                      - np.mean([marg[("B", mode, r)] for r in ids]))
-    rng = np.random.default_rng(seed)
-    rows = []
-    for entry in n_per_group:
-        n_a, n_b = _sizes(entry)
+    in_mode = {g: [j for j, key in enumerate([kk for kk in keys if kk[0] == g])
+                   if key[1] == mode] for g in ("A", "B")}
+    sizes = [_sizes(entry) for entry in n_per_group]
+    tasks, owner, weights = [], [], []
+    for si, (n_a, n_b) in enumerate(sizes):
         if progress:
             label = f"n = {n_a} per group" if n_a == n_b else f"n = {n_a}:{n_b} (A:B)"
             progress(f"{label}: {simulations} cohorts ({test})")
-        reject, sign, fallback, diffs = [], [], [], []
-        in_mode = {g: [j for j, key in enumerate([kk for kk in keys if kk[0] == g])
-                       if key[1] == mode] for g in ("A", "B")}
-        for _ in range(simulations):
-            k, n, groups = _simulate_arrays(q, keys, n_a, n_b, repetitions, participant_sd,
-                                            missing_rate, rng)
-            prop = {}
-            for kg, ng, g in zip(k, n, groups):
-                kk, nn = kg[:, in_mode[g]].sum(axis=1), ng[:, in_mode[g]].sum(axis=1)
-                prop[g] = kk[nn > 0] / nn[nn > 0]
-            diffs.append(prop["A"].mean() - prop["B"].mean())
-            r, est, fb = TESTS[test](k, n, groups, keys, prop, mode, alpha, ids)
-            reject.append(r)
-            sign.append(est > 0)
-            fallback.append(fb)
-        reject, sign = np.array(reject), np.array(sign)
+        for ci, count in enumerate(cohort_chunks(simulations)):
+            # each task's random numbers from its own seed: the same whoever runs it, and a
+            # size's cohorts the same whatever other sizes the grid holds
+            tasks.append((test, q, keys, n_a, n_b, repetitions, participant_sd, missing_rate,
+                          mode, alpha, ids, in_mode, count, (int(seed), n_a, n_b, ci)))
+            owner.append(si)
+            weights.append(count)
+    results = (map_tasks or _local_map(progress))(cohort_task, tasks, what="cohorts",
+                                                  weights=weights)
+    rows = []
+    for si, (n_a, n_b) in enumerate(sizes):
+        parts = [r for r, o in zip(results, owner) if o == si]
+        reject = np.array([v for r in parts for v in r[0]], dtype=bool)
+        sign = np.array([v for r in parts for v in r[1]], dtype=bool)
+        fallback = [v for r in parts for v in r[2]]
+        diffs = [v for r in parts for v in r[3]]
         hits = int(reject.sum())
         low, high = wilson_interval(hits, simulations)
         rows.append({"n_group_A": n_a, "n_group_B": n_b, "n_per_group": (n_a + n_b) / 2,

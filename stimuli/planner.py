@@ -54,7 +54,7 @@ from .planner_bounds import (PERFUSION_LAPLACE_NOTE, PERFUSION_NOTE, as_half_spa
                              perfusion_laplace_bound)
 from .planner_bounds import perfusion_factor  # noqa: F401 (public as stimuli.planner.perfusion_factor)
 
-__all__ = ["plan", "planned_temperature", "plan_line", "Plan", "Decision", "SAFETY", "EFFECTS",
+__all__ = ["plan", "planned_temperature", "plan_line", "plan_summary", "Plan", "Decision", "SAFETY", "EFFECTS",
            "perfusion_bound", "perfusion_laplace_bound"]
 
 #: Factor on the probe error for the times between probes (checked by the planner's grid test).
@@ -446,6 +446,30 @@ def planned_temperature(quantity: str, skin, material, resistance: float, skin_t
     if p.model.sensor:
         return evaluate(p.scene, p.model, scene.times)[np.round(t * rate).astype(int)], p
     return evaluate(p.scene, p.model, t), p
+
+
+def plan_summary(plan) -> dict:
+    """A planner's decision in a few JSON-ready fields (for a log event or an emulator reply).
+
+    Parameters
+    ----------
+    plan : Plan or stimuli.display_planner.DisplayPlan or None
+        None: nothing was planned (equal temperatures: nothing flows).
+
+    Returns
+    -------
+    dict
+        ``model`` (what was evaluated), ``method``, ``tolerance_K``, ``bound_K`` (the planned
+        model's error bound against the full model) and the effects ``kept`` / ``neglected``.
+    """
+    if plan is None:
+        return {"model": "none", "method": "none", "tolerance_K": None, "bound_K": 0.0,
+                "kept": [], "neglected": [], "note": "equal temperatures: nothing flows"}
+    d = plan.to_dict()
+    return {"model": d["model"], "method": d["method"], "tolerance_K": d["tolerance_K"],
+            "bound_K": d["bound_K"],
+            "kept": [x["effect"] for x in d["decisions"] if x["included"]],
+            "neglected": [x["effect"] for x in d["decisions"] if not x["included"]]}
 
 
 def plan_line(plan: dict) -> str:

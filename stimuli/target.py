@@ -30,7 +30,8 @@ __all__ = ["TargetProfile", "target_profile", "MODEL_REVISION", "SIDES"]
 SIDES = TARGET_SIDES
 
 #: Bumped when a change in the model would change a cached profile (part of the hash).
-MODEL_REVISION = 2   # 2: profiles planned by the scene planner, the plan stored with them
+MODEL_REVISION = 3   # 2: profiles planned by the scene planner, the plan stored with them;
+#                      3: a profile computed by another method records that method as its plan
 _KIND = "target"
 
 
@@ -231,8 +232,10 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
         with ``method="exact"`` (the default) the profile's scene -- the side asked for, the
         sample's geometry, ``physics`` -- is planned to ``tolerance`` or, without one, to half
         the display's ``resolution`` (a coarser model would waste the display's precision), and
-        the planned model computes the profile; any other ``method`` is used as asked and the
-        plan is recorded for information.
+        the planned model computes the profile; any other ``method`` (or a ``tolerance``) is used
+        as asked and the record names it (``model``, ``method``: what was played, ``bound_K``: its
+        distance from the exact model), with the planner's answer under ``planner`` for
+        information.
 
     Raises
     ------
@@ -338,10 +341,7 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
                                  params, cached=True)
 
     planned = _plan_profile(mat, skin, R, Ts, Tm, duration, rate, res, tol, side, physics)
-    # in the form a cache hit gives back (keys sorted, as stored): a profile's parameters, and the
-    # session log that records them, must not depend on whether the cache held the profile
-    params["plan"] = json.loads(json.dumps(planned if isinstance(planned, dict) else planned.to_dict(),
-                                           sort_keys=True))
+    planned_dict = planned if isinstance(planned, dict) else planned.to_dict()
     model = None if isinstance(planned, dict) or method != "exact" or tol is not None else planned.model
     if model is not None and _needs_scene(model):
         T, used, model_err = _scene_side_temperature(planned, times, side, R_pad)
@@ -355,6 +355,13 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
         T, used, model_err = _side_temperature(contact, times, side, R_pad, method, tol)
         if model is not None and model != planned.full_model:
             model_err += planned.bound_K     # what the neglected effects may cost
+    if model is None and not isinstance(planned, dict):
+        # the method asked for (or Contact's choice within ``tolerance``) was played, not the
+        # planner's model: the record names what was played, the planner's answer beside it
+        planned_dict = _as_asked(used, side, mat, model_err, tol, planned_dict)
+    # in the form a cache hit gives back (keys sorted, as stored): a profile's parameters, and the
+    # session log that records them, must not depend on whether the cache held the profile
+    params["plan"] = json.loads(json.dumps(planned_dict, sort_keys=True))
     if not np.all(np.isfinite(T)):
         raise ModelInputError(f"target_profile: method: {used!r} gave non-finite temperatures")  # pragma: no cover
     counts = np.round(T / res)
@@ -367,6 +374,22 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
                                   "counts": [int(c) for c in counts]},
                      cache_dir)
     return TargetProfile(times, temp, used, bound, key, params, cached=False)
+
+
+def _as_asked(used, side, mat, model_err, tol, planned_dict) -> dict:
+    """The plan record of a profile computed by the method asked for, not the planner's model.
+
+    ``model`` and ``method`` name what was played (``used``), ``bound_K`` its error against the
+    exact model of the same side and geometry, ``tolerance_K`` the tolerance it was chosen
+    within (None: the method was asked for by name); ``planner`` the scene planner's answer for
+    the same scene, for information.
+    """
+    geometry = "half-space" if mat.thickness is None else f"slab {mat.thickness * 1e3:g} mm"
+    return {"model": f"{used}, {side} side, {geometry} (as asked, not planned)",
+            "method": used, "bound_K": float(model_err), "tolerance_K": tol,
+            "note": ("method chosen within the tolerance by stimuli.Contact" if tol is not None
+                     else "method asked for by name; bound_K: its distance from the exact model"),
+            "planner": planned_dict}
 
 
 _PHYSICS = ("geometry", "support", "effective_thickness_m", "layered", "hypodermis_m",

@@ -1,4 +1,10 @@
-"""``thermocue power``: power to detect the group difference, by simulating cohorts."""
+"""``thermocue power``: power to detect the group difference, by simulating cohorts.
+
+The cohorts are simulated on a ``dask.distributed`` cluster (:class:`experiments.simulation.sweep.
+Sweep`: a LocalCluster of ``--workers`` processes, or the scheduler at ``--scheduler``), in the
+fixed, self-seeded tasks of :func:`analysis.power.cohort_task`: the same ``--seed`` gives the
+same tables whatever the number of workers; progress with the time remaining on stderr.
+"""
 from __future__ import annotations
 
 import json
@@ -59,6 +65,12 @@ def register(sub) -> None:
     p.add_argument("--repetitions", type=int, default=None,
                    help="trials per participant and cell (default: the analysis's with "
                         "--from-analysis, else 3)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="worker processes of the local dask cluster that simulates the cohorts "
+                        "(default: the CPU count, at most 4); the result does not depend on it")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="simulate the cohorts on the dask scheduler at ADDRESS (tcp://host:port) "
+                        "instead of a local cluster (its workers need this package importable)")
     p.add_argument("--seed", type=int, default=20261122)
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created)")
     p.set_defaults(func=_run)
@@ -93,7 +105,6 @@ def _model_cells(progress):
 
 
 def _run(ns) -> int:
-    from analysis.power import power_curve, read_cells
     from experiments.errors import UserInputError
 
     from experiments.cli.paths import check_writable_dir
@@ -116,6 +127,22 @@ def _run(ns) -> int:
         raise UserInputError(f"--alpha: expected a number between 0 and 1, got {ns.alpha!r}")
     if ns.missing_rate is not None and not 0 <= ns.missing_rate < 1:
         raise UserInputError(f"--missing-rate: expected a number in [0, 1), got {ns.missing_rate!r}")
+    if ns.workers is not None and ns.workers < 1:
+        raise UserInputError(f"--workers: expected an integer >= 1, got {ns.workers!r}")
+    if ns.from_analysis and not Path(ns.from_analysis).is_dir():     # before the cluster starts
+        raise UserInputError(f"--from-analysis: expected an output folder of thermocue "
+                             f"analyze, got {ns.from_analysis!r}")
+    if not ns.from_analysis and ns.cells and not Path(ns.cells).is_file():
+        raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
+    from experiments.simulation.sweep import Sweep
+    # the cohorts go to a dask.distributed cluster (a LocalCluster unless --scheduler)
+    with Sweep(workers=ns.workers, scheduler=ns.scheduler, label="power") as sweep:
+        return _compute(ns, effects, sizes, sweep.map)
+
+
+def _compute(ns, effects, sizes, map_tasks) -> int:
+    from analysis.power import power_curve, read_cells
+    from experiments.errors import UserInputError
     start = time.monotonic()
 
     def progress(message: str) -> None:      # power_curve's steps, with the time so far
@@ -139,7 +166,7 @@ def _run(ns) -> int:
         result = power_by_effect(design["cells"], effects, sizes, participant_sd=sd,
                                  mode=ns.mode, simulations=ns.simulations, repetitions=reps,
                                  alpha=ns.alpha, test=ns.test, missing_rate=missing_rate,
-                                 seed=ns.seed, progress=progress)
+                                 seed=ns.seed, progress=progress, map_tasks=map_tasks)
         source = (f"{ns.from_analysis}: design (n {design['n_group_A']}:{design['n_group_B']}, "
                   f"{reps} repetitions, missing {missing_rate:.3f}) and participant SD "
                   f"{sd:.3f} from the analysis; group B's cells from its mixed model; group A's "
@@ -161,7 +188,7 @@ def _run(ns) -> int:
                          repetitions=3 if reps is None else reps,
                          participant_sd=sd, mode=ns.mode, alpha=ns.alpha, test=ns.test,
                          cells_scale=scale, missing_rate=missing_rate or 0.0, seed=ns.seed,
-                         progress=progress)
+                         progress=progress, map_tasks=map_tasks)
     return _write(ns, result, source, sizes, progress)
 
 

@@ -407,15 +407,22 @@ class Device(HostCommands):
                 body = _TEL_PREFIX[seq] + payload
                 self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
 
+    def sample_model(self):
+        """``(material_side_C, skin_side_C, plans)`` of the passive sample under the scripted
+        finger for the armed duration (:meth:`PassiveSample.planned_curves`, cached): what a
+        record-mode touch reads, and the scene planner's decisions for it."""
+        n = int(self.max_duration_us / TICK_US) + 200
+        return self.sample.planned_curves(self.finger.skin_thickness_m,
+                                          self.finger.skin_temperature_C, self.tick_s, n,
+                                          force_N=self.finger.force_N)
+
     def _sample_reading(self, t_us, touching) -> float:
         """Contact sensor on the passive sample (record mode)."""
         s = self.sample
         if self.touch_us is None or self.finger is None:
             return s.temperature_C
         if self.curves is None or self.curves[0] != self.touch_us:
-            n = int(self.max_duration_us / TICK_US) + 200
-            tm, ts = s.curves(self.finger.skin_thickness_m, self.finger.skin_temperature_C,
-                              self.tick_s, n, force_N=self.finger.force_N)
+            tm, ts, _ = self.sample_model()
             self.curves = (self.touch_us, tm.tolist(), ts.tolist())   # the same floats
         _, tm, ts = self.curves
         k = (t_us - self.touch_us) // TICK_US

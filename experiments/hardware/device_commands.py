@@ -19,7 +19,8 @@ from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE
 from .faults import parse_faults
 from .framing import encode_frame
 from .messages import Cmd, Err, Event, Mode, State
-from .pad_physics import FingerScript, FingerSkin, PassiveSample, finger_pad_resistance
+from .pad_physics import (FINGER_ON_PAD_MODEL, FingerScript, FingerSkin, PassiveSample,
+                          finger_pad_resistance)
 
 __all__ = ["HostCommands"]
 
@@ -233,7 +234,13 @@ class HostCommands:
                 self._r_fp = finger_pad_resistance()
             self.skin = FingerSkin(f.skin_thickness_m, f.skin_temperature_C, self.tick_s, self._r_fp)
             self.log("finger", **a)
-            return dict(start_s=None if f.start_us is None else f.start_us * 1e-6)
+            reply = dict(start_s=None if f.start_us is None else f.start_us * 1e-6)
+            # what models the finger's next touch, and the planner's decisions (for the host's log)
+            if self.state == State.ARMED and self.arm_mode == Mode.RECORD:
+                reply["sample_model"] = {k: dict(v) for k, v in self.sample_model()[2].items()}
+            elif self.state == State.ARMED:
+                reply["finger_on_pad_model"] = dict(FINGER_ON_PAD_MODEL)
+            return reply
         specs = parse_faults(a["spec"], where="sim_fault")
         now = self.time_us * 1e-6
         shifted = [s.shifted(now) for s in specs]

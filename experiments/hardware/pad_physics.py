@@ -27,8 +27,15 @@ advanced exactly over each tick (matrix exponential, input held); its surface ex
 the pad through the finger–pad contact resistance (``stimuli.contact_resistance`` of a 0.4 µm
 copper face) while touching, and with room air (10 W/m²K) otherwise, over the paper's 135 mm².
 
-Passive sample (record): ``stimuli.Contact(...).interface_temperature`` (exact), material side for
-the contact sensor glued on the sample, skin side for the finger, from the first touch.
+Passive sample (record): the interface temperatures by the scene planner's model
+(:func:`stimuli.planner.planned_temperature`, within :data:`SAMPLE_MODEL_TOLERANCE_K`), material
+side for the contact sensor glued on the sample, skin side for the finger, from the first touch;
+the planner's decisions (:func:`compact_plan`) go back to the host in the ``sim_finger`` reply.
+
+The finger on the pad (playback) is not a planned model: it is the plant's own state, advanced
+with the pad it exchanges heat with (the pad's temperature depends on the finger's heat flow,
+which the display planner's imposed-surface models do not describe); the ``sim_finger`` reply
+names it (:data:`FINGER_ON_PAD_MODEL`).
 """
 from __future__ import annotations
 
@@ -41,7 +48,8 @@ import numpy as np
 from scipy.linalg import expm
 
 __all__ = ["normal_stream", "PadParams", "PadPlant", "FingerSkin", "FingerScript", "PassiveSample",
-           "CONTACT_AREA_M2", "finger_pad_resistance"]
+           "CONTACT_AREA_M2", "finger_pad_resistance", "compact_plan", "SAMPLE_MODEL_TOLERANCE_K",
+           "FINGER_ON_PAD_MODEL"]
 
 _dot = np.dot
 #: Contact area of the fingertip, m² (paper: 2 N on 135 mm²).
@@ -215,10 +223,34 @@ class PassiveSample:
     def curves(self, skin_thickness_m, skin_temperature_C, dt, n, force_N=2.0):
         """``(material_side_C, skin_side_C)`` at ``t = k dt``, k = 0..n-1, from first touch;
         the contact resistance is Eq. 5 at the finger's ``force_N``."""
+        return self.planned_curves(skin_thickness_m, skin_temperature_C, dt, n, force_N)[:2]
+
+    def planned_curves(self, skin_thickness_m, skin_temperature_C, dt, n, force_N=2.0):
+        """``(material_side_C, skin_side_C, plans)``: :meth:`curves` and the scene planner's
+        decision for each side (``plans``: ``{"interface_material": ..., "interface_skin": ...}``,
+        each :func:`compact_plan`); the same cached computation as :meth:`curves`."""
         return _interface_curves(self.material, self.roughness_m, self.thickness_m,
                                  self.temperature_C, round(float(skin_thickness_m), 9),
                                  round(float(skin_temperature_C), 3), dt, n,
                                  round(float(force_N), 3))
+
+
+#: What the ``sim_finger`` reply says models the finger on the pad (playback): not the planner's.
+FINGER_ON_PAD_MODEL = {"model": "finite volumes (32 cells, exact over each tick), coupled to the pad",
+                       "method": "plant state", "tolerance_K": None, "bound_K": None,
+                       "note": "two-way heat exchange with the pad: not an imposed-surface scene, "
+                               "so not planned"}
+
+#: K: the tolerance of the passive sample's interface temperatures, half the display's 0.01 K
+#: resolution (a finer model would not change a reading).
+SAMPLE_MODEL_TOLERANCE_K = 0.005
+
+
+def compact_plan(plan) -> dict:
+    """A scene planner's decision in a few fields, small enough for an emulator reply
+    (:func:`stimuli.planner.plan_summary`)."""
+    from stimuli.planner import plan_summary
+    return plan_summary(plan)
 
 
 @lru_cache(maxsize=256)
@@ -230,12 +262,12 @@ def _interface_curves(mat, roughness, thickness, t_mat, skin_th, t_skin, dt, n, 
     t = np.arange(n) * dt
     # through the scene planner (stimuli.planner) to half the display's 0.01 K resolution
     from stimuli.planner import planned_temperature
-    tm = np.asarray(planned_temperature("interface_material", skin, m, R, t_skin, t_mat, t,
-                                        tolerance=0.005)[0], dtype=float)
-    ts = np.asarray(planned_temperature("interface_skin", skin, m, R, t_skin, t_mat, t,
-                                        tolerance=0.005)[0], dtype=float)
+    tol = SAMPLE_MODEL_TOLERANCE_K
+    tm, pm = planned_temperature("interface_material", skin, m, R, t_skin, t_mat, t, tolerance=tol)
+    ts, ps = planned_temperature("interface_skin", skin, m, R, t_skin, t_mat, t, tolerance=tol)
+    tm, ts = np.asarray(tm, dtype=float), np.asarray(ts, dtype=float)
     tm.setflags(write=False); ts.setflags(write=False)
-    return tm, ts
+    return tm, ts, {"interface_material": compact_plan(pm), "interface_skin": compact_plan(ps)}
 
 
 class PadPlant:

@@ -6,9 +6,14 @@ dermis ``d``; receptors at depth ``d`` from the inner boundary, i.e. under an ep
 receptor temperature the physics predicts:
 
 * real trial: its own skin in contact with the steel sample through the contact resistance of
-  the sample's roughness against its own skin (:class:`stimuli.Contact`, Eq. 5 resistance);
+  the sample's roughness against its own skin (:func:`stimuli.planner.planned_temperature`,
+  Eq. 5 resistance);
 * simulated trial: the pad temperature the display actually produced, touched through its own
-  finger–pad contact resistance (:func:`stimuli.skin_response` with ``resistance``).
+  finger–pad contact resistance (:func:`stimuli.display_planner.planned_skin_response`).
+
+Both go through the scene planner at ``params.model_tolerance_C`` (a quarter of the smallest
+difference between the samples at the receptors, not the perceptual floor); the decision of the
+last one is :attr:`SimulatedPerson.last_plan`.
 
 The decision rule. From the receptor trace :math:`T(t)` the person extracts the features
 :math:`f` (:func:`receptor_features`): the drop :math:`T_0 - T(t_k)` at ``drop_times_s`` and
@@ -67,12 +72,15 @@ __all__ = [
 
 _SD_FLOOR = 1e-6
 
-#: K: the model error the simulated participant's physics may carry.  The paper's four samples,
-#: felt by the group-B profile skin (1000 µm, d = 0.6 L, 35.5 °C on 20 °C steel, exact model),
-#: differ least between 1# and 2#, by 0.115 K in the 8 s drop (group A: 0.12 K); a quarter of
-#: that, rounded down, keeps the model's error from confusing them (the perceptual floor, 0.3 K,
-#: would not: it exceeds the difference).  ``test_person.py`` recomputes it.
-MODEL_TOLERANCE_C = 0.025
+#: K: the model error the simulated participant's physics may carry: a quarter of the smallest
+#: difference between the stimuli it must tell apart, rounded down, so that the model's error
+#: cannot confuse them (the perceptual floor, 0.3 K, would: it exceeds every difference).  The
+#: stimuli are the paper's four samples, real and as each replay hypothesis plays them, felt by
+#: the group profile skins (650 and 1000 µm, d = 0.6 L, 35.5 °C on 20 °C steel, the display
+#: through the 0.4 µm copper pad): the real 1# and 2# differ least by 0.115 K (8 s drop, group
+#: B), the replayed ones by 0.0122 K (printed Eq. 7, group A, a drop feature).
+#: ``test_person.py`` recomputes both with the exact models, not the planner.
+MODEL_TOLERANCE_C = 0.003
 
 
 @dataclass(frozen=True)
@@ -110,8 +118,9 @@ class PerceptionParameters:
     model_tolerance_C : float, K
         Largest error the scene planner may leave in a receptor temperature the person feels
         (:func:`stimuli.planner.planned_temperature`): :data:`MODEL_TOLERANCE_C`, a quarter of
-        the smallest difference between the paper's stimuli that the person must tell apart,
-        not the perceptual floor (a model error as large as the noise would blur 1# and 2#).
+        the smallest difference between the paper's stimuli (real and replayed) that the person
+        must tell apart, not the perceptual floor (a model error as large as the noise would
+        blur 1# and 2#).
 
     Notes
     -----
@@ -257,6 +266,9 @@ class SimulatedPerson:
         self._real_cache: dict = {}
         self.last_display_plan = None   # the planner's decisions of the last feel_imposed
         self.real_plans: dict = {}      # the planner's decisions of each real contact felt
+        #: the planner's decision for the last receptor temperature felt (real or imposed), as
+        #: :func:`stimuli.planner.plan_summary` plus ``felt_as``; the simulated responder logs it
+        self.last_plan: dict | None = None
 
     # -- physics ---------------------------------------------------------------------------
     @property
@@ -318,6 +330,8 @@ class SimulatedPerson:
             self.real_plans[key] = plan      # the planner's decisions, kept for the record
             theta = (np.asarray(T, dtype=float) - 20.0) / 15.5
             self._real_cache[key] = np.concatenate(([1.0], theta))
+        from stimuli.planner import plan_summary
+        self.last_plan = {"felt_as": "real", **plan_summary(self.real_plans[key])}
         theta = self._real_cache[key]
         return t, t_m + theta * (t_s - t_m)
 
@@ -354,8 +368,9 @@ class SimulatedPerson:
         layered, perfusion_per_s : bool, float, keyword-only
             The skin's physics as known (:class:`stimuli.scene.Scene`'s options): the receptor
             is computed by the scene planner's model for it
-            (:func:`stimuli.display_planner.planned_skin_response`, within the perceptual
-            floor); its decisions are kept in :attr:`last_display_plan`.
+            (:func:`stimuli.display_planner.planned_skin_response`, within
+            ``params.model_tolerance_C``, the same tolerance as a real contact's); its decisions
+            are kept in :attr:`last_display_plan` and :attr:`last_plan`.
 
         Returns
         -------
@@ -380,7 +395,10 @@ class SimulatedPerson:
         receptor, self.last_display_plan = planned_skin_response(
             skin, grid, surface, t_s, depth=skin.dermis,
             resistance=None if pad_resistance is None else float(pad_resistance),
-            layered=layered, perfusion_per_s=perfusion_per_s)
+            tolerance=self.params.model_tolerance_C, layered=layered,
+            perfusion_per_s=perfusion_per_s)
+        from stimuli.planner import plan_summary
+        self.last_plan = {"felt_as": "simulated", **plan_summary(self.last_display_plan)}
         return grid, np.asarray(receptor, dtype=float)
 
     def features(self, t, receptor_C, skin_temperature_C: float | None = None) -> np.ndarray:

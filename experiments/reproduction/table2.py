@@ -8,7 +8,9 @@ resistance (paper defaults, lambda_a = steel) and
 * Eq. 7 as printed and corrected (the material side, half-space: the closed forms'
   only geometry),
 * the exact solution, material side and skin side, for a half-space and for the
-  paper's 3 mm samples (a slab with an insulated back).
+  paper's 3 mm samples (a slab with an insulated back), each through the scene planner
+  (:data:`TOLERANCE_K`); ``table2.md`` ends with each column's model, method, tolerance and
+  error bound.
 
 Skin: 650 um thick (the paper's group A mean; Experiment 1's participant is not
 characterised), dermis 0.6 L; Table 1 properties. Nothing is fitted: the
@@ -18,6 +20,8 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+
+import numpy as np
 
 from experiments.atomicfile import output_file
 
@@ -44,24 +48,76 @@ MODEL_COLUMNS = {
 }
 
 
-def table2_rows(skin_thickness_um: float = SKIN_THICKNESS_UM):
-    """Header and rows: paper values, ours, and residuals (ours - paper), K."""
+#: K: the exact columns' tolerance, half the table's last printed digit (0.001 °C).
+TOLERANCE_K = 0.0005
+#: Hz: the time grid the exact columns are planned and evaluated on (the value read at TIME_S).
+RATE_HZ = 10.0
+
+
+def table2_rows(skin_thickness_um: float = SKIN_THICKNESS_UM, decisions: dict | None = None):
+    """Header and rows: paper values, ours, and residuals (ours - paper), K.
+
+    The exact columns are the scene planner's (:func:`stimuli.planner.planned_temperature`,
+    within :data:`TOLERANCE_K` of the column's full model: the side, the half-space or the
+    3 mm slab); the Eq. 7 columns are the paper's closed form as printed and as corrected, by
+    definition of the column (:class:`stimuli.Contact` with that method). ``decisions``: a dict
+    filled with each column's decision per roughness (``{column: {roughness_um: summary}}``,
+    :func:`stimuli.planner.plan_summary` fields; the closed forms' ``bound_K`` is their
+    distance from the exact half-space at :data:`TIME_S`).
+    """
     from stimuli import Contact, Skin, contact_resistance, material
+    from stimuli.planner import plan_summary, planned_temperature
 
     skin = Skin(skin_thickness_um * 1e-6)
     header = ["roughness_um", "R_m2K_per_W", "paper_simulation_C", "paper_experiment_C"]
     header += list(MODEL_COLUMNS)
     header += [f"{c[:-2]}_minus_experiment_K" for c in MODEL_COLUMNS]
     header += [f"{c[:-2]}_minus_simulation_K" for c in MODEL_COLUMNS]
+    decisions = {} if decisions is None else decisions
+    grid = np.arange(int(round(TIME_S * RATE_HZ)) + 1) / RATE_HZ
     rows = []
     for ra, (sim, exp) in PAPER_TABLE2.items():
         R = contact_resistance(ra * 1e-6, skin, material("stainless_steel"))
         ours = []
-        for method, side, thick in MODEL_COLUMNS.values():
-            c = Contact(skin, material("stainless_steel", thick), R, SKIN_C, ROOM_C)
-            ours.append(float(c.interface_temperature([TIME_S], side=side, method=method)[0]))
+        for col, (method, side, thick) in MODEL_COLUMNS.items():
+            steel = material("stainless_steel", thick)
+            if method == "exact":
+                T, p = planned_temperature(f"interface_{side}", skin, steel, R, SKIN_C, ROOM_C,
+                                           grid, tolerance=TOLERANCE_K)
+                value, d = float(T[-1]), plan_summary(p)
+            else:
+                c = Contact(skin, steel, R, SKIN_C, ROOM_C)
+                value = float(c.interface_temperature([TIME_S], side=side, method=method)[0])
+                exact = float(c.interface_temperature([TIME_S], side=side, method="exact")[0])
+                d = {"model": f"{method}, {side} side, half-space (the column's closed form)",
+                     "method": method, "tolerance_K": None, "bound_K": abs(value - exact),
+                     "kept": [], "neglected": [],
+                     "note": "not planned: the column is this formula; bound_K is its distance "
+                             "from the exact half-space"}
+            ours.append(value)
+            decisions.setdefault(col, {})[ra] = d
         rows.append([ra, R, sim, exp, *ours, *[o - exp for o in ours], *[o - sim for o in ours]])
     return header, rows
+
+
+def _models_md(decisions: dict) -> str:
+    """The table's notes: each column's model, method, tolerance and error bound."""
+    lines = ["", "## Models of the columns", "",
+             f"Each exact column through the scene planner, within {TOLERANCE_K:g} K of the "
+             f"column's full model (half the table's last digit); the Eq. 7 columns are the "
+             f"closed forms themselves (their bound: distance from the exact half-space).", "",
+             "| column | model chosen | method | tolerance_K | largest error bound_K | neglected | kept |",
+             "|---|---|---|---|---|---|---|"]
+    for col, per in decisions.items():
+        models = sorted({d["model"] for d in per.values()})
+        first = next(iter(per.values()))
+        bound = max(float(d["bound_K"]) for d in per.values())
+        tol = "—" if first["tolerance_K"] is None else f"{first['tolerance_K']:g}"
+        neglected = sorted({e for d in per.values() for e in d["neglected"]})
+        kept = sorted({e for d in per.values() for e in d["kept"]})
+        lines.append(f"| {col} | {'; '.join(models)} | {first['method']} | {tol} | {bound:.2g} | "
+                     f"{', '.join(neglected) or '—'} | {', '.join(kept) or '—'} |")
+    return "\n".join(lines) + "\n"
 
 
 def _md_table(header, rows) -> list[str]:
@@ -130,14 +186,16 @@ def write_table2(out_dir) -> tuple[Path, Path, str]:
     """Write ``table2.csv`` and ``table2.md`` into ``out_dir``; return both paths and the markdown."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    header, rows = table2_rows()
+    decisions = {}
+    header, rows = table2_rows(decisions=decisions)
     with output_file(out / "table2.csv") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         for r in rows:
             w.writerow([f"{v:.6g}" for v in r])
     md = (f"# Table 2: interface temperature at {TIME_S:g} s (skin {SKIN_C:g} °C, steel {ROOM_C:g} °C, "
-          f"skin {SKIN_THICKNESS_UM:g} µm)\n\n" + _markdown(header, rows) + _explanation(header, rows))
+          f"skin {SKIN_THICKNESS_UM:g} µm)\n\n" + _markdown(header, rows) + _explanation(header, rows)
+          + _models_md(decisions))
     with output_file(out / "table2.md") as fh:
         fh.write(md)
     return out / "table2.csv", out / "table2.md", md

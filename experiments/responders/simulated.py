@@ -94,6 +94,9 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     log_percepts : bool
         Log a ``simulated_percept`` event per answered trial (features felt, noisy percept,
         log-likelihood of each sample, answer), so every answer can be traced to the physics.
+        Whatever it says, every receptor temperature felt logs a ``simulated_receptor_model``
+        event (trial_index, felt_as, the scene planner's model, method, tolerance_K, bound_K,
+        kept and neglected effects: :attr:`SimulatedPerson.last_plan`).
     **perception
         Any field of :class:`~experiments.participant_model.person.PerceptionParameters`
         (``drop_noise_C``, ``weber_fraction``, ``lapse_rate``, ...).
@@ -227,10 +230,13 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         """Script the emulator: the sample (real trials) and the finger."""
         person = self._ensure_person()
         _, skin_temperature = self._trial(trial)
-        press(display, sample=(None if trial.mode == "simulated"
-                               else _sample_for(self.session, trial, self.params)),
-              press_after_s=self.press_after_s, force_N=self._force(), hold_s=self.hold_for(trial),
-              skin_thickness_m=person.skin_thickness_m, skin_temperature_C=skin_temperature)
+        reply = press(display, sample=(None if trial.mode == "simulated"
+                                       else _sample_for(self.session, trial, self.params)),
+                      press_after_s=self.press_after_s, force_N=self._force(),
+                      hold_s=self.hold_for(trial), skin_thickness_m=person.skin_thickness_m,
+                      skin_temperature_C=skin_temperature)
+        if hasattr(self.session, "log_finger_model"):
+            self.session.log_finger_model(trial.trial_index, reply)
         if _is_familiarisation(trial) and trial.mode != "simulated":
             # A real sample is felt by physics alone: learn now, whether or not the protocol
             # asks for an answer on familiarisation trials (``response = false``).
@@ -287,6 +293,9 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                                       material_temperature_C=sample["temperature_C"],
                                       skin_temperature_C=skin_temperature,
                                       force_N=self.trial_force(stimulus))   # Eq. 5
+        # the scene planner's decision for what was felt: model, method, tolerance, error bound
+        self.log("simulated_receptor_model", trial_index=int(trial.trial_index),
+                 **(person.last_plan or {}))
         return t, rec, skin_temperature
 
     def pad_resistance(self) -> float | None:

@@ -176,11 +176,20 @@ class Session(TrialSteps):
         skin_C = self.participant.get("initial_skin_temperature_C",
                                       0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C))
         thickness_um = self.skin_thickness_um or 800.0
-        press(display, sample=None if spec.mode == "simulated" else self.sample_for(spec),
-              press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
-              hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
-              skin_thickness_m=float(thickness_um) * 1e-6, skin_temperature_C=float(skin_C))
+        reply = press(display, sample=None if spec.mode == "simulated" else self.sample_for(spec),
+                      press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
+                      hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
+                      skin_thickness_m=float(thickness_um) * 1e-6, skin_temperature_C=float(skin_C))
         self.log_event("emulated_touch", trial_index=spec.trial_index, skin_temperature_C=skin_C)
+        self.log_finger_model(spec.trial_index, reply)
+
+    def log_finger_model(self, trial_index: int, reply: dict) -> None:
+        """Log what models the emulated finger's touch (:func:`..responders.hand.finger_model`):
+        the ``emulated_finger_model`` event, when the emulator says."""
+        from experiments.responders.hand import finger_model
+        model = finger_model(reply)
+        if model is not None:
+            self.log_event("emulated_finger_model", trial_index=int(trial_index), **model)
 
     # -- logging --------------------------------------------------------------------------
     def log_event(self, kind: str, **fields) -> dict | None:

@@ -212,7 +212,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
         raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
                          "depth and d / L range)")
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
-    people = []
+    people, display_plans = [], []
     profiles = {}
     for group in groups:
         for h, proto in variants.items():
@@ -250,9 +250,10 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                     for h in variants:
                         surf = [(pr.times, _lead(pr.times, pr.temperature, sensor_tau_s))
                                 for pr in profiles[(h, group)]]
-                        f0 = imposed_features(p, surf, r_pad, responses)
+                        f0 = imposed_features(p, surf, r_pad, responses, display_plans)
                         sims[h][i, j, k] = f0
-                        dsims[h][i, j, k] = imposed_features(p1, surf, r_pad, responses) - f0
+                        dsims[h][i, j, k] = imposed_features(p1, surf, r_pad, responses,
+                                                             display_plans) - f0
         real[group] = r
         for h in variants:
             simulated[(h, group)] = sims[h]
@@ -264,34 +265,53 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                       settings={"seed": int(seed), "dermis_fraction": tuple(dermis_fraction),
                                 "sensor_tau_s": float(sensor_tau_s),
                                 "model_tolerance_C": float(params.model_tolerance_C),
-                                "planner_models": _planner_models(people),
+                                "planner_decisions": {
+                                    "real": _planner_decisions(
+                                        [q for person in people for q in person.real_plans.values()]),
+                                    "display": _planner_decisions(display_plans)},
                                 "grid": f"{GRID_L} thicknesses x {len(fractions)} d/L x "
                                         f"{len(FORCE_GRID_N)} forces per group"})
 
 
 def merge_pools(pools) -> PersonPool:
     """One pool from pools of different groups (same persons' settings, same hypotheses)."""
-    from collections import Counter
     first = pools[0]
     out = PersonPool(grid_L_um={}, grid_fraction=first.grid_fraction, real={}, simulated={},
                      simulated_dts={}, params=first.params,
                      skin_reference_C=first.skin_reference_C, material_C=first.material_C,
                      receptor_depth_um=first.receptor_depth_um, roughness_um=first.roughness_um,
                      settings=dict(first.settings))
-    models = Counter()
     for p in pools:
         for name in ("grid_L_um", "real", "simulated", "simulated_dts"):
             getattr(out, name).update(getattr(p, name))
-        models.update(p.settings.get("planner_models", {}))
-    out.settings["planner_models"] = dict(models)
+    out.settings["planner_decisions"] = {
+        path: _merge_decisions([p.settings["planner_decisions"][path] for p in pools])
+        for path in ("real", "display")}
     return out
 
 
-def _planner_models(people) -> dict:
-    """How often the scene planner chose each model for the persons' real contacts."""
-    from collections import Counter
-    plans = [plan for p in people for plan in p.real_plans.values() if plan is not None]
-    return dict(Counter(plan.to_dict().get("model", "?") for plan in plans))
+def _planner_decisions(plans) -> dict:
+    """The scene planner's decisions over many evaluations: per model chosen, how often, its
+    method, tolerance and the largest error bound (:func:`stimuli.planner.plan_summary`)."""
+    from stimuli.planner import plan_summary
+    out = {}
+    for plan in plans:
+        d = plan_summary(plan)
+        e = out.setdefault(d["model"], {"count": 0, "method": d["method"],
+                                        "tolerance_K": d["tolerance_K"], "max_bound_K": 0.0})
+        e["count"] += 1
+        e["max_bound_K"] = max(e["max_bound_K"], float(d["bound_K"] or 0.0))
+    return out
+
+
+def _merge_decisions(parts) -> dict:
+    out = {}
+    for part in parts:
+        for model, e in part.items():
+            m = out.setdefault(model, dict(e, count=0, max_bound_K=0.0))
+            m["count"] += e["count"]
+            m["max_bound_K"] = max(m["max_bound_K"], e["max_bound_K"])
+    return out
 
 
 def _grid_weights(x, grid):
@@ -315,21 +335,29 @@ def person_features(table, grid_L, grid_fraction, L_um, fraction):
             + (1 - wi) * wj * table[i0, j1] + wi * wj * table[i1, j1])
 
 
-def imposed_features(person, surfaces, pad_resistance, cache: dict | None = None) -> np.ndarray:
+def imposed_features(person, surfaces, pad_resistance, cache: dict | None = None,
+                     plans: list | None = None) -> np.ndarray:
     """Features of ``person`` touching the pad at each of ``surfaces`` (list of (t, °C)).
 
-    The same as ``person.features(*person.feel_imposed(t, T, pad_resistance=...))`` for each,
-    computed by linear superposition: the skin's response is linear and time-invariant in the
-    surface temperature (linear between uniform samples), so two calls of
-    :func:`stimuli.skin_response` (a unit jump at t = 0 decaying linearly to the first sample,
-    and a unit hat at the first sample) give every profile's response by a convolution; equal
+    The same as ``person.features(*person.feel_imposed(t, T, pad_resistance=...))`` for each:
+    every history is planned by the display planner
+    (:func:`stimuli.display_planner.plan_display`, at ``person.params.model_tolerance_C``, the
+    physics the person states: homogeneous skin without perfusion), and the planned model is
+    evaluated by linear superposition: the skin's response is linear and time-invariant in the
+    surface temperature (linear between uniform samples), so two evaluations of the planned model
+    (:func:`stimuli.skin_response`, homogeneous skin: a unit jump at t = 0 decaying linearly to
+    the first sample, and a unit hat at the first sample) give every profile's response by a
+    convolution; equal
     to the direct computation to ~1e-12 K (``tests/experiments/simulation/test_studies.py``).
+    ``plans``: a list the plans are appended to (the Monte Carlo's record of the decisions).
     """
     from stimuli import skin_response
+    from stimuli.display_planner import plan_display
     out = []
-    cache = {} if cache is None else cache      # the unit responses: per skin and resistance only
+    cache = {} if cache is None else cache      # the unit responses: per skin, resistance, model
     t_s = person.skin_temperature_C
     skin = person.skin
+    R = float(pad_resistance)
     for t, surface in surfaces:
         t_in = np.asarray(t, dtype=float)
         g_in = np.asarray(surface, dtype=float)
@@ -337,16 +365,24 @@ def imposed_features(person, surfaces, pad_resistance, cache: dict | None = None
         t_in, g_in = t_in[ok] - t_in[ok][0], g_in[ok]
         grid = person.time_grid(min(person.params.duration_s, float(t_in[-1])))
         n = grid.size
-        if n not in cache:
+        d = np.interp(grid, t_in, g_in) - t_s
+        rate = person.params.sample_rate_Hz
+        plan = plan_display(skin, skin.dermis, R, (n - 1) / rate, rate, d,
+                            tolerance=person.params.model_tolerance_C)
+        if plans is not None:
+            plans.append(plan)
+        key = (n, plan.layered, plan.perfusion)
+        if key not in cache:
             e0 = np.full(n, t_s)
             e0[0] += 1.0
             e1 = np.full(n, t_s)
             e1[1] += 1.0
-            kw = dict(initial_temperature=t_s, depth=skin.dermis, resistance=float(pad_resistance))
-            cache[n] = (np.asarray(skin_response(skin, grid, e0, **kw)) - t_s,
-                        np.asarray(skin_response(skin, grid, e1, **kw)) - t_s)
-        r0, r1 = cache[n]
-        d = np.interp(grid, t_in, g_in) - t_s
+            if plan.layered or plan.perfusion:      # the physics stated above has neither
+                raise AssertionError(f"imposed_features: the plan kept {plan.describe()!r}")
+            kw = dict(initial_temperature=t_s, depth=skin.dermis, resistance=R)
+            unit = [skin_response(skin, grid, e, **kw) for e in (e0, e1)]
+            cache[key] = tuple(np.asarray(u) - t_s for u in unit)
+        r0, r1 = cache[key]
         receptor = t_s + d[0] * r0 + np.convolve(d[1:], r1)[:n]
         out.append(person.features(grid, receptor))
     return np.array(out)

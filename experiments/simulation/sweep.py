@@ -1,6 +1,7 @@
 """Sweeps of simulated studies on ``dask.distributed``: a LocalCluster, or a scheduler's address.
 
-The claims table, the sensitivity table and the study's sessions are many independent tasks.
+The claims table, the sensitivity table, the study's sessions and ``thermocue power``'s simulated
+cohorts (:func:`analysis.power.cohort_task`) are many independent tasks.
 :class:`Sweep` submits them to a ``dask.distributed`` cluster: by default a ``LocalCluster`` of
 worker processes on this machine (one thread each: the tasks are NumPy-bound and small), or the
 cluster whose scheduler listens at ``scheduler`` (``reproduce figure9 --scheduler

@@ -62,3 +62,22 @@ def test_report_has_a_model_decisions_section(tmp_path):
     analyze(tmp_path / "old", tmp_path / "out_old", n_boot=50, mixed=False)
     assert "No simulated profile with the scene planner's decisions" in (
         tmp_path / "out_old" / "report.md").read_text()
+
+
+def test_a_profile_played_by_the_method_asked_for_is_named_not_dropped(tmp_path):
+    # the printed-Eq. 7 replay's profiles record their method, not planner decisions: the
+    # report names that model rather than leaving it out
+    write_study(tmp_path / "d", paper_like_cells(), n_per_group=1, reps=1)
+    folder = sorted(p.parent for p in (tmp_path / "d").glob("*/*/events.jsonl"))[0]
+    plan = {"model": "paper-as-printed, material side, half-space (as asked, not planned)",
+            "method": "paper-as-printed", "bound_K": 0.66, "tolerance_K": None,
+            "note": "method asked for by name", "planner": _plan(0.0, 0)}
+    with open(folder / "events.jsonl", "a") as fh:
+        fh.write(json.dumps({"event": "profile_uploaded", "content_hash": "p1",
+                             "parameters": {"plan": plan}}) + "\n")
+    table = model_decisions([folder])
+    (row,) = table[table["decision"] == "as asked"].itertuples()
+    assert row.model == plan["model"] and row.max_bound_K == 0.66 and row.n_profiles == 1
+    from analysis.model_decisions import model_decisions_markdown
+    text = "\n".join(model_decisions_markdown(table, lambda t: t.to_string()))
+    assert "Computed by the method asked for, not planned: paper-as-printed" in text

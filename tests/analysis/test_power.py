@@ -247,3 +247,67 @@ def test_power_from_analysis_takes_the_design_and_curves_over_effects(study, tmp
     assert t.loc[0, "power"] <= 0.2 and t.loc[1, "power"] > t.loc[0, "power"]
     summary = json.loads((tmp_path / "p" / "power_summary.json").read_text())
     assert summary["repetitions"] == 3 and summary["effects_pp"] == [0.0, 25.0]
+
+
+def test_power_is_the_same_here_and_on_one_or_two_dask_workers(caplog):
+    # the cohorts are fixed, self-seeded tasks: who runs them, and how many workers, cannot
+    # change the table (60 cohorts per size: tasks of 25, 25 and 10)
+    import logging
+
+    from experiments.simulation.sweep import Sweep
+    kw = dict(simulations=60, participant_sd=0.4, seed=11, test="cluster-t", missing_rate=0.1)
+    here = power_curve(_cells(0.15), (5, (6, 8)), **kw)
+    tables = []
+    for workers in (1, 2):
+        with caplog.at_level(logging.INFO, logger="thermocue"), \
+                Sweep(workers=workers, label="power") as sweep:
+            assert sweep.n_workers == workers
+            tables.append(power_curve(_cells(0.15), (5, (6, 8)), map_tasks=sweep.map, **kw).table)
+    pd.testing.assert_frame_equal(tables[0], tables[1])
+    pd.testing.assert_frame_equal(here.table, tables[1])
+    # progress with the time remaining, from the sweep
+    assert any("of 120 cohorts" in r.getMessage() and "remaining" in r.getMessage()
+               for r in caplog.records)
+    # a size's cohorts do not depend on the other sizes of the grid
+    alone = power_curve(_cells(0.15), ((6, 8),), **kw).table
+    pd.testing.assert_frame_equal(alone.reset_index(drop=True),
+                                  here.table.iloc[[1]].reset_index(drop=True))
+
+
+def test_cli_power_runs_on_a_local_cluster_with_progress(tmp_path, capsys):
+    cells = tmp_path / "cells.csv"
+    _write_cells(cells, _cells(0.2))
+    out = tmp_path / "w2"
+    assert main(["power", "--cells", str(cells), "--n-per-group", "5", "--simulations", "30",
+                 "--test", "cluster-t", "--workers", "2", "--seed", "12", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "power: 30 of 30 cohorts" in err and "remaining" in err
+    # the same table as the same computation here
+    here = power_curve(read_cells(cells), (5,), simulations=30, test="cluster-t", seed=12,
+                       participant_sd=0.5, cells_scale="marginal").table
+    pd.testing.assert_frame_equal(pd.read_csv(out / "power.csv"), here, check_dtype=False)
+    assert main(["power", "--cells", str(cells), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
+    assert "--workers: expected an integer >= 1" in capsys.readouterr().err
+
+
+def test_cli_power_sends_the_cohorts_to_a_running_scheduler(tmp_path, capsys):
+    # --scheduler ADDRESS: no local cluster of its own; the cluster's workers run the tasks
+    import logging
+
+    from distributed import Client, LocalCluster
+    cells = tmp_path / "cells.csv"
+    _write_cells(cells, _cells(0.2))
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        assert main(["power", "--cells", str(cells), "--n-per-group", "6", "--simulations", "30",
+                     "--test", "cluster-t", "--seed", "13", "--scheduler",
+                     cluster.scheduler_address, "--out", str(tmp_path / "p")]) == 0
+        # that scheduler ran the cohort tasks (30 cohorts: tasks of 25 and 5)
+        prefixes = client.run_on_scheduler(lambda dask_scheduler: {
+            name: dict(p.state_counts) for name, p in dask_scheduler.task_prefixes.items()})
+    assert "power: 30 of 30 cohorts" in capsys.readouterr().err
+    here = power_curve(read_cells(cells), (6,), simulations=30, test="cluster-t", seed=13,
+                       participant_sd=0.5, cells_scale="marginal").table
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv"), here,
+                                  check_dtype=False)
+    assert prefixes["cohort_task"]["memory"] == 2, prefixes     # each computed once, there

@@ -21,6 +21,7 @@ from pathlib import Path
 import pandas as pd
 
 __all__ = ["run_reproduction", "claims_screen", "verdict_line", "sessions_claims_line", "PRINTED",
+           "planner_note",
            "claims_held", "reproducing_scenarios", "DEFAULT_STUDIES"]
 
 #: The paper's method as printed: Eq. 7's material side as printed (half-space), judged as the
@@ -461,6 +462,33 @@ def _claims_md(result, reading: str) -> str:
     return _md(shown)
 
 
+def planner_note(settings: dict) -> str:
+    """The report's sentences on the scene planner's decisions in the simulated studies: every
+    receptor temperature of the person pool (real contacts and replayed profiles) went through
+    it; per path, the models chosen, how often, method, tolerance and largest error bound; and
+    the models of the 'T2 rise' claim's replayed Table 2 temperatures, per replay."""
+    dec = settings.get("planner_decisions") or {}
+    parts = []
+    for path, what in (("real", "real contacts"), ("display", "replayed profiles felt on the pad")):
+        models = "; ".join(f"{m}, method {e['method']}, error bound at most {e['max_bound_K']:.2g} "
+                           f"K ({e['count']} evaluations)" for m, e in dec.get(path, {}).items())
+        parts.append(f"{what}: {models or 'none recorded'}")
+    t2 = settings.get("table2_replay_models") or {}
+    t2_text = "; ".join(
+        f"{h}: " + ", ".join(f"{e['model']} (method {e['method']}, tolerance "
+                             f"{'none' if e['tolerance_K'] is None else format(e['tolerance_K'], 'g')}"
+                             f"{'' if e['tolerance_K'] is None else ' K'}, error bound at most "
+                             f"{e['max_bound_K']:.2g} K)" for e in models)
+        for h, models in t2.items())
+    t2_sentence = (f" The 'T2 rise' claim's replayed Table 2 temperatures (20 s, 35 °C skin on "
+                   f"24 °C steel), per replay: {t2_text}." if t2_text else "")
+    return (f"Every receptor temperature of the simulated persons went through the scene planner "
+            f"at a tolerance of {settings.get('model_tolerance_C', float('nan')):g} K (a quarter "
+            f"of the smallest difference at the receptors between the stimuli to tell apart, real "
+            f"and replayed, not the perceptual floor); models chosen: " + "; ".join(parts) + "."
+            + t2_sentence)
+
+
 def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
                     sessions_line="", lab=None, depth=None) -> str:
     from analysis.claims import CLAIMS
@@ -506,11 +534,7 @@ def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
             f"`scenario_proportions.csv`):\n\n{_md(_expected_table(result))}\n\n"
             f"Claims:\n\n{claim_lines}\n\nReplay hypotheses:\n\n{hyp_lines}\n\n"
             f"Where the simulated studies are not exactly the emulated sessions:\n{note}\n"
-            f"The persons' real contacts went through the scene planner at a tolerance of "
-            f"{result.settings.get('model_tolerance_C', float('nan')):g} K (a quarter of the "
-            f"smallest difference between the samples at the receptors); models chosen: "
-            f"{', '.join(f'{m} ({n})' for m, n in result.settings.get('planner_models', {}).items())}."
-            f"\n\n"
+            f"{planner_note(result.settings)}\n\n"
             f"## Sensitivity of the headline scenario\n\n"
             f"The headline scenario with one choice changed at a time ({n_studies} studies "
             f"each): the claims' probabilities read descriptively (claim columns) and "

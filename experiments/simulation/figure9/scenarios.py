@@ -54,12 +54,15 @@ class ScenarioResult:
                                values="probability", sort=False)
 
 
-def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM) -> np.ndarray:
+def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM,
+                               decisions: list | None = None) -> np.ndarray:
     """What the display would replay at 20 s under Table 2's conditions, °C, per roughness.
 
     Table 2 (Exp. 1): skin 35 °C, steel 24 °C, read at 20 s; skin 650 µm (dermis 0.6 L), the
     the hypothesis's formula and material (the 3 mm steel or a half-space), Eq. 5 contact resistance, the 0.4 µm copper pad for the compensated
-    replay.  No display rounding.
+    replay.  No display rounding.  Each profile is :func:`stimuli.target_profile`'s (the exact
+    ones planned to half of the 1e-6 K resolution); ``decisions``: a list each profile's recorded
+    plan (``parameters["plan"]``) is appended to.
     """
     from experiments.simulation.replay import replay_hypothesis
     from stimuli import Skin, contact_resistance, material, target_profile
@@ -75,7 +78,23 @@ def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM
                               rate=10.0, resolution=1e-6, side=hyp.target_side,
                               method=hyp.method, pad_resistance=pad_r, cache=False)
         out.append(float(prof.temperature[-1]))
+        if decisions is not None:
+            decisions.append(prof.parameters["plan"])
     return np.array(out)
+
+
+def replay_models(plans: list) -> list:
+    """Distinct models of recorded profile plans: ``[{model, method, tolerance_K, max_bound_K,
+    count}]`` (a plan of two sides counts each side)."""
+    out = {}
+    for plan in plans:
+        for p in plan.get("sides") or [plan]:
+            e = out.setdefault(p.get("model"), {"model": p.get("model"), "method": p.get("method"),
+                                                "tolerance_K": p.get("tolerance_K"),
+                                                "max_bound_K": 0.0, "count": 0})
+            e["count"] += 1
+            e["max_bound_K"] = max(e["max_bound_K"], float(p.get("bound_K") or 0.0))
+    return list(out.values())
 
 
 def _proportion_rows(per_study, roughness_um, keys: dict) -> list:
@@ -140,7 +159,7 @@ def _claim_rows(readings: dict, keys: dict) -> list:
 
 
 def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
-                  seed: int = 0, sweep=None) -> list:
+                  seed: int = 0, sweep=None, decisions: dict | None = None) -> list:
     """Simulate every scenario's studies (on ``sweep`` if given, else here), merged per scenario.
 
     Parameters
@@ -149,6 +168,9 @@ def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
         Each: ``hypothesis``, ``observer``, ``tag`` (int, part of the seed), optional
         ``familiarise_reps``, ``params``, ``pool``, ``variability``.
     sweep : :class:`..sweep.Sweep`, optional
+    decisions : dict, optional
+        Filled with each hypothesis's Table 2 replay profiles' recorded plans (the "T2 rise"
+        claim's temperatures, :func:`table2_replay_temperatures`).
 
     Returns
     -------
@@ -163,7 +185,8 @@ def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
     for si, sc in enumerate(scenarios):
         h = sc["hypothesis"]
         if h not in temps:
-            temps[h] = table2_replay_temperatures(h)
+            plans = [] if decisions is None else decisions.setdefault(h, [])
+            temps[h] = table2_replay_temperatures(h, decisions=plans)
         use_pool = sc.get("pool", pool)
         key = id(use_pool)
         if key not in pools:
@@ -208,8 +231,9 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
                   "familiarise_reps": familiarise_reps, "params": params,
                   "variability": variability}
                  for hi, h in enumerate(hypotheses) for oi, o in enumerate(observers)]
+    table2_plans = {}
     merged = run_scenarios(pool, scenarios, n_studies, n_per_group=n_per_group, seed=seed,
-                           sweep=sweep)
+                           sweep=sweep, decisions=table2_plans)
     claim_rows, prop_rows = [], []
     for sc, res in zip(scenarios, merged):
         keys = {"hypothesis": sc["hypothesis"], "observer": sc["observer"]}
@@ -219,6 +243,8 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
                           proportions=pd.DataFrame(prop_rows),
                           settings={"n_studies": int(n_studies), "n_per_group": int(n_per_group),
                                     "familiarise_reps": int(familiarise_reps), "seed": int(seed),
+                                    "table2_replay_models": {h: replay_models(v) for h, v
+                                                             in table2_plans.items()},
                                     **pool.settings})
 
 

@@ -280,18 +280,27 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
     """What the model's receptors feel after ``at_s`` of contact, real against replayed.
 
     For the group's profile skin (no noise, the protocol's temperatures): the receptor
-    temperature touching each real sample (``stimuli.Contact``), and touching the pad while it
-    plays that sample's target profile through the finger-pad resistance
-    (``stimuli.skin_response``). Markdown lines; they say why simulated samples are named as
-    they are.
+    temperature touching each real sample (:func:`stimuli.planner.planned_temperature`), and
+    touching the pad while it plays that sample's target profile through the finger-pad
+    resistance (:func:`stimuli.display_planner.planned_skin_response`), both through the scene
+    planner at the simulated participant's tolerance
+    (:data:`experiments.participant_model.person.MODEL_TOLERANCE_C`). Markdown lines; they say
+    why simulated samples are named as they are, and which model the planner chose for each
+    (method, tolerance, error bound).
     """
-    from stimuli import Contact, Skin, contact_resistance, material, skin_response, target_profile
+    from experiments.participant_model.person import MODEL_TOLERANCE_C
+    from stimuli import Skin, contact_resistance, material, target_profile
+    from stimuli.display_planner import planned_skin_response
+    from stimuli.planner import plan_summary, planned_temperature
     sim = protocol.simulation
     steel = material(protocol.material.name, protocol.material.thickness_m)
+    tol = MODEL_TOLERANCE_C
     lines = [f"\nReceptor temperature after {at_s:g} s of contact (model, no noise; the group's "
              f"profile skin, {sim.skin_temperature_C:g} °C skin, {sim.material_temperature_C:g} °C "
              f"samples): real sample / display playing its `{sim.target_side}` profile\n"]
     spans = {}
+    decisions = {}          # (felt as, model summary) -> [group sample, ...]
+    grid = np.arange(int(round(at_s * sim.rate_Hz)) + 1) / sim.rate_Hz
     for group in sorted(sim.group_skin_thickness_um):
         L = sim.skin_thickness_for(group) * 1e-6
         skin = Skin(L, dermis=sim.dermis_fraction * L)
@@ -299,8 +308,9 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
         cells = []
         for sample in protocol.samples:
             R = contact_resistance(sample.roughness_m, skin, steel)
-            real = float(Contact(skin, steel, R, sim.skin_temperature_C,
-                                 sim.material_temperature_C).receptor_temperature([at_s])[0])
+            T_real, p_real = planned_temperature("receptor", skin, steel, R, sim.skin_temperature_C,
+                                                 sim.material_temperature_C, grid, tolerance=tol)
+            real = float(T_real[-1])
             played = steel if sim.replayed_material == "sample" else material(protocol.material.name)
             prof = target_profile(material=played, roughness=sample.roughness_m, skin=skin,
                                   skin_temperature=sim.skin_temperature_C,
@@ -308,11 +318,23 @@ def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:
                                   duration=at_s, rate=sim.rate_Hz, resolution=sim.resolution_C,
                                   side=sim.target_side, pad_resistance=r_pad, cache=False,
                                   method=sim.method, resistance=R)
-            felt = float(skin_response(skin, prof.times, prof.temperature, sim.skin_temperature_C,
-                                       resistance=r_pad)[-1])
+            T_felt, p_felt = planned_skin_response(skin, prof.times, prof.temperature,
+                                                   sim.skin_temperature_C, depth=skin.dermis,
+                                                   resistance=r_pad, tolerance=tol)
+            felt = float(T_felt[-1])
             cells.append(f"{sample.label} {real:.2f} / {felt:.2f} °C")
             spans.setdefault(group, []).append((real, felt))
+            for what, p in (("real sample", p_real), ("display", p_felt)):
+                d = plan_summary(p)
+                key = (what, d["model"], d["method"])
+                decisions.setdefault(key, []).append((f"{group} {sample.label}", d["bound_K"]))
         lines.append(f"- group {group} ({L * 1e6:g} µm): " + ", ".join(cells) + "\n")
+    lines.append(f"\nModels of these receptor temperatures (scene planner, tolerance {tol:g} K, "
+                 f"the simulated participant's):\n")
+    for (what, model, method), where in decisions.items():
+        lines.append(f"- {what}: {model} (method {method}; error bound at most "
+                     f"{max(b for _, b in where):.2g} K) for {len(where)} contacts "
+                     f"({', '.join(w for w, _ in where)})\n")
     real_rise = np.mean([v[-1][0] - v[0][0] for v in spans.values()])
     felt_rise = np.mean([v[-1][1] - v[0][1] for v in spans.values()])
     if real_rise > 0 and felt_rise < real_rise / 4:

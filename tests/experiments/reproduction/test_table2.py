@@ -43,3 +43,31 @@ def test_cli_rejects_file_as_out(tmp_path, capsys):
     f.write_text("")
     assert main(["reproduce", "table2", "--out", str(f)]) == 2
     assert "--out" in capsys.readouterr().err
+
+
+def test_exact_columns_go_through_the_planner_and_the_notes_say_so(tmp_path):
+    from experiments.reproduction.table2 import TIME_S, TOLERANCE_K, write_table2
+    from stimuli import Contact, Skin, material
+    decisions = {}
+    header, rows = table2_rows(decisions=decisions)
+    skin = Skin(650e-6)
+    for col, (method, side, thick) in MODEL_COLUMNS.items():
+        j = header.index(col)
+        for r in rows:
+            d = decisions[col][r[0]]
+            assert d["method"] == method
+            if method != "exact":
+                assert d["tolerance_K"] is None and "not planned" in d["note"]
+                continue
+            # the planned model stays within the tolerance of the column's full model
+            full = Contact(skin, material("stainless_steel", thick), r[1], 35.0, 24.0)
+            want = float(full.interface_temperature([TIME_S], side=side, method="exact")[0])
+            assert abs(r[j] - want) <= TOLERANCE_K
+            assert d["tolerance_K"] == TOLERANCE_K and 0.0 <= d["bound_K"] <= TOLERANCE_K
+            assert ("slab" in d["model"]) == (thick is not None)
+    md = write_table2(tmp_path)[2]
+    notes = md.split("## Models of the columns")[1]
+    for col, (method, _, _) in MODEL_COLUMNS.items():
+        (line,) = [x for x in notes.splitlines() if x.startswith(f"| {col} |")]
+        assert f"| {method} |" in line
+        assert (f"| {TOLERANCE_K:g} |" in line) == (method == "exact")

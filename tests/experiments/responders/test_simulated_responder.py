@@ -30,6 +30,16 @@ class FakeDisplay:
         self.calls.append(("sim_finger", kw))
 
 
+class LoggingSession(SimpleNamespace):
+    """A session stand-in that keeps the events a responder logs."""
+
+    def __init__(self, **kw):
+        super().__init__(events=[], **kw)
+
+    def log_event(self, kind, **fields):
+        self.events.append((kind, fields))
+
+
 def spec(index, block, mode, rid, rep=1):
     return TrialSpec(trial_index=index, block=block, mode=mode, roughness_id=rid,
                      roughness_um=RA_UM[rid], repetition=rep)
@@ -162,6 +172,31 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
     # finger presses the protocol's threshold + 0.5 N (2.5 N), overshooting a little at onset.
     forces = [float(r["contact_force_N"]) for r in rows]
     assert all(2.4 <= f <= 2.8 for f in forces), forces
+    # Every model evaluation went through the scene planner and its decision is in the log:
+    # what the simulated participant felt (at its own tolerance, not the perceptual floor) ...
+    from experiments.participant_model.person import MODEL_TOLERANCE_C
+    felt = {}
+    for e in events:
+        if e.get("event") == "simulated_receptor_model":
+            felt.setdefault(e["trial_index"], []).append(e)
+    assert sorted(felt) == sorted(int(r["trial_index"]) for r in rows)
+    for r in rows:
+        for e in felt[int(r["trial_index"])]:
+            assert e["felt_as"] == r["mode"]
+            assert e["tolerance_K"] == MODEL_TOLERANCE_C < 0.3
+            assert 0.0 <= e["bound_K"] <= e["tolerance_K"] and e["model"].startswith("exact")
+            assert e["method"] == "exact" and isinstance(e["neglected"], list)
+    # ... and what the emulated finger touched: the passive sample's interface, planned
+    fingers = {e["trial_index"]: e for e in events if e.get("event") == "emulated_finger_model"}
+    assert sorted(fingers) == sorted(int(r["trial_index"]) for r in rows)
+    for r in rows:
+        e = fingers[int(r["trial_index"])]
+        if r["mode"] == "real":
+            for side in ("interface_material", "interface_skin"):
+                d = e["sample_model"][side]
+                assert d["tolerance_K"] == 0.005 and 0.0 <= d["bound_K"] <= 0.005, d
+        else:
+            assert e["finger_on_pad_model"]["method"] == "plant state"
 
 
 def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule():
@@ -205,9 +240,13 @@ def test_simulated_trial_is_felt_through_the_protocols_finger_pad_resistance():
     np.testing.assert_allclose(felt, expected, atol=1e-9)
     # the protocol's pad: a rough steel face has a larger resistance, so the same pad feels warmer
     r = SimulatedResponder(**opts)
-    r.session = SimpleNamespace(protocol=SimpleNamespace(
+    r.session = LoggingSession(protocol=SimpleNamespace(
         simulation=SimpleNamespace(pad_roughness_um=50.0, pad_material="stainless_steel")))
     _, rough, _ = r.feel(trial, stim)
+    # the display path's decision is logged, at the participant's tolerance (not 0.3 K)
+    (kind, e), = r.session.events
+    assert kind == "simulated_receptor_model" and e["felt_as"] == "simulated"
+    assert e["tolerance_K"] == r.params.model_tolerance_C < 0.1 and e["bound_K"] <= e["tolerance_K"]
     assert r.pad_resistance() == pytest.approx(person.pad_resistance(50e-6, "stainless_steel"), rel=1e-12)
     assert np.all(rough[100:] > felt[100:] + 0.05)
     # pad_contact=false: the pad temperature imposed on the skin, colder still than through R
@@ -258,7 +297,7 @@ def test_hold_depends_on_whether_the_block_asks_for_an_answer():
 
     protocol = load_protocol("roughness_recognition")
     r = SimulatedResponder(seed=1, skin_thickness_um=700.0)
-    r.session = SimpleNamespace(protocol=protocol)
+    r.session = LoggingSession(protocol=protocol)
     answered = r.params.duration_s + 0.5          # feels, answers, lets go
 
     def hold(trial, responder=r):
@@ -275,12 +314,12 @@ def test_hold_depends_on_whether_the_block_asks_for_an_answer():
     exp1 = load_protocol("interface_temperature")
     (block,) = exp1.blocks
     assert not block.response and not block.feedback
-    r.session = SimpleNamespace(protocol=exp1)
+    r.session = LoggingSession(protocol=exp1)
     assert hold(spec(1, block.name, "real", 1)) == pytest.approx(
         max(answered, exp1.contact.record_s + HOLD_MARGIN_S))
-    r.session = SimpleNamespace(protocol=protocol)
+    r.session = LoggingSession(protocol=protocol)
     given = SimulatedResponder(seed=1, skin_thickness_um=700.0, hold_s="3.0")
-    given.session = SimpleNamespace(protocol=protocol)
+    given.session = LoggingSession(protocol=protocol)
     assert hold(spec(1, "familiarise", "real", 1), given) == 3.0      # an explicit option wins
 
 

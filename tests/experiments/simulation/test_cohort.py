@@ -148,6 +148,19 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     session = json.loads(next((out / "data").glob("P16/*/session.json")).read_text())
     assert session["protocol"]["simulation"]["target_side"] == "skin"
     assert not [e for e in events if e["event"] == "simulated_percept"]   # log_percepts=false
+    # ... but every model decision is: what the participant felt and what the finger touched
+    trials = {e["trial_index"] for e in events if e["event"] == "trial_completed"}
+    felt = [e for e in events if e["event"] == "simulated_receptor_model"]
+    assert {e["trial_index"] for e in felt} == trials and all(e["tolerance_K"] < 0.3 for e in felt)
+    assert {e["trial_index"] for e in events if e["event"] == "emulated_finger_model"} == trials
+    # the Monte Carlo's decisions are in the report and in study.json
+    text = "\n".join(report)
+    assert "Every receptor temperature of the simulated persons went through the scene planner" in text
+    assert "real contacts: exact" in text and "replayed profiles felt on the pad: exact" in text
+    assert ("The 'T2 rise' claim's replayed Table 2 temperatures (20 s, 35 °C skin on 24 °C "
+            "steel), per replay: printed: paper-as-printed, material side, half-space") in text
+    dec = study["scenario_settings"]["planner_decisions"]
+    assert dec["real"] and dec["display"]
 
 
 @pytest.mark.parametrize("args, message", [
@@ -287,6 +300,26 @@ def test_report_note_says_why_replayed_rough_samples_feel_smooth():
         assert list(real) == sorted(real) and real[-1] - real[0] > 1.0   # rough feels warmer
         assert felt[-1] < felt[0]                                        # replayed: colder
     assert "feel like the smooth real ones" in material_side
+    # both paths went through the scene planner, at the participant's tolerance, and say so
+    from experiments.participant_model.person import MODEL_TOLERANCE_C
+    assert f"scene planner, tolerance {MODEL_TOLERANCE_C:g} K" in material_side
+    for what in ("real sample", "display"):
+        found = re.findall(rf"^- {what}: (exact[^(]*) \(method (\S+); error bound at most "
+                           rf"(\S+) K\) for (\d+) contacts", material_side, flags=re.M)
+        assert found and sum(int(n) for *_, n in found) == 8, (what, found)
+        assert all(m == "exact" and float(b) <= MODEL_TOLERANCE_C for _, m, b, _ in found)
+    # the planned values agree with the exact model evaluated directly (rounding to 0.01 °C)
+    from stimuli import Contact, Skin, contact_resistance, material
+    sim = p.simulation
+    steel = material(p.material.name, p.material.thickness_m)
+    for k, group in enumerate(sorted(sim.group_skin_thickness_um)):
+        L = sim.skin_thickness_for(group) * 1e-6
+        skin = Skin(L, dermis=sim.dermis_fraction * L)
+        for j, sample in enumerate(p.samples):
+            R = contact_resistance(sample.roughness_m, skin, steel)
+            direct = float(Contact(skin, steel, R, sim.skin_temperature_C,
+                                   sim.material_temperature_C).receptor_temperature([5.0])[0])
+            assert abs(got[4 * k + j][0] - direct) <= 0.005 + MODEL_TOLERANCE_C
     compensated = dataclasses.replace(p, simulation=dataclasses.replace(p.simulation,
                                                                        target_side="compensated"))
     text = _felt_at_receptors(compensated)

@@ -142,3 +142,59 @@ def test_labels_and_profile_models_say_what_is_played():
         assert (h.target_side, h.method, h.replayed_material) == fields[name]
     assert "printed Eq. 7" in REPLAY_HYPOTHESES["printed"].label
     assert "Eq. 7" not in REPLAY_HYPOTHESES["slab"].label
+
+
+@pytest.mark.parametrize("name", REPLAY_NAMES)
+def test_a_replays_label_and_the_profile_model_it_recorded_agree(name):
+    # what the session logs with every uploaded profile (method, parameters["plan"]) must name
+    # the model the hypothesis says it plays: a printed-Eq. 7 replay recorded as "exact" fails
+    from experiments.protocol import load_protocol
+    from experiments.session.setup import simulated_target_profile
+    from experiments.simulation.replay import REPLAY_HYPOTHESES, protocol_variant
+    from stimuli.planner import plan_line
+    h = REPLAY_HYPOTHESES[name]
+    variant = protocol_variant(load_protocol("roughness_recognition"), name)
+    for s in variant.samples:
+        prof = simulated_target_profile(variant, {}, "A", None, s.id, s.roughness_um)
+        plan = prof.parameters["plan"]
+        methods = {plan["method"]} if "method" in plan else {p["method"] for p in plan["sides"]}
+        models = [plan["model"]] + [p["model"] for p in plan.get("sides", ())]
+        assert prof.method == h.method and methods == {h.method}, (name, prof.method, plan)
+        half = h.replayed_material == "half-space"
+        assert all(("half-space" in m) == half and ("slab" in m) == (not half) for m in models), \
+            (name, models)
+        line = plan_line(plan)
+        assert (h.method in line) and ("as asked" in line) == (h.method != "exact"), line
+
+
+def test_a_profile_asked_by_method_records_that_method_not_the_planners():
+    from stimuli import Skin, target_profile
+    for method in ("paper-as-printed", "paper"):
+        prof = target_profile(method=method, roughness=1.6e-6, skin=Skin(650e-6), duration=2.0,
+                              rate=100.0, cache=False)
+        plan = prof.parameters["plan"]
+        assert prof.method == plan["method"] == method and method in plan["model"]
+        # its bound is its distance from the exact model, evaluated here independently
+        T = np.asarray(prof.temperature)
+        i = int(np.argmin(np.abs(np.asarray(prof.times) - 2.0)))
+        par = prof.parameters
+        exact = float(exact_interface(2.0, mp.mpf(par["skin"]["thickness_m"]),
+                                      mp.mpf(par["resistance_m2K_per_W"]), 35.5, 20.0, None,
+                                      "material"))
+        assert abs(T[i] - exact) <= plan["bound_K"] + 0.005 + 1e-9
+        assert plan["planner"]["method"] == "exact"          # the planner's answer, kept beside
+
+
+def test_the_table2_replay_records_the_model_its_label_says():
+    # the "T2 rise" claim's temperatures: each replay's recorded profile model is its own
+    from experiments.simulation.figure9.scenarios import replay_models, table2_replay_temperatures
+    from experiments.simulation.replay import REPLAY_HYPOTHESES
+    for name, h in REPLAY_HYPOTHESES.items():
+        plans = []
+        temps = table2_replay_temperatures(name, decisions=plans)
+        assert len(plans) == len(temps)
+        (model,) = replay_models(plans)
+        assert model["method"] == h.method and model["count"] == len(temps), (name, model)
+        assert ("half-space" in model["model"]) == (h.replayed_material == "half-space")
+        if h.method == "exact":
+            assert model["max_bound_K"] <= model["tolerance_K"] <= 1e-6

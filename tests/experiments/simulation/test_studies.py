@@ -48,11 +48,33 @@ def test_superposed_features_equal_the_direct_computation():
         proto = protocol_variant(load_protocol("roughness_recognition"), replay)
         profiles = [simulated_target_profile(proto, {}, "B", None, s.id, s.roughness_um)
                     for s in proto.samples]
-        fast = imposed_features(person, [(p.times, p.temperature) for p in profiles], r_pad)
-        direct = np.array([person.features(*person.feel_imposed(p.times, p.temperature,
-                                                                 pad_resistance=r_pad))
-                           for p in profiles])
-        np.testing.assert_allclose(fast, direct, rtol=0, atol=1e-9)
+        plans = []
+        fast = imposed_features(person, [(p.times, p.temperature) for p in profiles], r_pad,
+                                plans=plans)
+        direct, direct_plans = [], []
+        for p in profiles:
+            direct.append(person.features(*person.feel_imposed(p.times, p.temperature,
+                                                               pad_resistance=r_pad)))
+            direct_plans.append(person.last_display_plan)
+        np.testing.assert_allclose(fast, np.array(direct), rtol=0, atol=1e-9)
+        # every history was planned, as the session's participant plans it
+        assert plans == direct_plans and len(plans) == len(profiles)
+        assert all(q.tolerance_K == person.params.model_tolerance_C for q in plans)
+
+
+def test_the_pool_records_the_planners_decisions_for_every_contact(slab_pool):
+    from experiments.participant_model.person import MODEL_TOLERANCE_C
+    from experiments.simulation.studies import FORCE_GRID_N, GRID_L, GRID_U
+    dec = slab_pool.settings["planner_decisions"]
+    persons = 2 * GRID_L * GRID_U
+    # real: one plan per person, sample and force; display: per person, force, replay, sample,
+    # twice (the skin-temperature derivative)
+    assert sum(e["count"] for e in dec["real"].values()) == persons * len(FORCE_GRID_N) * 4
+    assert sum(e["count"] for e in dec["display"].values()) == persons * len(FORCE_GRID_N) * 2 * 4 * 2
+    for path in ("real", "display"):
+        for model, e in dec[path].items():
+            assert e["method"] == "exact" and e["tolerance_K"] == MODEL_TOLERANCE_C
+            assert 0.0 <= e["max_bound_K"] <= MODEL_TOLERANCE_C, (path, model, e)
 
 
 @pytest.mark.slow
@@ -215,4 +237,4 @@ def test_pools_built_per_group_merge_into_the_whole_pool(slab_pool):
         assert set(mine) == set(ref)
         for k in ref:
             np.testing.assert_array_equal(mine[k], ref[k])
-    assert whole.settings["planner_models"] == slab_pool.settings["planner_models"]
+    assert whole.settings["planner_decisions"] == slab_pool.settings["planner_decisions"]
