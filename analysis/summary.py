@@ -126,7 +126,8 @@ def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[s
     out = []
     if tests is None or tests.empty:
         return out
-    withheld = tests[tests["test"].astype(str).str.startswith("not tested")]
+    withheld = (tests[tests["test"].astype(str).str.startswith("not tested")]
+                if "test" in tests else tests.iloc[:0])
     if not withheld.empty:
         reason = str(withheld["test"].iloc[0]).removeprefix("not tested: ")
         out.append(f"No comparison of the groups is tested ({', '.join(sorted(set(withheld['role'])))}): "
