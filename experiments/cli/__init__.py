@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from experiments import thermocue_version
@@ -99,6 +100,15 @@ def main(args: list[str] | None = None) -> int:
         return 2
     except KeyboardInterrupt:
         print(f"thermocue {ns.command}: interrupted", file=sys.stderr)
+        return 1
+    except BrokenPipeError:
+        # stdout went away (`thermocue displays | head -1`): what was asked is done or
+        # cannot be shown; no traceback, and nothing more written to the closed pipe
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        print(f"thermocue {ns.command}: output closed early (broken pipe)", file=sys.stderr)
         return 1
     except OSError as exc:
         # A file-system failure (not a device fault: those are DisplayError and handled by

@@ -142,7 +142,10 @@ class TerminalDlgFromDict:
                     print(f"  {label}: {value}", file=sys.stderr)
                     continue
                 while True:
-                    if isinstance(value, (list, tuple)):
+                    if isinstance(value, (list, tuple)) and not value:
+                        # an empty list offers nothing to choose: asked as free text
+                        answer = self._ask(f"  {label} []: ")
+                    elif isinstance(value, (list, tuple)):
                         answer = self._ask(f"  {label} [{' / '.join(map(str, value))}; Enter: "
                                            f"{value[0]}]: ") or str(value[0])
                         if answer not in map(str, value):

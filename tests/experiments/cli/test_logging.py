@@ -63,3 +63,15 @@ def test_study_progress_says_elapsed_and_eta(tmp_path, capsys):
     assert [line for line in err.splitlines() if not line.startswith("figure9: ")] == [], err
     run_figure9_study(tmp_path / "again", seed=2, participants=1, workers=1, analyze=False)
     assert capsys.readouterr().err == ""             # the library alone configures nothing
+
+
+def test_a_closed_stdout_is_one_line_not_a_traceback():
+    """`thermocue displays --json | head -0`: the reader has gone before the output is written."""
+    import subprocess
+    import sys
+    p = subprocess.Popen([sys.executable, "-m", "experiments", "displays", "--json"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdout.close()
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=60) == 1
+    assert err == "thermocue displays: output closed early (broken pipe)\n", err

@@ -103,3 +103,14 @@ def test_on_a_terminal_end_of_input_is_cancel(tmp_path, xvfb):
     assert rc == 0, err[-2000:]
     # Cancel leaves the dictionary as it was (PsychoPy's own dialog does the same)
     assert out.strip().splitlines()[-1] == "CANCEL [('group', ['A', 'B']), ('participant', '123456'), ('session', '001')]"
+
+
+def test_a_list_field_with_no_choices_is_asked_as_text(monkeypatch):
+    """An empty list (a Builder field left without choices) raised IndexError; it is free text.
+    PsychoPy's own gui.util builds the fields; standard input holds the two typed lines."""
+    import io
+    from experiments.psychopy_plugin.component.info_dialog import TerminalDlgFromDict
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(b"P07\nleft\n")))
+    info = {"participant": "123456", "hand": []}
+    dlg = TerminalDlgFromDict(info, title="t", sortKeys=False, reason="no Qt here")
+    assert dlg.OK and info == {"participant": "P07", "hand": "left"}
