@@ -7,7 +7,8 @@ worker processes on this machine (one thread each: the tasks are NumPy-bound and
 cluster whose scheduler listens at ``scheduler`` (``reproduce figure9 --scheduler
 tcp://host:8786``; its workers need this package importable).  :meth:`Sweep.map` returns the
 results in the order of the tasks, whatever order they finish in, and logs progress with the
-time remaining.
+time remaining. The local cluster starts at the first map of two tasks or more (or the first
+scatter): a map of one task runs in this process, with the same result.
 
 Results do not depend on the number of workers: a task's random numbers come from its own seed
 (a tuple naming the sweep's seed and the task), never from which worker ran it or when, and
@@ -63,6 +64,14 @@ class Sweep:
         self.client = None
 
     def __enter__(self) -> "Sweep":
+        if self.scheduler:                   # a given address is checked at once
+            self._connect()
+        return self
+
+    def _connect(self):
+        """The client: the scheduler at ``scheduler``, or a LocalCluster started now."""
+        if self.client is not None:
+            return self.client
         from distributed import Client, LocalCluster
         if self.scheduler:
             try:
@@ -76,7 +85,7 @@ class Sweep:
                                         processes=True, dashboard_address=":0",
                                         silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
-        return self
+        return self.client
 
     def __exit__(self, *exc) -> None:
         if self.client is not None:
@@ -86,12 +95,14 @@ class Sweep:
 
     @property
     def n_workers(self) -> int:
-        """Workers the scheduler knows now."""
+        """Workers the scheduler knows now (0 while every map so far ran in this process)."""
+        if self.client is None:
+            return 0
         return len(self.client.scheduler_info().get("workers", {}))
 
     def scatter(self, value):
         """``value`` sent once to every worker (a future to pass to tasks)."""
-        return self.client.scatter(value, broadcast=True)
+        return self._connect().scatter(value, broadcast=True)
 
     def map(self, fn, tasks, what: str = "tasks", weights=None) -> list:
         """``[fn(*task) for task in tasks]`` on the cluster, in the order of ``tasks``.
@@ -107,11 +118,19 @@ class Sweep:
         weights : sequence of int, optional
             Units per task (e.g. studies) for the progress lines; default one per task.
         """
-        from distributed import as_completed
         tasks = list(tasks)
         weights = list(weights) if weights is not None else [1] * len(tasks)
         total = sum(weights)
-        futures = [self.client.submit(fn, *task, pure=False) for task in tasks]
+        if len(tasks) <= 1 and self.client is None:
+            # one task gains nothing from a cluster: run it here (its seed is its own, so the
+            # result is the one a worker would return), and start no cluster for it
+            start = time.perf_counter()
+            out = [fn(*task) for task in tasks]
+            log.info("%s: %d of %d %s; elapsed %5.1f s, remaining %5.1f s (in this process)",
+                     self.label, total, total, what, time.perf_counter() - start, 0.0)
+            return out
+        from distributed import as_completed
+        futures = [self._connect().submit(fn, *task, pure=False) for task in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
         out = [None] * len(tasks)
         start = time.perf_counter()

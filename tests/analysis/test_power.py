@@ -261,8 +261,8 @@ def test_power_is_the_same_here_and_on_one_or_two_dask_workers(caplog):
     for workers in (1, 2):
         with caplog.at_level(logging.INFO, logger="thermocue"), \
                 Sweep(workers=workers, label="power") as sweep:
-            assert sweep.n_workers == workers
             tables.append(power_curve(_cells(0.15), (5, (6, 8)), map_tasks=sweep.map, **kw).table)
+            assert sweep.n_workers == workers       # six tasks: the cluster did run them
     pd.testing.assert_frame_equal(tables[0], tables[1])
     pd.testing.assert_frame_equal(here.table, tables[1])
     # progress with the time remaining, from the sweep
@@ -311,3 +311,15 @@ def test_cli_power_sends_the_cohorts_to_a_running_scheduler(tmp_path, capsys):
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv"), here,
                                   check_dtype=False)
     assert prefixes["cohort_task"]["memory"] == 2, prefixes     # each computed once, there
+
+
+def test_a_single_task_runs_in_this_process_with_the_same_result():
+    """A cluster for one task is pure overhead (and a forked process with another cluster's
+    threads can hang starting one): a map of one task runs here, with the worker's result."""
+    from experiments.simulation.sweep import Sweep
+    kw = dict(simulations=20, participant_sd=0.4, seed=11, test="cluster-t", missing_rate=0.1)
+    here = power_curve(_cells(0.15), (5,), **kw)
+    with Sweep(workers=2, label="power") as sweep:
+        table = power_curve(_cells(0.15), (5,), map_tasks=sweep.map, **kw).table
+        assert sweep.client is None and sweep.cluster is None     # no cluster was started
+    pd.testing.assert_frame_equal(here.table, table)

@@ -218,8 +218,8 @@ def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     with Sweep(workers=1) as one:
         on_one = evaluate_scenarios(slab_pool, sweep=one, **kw)
     with Sweep(workers=2) as two:
-        assert two.n_workers == 2
         on_two = evaluate_scenarios(slab_pool, sweep=two, **kw)
+        assert two.n_workers == 2
     import pandas as pd
     pd.testing.assert_frame_equal(on_one.claims, on_two.claims)
     pd.testing.assert_frame_equal(here.claims, on_two.claims)
