@@ -31,6 +31,16 @@ def _module_name(path: Path) -> tuple[str, bool]:
     return ".".join(parts), is_package
 
 
+def _import_target(node: ast.ImportFrom, module: str, is_package: bool) -> str:
+    """The module a ``from ... import`` statement in ``module`` names (relative ones resolved
+    against its package)."""
+    if not node.level:
+        return node.module
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    base = base[:len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports():
     """``(importing module, imported module, line)`` for every import statement of the tree."""
     found = []
@@ -42,12 +52,7 @@ def _imports():
                 if isinstance(node, ast.Import):
                     found += [(module, alias.name, node.lineno) for alias in node.names]
                 elif isinstance(node, ast.ImportFrom):
-                    if node.level:                          # relative: resolve against the package
-                        base = module.split(".") if is_package else module.split(".")[:-1]
-                        base = base[:len(base) - (node.level - 1)]
-                        target = ".".join(base + ([node.module] if node.module else []))
-                    else:
-                        target = node.module
+                    target = _import_target(node, module, is_package)
                     found.append((module, target, node.lineno))
                     # ``from experiments import cli`` imports the module experiments.cli
                     found += [(module, f"{target}.{alias.name}", node.lineno) for alias in node.names
@@ -319,12 +324,7 @@ def private_names_imported(module: str, is_package: bool, source: str) -> list:
     for node in ast.walk(ast.parse(source)):
         if not isinstance(node, ast.ImportFrom):
             continue
-        if node.level:
-            base = module.split(".") if is_package else module.split(".")[:-1]
-            base = base[:len(base) - (node.level - 1)]
-            target = ".".join(base + ([node.module] if node.module else []))
-        else:
-            target = node.module
+        target = _import_target(node, module, is_package)
         if target.split(".")[0] not in PACKAGES:
             continue
         for alias in node.names:
@@ -424,12 +424,7 @@ def test_every_name_imported_from_the_tree_exists_there():
             for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
                 if not isinstance(node, ast.ImportFrom):
                     continue
-                if node.level:
-                    base = module.split(".") if is_package else module.split(".")[:-1]
-                    base = base[:len(base) - (node.level - 1)]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    target = node.module
+                target = _import_target(node, module, is_package)
                 if target.split(".")[0] not in PACKAGES or _source_of(target) is None:
                     continue
                 if target not in defined:
