@@ -37,7 +37,8 @@ from scipy import sparse, special, stats
 
 from .errors import ModelWarning
 
-__all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data"]
+__all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data",
+           "lone_group", "lone_group_reason"]
 
 #: The model the analysis fits (group x mode x sample).
 FORMULA = "correct ~ group * mode * C(roughness_id)"
@@ -416,7 +417,9 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
         roughness term (a fallback after separation) -- a GEE of that sample's
         trials alone (``correct ~ group``), or "not estimable" when a group
         answered that sample all right or all wrong (log odds NaN). A Bayes fit
-        without that term gives only the averaged rows.
+        without that term gives only the averaged rows. With a group of one participant
+        (:func:`lone_group`) every row keeps its estimates and has no SE, interval or p-value;
+        ``basis`` says why.
 
     Notes
     -----
@@ -455,6 +458,10 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                          f"model: {fit.formula}"])
     out = pd.DataFrame(rows, columns=columns)
     out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
+    lone = lone_group(data)
+    if lone is not None:               # estimates only: no SE the data can support
+        out[["se", "ci_low", "ci_high", "p_value", "difference_low", "difference_high"]] = np.nan
+        out["basis"] = out["basis"].astype(str) + "; " + lone_group_reason(lone)
     return out
 
 
@@ -491,6 +498,30 @@ def log_odds_contrast(xa, xb, beta, cov, z, df=None) -> list:
     return [est, se, est - z * se, est + z * se, np.exp(est),
             float(reference_p(est / se, df)) if se > 0 else np.nan, pa, pb,
             pa - pb, pa - pb - z * dse, pa - pb + z * dse]
+
+
+def lone_group(trials: pd.DataFrame) -> tuple[str, int] | None:
+    """The group (A before B) with fewer than two participants, and its count; None if none.
+
+    Such a group has no between-participant variance of its own: a comparison of the groups
+    would take its SE from the other group alone and read far surer than it is, so the
+    comparisons of the groups carry estimates only (:func:`group_contrasts`,
+    :func:`analysis.report.tests_table`).
+    """
+    if "group" not in trials or trials.empty:
+        return None
+    counts = trials.groupby("group")["participant"].nunique()
+    for g in ("A", "B"):
+        if g in counts.index and counts[g] < 2:
+            return g, int(counts[g])
+    return None
+
+
+def lone_group_reason(lone: tuple[str, int]) -> str:
+    """Why the comparisons of the groups are not tested (the ``test`` text of their rows)."""
+    g, n = lone
+    return (f"not tested: group {g} has {n} participant (a comparison of the groups needs at "
+            f"least 2 in each: no between-participant variance in group {g})")
 
 
 def has_group_by_roughness(fit: ModelFit) -> bool:

@@ -27,7 +27,8 @@ from .inference import (averaged_contrast, chance_tests, holm, interaction_test,
                         omnibus_group_test, primary_test)
 from .missing import missing_summary, missing_trials
 from .model_decisions import model_decisions
-from .models import FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts
+from .models import (FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts, lone_group,
+                     lone_group_reason)
 from .proportions import cell_proportions, participant_summary
 from .result import AnalysisResult
 from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
@@ -143,22 +144,14 @@ GROUP_COMPARISON_ROLES = ("primary", "omnibus", "per-sample", "interaction")
 
 
 def _withhold_lone_group_tests(table: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
-    """A group of one participant has no between-participant variance of its own: a comparison
-    of the groups would take its SE from the other group alone and read far surer than it is.
-    Such rows keep their estimates and lose their test, interval and p-values, with the reason.
-    """
-    if table.empty or "group" not in trials:
+    """The comparisons of the groups with a group of one participant (:func:`lone_group`): keep
+    their estimates, lose their test, interval and p-values, with the reason."""
+    lone = lone_group(trials)
+    if table.empty or lone is None:
         return table
-    counts = trials.groupby("group")["participant"].nunique()
-    lone = [g for g in ("A", "B") if g in counts.index and counts[g] < 2]
-    if not lone:
-        return table
-    reason = (f"not tested: group {lone[0]} has {int(counts[lone[0]])} participant (a comparison "
-              f"of the groups needs at least 2 in each: no between-participant variance in "
-              f"group {lone[0]})")
     rows = table["role"].isin(GROUP_COMPARISON_ROLES)
     table = table.copy()
-    table.loc[rows, "test"] = reason
+    table.loc[rows, "test"] = lone_group_reason(lone)
     for col in ("se", "ci_low", "ci_high", "statistic", "df", "p_value", "p_holm",
                 "difference_ci_low", "difference_ci_high"):
         if col in table:

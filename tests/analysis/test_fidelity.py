@@ -388,6 +388,10 @@ def test_a_group_of_one_participant_gets_no_group_comparison_test():
         gee = fit_gee(trials)
         contrasts = group_contrasts(gee, trials)
         table = tests_table(gee, None, contrasts, trials)
+    # contrasts.csv says the same as the tests table: estimates, no SE, interval or p-value
+    assert contrasts["p_value"].isna().all() and contrasts["ci_low"].isna().all()
+    assert contrasts["log_odds_ratio_A_vs_B"].notna().any()
+    assert contrasts["basis"].str.contains("group B has 1 participant").all()
     compared = table[table["role"].isin(GROUP_COMPARISON_ROLES)]
     assert set(compared["role"]) == {"primary", "omnibus", "per-sample", "interaction"}
     assert compared["test"].str.startswith("not tested: group B has 1 participant").all()
