@@ -221,8 +221,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         except (serial.SerialException, OSError):
             pass
         self._parser.reset()
-        p = self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION))
-        self.info = decode_hello(p, self.port_name)
+        self.info = self._hello()
         self._refuse_latched_fault()
         rate = int(round(self.info.max_rate_C_per_s * 100))
         self._restart = None
@@ -250,6 +249,15 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self.set_neutral(lim.neutral_C)
         return self.info
 
+    def _hello(self) -> DeviceInfo:
+        """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`)."""
+        return decode_hello(self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
+                            self.port_name)
+
+    def _read_status(self) -> Status:
+        """One STATUS round trip, as the device answers it (no check against the handshake)."""
+        return Status.decode(self._transact(Cmd.STATUS))
+
     def _refuse_latched_fault(self) -> None:
         """Stop at the handshake, with what to do, if the device is latched in FAULT.
 
@@ -257,7 +265,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         connection, possibly with nobody watching; the device refuses limits and ARM until an
         operator resets it, and thermocue never does that on its own.
         """
-        st = Status.decode(self._transact(Cmd.STATUS))
+        st = self._read_status()
         if st.state == "FAULT":
             raise DisplayFaultLatched(
                 f"display: {self.port_name} is latched in FAULT ({st.last_fault or 'no code'}) "
@@ -518,7 +526,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         DisplayRestarted
             If the boot id differs from the handshake's (the device restarted).
         """
-        st = Status.decode(self._transact(Cmd.STATUS))
+        st = self._read_status()
         if self.info is not None and st.boot_id != self.info.boot_id:
             self._restarted(f"boot id {st.boot_id:08x}, not {self.info.boot_id:08x} as at HELLO")
         if self._restart is not None:
@@ -552,19 +560,18 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         port = open_serial_port(url, baudrate)
         try:
             disp = cls(port, None)
-            before = Status.decode(disp._transact(Cmd.STATUS))
+            before = disp._read_status()
             if before.state != "FAULT":
                 return before.state, before.last_fault, before.state
-            disp.info = decode_hello(disp._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
-                                     disp.port_name)
+            disp.info = disp._hello()
             disp.clear_fault()
             # a cause still there (a sensor out of range or stuck) trips it again at once:
             # watch it for RESET_WATCH_S before calling the reset done
             end = disp._clock() + RESET_WATCH_S
-            after = Status.decode(disp._transact(Cmd.STATUS))
+            after = disp._read_status()
             while after.state != "FAULT" and disp._clock() < end:
                 disp.wait(0.05)
-                after = Status.decode(disp._transact(Cmd.STATUS))
+                after = disp._read_status()
             return before.state, before.last_fault, after.state
         finally:
             try:
