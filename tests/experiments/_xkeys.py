@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import subprocess
 
-__all__ = ["send_key", "type_text", "window_open", "wait_for_window", "PSYCHOPY_TITLE",
+__all__ = ["send_key", "press_until", "type_text", "window_open", "wait_for_window", "PSYCHOPY_TITLE",
            "THERMOCUE_TITLE"]
 
 #: PsychoPy's default window title (Builder and Coder scripts) and thermocue's participant window.
@@ -25,6 +25,22 @@ def send_key(env: dict, key: str, title: str = THERMOCUE_TITLE) -> None:
     """Press and release ``key`` (an X keysym name: ``space``, ``1``, ``Escape``, ``ctrl+a``)
     in the window whose name matches the regular expression ``title``."""
     _xdotool(env, title, "key", "--delay", "30", key)
+
+
+def press_until(env: dict, key: str, moved, proc, tries: int = 2, wait_s: float = 4.0,
+                title: str = THERMOCUE_TITLE) -> int:
+    """Press ``key`` and wait up to ``wait_s`` for ``moved()`` (the program logged what the key
+    does) or for ``proc`` to end; press again if neither, ``tries`` presses at most (a missed
+    key on a loaded machine). Returns the presses made."""
+    import time
+    for n in range(1, tries + 1):
+        send_key(env, key, title)
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < wait_s and proc.poll() is None and not moved():
+            time.sleep(0.05)
+        if proc.poll() is not None or moved():
+            return n
+    return tries
 
 
 def type_text(env: dict, text: str, title: str) -> None:

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from _session_helpers import P01, write_protocol
-from _xkeys import send_key
+from _xkeys import press_until
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow]
 
@@ -40,11 +40,6 @@ def _events(path: Path) -> list[dict]:
     return out
 
 
-def _key(env, key: str) -> None:
-    """A real key press in the participant's window (:func:`_xkeys.send_key`)."""
-    send_key(env, key)
-
-
 def _run_answering(cmd, env, events_path, timeout_s=75):
     """Run ``cmd``; answer each ``awaiting_key`` event with a key (space, or the sample's number)."""
     run = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -60,15 +55,9 @@ def _run_answering(cmd, env, events_path, timeout_s=75):
             ev = waiting[0]
             started = [e for e in events if e["event"] == "trial_started" and e["seq"] < ev["seq"]]
             key = "space" if "space" in ev["keys"] else str(started[-1]["roughness_id"])
-            for attempt in range(2):          # one retry if the key was missed
-                _key(env, key)
-                t0 = time.monotonic()
-                while time.monotonic() - t0 < 4 and not any(
-                        e["seq"] > ev["seq"] for e in _events(events_path)) and run.poll() is None:
-                    time.sleep(0.05)
-                if any(e["seq"] > ev["seq"] for e in _events(events_path)) or run.poll() is not None:
-                    break
-                resent += 1
+            # one retry if the key was missed
+            resent += press_until(env, key, lambda: any(
+                e["seq"] > ev["seq"] for e in _events(events_path)), run) - 1
             answered.add(ev["seq"])
             sent.append(key)
         _, err = run.communicate(timeout=20)

@@ -20,7 +20,8 @@ from pathlib import Path
 import pytest
 
 from _session_helpers import P01, write_protocol
-from test_session_gui import RECORDER, _events, _key
+from _xkeys import press_until
+from test_session_gui import RECORDER, _events
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow,
               pytest.mark.skipif(shutil.which("xdotool") is None, reason="xdotool is not installed")]
@@ -63,14 +64,9 @@ def _run_experimenter(cmd, env, events_path, wrong_first: int, timeout_s=150):
             else:
                 key = "space"
                 sent.append(("other", key))
-            for _ in range(2):          # one retry if the key was missed
-                _key(env, key)
-                t0 = time.monotonic()
-                while time.monotonic() - t0 < 4 and run.poll() is None and not any(
-                        e["seq"] > ev["seq"] for e in _events(events_path)):
-                    time.sleep(0.05)
-                if run.poll() is not None or any(e["seq"] > ev["seq"] for e in _events(events_path)):
-                    break
+            # one retry if the key was missed
+            press_until(env, key, lambda: any(e["seq"] > ev["seq"] for e in _events(events_path)),
+                        run)
             answered.add(ev["seq"])
         _, err = run.communicate(timeout=20)
     finally:
