@@ -6,7 +6,7 @@
 
 ``analysis`` depends on nothing of ``experiments``' runtime: it reads the
 session folders (``trials.csv``, ``events.jsonl``, ``session.json``) with
-:mod:`experiments.logformat`, the log format shared with the writer (standard library only).
+:mod:`sessionfiles.logformat`, the log format shared with the writer (standard library only).
 """
 from .errors import LogError, LogWarning, ModelWarning
 from .load import TrialLog, load_trials

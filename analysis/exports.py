@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.atomicfile import output_path
+from sessionfiles.atomicfile import output_path
 
 __all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]

@@ -39,7 +39,7 @@ import pandas as pd
 import patsy
 from scipy import special, stats
 
-from experiments.session_reader import read_text_file
+from sessionfiles.session_reader import read_text_file
 
 from .errors import LogError
 from .inference import holm

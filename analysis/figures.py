@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.atomicfile import output_path
+from sessionfiles.atomicfile import output_path
 from stimuli.paper import SAMPLE_NAMES
 
 __all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",

@@ -7,7 +7,7 @@ A session directory is any folder holding ``trials.csv`` or ``events.jsonl``
    with the wrong number of fields, undecodable bytes); the damage is reported
    as a :class:`~analysis.errors.LogWarning` naming the file and the line.
 2. ``events.jsonl`` (the source of truth) is read the same way and its trial
-   rows rebuilt by the writer's own rules, :mod:`experiments.logformat` (``trial_completed``
+   rows rebuilt by the writer's own rules, :mod:`sessionfiles.logformat` (``trial_completed``
    rows completed from ``session_started`` and ``trial_started``;
    ``trial_aborted`` as status ``aborted``; see :func:`read_trial_events`).
    Columns still missing (participant, session, group) come from
@@ -44,7 +44,7 @@ its stored protocol's ``[[blocks]]`` (``response`` defaults to true, ``scored`` 
 block. Any block name works.
 
 This module reads session folders and combines them; the parts it calls each hold one concept:
-:mod:`experiments.logformat` (the files' format and tolerant readers, shared with the writer),
+:mod:`sessionfiles.logformat` (the files' format and tolerant readers, shared with the writer),
 :mod:`analysis.trial_rows` (typing and checking rows, inclusion),
 :mod:`analysis.session_meta` (block roles from ``session.json``) and
 :mod:`analysis.session_policy` (which sessions are analysed).
@@ -57,7 +57,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from experiments.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES re-exported
+from sessionfiles.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES re-exported
     OPTIONAL_COLUMNS,
     RENAMED_COLUMNS,
     REQUIRED_COLUMNS,
@@ -68,7 +68,7 @@ from experiments.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES r
     trials_from_events,
 )
 
-from experiments.session_reader import (SessionFileError, SessionFolder, read_session_folder,
+from sessionfiles.session_reader import (SessionFileError, SessionFolder, read_session_folder,
                                         read_session_folders, row_problem)
 
 from .errors import LogError, LogWarning
@@ -153,7 +153,7 @@ def read_trials_csv(path, messages: list | None = None, data: bytes | None = Non
     messages : list of str, optional
         Warnings are appended here (and issued as :class:`LogWarning`).
     data : bytes, optional
-        The content, already read and checked (:mod:`experiments.session_reader`).
+        The content, already read and checked (:mod:`sessionfiles.session_reader`).
 
     Returns
     -------
@@ -168,7 +168,7 @@ def read_trials_csv(path, messages: list | None = None, data: bytes | None = Non
 
     Notes
     -----
-    What counts as damage is :func:`experiments.logformat.read_csv_prefix`'s.
+    What counts as damage is :func:`sessionfiles.logformat.read_csv_prefix`'s.
     """
     path = Path(path)
     messages = [] if messages is None else messages
@@ -201,7 +201,7 @@ def read_trial_events(path, messages: list | None = None,
     messages : list of str, optional
         Warnings are appended here (and issued as :class:`LogWarning`).
     read : (events, report), optional
-        The log, already read (:class:`experiments.session_reader.SessionFolder`).
+        The log, already read (:class:`sessionfiles.session_reader.SessionFolder`).
 
     Returns
     -------
@@ -209,14 +209,14 @@ def read_trial_events(path, messages: list | None = None,
         One row per trial attempt, in log order (columns as logged, plus ``line``, the
         line of the event the row comes from); JSON objects and lists are left out.
     context : dict
-        Session-level values (:data:`experiments.logformat.CONTEXT_KEYS` holding a string
+        Session-level values (:data:`sessionfiles.logformat.CONTEXT_KEYS` holding a string
         or a number) of the latest ``session_started``/``session_resumed``.
 
     Notes
     -----
-    The rows are :func:`experiments.logformat.trials_from_events`' (the writer's rules, the
+    The rows are :func:`sessionfiles.logformat.trials_from_events`' (the writer's rules, the
     same ``trials.csv`` is rebuilt with); the log is read by
-    :func:`experiments.logformat.read_events`, stopping at the first damaged line.
+    :func:`sessionfiles.logformat.read_events`, stopping at the first damaged line.
     """
     path = Path(path)
     messages = [] if messages is None else messages
@@ -271,7 +271,7 @@ def load_session(folder, messages: list | None = None, read: SessionFolder | Non
     messages : list of str, optional
         Warnings are appended here.
     read : SessionFolder, optional
-        The folder as :func:`experiments.session_reader.read_session_folder` read it (read
+        The folder as :func:`sessionfiles.session_reader.read_session_folder` read it (read
         here when not given).
     check : bool
         Check every row against the trial table's domain and the session's identity here

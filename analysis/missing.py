@@ -31,7 +31,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from experiments.session_reader import read_text_file
+from sessionfiles.session_reader import read_text_file
 
 __all__ = ["missing_trials", "missing_summary", "REASONS"]
 

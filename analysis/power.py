@@ -52,7 +52,7 @@ import pandas as pd
 from scipy import special, stats
 from threadpoolctl import threadpool_limits
 
-from experiments.atomicfile import output_path
+from sessionfiles.atomicfile import output_path
 
 from .errors import LogError
 from .proportions import wilson_interval

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
-from experiments.atomicfile import output_file
+from sessionfiles.atomicfile import output_file
 
 from .agreement_participants import agreement_comparison, participant_agreement
 from .confusion import confusion_matrices
@@ -41,7 +41,7 @@ __all__ = ["AnalysisResult", "analyze", "plain_summary", "COLUMN_MEANINGS"]
 
 
 def _write_text(path: Path, text: str) -> None:
-    """A text output, whole or not at all (:func:`experiments.atomicfile.output_file`)."""
+    """A text output, whole or not at all (:func:`sessionfiles.atomicfile.output_file`)."""
     with output_file(path) as fh:
         fh.write(text)
 
@@ -251,7 +251,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         (:func:`analysis.fidelity.equivalence_margin`).
     before_write : callable, optional
         Called once, with no argument, just before the first output is written (the command
-        line's :meth:`experiments.atomicfile.OutputFolder.begin`: a refused or failed analysis
+        line's :meth:`sessionfiles.atomicfile.OutputFolder.begin`: a refused or failed analysis
         leaves an earlier run's outputs as they were). Every output is written whole
         (temporary file, then renamed over the old one).
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from experiments.session_reader import read_text_file
+from sessionfiles.session_reader import read_text_file
 
 __all__ = ["read_session_meta", "not_recognition_reason", "block_roles"]
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.logformat import read_events
+from sessionfiles.logformat import read_events
 
 from .trial_rows import int_text
 

@@ -4,7 +4,7 @@ The rows of any number of sessions, as read (:mod:`analysis.load`), are typed co
 and checked (required columns, types, allowed values, ``correct`` consistent with
 ``response_id == roughness_id``); a bad cell raises :class:`~analysis.errors.LogError` naming
 the file, the column and the line. Then each row is marked included or given its exclusion
-reason. The column lists are the writer's (:mod:`experiments.logformat`).
+reason. The column lists are the writer's (:mod:`sessionfiles.logformat`).
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from experiments.logformat import OPTIONAL_COLUMNS, RENAMED_COLUMNS, REQUIRED_COLUMNS, STATUSES
+from sessionfiles.logformat import OPTIONAL_COLUMNS, RENAMED_COLUMNS, REQUIRED_COLUMNS, STATUSES
 
 from .errors import LogError
 
@@ -147,7 +147,7 @@ def validate_rows(df: pd.DataFrame) -> pd.DataFrame:
             out[column] = _as_number(df, column, integer=integer, allow_blank=True).astype(float)
         else:
             out[column] = pd.Series(np.nan, index=df.index, dtype=float)
-    # why an attempt was aborted (experiments.logbook: trial_aborted's reason); kept, not required
+    # why an attempt was aborted (sessionfiles.logbook: trial_aborted's reason); kept, not required
     out["abort_reason"] = _as_str(df["abort_reason"]) if "abort_reason" in df.columns else ""
     out["familiarisation"] = familiar
     out["source"] = df["source"].astype(str).to_numpy()

@@ -188,7 +188,7 @@ def ok_rows_by_run(session: Path):
     emulator's log (``log=PATH``) that holds the device's account of that run.
     """
     import urllib.parse
-    from experiments.logbook import read_events
+    from sessionfiles.logbook import read_events
     events, _ = read_events(session / "events.jsonl", warn=False)
     log, out = None, []
     for e in events:
@@ -204,7 +204,7 @@ def ok_rows_by_run(session: Path):
 
 def check_session(session: Path, logs: list, T: Totals, n_trials: int, label: str):
     """Compare the session's ok trials with the device logs of its runs; check completeness."""
-    from experiments.logbook import log_shortfall, read_events
+    from sessionfiles.logbook import log_shortfall, read_events
     truth = {}
     rows = ok_rows_by_run(session)
     T.c["ok_trials"] += len(rows)
@@ -644,7 +644,7 @@ def part_concurrent(out: Path, T: Totals, scale: float, rng: random.Random):
             if "Traceback" in err:
                 T.c["tracebacks"] += 1
                 T.note(f"concurrent {i}: traceback {err.strip().splitlines()[-1][:200]}")
-        from experiments.logbook import read_events
+        from sessionfiles.logbook import read_events
         mixed = False
         for d in sorted((folder / "data" / "P01").iterdir()):
             meta = json.loads((d / "session.json").read_text())

@@ -41,9 +41,9 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from experiments.bids_events import EVENT_COLUMNS, EVENT_SIDECAR, event_rows
-from experiments.logbook import TRIAL_COLUMNS, atomic_write_text, ensure_dir
-from experiments.logformat import format_cell
-from experiments.session_reader import SessionFileError, SessionFolder, read_session_folder, \
+from sessionfiles.logbook import TRIAL_COLUMNS, atomic_write_text, ensure_dir
+from sessionfiles.logformat import format_cell
+from sessionfiles.session_reader import SessionFileError, SessionFolder, read_session_folder, \
     read_session_folders
 
 __all__ = ["export_session", "export_dataset", "bids_label", "COLUMN_DESCRIPTIONS", "BIDS_VERSION",
@@ -296,7 +296,7 @@ def export_session(session_dir, root=None, read: SessionFolder | None = None,
     root : path-like, optional
         The BIDS dataset (default ``DATA/bids``, two levels above ``session_dir``).
     read : SessionFolder, optional
-        The folder as :func:`experiments.session_reader.read_session_folder` read it.
+        The folder as :func:`sessionfiles.session_reader.read_session_folder` read it.
     authors : list of str, optional
         ``dataset_description.json``'s ``Authors`` (default: the protocol's ``authors``),
         written when the file is new or has none (``override_authors``: also replacing others).
@@ -360,7 +360,7 @@ def export_dataset(data_dir, root=None, skipped: list | None = None,
                    notes: list | None = None, before=None,
                    authors: list[str] | None = None) -> list[Path]:
     """Export every session folder under ``data_dir`` (read by
-    :func:`experiments.session_reader.read_session_folders`: checked, duplicates once).
+    :func:`sessionfiles.session_reader.read_session_folders`: checked, duplicates once).
 
     Every folder is read and checked before anything is written.
 
@@ -375,7 +375,7 @@ def export_dataset(data_dir, root=None, skipped: list | None = None,
         Receives what was worked around (one line each, naming the file).
     before : callable, optional
         Called once every folder is checked, before the first file is written (the command
-        line's :meth:`experiments.atomicfile.OutputFolder.begin`).
+        line's :meth:`sessionfiles.atomicfile.OutputFolder.begin`).
     authors : list of str, optional
         ``dataset_description.json``'s ``Authors`` (``export-bids --author``); default: the
         ``[protocol] authors`` of the sessions' protocols, in the order first met. With neither
@@ -424,7 +424,7 @@ def _has_authors(root: Path) -> bool:
 
 
 def mark_complete(folder) -> Path:
-    """Mark a rebuilt dataset complete (an :class:`experiments.atomicfile.OutputFolder`):
+    """Mark a rebuilt dataset complete (an :class:`sessionfiles.atomicfile.OutputFolder`):
     ``COMPLETE`` written last, and listed in ``.bidsignore`` (it is not a BIDS file)."""
     ignore = Path(folder.path) / ".bidsignore"
     listed = ignore.read_text(encoding="utf-8").split() if ignore.is_file() else []

@@ -258,7 +258,7 @@ def event_rows(events: list[Mapping]) -> list[list] | None:
     Parameters
     ----------
     events : list of dict
-        ``events.jsonl`` as read (:attr:`experiments.session_reader.SessionFolder.events`).
+        ``events.jsonl`` as read (:attr:`sessionfiles.session_reader.SessionFolder.events`).
 
     Returns
     -------

@@ -20,16 +20,12 @@ __all__ = [
 ]
 
 
-class UserInputError(ValueError):
-    """Bad input from the user; the message names the file and the field."""
+# the session folder's errors live on the floor below (sessionfiles); the same classes
+from sessionfiles.errors import SessionError, UserInputError
 
 
 class ProtocolError(UserInputError):
     """A malformed experiment protocol file."""
-
-
-class SessionError(UserInputError):
-    """A session directory that cannot be run or resumed as asked."""
 
 
 class DisplayError(IOError):

@@ -1,8 +1,10 @@
 """Dependencies flow downward (docs/design.md, "Layers"): checked on the source, every import,
 including those inside functions.
 
-stimuli -> numpy, scipy, the standard library only; analysis -> nothing of experiments' runtime;
-experiments.hardware -> not the command line, not the session; and inside experiments only the
+stimuli -> numpy, scipy, the standard library only; sessionfiles (the session folder: its format,
+writers, reader, atomic files) -> the standard library, numpy and pandas only, never experiments,
+analysis or stimuli; analysis -> never experiments (the floor sessionfiles, and stimuli.paper's
+sample names, are what it uses of the tree); experiments.hardware -> not the command line, not the session; and inside experiments only the
 Figure 9 package (experiments.simulation.figure9: the study, its scenarios against the paper's
 claims, ``reproduce figure9``) and the command line (``thermocue analyze``, ``power``,
 ``reproduce``: the top of the stack) import analysis.
@@ -20,7 +22,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("stimuli", "analysis", "experiments", "participants_schema")
+PACKAGES = ("sessionfiles", "stimuli", "analysis", "experiments", "participants_schema")
 
 
 def _module_name(path: Path) -> tuple[str, bool]:
@@ -87,34 +89,43 @@ def test_stimuli_imports_only_numpy_scipy_and_the_standard_library():
     assert _violations(("stimuli",), allowed) == []
 
 
-#: What analysis must not import: the experiment's runtime. ``experiments.logformat`` (the log
-#: format), ``experiments.session_reader`` (the one reader of session folders) and
-#: ``experiments.atomicfile`` (files written whole), all standard library only, are the parts of
-#: experiments analysis may use.
-RUNTIME = ("experiments.session", "experiments.records",
-           "experiments.session_files", "experiments.hardware", "experiments.responders",
-           "experiments.cli", "experiments.protocol", "experiments.logbook",
-           "experiments.schedule", "experiments.psychopy_plugin", "experiments.calibration",
-           "experiments.simulation", "experiments.bench")
-ANALYSIS_MAY_READ = ("experiments.logformat", "experiments.session_reader", "experiments.atomicfile",
-                     "experiments.errors")
+#: The floor's own dependencies beyond the standard library (numpy: the traces' arrays).
+FLOOR_MAY_USE = ("numpy", "pandas")
 
 
-def test_analysis_never_imports_the_experiments_runtime():
+def test_sessionfiles_is_the_floor_it_imports_nothing_of_the_tree_above():
     def allowed(target, _):
-        if _within(target, ANALYSIS_MAY_READ):
-            return True
-        return not _within(target, RUNTIME) and target != "experiments"
-    assert _violations(("analysis",), allowed) == []
+        top = target.split(".")[0]
+        return (top in ("sessionfiles", "__future__") or top in FLOOR_MAY_USE
+                or top in sys.stdlib_module_names)
+    assert _violations(("sessionfiles",), allowed) == []
+    # and the rule sees the floor's modules
+    assert {m for m, _, _ in IMPORTS if _within(m, ("sessionfiles",))} >= {
+        "sessionfiles.logformat", "sessionfiles.session_reader", "sessionfiles.atomicfile",
+        "sessionfiles.logbook", "sessionfiles.session_files"}
 
 
-@pytest.mark.parametrize("module", ANALYSIS_MAY_READ)
-def test_what_analysis_may_use_of_experiments_is_standard_library_only(module):
+#: The log format and the reader, imported by analysis and by the command line: standard library
+#: only (no numpy, pandas), so that reading a log pulls in no numerics.
+STANDARD_LIBRARY_ONLY = ("sessionfiles.logformat", "sessionfiles.session_reader",
+                         "sessionfiles.atomicfile", "sessionfiles.errors")
+
+
+@pytest.mark.parametrize("module", STANDARD_LIBRARY_ONLY)
+def test_the_floors_format_and_reader_are_standard_library_only(module):
     def allowed(target, _):
         top = target.split(".")[0]
         return top == "__future__" or top in sys.stdlib_module_names \
-            or _within(target, ANALYSIS_MAY_READ) or target == "experiments"
+            or _within(target, STANDARD_LIBRARY_ONLY) or target == "sessionfiles"
     assert _violations((module,), allowed) == []
+
+
+def test_analysis_never_imports_experiments():
+    # analysis reads session folders through the floor (sessionfiles) alone
+    def allowed(target, _):
+        return not _within(target, ("experiments",))
+    assert _violations(("analysis",), allowed) == []
+    assert any(_within(m, ("analysis",)) and _within(t, ("sessionfiles",)) for m, t, _ in IMPORTS)
 
 
 def test_hardware_never_imports_the_cli_or_the_session():
@@ -132,13 +143,13 @@ def test_participants_schema_stands_alone(package):
 
 def test_the_reproduction_of_the_papers_model_results_imports_only_stimuli():
     # the paper's Figs. 3-6 and Table 2 are the thermal model's results: no session, no display,
-    # no analysis of logs (files are written whole through experiments.atomicfile, standard
+    # no analysis of logs (files are written whole through sessionfiles.atomicfile, standard
     # library only)
     def allowed(target, _):
         top = target.split(".")[0]
         return (top in ("numpy", "matplotlib", "stimuli", "__future__")
                 or top in sys.stdlib_module_names
-                or _within(target, ("experiments.reproduction", "experiments.atomicfile")))
+                or _within(target, ("experiments.reproduction", "sessionfiles.atomicfile")))
     assert _violations(("experiments.reproduction",), allowed) == []
     assert {m for m, _, _ in IMPORTS if _within(m, ("experiments.reproduction",))} >= {
         "experiments.reproduction.model_figures", "experiments.reproduction.table2"}
@@ -180,9 +191,9 @@ def package_of(module: str) -> str:
     """The package node of ``module`` for the package-level check.
 
     A subpackage is one node (``experiments.session``); a loose module of a top-level package
-    that has subpackages is a node of its own (``experiments.logformat``, ``experiments.schedule``:
-    they are layers, not one room); the flat packages (``stimuli``, ``analysis``,
-    ``participants_schema``) are one node each.
+    that has subpackages is a node of its own (``experiments.schedule``, ``experiments.bids``:
+    they are layers, not one room); the flat packages (``sessionfiles``, ``stimuli``,
+    ``analysis``, ``participants_schema``) are one node each.
     """
     if (ROOT / Path(*module.split("."))).is_dir():
         return module
@@ -270,9 +281,10 @@ def test_the_graph_holds_imports_inside_functions_and_packages_by_room():
     # fit imports misspecification inside _check_misspecification only: the graph must hold it,
     # or a cycle closed by imports inside functions would pass unseen
     assert "experiments.calibration.misspecification" in MODULE_GRAPH["experiments.calibration.fit"]
-    assert "experiments.logformat" in MODULE_GRAPH["analysis.load"]          # a name from a module
+    assert "sessionfiles.logformat" in MODULE_GRAPH["analysis.load"]          # a name from a module
     assert package_of("experiments.session.engine") == "experiments.session"
-    assert package_of("experiments.logformat") == "experiments.logformat"
+    assert package_of("experiments.schedule") == "experiments.schedule"
+    assert package_of("sessionfiles.logformat") == "sessionfiles"
     assert package_of("analysis.report") == "analysis"
     assert package_of("experiments.simulation.figure9.study") == "experiments.simulation.figure9"
 

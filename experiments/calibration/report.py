@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.atomicfile import output_file, output_path
+from sessionfiles.atomicfile import output_file, output_path
 from experiments.calibration.fit import CalibrationFit
 
 __all__ = ["write_report", "fit_summary", "plot_residuals"]

@@ -4,7 +4,7 @@
 ``trials.csv`` (one row per trial; ``mode``, ``status``, ``roughness_id``, ``roughness_um``,
 ``trace_file``) and ``traces/trial-NNN.csv`` (``time_s``, ``target_C``, ``contact_C``,
 ``ambient_C``, ``finger_C``, ``force1_N`` .. ``force4_N``, ``state``:
-:data:`experiments.logformat.TRACE_COLUMNS`).  Every real trial with status ``ok`` and a trace
+:data:`sessionfiles.logformat.TRACE_COLUMNS`).  Every real trial with status ``ok`` and a trace
 is used.
 
 Per trace (each rule documented because each is a choice):
@@ -38,7 +38,7 @@ import numpy as np
 
 from experiments.calibration.errors import CalibrationError
 from experiments.calibration.trace import ContactTrace
-from experiments.logformat import FORCE_COLUMNS
+from sessionfiles.logformat import FORCE_COLUMNS
 
 __all__ = ["SessionTraces", "load_session_traces", "read_trace_csv", "TOUCH_THRESHOLD_N"]
 
@@ -81,7 +81,7 @@ def read_trace_csv(path) -> dict:
     CalibrationError
         Missing file, missing column, unreadable number.
     """
-    from experiments.session_reader import MAX_BYTES, SessionFileError, read_regular_bytes
+    from sessionfiles.session_reader import MAX_BYTES, SessionFileError, read_regular_bytes
     path = Path(path)
     if not os.path.lexists(path):
         raise CalibrationError(f"{path}: expected a trace file, got none")
@@ -198,7 +198,7 @@ def load_session_traces(session_dir, *, sensor_side: str = "material", skin_temp
     tpath = session_dir / "trials.csv"
     # the one reader of session folders: regular UTF-8 files, session.json against the log,
     # every trial row in the trial table's domain
-    from experiments.session_reader import SessionFileError, read_session_folder
+    from sessionfiles.session_reader import SessionFileError, read_session_folder
     try:
         read = read_session_folder(session_dir)
         if not os.path.lexists(spath):

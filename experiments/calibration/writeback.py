@@ -161,7 +161,7 @@ def write_participant_calibration(path, calibration: dict) -> dict:
     participants_schema.ParticipantError
         The file is missing or invalid, or the new record does not validate.
     """
-    from experiments.logbook import atomic_write_text
+    from sessionfiles.logbook import atomic_write_text
     from participants_schema import load_participant, validate_participant
 
     path = Path(path)

@@ -54,7 +54,7 @@ def _run(ns) -> int:
     def progress(message: str) -> None:      # analysis.analyze's steps, with the time so far
         log.info("[%6.1f s] %s", time.monotonic() - start, message)
 
-    from experiments.atomicfile import OutputFolder
+    from sessionfiles.atomicfile import OutputFolder
     folder = OutputFolder(ns.out, "thermocue analyze")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", LogWarning)     # listed in the report and below

@@ -92,7 +92,7 @@ def run(ns) -> int:
     from experiments.calibration.model import (DEFAULT_SENSOR_HEAT_CAPACITY,
                                                DEFAULT_SENSOR_SKIN_RESISTANCE)
     from experiments.calibration.errors import CalibrationError
-    from experiments.atomicfile import OutputFolder, output_file
+    from sessionfiles.atomicfile import OutputFolder, output_file
     from experiments.cli.paths import check_writable_dir
 
     check_writable_dir(ns.out, "--out")      # before the fit (minutes), nothing written

@@ -28,7 +28,7 @@ def register(sub) -> None:
 
 
 def _run(ns) -> int:
-    from experiments.atomicfile import OutputFolder
+    from sessionfiles.atomicfile import OutputFolder
     from experiments.bids import export_dataset, mark_complete
     from experiments.cli.paths import check_writable_dir
     from experiments.errors import UserInputError

@@ -207,7 +207,7 @@ def _effects(text: str) -> list[float]:
 def _write(ns, result, source, sizes, progress) -> int:
     from analysis.power import plot_power
     from analysis.exports import codebook, write_csv
-    from experiments.atomicfile import OutputFolder, output_file
+    from sessionfiles.atomicfile import OutputFolder, output_file
 
     folder = OutputFolder(ns.out, "thermocue power")
     out = folder.begin()                # every file whole (temporary + rename), COMPLETE last

@@ -97,7 +97,7 @@ def _run(ns) -> int:
                                      f"with `reproduce {ns.target}`")
     # figure9 makes its folder itself, once every option has been checked
     out = _out_dir(ns.out, create=ns.target != "figure9")
-    from experiments.atomicfile import OutputFolder
+    from sessionfiles.atomicfile import OutputFolder
     folder = OutputFolder(out, f"thermocue reproduce {ns.target}")   # COMPLETE written last
     if ns.target == "figures":
         from experiments.reproduction.model_figures import write_figures

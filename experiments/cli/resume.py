@@ -31,7 +31,7 @@ def _run(ns) -> int:
     check_common(ns)
     # the one reader of session folders first: a FIFO or device in a file's place, another
     # encoding or a session.json of another session is refused by name before anything opens it
-    from experiments.session_reader import read_session_folder
+    from sessionfiles.session_reader import read_session_folder
     read_session_folder(ns.session_dir)
     session = open_session(ns.session_dir, display_url=ns.display, clock=ns.clock)
     if session.finished:       # first: before the responder, its window or the display

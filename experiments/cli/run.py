@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from experiments.logformat import read_events
+from sessionfiles.logformat import read_events
 from stimuli.paper import RESPONDER_NAMES as RESPONDERS
 
 

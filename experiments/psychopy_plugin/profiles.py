@@ -99,13 +99,13 @@ def file_profile(path) -> CueProfile:
     UserInputError
         A missing column or a value that is not a number (names the file, the row and the column);
         a file that is not UTF-8 text (UTF-16, Latin-1: names the file and the byte offset) or
-        not a regular file (:mod:`experiments.session_reader`).
+        not a regular file (:mod:`sessionfiles.session_reader`).
     OSError
         The file cannot be read (the message names the path).
     """
     import io
 
-    from experiments.session_reader import read_text_file
+    from sessionfiles.session_reader import read_text_file
     p = Path(path)
     try:            # a regular UTF-8 file (a byte-order mark allowed): UTF-16, Latin-1, a FIFO
         text = read_text_file(p)        # or a device are refused naming the file (and byte)

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.atomicfile import output_file, output_path
+from sessionfiles.atomicfile import output_file, output_path
 from stimuli.paper import TABLE2_ROUGHNESS_UM
 
 __all__ = ["FIGURES", "figure_rows", "write_figures", "METHODS", "ROUGHNESS_UM"]

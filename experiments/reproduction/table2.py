@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.atomicfile import output_file
+from sessionfiles.atomicfile import output_file
 
 __all__ = ["PAPER_TABLE2", "table2_rows", "write_table2", "MODEL_COLUMNS"]
 

@@ -6,7 +6,7 @@ A session lives in ``DATA/<participant>/<session>/``:
     The protocol (data and hash), the participant record and group, the seed, the schedule,
     the display URL, the responder and the package versions. Written once (atomically).
 ``events.jsonl``
-    The source of truth (:class:`experiments.logbook.EventLog`, fsynced per event): every
+    The source of truth (:class:`sessionfiles.logbook.EventLog`, fsynced per event): every
     state change, upload, contact, response, completed or aborted trial.
 ``trials.csv``
     Rebuilt from the events (atomically) after every trial.

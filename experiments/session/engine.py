@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 from experiments.errors import DisplayError, SessionError, UserInputError
-from experiments.logbook import EventLog, log_shortfall, read_events, replay
+from sessionfiles.logbook import EventLog, log_shortfall, read_events, replay
 from experiments.responders.base import Responder
 from experiments.responders.hand import press
 from experiments.hardware.display_base import Display
@@ -32,7 +32,7 @@ from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
 from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
-from experiments.session_files import schedule_sha256
+from sessionfiles.session_files import schedule_sha256
 
 __all__ = ["Session"]
 

@@ -16,7 +16,7 @@ from experiments.session.engine import Session
 from experiments.session.machine import clock_for_url
 from experiments.session.setup import check_capacity, protocol_source, check_schedule_profiles
 from experiments.session.store import read_session_json, write_session_json
-from experiments.session_files import claim_session_folder
+from sessionfiles.session_files import claim_session_folder
 
 __all__ = ["SessionPlan", "plan_session", "create_session", "open_session", "finished_sessions"]
 
@@ -39,7 +39,7 @@ def _next_session_name(folder: Path, after: str | None = None) -> str:
 def _taken(directory: Path) -> bool:
     """Whether a folder is (or may be) a session: anything but the leftover of a claim that
     was killed before ``session.json`` (nothing, or only an empty ``events.jsonl``), which
-    :func:`~experiments.session_files.claim_session_folder` claims again."""
+    :func:`~sessionfiles.session_files.claim_session_folder` claims again."""
     if not directory.exists():
         return False
     if not directory.is_dir():
@@ -126,7 +126,7 @@ class SessionPlan:
 
 def finished_sessions(folder: Path) -> list[Path]:
     """The finished sessions (``session_finished`` logged) in a participant's folder."""
-    from experiments.logbook import read_events, replay
+    from sessionfiles.logbook import read_events, replay
     out = []
     for events in sorted(Path(folder).glob("*/events.jsonl")):
         try:
@@ -149,7 +149,7 @@ def _clock_named_in(url: str) -> str | None:
 def unfinished_sessions(folder: Path) -> list[Path]:
     """The sessions in a participant's folder that started and did not finish (running now, or
     interrupted, stopped or killed: resumable)."""
-    from experiments.logbook import read_events, replay
+    from sessionfiles.logbook import read_events, replay
     out = []
     for events in sorted(Path(folder).glob("*/events.jsonl")):
         try:

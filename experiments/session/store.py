@@ -16,9 +16,9 @@ from pathlib import Path
 
 from experiments.errors import SessionError
 from experiments.records import TableReader, Verbatim
-from experiments.logbook import now_iso as _now_iso
+from sessionfiles.logbook import now_iso as _now_iso
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
-from experiments.session_files import package_versions, schedule_sha256
+from sessionfiles.session_files import package_versions, schedule_sha256
 
 __all__ = ["SESSION_FORMAT", "StoredSession", "block_roles", "write_session_json",
            "read_session_json"]
@@ -36,7 +36,7 @@ def block_roles(protocol) -> list[dict]:
 def write_session_json(directory: Path, plan) -> None:
     """Write ``directory/session.json`` for a :class:`~experiments.session.SessionPlan`, and
     ``traces/``."""
-    from experiments.logbook import atomic_write_json, ensure_dir
+    from sessionfiles.logbook import atomic_write_json, ensure_dir
     from experiments.session.setup import protocol_source
 
     protocol, assignment, durable = plan.protocol, plan.assignment, plan.durable
@@ -187,7 +187,7 @@ def check_against_log(directory: Path, path: Path, meta: dict, participant: dict
     The log is the source of truth: a session.json replaced by another run, or edited by hand
     (seed, schedule, protocol, group, participant, name), must not steer a resume.
     """
-    from experiments.logbook import read_events
+    from sessionfiles.logbook import read_events
 
     events_path = directory / "events.jsonl"
     if not events_path.exists():

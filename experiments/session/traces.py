@@ -1,6 +1,6 @@
 """A trial's trace file and what it says: never overwritten, kept per attempt, read back.
 
-``traces/trial-NNN.csv`` is streamed by :class:`experiments.session_files.TraceWriter` while
+``traces/trial-NNN.csv`` is streamed by :class:`sessionfiles.session_files.TraceWriter` while
 the trial runs. An attempt that does not complete keeps its trace under an ``aborted`` or
 ``fault`` name (:func:`keep_trace`) so the next attempt starts a fresh file; a trace that is
 there before its attempt starts is moved aside, never overwritten (:func:`keep_aside`). The
@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 from experiments.responders.base import TrialStimulus
-from experiments.session_files import aborted_trace_name, trace_name
+from sessionfiles.session_files import aborted_trace_name, trace_name
 
 __all__ = ["keep_trace", "keep_aside", "unused_name", "contact_force", "trial_stimulus"]
 
@@ -25,7 +25,7 @@ def keep_trace(traces_dir: Path, trial_index: int, attempt: int, kind: str, *,
     Returns the kept file (also when a kill came between this rename and the event that
     records it), or None if the attempt never started its trace.
     """
-    from experiments.logbook import fsync_dir
+    from sessionfiles.logbook import fsync_dir
     trace = traces_dir / trace_name(trial_index)
     if trace.exists():
         kept = traces_dir / aborted_trace_name(trial_index, attempt, kind)

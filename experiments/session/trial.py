@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from experiments.errors import DisplayError, DisplayLinkLost, DisplayRestarted
-from experiments.logbook import now_iso as _now_iso
+from sessionfiles.logbook import now_iso as _now_iso
 from experiments.session.machine import SessionInterrupted
 from experiments.session.traces import contact_force, keep_aside, keep_trace, trial_stimulus
-from experiments.session_files import TraceWriter, trace_name
+from sessionfiles.session_files import TraceWriter, trace_name
 
 __all__ = ["TrialSteps"]
 
@@ -188,7 +188,7 @@ class TrialSteps:
         spec, attempt, ctx = t.spec, t.attempt, t.ctx
         self.machine.go("wait_contact", **ctx)
         if not self.traces_dir.is_dir():
-            from experiments.logbook import ensure_dir
+            from sessionfiles.logbook import ensure_dir
             ensure_dir(self.traces_dir, durable=self.durable)
         trace = self.traces_dir / t.trace
         if trace.exists():   # never overwritten: the log cannot explain it, so keep it aside

@@ -1,23 +1,23 @@
 """``trials.csv`` of one run, rebuilt from ``events.jsonl`` after every trial.
 
 One concept: the table a session keeps beside its event log. The event log is the source of
-truth (:func:`~experiments.logformat.trials_from_events`); the table is rebuilt from it and
+truth (:func:`~sessionfiles.logformat.trials_from_events`); the table is rebuilt from it and
 replaced atomically, so it is never half-written. Only where durability is off (``durable=False``:
 a simulated study on a virtual clock, recomputed from its seed) does a
 table that only adds rows to the one this run last wrote grow by its new lines in one ``write``
 (for speed); a session with a person in it always gets the atomic replace. The log is
 decoded incrementally (only the lines appended since the last trial); anything unusual falls back
-to :func:`~experiments.logformat.read_events`.
+to :func:`~sessionfiles.logformat.read_events`.
 """
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
-from experiments.logbook import (append_text, atomic_write_text, read_events,
+from sessionfiles.logbook import (append_text, atomic_write_text, read_events,
                                  trials_csv_columns, trials_csv_header, trials_csv_lines,
                                  trials_from_events)
-from experiments.logformat import decode_event
+from sessionfiles.logformat import decode_event
 
 __all__ = ["TrialsTable"]
 
@@ -90,7 +90,7 @@ class TrialsTable:
         return "".join(lines)
 
     def events(self) -> list:
-        """The events of ``events.jsonl`` as :func:`~experiments.logformat.read_events` reads
+        """The events of ``events.jsonl`` as :func:`~sessionfiles.logformat.read_events` reads
         them, decoding only the lines appended since the last call (the log only grows; any line
         that does not decode, a torn tail or a shorter file: read whole again)."""
         offset, events = self._events_read

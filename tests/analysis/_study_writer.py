@@ -3,7 +3,7 @@
 ``write_study`` writes session folders in the documented layout
 (``DATA/<participant>/<session>/`` with ``session.json``, ``events.jsonl`` and
 ``trials.csv``; docs/design.md "Session directory", docs/internal-contracts.md
-"Trials table"; events as ``experiments.logbook`` documents them:
+"Trials table"; events as ``sessionfiles.logbook`` documents them:
 ``session_started`` with the session context, ``trial_started`` with the trial's
 spec, ``trial_completed`` whose ``row`` holds only the outcome, ``session_finished``) from *known* per-cell probabilities of a correct answer. A
 participant's probability in a cell is ``expit(logit(p_cell) + u)`` with a
@@ -99,8 +99,8 @@ def write_study(root, cells, *, n_per_group=15, reps=3, sigma=0.0, seed=0, famil
                 "participant": {"id": pid, "sex": "F" if i % 2 else "M",
                                 "skin_thickness_um": thickness},
                 "group": group, "session": session, "seed": seed}))
-            if write_events:     # as experiments.logbook writes them
-                # written from the documented format, not from experiments.logformat's lists:
+            if write_events:     # as sessionfiles.logbook writes them
+                # written from the documented format, not from sessionfiles.logformat's lists:
                 # the generator stays independent of the code under test
                 spec_keys = ("block", "mode", "roughness_id", "roughness_um", "repetition")
                 context = ("participant", "group", "session", "skin_thickness_um", "sex")

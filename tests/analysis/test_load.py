@@ -214,7 +214,7 @@ def test_aborted_attempt_in_the_event_log(study):
     data, _ = study(n_per_group=1, write_csv=False, seed=14)
     events = next(data.rglob("events.jsonl"))
     lines = events.read_text().splitlines(keepends=True)
-    # attempt 1 of trial 7 was aborted (killed) before its retry, as experiments.logbook logs it
+    # attempt 1 of trial 7 was aborted (killed) before its retry, as sessionfiles.logbook logs it
     start = next(l for l in lines if '"trial_started"' in l and '"trial_index": 7,' in l)
     aborted = start.replace('"attempt": 1', '"attempt": 0')
     tail = ('{"event": "trial_aborted", "trial_index": 7, "attempt": 0, "reason": "killed", '

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from experiments.calibration import ContactSetup, Sensor, sensor_temperature
-from experiments.logformat import TRACE_COLUMNS
+from sessionfiles.logformat import TRACE_COLUMNS
 from experiments.protocol import load_protocol
 from stimuli import contact_resistance, material
 

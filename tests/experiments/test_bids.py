@@ -13,7 +13,7 @@ import pytest
 from _session_helpers import P01, ROOT
 from experiments.bids import PARTICIPANT_LEVEL_COLUMNS, bids_label, export_dataset
 from experiments.bids_events import EVENT_COLUMNS, TRIAL_TYPES
-from experiments.logbook import TRIAL_COLUMNS
+from sessionfiles.logbook import TRIAL_COLUMNS
 
 #: The study's authors, in its protocol's [protocol] table.
 AUTHORS = ["Ada Lovelace", "Charles Babbage"]

@@ -11,7 +11,7 @@ import os
 
 import pytest
 
-from experiments import logbook, session_files
+from sessionfiles import logbook, session_files
 
 
 @pytest.fixture

@@ -1,6 +1,6 @@
 """Outputs whole or not at all, COMPLETE last: a real full tmpfs, a real RLIMIT_FSIZE, a real
 read-only mount, for export-bids, analyze, power, reproduce (calibrate's writers are the same
-helper: experiments.atomicfile)."""
+helper: sessionfiles.atomicfile)."""
 from __future__ import annotations
 
 import contextlib
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from experiments.atomicfile import COMPLETE_NAME, OutputFolder, atomic_file, atomic_path
+from sessionfiles.atomicfile import COMPLETE_NAME, OutputFolder, atomic_file, atomic_path
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "benchmarks"))

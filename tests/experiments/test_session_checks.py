@@ -234,7 +234,7 @@ def test_resume_takes_the_clock_from_the_display_it_uses(tmp_path):
 def test_progress_counts_elapsed_time_from_the_sessions_first_start(tmp_path, caplog):
     # Regression: "elapsed" restarted at 0:00 on resume.
 
-    from experiments.logbook import EventLog, now_iso
+    from sessionfiles.logbook import EventLog, now_iso
     caplog.set_level(logging.INFO, logger="thermocue.session")   # progress is logged
     s = create_session(write_protocol(tmp_path, sim_samples=()), P01, tmp_path / "data", "scripted://",
                        seed=7, clock="virtual")
@@ -301,7 +301,7 @@ def _claim(proto, data, seed):
 
 def test_a_second_claim_of_a_named_folder_is_refused(tmp_path):
     from experiments.errors import SessionError
-    from experiments.session_files import claim_session_folder
+    from sessionfiles.session_files import claim_session_folder
     first = claim_session_folder(tmp_path / "P01" / "S01")
     try:
         with pytest.raises(SessionError, match="another run is creating right now"):

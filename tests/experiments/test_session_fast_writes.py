@@ -1,12 +1,12 @@
 """The session's per-frame and per-trial writes (speed) give the same bytes as before.
 
-* a trace line (:class:`~experiments.session_files.TraceWriter`) is the cells of
-  :func:`~experiments.logformat.format_cell` whatever the values (remembered hundredths, -0.0,
+* a trace line (:class:`~sessionfiles.session_files.TraceWriter`) is the cells of
+  :func:`~sessionfiles.logformat.format_cell` whatever the values (remembered hundredths, -0.0,
   non-finite, integers, numpy scalars);
 * ``trials.csv`` grows by its new lines between trials (one ``write``; not a rewrite of the
   whole table), and ends as the table rebuilt from the events;
 * the events the table is rebuilt from, read a few lines at a time, are what
-  :func:`~experiments.logbook.read_events` reads, torn last line included.
+  :func:`~sessionfiles.logbook.read_events` reads, torn last line included.
 """
 from __future__ import annotations
 
@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from experiments.hardware.messages import Telemetry
-from experiments.logbook import append_text, read_events, trials_csv_text, trials_from_events
-from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
+from sessionfiles.logbook import append_text, read_events, trials_csv_text, trials_from_events
+from sessionfiles.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
 from experiments.session.trials_table import TrialsTable
-from experiments.session_files import TraceWriter
+from sessionfiles.session_files import TraceWriter
 
 
 def _reference_line(values, state):
@@ -143,7 +143,7 @@ def test_the_table_formats_each_row_once_and_is_the_table_of_the_events(tmp_path
     # value changes with its event, and a log rewritten under the table (all read again)
     import warnings
 
-    import experiments.logbook as logbook
+    import sessionfiles.logbook as logbook
     calls = []
     real_format_cell = logbook.format_cell
     monkeypatch.setattr(logbook, "format_cell", lambda v, c="", *a: calls.append(c) or
@@ -202,9 +202,9 @@ def test_the_table_formats_each_row_once_and_is_the_table_of_the_events(tmp_path
 
 
 def test_an_event_is_made_json_ready_once_and_written_as_dumps_writes_it(tmp_path, monkeypatch):
-    import experiments.logbook as logbook
-    import experiments.logformat as logformat
-    from experiments.logformat import dumps
+    import sessionfiles.logbook as logbook
+    import sessionfiles.logformat as logformat
+    from sessionfiles.logformat import dumps
     top = []
     real = logformat.to_jsonable
 
@@ -231,7 +231,7 @@ def test_an_event_is_made_json_ready_once_and_written_as_dumps_writes_it(tmp_pat
 
 
 def test_package_versions_are_read_once_per_process_and_handed_out_as_new_dicts(monkeypatch):
-    import experiments.session_files as sf
+    import sessionfiles.session_files as sf
     calls = []
     real = sf.metadata.version
     monkeypatch.setattr(sf.metadata, "version", lambda name: calls.append(name) or real(name))

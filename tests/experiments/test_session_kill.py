@@ -31,7 +31,7 @@ import numpy as np
 import pytest
 
 from _session_helpers import P01, write_protocol
-from experiments.logbook import read_events, trials_from_events
+from sessionfiles.logbook import read_events, trials_from_events
 
 pytestmark = pytest.mark.slow
 

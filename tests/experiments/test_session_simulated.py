@@ -8,7 +8,7 @@ import pytest
 
 from _session_helpers import ROOT
 from experiments.cli import main
-from experiments.logbook import read_events
+from sessionfiles.logbook import read_events
 from experiments.protocol import load_protocol
 from experiments.schedule import build_schedule
 

@@ -108,7 +108,7 @@ def test_participant_terminal_never_names_a_test_trials_sample(tmp_path, caplog)
 def test_trials_csv_has_its_whole_header_from_the_first_row(tmp_path):
     """the header grew during a session (28 -> 29 -> 35 columns); contact_time_s was
     the device clock at contact, read as a duration."""
-    from experiments.logbook import TRIAL_COLUMNS
+    from sessionfiles.logbook import TRIAL_COLUMNS
     from experiments.responders.simulated import SimulatedResponder  # noqa: F401 (registers it)
     from experiments.responders import get_responder
 

@@ -198,7 +198,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     import dataclasses as dc
 
     from experiments.errors import UserInputError
-    from experiments.logbook import atomic_write_json, atomic_write_text
+    from sessionfiles.logbook import atomic_write_json, atomic_write_text
     from experiments.responders import get_responder
     from experiments.participant_model.cohort import paper_cohort
     from experiments.simulation.figure9.scenarios import (best_scenario, evaluate_scenarios,

@@ -236,7 +236,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
                 log.info("%s", line)
             log.info("figure9: sessions %.1f s, analysis %.1f s; results in %s", seconds,
                      summary["analysis_seconds"], out_dir)
-    from experiments.logbook import atomic_write_json
+    from sessionfiles.logbook import atomic_write_json
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers,
         "protocol": protocol_name if isinstance(protocol, str) else str(out_dir / "protocol.json"),
@@ -359,7 +359,7 @@ def _protocol_for_side(protocol, target_side, out_dir, rate_limit=None, replay=N
     (each session.json holds it whole).
     """
     from experiments.errors import UserInputError
-    from experiments.logbook import atomic_write_json
+    from sessionfiles.logbook import atomic_write_json
     from experiments.protocol import load_protocol, parse_protocol
     from experiments.simulation.replay import (_add_display_familiarisation, _with_simulation,
                                                replay_hypothesis)

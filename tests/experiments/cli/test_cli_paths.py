@@ -98,7 +98,7 @@ def test_the_unused_session_check_reads_the_log_as_the_writer_wrote_it(tmp_path)
     # the writer (logformat.dumps) keeps U+2028 raw inside strings: not a line break, so a log
     # of a session that never started a trial still reads whole and its folder goes
     from experiments.cli.run import remove_if_unused
-    from experiments.logformat import dumps
+    from sessionfiles.logformat import dumps
     from experiments.session import create_session
 
     proto = write_protocol(tmp_path, sim_samples=())

@@ -1,4 +1,4 @@
-"""The one reader of session folders (experiments.session_reader) and the commands that use it:
+"""The one reader of session folders (sessionfiles.session_reader) and the commands that use it:
 real files, real FIFOs, real device links, real emulated sessions."""
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from experiments.session_reader import (SessionFileError, check_text, read_regular_bytes,
+from sessionfiles.session_reader import (SessionFileError, check_text, read_regular_bytes,
                                         read_session_folder, read_session_folders, row_problem)
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -413,7 +413,7 @@ def test_a_duplicated_unanswered_row_is_dropped_not_a_pandas_na_error(data):
 
 
 def test_a_damaged_outcome_event_is_reported_not_raised():
-    from experiments.logformat import trials_from_events
+    from sessionfiles.logformat import trials_from_events
     events = [{"event": "session_started", "participant": "P01", "session": "S01"},
               {"event": "trial_started", "trial_index": [1], "attempt": 1},
               {"event": "trial_completed", "seq": 3, "trial_index": [1], "attempt": 1, "row": {}},

@@ -3,7 +3,7 @@
 One concept: what ``events.jsonl``, ``trials.csv`` and ``traces/trial-NNN.csv`` hold and how
 they are read back (kept in one module, though past 500 lines, so that the format has exactly
 one home: event types, column lists, the cell format, the tolerant readers, the trial-row
-projection and replay). The writer (:mod:`experiments.logbook`, :mod:`experiments.session_files`)
+projection and replay). The writer (:mod:`sessionfiles.logbook`, :mod:`sessionfiles.session_files`)
 and the reader of record (:mod:`analysis.load`) both use this module, so that neither
 re-implements the other; it imports nothing outside the standard library (no numpy, serial,
 stimuli, pandas), so that :mod:`analysis` can use it without importing the runtime.
@@ -35,7 +35,7 @@ plus:
     optional ``n_completed``.
 ``log_repaired``
     ``torn_bytes``, ``torn_tail`` (the cut bytes as text): written by
-    :class:`experiments.logbook.EventLog`.
+    :class:`sessionfiles.logbook.EventLog`.
 
 Any other snake_case type may be logged (state changes, display faults, notes); only the
 types above have required fields.  Non-finite floats are written as ``null``; numpy
@@ -363,7 +363,7 @@ def read_events(path: str | Path, on_damage: str = "stop", warn: bool = True,
         Issue a :class:`LogDamageWarning` (naming the file and line) per damaged line; the
         messages are in ``report.damage`` either way.
     data : bytes, optional
-        The file's content, already read (by :mod:`experiments.session_reader`, which refuses
+        The file's content, already read (by :mod:`sessionfiles.session_reader`, which refuses
         special files and other encodings first); ``path`` then only names it.
 
     Returns

@@ -20,9 +20,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import experiments.logbook as logbook
-from experiments.errors import SessionError
-from experiments.logbook import (
+import sessionfiles.logbook as logbook
+from sessionfiles.errors import SessionError
+from sessionfiles.logbook import (
     TRIAL_COLUMNS,
     EventLog,
     LogDamageWarning,
@@ -237,7 +237,7 @@ def test_any_truncation_reads_as_a_prefix(cut):
 # --------------------------------------------------------------------------- SIGKILL
 WRITER = textwrap.dedent("""
     import sys
-    from experiments.logbook import EventLog
+    from sessionfiles.logbook import EventLog
     log = EventLog(sys.argv[1])
     pad = "x" * int(sys.argv[2])
     while True:
@@ -413,7 +413,7 @@ def test_replay(tmp_path):
 
 def test_floats_are_rounded_to_the_instruments_resolution(tmp_path):
     # "168.85999999999999" in trials.csv
-    from experiments.logbook import write_trials_csv
+    from sessionfiles.logbook import write_trials_csv
     out = tmp_path / "trials.csv"
     write_trials_csv(out, [{"contact_onset_s": 168.85999999999999, "rt_s": 1.2345678,
                             "skin_temperature_C": 35.504999, "profile_resistance_m2K_W": 6.494477e-4,

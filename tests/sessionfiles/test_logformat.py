@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pytest
 
-from experiments import logformat
+from sessionfiles import logformat
 from experiments.hardware.messages import Telemetry
-from experiments.logbook import EventLog
-from experiments.logformat import (
+from sessionfiles.logbook import EventLog
+from sessionfiles.logformat import (
     COLUMN_DECIMALS,
     FORCE_COLUMNS,
     OPTIONAL_COLUMNS,
@@ -32,20 +32,20 @@ from experiments.logformat import (
     read_events,
     trials_from_events,
 )
-from experiments.session_files import TraceWriter
+from sessionfiles.session_files import TraceWriter
 
 ROOT = Path(__file__).resolve().parents[2]
 HEAVY = ("numpy", "serial", "stimuli", "scipy", "pandas")
 
 
 def test_importing_the_format_pulls_in_no_runtime_or_numerics():
-    code = ("import sys, json; import experiments.logformat; "
+    code = ("import sys, json; import sessionfiles.logformat; "
             f"print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] in {HEAVY!r})))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                          timeout=60, check=True)
     assert json.loads(out.stdout) == []
     # the check itself sees these modules when they are imported
-    code = code.replace("import experiments.logformat", "import experiments.logformat, numpy")
+    code = code.replace("import sessionfiles.logformat", "import sessionfiles.logformat, numpy")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                          timeout=60, check=True)
     assert "numpy" in json.loads(out.stdout)
@@ -193,7 +193,7 @@ def test_analysis_warns_of_a_torn_log_in_the_writers_words(tmp_path):
 def test_trials_csv_written_and_read_back_by_analysis(tmp_path):
     """The writer's trials.csv and analysis' reading of it, through the shared column lists."""
     from analysis.load import read_trials_csv
-    from experiments.logbook import write_trials_csv
+    from sessionfiles.logbook import write_trials_csv
     events, _ = read_events(_log(tmp_path / "events.jsonl"))
     write_trials_csv(tmp_path / "trials.csv", trials_from_events(events))
     table = read_trials_csv(tmp_path / "trials.csv")

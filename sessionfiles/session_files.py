@@ -1,9 +1,9 @@
 """The files of a session directory: trials table, per-trial traces, package versions.
 
 ``DATA/<participant>/<session>/`` holds ``session.json``, ``events.jsonl`` (the source of truth),
-``trials.csv`` (rebuilt from the events after every trial, :mod:`experiments.logbook`) and
+``trials.csv`` (rebuilt from the events after every trial, :mod:`sessionfiles.logbook`) and
 ``traces/trial-NNN.csv``. This module writes the traces (their columns and cell format are
-:mod:`experiments.logformat`'s); :mod:`experiments.session` decides when things are written.
+:mod:`sessionfiles.logformat`'s); :mod:`experiments.session` decides when things are written.
 """
 from __future__ import annotations
 
@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.logbook import fsync, fsync_dir
-from experiments.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
+from sessionfiles.logbook import fsync, fsync_dir
+from sessionfiles.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
 
 __all__ = [
     "TRACE_COLUMNS",
@@ -48,7 +48,7 @@ def aborted_trace_name(trial_index: int, attempt: int, kind: str = "aborted") ->
 
 
 #: The numeric cells of a trace line (time_s .. force4_N) in one C-level format: the same
-#: text as :func:`~experiments.logformat.format_cell` gives each finite cell.
+#: text as :func:`~sessionfiles.logformat.format_cell` gives each finite cell.
 _FRAME_FORMAT = ",".join(f"%.{TRACE_DECIMALS[c]}" for c in TRACE_COLUMNS[:-1])
 #: A whole trace line, the state last.
 _LINE_FORMAT = _FRAME_FORMAT + ",%s\n"
@@ -216,7 +216,7 @@ def claim_session_folder(directory, *, durable: bool = True):
     """Claim a new session folder for this process; return its locked, empty event log.
 
     The folder is made with ``mkdir`` and ``events.jsonl`` with an exclusive create, then locked
-    (:class:`~experiments.logbook.EventLog`) *before* anything else is written: of two runs
+    (:class:`~sessionfiles.logbook.EventLog`) *before* anything else is written: of two runs
     claiming one folder, exactly one gets it, and ``session.json`` is only ever written by the
     holder of the log's lock. A folder left by a run killed while claiming (no ``session.json``,
     an empty unlocked log) is claimed again. ``durable=False`` skips the fsyncs (a simulated
@@ -227,8 +227,8 @@ def claim_session_folder(directory, *, durable: bool = True):
     SessionError
         The folder is a session already, or another run is claiming it right now.
     """
-    from experiments.errors import SessionError
-    from experiments.logbook import EventLog, ensure_dir, fsync_dir
+    from sessionfiles.errors import SessionError
+    from sessionfiles.logbook import EventLog, ensure_dir, fsync_dir
 
     directory = Path(directory)
     ensure_dir(directory.parent, durable=durable)

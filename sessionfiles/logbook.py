@@ -2,7 +2,7 @@
 
 One concept: *writing* a session's files so that nothing is lost. What the files hold (event
 types and their fields, the columns, the cell format) and how they are read back (the
-tolerant reader, the event -> trial-row projection, replay) is :mod:`experiments.logformat`;
+tolerant reader, the event -> trial-row projection, replay) is :mod:`sessionfiles.logformat`;
 its names are re-exported here for the writer's users.
 
 What "nothing lost" means on disk (docs/design.md, Durability):
@@ -10,7 +10,7 @@ What "nothing lost" means on disk (docs/design.md, Durability):
 * **Appends** (``events.jsonl``): one JSON object per line, written with a single
   ``write`` on an ``O_APPEND`` descriptor and ``fsync``-ed before :meth:`EventLog.append`
   returns; a new file is followed by an fsync of its folder.  A crash can therefore only
-  leave a *torn last line*; :func:`~experiments.logformat.read_events` tolerates it (and
+  leave a *torn last line*; :func:`~sessionfiles.logformat.read_events` tolerates it (and
   warns), and :class:`EventLog` cuts it off when it reopens the file, logging what it cut in
   a ``log_repaired`` event, so the next append starts on a fresh line.
 * **Whole-file updates** (``session.json``, ``trials.csv``): :func:`atomic_write_text`
@@ -20,7 +20,7 @@ What "nothing lost" means on disk (docs/design.md, Durability):
   study, recomputed from its seed) does the session grow ``trials.csv`` between two trials by appending its new lines in one
   ``write`` (:func:`append_text`) instead; a session with a person in it is always replaced
   atomically.
-* The event log is the source of truth: :func:`~experiments.logformat.trials_from_events`
+* The event log is the source of truth: :func:`~sessionfiles.logformat.trials_from_events`
   and :func:`write_trials_csv` rebuild ``trials.csv`` from it at any time.
 """
 from __future__ import annotations
@@ -36,9 +36,9 @@ import threading
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-from experiments.atomicfile import atomic_file
-from experiments.errors import SessionError
-from experiments.logformat import (  # noqa: F401 - re-exported for the writer's users
+from sessionfiles.atomicfile import atomic_file
+from sessionfiles.errors import SessionError
+from sessionfiles.logformat import (  # noqa: F401 - re-exported for the writer's users
     COLUMN_DECIMALS,
     CONTEXT_KEYS,
     REQUIRED_FIELDS,
@@ -160,7 +160,7 @@ def atomic_write_text(path: str | Path, text: str, encoding: str = "utf-8", *,
     durable : bool
         False: the same writes and rename without the fsyncs (a simulated study's files).
     """
-    # one helper for every whole-file write (experiments.atomicfile), with this module's fsync
+    # one helper for every whole-file write (sessionfiles.atomicfile), with this module's fsync
     # and fsync_dir (looked up at each call), skipped when ``durable`` is False
     with atomic_file(path, encoding=encoding, fsync=lambda fd: fsync(fd, durable),
                      fsync_dir=lambda folder: fsync_dir(folder, durable)) as fh:

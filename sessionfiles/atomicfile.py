@@ -1,7 +1,7 @@
 """Files written whole or not at all, and folders of outputs marked complete last (one concept).
 
 Standard library only, so that every writer can use it: the session's files
-(:mod:`experiments.logbook`, whose :func:`~experiments.logbook.atomic_write_text` is
+(:mod:`sessionfiles.logbook`, whose :func:`~sessionfiles.logbook.atomic_write_text` is
 :func:`atomic_file`), and the outputs of ``analyze``, ``export-bids``, ``calibrate``, ``power``
 and ``reproduce`` (:mod:`analysis` may import this module: it is not the experiment's runtime).
 

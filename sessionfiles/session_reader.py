@@ -12,7 +12,7 @@ A session folder (``DATA/<participant>/<session>/``) holds ``session.json``, ``e
   bytes between the characters) and 8-bit encodings (Latin-1: a byte that is not UTF-8 in a
   complete line) are refused naming the file and the byte offset. A crash can only leave a torn
   last line or a run of NUL bytes at the end (a power cut); those stay *damage*, read up to
-  (:mod:`experiments.logformat`), not refusals.
+  (:mod:`sessionfiles.logformat`), not refusals.
 * **Identity**: ``session.json``'s participant and session are checked against the log's
   ``session_started`` (a ``session.json`` copied from another session is refused: its data
   would be filed under another id); folder names that differ from both are reported, and the
@@ -26,7 +26,7 @@ A session folder (``DATA/<participant>/<session>/``) holds ``session.json``, ``e
   (:data:`DOMAIN`): status, sample and response ids, ``correct`` recomputed from the answer,
   finite non-negative times, physical roughness and thickness, no NUL bytes.
 
-A refusal is a :class:`SessionFileError` (a :class:`~experiments.errors.UserInputError`: one line
+A refusal is a :class:`SessionFileError` (a :class:`~sessionfiles.errors.UserInputError`: one line
 naming the file and the field, exit 2). What is only skipped (a folder without trial rows, an
 unreadable ``session.json`` read around, a duplicate) is returned in ``notes``/``skipped`` for the
 caller's report.
@@ -42,8 +42,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-from experiments.errors import UserInputError
-from experiments.logformat import (LogReport, STATUSES, read_csv_prefix, read_events,
+from sessionfiles.errors import UserInputError
+from sessionfiles.logformat import (LogReport, STATUSES, read_csv_prefix, read_events,
                                    trials_from_events)
 
 __all__ = ["SessionFileError", "MAX_BYTES", "DOMAIN", "SESSION_FILES", "read_regular_bytes",
