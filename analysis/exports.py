@@ -17,43 +17,23 @@ import numpy as np
 import pandas as pd
 
 from sessionfiles.atomicfile import output_path
+from sessionfiles.columns import CATEGORY, CODEBOOK
 
 __all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]
 
-_C = "category"
+_C = CATEGORY
 _N = "count"
 _F = "fraction 0-1"
 _L = "log odds"
 _P = "probability 0-1"
-#: Unit and meaning of every column any machine table may hold (one vocabulary for all files).
+#: Unit and meaning of every column any machine table may hold (one vocabulary for all files):
+#: the trials table's own columns from the one column table (:data:`sessionfiles.columns.CODEBOOK`),
+#: then those analysis makes.
 COLUMNS = {
+    **CODEBOOK,
     # identifiers and design
-    "participant": (_C, "participant id"),
-    "group": (_C, "skin-thickness group: A thin (600-750 um), B thick (900-1200 um)"),
-    "session": (_C, "session name"),
-    "block": (_C, "protocol block name"),
-    "trial_index": ("index", "trial number within the session (1-based)"),
-    "attempt": ("index", "attempt number of the trial (re-runs after faults are 2, 3, ...)"),
-    "mode": (_C, "real = steel sample touched; simulated = thermal display replay"),
-    "roughness_id": (_C, "sample number 1-4 (1# smoothest); 0 = averaged over the samples"),
-    "roughness_um": ("um", "sample roughness Ra"),
-    "repetition": ("index", "repetition of the sample within the block"),
-    "response_id": (_C, "sample named by the participant (1-4)"),
     "stimulus_roughness_id": (_C, "sample presented (1-4)"),
-    "correct": ("0/1", "1 if response_id equals roughness_id"),
-    "rt_s": ("s", "response time (from the answer prompt); empty for spoken answers"),
-    "answer_mode": (_C, "keyed = the participant pressed the answer; spoken = the participant said "
-                        "it and the experimenter keyed it"),
-    "answer_keyed_after_cue_s": ("s", "spoken answers: time from the question's sound cue to the "
-                                      "experimenter's key (not a response time)"),
-    "status": (_C, "attempt outcome: ok, fault, aborted"),
-    "tracking_rms_C": ("degC", "RMS tracking error of the display"),
-    "skin_thickness_um": ("um", "skin thickness of the participant"),
-    "sex": (_C, "participant's sex as recorded"),
-    "started_at_utc": ("ISO 8601 UTC", "time the attempt started"),
-    "fault_code": (_C, "display fault code of the attempt, if any"),
-    "abort_reason": (_C, "why the attempt was aborted (no_contact, interrupted, killed, error)"),
     "familiarisation": ("bool", "row of a familiarisation (unscored) block"),
     "included": ("bool", "row used in the analysis"),
     "exclusion": (_C, "why the row is not used (familiarisation, status, superseded attempt)"),
@@ -85,9 +65,6 @@ COLUMNS = {
     "n_planned": (_N, "trials the session's schedule planned"),
     "created_at": ("ISO 8601 UTC", "time the session was created"),
     "analysed": ("bool", "the session's rows are analysed under the --sessions policy"),
-    "skin_temperature_C": ("degC", "fingertip temperature measured just before the touch"),
-    "skin_temperature_in_range": ("0/1", "1 if skin_temperature_C was within the protocol's range"),
-    "contact_force_N": ("N", "mean summed force the display measured over the contact"),
     # counts and proportions
     "n_participants": (_N, "participants contributing"),
     "n_trials": (_N, "trials"),

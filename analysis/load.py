@@ -57,6 +57,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from sessionfiles.columns import ANALYSIS_ORDER, QUIET_COLUMNS
 from sessionfiles.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES re-exported
     OPTIONAL_COLUMNS,
     RENAMED_COLUMNS,
@@ -351,9 +352,9 @@ def load_session(folder, messages: list | None = None, read: SessionFolder | Non
                                 if old in rows.columns and new not in rows.columns})
     if check:
         check_session_rows(rows, path, read)
-    missing = [c for c in OPTIONAL_COLUMNS if c not in rows.columns]
-    # a file from before spoken answers (every answer keyed): their columns stay blank, unsaid
-    missing = [c for c in missing if c not in ("answer_mode", "answer_keyed_after_cue_s")]
+    # a column newer than older logs (spoken answers, the thermometer, the force, abort reasons)
+    # stays blank, unsaid
+    missing = [c for c in OPTIONAL_COLUMNS if c not in rows.columns and c not in QUIET_COLUMNS]
     if missing:
         how = "blank" + ("; attempt taken as 1" if "attempt" in missing else "")
         _warn(messages, f"{path}: {', '.join(missing)}: expected optional column(s) "
@@ -505,12 +506,7 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     out_of_policy = trials["source"].map(lambda f: str(Path(f).parent) in left_out)
     trials.loc[out_of_policy, "exclusion"] = "session not analysed"
     trials.loc[out_of_policy, "included"] = False
-    order = ["participant", "group", "session", "block", "trial_index", "attempt", "mode",
-             "roughness_id", "roughness_um", "repetition", "response_id", "correct", "rt_s", "answer_mode",
-             "answer_keyed_after_cue_s", "status",
-             "tracking_rms_C", "skin_thickness_um", "sex", "started_at_utc", "fault_code",
-             "skin_temperature_C", "skin_temperature_in_range", "contact_force_N",
-             "abort_reason", "familiarisation", "included", "exclusion", "source", "line"]
+    order = [*ANALYSIS_ORDER, "familiarisation", "included", "exclusion", "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
                                        ignore_index=True)
     return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy,

@@ -4,7 +4,7 @@ The rows of any number of sessions, as read (:mod:`analysis.load`), are typed co
 and checked (required columns, types, allowed values, ``correct`` consistent with
 ``response_id == roughness_id``); a bad cell raises :class:`~analysis.errors.LogError` naming
 the file, the column and the line. Then each row is marked included or given its exclusion
-reason. The column lists are the writer's (:mod:`sessionfiles.logformat`).
+reason. The column lists are the writer's, from the one column table (:mod:`sessionfiles.columns`).
 """
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from sessionfiles.columns import MODES, names
 from sessionfiles.logformat import OPTIONAL_COLUMNS, RENAMED_COLUMNS, REQUIRED_COLUMNS, STATUSES
 
 from .errors import LogError
@@ -20,7 +21,6 @@ from .errors import LogError
 __all__ = ["validate_rows", "require_columns", "fill_from_context", "mark_inclusion", "int_text",
            "MODES", "GROUPS", "FAMILIARISE", "N_ROUGHNESS"]
 
-MODES = ("real", "simulated", "familiarise")
 GROUPS = ("A", "B")
 FAMILIARISE = "familiarise"
 N_ROUGHNESS = 4
@@ -88,7 +88,7 @@ def validate_rows(df: pd.DataFrame) -> pd.DataFrame:
     df = df.rename(columns={old: new for old, new in RENAMED_COLUMNS.items()
                             if old in df.columns and new not in df.columns})
     out = pd.DataFrame(index=df.index)
-    for column in ("participant", "session", "group", "block", "mode", "status"):
+    for column in names(analysis="required", kind="str"):  # participant .. status
         out[column] = _as_str(df[column])
     for column in ("participant", "session"):
         if (out[column] == "").any():
@@ -129,26 +129,17 @@ def validate_rows(df: pd.DataFrame) -> pd.DataFrame:
             if column == "attempt":
                 out[column] = pd.Series(1, index=df.index, dtype="Int64")
             else:
-                out[column] = pd.Series(pd.NA if kind == "int" else (np.nan if kind == "float" else ""),
-                                        index=df.index, dtype="Int64" if kind == "int" else None)
+                blank = {"int": pd.NA, "str": ""}.get(kind, np.nan)    # float, flag: NaN
+                out[column] = pd.Series(blank, index=df.index,
+                                        dtype={"int": "Int64", "str": None}.get(kind, float))
             continue
         if kind == "str":
             out[column] = _as_str(df[column])
-        else:
-            values = _as_number(df, column, integer=kind == "int", allow_blank=True)
+        else:   # a flag as a float: 1/0, NaN where blank (no thermometer reading taken)
+            values = _as_number(df, column, integer=kind != "float", allow_blank=True)
             if column == "attempt":
                 values = values.fillna(1)
             out[column] = values.astype("Int64") if kind == "int" else values.astype(float)
-    # Written by newer sessions; older logs lack them (blank, without a warning).
-    # (Floats: 1/0/NaN for the flag, blank where no thermometer reading was taken.)
-    for column, integer in (("skin_temperature_C", False), ("skin_temperature_in_range", True),
-                            ("contact_force_N", False)):   # the display's force
-        if column in df.columns:
-            out[column] = _as_number(df, column, integer=integer, allow_blank=True).astype(float)
-        else:
-            out[column] = pd.Series(np.nan, index=df.index, dtype=float)
-    # why an attempt was aborted (sessionfiles.logbook: trial_aborted's reason); kept, not required
-    out["abort_reason"] = _as_str(df["abort_reason"]) if "abort_reason" in df.columns else ""
     out["familiarisation"] = familiar
     out["source"] = df["source"].astype(str).to_numpy()
     out["line"] = df["line"].astype("int64").to_numpy()

@@ -41,6 +41,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from experiments.bids_events import EVENT_COLUMNS, EVENT_SIDECAR, event_rows
+from sessionfiles.columns import DESCRIPTIONS
 from sessionfiles.logbook import TRIAL_COLUMNS, atomic_write_text, ensure_dir
 from sessionfiles.logformat import format_cell
 from sessionfiles.session_reader import SessionFileError, SessionFolder, read_session_folder, \
@@ -51,59 +52,9 @@ __all__ = ["export_session", "export_dataset", "bids_label", "COLUMN_DESCRIPTION
 
 BIDS_VERSION = "1.9.0"
 
-#: Each trials.csv column: (description, unit or None). Units as BIDS asks (SI symbols).
-COLUMN_DESCRIPTIONS = {
-    "participant": ("Participant id (the participant record's id)", None),
-    "session": ("Session name (its folder)", None),
-    "group": ("Skin-thickness group (A below the protocol's threshold, B above)", None),
-    "sex": ("Sex from the participant record", None),
-    "skin_thickness_um": ("Fingertip skin thickness from the participant record", "um"),
-    "date": ("PsychoPy's column: date and local time the session first started (data.getDateStr format)", None),
-    "expName": ("PsychoPy's column: the experiment's name (the protocol's name)", None),
-    "expStart": ("PsychoPy's column: local time the session first started, with its UTC offset (%Y-%m-%d %Hh%M.%S.%f %z)", None),
-    "protocol_version": ("Protocol version", None),
-    "protocol_hash": ("SHA-256 of the protocol's canonical JSON", None),
-    "thermocue_version": ("thermocue version that ran the session", None),
-    "psychopyVersion": ("PsychoPy's column: PsychoPy version of the participant's window (n/a: no PsychoPy window ran)", None),
-    "frameRate": ("PsychoPy's column: the window's frame rate as PsychoPy measured it (win.getActualFrameRate; n/a: no window; empty: not measurable)", "Hz"),
-    "thisN": ("PsychoPy's column: the trial's 0-based position in the session (trial_index - 1)", None),
-    "thisRepN": ("PsychoPy's column: the 0-based repetition of the sample within its block (repetition - 1)", None),
-    "block": ("Block name from the protocol", None),
-    "trial_index": ("Trial number in the session's schedule, from 1", None),
-    "attempt": ("Attempt number of this trial (a faulted or aborted attempt is run again)", None),
-    "repetition": ("Repetition of the sample within its block, from 1", None),
-    "mode": ("real: a physical sample; simulated: the Peltier display replaying its profile", None),
-    "roughness_id": ("The sample presented (1..4 for 1#..4#)", None),
-    "roughness_um": ("Roughness Ra of the sample presented", "um"),
-    "target_side": ("Which interface temperature the simulated profile replays", None),
-    "profile_skin_thickness_um": ("Skin thickness the simulated profile was computed for", "um"),
-    "profile_resistance_m2K_W": ("Finger-sample contact resistance of the simulated profile", "m^2*K/W"),
-    "profile_resistance_source": ("Where that resistance came from: calibration or eq5", None),
-    "pad_resistance_m2K_W": ("Finger-pad contact resistance of the display", "m^2*K/W"),
-    "rate_limited_max_change_C": ("Largest change made to keep the profile within the display's rate limit", "degC"),
-    "cue_played": ("1 if the sound cue was played, 0 if no audio was available", None),
-    "response_id": ("The sample the participant named (1..4); n/a where no answer was asked", None),
-    "correct": ("1 if response_id equals roughness_id, else 0", None),
-    "rt_s": ("Response time from the first frame showing the question to the key press; n/a for spoken answers", "s"),
-    "response_source": ("What produced the answer (keyboard backend, console, simulated model)", None),
-    "answer_mode": ("keyed: the participant pressed the answer; spoken: the participant said it and the experimenter keyed it", None),
-    "answer_keyed_after_cue_s": ("Spoken answers: time from the question's sound cue to the experimenter's key (not a response time)", "s"),
-    "started_at_utc": ("UTC time the trial started (ISO 8601)", None),
-    "finished_at_utc": ("UTC time the trial was written (ISO 8601)", None),
-    "contact_onset_s": ("Display clock at the moment of contact (a time stamp, not a duration)", "s"),
-    "contact_duration_s": ("Time from contact to the end of the recording", "s"),
-    "status": ("ok, fault (display fault; run again) or aborted (no contact or interrupted; run again)", None),
-    "fault_code": ("Display or host fault code of a faulted attempt", None),
-    "abort_reason": ("Why an aborted attempt stopped", None),
-    "skin_temperature_C": ("Fingertip temperature just before touching (radiation thermometer)", "degC"),
-    "skin_temperature_in_range": ("1 if skin_temperature_C was within the protocol's range, else 0", None),
-    "tracking_rms_C": ("RMS of display contact temperature minus target during playback", "degC"),
-    "tracking_max_C": ("Largest absolute tracking error during playback", "degC"),
-    "frames": ("Telemetry frames received during the trial", None),
-    "frames_lost": ("Telemetry frames missing from the device's numbering", None),
-    "trace_file": ("The trial's telemetry trace, relative to the session folder", None),
-    "contact_force_N": ("Mean summed force of the display's four sensors over the contact", "N"),
-}
+#: Each trials.csv column: (description, unit or None), from the one column table. Units as BIDS
+#: asks (SI symbols).
+COLUMN_DESCRIPTIONS = DESCRIPTIONS
 
 _PARTICIPANT_COLUMNS = {
     "participant_id": ("Participant label (sub-<id>)", None),

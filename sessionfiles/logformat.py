@@ -63,6 +63,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from sessionfiles.columns import ANALYSIS_ORDER, STATUSES, TRIALS, column, names
+
 __all__ = [
     "REQUIRED_FIELDS", "event_problem", "CONTEXT_KEYS", "SPEC_KEYS",
     "TRIAL_COLUMNS", "PSYCHOPY_COLUMNS", "RENAMED_COLUMNS", "COLUMN_DECIMALS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "STATUSES",
@@ -122,36 +124,16 @@ def event_problem(event: Any, fields: Mapping[str, Any]) -> str | None:
 
 # --------------------------------------------------------------------------- columns
 #: Columns of ``trials.csv``, in this order, all of them from the first row on (docs/session.md,
-#: "The trial table"): identity, design, stimulus, response, timing, quality. A key a row has
-#: beyond these (none written by this version) follows, sorted.
-TRIAL_COLUMNS = (
-    # identity (PsychoPy's names, with PsychoPy's meanings, where PsychoPy has one: date,
-    # expName, expStart, psychopyVersion, frameRate; PSYCHOPY_COLUMNS)
-    "participant", "session", "group", "sex", "skin_thickness_um", "date", "expName", "expStart",
-    "protocol_version", "protocol_hash", "thermocue_version", "psychopyVersion", "frameRate",
-    # design (trial_index and repetition from 1; PsychoPy's loop counters thisN, thisRepN from 0)
-    "block", "trial_index", "thisN", "attempt", "repetition", "thisRepN", "mode", "roughness_id",
-    "roughness_um",
-    # stimulus
-    "target_side", "profile_skin_thickness_um", "profile_resistance_m2K_W",
-    "profile_resistance_source", "pad_resistance_m2K_W", "rate_limited_max_change_C", "cue_played",
-    # response
-    "response_id", "correct", "rt_s", "response_source", "answer_mode", "answer_keyed_after_cue_s",
-    # timing
-    "started_at_utc", "finished_at_utc", "contact_onset_s", "contact_duration_s",
-    # quality
-    "status", "fault_code", "abort_reason", "skin_temperature_C", "skin_temperature_in_range",
-    "tracking_rms_C", "tracking_max_C", "frames", "frames_lost", "trace_file",
-    # the display's measured contact force (mean summed force over the contact; Eq. 5's force)
-    "contact_force_N",
-)
+#: "The trial table"): identity, design, stimulus, response, timing, quality, force; each defined
+#: once, in :data:`sessionfiles.columns.TRIALS`. A key a row has beyond these (none written by
+#: this version) follows, sorted.
+TRIAL_COLUMNS = names()
 
 #: Columns named and meant as in PsychoPy's own data files: ``date`` (``data.getDateStr()``,
 #: local time), ``expName``, ``expStart`` (local time with its UTC offset), ``psychopyVersion``
 #: and ``frameRate`` (``n/a`` when no PsychoPy window ran; empty when PsychoPy could not measure
 #: the rate), ``thisN`` / ``thisRepN`` (the trial's and the repetition's 0-based counters).
-PSYCHOPY_COLUMNS = ("date", "expName", "expStart", "psychopyVersion", "frameRate", "thisN",
-                    "thisRepN")
+PSYCHOPY_COLUMNS = names(psychopy=True)
 #: Earlier names of renamed columns (read from older logs and files).
 RENAMED_COLUMNS = {"started_at": "started_at_utc", "finished_at": "finished_at_utc"}
 
@@ -159,25 +141,15 @@ RENAMED_COLUMNS = {"started_at": "started_at_utc", "finished_at": "finished_at_u
 #: measured it (the display's 0.01 °C and 1 ms device clock, the keyboard's 0.1 ms), or 4
 #: significant digits for modelled resistances ("sig4"). Unlisted floats keep their shortest
 #: round-trip form.
-COLUMN_DECIMALS = {
-    "skin_thickness_um": 1, "roughness_um": 3, "profile_skin_thickness_um": 1,
-    "profile_resistance_m2K_W": "sig4", "pad_resistance_m2K_W": "sig4",
-    "rate_limited_max_change_C": 3, "rt_s": 4, "answer_keyed_after_cue_s": 4, "contact_onset_s": 3, "contact_duration_s": 3,
-    "skin_temperature_C": 2, "tracking_rms_C": 3, "tracking_max_C": 3, "contact_force_N": 2,
-}
+COLUMN_DECIMALS = {c.name: c.decimals for c in TRIALS if c.decimals is not None}
 
 #: Columns every trial row must have for analysis (docs/design.md, docs/internal-contracts.md
 #: "Trials table"); all of them are in :data:`TRIAL_COLUMNS`.
-REQUIRED_COLUMNS = ("participant", "group", "session", "block", "trial_index", "mode",
-                    "roughness_id", "response_id", "correct", "status")
+REQUIRED_COLUMNS = tuple(n for n in ANALYSIS_ORDER if column(n).analysis == "required")
 #: Optional columns for analysis and their kinds; missing ones are added empty (``attempt``
-#: defaults to 1).
-OPTIONAL_COLUMNS = {"roughness_um": "float", "repetition": "int", "rt_s": "float",
-                    "tracking_rms_C": "float", "skin_thickness_um": "float", "sex": "str",
-                    "attempt": "int", "started_at_utc": "str", "fault_code": "str",
-                    "answer_mode": "str", "answer_keyed_after_cue_s": "float"}
-#: Values of the ``status`` column.
-STATUSES = ("ok", "fault", "aborted")
+#: defaults to 1), with a warning but for :data:`~sessionfiles.columns.QUIET_COLUMNS`.
+OPTIONAL_COLUMNS = {n: column(n).kind for n in ANALYSIS_ORDER
+                    if column(n).analysis in ("optional", "quiet")}
 
 #: Columns of ``traces/trial-NNN.csv``.
 TRACE_COLUMNS = ("time_s", "target_C", "contact_C", "ambient_C", "finger_C",

@@ -42,6 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from sessionfiles.columns import MODES, TRIALS
 from sessionfiles.errors import UserInputError
 from sessionfiles.logformat import (LogReport, STATUSES, read_csv_prefix, read_events,
                                    trials_from_events)
@@ -218,37 +219,15 @@ def _as_int(v: Any) -> int | None:
     return int(x)
 
 
-#: Each checked column of a trial row: (kind, lower, upper, what). kind "int"/"float"
-#: (``lower <= value <= upper``; None: unbounded; floats must be finite) or "flag" (0/1).
-#: Blank cells pass (whether a value is required is the analysis' contract, not the domain's),
-#: except where ``row_problem`` says otherwise.
-DOMAIN = {
-    "trial_index": ("int", 1, None, "an integer >= 1"),
-    "attempt": ("int", 0, None, "an integer >= 0"),
-    "repetition": ("int", 1, None, "an integer >= 1"),
-    # the protocol's own bounds (experiments.protocol): Ra beyond 1 cm is no surface finish, and
-    # a fingertip's skin is at most 1 cm thick
-    "roughness_um": ("float", 1e-6, 1e4, "a roughness Ra in (0, 10000] um"),
-    "skin_thickness_um": ("float", 1e-6, 1e4, "a skin thickness in (0, 10000] um"),
-    "profile_skin_thickness_um": ("float", 1e-6, 1e4, "a skin thickness in (0, 10000] um"),
-    "profile_resistance_m2K_W": ("float", 0.0, 1.0, "a contact resistance in [0, 1] m2K/W"),
-    "pad_resistance_m2K_W": ("float", 0.0, 1.0, "a contact resistance in [0, 1] m2K/W"),
-    "rate_limited_max_change_C": ("float", 0.0, 100.0, "a temperature change in [0, 100] degC"),
-    "rt_s": ("float", 0.0, 86400.0, "a finite time >= 0 s (at most a day)"),
-    "contact_onset_s": ("float", 0.0, None, "a finite device time >= 0 s"),
-    "contact_duration_s": ("float", 0.0, 86400.0, "a finite duration >= 0 s"),
-    "skin_temperature_C": ("float", -50.0, 100.0, "a temperature in [-50, 100] degC"),
-    "tracking_rms_C": ("float", 0.0, 100.0, "a finite tracking error >= 0 degC"),
-    "tracking_max_C": ("float", 0.0, 100.0, "a finite tracking error >= 0 degC"),
-    "contact_force_N": ("float", 0.0, 1000.0, "a force in [0, 1000] N"),
-    "frames": ("int", 0, None, "an integer >= 0"),
-    "frames_lost": ("int", 0, None, "an integer >= 0"),
-    "cue_played": ("flag", 0, 1, "an integer, 0 or 1"),
-    "skin_temperature_in_range": ("flag", 0, 1, "an integer, 0 or 1"),
-    "correct": ("flag", 0, 1, "an integer, 0 or 1"),
-}
+#: Each checked column of a trial row: (kind, lower, upper, what), from the column table
+#: (:data:`sessionfiles.columns.TRIALS`). kind "int"/"float" (``lower <= value <= upper``; None:
+#: unbounded; floats must be finite) or "flag" (0/1). Blank cells pass (whether a value is
+#: required is the analysis' contract, not the domain's), except where ``row_problem`` says
+#: otherwise. The bounds of roughness and skin thickness are the protocol's own
+#: (experiments.protocol): Ra beyond 1 cm is no surface finish, and a fingertip's skin is at most
+#: 1 cm thick.
+DOMAIN = {c.name: (c.kind, *c.domain) for c in TRIALS if c.domain}
 _FLAGS = {"true": 1, "false": 0, "1": 1, "0": 0, "1.0": 1, "0.0": 0}
-_MODES = ("real", "simulated", "familiarise")
 
 
 def _flag(v: Any) -> int | None:
@@ -283,8 +262,8 @@ def row_problem(row: Mapping[str, Any], samples: Iterable[int] | None = None) ->
     if "status" in row and (_blank(status) or str(status).strip() not in STATUSES):
         return "status", f"expected one of {', '.join(STATUSES)}", status
     mode = row.get("mode")
-    if "mode" in row and not _blank(mode) and str(mode).strip() not in _MODES:
-        return "mode", f"expected one of {', '.join(_MODES)}", mode
+    if "mode" in row and not _blank(mode) and str(mode).strip() not in MODES:
+        return "mode", f"expected one of {', '.join(MODES)}", mode
     for column, (kind, lo, hi, what) in DOMAIN.items():
         value = row.get(column)
         if _blank(value):
