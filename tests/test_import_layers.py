@@ -4,10 +4,10 @@ including those inside functions.
 stimuli -> numpy, scipy, the standard library only; sessionfiles (the session folder: its format,
 writers, reader, atomic files) -> the standard library, numpy and pandas only, never experiments,
 analysis or stimuli; analysis -> never experiments (the floor sessionfiles, and stimuli.paper's
-sample names, are what it uses of the tree); experiments.hardware -> not the command line, not the session; and inside experiments only the
-Figure 9 package (experiments.simulation.figure9: the study, its scenarios against the paper's
-claims, ``reproduce figure9``) and the command line (``thermocue analyze``, ``power``,
-``reproduce``: the top of the stack) import analysis.
+sample names, are what it uses of the tree); experiments.hardware -> not the command line, not
+the session; and inside experiments only the Figure 9 package (experiments.simulation.figure9:
+the study, its scenarios against the paper's claims, ``reproduce figure9``) and the command line
+(``thermocue analyze``, ``power``, ``reproduce``: the top of the stack) import analysis.
 
 No import cycle, counting imports inside functions: none between modules, none between packages
 (a subpackage is one node, a loose module of ``experiments`` one of its own), but those listed in
@@ -121,11 +121,19 @@ def test_the_floors_format_and_reader_are_standard_library_only(module):
     assert _violations((module,), allowed) == []
 
 
+#: What analysis uses of the tree: the floor, and the paper's sample names (the figure's labels).
+ANALYSIS_MAY_USE = ("analysis", "sessionfiles", "stimuli.paper")
+
+
 def test_analysis_never_imports_experiments():
     # analysis reads session folders through the floor (sessionfiles) alone
     def allowed(target, _):
         return not _within(target, ("experiments",))
     assert _violations(("analysis",), allowed) == []
+
+    def of_the_tree(target, _):
+        return target.split(".")[0] not in PACKAGES or _within(target, ANALYSIS_MAY_USE)
+    assert _violations(("analysis",), of_the_tree) == []
     assert any(_within(m, ("analysis",)) and _within(t, ("sessionfiles",)) for m, t, _ in IMPORTS)
 
 
