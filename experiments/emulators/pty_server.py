@@ -14,7 +14,12 @@ feed the watchdog as of the caught-up device time (they arrived by then), so the
 lateness never trips the watchdog. The stop record of the log gives ``max_late_ms``, the worst
 lateness of a tick, ``max_pending_bytes`` and ``dropped_output_bytes``.
 
-Run it with ``thermocue emulator`` or ``python -m experiments.hardware.pty_server``.
+Run it with ``thermocue emulator`` or ``python -m experiments.emulators.pty_server``.
+
+The one pty server of both emulators: :func:`serve`/:func:`run` serve the thermocue display
+(:mod:`.thermocue`), :func:`serve_tcs2`/:func:`run_tcs2` the QST.Lab TCS II (:mod:`.tcs2`,
+``thermocue emulator --model tcs2``; a host opens the path as ``tcs2://PATH``) on the same
+:class:`PtyEndpoint`, :class:`hold_link` and :class:`stop_signals`.
 """
 from __future__ import annotations
 
@@ -32,12 +37,13 @@ import tty
 
 from experiments.errors import UserInputError
 
-from .device import TICK_US
-from .emulator_core import EmulatorCore, JsonLog
-from .emulator_options import add_arguments
-from .faults import parse_faults
+from .options import add_arguments
+from .tcs2.device import TICK_S, Tcs2Device
+from .thermocue.device import TICK_US
+from .thermocue.emulator_core import EmulatorCore, JsonLog
+from .thermocue.faults import parse_faults
 
-__all__ = ["serve", "main", "add_arguments", "run", "hold_link", "PtyEndpoint", "stop_signals",
+__all__ = ["serve", "main", "add_arguments", "run", "serve_tcs2", "run_tcs2", "hold_link", "PtyEndpoint", "stop_signals",
            "MAX_PENDING"]
 
 #: Output bytes held for a host that does not read (≈ 4 min of telemetry at 100 Hz).
@@ -328,6 +334,64 @@ class hold_link:
             pass
         os.close(self.fd)
         return False
+
+
+def serve_tcs2(*, faults: str | None = None, seed: int = 0, speed: float = 1.0, link: str | None = None,
+          sim: bool = True, announce=None, stop=None) -> int:
+    """Run the emulated TCS II (:mod:`.tcs2.device`) on a new pty until a signal (or ``stop()`` is true); return 0."""
+    dev = Tcs2Device(faults, seed=seed, firmware=None if sim else "012")
+    pty = PtyEndpoint(link)
+    step = TICK_S / speed
+    with stop_signals() as stopping:
+        try:
+            # inside the try: a path that cannot be announced (stdout gone) still removes the link
+            (announce or (lambda p: (print(p), sys.stdout.flush())))(pty.path)
+            next_t = time.monotonic()
+            while not stopping and not (stop is not None and stop()):
+                wait = max(0.0, next_t - time.monotonic())
+                if pty.wait(min(wait, 0.05)):
+                    data = pty.read()
+                    if data and not dev.disconnected:
+                        dev.feed(data)
+                now = time.monotonic()
+                ticks = 0
+                while now >= next_t and ticks < 20:
+                    dev.tick()
+                    next_t += step
+                    ticks += 1
+                if now - next_t > 0.5:
+                    next_t = now                    # starved: do not race to catch up
+                out = dev.take()                    # a disconnected device's output is lost
+                pty.send(b"" if dev.disconnected else out)
+        finally:
+            pty.close()
+    return 0
+
+
+def run_tcs2(ns) -> int:
+    """Serve with ``thermocue emulator``'s options (``--model tcs2``).
+
+    Raises
+    ------
+    UserInputError
+        A bad ``--faults`` for the TCS II, ``--clock virtual`` (a pty runs on wall time; use
+        ``--speed``), or a ``--link`` PATH another emulator holds.
+    """
+    if getattr(ns, "clock", "real") != "real":
+        raise UserInputError("--clock: expected real for --model tcs2 (a pty runs on wall time; "
+                             f"--speed K runs it K times faster), got {ns.clock!r}")
+    speed = float(getattr(ns, "speed", 1.0) or 1.0)
+    if not 0 < speed <= 100:
+        raise UserInputError(f"--speed: expected 0 < K ≤ 100, got {speed!r}")
+    try:
+        Tcs2Device(ns.faults)
+    except ValueError as exc:
+        raise UserInputError(f"--faults: {exc}") from None
+    kw = dict(faults=ns.faults, seed=ns.seed, speed=speed, sim=not ns.no_sim)
+    if not ns.link:
+        return serve_tcs2(**kw)
+    with hold_link(ns.link):
+        return serve_tcs2(link=ns.link, **kw)
 
 
 def main(argv=None) -> int:
