@@ -2,7 +2,7 @@
 including those inside functions.
 
 stimuli -> numpy, scipy, the standard library only; analysis -> nothing of experiments' runtime;
-experiments.hardware -> not the command line, not the session; and inside experiments only the
+experiments.display -> not the command line, not the session; and inside experiments only the
 Figure 9 package (experiments.simulation.figure9: the study, its scenarios against the paper's
 claims, ``reproduce figure9``) and the command line (``thermocue analyze``, ``power``,
 ``reproduce``: the top of the stack) import analysis.
@@ -92,7 +92,7 @@ def test_stimuli_imports_only_numpy_scipy_and_the_standard_library():
 #: ``experiments.atomicfile`` (files written whole), all standard library only, are the parts of
 #: experiments analysis may use.
 RUNTIME = ("experiments.session", "experiments.records",
-           "experiments.session_files", "experiments.hardware", "experiments.responders",
+           "experiments.session_files", "experiments.display", "experiments.responders",
            "experiments.cli", "experiments.protocol", "experiments.logbook",
            "experiments.schedule", "experiments.psychopy_plugin", "experiments.calibration",
            "experiments.simulation", "experiments.bench")
@@ -120,7 +120,7 @@ def test_what_analysis_may_use_of_experiments_is_standard_library_only(module):
 def test_hardware_never_imports_the_cli_or_the_session():
     def allowed(target, _):
         return not _within(target, ("experiments.cli", "experiments.session"))
-    assert _violations(("experiments.hardware",), allowed) == []
+    assert _violations(("experiments.display",), allowed) == []
 
 
 @pytest.mark.parametrize("package", ["participants_schema"])
@@ -289,7 +289,7 @@ def test_no_import_cycle_between_packages():
 #: The participant model serves the session's simulated responder; the studies run sessions.
 PARTICIPANT_MODEL = ("experiments.participant_model",)
 ABOVE_THE_SESSION = ("experiments.session", "experiments.responders", "experiments.simulation",
-                     "experiments.cli", "experiments.hardware", "analysis")
+                     "experiments.cli", "experiments.display", "analysis")
 
 
 def test_the_participant_model_sits_below_the_session_and_the_studies():

@@ -1,33 +1,29 @@
-"""The thermal display: the backend registry, the serial protocol, its driver, and emulators.
+"""The thermal display, the host's side: the contract, the backend registry, safety, backends.
 
 Displays are opened only through :func:`open_display` (:mod:`.registry`), which picks the
-backend by the URL's scheme; every backend is a :class:`Display` (:mod:`.display_base`).
-
-Importing this package registers it with pyserial, so ``serial.serial_for_url("emulator://")``
-opens the in-process emulator (:mod:`experiments.hardware.protocol_emulator`). The protocol is
-written down in ``docs/display-protocol.md``. The names below are imported on first use (PEP 562),
-so a module of the package that needs only the standard library (the emulator's command-line
-options) does not pull in numpy and the driver.
+backend by the URL's scheme; every backend is a :class:`Display` (:mod:`.base`). One subpackage
+per backend: :mod:`.thermocue` (the thermocue serial protocol, its driver and the QEMU firmware
+runner; the protocol is written down in ``docs/display-protocol.md``) and :mod:`.tcs2` (a
+QST.Lab TCS II). The stand-in devices live in :mod:`experiments.emulators`, which this package
+never imports: ``emulator://`` registers through the ``thermocue.displays`` entry point like any
+third-party backend. The names below are imported on first use (PEP 562), so importing the
+package does not pull in numpy and the driver.
 """
 from __future__ import annotations
 
 import importlib
 
-import serial as _serial
-
-if "experiments.hardware" not in _serial.protocol_handler_packages:
-    _serial.protocol_handler_packages.append("experiments.hardware")
-
 #: public name -> the module that defines it
-_EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "messages", "DeviceEvent": "messages",
-            "Status": "messages", "Telemetry": "messages", "ContactEvent": "trial_recording",
-            "TrialRecording": "trial_recording", "ThermalDisplay": "driver",
-            "EmulatorDisplay": "driver", "open_display": "registry", "backends": "registry",
-            "backend_for": "registry", "Display": "display_base", "EmulatedDisplay": "display_base",
-            "Capabilities": "display_base", "ProfileReceipt": "display_base"}
+_EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "thermocue.messages",
+            "DeviceEvent": "thermocue.messages", "Status": "thermocue.messages",
+            "Telemetry": "thermocue.messages", "ContactEvent": "trial_recording",
+            "TrialRecording": "trial_recording", "ThermalDisplay": "thermocue.driver",
+            "open_display": "registry", "backends": "registry", "backend_for": "registry",
+            "Display": "base", "EmulatedDisplay": "base", "Capabilities": "base",
+            "ProfileReceipt": "base"}
 
 __all__ = ["open_display", "backends", "backend_for", "Display", "EmulatedDisplay", "Capabilities",
-           "ProfileReceipt", "ThermalDisplay", "EmulatorDisplay", "SafetyLimits", "Telemetry",
+           "ProfileReceipt", "ThermalDisplay", "SafetyLimits", "Telemetry",
            "ContactEvent", "TrialRecording", "DeviceInfo", "DeviceEvent", "Status"]
 
 

@@ -1,7 +1,7 @@
 """What every thermal display backend is: the typed :class:`Display` base and its receipts.
 
 A backend is a subclass that names a URL scheme (``class Tcs2Display(Display, scheme="tcs2")``);
-defining it registers it with :mod:`experiments.hardware.registry`, the only place the session,
+defining it registers it with :mod:`experiments.display.registry`, the only place the session,
 the PsychoPy device and the command line open displays from. Each backend states what it can do
 (:class:`Capabilities`) before it is opened (``thermocue displays`` lists them) and, more
 precisely, once it has shaken hands with its device (:attr:`Display.capabilities`); a protocol
@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar
 
 if TYPE_CHECKING:   # the types in the signatures; importing them here would pull in numpy
-    from .messages import DeviceInfo, Status, Telemetry
+    from .thermocue.messages import DeviceInfo, Status, Telemetry
     from .safety import SafetyLimits
     from .trial_recording import TrialRecording
 

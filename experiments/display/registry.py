@@ -23,9 +23,9 @@ __all__ = ["open_display", "backend_for", "backends", "register", "scheme_of", "
 
 #: Modules that define the built-in backends (each registers its classes on import).
 BUILTIN_MODULES = (
-    "experiments.hardware.driver",          # serial (a path) and emulator://
-    "experiments.hardware.qemu_firmware",   # qemu-firmware://: the C firmware under QEMU
-    "experiments.hardware.tcs2.backend",    # tcs2://: a QST.Lab TCS II thermode
+    "experiments.display.thermocue.driver",          # serial: a path or a pyserial URL
+    "experiments.display.thermocue.qemu_firmware",   # qemu-firmware://: the C firmware under QEMU
+    "experiments.display.tcs2.backend",              # tcs2://: a QST.Lab TCS II thermode
 )
 
 #: The entry-point group of third-party backends.

@@ -3,15 +3,15 @@
 :class:`TrialInProgress` follows one armed trial frame by frame (telemetry counters, contact, tracking
 error against the uploaded profile, how and when it ended) without keeping the frames;
 :class:`TrialRecording` is what :meth:`ThermalDisplay.run_trial
-<experiments.hardware.driver.ThermalDisplay.run_trial>` returns; :func:`not_delivered` judges a
+<experiments.display.thermocue.driver.ThermalDisplay.run_trial>` returns; :func:`not_delivered` judges a
 trial against the device's own account (``docs/display-protocol.md`` §5, "A delivered trial").
 """
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from . import messages as m
-from .messages import DeviceEvent, Status, Telemetry
+from .thermocue import messages as m
+from .thermocue.messages import DeviceEvent, Status, Telemetry
 
 __all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS"]
 

@@ -1,7 +1,7 @@
-"""The options of ``thermocue emulator`` and ``python -m experiments.hardware.pty_server``.
+"""The options of ``thermocue emulator`` and ``python -m experiments.emulators.pty_server``.
 
 Standard library only, so that the command line can offer them without importing the emulator
-(``thermocue --help`` stays fast); :func:`experiments.hardware.pty_server.run` acts on them.
+(``thermocue --help`` stays fast); :func:`experiments.emulators.pty_server.run` acts on them.
 """
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ __all__ = ["add_arguments"]
 
 
 def add_arguments(p) -> None:
-    """The options of ``thermocue emulator`` (and ``python -m experiments.hardware.pty_server``)."""
+    """The options of ``thermocue emulator`` (and ``python -m experiments.emulators.pty_server``)."""
     p.add_argument("--link", metavar="PATH",
                    help="also make PATH a symbolic link to the pty (refused while another running "
                         "emulator holds PATH)")

@@ -43,7 +43,8 @@ from .thermocue.device import TICK_US
 from .thermocue.emulator_core import EmulatorCore, JsonLog
 from .thermocue.faults import parse_faults
 
-__all__ = ["serve", "main", "add_arguments", "run", "serve_tcs2", "run_tcs2", "hold_link", "PtyEndpoint", "stop_signals",
+__all__ = ["serve", "main", "add_arguments", "run", "serve_tcs2", "run_tcs2", "hold_link",
+           "PtyEndpoint", "stop_signals",
            "MAX_PENDING"]
 
 #: Output bytes held for a host that does not read (≈ 4 min of telemetry at 100 Hz).
@@ -173,7 +174,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
     Parameters
     ----------
     faults : str or list, optional
-        Fault SPEC (see :mod:`experiments.hardware.faults`).
+        Fault SPEC (see :mod:`experiments.emulators.thermocue.faults`).
     clock : {"real", "virtual"}
         ``virtual``: while a trial runs, the next 10 ms tick is computed as soon as the host has
         read everything sent so far, so device time runs as fast as the host consumes it -- and
@@ -395,8 +396,8 @@ def run_tcs2(ns) -> int:
 
 
 def main(argv=None) -> int:
-    """``python -m experiments.hardware.pty_server [thermocue emulator options]``."""
-    parser = argparse.ArgumentParser(prog="python -m experiments.hardware.pty_server",
+    """``python -m experiments.emulators.pty_server [thermocue emulator options]``."""
+    parser = argparse.ArgumentParser(prog="python -m experiments.emulators.pty_server",
                                      description="Serve the emulated thermal display on a pty.")
     add_arguments(parser)
     ns = parser.parse_args(sys.argv[1:] if argv is None else argv)

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from experiments import logformat
-from experiments.hardware.messages import Telemetry
+from experiments.display.thermocue.messages import Telemetry
 from experiments.logbook import EventLog
 from experiments.logformat import (
     COLUMN_DECIMALS,

@@ -22,11 +22,11 @@ it and ``Q`` no error. A profile is compiled to segments (:mod:`.profile_compile
 ``Uw``, enabled by ``Ue`` and read back by ``Ur``, which must equal what was sent.
 
 A trial streams the 100 Hz temperature lines into the session's telemetry (one
-:class:`~experiments.hardware.messages.Telemetry` a line: contact = the mean of the stimulating
+:class:`~experiments.display.thermocue.messages.Telemetry` a line: contact = the mean of the stimulating
 zones, ambient = the neutral sensor; no force, no skin thermometer: NaN) and polls ``Q``. A
 silent device, a line that is not text, a half line, a reply the protocol does not have, a zone
 error: the host sends ``A`` (abort to neutral) and the trial ends as a flagged
-:class:`~experiments.hardware.trial_recording.TrialRecording`, never ``ok``.
+:class:`~experiments.display.trial_recording.TrialRecording`, never ``ok``.
 
 The TCS II has no watchdog: a host that dies mid-profile leaves the device playing the uploaded
 profile to its end (every point of which was checked against the protocol's range and rate)
@@ -42,9 +42,9 @@ import serial
 
 from experiments.errors import DisplayError, SafetyLimitError, UserInputError
 
-from ..display_base import (Capabilities, Display, ProfileReceipt, handshake_or_close,
+from ..base import (Capabilities, Display, ProfileReceipt, handshake_or_close,
                             open_serial_port)
-from ..messages import DeviceInfo, Status
+from ..thermocue.messages import DeviceInfo, Status
 from ..safety import SafetyLimits
 from ..trial_recording import TrialRecording
 from . import commands as cmd

@@ -109,7 +109,7 @@ def compile_profile(times_s, target_C, *, tolerance_C: float = RESOLUTION_C,
         Largest allowed ``|played - target|`` (default the device's 0.1 °C resolution).
     limits : SafetyLimits, optional
         The protocol's safe range and rate limit: the target is checked against them first
-        (:func:`experiments.hardware.safety.check_profile`), every segment end lies in the
+        (:func:`experiments.display.safety.check_profile`), every segment end lies in the
         range and no segment is steeper than the rate limit.
     start_C : float, °C, optional
         Where the probe is at the start (default: the first sample rounded to 0.1 °C).

@@ -4,7 +4,7 @@
 :meth:`~.backend.Tcs2Display.poll` advance: before the start it waits until every stimulating
 zone rests within :data:`READY_TOLERANCE_C` of the profile's start (``Oe``, up to
 :data:`READY_S`), asks ``Q``, sends ``L`` (or pulses the emulator's trigger input, or waits for
-the device's); each temperature line becomes a :class:`~experiments.hardware.messages.Telemetry`
+the device's); each temperature line becomes a :class:`~experiments.display.thermocue.messages.Telemetry`
 frame (time: the first line's arrival plus 10 ms a line); ``Q`` is asked every
 :data:`Q_EVERY_S` and once after the stream ends. A silent device, garbage, a half line, an
 unknown reply or a zone error end it as a fault after ``A`` (:meth:`~.backend.Tcs2Display.
@@ -18,7 +18,7 @@ import numpy as np
 
 from experiments.errors import DisplayError, DisplayTimeout
 
-from ..messages import DeviceEvent, Telemetry
+from ..thermocue.messages import DeviceEvent, Telemetry
 from ..trial_recording import TrialInProgress, TrialRecording
 from . import commands as cmd
 from .commands import ReplyError

@@ -68,11 +68,23 @@ def parse_tcs2_url(url: str) -> tuple:
             raise UserInputError(f"display: {text!r}: {key}: {exc}") from None
     if port == "emulator":
         pyurl = "tcs2emu://" + ("?" + urllib.parse.urlencode(emu) if emu else "")
-        from .protocol_tcs2emu import parse_url
-        try:
-            parse_url(pyurl)
-        except serial.SerialException as exc:
-            raise UserInputError(f"display: {text!r}: {exc}") from None
+        _check_emulator_url(text, pyurl)
     else:
         pyurl = port
     return pyurl, opts
+
+
+def _check_emulator_url(text: str, pyurl: str) -> None:
+    """Check the emulator's options now, through its pyserial handler: the emulator is not the
+    display's to import; its entry point (loaded by the registry) registers ``tcs2emu://``."""
+    from ..registry import backends
+    backends()
+    try:
+        port = serial.serial_for_url(pyurl, do_not_open=True)
+    except ValueError:
+        raise UserInputError(f"display: {text!r}: the TCS II emulator is not installed (no "
+                             f"tcs2emu:// pyserial handler)") from None
+    try:
+        getattr(port, "parse_url", lambda _url: None)(pyurl)
+    except serial.SerialException as exc:
+        raise UserInputError(f"display: {text!r}: {exc}") from None

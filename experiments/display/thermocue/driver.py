@@ -52,15 +52,15 @@ from experiments.errors import (DisplayError, DisplayFaultLatched, DisplayLinkLo
 from . import messages as m
 from .framing import FrameParser
 from .link import ProtocolLink
-from .display_base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
+from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
                            open_serial_port)
-from .handshake import decode_hello
+from ..handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
-from .safety import SafetyLimits, check_profile
-from .trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
+from ..safety import SafetyLimits, check_profile
+from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
                               TrialInProgress)
 
-__all__ = ["ThermalDisplay", "EmulatorDisplay", "TrialRecording", "ContactEvent"]
+__all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
 
 CHUNK = 512                    # samples per upload chunk
 
@@ -73,7 +73,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
 
     The display backend for a serial device path (``/dev/ttyUSB0``, a pty) and pyserial URLs.
-    Open it with :func:`experiments.hardware.open_display` (or :meth:`open`), which also does
+    Open it with :func:`experiments.display.open_display` (or :meth:`open`), which also does
     the handshake and starts the heartbeat.
 
     Parameters
@@ -182,7 +182,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """The protocol's ranges (a device declares its own at the handshake)."""
-        from .handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
+        from ..handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
                                 PROTOCOL_MIN_C, PROTOCOL_MIN_DT_S)
         return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
                             max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,
@@ -659,7 +659,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                                               skin_temperature_C=skin_temperature_C))
 
     def sim_fault(self, spec: str) -> dict:
-        """Emulator: inject faults now (SPEC as in :mod:`experiments.hardware.faults`, times from now)."""
+        """Emulator: inject faults now (SPEC as in ``docs/display-protocol.md``, times from now)."""
         return self._sim(Cmd.SIM_FAULT, dict(spec=spec))
 
     # ------------------------------------------------------------------ lifetime
@@ -680,32 +680,3 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     def __exit__(self, *exc):
         self.close()
         return False
-
-
-class EmulatorDisplay(ThermalDisplay, scheme="emulator"):
-    """The Python emulator of the thermocue display, in-process (``emulator://[?...]``).
-
-    The fast, fault-injecting model of the device (:mod:`.protocol_emulator`): virtual or real
-    clock, link faults, a scripted bench (``sim_sample``, ``sim_finger``).
-    """
-
-    description = "the Python emulator of the thermocue display, in this process"
-    url_grammar = "emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=ID]"
-
-    @classmethod
-    def check_url(cls, url: str) -> None:
-        from .protocol_emulator import parse_url
-        try:
-            parse_url(url)
-        except serial.SerialException as exc:
-            raise UserInputError(str(exc)) from None
-
-    @classmethod
-    def declared_capabilities(cls) -> Capabilities:
-        from . import device_constants as dc
-        return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
-                            max_profile_points=dc.MAX_POINTS, min_profile_step_s=dc.MIN_DT_US * 1e-6,
-                            safe_range_C=(dc.HARD_MIN_C, dc.SETPOINT_MAX_C),
-                            max_rate_C_per_s=dc.HARD_RATE_C_PER_S, modes=("playback", "record"),
-                            scripted_bench=True,
-                            notes="fault injection (faults=SPEC), virtual clock (clock=virtual)")

@@ -85,7 +85,7 @@ def encode_frame(seq: int, msg_type: int, payload: bytes = b"") -> bytes:
     seq : int
         Sequence number, 0..255.
     msg_type : int
-        Message type, 0..255 (see :mod:`experiments.hardware.messages`).
+        Message type, 0..255 (see :mod:`experiments.display.thermocue.messages`).
     payload : bytes
         At most :data:`MAX_PAYLOAD` bytes.
 

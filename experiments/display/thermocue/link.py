@@ -1,6 +1,6 @@
 """The host's end of the display protocol's link: numbered requests, replies, heartbeats.
 
-:class:`ProtocolLink` is the half of :class:`~experiments.hardware.driver.ThermalDisplay` below
+:class:`ProtocolLink` is the half of :class:`~experiments.display.thermocue.driver.ThermalDisplay` below
 its commands: sequence numbers (never a type's last one; 0 kept for the helper's silent
 heartbeats), writing, reading and routing frames (telemetry and events to the armed trial, the
 awaited reply to :meth:`ProtocolLink._transact`, with its timeout and retries), the heartbeat

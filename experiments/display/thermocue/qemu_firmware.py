@@ -29,13 +29,13 @@ import serial
 
 from experiments.errors import DisplayError, UserInputError
 
-from .display_base import Capabilities, handshake_or_close
+from ..base import Capabilities, handshake_or_close
 from .driver import ThermalDisplay
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
            "start_qemu", "await_link", "stop_qemu", "parse_url"]
 
-FIRMWARE_DIR = Path(__file__).resolve().parents[2] / "firmware"
+FIRMWARE_DIR = Path(__file__).resolve().parents[3] / "firmware"
 SIM_IMAGE = FIRMWARE_DIR / "out" / "thermocue-sim.elf"
 BOARD_IMAGE = FIRMWARE_DIR / "out" / "thermocue-board.elf"
 QEMU = "qemu-system-arm"

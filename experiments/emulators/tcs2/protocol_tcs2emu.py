@@ -8,11 +8,11 @@ URL grammar::
              virtual: it advances only while the host waits for bytes -- a read that finds
              nothing ticks it until there is something or the read's timeout, counted in
              device time, is used up
-    faults   see experiments.hardware.tcs2.device (e.g. "zone@2:5.0,drop=0.001")
+    faults   see experiments.emulators.tcs2.device (e.g. "zone@2:5.0,drop=0.001")
     seed     sensor noise and dropped lines (default 0)
     speed    real clock only: device seconds per wall second (default 1)
 
-pyserial finds this module because :mod:`experiments.hardware.tcs2` adds itself to
+pyserial finds this module because :mod:`experiments.display.tcs2` adds itself to
 ``serial.protocol_handler_packages`` on import.
 """
 from __future__ import annotations

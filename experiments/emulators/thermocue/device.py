@@ -29,7 +29,7 @@ import struct
 from binascii import crc_hqx
 from collections import deque
 
-from . import messages as m
+from experiments.display.thermocue import messages as m
 from .device_commands import HostCommands
 from .device_constants import (DEFAULT_NEUTRAL_C, FIRMWARE, HARD_MAX_C, HARD_MIN_C,  # noqa: F401
                                HARD_RATE_C_PER_S, HEATSINK_MAX_C, LATCHED_FAULTS, MAX_POINTS,
@@ -39,8 +39,8 @@ from .device_constants import (DEFAULT_NEUTRAL_C, FIRMWARE, HARD_MAX_C, HARD_MIN
 from .device_constants import (END_ABORTED, END_COMPLETE, END_FAULT,  # noqa: F401
                                END_MAX_DURATION, END_RELEASED)
 from .faults import FaultSpec, parse_faults
-from .framing import Frame, FrameParser, crc8, encode_frame
-from .messages import Err, Event, Mode, State
+from experiments.display.thermocue.framing import Frame, FrameParser, crc8, encode_frame
+from experiments.display.thermocue.messages import Err, Event, Mode, State
 from .pad_physics import (CONTACT_AREA_M2, FingerScript, FingerSkin, PadParams, PadPlant,  # noqa: F401
                           PassiveSample, finger_pad_resistance, normal_stream)
 

@@ -1,6 +1,6 @@
 """The emulated firmware's command handling: every host frame in, its reply out.
 
-:class:`HostCommands` is the half of :class:`~experiments.hardware.device.Device` that answers
+:class:`HostCommands` is the half of :class:`~experiments.emulators.thermocue.device.Device` that answers
 the host (HELLO, limits, neutral, upload, ARM, ABORT, STATUS, the emulator-only "sim" commands)
 and keeps the reply cache that makes every command safe to retry; the other half, the 10 ms
 tick (state machine, watchdog, safety monitors, telemetry), is in :mod:`.device`.
@@ -12,13 +12,13 @@ import zlib
 
 import numpy as np
 
-from . import messages as m
+from experiments.display.thermocue import messages as m
 from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
                                LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
                                WATCHDOG_MS)
 from .faults import parse_faults
-from .framing import encode_frame
-from .messages import Cmd, Err, Event, Mode, State
+from experiments.display.thermocue.framing import encode_frame
+from experiments.display.thermocue.messages import Cmd, Err, Event, Mode, State
 from .pad_physics import (FINGER_ON_PAD_MODEL, FingerScript, FingerSkin, PassiveSample,
                           finger_pad_resistance)
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import zlib
 
-from .messages import Cmd, Err
+from experiments.display.thermocue.messages import Cmd, Err
 
 FIRMWARE = "thermocue-emu 1.0.0"
 HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to it, always

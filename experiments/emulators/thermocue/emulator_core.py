@@ -1,14 +1,14 @@
 """The emulated display and its link, one core for every transport.
 
-An :class:`EmulatorCore` owns the :class:`~experiments.hardware.device.Device` (the firmware), the
-:class:`~experiments.hardware.faults.LinkFaults` between it and the host (drop, corrupt, garbage,
+An :class:`EmulatorCore` owns the :class:`~experiments.emulators.thermocue.device.Device` (the firmware), the
+:class:`~experiments.emulators.thermocue.faults.LinkFaults` between it and the host (drop, corrupt, garbage,
 delay, disconnect) and the clock rules the transports share: what one tick sends to the host, how
 host bytes are stamped when the emulator itself runs late, and how a starved real-time clock
 catches up. The two transports only move bytes:
 
-- :mod:`~experiments.hardware.protocol_emulator`, the in-process ``emulator://`` pyserial URL
+- :mod:`~experiments.emulators.thermocue.protocol_emulator`, the in-process ``emulator://`` pyserial URL
   handler (real clock in a thread, or a virtual clock driven by the host's reads);
-- :mod:`~experiments.hardware.pty_server`, the same device on a real pseudo-terminal.
+- :mod:`~experiments.emulators.pty_server`, the same device on a real pseudo-terminal.
 
 Link faults act identically in both: host bytes are mangled (drop, corrupt) as they arrive;
 device bytes are mangled, joined by garbage once per tick, and held back by ``delay`` until their
@@ -56,7 +56,7 @@ class EmulatorCore:
     seed : int
         Seeds sensor noise and link faults.
     faults : str or list of FaultSpec, optional
-        Device and link faults (:mod:`experiments.hardware.faults`).
+        Device and link faults (:mod:`experiments.emulators.thermocue.faults`).
     sim : bool
         Offer the emulator-only "sim" commands.
     log : callable, optional

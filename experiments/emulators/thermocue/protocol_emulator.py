@@ -4,7 +4,7 @@ URL grammar::
 
     emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=DEVICE_ID]
 
-    faults   fault injection, see experiments.hardware.faults (default: none); a "+" is
+    faults   fault injection, see experiments.emulators.thermocue.faults (default: none); a "+" is
              a plus (stall@100+5: from 100 s for 5 s), not a space as in HTML forms
     clock    real: the device ticks every 10 ms of wall time in its own thread (default);
              virtual: the device advances only while the host waits for bytes -- each read that
@@ -18,7 +18,7 @@ URL grammar::
     log      append the device's state changes, faults and watchdog trips as JSON lines to PATH
     id       device id reported in the handshake (default EMU-0001)
 
-pyserial finds this module because ``experiments.hardware`` adds itself to
+pyserial finds this module because ``experiments.display`` adds itself to
 ``serial.protocol_handler_packages`` on import; open it with ``serial.serial_for_url``.
 """
 from __future__ import annotations
@@ -31,10 +31,10 @@ import urllib.parse
 from serial.serialutil import SerialException, to_bytes
 
 from .device import TICK_US, Device
-from .emulated_port import EmulatedPort
+from ..emulated_port import EmulatedPort
 from .emulator_core import EmulatorCore, JsonLog
 from .faults import parse_faults
-from .framing import HEADER_SIZE
+from experiments.display.thermocue.framing import HEADER_SIZE
 
 __all__ = ["Serial", "URL_GRAMMAR", "JsonLog"]
 
@@ -90,7 +90,7 @@ def parse_url(url: str) -> dict:
 class Serial(EmulatedPort):
     """An emulated display behind the pyserial API (see the module docstring for the URL).
 
-    A thin transport over :class:`~experiments.hardware.emulator_core.EmulatorCore`: it keeps
+    A thin transport over :class:`~experiments.emulators.thermocue.emulator_core.EmulatorCore`: it keeps
     the host's receive buffer and runs the core's clock (a thread, or the host's reads).
     """
 
@@ -120,7 +120,7 @@ class Serial(EmulatedPort):
 
     @property
     def link(self):
-        """The link's faults (:class:`~experiments.hardware.faults.LinkFaults`)."""
+        """The link's faults (:class:`~experiments.emulators.thermocue.faults.LinkFaults`)."""
         return self.core.link if self.core is not None else None
 
     # ------------------------------------------------------------------ pyserial plumbing

@@ -13,7 +13,7 @@ import pytest
 
 @pytest.fixture
 def display(display_url):
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     disp = open_display(display_url)
     yield disp
     disp.close()

@@ -8,9 +8,10 @@ import pytest
 
 from experiments.cli import main
 from experiments.errors import ProtocolError, UserInputError
-from experiments.hardware import (Capabilities, Display, EmulatedDisplay, EmulatorDisplay,
-                                  ThermalDisplay, backend_for, backends, open_display)
-from experiments.hardware.registry import register, scheme_of
+from experiments.display import (Capabilities, Display, EmulatedDisplay, ThermalDisplay,
+                                 backend_for, backends, open_display)
+from experiments.display.registry import register, scheme_of
+from experiments.emulators.backends import EmulatorDisplay
 
 
 def test_schemes_of_urls():
@@ -24,7 +25,7 @@ def test_the_built_in_backends_are_registered():
     schemes = {cls.scheme for cls in backends()}
     assert {"serial", "emulator"} <= schemes
     assert backend_for("/dev/ttyUSB0") is ThermalDisplay
-    assert backend_for("emulator://") is EmulatorDisplay
+    assert backend_for("emulator://") is EmulatorDisplay   # through the entry point
     for cls in backends():   # each states what it can do before it is opened
         assert isinstance(cls.declared_capabilities(), Capabilities)
         assert issubclass(cls, Display)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from experiments.errors import SafetyLimitError, UserInputError
-from experiments.hardware.safety import SafetyLimits, check_profile, profile_max_rate
+from experiments.display.safety import SafetyLimits, check_profile, profile_max_rate
 
 
 def test_range():

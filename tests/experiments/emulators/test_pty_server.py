@@ -11,12 +11,12 @@ import time
 import numpy as np
 import pytest
 
-from experiments.hardware import open_display
+from experiments.display import open_display
 
 
 def start_emulator(tmp_path, *args):
     log = tmp_path / "emulator.jsonl"
-    proc = subprocess.Popen([sys.executable, "-m", "experiments.hardware.pty_server",
+    proc = subprocess.Popen([sys.executable, "-m", "experiments.emulators.pty_server",
                              "--log", str(log), *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     r, _, _ = select.select([proc.stdout], [], [], 30)
@@ -73,7 +73,7 @@ def test_trial_over_a_real_pty(tmp_path):
 
 HOST = textwrap.dedent("""
     import sys, numpy as np
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     d = open_display(sys.argv[1])
     t = np.arange(0, 10.0001, 0.01)
     d.upload_profile(t, np.full(t.size, 29.0))
@@ -181,8 +181,8 @@ def test_real_clock_trials_survive_a_gil_hogging_host(tmp_path):
 def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
     # a pty holds ~20 kB; a host that does not read for 7 s of telemetry (~27 kB) must still get
     # every frame (the server used to drop what a write could not place)
-    from experiments.hardware.framing import encode_frame
-    from experiments.hardware.heartbeat import HeartbeatProcess
+    from experiments.display.thermocue.framing import encode_frame
+    from experiments.display.thermocue.heartbeat import HeartbeatProcess
     proc, path, log = start_emulator(tmp_path)
     t = np.arange(0, 9.0001, 0.01)
     try:
@@ -211,7 +211,7 @@ def test_output_the_pty_cannot_hold_waits_for_the_host(tmp_path):
 
 FIRST_HOST = textwrap.dedent("""
     import os, sys, numpy as np
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     d = open_display(sys.argv[1])
     t = np.arange(0, 2.0, 0.01)
     print("upload", d.upload_profile(t, 32 - 1.0 * t).points, flush=True)
@@ -224,7 +224,7 @@ def test_a_second_host_gets_its_own_limits_and_neutral(tmp_path):
     # audit 34: a restarted host numbered its commands from 1 again and the device answered its
     # HELLO, SET_LIMITS and SET_NEUTRAL from the first host's cached replies, without carrying
     # them out; the first upload after reconnecting failed (UPLOAD_CHUNK: no UPLOAD_BEGIN)
-    from experiments.hardware import SafetyLimits
+    from experiments.display import SafetyLimits
     proc, path, log = start_emulator(tmp_path)
     try:
         first = subprocess.run([sys.executable, "-c", FIRST_HOST, path], capture_output=True,

@@ -8,8 +8,8 @@ import pytest
 
 import stimuli
 from experiments.errors import SafetyLimitError, UserInputError
-from experiments.hardware.safety import SafetyLimits, profile_max_rate
-from experiments.hardware.tcs2.profile_compiler import compile_profile
+from experiments.display.safety import SafetyLimits, profile_max_rate
+from experiments.display.tcs2.profile_compiler import compile_profile
 
 LIMITS = SafetyLimits(min_C=15.0, max_C=42.0, max_rate_C_per_s=10.0, neutral_C=32.0)
 

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from experiments.errors import DisplayError, SafetyLimitError, UserInputError
-from experiments.hardware import open_display
-from experiments.hardware.registry import backend_for
-from experiments.hardware.safety import SafetyLimits
-from experiments.hardware.tcs2.backend import Tcs2Display
+from experiments.display import open_display
+from experiments.display.registry import backend_for
+from experiments.display.safety import SafetyLimits
+from experiments.display.tcs2.backend import Tcs2Display
 
 LIMITS = SafetyLimits(min_C=15.0, max_C=42.0, max_rate_C_per_s=10.0, neutral_C=35.5)
 T = np.arange(501) * 0.01

@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 
 from experiments.errors import DisplayError, DisplayRefused, SafetyLimitError
-from experiments.hardware import SafetyLimits, Telemetry, open_display
-from experiments.hardware import messages as m
-from experiments.hardware.device import Device
-from experiments.hardware.framing import HEADER_SIZE
-from experiments.hardware.messages import PROTOCOL_VERSION, Cmd
+from experiments.display import SafetyLimits, Telemetry, open_display
+from experiments.display.thermocue import messages as m
+from experiments.emulators.thermocue.device import Device
+from experiments.display.thermocue.framing import HEADER_SIZE
+from experiments.display.thermocue.messages import PROTOCOL_VERSION, Cmd
 
 T = np.arange(0, 3.0001, 0.01)
 PROFILE = np.round(26.0 + 2.0 * np.sqrt(T / 3.0), 2)        # a gentle 3 s profile, °C
@@ -121,8 +121,8 @@ def test_unopenable_url_is_a_display_error():
 
 
 def _telemetry_frame(counter):
-    from experiments.hardware import messages as m
-    from experiments.hardware.framing import encode_frame
+    from experiments.display.thermocue import messages as m
+    from experiments.display.thermocue.framing import encode_frame
     body = m.TELEMETRY.pack(counter, counter * 10_000, 3000, 3000, 2000, 3400, 50, 50, 50, 50,
                             m.State.PLAYING, 0)
     return encode_frame(counter & 0xFF, m.Msg.TELEMETRY, body)
@@ -131,7 +131,7 @@ def _telemetry_frame(counter):
 def _loop_display(**options):
     import serial
 
-    from experiments.hardware.driver import ThermalDisplay
+    from experiments.display.thermocue.driver import ThermalDisplay
     return ThermalDisplay(serial.serial_for_url("loop://", timeout=0.01), **options)
 
 
@@ -153,7 +153,7 @@ def test_a_frame_split_by_a_slow_kernel_is_not_lost():
 def test_a_garbage_length_is_abandoned_after_stale_s():
     d = _loop_display(stale_s=0.05)
     good = _telemetry_frame(8)
-    from experiments.hardware.framing import encode_frame
+    from experiments.display.thermocue.framing import encode_frame
     cut = encode_frame(3, 0xA0, bytes(1008))[:HEADER_SIZE + 4]   # 1008 bytes that never come
     d.port.write(cut + good)
     got = []
@@ -175,8 +175,8 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
 
     import serial
 
-    from experiments.hardware.driver import ThermalDisplay
-    from experiments.hardware.framing import FrameParser
+    from experiments.display.thermocue.driver import ThermalDisplay
+    from experiments.display.thermocue.framing import FrameParser
     master, slave = pty.openpty()
     try:
         port = serial.serial_for_url(os.ttyname(slave), timeout=0.01)
@@ -283,7 +283,7 @@ def test_limits_and_neutral_not_echoed_are_a_display_error(replay):
     # audit 34: stale acknowledgements were taken as success; the host checks the echo
     import serial
 
-    from experiments.hardware.driver import ThermalDisplay
+    from experiments.display.thermocue.driver import ThermalDisplay
     port = serial.serial_for_url("emulator://?clock=virtual", timeout=0.01)
     port.device = StaleFirmware(replay)
     limits = SafetyLimits(min_C=20.0, max_C=38.0, max_rate_C_per_s=10.0, neutral_C=30.0)
@@ -300,7 +300,7 @@ def test_limits_and_neutral_not_echoed_are_a_display_error(replay):
 def test_a_device_rate_below_the_hosts_is_accepted(monkeypatch):
     # the device may lower the rate to its own maximum: that is not a mismatch (the host's own
     # limit is at most the protocol's 100 °C/s, so the emulator's maximum is lowered to 50 here)
-    import experiments.hardware.device_commands as dc
+    import experiments.emulators.thermocue.device_commands as dc
     monkeypatch.setattr(dc, "HARD_RATE_C_PER_S", 50.0)
     limits = SafetyLimits(max_rate_C_per_s=80.0)
     with open_display("emulator://?clock=virtual", limits=limits) as d:
@@ -364,7 +364,7 @@ def test_telemetry_and_events_are_not_taken_for_replies(cmd, frame_type, payload
     # telemetry frame whose number happened to be ARM's was taken for its reply (struct.error
     # in arm()), an END event for ABORT's acknowledgement (an abort that never happened)
     from experiments.errors import DisplayTimeout
-    from experiments.hardware.framing import encode_frame
+    from experiments.display.thermocue.framing import encode_frame
     d = _loop_display(reply_timeout_s=0.05, retries=0)
     d._seq = 41                                          # the command goes out as number 42
     d.port.write(encode_frame(42, frame_type, payload))

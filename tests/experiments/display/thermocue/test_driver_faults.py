@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from experiments.errors import DisplayError
-from experiments.hardware import SafetyLimits, open_display
+from experiments.display import SafetyLimits, open_display
 
 T = np.arange(0, 4.0001, 0.01)
 PROFILE = np.round(24.0 + 3.0 * np.sqrt(T / 4.0), 2)
@@ -124,9 +124,9 @@ def test_a_careless_host_on_a_bad_line_never_gets_an_unsafe_setpoint():
     # the host's own checks bypassed: raw commands with out-of-range temperatures and jumps,
     # over a line with garbage, corruption and delay. The firmware must clamp every setpoint
     # to the limits and slew at the rate limits, whatever arrives.
-    from experiments.hardware import messages as m
-    from experiments.hardware.device import HARD_RATE_C_PER_S, TICK_US
-    from experiments.hardware.messages import Cmd
+    from experiments.display.thermocue import messages as m
+    from experiments.emulators.thermocue.device import HARD_RATE_C_PER_S, TICK_US
+    from experiments.display.thermocue.messages import Cmd
     url = ("emulator://?clock=virtual&seed=21"
            "&faults=garbage=0.05,corrupt=0.0003,delay=0.02")
     with open_display(url, limits=LIMITS, retries=8) as d:
@@ -170,7 +170,7 @@ def test_a_careless_host_on_a_bad_line_never_gets_an_unsafe_setpoint():
     assert steps[playing].max() > LIMITS.max_rate_C_per_s * tick       # the jumps were there
     # ... and over any 0.1 s window (the host's rate measure) no setpoint range beyond the rate
     # limit, playback included (one 0.01 °C resolution step of slack, as the host allows)
-    from experiments.hardware.device import RATE_WINDOW_TICKS
+    from experiments.emulators.thermocue.device import RATE_WINDOW_TICKS
     track = np.r_[LIMITS.neutral_C, sp]
     windows = np.lib.stride_tricks.sliding_window_view(track, RATE_WINDOW_TICKS + 1)
     spans = windows.max(axis=1) - windows.min(axis=1)

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from experiments.hardware import open_display
+from experiments.display import open_display
 
 T = np.arange(0, 1.5, 0.01)
 PROFILE = 32.0 - 3.5 * np.sqrt(T / 1.5)     # 32 -> 28.5 °C (9 °C/s over its first 0.1 s)

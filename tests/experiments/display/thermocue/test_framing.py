@@ -4,7 +4,7 @@ import struct
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from experiments.hardware.framing import (HEADER_SIZE, MAX_PAYLOAD, OVERHEAD, SOF, Frame,
+from experiments.display.thermocue.framing import (HEADER_SIZE, MAX_PAYLOAD, OVERHEAD, SOF, Frame,
                                           FrameParser, crc8, crc16, encode_frame)
 
 

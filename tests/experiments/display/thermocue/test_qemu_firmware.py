@@ -10,8 +10,8 @@ import shutil
 import pytest
 
 from experiments.errors import DisplayError, UserInputError
-from experiments.hardware.qemu_firmware import QemuFirmwareDisplay, parse_url
-from experiments.hardware.registry import backend_for
+from experiments.display.thermocue.qemu_firmware import QemuFirmwareDisplay, parse_url
+from experiments.display.registry import backend_for
 
 NO_QEMU = shutil.which("qemu-system-arm") is None
 
@@ -52,7 +52,7 @@ def test_missing_image_is_one_line_naming_it(tmp_path):
 @pytest.mark.skipif(NO_QEMU, reason="qemu-system-arm is not installed here (CI installs it with "
                                     "scripts/setup)")
 def test_close_ends_qemu():
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     disp = open_display("qemu-firmware://")
     proc = disp.qemu
     assert proc.poll() is None and disp.info.firmware.startswith("thermocue-fw")

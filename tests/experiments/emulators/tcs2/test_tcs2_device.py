@@ -4,10 +4,10 @@ from __future__ import annotations
 import pytest
 import serial
 
-import experiments.hardware.tcs2  # noqa: F401  (registers tcs2emu://)
-from experiments.hardware.tcs2 import commands as cmd
-from experiments.hardware.tcs2.device import Tcs2Device, parse_faults
-from experiments.hardware.tcs2.profile_compiler import Segment
+import experiments.emulators.tcs2  # noqa: F401  (registers tcs2emu://)
+from experiments.display.tcs2 import commands as cmd
+from experiments.emulators.tcs2.device import Tcs2Device, parse_faults
+from experiments.display.tcs2.profile_compiler import Segment
 
 
 @pytest.fixture

@@ -6,9 +6,9 @@ import threading
 import numpy as np
 
 from experiments.cli import main
-from experiments.hardware import open_display
-from experiments.hardware.safety import SafetyLimits
-from experiments.hardware.tcs2.pty_server import serve
+from experiments.display import open_display
+from experiments.display.safety import SafetyLimits
+from experiments.emulators.pty_server import serve_tcs2 as serve
 
 
 def test_bad_options_are_one_line_exit_2(capsys, tmp_path):

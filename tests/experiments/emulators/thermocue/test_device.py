@@ -4,10 +4,10 @@ import zlib
 import numpy as np
 import pytest
 
-from experiments.hardware import messages as m
-from experiments.hardware.device import WATCHDOG_MS, Device
-from experiments.hardware.framing import FrameParser, encode_frame
-from experiments.hardware.messages import Cmd, Err, Msg, State
+from experiments.display.thermocue import messages as m
+from experiments.emulators.thermocue.device import WATCHDOG_MS, Device
+from experiments.display.thermocue.framing import FrameParser, encode_frame
+from experiments.display.thermocue.messages import Cmd, Err, Msg, State
 
 
 class Host:
@@ -267,7 +267,7 @@ def _stuck_heater(dev, at_s):
         pads.append(dev.plant.pad)
         return y
     dev.plant.step = spy
-    dev.faults += [f for f in __import__("experiments.hardware.faults", fromlist=["x"])
+    dev.faults += [f for f in __import__("experiments.emulators.thermocue.faults", fromlist=["x"])
                    .parse_faults(f"overtemp@{at_s}")]
     for _ in range(int((at_s + 2.0) / 0.01)):
         dev.step()
@@ -277,7 +277,7 @@ def _stuck_heater(dev, at_s):
 @pytest.mark.parametrize("start", ["neutral", "hottest setpoint"])
 def test_a_stuck_heater_never_holds_the_pad_above_45_C_for_a_tick(host, start):
     # Regression: the trip was at 48 °C (HARD_MAX_C + 3): 48.6 °C reached, 0.22 s above 45 °C.
-    from experiments.hardware.device import HARD_MAX_C, SETPOINT_MAX_C
+    from experiments.emulators.thermocue.device import HARD_MAX_C, SETPOINT_MAX_C
     assert host.send(Cmd.SET_LIMITS, m.LIMITS.pack(1500, 4500, 1000)).type == Cmd.SET_LIMITS | 0x80
     if start != "neutral":
         assert m.CENTI.unpack(host.send(Cmd.SET_NEUTRAL, m.CENTI.pack(4500)).payload)[0] == \

@@ -6,14 +6,14 @@ from pathlib import Path
 
 import serial
 
-from experiments.hardware import messages as m
-from experiments.hardware.device import TICK_US
-from experiments.hardware.emulator_core import MAX_CATCH_UP_TICKS, EmulatorCore
-from experiments.hardware.framing import FrameParser, encode_frame
+from experiments.display.thermocue import messages as m
+from experiments.emulators.thermocue.device import TICK_US
+from experiments.emulators.thermocue.emulator_core import MAX_CATCH_UP_TICKS, EmulatorCore
+from experiments.display.thermocue.framing import FrameParser, encode_frame
 
 from _ports import HidingPort
 
-HARDWARE = Path(__file__).resolve().parents[3] / "experiments" / "hardware"
+EMULATORS = Path(__file__).resolve().parents[4] / "experiments" / "emulators"
 
 
 def _imported_modules(path: Path) -> set[str]:
@@ -30,7 +30,7 @@ def _imported_modules(path: Path) -> set[str]:
 def test_hardware_never_imports_the_cli_or_the_session():
     # pty_server.main imported experiments.cli.emulator, which imported pty_server back
     bad = {}
-    for path in sorted(HARDWARE.glob("*.py")):
+    for path in sorted(EMULATORS.rglob("*.py")):
         hits = sorted(n for n in _imported_modules(path)
                       if n.split(".")[:2] in (["experiments", "cli"], ["experiments", "session"]))
         if hits:
@@ -40,8 +40,8 @@ def test_hardware_never_imports_the_cli_or_the_session():
 
 def test_both_transports_are_built_on_the_core():
     # each wrote the device + link-fault plumbing itself (and injected garbage differently)
-    for name in ("protocol_emulator.py", "pty_server.py"):
-        calls = {node.func.id for node in ast.walk(ast.parse((HARDWARE / name).read_text()))
+    for name in ("thermocue/protocol_emulator.py", "pty_server.py"):
+        calls = {node.func.id for node in ast.walk(ast.parse((EMULATORS / name).read_text()))
                  if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)}
         assert "EmulatorCore" in calls and not calls & {"Device", "LinkFaults"}, name
 
@@ -102,7 +102,7 @@ def test_in_process_port_runs_on_the_core_and_loses_no_reply_to_garbage():
 
 def test_the_driver_asks_the_port_for_its_device_clock():
     # the driver read port.device.time_us; now only the documented device_clock()
-    from experiments.hardware.driver import ThermalDisplay
+    from experiments.display.thermocue.driver import ThermalDisplay
     inner = serial.serial_for_url("emulator://?clock=virtual", timeout=0.01)
     d = ThermalDisplay(HidingPort(inner, hide=("device", "core", "virtual_time_s", "link")))
     try:
@@ -125,10 +125,10 @@ def test_the_cli_offers_the_emulator_options_without_importing_the_emulator():
             "p = build_parser()\n"
             "ns = p.parse_args(['emulator', '--faults', 'drop=0.1', '--clock', 'virtual'])\n"
             "assert (ns.faults, ns.clock, ns.seed) == ('drop=0.1', 'virtual', 0), ns\n"
-            "heavy = [m for m in ('numpy', 'scipy', 'experiments.hardware.device',\n"
-            "                     'experiments.hardware.pty_server') if m in sys.modules]\n"
+            "heavy = [m for m in ('numpy', 'scipy', 'experiments.emulators.thermocue.device',\n"
+            "                     'experiments.emulators.pty_server') if m in sys.modules]\n"
             "print(heavy)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         cwd=Path(__file__).resolve().parents[3], timeout=60)
+                         cwd=Path(__file__).resolve().parents[4], timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 import serial
 
-from experiments.hardware import messages as m
-from experiments.hardware.device import Device
-from experiments.hardware.driver import ThermalDisplay
-from experiments.hardware.framing import FrameParser, encode_frame
+from experiments.display.thermocue import messages as m
+from experiments.emulators.thermocue.device import Device
+from experiments.display.thermocue.driver import ThermalDisplay
+from experiments.display.thermocue.framing import FrameParser, encode_frame
 
 from _ports import HidingPort
 
@@ -124,7 +124,7 @@ P01_TRACES_SHA256 = "c06ce50aaaff6d7355261a05bd4e417a1f0ab6b11c96fdd0d0ce44d7277
 
 @pytest.mark.slow
 def test_an_emulated_session_logs_the_same_traces_as_before_the_fast_path(tmp_path):
-    root = Path(__file__).resolve().parents[3]
+    root = Path(__file__).resolve().parents[4]
     sys.path.insert(0, str(root / "benchmarks"))
     try:
         from bench_emulated_session import _cohort, traces_digest

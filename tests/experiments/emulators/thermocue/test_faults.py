@@ -1,7 +1,7 @@
 import pytest
 
 from experiments.errors import UserInputError
-from experiments.hardware.faults import FaultSpec, LinkFaults, parse_faults
+from experiments.emulators.thermocue.faults import FaultSpec, LinkFaults, parse_faults
 
 
 def test_grammar():

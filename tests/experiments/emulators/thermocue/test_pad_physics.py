@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from experiments.hardware.pad_physics import CONTACT_AREA_M2, FingerSkin, PadParams, PadPlant
+from experiments.emulators.thermocue.pad_physics import CONTACT_AREA_M2, FingerSkin, PadParams, PadPlant
 
 
 def slab_step_reference(x, t, L, alpha, n_terms=400):

@@ -1,14 +1,14 @@
 import pytest
 import serial
 
-import experiments.hardware  # noqa: F401  (registers the package)
-from experiments.hardware.protocol_emulator import URL_GRAMMAR, parse_url
+import experiments.emulators.thermocue  # noqa: F401  (registers emulator:// with pyserial)
+from experiments.emulators.thermocue.protocol_emulator import URL_GRAMMAR, parse_url
 
 
 def test_registered_once():
     import importlib
-    importlib.reload(experiments.hardware)
-    assert serial.protocol_handler_packages.count("experiments.hardware") == 1
+    importlib.reload(experiments.emulators.thermocue)
+    assert serial.protocol_handler_packages.count("experiments.emulators.thermocue") == 1
 
 
 def test_serial_for_url_opens_the_emulator():
@@ -48,7 +48,7 @@ def test_real_clock_ticks_in_wall_time():
 
 def test_a_plus_in_the_url_is_the_faults_duration():
     # audit 34: parse_qs read "+" as a space, so the documented NAME@AT+FOR was refused
-    from experiments.hardware.faults import FaultSpec
+    from experiments.emulators.thermocue.faults import FaultSpec
     want = [FaultSpec("stall", None, 100.0, 5.0), FaultSpec("drop", 0.01, 1.0, 2.5)]
     assert parse_url("emulator://?faults=stall@100+5,drop=0.01@1+2.5&seed=2")["faults"] == want
     assert parse_url("emulator://?faults=stall@100%2B5,drop=0.01@1%2B2.5")["faults"] == want
@@ -64,7 +64,7 @@ def test_a_timed_disconnect_ends_and_the_link_comes_back():
     # Regression: on a virtual clock the device advanced only in reads, and reads
     # failed while disconnected: the clock stopped and disconnect@T+D never ended.
     from experiments.errors import DisplayError
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     with open_display("emulator://?clock=virtual&seed=3&faults=disconnect@1+0.5") as d:
         with pytest.raises(DisplayError):
             d.wait(1.2)

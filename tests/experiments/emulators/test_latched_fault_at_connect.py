@@ -7,7 +7,7 @@ import time
 import pytest
 
 from experiments.errors import DisplayFaultLatched
-from experiments.hardware import open_display
+from experiments.display import open_display
 
 from test_pty_server import read_log, start_emulator, stop
 
