@@ -2,7 +2,7 @@
 
 :mod:`.thermocue` is the thermocue display's emulator (its firmware's commands, states, limits
 and watchdog, the pad's and finger's physics, fault injection) and :mod:`.tcs2` a QST.Lab TCS II;
-both are pyserial URL handlers (``emulator://``, ``tcs2emu://``) on :mod:`.emulated_port`.
+both are pyserial URL handlers (``emulator://``, ``tcs2emu://``) on :mod:`.port.emulated_port`.
 :mod:`.pty_server` serves either on a real pseudo-terminal (``thermocue emulator``), with the
 options of :mod:`.options`. :mod:`.backends` registers ``emulator://`` with the display registry
 through the ``thermocue.displays`` entry point, as a third-party backend would.

@@ -60,7 +60,7 @@ def test_board_image_without_sensors_refuses_to_heat():
     """QEMU wires no thermistor: the board image must shake hands, latch a sensor fault with
     the relay open, and refuse ARM (FAULT_LATCHED)."""
     from experiments.display.thermocue.framing import FrameParser, encode_frame
-    from experiments.display.handshake import decode_hello
+    from experiments.display.thermocue.handshake import decode_hello
     from experiments.display.thermocue.qemu_firmware import (BOARD_IMAGE, await_link, stop_qemu, build_image,
                                                     start_qemu)
     build_image(BOARD_IMAGE)

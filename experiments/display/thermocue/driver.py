@@ -54,7 +54,7 @@ from .framing import FrameParser
 from .link import ProtocolLink
 from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
                            open_serial_port)
-from ..handshake import decode_hello
+from .handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from ..safety import SafetyLimits, check_profile
 from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
@@ -182,7 +182,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """The protocol's ranges (a device declares its own at the handshake)."""
-        from ..handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
+        from .handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
                                 PROTOCOL_MIN_C, PROTOCOL_MIN_DT_S)
         return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
                             max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,

@@ -23,7 +23,7 @@ import urllib.parse
 
 from serial.serialutil import SerialException
 
-from ..emulated_port import EmulatedPort
+from ..port.emulated_port import EmulatedPort
 from .device import TICK_S, Tcs2Device
 
 __all__ = ["Serial", "URL_GRAMMAR", "parse_url"]

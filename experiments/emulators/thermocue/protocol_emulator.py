@@ -31,7 +31,7 @@ import urllib.parse
 from serial.serialutil import SerialException, to_bytes
 
 from .device import TICK_US, Device
-from ..emulated_port import EmulatedPort
+from ..port.emulated_port import EmulatedPort
 from .emulator_core import EmulatorCore, JsonLog
 from .faults import parse_faults
 from experiments.display.thermocue.framing import HEADER_SIZE

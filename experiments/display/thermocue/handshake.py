@@ -31,8 +31,8 @@ import struct
 
 from experiments.errors import DisplayError
 
-from .thermocue import messages as m
-from .thermocue.messages import DeviceInfo
+from . import messages as m
+from .messages import DeviceInfo
 
 __all__ = ["HandshakeRefused", "decode_hello", "WATCHDOG_MS_RANGE", "TELEMETRY_HZ_RANGE",
            "PROTOCOL_MIN_C", "PROTOCOL_MAX_SETPOINT_C", "PROTOCOL_MAX_RATE_C_PER_S"]

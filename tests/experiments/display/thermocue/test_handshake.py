@@ -17,7 +17,7 @@ import pytest
 from experiments.errors import DisplayError
 from experiments.display import open_display
 from experiments.display.thermocue.framing import FrameParser, encode_frame
-from experiments.display.handshake import HandshakeRefused, decode_hello
+from experiments.display.thermocue.handshake import HandshakeRefused, decode_hello
 
 LAYOUT = struct.Struct("<BHhhHhHIII")
 GOOD = dict(version=2, hz=100, hmin=1000, hmax=4450, rate=10000, neutral=3200, wd=90,
