@@ -11,12 +11,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 from .thermocue import messages as m
-from .thermocue.messages import DeviceEvent, Status, Telemetry
+from .thermocue.messages import END_NAMES, DeviceEvent, Status, Telemetry
 
 __all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS"]
 
 ACTIVE_STATES = ("ARMED", "PLAYING", "RECORDING")
-END_NAMES = {0: "complete", 1: "released", 2: "max_duration", 3: "aborted", 4: "fault"}
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,8 @@ from typing import NamedTuple
 __all__ = [
     "PROTOCOL_VERSION", "Cmd", "Msg", "Err", "State", "Event", "Mode", "REPLY_BIT",
     "DeviceInfo", "Status", "Telemetry", "DeviceEvent", "UploadAck", "CommitAck",
-    "centi", "from_centi", "error_name",
+    "centi", "from_centi", "error_name", "END_COMPLETE", "END_RELEASED", "END_MAX_DURATION",
+    "END_ABORTED", "END_FAULT", "END_NAMES",
     "HELLO_REQ", "CLEAR_FAULT_MAGIC", "HELLO_REPLY_HEAD", "TIME", "CENTI", "LIMITS", "UPLOAD_BEGIN", "UPLOAD_CHUNK_HEAD",
     "UPLOAD_CHUNK_ACK", "COMMIT", "COMMIT_ACK", "ARM", "COUNTER", "STATUS_REPLY", "TELEMETRY", "EVENT_HEAD",
     "NAK_HEAD", "encode_strings", "encode_json", "decode_json",
@@ -107,6 +108,13 @@ class Event(enum.IntEnum):
     END = 3         # trial over; arg = 0 complete, 1 released, 2 max duration, 3 aborted
     FAULT = 4       # arg = fault code
     WATCHDOG = 5    # heartbeat lost; arg = ms since the last heartbeat
+
+
+#: Why a trial ended (EVENT END argument, STATUS end_reason): the device sends them, the host
+#: names them.
+END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
+END_NAMES = {END_COMPLETE: "complete", END_RELEASED: "released", END_MAX_DURATION: "max_duration",
+             END_ABORTED: "aborted", END_FAULT: "fault"}
 
 
 # --- payload layouts -------------------------------------------------------------------------

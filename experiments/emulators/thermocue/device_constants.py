@@ -8,6 +8,9 @@ from __future__ import annotations
 import zlib
 
 from experiments.display.thermocue.messages import Cmd, Err
+# why a trial ended: the wire format's codes
+from experiments.display.thermocue.messages import (END_ABORTED, END_COMPLETE, END_FAULT,  # noqa: F401
+                                                    END_MAX_DURATION, END_RELEASED)
 
 FIRMWARE = "thermocue-emu 1.0.0"
 HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to it, always
@@ -43,7 +46,3 @@ BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT
 def make_boot_id(seed: int, boots: int) -> int:
     """A power-up's boot id (non-zero, different at every power-up of one device)."""
     return (zlib.crc32(f"{seed}:{boots}".encode()) or 1) & 0xFFFFFFFF
-
-
-#: Why a trial ended (EVENT END argument, STATUS end_reason).
-END_COMPLETE, END_RELEASED, END_MAX_DURATION, END_ABORTED, END_FAULT = 0, 1, 2, 3, 4
