@@ -4,8 +4,9 @@ A backend registers itself by subclassing :class:`~.display_base.Display` with `
 (as PsychoPy's devices register by subclassing ``BaseDevice``). The built-in backends live in
 the modules of :data:`BUILTIN_MODULES`, imported on first lookup so that importing the package
 does not start QEMU's or the thermode's code; a third-party backend is a module listed under the
-``thermocue.displays`` entry-point group (imported the same way), or any module imported before
-the display is opened.
+``thermocue.displays`` entry-point group (imported the same way: the emulators register
+``emulator://`` so, from :mod:`experiments.emulators.backends`, which the display never imports),
+or any module imported before the display is opened.
 
 URL grammar: ``SCHEME://REST``; a URL without ``://`` (``/dev/ttyUSB0``, ``COM3``, a pty path)
 is the thermocue display protocol on a serial port (scheme ``serial``). pyserial's own URL

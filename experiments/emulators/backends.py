@@ -28,8 +28,8 @@ __all__ = ["EmulatorDisplay"]
 class EmulatorDisplay(ThermalDisplay, scheme="emulator"):
     """The Python emulator of the thermocue display, in-process (``emulator://[?...]``).
 
-    The fast, fault-injecting model of the device (:mod:`.thermocue.protocol_emulator`): virtual or real
-    clock, link faults, a scripted bench (``sim_sample``, ``sim_finger``).
+    The fast, fault-injecting model of the device (:mod:`.thermocue.protocol_emulator`): virtual
+    or real clock, link faults, a scripted bench (``sim_sample``, ``sim_finger``).
     """
 
     description = "the Python emulator of the thermocue display, in this process"
