@@ -31,7 +31,8 @@ except OSError:
     pass
 import json
 from psychopy.clock import getTime
-from experiments.display import device, protocol_emulator, pty_server
+from experiments.emulators import pty_server
+from experiments.emulators.thermocue import device, protocol_emulator
 
 class StampedLog(protocol_emulator.JsonLog):
     def __call__(self, rec):
