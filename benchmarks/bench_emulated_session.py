@@ -99,7 +99,7 @@ def main(argv=None) -> int:
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}; code: {ROOT}")
     try:
-        from experiments.hardware import compiled_tick
+        from experiments.emulators.thermocue import compiled_tick
         ticks = "compiled" if compiled_tick.enabled else (
             "Python (THERMOCUE_PYTHON_TICK=1)" if compiled_tick.AVAILABLE else "Python (not built)")
     except ImportError:            # before stop 19, and since the compiled tick was retired

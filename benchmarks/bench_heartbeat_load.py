@@ -82,7 +82,7 @@ def run_load(load: int, trials: int, tmp: Path, transport: str = "pty", gil_ms: 
     import numpy as np
     from psychopy import visual
 
-    from experiments.hardware import open_display
+    from experiments.display import open_display
 
     burners = [subprocess.Popen([sys.executable, "-c", BURNER]) for _ in range(load)]
     log = tmp / f"emulator-{transport}-load{load}.jsonl"

@@ -56,7 +56,7 @@ CHILD_TIMEOUT_S = 300
 CHILD = r"""
 import json, os, sys, atexit
 sys.path.insert(0, os.environ["CAMPAIGN_ROOT"])
-from experiments.hardware.device import Device
+from experiments.emulators.thermocue.device import Device
 stats = {"ticks": 0, "sp_above_max": 0, "pad_above_45_ticks": 0, "pad_above_45_longest": 0,
          "max_pad_C": 0.0, "max_sp_C": 0.0}
 run = [0]

@@ -1,7 +1,7 @@
 """Slowing a target profile down to the display's rate limit (``[simulation] rate_limit = "slew"``).
 
 The display refuses a profile whose rate ``|T(t + w) - T(t)| / w`` exceeds
-``[display] max_rate_C_per_s`` (:mod:`experiments.hardware.safety`). A compensated target
+``[display] max_rate_C_per_s`` (:mod:`experiments.display.safety`). A compensated target
 (``target_side = "compensated"``) starts with a fast fall for rough samples (13.5 °C/s over
 0.1 s for 50 µm), so a protocol may ask the session to limit it: :func:`limit_rate` returns the
 mean of the profile slew-limited forwards and backwards (each sample moves at most ``rate * dt``
@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from experiments.hardware.safety import profile_max_rate
+from experiments.display.safety import profile_max_rate
 
 __all__ = ["limit_rate", "window_rate"]
 
 #: Largest ``|T(t + w) - T(t)| / w`` of a uniformly sampled profile, °C/s: the display's own
-#: check (:func:`experiments.hardware.safety.profile_max_rate`), so "within the limit" here and
+#: check (:func:`experiments.display.safety.profile_max_rate`), so "within the limit" here and
 #: at upload cannot disagree.
 window_rate = profile_max_rate
 

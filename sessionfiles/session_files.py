@@ -107,7 +107,7 @@ class TraceWriter:
         self._arrays = None
 
     def write(self, frame) -> None:
-        """Append one :class:`~experiments.hardware.Telemetry` frame."""
+        """Append one :class:`~experiments.display.Telemetry` frame."""
         # the hot path of a session (100 frames a second of device time): the whole line in
         # one C-level format, the decoded frame's floats kept as they are
         if not isinstance(frame, tuple):        # any frame with Telemetry's field names

@@ -3,8 +3,8 @@
 ``--display URL`` (default ``emulator://``): the thermal display the hardware tests drive (a
 device path such as ``/dev/ttyUSB0``, a pty, or any pyserial URL); the option lives here, in the
 rootdir conftest, so that it works for whole-suite runs as well as for
-``pytest tests/experiments/hardware --display /dev/ttyUSB0``. Fixture: ``display_url``
-(tests/experiments/hardware/conftest.py adds ``display`` and ``sim_display``).
+``pytest tests/experiments/display --display /dev/ttyUSB0``. Fixture: ``display_url``
+(tests/experiments/display/conftest.py adds ``display`` and ``sim_display``).
 
 ``xvfb`` (session scope) starts ``Xvfb -screen 0 1280x1024x24 -nolisten tcp`` on a free display
 number (``-displayfd``, so parallel runs do not collide), points ``DISPLAY`` at it and ``HOME``

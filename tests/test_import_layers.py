@@ -1,13 +1,20 @@
 """Dependencies flow downward (docs/design.md, "Layers"): checked on the source, every import,
-including those inside functions.
+including those inside functions and the modules loaded lazily from a declared table.
 
 stimuli -> numpy, scipy, the standard library only; sessionfiles (the session folder: its format,
 writers, reader, atomic files) -> the standard library, numpy and pandas only, never experiments,
 analysis or stimuli; analysis -> never experiments (the floor sessionfiles, and stimuli.paper's
-sample names, are what it uses of the tree); experiments.hardware -> not the command line, not
-the session; and inside experiments only the Figure 9 package (experiments.simulation.figure9:
-the study, its scenarios against the paper's claims, ``reproduce figure9``) and the command line
-(``thermocue analyze``, ``power``, ``reproduce``: the top of the stack) import analysis.
+sample names, are what it uses of the tree); and inside experiments only the Figure 9 package
+(experiments.simulation.figure9: the study, its scenarios against the paper's claims, ``reproduce
+figure9``) and the command line (``thermocue analyze``, ``power``, ``reproduce``: the top of the
+stack) import analysis.
+
+Host and device apart: the display (experiments.display) never imports the emulators, the
+session, the responders or the command line; the session and the responders never import the
+emulators, nor does the PsychoPy plugin; the emulators import of the display only its wire format
+(:data:`WIRE_FORMAT`), but for :data:`EMULATOR_BACKENDS`, the module that registers their URL
+schemes with the display registry as a third-party backend would (the ``thermocue.displays``
+entry points of pyproject.toml).
 
 No import cycle, counting imports inside functions: none between modules, none between packages
 (a subpackage is one node, a loose module of ``experiments`` one of its own), but those listed in
@@ -17,6 +24,7 @@ from __future__ import annotations
 
 import ast
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -63,7 +71,68 @@ def _imports():
     return found
 
 
-IMPORTS = _imports()
+STATIC_IMPORTS = _imports()
+
+#: The modules that load modules by name (``importlib.import_module``), each from one declared
+#: module-level table: module -> (the table's name, the package its names are relative to, or
+#: "" for absolute names). The scan counts each entry as an import of that module, so the layer
+#: rules see lazily loaded modules too.
+LAZY_TABLES = {
+    "experiments.display.registry": ("BUILTIN_MODULES", ""),
+    "experiments.display": ("_EXPORTS", "experiments.display"),
+    "experiments.cli": ("SUBCOMMANDS", "experiments.cli"),
+    "experiments.responders.base": ("_KNOWN_MODULES", "experiments.responders"),
+    "stimuli": ("_EXPORTS", "stimuli"),
+}
+#: Modules that call ``import_module`` on something outside the tree only (a Qt binding).
+EXTERNAL_LOADERS = ("experiments.psychopy_plugin.component.info_dialog",)
+
+
+def _table_values(module: str, table: str) -> list[str]:
+    """The string values of a module-level tuple or the values of a dict named ``table``."""
+    path = ROOT / Path(*module.split("."))
+    path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
+    for node in ast.parse(path.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == table
+                                                for t in node.targets):
+            value = node.value
+            items = value.values if isinstance(value, ast.Dict) else value.elts
+            return [ast.literal_eval(v) for v in items]
+    raise AssertionError(f"{module} has no module-level table {table}")
+
+
+def _lazy_imports():
+    found = []
+    for module, (table, package) in LAZY_TABLES.items():
+        for name in _table_values(module, table):
+            found.append((module, f"{package}.{name}" if package else name, 0))
+    return found
+
+
+LAZY_IMPORTS = _lazy_imports()
+#: Every import of the layer rules: the statements and the declared lazy loads.
+IMPORTS = STATIC_IMPORTS + LAZY_IMPORTS
+
+
+def _loaders() -> set[str]:
+    """The modules of the tree that call ``import_module``."""
+    found = set()
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.Call) and (
+                        getattr(node.func, "attr", None) == "import_module"
+                        or getattr(node.func, "id", None) == "import_module"):
+                    found.add(_module_name(path)[0])
+    return found
+
+
+def test_every_module_loaded_by_name_is_declared():
+    # a hand-written import_module("...") would hide an import from every rule below
+    assert _loaders() == set(LAZY_TABLES) | set(EXTERNAL_LOADERS)
+    modules = {_module_name(p)[0] for package in PACKAGES for p in (ROOT / package).rglob("*.py")}
+    assert sorted(t for _, t, _ in LAZY_IMPORTS if t not in modules) == []
+    assert ("experiments.display.registry", "experiments.display.tcs2.backend", 0) in LAZY_IMPORTS
 
 
 def _within(name: str, prefixes) -> bool:
@@ -137,10 +206,72 @@ def test_analysis_never_imports_experiments():
     assert any(_within(m, ("analysis",)) and _within(t, ("sessionfiles",)) for m, t, _ in IMPORTS)
 
 
-def test_hardware_never_imports_the_cli_or_the_session():
+DISPLAY = ("experiments.display",)
+EMULATORS = ("experiments.emulators",)
+#: The display's wire format: what an emulator of a device may import of the display (the
+#: thermocue protocol's frames and messages, and the two packages that hold them, whose
+#: ``__init__`` import nothing at load time).
+WIRE_FORMAT = ("experiments.display.thermocue.framing", "experiments.display.thermocue.messages")
+WIRE_FORMAT_PACKAGES = ("experiments.display", "experiments.display.thermocue")
+#: The emulators' display backends (``emulator://``): a Display subclass, registered through the
+#: ``thermocue.displays`` entry point like a third-party backend; it may import the display.
+EMULATOR_BACKENDS = ("experiments.emulators.backends",)
+
+
+def test_the_display_never_imports_the_emulators_the_session_the_responders_or_the_cli():
     def allowed(target, _):
-        return not _within(target, ("experiments.cli", "experiments.session"))
-    assert _violations(("experiments.hardware",), allowed) == []
+        return not _within(target, EMULATORS + ("experiments.session", "experiments.responders",
+                                                "experiments.cli"))
+    assert _violations(DISPLAY, allowed) == []
+
+
+def test_the_session_the_responders_and_the_plugin_never_import_the_emulators():
+    def allowed(target, _):
+        return not _within(target, EMULATORS)
+    assert _violations(("experiments.session", "experiments.responders",
+                        "experiments.psychopy_plugin"), allowed) == []
+
+
+def test_the_emulators_import_of_the_display_only_its_wire_format():
+    def allowed(target, module):
+        if _within(target, ("experiments.session", "experiments.responders", "experiments.cli",
+                            "experiments.psychopy_plugin")):
+            return False
+        if not _within(target, DISPLAY) or _within(module, EMULATOR_BACKENDS):
+            return True
+        return _within(target, WIRE_FORMAT) or target in WIRE_FORMAT_PACKAGES
+    assert _violations(EMULATORS, allowed) == []
+    # the rule sees them: the emulated firmware does frame its bytes with the display's framing
+    assert ("experiments.emulators.thermocue.device", "experiments.display.thermocue.framing") in {
+        (m, t) for m, t, _ in IMPORTS}
+
+
+@pytest.mark.parametrize("package", WIRE_FORMAT_PACKAGES)
+def test_the_wire_format_packages_import_nothing_of_the_tree_when_loaded(package):
+    # their __init__ runs whenever an emulator imports the wire format: it must pull in nothing
+    # more (the display's names are loaded lazily, on attribute access)
+    top = {(m, t) for m, t, line in STATIC_IMPORTS if m == package and line
+           and t.split(".")[0] in PACKAGES}
+    assert top == set()
+
+
+def _entry_points(group: str) -> dict[str, str]:
+    with open(ROOT / "pyproject.toml", "rb") as f:
+        project = tomllib.load(f)["project"]
+    return {name: value.split(":")[0]
+            for name, value in project.get("entry-points", {}).get(group, {}).items()}
+
+
+def test_the_emulators_register_like_a_third_party_backend():
+    # the registry's own built-in backends are the display's; the emulator comes in through the
+    # thermocue.displays entry points, which name modules outside the display only
+    builtins = _table_values("experiments.display.registry", "BUILTIN_MODULES")
+    assert builtins and all(_within(b, DISPLAY) for b in builtins)
+    plugins = _entry_points("thermocue.displays")
+    assert set(plugins.values()) == set(EMULATOR_BACKENDS)
+    modules = {_module_name(p)[0] for p in (ROOT / "experiments").rglob("*.py")}
+    assert set(plugins.values()) <= modules and not any(_within(v, DISPLAY)
+                                                        for v in plugins.values())
 
 
 @pytest.mark.parametrize("package", ["participants_schema"])
@@ -189,7 +320,7 @@ def _resolve(target: str) -> str | None:
 def _module_graph() -> dict[str, dict[str, int]]:
     """importing module -> {imported module of the tree: first line}, every import counted."""
     graph: dict[str, dict[str, int]] = {}
-    for module, target, line in IMPORTS:
+    for module, target, line in STATIC_IMPORTS:   # a registry's load of its plugins is no cycle
         resolved = _resolve(target)
         if resolved and resolved != module:
             graph.setdefault(module, {}).setdefault(resolved, line)
@@ -273,7 +404,13 @@ def _explain(component, graph) -> str:
 
 
 #: Package-level cycles tolerated for now, each with its reason (none at module level).
-ALLOWED_PACKAGE_CYCLES: dict[tuple[str, ...], str] = {}
+ALLOWED_PACKAGE_CYCLES: dict[tuple[str, ...], str] = {
+    ("experiments.display", "experiments.display.thermocue"):
+        "the Display contract (base, trial_recording) still describes a device, its status and its "
+        "telemetry with the thermocue protocol's wire types (messages.DeviceInfo, Status, "
+        "Telemetry, DeviceEvent), which the thermocue backend's driver implements; neutral types "
+        "in experiments.display end it",
+}
 
 MODULE_GRAPH = _module_graph()
 PACKAGE_GRAPH = _package_graph(MODULE_GRAPH)
@@ -310,7 +447,7 @@ def test_no_import_cycle_between_packages():
 #: The participant model serves the session's simulated responder; the studies run sessions.
 PARTICIPANT_MODEL = ("experiments.participant_model",)
 ABOVE_THE_SESSION = ("experiments.session", "experiments.responders", "experiments.simulation",
-                     "experiments.cli", "experiments.hardware", "analysis")
+                     "experiments.cli", "experiments.display", "analysis")
 
 
 def test_the_participant_model_sits_below_the_session_and_the_studies():

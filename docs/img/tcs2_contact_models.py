@@ -4,7 +4,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from experiments.protocol import load_protocol
 from experiments.session.setup import simulated_target_profile
-from experiments.hardware.tcs2.profile_compiler import compile_profile, segments_to_samples
+from experiments.display.tcs2.profile_compiler import compile_profile, segments_to_samples
 
 p = load_protocol("roughness_recognition_tcs2")
 rec = {"id": "P01", "skin_thickness": {"total_um": 680}}

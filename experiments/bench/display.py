@@ -61,7 +61,7 @@ def _target(roughness_um, skin_um):
 
 
 def _start_emulator(*args):
-    proc = subprocess.Popen([sys.executable, "-m", "experiments.hardware.pty_server", *args],
+    proc = subprocess.Popen([sys.executable, "-m", "experiments.emulators.pty_server", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     r, _, _ = select.select([proc.stdout], [], [], 60)
     if not r:
@@ -79,7 +79,7 @@ def _stop(proc):
 
 
 def _rtt(path, n=1000):
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     with open_display(path) as d:
         d.stop_heartbeat()          # time the link, not contention with the background thread
         for _ in range(50):
@@ -93,7 +93,7 @@ def _rtt(path, n=1000):
 
 
 def _loss(path, trials, hold_s=20.0):
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     t, y, _ = _target(1.6, 650.0)
     frames = lost = 0
     with open_display(path) as d:
@@ -108,7 +108,7 @@ def _loss(path, trials, hold_s=20.0):
 
 
 def _tracking():
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     rows = []
     with open_display("emulator://?clock=virtual&seed=20261122") as d:
         for skin_um in SKIN_UM:

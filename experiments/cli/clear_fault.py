@@ -28,8 +28,8 @@ def register(sub) -> None:
 
 def _run(ns) -> int:
     from experiments.errors import DisplayError, UserInputError
-    from experiments.hardware.driver import ThermalDisplay
-    from experiments.hardware.registry import scheme_of
+    from experiments.display.thermocue.driver import ThermalDisplay
+    from experiments.display.registry import scheme_of
 
     if scheme_of(ns.url) != "serial":
         raise UserInputError(f"{ns.url}: clear-fault speaks the thermocue display protocol on a "

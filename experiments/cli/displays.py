@@ -1,6 +1,6 @@
 """`thermocue displays`: the registered display backends, what each can do, and whether it runs here.
 
-Thin over :mod:`experiments.hardware.registry`: one row per backend (URL scheme, availability,
+Thin over :mod:`experiments.display.registry`: one row per backend (URL scheme, availability,
 contact detection, force sensing, telemetry rate, longest profile, safe range, rate limit, modes),
 or ``--json`` for a machine-readable list.
 """
@@ -23,7 +23,7 @@ def register(sub) -> None:
 
 def describe() -> list[dict]:
     """One dict per registered backend: scheme, URL grammar, description, availability, capabilities."""
-    from experiments.hardware.registry import backends
+    from experiments.display.registry import backends
     rows = []
     for cls in backends():
         ok, reason = cls.availability()

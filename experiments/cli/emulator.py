@@ -1,15 +1,15 @@
 """`thermocue emulator`: serve the display protocol on a pseudo-terminal, print its path.
 
-The options live in :mod:`experiments.hardware.emulator_options`, the server in
-:mod:`experiments.hardware.pty_server` (hardware never imports the CLI); this module only
+The options live in :mod:`experiments.emulators.options`, the server in
+:mod:`experiments.emulators.pty_server` (the emulators never import the CLI); this module only
 registers the sub-command. ``--model tcs2`` serves the QST.Lab TCS II emulator instead
-(:mod:`experiments.hardware.tcs2.pty_server`; open it with ``--display tcs2://PATH``).
+(:func:`~experiments.emulators.pty_server.run_tcs2`; open it with ``--display tcs2://PATH``).
 """
 from __future__ import annotations
 
 
 def register(sub) -> None:
-    from experiments.hardware.emulator_options import add_arguments   # stdlib only: fast
+    from experiments.emulators.options import add_arguments   # stdlib only: fast
     p = sub.add_parser(
         "emulator",
         help="serve the emulated thermal display on a pty (prints the path; SIGINT/SIGTERM stops)",
@@ -27,11 +27,11 @@ def register(sub) -> None:
 
 def _run(ns) -> int:
     if ns.model == "tcs2":
-        from experiments.hardware.tcs2.pty_server import run as run_tcs2
+        from experiments.emulators.pty_server import run_tcs2
         return run_tcs2(ns)   # UserInputError (bad --faults, --clock virtual) -> exit 2
     if ns.speed != 1.0:
         from experiments.errors import UserInputError
         raise UserInputError(f"--speed: expected it only with --model tcs2 (the thermocue "
                              f"emulator has --clock virtual), got {ns.speed:g}")
-    from experiments.hardware.pty_server import run
+    from experiments.emulators.pty_server import run
     return run(ns)          # UserInputError (bad --faults, --link held) -> exit 2

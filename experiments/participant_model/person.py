@@ -342,7 +342,7 @@ class SimulatedPerson:
         Eq. 5 (:func:`stimuli.contact_resistance`) for the pad's face (R_a ``pad_roughness_m``,
         m, of ``pad_material``) against this person's skin, at the paper's 2 N on 135 mm²: the
         same formula the emulated pad uses
-        (:func:`experiments.hardware.pad_physics.finger_pad_resistance`, 0.4 µm copper).
+        (:func:`experiments.emulators.thermocue.pad_physics.finger_pad_resistance`, 0.4 µm copper).
         """
         from stimuli import contact_resistance, material
         return float(contact_resistance(float(pad_roughness_m), skin=self.skin,

@@ -27,7 +27,7 @@ SIM_CONTACT_MODELS = ("press", "resting")
 #: ``[simulation] replayed_material``: the profile is computed for the protocol's sample
 #: (``[material]``, e.g. a 3 mm slab) or for a half-space of the same material (the closed forms).
 SIM_REPLAYED_MATERIALS = ("sample", "half-space")
-#: The emulated display's pad face (``experiments.hardware.pad_physics.finger_pad_resistance``):
+#: The emulated display's pad face (``experiments.emulators.thermocue.pad_physics.finger_pad_resistance``):
 #: polished copper, R_a 0.4 µm.  The defaults of ``[simulation] pad_roughness_um`` / ``pad_material``.
 DEFAULT_PAD_ROUGHNESS_UM = paper.PAD_ROUGHNESS_UM
 DEFAULT_PAD_MATERIAL = paper.PAD_MATERIAL
@@ -84,7 +84,7 @@ class SampleMaterial:
 class DisplaySettings:
     """The Peltier display's safe range, rate limit and neutral setpoint.
 
-    Field names match ``experiments.hardware.SafetyLimits``: :meth:`safety_limits` builds them.
+    Field names match ``experiments.display.SafetyLimits``: :meth:`safety_limits` builds them.
     ``min_C``, ``max_C`` and ``neutral_C`` must lie in the skin-safe
     [:data:`~experiments.protocol.limits.SKIN_SAFE_MIN_C`, :data:`~experiments.protocol.limits.SKIN_SAFE_MAX_C`]
     = [5, 45] °C.
@@ -96,9 +96,9 @@ class DisplaySettings:
     neutral_C: float
 
     def safety_limits(self):
-        """These settings as the display driver's :class:`~experiments.hardware.safety.SafetyLimits`."""
+        """These settings as the display driver's :class:`~experiments.display.safety.SafetyLimits`."""
         # lazy: the hardware package is the driver's layer, not needed to read a protocol
-        from experiments.hardware.safety import SafetyLimits
+        from experiments.display.safety import SafetyLimits
         return SafetyLimits(**dataclasses.asdict(self))
 
 

@@ -142,7 +142,7 @@ def sync_burst(heartbeat, clock, *, duration_s: float = 0.03, min_samples: int =
     ----------
     heartbeat : callable
         One acknowledged heartbeat, returning the device time, s
-        (:meth:`experiments.hardware.ThermalDisplay.heartbeat`).
+        (:meth:`experiments.display.ThermalDisplay.heartbeat`).
     clock : callable
         The host clock, s (PsychoPy's ``psychopy.clock.getTime``).
     duration_s : float, s

@@ -1,7 +1,7 @@
 """The thermal display as a PsychoPy device: ``DeviceManager.addDevice("thermocue", ...)``.
 
 A thin :class:`psychopy.hardware.base.BaseResponseDevice` over the existing driver
-(:class:`experiments.hardware.ThermalDisplay`): the same URLs (``/dev/ttyUSB0``, a pty path,
+(:class:`experiments.display.ThermalDisplay`): the same URLs (``/dev/ttyUSB0``, a pty path,
 ``emulator://...``), the same handshake, safety checks and heartbeat. Force threshold crossings
 become :class:`ContactResponse` objects (contact: the summed force reached the threshold;
 release: it stayed below half of it for 50 ms) carrying the device's own time stamp and its
@@ -21,7 +21,7 @@ from psychopy import logging
 from psychopy.hardware.base import BaseResponse, BaseResponseDevice
 
 from experiments.errors import DisplayError
-from experiments.hardware import SafetyLimits, open_display
+from experiments.display import SafetyLimits, open_display
 
 from .clock_sync import ClockMap, SyncBurst, sync_burst
 from .profiles import load_protocol_for_cue
@@ -73,12 +73,12 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
         A serial device path, a pty path or ``emulator://[?...]`` (any pyserial URL).
     protocol : str, Path or Protocol, optional
         Supplies the safety limits and neutral temperature (its ``[display]`` table); without
-        one, :class:`~experiments.hardware.SafetyLimits`' defaults (15–42 °C, 10 °C/s, 32 °C).
+        one, :class:`~experiments.display.SafetyLimits`' defaults (15–42 °C, 10 °C/s, 32 °C).
     baudrate : int
 
     Attributes
     ----------
-    display : experiments.hardware.ThermalDisplay
+    display : experiments.display.ThermalDisplay
         The driver (open, handshake done, heartbeat running).
     clockMap : ClockMap or None
         The latest device→PsychoPy time map (:meth:`syncClock`).
@@ -127,7 +127,7 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
 
         from serial.tools import list_ports
 
-        from experiments.hardware.registry import backends
+        from experiments.display.registry import backends
         cls_name = "experiments.psychopy_plugin.device.ThermalCueDevice"
         per_port = {"serial": ("Thermal display", "{port}"), "tcs2": ("TCS II", "tcs2://{port}")}
         fixed = {"emulator": [("Thermal display (emulator)", "emulator://")],
@@ -241,7 +241,7 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
         """End the armed trial (aborting it if it still runs) and return its recording.
 
         The display is at neutral afterwards. Returns the driver's
-        :class:`~experiments.hardware.TrialRecording`.
+        :class:`~experiments.display.TrialRecording`.
         """
         if not self.dispatchMessages():
             self.display.abort()

@@ -2,7 +2,7 @@
 
 On a real trial the experimenter places the sample on the bench; on every trial the finger
 approaches, presses with a force, stays and lets go. On the emulator
-(:class:`~experiments.hardware.display_base.EmulatedDisplay`) both are scripted here, once, for the
+(:class:`~experiments.display.base.EmulatedDisplay`) both are scripted here, once, for the
 session's stand-in hand (:meth:`experiments.session.Session.emulated_touch`), the simulated
 participant (:meth:`experiments.responders.simulated.SimulatedResponder.touch`), the PsychoPy
 cue's dry run (:meth:`experiments.psychopy_plugin.cue.ThermalCue.start`) and the display bench

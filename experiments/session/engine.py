@@ -23,7 +23,7 @@ from experiments.errors import DisplayError, SessionError, UserInputError
 from sessionfiles.logbook import EventLog, log_shortfall, read_events, replay
 from experiments.responders.base import Responder
 from experiments.responders.hand import press
-from experiments.hardware.display_base import Display
+from experiments.display.base import Display
 from experiments.session.hooks import SessionHooks, hooks_from_env
 from experiments.session.machine import StateMachine, clock_for_url
 from experiments.session.planning import SessionProfiles

@@ -159,8 +159,8 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
 
     The profiles are :func:`simulated_target_profile`'s (cached by ``stimuli.target_profile``;
     slowed to the rate limit with ``[simulation] rate_limit = "slew"``) and the check is the
-    display driver's own (:func:`experiments.hardware.safety.check_profile` with the protocol's
-    :class:`~experiments.hardware.safety.SafetyLimits`), so a profile that passes here passes
+    display driver's own (:func:`experiments.display.safety.check_profile` with the protocol's
+    :class:`~experiments.display.safety.SafetyLimits`), so a profile that passes here passes
     the upload.
 
     Parameters
@@ -187,7 +187,7 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
         An unusable calibration, or a compensated profile the pad cannot give.
     """
     from experiments.errors import ProtocolError, SafetyLimitError
-    from experiments.hardware.safety import check_profile, profile_max_rate
+    from experiments.display.safety import check_profile, profile_max_rate
 
     src = source or protocol_source(protocol)
     keys = sorted({(s.roughness_id, s.roughness_um) for s in schedule if s.mode == "simulated"})
@@ -336,7 +336,7 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
     from experiments.errors import ProtocolError, SafetyLimitError
-    from experiments.hardware.registry import backend_for
+    from experiments.display.registry import backend_for
 
     src = source or protocol_source(protocol)
     try:

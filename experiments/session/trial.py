@@ -302,7 +302,7 @@ class TrialSteps:
         else:
             code, message = getattr(exc, "code", None), str(exc)
             if isinstance(code, int):   # DisplayRefused: the device's code, named like a device fault
-                from experiments.hardware.messages import error_name
+                from experiments.display.thermocue.messages import error_name
                 code = error_name(code)
             elif code is None:
                 code = type(exc).__name__

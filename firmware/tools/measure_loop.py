@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", ".."))
 
-from experiments.hardware import open_display  # noqa: E402
+from experiments.display import open_display  # noqa: E402
 
 
 def main() -> int:

@@ -35,7 +35,7 @@ def backend(request) -> str:
 
 
 def open_backend(name: str):
-    from experiments.hardware import open_display
+    from experiments.display import open_display
     return open_display(URLS[name])
 
 
@@ -73,14 +73,14 @@ class RawLink:
     """
 
     def __init__(self, port, close):
-        from experiments.hardware.framing import FrameParser
+        from experiments.display.thermocue.framing import FrameParser
         self.port = port
         self._close = close
         self.parser = FrameParser()
         self.others: list = []
 
     def send(self, seq: int, mtype: int, payload: bytes = b"") -> None:
-        from experiments.hardware.framing import encode_frame
+        from experiments.display.thermocue.framing import encode_frame
         self.port.write(encode_frame(seq, mtype, payload))
 
     def command(self, seq: int, mtype: int, payload: bytes = b"", timeout_s: float = 1.0):
@@ -115,11 +115,11 @@ class RawLink:
 @pytest.fixture
 def raw(backend):
     if backend == "emulator":
-        import experiments.hardware  # noqa: F401  (registers emulator:// with pyserial)
+        import experiments.emulators.thermocue  # noqa: F401  (registers emulator:// with pyserial)
         port = serial.serial_for_url(URLS["emulator"], timeout=0.01)
         link = RawLink(port, port.close)
     else:
-        from experiments.hardware.qemu_firmware import await_link, stop_qemu, build_image, start_qemu
+        from experiments.display.thermocue.qemu_firmware import await_link, stop_qemu, build_image, start_qemu
         proc, pty = start_qemu(build_image())
         port = serial.Serial(pty, 115200, timeout=0.01)
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from experiments.errors import DisplayFaultLatched, DisplayRefused, DisplayRestarted
-from experiments.hardware import messages as m
+from experiments.display.thermocue import messages as m
 
 SPEC_MAX_TRACKING_C = 1.0      # [simulation] max_tracking_error_C's default (§4)
 
@@ -160,7 +160,7 @@ def test_host_loss_returns_the_pad_to_neutral(display):
     While the host is silent the test only reads the link (the driver's own reads would send
     implicit heartbeats), until the device reports the trip -- on the device's clock, which
     under QEMU may run slower than the wall clock when the host machine is loaded."""
-    from experiments.hardware.framing import FrameParser
+    from experiments.display.thermocue.framing import FrameParser
     display.set_neutral(32.0)
     t = np.arange(0.0, 2.0, 0.01)
     display.upload_profile(t, np.full_like(t, 34.0))
@@ -277,7 +277,7 @@ def test_no_hello_refuses_all_but_the_safe_commands(raw):
 
 def test_garbage_costs_only_the_frames_it_overlaps(raw):
     """§1: after random bytes (false markers and headers among them) the next frame is parsed."""
-    from experiments.hardware.framing import encode_frame
+    from experiments.display.thermocue.framing import encode_frame
     rng = np.random.default_rng(4)
     _hello(raw, 1)
     for k in range(20):

@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from experiments.errors import DisplayError, DisplayTimeout
-from experiments.hardware.driver import TrialRecording
-from experiments.hardware.messages import Telemetry
+from experiments.display.thermocue.driver import TrialRecording
+from experiments.display.thermocue.messages import Telemetry
 from experiments.responders.base import Responder, Response
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -161,7 +161,7 @@ class Info:
 
 @dataclass
 class ScriptedDisplay:
-    """Follows the driver's contract (:class:`experiments.hardware.display_base.EmulatedDisplay`,
+    """Follows the driver's contract (:class:`experiments.display.base.EmulatedDisplay`,
     frames and recordings of the driver's own types); ``script`` says per run_trial call what happens:
     ``"ok"``, ``"fault"`` (faulted recording), ``"raise"`` (DisplayError), ``"timeout"``
     (DisplayTimeout) or ``"no_contact"``."""
@@ -178,7 +178,7 @@ class ScriptedDisplay:
         self.calls.append(("set_neutral", c))
 
     def upload_profile(self, t, y):
-        from experiments.hardware.safety import SafetyLimits, check_profile
+        from experiments.display.safety import SafetyLimits, check_profile
         check_profile(t, y, self.limits or SafetyLimits())
         self.calls.append(("upload", len(t)))
 

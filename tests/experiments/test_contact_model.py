@@ -7,7 +7,7 @@ import pytest
 import stimuli
 from experiments.contact_model import resting_profile
 from experiments.errors import ProtocolError
-from experiments.hardware.safety import profile_max_rate
+from experiments.display.safety import profile_max_rate
 from experiments.protocol import PROTOCOLS_DIR, load_protocol
 
 TCS = PROTOCOLS_DIR / "roughness_recognition_tcs2.toml"

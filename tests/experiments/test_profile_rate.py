@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from experiments.hardware.safety import SafetyLimits, check_profile, profile_max_rate
+from experiments.display.safety import SafetyLimits, check_profile, profile_max_rate
 from experiments.profile_rate import limit_rate, window_rate
 
 

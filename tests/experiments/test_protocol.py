@@ -72,7 +72,7 @@ def test_display_fields_match_the_driver_safety_limits():
 
 
 def test_display_settings_build_the_driver_safety_limits():
-    from experiments.hardware.safety import SafetyLimits
+    from experiments.display.safety import SafetyLimits
     limits = load_protocol("roughness_recognition").display.safety_limits()
     # experiments/protocols/roughness_recognition.toml [display]; the window is the driver's default
     assert limits == SafetyLimits(min_C=15.0, max_C=42.0, max_rate_C_per_s=10.0, neutral_C=32.0)
@@ -240,7 +240,7 @@ def test_simulation_target_side_and_pad_defaults_are_the_papers_and_the_emulator
 
 
 def test_pad_resistance_is_the_emulated_pads():
-    from experiments.hardware.pad_physics import finger_pad_resistance
+    from experiments.emulators.thermocue.pad_physics import finger_pad_resistance
     sim = load_protocol("roughness_recognition").simulation
     assert sim.pad_resistance() == pytest.approx(finger_pad_resistance(), rel=1e-12)
 

@@ -61,7 +61,7 @@ def test_profiles_the_display_would_refuse_stop_the_run_before_anything_is_writt
 
 def test_the_rate_message_gives_the_fastest_profiles_rate(tmp_path):
     from experiments.errors import ProtocolError
-    from experiments.hardware.safety import profile_max_rate
+    from experiments.display.safety import profile_max_rate
     from experiments.session import simulated_target_profile
     proto = edit(write_protocol(tmp_path), "max_rate_C_per_s = 10.0", "max_rate_C_per_s = 0.5")
     with pytest.raises(ProtocolError) as ei:

@@ -11,10 +11,10 @@ import inspect
 import numpy as np
 
 from _session_helpers import ScriptedDisplay
-from experiments.hardware import open_display
-from experiments.hardware.driver import ThermalDisplay, TrialRecording
-from experiments.hardware.messages import Telemetry
-from experiments.hardware.display_base import Display, EmulatedDisplay
+from experiments.display import open_display
+from experiments.display.thermocue.driver import ThermalDisplay, TrialRecording
+from experiments.display.thermocue.messages import Telemetry
+from experiments.display.base import Display, EmulatedDisplay
 
 #: The calls the engine (and the emulated hand) make, as (args, kwargs).
 ENGINE_CALLS = {

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import serial
 
-from experiments.hardware import messages as m
+from experiments.display.thermocue import messages as m
 
 FIRMWARE = Path(__file__).resolve().parents[2] / "firmware"
 NO_ARM_GCC = shutil.which("arm-none-eabi-gcc") is None
@@ -59,9 +59,9 @@ def test_images_build_warning_free_and_fit_the_mcu(tmp_path):
 def test_board_image_without_sensors_refuses_to_heat():
     """QEMU wires no thermistor: the board image must shake hands, latch a sensor fault with
     the relay open, and refuse ARM (FAULT_LATCHED)."""
-    from experiments.hardware.framing import FrameParser, encode_frame
-    from experiments.hardware.handshake import decode_hello
-    from experiments.hardware.qemu_firmware import (BOARD_IMAGE, await_link, stop_qemu, build_image,
+    from experiments.display.thermocue.framing import FrameParser, encode_frame
+    from experiments.display.thermocue.handshake import decode_hello
+    from experiments.display.thermocue.qemu_firmware import (BOARD_IMAGE, await_link, stop_qemu, build_image,
                                                     start_qemu)
     build_image(BOARD_IMAGE)
     proc, pty = start_qemu(BOARD_IMAGE)

@@ -30,7 +30,7 @@ pytestmark = [
 
 
 def test_four_trial_session_on_the_firmware_under_qemu(tmp_path):
-    from experiments.hardware.qemu_firmware import build_image
+    from experiments.display.thermocue.qemu_firmware import build_image
     build_image()                      # once, outside the session's own time
     data = tmp_path / "data"
     res = subprocess.run(

@@ -399,7 +399,7 @@ def check_group_profiles(protocol) -> None:
 
     Computes each sample's profile for each group's profile thickness (as the session will, for a
     participant without calibration) and applies the display's checks
-    (:func:`experiments.hardware.safety.check_profile`). The session checks one participant's
+    (:func:`experiments.display.safety.check_profile`). The session checks one participant's
     schedule the same way when it is made (:func:`experiments.session.check_schedule_profiles`).
 
     Raises
@@ -408,7 +408,7 @@ def check_group_profiles(protocol) -> None:
         Naming the protocol file, the sample and the fields to change.
     """
     from experiments.errors import SafetyLimitError, UserInputError
-    from experiments.hardware.safety import check_profile
+    from experiments.display.safety import check_profile
     from experiments.session import simulated_target_profile
     sim = protocol.simulation
     limits = protocol.display.safety_limits()

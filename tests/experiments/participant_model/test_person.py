@@ -257,7 +257,7 @@ def _pad_trial(p, ra, side):
 
 
 def test_pad_resistance_is_eq5_of_the_pad_face_as_the_emulator_uses():
-    from experiments.hardware.pad_physics import finger_pad_resistance
+    from experiments.emulators.thermocue.pad_physics import finger_pad_resistance
     # Eq. 5 by hand: 0.8 Rq / (lambda_SF Delta_a) (H / P)^0.95 for 0.4 µm copper (401 W/mK) and
     # skin (0.34 W/mK), Rq = hypot(21.69 µm, 0.4 µm), H = 12.5 gf/mm², P = 2 N / 135 mm².
     lam = 2 * 0.34 * 401.0 / (0.34 + 401.0)
@@ -293,7 +293,7 @@ def test_the_emulators_finger_and_the_model_feel_the_pad_alike():
     # pad_physics.FingerSkin) and the model's skin_response(resistance=R_pad), driven by the same
     # pad temperature through the same Eq. 5 resistance, must agree at the receptors to the
     # finite-volume grid's error (a few mK against drops of 4-5 K).
-    from experiments.hardware.pad_physics import FingerSkin, finger_pad_resistance
+    from experiments.emulators.thermocue.pad_physics import FingerSkin, finger_pad_resistance
     p = person(650.0)
     R = finger_pad_resistance()
     assert R == pytest.approx(p.pad_resistance(), rel=1e-12)
@@ -314,7 +314,7 @@ def test_emulated_compensated_trial_feels_like_the_real_sample_and_material_side
     # (this person's skin), feel the recorded pad trace through the pad resistance.
     # Tolerance 0.03 K on the drops at 1, 3 and 8 s (emulator tracking ~0.01 K rms, sensor noise
     # 3 mK, 0.01 °C profile steps); the material-side 4# is > 1 K colder at every time.
-    from experiments.hardware import SafetyLimits, open_display
+    from experiments.display import SafetyLimits, open_display
     from experiments.profile_rate import limit_rate
     from stimuli import Skin, target_profile
     p = person(650.0)

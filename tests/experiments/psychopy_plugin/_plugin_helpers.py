@@ -1,6 +1,6 @@
 """The emulator on a real pty for the plugin tests, its JSON log stamped with PsychoPy's clock.
 
-``serve_stamped`` runs ``thermocue emulator`` (``experiments.hardware.pty_server``) in a
+``serve_stamped`` runs ``thermocue emulator`` (``experiments.emulators.pty_server``) in a
 subprocess whose log records also carry ``host_s``: ``psychopy.clock.getTime()`` at the moment
 the emulator wrote the record, inside the 10 ms tick that made it. A CONTACT state change is
 therefore stamped with the device time (``t_s``) and PsychoPy's time of the same tick: the
@@ -31,7 +31,8 @@ except OSError:
     pass
 import json
 from psychopy.clock import getTime
-from experiments.hardware import device, protocol_emulator, pty_server
+from experiments.emulators import pty_server
+from experiments.emulators.thermocue import device, protocol_emulator
 
 class StampedLog(protocol_emulator.JsonLog):
     def __call__(self, rec):

@@ -171,8 +171,8 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
     # The emulator gives up time it was starved of beyond MAX_CATCH_UP_TICKS ticks (a host so
     # loaded that its loop slept that long): its clock then no longer keeps real time, and the
     # map must say so rather than give a number.
-    from experiments.hardware.device import TICK_US
-    from experiments.hardware.emulator_core import MAX_CATCH_UP_TICKS
+    from experiments.emulators.thermocue.device import TICK_US
+    from experiments.emulators.thermocue.emulator_core import MAX_CATCH_UP_TICKS
     lost_time = read_log(log)[-1]["max_late_ms"] >= MAX_CATCH_UP_TICKS * TICK_US * 1e-3
     for r in rows:
         assert r["thermal.clock_status"] == "mapped" or (

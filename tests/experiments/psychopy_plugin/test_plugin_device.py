@@ -114,7 +114,7 @@ def test_available_devices_list_every_backend_of_the_registry(monkeypatch):
 
     import serial.tools.list_ports as lp
 
-    from experiments.hardware.registry import backend_for, backends
+    from experiments.display.registry import backend_for, backends
     from experiments.psychopy_plugin.device import ThermalCueDevice
     port = SimpleNamespace(device="/dev/ttyUSB7", hwid="USB VID:PID=0403:6001", description="FT232R")
     legacy = SimpleNamespace(device="/dev/ttyS0", hwid="n/a", description="n/a")

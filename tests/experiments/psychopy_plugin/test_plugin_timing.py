@@ -65,8 +65,8 @@ def test_contact_onset_is_placed_on_psychopy_time_within_1_ms(tmp_path):
     records = read_log(log)
     # A map may refuse only when the emulator's clock really lost time: its loop starved for
     # longer than it catches up on (MAX_CATCH_UP_TICKS ticks), on a host loaded far beyond 2 cores.
-    from experiments.hardware.device import TICK_US
-    from experiments.hardware.emulator_core import MAX_CATCH_UP_TICKS
+    from experiments.emulators.thermocue.device import TICK_US
+    from experiments.emulators.thermocue.emulator_core import MAX_CATCH_UP_TICKS
     if unmapped:
         assert records[-1]["max_late_ms"] >= MAX_CATCH_UP_TICKS * TICK_US * 1e-3, unmapped
     ticks = json.loads((tmp_path / "ticks.json").read_text())

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiments.hardware import open_display
+from experiments.display import open_display
 from experiments.responders.hand import press
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -63,7 +63,7 @@ def test_only_the_hand_scripts_the_emulated_finger_and_sample():
     callers = []
     for path in sorted((ROOT / "experiments").rglob("*.py")):
         rel = path.relative_to(ROOT).as_posix()
-        if rel.startswith("experiments/hardware/") or rel == "experiments/responders/hand.py":
+        if rel.startswith("experiments/display/") or rel == "experiments/responders/hand.py":
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)

@@ -1,0 +1,682 @@
+"""The host side: :class:`ThermalDisplay` over any pyserial URL, and :func:`open_display`.
+
+One concept (~540 lines): the display's commands as the host sends them.
+
+The display's commands (handshake, neutral, upload, arm, run a trial, status, the emulator's
+"sim" commands) on the link of :mod:`.link` (:class:`~.link.ProtocolLink`: numbered requests,
+replies, heartbeats); the armed trial's book-keeping and the recording it yields are in
+:mod:`.trial_recording`.
+
+One port, one lock, one parser. Commands are request/reply with a sequence number, a timeout and
+bounded retries (every command is safe to retry: the device answers a repeated sequence number
+with its cached reply instead of acting twice). Each connection numbers its commands from a random
+start, and HELLO makes the device forget the replies it kept, so a host that reconnects is never
+answered with an earlier host's replies; the handshake checks that the device holds exactly the
+limits and neutral temperature it was sent. Telemetry and events that arrive while waiting for
+a reply are routed to the armed trial, never held in bulk.
+
+Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
+(serial device, pty) a helper process (:mod:`.heartbeat`) writes a silent heartbeat every
+``heartbeat_s`` (10 ms) -- no thread of ours, and so no GIL-holding main thread (a PsychoPy
+window, a slow telemetry callback, a long C call), can hold it back. Elsewhere (``emulator://``)
+a dedicated thread does the same without waiting for the I/O lock. Every command and every pass
+of the I/O loop also counts (any valid frame feeds the watchdog). Both stop heartbeating when the
+thread doing I/O has shown no sign of life for ``host_stall_s`` (2 s): a hung host program still
+lets the device's watchdog take the pad to neutral. On a virtual clock the I/O thread heartbeats
+in device time.
+
+A frame read only in part waits for its rest for ``stale_s`` (0.2 s of wall time) before the
+parser gives up on it: a pty hands a frame over in pieces when the kernel's buffers wrap, and a
+loaded machine may take tens of ms to deliver the second piece.
+
+Failure policy: a refused command raises :class:`DisplayRefused` (with the device's code); no
+answer after the retries raises :class:`DisplayTimeout`; a dead link raises :class:`DisplayError`
+— in each case after a best-effort ABORT, and the device's own watchdog returns the pad to neutral
+within 100 ms of the host falling silent. A trial that goes wrong ends as a
+:class:`TrialRecording` with ``status="fault"`` and a fault code rather than an exception.
+"""
+from __future__ import annotations
+
+import math
+import secrets
+import threading
+import time
+import zlib
+
+import numpy as np
+import serial
+
+from experiments.errors import (DisplayError, DisplayFaultLatched, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
+                                SafetyLimitError, UserInputError)
+
+from . import messages as m
+from .framing import FrameParser
+from .link import ProtocolLink
+from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
+                           open_serial_port)
+from .handshake import decode_hello
+from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
+from ..safety import SafetyLimits, check_profile
+from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
+                              TrialInProgress)
+
+__all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
+
+CHUNK = 512                    # samples per upload chunk
+
+
+#: After an operator's reset, how long the device is watched for a fault that trips again, s
+#: (a stuck sensor takes 20 identical readings, 0.2 s; an out-of-range one trips at once).
+RESET_WATCH_S = 1.0
+
+class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
+    """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
+
+    The display backend for a serial device path (``/dev/ttyUSB0``, a pty) and pyserial URLs.
+    Open it with :func:`experiments.display.open_display` (or :meth:`open`), which also does
+    the handshake and starts the heartbeat.
+
+    Parameters
+    ----------
+    port : serial.SerialBase
+        Opened with ``serial.serial_for_url``.
+    limits : SafetyLimits
+    reply_timeout_s : float, s
+        How long to wait for each reply (wall time; device time on a virtual clock).
+    retries : int
+        Extra attempts after a timeout.
+    heartbeat_s : float, s
+        Longest host silence before a heartbeat is sent (default 0.01).
+    host_stall_s : float, s
+        The heartbeat thread stops when the I/O thread has been silent this long (default 2).
+    stale_s : float, s
+        How long a partly received frame waits for its rest on a real port (default 0.2).
+    max_frame_loss : float
+        Fraction of telemetry frames a trial may lose before it is reported as a fault.
+
+    Attributes
+    ----------
+    heartbeats_sent : int
+        Heartbeats written by the fallback heartbeat thread (not by the helper process).
+    max_tx_gap_s : float, s
+        Longest wall-time gap between frames this process wrote itself (commands, heartbeats
+        of the I/O loop and of the thread): how long the host's own threads were held off.
+    """
+
+    description = "thermocue display protocol (reference firmware, or any device speaking it)"
+    url_grammar = "/dev/ttyUSB0 | COM3 | PTY_PATH | pyserial URL"
+
+    def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
+                 retries: int = 3, heartbeat_s: float = 0.01, max_frame_loss: float = 0.01,
+                 host_stall_s: float = 2.0, stale_s: float = 0.2):
+        self.port = port
+        self.limits = limits or SafetyLimits()
+        self.reply_timeout_s = float(reply_timeout_s)
+        self.retries = int(retries)
+        self.heartbeat_s = float(heartbeat_s)
+        self.host_stall_s = float(host_stall_s)
+        self.stale_s = float(stale_s)
+        self._wlock = threading.Lock()          # writes and sequence numbers, any thread
+        self._last_tx = -1e9                    # wall time of the last frame written
+        self._alive = time.monotonic()          # wall time the I/O thread last did something
+        self._hb_proc = None                    # HeartbeatProcess on a port with a descriptor
+        self._cand_key = None                   # parser progress when a partial frame was seen
+        self._cand_since = 0.0
+        self.heartbeats_sent = 0                # by the heartbeat thread
+        self.max_tx_gap_s = 0.0                 # longest wall-time gap between written frames
+        self.max_frame_loss = float(max_frame_loss)
+        self.info: DeviceInfo | None = None
+        self._lock = threading.RLock()
+        self._parser = FrameParser()
+        # a random start: a host that reconnects must not repeat its predecessor's numbers
+        self._seq = secrets.randbelow(256)
+        self._last_seq_by_type: dict[int, int] = {}
+        # the loop's clock, s: a port whose device runs on a virtual clock says so by offering
+        # device_clock() (a function returning device seconds, or None on a real clock); every
+        # other port (a serial device, a pty) runs on wall time
+        device_clock = getattr(port, "device_clock", None)
+        device_clock = device_clock() if callable(device_clock) else None
+        self._virtual = device_clock is not None
+        self._clock = device_clock if self._virtual else time.monotonic
+        # ... and may offer read_frames(): read() as decoded frames when nothing can damage them
+        self._read_direct = getattr(port, "read_frames", None) if self._virtual else None
+        self._dev_time = 0.0
+        self._hb_clock = -1e9
+        self._hb_dev = -1e9
+        self._trial: TrialInProgress | None = None
+        self._profile = None
+        self._held_limits: SafetyLimits | None = None   # what the device acknowledged at HELLO
+        self._uploaded = False                  # an UPLOAD_BEGIN went out on this connection
+        self._hb_thread = None
+        self._hb_stop = threading.Event()
+        self._link_error: Exception | None = None
+        self._restart: str | None = None       # why we think the device restarted
+        self.last_recording: TrialRecording | None = None
+        self.last_contact: ContactEvent | None = None
+
+    # ------------------------------------------------------------------ backend
+    @classmethod
+    def open(cls, url: str, limits: SafetyLimits | None = None, **options) -> "ThermalDisplay":
+        """Open ``url`` with pyserial, shake hands, start the heartbeat.
+
+        Parameters
+        ----------
+        url : str
+            A device path (``/dev/ttyUSB0``), a pty path, ``emulator://[?...]`` or another
+            pyserial URL.
+        limits : SafetyLimits, optional
+        **options
+            ``baudrate`` (default 115200) and the keyword arguments of :class:`ThermalDisplay`.
+
+        Raises
+        ------
+        DisplayError
+            If the port cannot be opened or the device does not answer the handshake, or answers
+            it with numbers the host refuses (:class:`~.handshake.HandshakeRefused`).
+        """
+        port = open_serial_port(url, options.pop("baudrate", 115200))
+        disp = handshake_or_close(cls(port, limits, **options), port)
+        disp.start_heartbeat()
+        return disp
+
+    @classmethod
+    def declared_capabilities(cls) -> Capabilities:
+        """The protocol's ranges (a device declares its own at the handshake)."""
+        from .handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
+                                PROTOCOL_MIN_C, PROTOCOL_MIN_DT_S)
+        return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
+                            max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,
+                            safe_range_C=(PROTOCOL_MIN_C, PROTOCOL_MAX_SETPOINT_C),
+                            max_rate_C_per_s=PROTOCOL_MAX_RATE_C_PER_S,
+                            modes=("playback", "record"), scripted_bench=False,
+                            notes="numbers as the protocol allows them; the device states its own "
+                                  "at the handshake")
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """What the opened device declared at the handshake (before it: the protocol's ranges)."""
+        info = self.info
+        if info is None:
+            return self.declared_capabilities()
+        modes = tuple(md for md in ("playback", "record") if md in info.capabilities)
+        return Capabilities(contact_detection="force", force_sensing=True,
+                            telemetry_hz=float(info.telemetry_hz), max_profile_points=info.max_points,
+                            min_profile_step_s=info.min_dt_s,
+                            safe_range_C=(info.hard_min_C, info.hard_max_C),
+                            max_rate_C_per_s=info.max_rate_C_per_s,
+                            modes=modes or ("playback", "record"),
+                            scripted_bench="sim" in info.capabilities,
+                            notes=f"{info.device_id}, {info.firmware}")
+
+    @property
+    def port_name(self) -> str:
+        """The port's path or URL, for messages."""
+        return str(getattr(self.port, "port", None) or getattr(self.port, "name", None) or "?")
+
+    # ------------------------------------------------------------------ session set-up
+    def handshake(self) -> DeviceInfo:
+        """HELLO: learn the device id, firmware, capabilities and limits; send our limits."""
+        try:
+            self.port.reset_input_buffer()
+        except (serial.SerialException, OSError):
+            pass
+        self._parser.reset()
+        self.info = self._hello()
+        self._refuse_latched_fault()
+        rate = int(round(self.info.max_rate_C_per_s * 100))
+        self._restart = None
+        self._dev_time = 0.0
+        lim = self.limits
+        if lim.min_C < self.info.hard_min_C or lim.max_C > self.info.hard_max_C:
+            raise SafetyLimitError(f"display: limits: expected a range inside the device's "
+                                   f"[{self.info.hard_min_C}, {self.info.hard_max_C}] °C, got "
+                                   f"[{lim.min_C}, {lim.max_C}]")
+        sent = (m.centi(lim.min_C), m.centi(lim.max_C),
+                min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
+        got = m.LIMITS.unpack(self._transact(Cmd.SET_LIMITS, m.LIMITS.pack(*sent)))
+        # the range lies inside the device's, so it must hold it exactly; the rate may be
+        # lowered to the device's own maximum (a tighter limit, and so not a mismatch)
+        want = (sent[0], sent[1], min(sent[2], rate))
+        if got != want:
+            raise DisplayError(
+                f"display: SET_LIMITS: sent {sent[0] / 100}–{sent[1] / 100} °C at "
+                f"{sent[2] / 100} °C/s, the device acknowledged {got[0] / 100}–{got[1] / 100} °C "
+                f"at {got[2] / 100} °C/s (a stale reply?); not going on with limits it does "
+                f"not hold")
+        self._held_limits = lim
+        self._profile = None                     # a playback needs an upload on this connection
+        self._uploaded = False
+        self.set_neutral(lim.neutral_C)
+        return self.info
+
+    def _hello(self) -> DeviceInfo:
+        """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`)."""
+        return decode_hello(self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
+                            self.port_name)
+
+    def _read_status(self) -> Status:
+        """One STATUS round trip, as the device answers it (no check against the handshake)."""
+        return Status.decode(self._transact(Cmd.STATUS))
+
+    def _refuse_latched_fault(self) -> None:
+        """Stop at the handshake, with what to do, if the device is latched in FAULT.
+
+        A latched fault (over-temperature, sensor failure or stuck sensor) happened before this
+        connection, possibly with nobody watching; the device refuses limits and ARM until an
+        operator resets it, and thermocue never does that on its own.
+        """
+        st = self._read_status()
+        if st.state == "FAULT":
+            raise DisplayFaultLatched(
+                f"display: {self.port_name} is latched in FAULT ({st.last_fault or 'no code'}) "
+                f"from before this connection: its Peltier relay is open and it refuses to be "
+                f"armed. Check the pad and its sensors, then reset it as the operator with "
+                f"`thermocue clear-fault {self.port_name}`, or power-cycle it; no session starts "
+                f"on a faulted display", code=st.last_fault)
+
+    # ------------------------------------------------------------------ commands
+    def set_neutral(self, temperature_C: float) -> float:
+        """Set the temperature held between trials; return what the device holds, °C."""
+        v = self.limits.check_setpoint(temperature_C, "neutral_C")
+        sent = m.centi(v)
+        (held,) = m.CENTI.unpack(self._transact(Cmd.SET_NEUTRAL, m.CENTI.pack(sent)))
+        if held != sent:
+            raise DisplayError(f"display: SET_NEUTRAL: sent {sent / 100} °C, the device "
+                               f"acknowledged {held / 100} °C (a stale reply, or limits other "
+                               f"than ours); not going on with a neutral temperature it does "
+                               f"not hold")
+        return held / 100
+
+    def upload_profile(self, times_s, target_C) -> ProfileReceipt:
+        """Check, upload in CRC-verified chunks, and commit a target profile.
+
+        Parameters
+        ----------
+        times_s : array_like, s
+            Uniform from 0, step ≥ 1 ms.
+        target_C : array_like, °C
+
+        Raises
+        ------
+        SafetyLimitError
+            Before anything is sent, if a sample is out of range or the rate is too high.
+        DisplayError
+            If the device keeps returning a chunk checksum that does not match.
+        """
+        self._profile = None
+        try:
+            return self._upload(times_s, target_C)
+        except BaseException:
+            # refused (by our check, by the device's clamping, a chunk that never matched, a
+            # link error): the device must not keep a profile we refused, nor an older one
+            self._discard_profile()
+            raise
+
+    def _upload(self, times_s, target_C) -> ProfileReceipt:
+        if self._held_limits is not None and self.limits != self._held_limits:
+            raise SafetyLimitError(f"display: limits: changed since the handshake (the device "
+                                   f"holds {self._held_limits}, the host now has {self.limits}); "
+                                   f"refusing to upload: open the display again with the new "
+                                   f"limits")
+        max_pts = self.info.max_points if self.info else None
+        dt, y = check_profile(times_s, target_C, self.limits, max_points=max_pts)
+        q = np.round(y * 100.0).astype("<i2")
+        raw = q.tobytes()
+        dt_us = int(round(dt * 1e6))
+        self._uploaded = True
+        self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(q), dt_us))
+        for off in range(0, len(q), CHUNK):
+            body = raw[2 * off:2 * min(off + CHUNK, len(q))]
+            count = len(body) // 2
+            for attempt in range(self.retries + 1):
+                ack = UploadAck(*m.UPLOAD_CHUNK_ACK.unpack(self._transact(
+                    Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_HEAD.pack(off, count) + body)))
+                if (ack.offset, ack.count, ack.crc32) == (off, count, zlib.crc32(body)):
+                    break
+            else:
+                raise DisplayError(f"display: upload chunk at {off}: the device's checksum does "
+                                   f"not match after {self.retries + 1} attempts")
+        ack = CommitAck(*m.COMMIT_ACK.unpack(self._transact(Cmd.UPLOAD_COMMIT,
+                                                            m.COMMIT.pack(zlib.crc32(raw)))))
+        if ack.clamped:
+            raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
+                                   f"its own range; refusing to play it")
+        held = q.astype(float) / 100.0
+        self._profile = (dt, held.tolist())
+        return ProfileReceipt(points=ack.points, step_s=dt, crc32=ack.crc32, clamped=ack.clamped,
+                              max_deviation_C=float(np.max(np.abs(held - y))), segments=None)
+
+    def _discard_profile(self) -> None:
+        """Leave the device with no committed profile (best effort; never raises).
+
+        An UPLOAD_BEGIN discards any profile on every device of this protocol; one of two samples
+        at the smallest step that is never completed leaves nothing ARM could play (ARM in
+        playback is then refused, PROFILE_INCOMPLETE, until a new commit). Nothing is sent when
+        this connection has uploaded nothing (a refusal by the host's own check then sends
+        nothing at all).
+        """
+        self._profile = None
+        if self.info is None or self._link_error is not None or not self._uploaded:
+            return
+        dt_us = max(1000, int(round(self.info.min_dt_s * 1e6)))
+        try:
+            self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(2, dt_us), retries=1)
+        except DisplayError:
+            pass     # link gone: this host arms nothing without a new upload on a new connection
+
+    def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
+            max_duration_s: float = 20.0) -> None:
+        """Arm a trial: the device waits for the summed force to cross the threshold.
+
+        ``"playback"`` starts the uploaded profile at contact; ``"record"`` leaves the Peltier at
+        neutral and records the contact sensor from contact.
+        """
+        if mode not in ("playback", "record"):
+            raise UserInputError(f"display: arm.mode: expected 'playback' or 'record', got {mode!r}")
+        for name, v, hi in (("force_threshold_N", force_threshold_N, 600.0),
+                            ("max_duration_s", max_duration_s, 3600.0)):
+            if not isinstance(v, (int, float)) or not (0 < v <= hi):
+                raise UserInputError(f"display: arm.{name}: expected 0 < value ≤ {hi}, got {v!r}")
+        if mode == "playback" and self._profile is None:
+            raise UserInputError("display: arm: expected a profile uploaded before a playback trial")
+        self._check_link()
+        md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
+        with self._lock:
+            self._trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
+            self._trial.bad0 = self._parser.bad_frames
+            try:
+                p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),
+                                                       int(round(max_duration_s * 1000))))
+            except DisplayError:
+                self._trial = None
+                raise
+            c0 = m.COUNTER.unpack(p)[0]
+            self._trial.counter0 = self._trial.last_counter = c0
+            self._trial.pending = [f for f in self._trial.pending if f.counter > c0]
+
+    def run_trial(self, timeout_s: float = 30.0, on_telemetry=None, on_event=None) -> TrialRecording:
+        """Stream the armed trial until it ends, faults or times out.
+
+        Parameters
+        ----------
+        timeout_s : float, s
+            From the call to the end of the trial (device time on a virtual clock).
+        on_telemetry : callable, optional
+            Called with each :class:`Telemetry` frame, in order.
+        on_event : callable, optional
+            Called with each :class:`DeviceEvent` (READY, CONTACT, END, FAULT, WATCHDOG) of the
+            armed trial, those received since :meth:`arm` first (a READY that arrived while
+            the caller drew its cue is not lost).
+
+        Returns
+        -------
+        TrialRecording
+        """
+        tr = self._trial
+        if tr is None:
+            raise UserInputError("display: run_trial: expected arm() first")
+        with self._lock:
+            tr.callback = on_telemetry
+            tr.attach_on_event(on_event)
+            if on_telemetry is not None:
+                for fr in tr.pending:
+                    on_telemetry(fr)
+            tr.pending = []
+            clock, read, dispatch = self._clock, self._read_frames, self._dispatch_all
+            heartbeat = self._heartbeat_if_due
+            silent_s = max(0.3, 3 * self.reply_timeout_s)   # telemetry this quiet: ask STATUS
+            start = clock()
+            tr.last_frame_clock = start
+            host_fault = None
+            try:
+                while not tr.ended:
+                    dispatch(read())
+                    heartbeat()
+                    now = clock()
+                    if now - start > timeout_s:
+                        host_fault = ("TRIAL_TIMEOUT", f"no end of trial within {timeout_s} s")
+                        break
+                    if now - tr.last_frame_clock > silent_s:
+                        st = self.status()        # telemetry silent: is the device there at all?
+                        tr.last_frame_clock = self._clock()
+                        if st.state not in ACTIVE_STATES:
+                            tr.ended = True
+                            if st.state == "FAULT" and tr.fault is None:
+                                tr.fault = st.last_fault or "FAULT"
+            except DisplayTimeout as exc:
+                host_fault = ("LINK_TIMEOUT", str(exc))
+            except DisplayError as exc:
+                host_fault = ("LINK_LOST", str(exc))
+            rec = self._finish(tr, host_fault)
+        self._trial = None
+        self.last_recording = rec
+        self.last_contact = (ContactEvent(rec.contact_time_s, tr.contact_force)
+                             if rec.contact_time_s is not None else None)
+        return rec
+
+    def _finish(self, tr: TrialInProgress, host_fault) -> TrialRecording:
+        status, code, msg = "ok", None, None
+        st = None
+        if host_fault is None:
+            # frames still in flight belong to this trial (the END event can overtake nothing,
+            # but a last telemetry frame may follow it): drain briefly, then ask for the truth.
+            # STATUS is the device's own account of the trial (it survives a burst that ate the
+            # events and telemetry): its end reason and contact time decide, not what we saw.
+            try:
+                st = self.status()
+                if st.contact_time_s is not None:
+                    tr.contact_s = st.contact_time_s
+                    tr.active_seen = True
+                if st.state not in ACTIVE_STATES:
+                    tr.end_reason = END_NAMES.get(st.end_reason, str(st.end_reason))
+                if st.state == "FAULT" and tr.fault is None:
+                    tr.fault = st.last_fault or "FAULT"
+                elif tr.end_reason == "fault" and tr.fault is None:
+                    # the WATCHDOG or FAULT event was lost: the device still says why
+                    tr.fault = st.last_fault or "FAULT"
+                    tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
+                                    f"its event was lost on the link")
+            except DisplayLinkLost as exc:
+                host_fault = ("LINK_LOST", str(exc))
+            except DisplayError as exc:
+                host_fault = ("LINK_TIMEOUT", str(exc))
+        if tr.fault is not None:
+            status, code, msg = "fault", tr.fault, tr.fault_msg or f"device fault {tr.fault}"
+        elif host_fault is not None:
+            status, code, msg = "fault", host_fault[0], host_fault[1]
+            if self._link_error is None:
+                self._safe_abort()     # (a lost port takes nothing more: the watchdog acts)
+        elif tr.end_reason == "aborted":
+            status = "aborted"
+        else:
+            why = not_delivered(st, tr)
+            if why is not None:
+                status, code, msg = "fault", "NOT_DELIVERED", why
+                self._safe_abort()
+        expected = tr.last_counter - tr.counter0
+        lost = max(0, expected - tr.frames)
+        if status == "ok" and expected > 0 and lost > self.max_frame_loss * expected:
+            status, code, msg = "fault", "TELEMETRY_LOSS", f"{lost} of {expected} frames lost"
+        rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
+        mx = tr.max_err if tr.n_track else float("nan")
+        dur = (tr.end_time_s - tr.contact_s) if (tr.end_time_s is not None and
+                                                 tr.contact_s is not None) else 0.0
+        return TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
+                              tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
+                              self._parser.bad_frames - tr.bad0)
+
+    def abort(self) -> None:
+        """Stop whatever runs; the device returns to neutral (and leaves FAULT)."""
+        self._transact(Cmd.ABORT)
+        if self._trial is not None:
+            self._trial.ended = True
+            self._trial.end_reason = "aborted"
+
+    def _safe_abort(self) -> None:
+        try:
+            self._transact(Cmd.ABORT, retries=1)
+        except DisplayError:
+            pass                 # link gone: the device's watchdog takes the pad to neutral
+
+    def status(self) -> Status:
+        """The device's state, sensors and last trial (one STATUS round trip).
+
+        Raises
+        ------
+        DisplayRestarted
+            If the boot id differs from the handshake's (the device restarted).
+        """
+        st = self._read_status()
+        if self.info is not None and st.boot_id != self.info.boot_id:
+            self._restarted(f"boot id {st.boot_id:08x}, not {self.info.boot_id:08x} as at HELLO")
+        if self._restart is not None:
+            raise DisplayRestarted(f"display: restarted since the handshake ({self._restart}); "
+                                   f"it no longer holds this session's limits and neutral: "
+                                   f"stop, and resume to shake hands again")
+        return st
+
+    def clear_fault(self) -> None:
+        """Operator reset of a latched fault (over-temperature, sensor): FAULT -> IDLE.
+
+        Never called by a session: a latched fault stops it, and a person decides.
+        """
+        self._transact(Cmd.CLEAR_FAULT, m.CLEAR_FAULT_MAGIC)
+
+    @classmethod
+    def operator_reset(cls, url: str, baudrate: int = 115200) -> tuple[str, str | None, str]:
+        """The operator's reset of a display latched in FAULT: STATUS, then HELLO and CLEAR_FAULT.
+
+        For a person who has checked the pad and its sensors (``thermocue clear-fault URL``);
+        the device is watched for :data:`RESET_WATCH_S` after the reset, so that a cause still
+        there (a sensor out of range or stuck) is reported as FAULT, not as a successful reset;
+        sets no limits and arms nothing. A device that is not in FAULT is left as it is: it is
+        asked STATUS alone (allowed before a HELLO), since a HELLO starts a new host's session
+        on the device (a host using it would lose its half-done upload and its retry replies).
+
+        Returns
+        -------
+        (state_before, fault, state_after) : tuple of str, str or None, str
+        """
+        port = open_serial_port(url, baudrate)
+        try:
+            disp = cls(port, None)
+            before = disp._read_status()
+            if before.state != "FAULT":
+                return before.state, before.last_fault, before.state
+            disp.info = disp._hello()
+            disp.clear_fault()
+            # a cause still there (a sensor out of range or stuck) trips it again at once:
+            # watch it for RESET_WATCH_S before calling the reset done
+            end = disp._clock() + RESET_WATCH_S
+            after = disp._read_status()
+            while after.state != "FAULT" and disp._clock() < end:
+                disp.wait(0.05)
+                after = disp._read_status()
+            return before.state, before.last_fault, after.state
+        finally:
+            try:
+                port.close()
+            except Exception:
+                pass
+
+    def heartbeat(self) -> float:
+        """One acknowledged heartbeat; return the device time, s."""
+        t = m.TIME.unpack(self._transact(Cmd.HEARTBEAT))[0] * 1e-6
+        self._dev_time = max(self._dev_time, t)
+        return t
+
+    def is_awake(self) -> bool:
+        """Whether the display answers (one heartbeat, one attempt); never raises.
+
+        PsychoPy's devices offer the same check (``isAwake``) before an experiment starts.
+        """
+        try:
+            m.TIME.unpack(self._transact(Cmd.HEARTBEAT, retries=0))
+            return True
+        except DisplayError:
+            return False
+
+    def wait(self, seconds: float) -> None:
+        """Let ``seconds`` pass (device time on a virtual clock) while keeping the link alive."""
+        with self._lock:
+            end = self._clock() + seconds
+            while self._clock() < end:
+                for fr in self._read_frames():
+                    self._dispatch(fr)
+                self._heartbeat_if_due()
+
+    def poll(self, on_telemetry=None, on_event=None) -> bool:
+        """Route what has arrived, without waiting; return whether the armed trial has ended.
+
+        For a caller with its own loop (PsychoPy's frame loop) in place of :meth:`run_trial`'s:
+        call it often, then :meth:`run_trial` once it returns True (or after :meth:`abort`) to
+        get the :class:`TrialRecording`. The callbacks are attached to the armed trial as
+        :meth:`run_trial` attaches them (telemetry received before is replayed first).
+        """
+        self._check_link()
+        with self._lock:
+            tr = self._trial
+            if tr is not None and on_telemetry is not None and tr.callback is None:
+                for fr in tr.pending:
+                    on_telemetry(fr)
+                tr.pending, tr.callback = [], on_telemetry
+            if tr is not None and on_event is not None:
+                tr.attach_on_event(on_event)
+            try:
+                while self._virtual or self.port.in_waiting > 0:
+                    for fr in self._read_frames():
+                        self._dispatch(fr)
+                    if self._virtual:
+                        break
+            except (serial.SerialException, OSError) as exc:
+                self._link_error = exc
+                raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
+            self._heartbeat_if_due()
+        return tr is not None and tr.ended
+
+    # ------------------------------------------------------------------ emulator-only
+    def _sim(self, cmd, args: dict) -> dict:
+        if self.info is None or "sim" not in self.info.capabilities:
+            raise DisplayError("display: sim commands need the emulator (capability 'sim'); "
+                               f"this device offers {self.info.capabilities if self.info else ()}")
+        return m.decode_json(self._transact(cmd, m.encode_json(args)))
+
+    def sim_sample(self, material: str = "stainless_steel", roughness_m: float = 1.6e-6,
+                   thickness_m: float | None = 3e-3, temperature_C: float = 20.0) -> dict:
+        """Emulator: place a passive sample for record-mode trials (SI lengths, °C)."""
+        return self._sim(Cmd.SIM_SAMPLE, dict(material=material, roughness_m=roughness_m,
+                                              thickness_m=thickness_m, temperature_C=temperature_C))
+
+    def sim_finger(self, press_after_s: float = 0.3, force_N: float = 2.0, hold_s: float = 20.0,
+                   skin_thickness_m: float = 650e-6, skin_temperature_C: float = 35.5) -> dict:
+        """Emulator: script the finger (approach, press, hold, release).
+
+        If the display is armed but not yet at its starting temperature, the script's clock
+        starts when it is (the participant waits for the cue).
+        """
+        return self._sim(Cmd.SIM_FINGER, dict(press_after_s=press_after_s, force_N=force_N,
+                                              hold_s=hold_s, skin_thickness_m=skin_thickness_m,
+                                              skin_temperature_C=skin_temperature_C))
+
+    def sim_fault(self, spec: str) -> dict:
+        """Emulator: inject faults now (SPEC as in ``docs/display-protocol.md``, times from now)."""
+        return self._sim(Cmd.SIM_FAULT, dict(spec=spec))
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self) -> None:
+        """Stop the heartbeat, put the display to neutral (best effort), close the port."""
+        self.stop_heartbeat()
+        if self.port.is_open:
+            if self._link_error is None:
+                self._safe_abort()
+            try:
+                self.port.close()
+            except Exception:
+                pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False

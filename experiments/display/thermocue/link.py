@@ -1,0 +1,290 @@
+"""The host's end of the display protocol's link: numbered requests, replies, heartbeats.
+
+:class:`ProtocolLink` is the half of :class:`~experiments.display.thermocue.driver.ThermalDisplay` below
+its commands: sequence numbers (never a type's last one; 0 kept for the helper's silent
+heartbeats), writing, reading and routing frames (telemetry and events to the armed trial, the
+awaited reply to :meth:`ProtocolLink._transact`, with its timeout and retries), the heartbeat
+that feeds the device's watchdog (in the I/O loop, and in a thread or a helper process on a
+real clock), and noticing a device restart. It keeps no state of its own: ThermalDisplay's
+constructor sets the fields it uses.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+import serial
+
+from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRefused, DisplayRestarted,
+                                DisplayTimeout)
+
+from . import messages as m
+from .framing import encode_frame
+from .messages import Cmd, DeviceEvent, Msg, Telemetry
+
+__all__ = ["ProtocolLink"]
+
+# ARM's and ABORT's reply types (0xA0, 0xA1) are also TELEMETRY's and EVENT's, whose frames carry
+# the device's own numbers: a reply of these types is one only with the reply's size (4 and 0
+# bytes; telemetry has 30, an event at least 11)
+_REPLY_SIZE = {Cmd.ARM | m.REPLY_BIT: m.COUNTER.size, Cmd.ABORT | m.REPLY_BIT: 0}
+#: The silent heartbeat (payload 0: no reply wanted) of every sequence number, encoded once.
+_SILENT_HEARTBEAT = tuple(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
+# the frame types the I/O loop routes, as plain ints (an enum member's look-up, 100 times a
+# second, costs more than the comparison)
+_HEARTBEAT = int(Cmd.HEARTBEAT)
+_TELEMETRY = int(Msg.TELEMETRY)
+_EVENT = int(Msg.EVENT)
+_HEARTBEAT_REPLY = int(Cmd.HEARTBEAT | m.REPLY_BIT)
+_TIME_SIZE = m.TIME.size
+_decode_telemetry = Telemetry.decode
+
+
+class ProtocolLink:
+    """Requests, replies and heartbeats on one port (a mixin of ``ThermalDisplay``)."""
+
+    # ------------------------------------------------------------------ low level
+    def _next_seq(self, mtype: int) -> int:
+        with self._wlock:
+            return self._take_seq(mtype)
+
+    def _take_seq(self, mtype: int) -> int:
+        """The next sequence number for a frame of type ``mtype`` (``_wlock`` held)."""
+        s = (self._seq + 1) & 0xFF
+        last = self._last_seq_by_type.get(mtype)
+        if last == s:                                   # never repeat a type's last number
+            s = (s + 1) & 0xFF
+        if s == 0 and mtype == _HEARTBEAT:              # 0: the helper's silent heartbeats
+            s = 1 if last != 1 else 2
+        self._seq = s
+        self._last_seq_by_type[mtype] = s
+        return s
+
+    def _write(self, data: bytes) -> None:
+        with self._wlock:
+            self._write_locked(data)
+
+    def _write_heartbeat(self) -> None:
+        """A silent heartbeat, numbered and written under one hold of ``_wlock``."""
+        with self._wlock:
+            self._write_locked(_SILENT_HEARTBEAT[self._take_seq(_HEARTBEAT)])
+
+    def _write_locked(self, data: bytes) -> None:
+        try:
+            self.port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            self._link_error = exc
+            raise DisplayLinkLost(f"display: link lost while writing: {exc}") from exc
+        now = time.monotonic()
+        if self._last_tx > 0:
+            self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
+        self._last_tx = now
+
+    def _read_frames(self):
+        try:
+            port = self.port
+            if self._virtual:                    # the emulator returns what one wait produced
+                parser = self._parser
+                read_direct = self._read_direct
+                if read_direct is not None and not parser.buffered:
+                    frames = read_direct(65536)
+                    if frames is not None:
+                        parser.frames += len(frames)
+                        return frames
+                data = port.read(65536)
+                return parser.feed(data) if data else (
+                    parser.drop_candidate() if parser.buffered else [])
+            n = port.in_waiting
+            data = port.read(n if n > 0 else 1)
+            if n <= 0 and data:
+                n = port.in_waiting             # the rest of what arrived with the first byte
+                if n > 0:
+                    data += port.read(n)
+        except (serial.SerialException, OSError) as exc:
+            self._link_error = exc
+            raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
+        self._touch()
+        if not data:
+            return self._stale_candidate() if self._parser.buffered else []
+        return self._parser.feed(data)
+
+    def _stale_candidate(self):
+        """Give up on a partial frame only once the parser has made no progress for ``stale_s``.
+
+        The rest of a frame split by the kernel may take a while on a loaded machine; a
+        candidate whose length field is garbage is abandoned after ``stale_s`` (and sooner by
+        itself once enough later bytes arrive for its CRC to fail).
+        """
+        p = self._parser
+        key = (p.frames, p.bad_frames, p.bytes_skipped, p.buffered)
+        now = time.monotonic()
+        if key != self._cand_key:
+            self._cand_key, self._cand_since = key, now
+            return []
+        if now - self._cand_since < self.stale_s:
+            return []
+        self._cand_key = None
+        return p.drop_candidate()
+
+    def _touch(self) -> None:
+        """The I/O thread is alive: say so to the heartbeat thread and helper."""
+        self._alive = time.monotonic()
+        if self._hb_proc is not None:
+            self._hb_proc.ping()
+
+    def _heartbeat_if_due(self) -> None:
+        self._touch()
+        c = self._clock()
+        period = self.heartbeat_s
+        if (c - self._hb_clock >= period or self._dev_time - self._hb_dev >= period
+                or (not self._virtual and self._alive - self._last_tx >= period)):
+            self._hb_clock, self._hb_dev = c, self._dev_time
+            # silent (no reply wanted): telemetry or the next reply shows the device is alive
+            self._write_heartbeat()
+
+    def _dispatch(self, fr) -> None:
+        """Route a frame that is not the awaited reply."""
+        self._dispatch_all((fr,))
+
+    def _dispatch_all(self, frames) -> None:
+        """Route frames that are not an awaited reply, in order (the I/O loop's batch of a read:
+        one call for all of them, the commonest, telemetry, first)."""
+        for fr in frames:
+            t = fr.type
+            if t == _TELEMETRY:
+                try:
+                    tel = _decode_telemetry(fr.payload)
+                except Exception:    # a frame with a good CRC but a wrong layout: count, go on
+                    self._parser.bad_frames += 1
+                    continue
+                t_s = tel[1]                                    # device_time_s
+                if t_s < self._dev_time - 0.05:                 # telemetry is never a cached reply
+                    self._restarted(f"its time went back from {self._dev_time:.3f} s to "
+                                    f"{t_s:.3f} s")
+                self._dev_time = t_s
+                trial = self._trial
+                if trial is not None:
+                    trial.last_frame_clock = self._clock()
+                    trial.telemetry(tel)
+            elif t == _EVENT:
+                try:
+                    ev = DeviceEvent.decode(fr.payload)
+                except Exception:
+                    self._parser.bad_frames += 1
+                    continue
+                self._dev_time = max(self._dev_time, ev.device_time_s)
+                if self._trial is not None:
+                    self._trial.event(ev)
+            elif t == _HEARTBEAT_REPLY and len(fr.payload) == _TIME_SIZE:
+                # not a restart test: a retried heartbeat is answered from the device's cache
+                self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
+
+    def _restarted(self, why: str) -> None:
+        """Note a device restart: the next command raises :class:`DisplayRestarted`."""
+        if self._restart is None:
+            self._restart = why
+        if self._trial is not None and self._trial.fault is None:
+            self._trial.fault, self._trial.fault_msg = "DEVICE_RESTARTED", f"display restarted: {why}"
+            self._trial.ended = True
+
+    def _transact(self, cmd: int, payload: bytes = b"", *, timeout_s: float | None = None,
+                  retries: int | None = None) -> bytes:
+        """Send a command, return the reply payload; raise on refusal or silence."""
+        timeout_s = self.reply_timeout_s if timeout_s is None else timeout_s
+        retries = self.retries if retries is None else retries
+        with self._lock:
+            seq = self._next_seq(cmd)
+            frame = encode_frame(seq, cmd, payload)
+            want = (cmd | m.REPLY_BIT) & 0xFF
+            size = _REPLY_SIZE.get(want)
+            for attempt in range(retries + 1):
+                self._write(frame)
+                self._hb_clock, self._hb_dev = self._clock(), self._dev_time  # any frame feeds the watchdog
+                deadline = self._clock() + timeout_s
+                while self._clock() < deadline:
+                    answer = None
+                    for fr in self._read_frames():      # dispatch every other frame, even after
+                        if answer is None and fr.seq == seq and (
+                                (fr.type == want and (size is None or len(fr.payload) == size))
+                                or (fr.type == Msg.NAK and fr.payload[:1] == bytes([cmd]))):
+                            answer = fr
+                        else:
+                            self._dispatch(fr)
+                    if answer is not None:
+                        if answer.type == want:
+                            return answer.payload
+                        _, code = m.NAK_HEAD.unpack_from(answer.payload)
+                        text = answer.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
+                        if code == m.Err.NO_HELLO and cmd != Cmd.HELLO and self.info is not None:
+                            self._restarted(f"{Cmd(cmd).name} refused with NO_HELLO")
+                            raise DisplayRestarted(
+                                f"display: restarted since the handshake ({Cmd(cmd).name} "
+                                f"refused: NO_HELLO); it no longer holds this session's "
+                                f"limits and neutral: stop, and resume to shake hands again")
+                        raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
+                                             f"{m.error_name(code)} ({text})", code=code)
+                    self._heartbeat_if_due()
+            raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
+                                 f"{timeout_s} s, got none after {retries + 1} attempts")
+
+    # ------------------------------------------------------------------ the heartbeat
+    def start_heartbeat(self) -> None:
+        """Start the background heartbeat (not needed, and not started, on a virtual clock).
+
+        A helper process on a port with a file descriptor, else a thread (module docstring).
+        """
+        if self._virtual or self._hb_thread is not None:
+            return
+        fd = getattr(self.port, "fd", None)
+        if isinstance(fd, int) and fd >= 0 and self._hb_proc is None:
+            from .heartbeat import HeartbeatProcess
+            try:
+                self._hb_proc = HeartbeatProcess(
+                    fd, encode_frame(0, Cmd.HEARTBEAT, b"\x00"), self.heartbeat_s,
+                    self.host_stall_s)
+            except OSError:
+                self._hb_proc = None          # no helper: the thread heartbeats
+        self._hb_stop.clear()
+        self._hb_thread = threading.Thread(target=self._heartbeat_loop, name="display-heartbeat",
+                                           daemon=True)
+        self._hb_thread.start()
+
+    def stop_heartbeat(self) -> None:
+        """Stop the background heartbeat (commands still feed the watchdog; a silent host trips it)."""
+        self._hb_stop.set()
+        if self._hb_thread is not None:
+            self._hb_thread.join(timeout=1.0)
+            self._hb_thread = None
+        if self._hb_proc is not None:
+            self._hb_proc.stop()
+            self._hb_proc = None
+
+    def _heartbeat_loop(self) -> None:
+        period = self.heartbeat_s
+        while not self._hb_stop.wait(period):
+            now = time.monotonic()
+            helper = self._hb_proc is not None and self._hb_proc.running
+            try:
+                # the I/O thread alive (or merely busy: a GIL-holding main thread still counts)
+                # and nothing written for half a period: heartbeat, whoever holds the I/O lock
+                if (not helper and now - self._alive <= self.host_stall_s
+                        and now - self._last_tx >= period / 2):
+                    self._write_heartbeat()
+                    self.heartbeats_sent += 1
+                if not self._lock.acquire(blocking=False):
+                    continue                   # the I/O thread is reading
+                try:                           # nobody reads: keep the input drained
+                    if self.port.in_waiting:
+                        for fr in self._parser.feed(self.port.read(self.port.in_waiting)):
+                            self._dispatch(fr)
+                finally:
+                    self._lock.release()
+            except Exception as exc:           # reported by the next call in the main thread
+                self._link_error = exc
+                return
+
+    # ------------------------------------------------------------------ link errors
+    def _check_link(self) -> None:
+        if self._link_error is not None:
+            exc, self._link_error = self._link_error, None
+            raise DisplayLinkLost(f"display: link lost: {exc}")

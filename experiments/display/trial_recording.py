@@ -1,0 +1,200 @@
+"""The armed trial as the host sees it: streamed book-keeping and the finished recording.
+
+:class:`TrialInProgress` follows one armed trial frame by frame (telemetry counters, contact, tracking
+error against the uploaded profile, how and when it ended) without keeping the frames;
+:class:`TrialRecording` is what :meth:`ThermalDisplay.run_trial
+<experiments.display.thermocue.driver.ThermalDisplay.run_trial>` returns; :func:`not_delivered` judges a
+trial against the device's own account (``docs/display-protocol.md`` §5, "A delivered trial").
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from .thermocue import messages as m
+from .thermocue.messages import END_NAMES, DeviceEvent, Status, Telemetry
+
+__all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS"]
+
+ACTIVE_STATES = ("ARMED", "PLAYING", "RECORDING")
+
+
+@dataclass(frozen=True)
+class ContactEvent:
+    """The moment the summed force crossed the threshold (device clock, s) and the force, N."""
+
+    device_time_s: float
+    force_N: float | None = None
+
+
+@dataclass(frozen=True)
+class TrialRecording:
+    """How one trial went on the display.
+
+    Parameters
+    ----------
+    status : str
+        ``"ok"``, ``"fault"`` or ``"aborted"``.
+    fault_code, fault_message : str or None
+        Device codes (``WATCHDOG``, ``OVER_TEMPERATURE``, ``SENSOR_FAILURE``, ``SENSOR_STUCK``)
+        or host codes (``LINK_TIMEOUT``, ``LINK_LOST``, ``TRIAL_TIMEOUT``, ``TELEMETRY_LOSS``).
+    contact_time_s : float or None, s
+        Device time of contact.
+    frames, frames_lost : int
+        Telemetry frames received, and missing from the device's numbering.
+    tracking_rms_C, tracking_max_C : float, °C
+        Contact temperature minus the uploaded target during playback (NaN in record mode).
+    mode : str
+        ``"playback"`` or ``"record"``.
+    end_reason : str or None
+        ``complete``, ``released``, ``max_duration``, ``aborted``, ``fault``.
+    duration_s : float, s
+        Contact to end.
+    bad_frames : int
+        Frames rejected by the CRC check during the trial.
+    """
+
+    status: str
+    fault_code: str | None
+    fault_message: str | None
+    contact_time_s: float | None
+    frames: int
+    frames_lost: int
+    tracking_rms_C: float
+    tracking_max_C: float
+    mode: str = "playback"
+    end_reason: str | None = None
+    duration_s: float = 0.0
+    bad_frames: int = 0
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+class TrialInProgress:
+    """Book-keeping of the armed trial (frames are streamed, not kept)."""
+
+    def __init__(self, mode, profile):
+        self.mode = mode
+        self.dt, self.target = profile if profile else (None, None)
+        self.n_target = len(self.target) if self.target else 0
+        self.counter0 = 0                # the device's frame counter at ARM (set from its reply)
+        self.last_counter = 0
+        self.frames = 0
+        self.pending: list = []          # frames before run_trial() attaches a callback
+        self.callback = None
+        self.pending_events: list = []   # events before run_trial() or poll() attach on_event
+        self.on_event = None
+        self.contact_s = None
+        self.contact_force = None
+        self.ready = False
+        self.active_seen = False
+        self.ended = False
+        self.end_reason = None
+        self.end_time_s = None
+        self.fault = None
+        self.fault_msg = None
+        self.sq = 0.0
+        self.n_track = 0
+        self.max_err = 0.0
+        self.last_frame_clock = None
+        self.bad0 = 0
+
+    def telemetry(self, fr: Telemetry) -> None:
+        counter = fr.counter
+        if counter <= self.last_counter:
+            return                       # a stale frame from before arming
+        self.last_counter = counter
+        self.frames += 1
+        st = fr.state
+        if st == "PLAYING" or st == "RECORDING":
+            self.active_seen = True
+            contact_s = self.contact_s
+            if contact_s is None:        # CONTACT event lost: the first active frame bounds it
+                self.contact_s = contact_s = fr.device_time_s
+            tgt = self.target
+            if st == "PLAYING" and tgt is not None:
+                x = (fr.device_time_s - contact_s) / self.dt
+                i = int(x)
+                if i >= self.n_target - 1:
+                    y = tgt[-1]
+                elif i < 0:
+                    y = tgt[0]
+                else:
+                    y = tgt[i] + (x - i) * (tgt[i + 1] - tgt[i])
+                e = fr.contact_C - y
+                self.sq += e * e
+                self.n_track += 1
+                e = abs(e)
+                if e > self.max_err:
+                    self.max_err = e
+        elif st == "FAULT" and self.fault is None:
+            self.fault = fr.fault or "FAULT"
+            self.ended = True
+            self.end_time_s = fr.device_time_s
+        elif st == "IDLE" and (self.active_seen or self.ready):
+            self.ended = True
+            if self.end_time_s is None:
+                self.end_time_s = fr.device_time_s
+        callback = self.callback
+        if callback is not None:
+            callback(fr)
+        elif len(self.pending) < 5000:
+            self.pending.append(fr)
+
+    def event(self, ev: DeviceEvent) -> None:
+        k = ev.kind
+        if k == "READY":
+            self.ready = True
+        elif k == "CONTACT":
+            self.contact_s = ev.device_time_s
+            try:
+                self.contact_force = float(ev.text.split()[0])
+            except (ValueError, IndexError):
+                pass
+        elif k == "END":
+            self.ended = True
+            self.end_reason = END_NAMES.get(ev.arg, str(ev.arg))
+            self.end_time_s = ev.device_time_s
+        elif k in ("FAULT", "WATCHDOG"):
+            if self.fault is None:
+                self.fault = m.error_name(ev.arg) if k == "FAULT" else "WATCHDOG"
+                self.fault_msg = ev.text
+            self.ended = True
+            self.end_reason = "fault"
+            self.end_time_s = ev.device_time_s
+        if self.on_event is not None:
+            self.on_event(ev)
+        elif len(self.pending_events) < 1000:
+            self.pending_events.append(ev)
+
+    def attach_on_event(self, on_event) -> None:
+        """Send ``on_event`` every event from now on, after those received before, in order."""
+        if on_event is None or self.on_event is not None:
+            self.on_event = on_event or self.on_event
+            return
+        for ev in self.pending_events:
+            on_event(ev)
+        self.pending_events = []
+        self.on_event = on_event
+
+
+#: How a delivered trial ends (the device's end reasons other than aborted and fault).
+DELIVERED_ENDS = ("complete", "released", "max_duration")
+
+
+def not_delivered(st: Status | None, tr: TrialInProgress) -> str | None:
+    """Why the device's own account does not show the armed trial delivered (None: it does).
+
+    Delivered means: the device is idle again, it saw a contact since ARM, and it ended the
+    trial by completion, release or the maximum duration (never by a fault, a watchdog trip
+    or an abort) -- docs/display-protocol.md §5, "A delivered trial".
+    """
+    if st is None:
+        return "no STATUS from the device after the trial"
+    if st.state in ACTIVE_STATES:
+        return f"the device is still {st.state} after the trial's end"
+    if st.contact_time_s is None:
+        return "the device saw no contact since ARM"
+    if tr.end_reason not in DELIVERED_ENDS:
+        return f"the device ended the trial with reason {tr.end_reason!r}"
+    return None

@@ -1,0 +1,265 @@
+"""The emulated firmware's command handling: every host frame in, its reply out.
+
+:class:`HostCommands` is the half of :class:`~experiments.emulators.thermocue.device.Device` that answers
+the host (HELLO, limits, neutral, upload, ARM, ABORT, STATUS, the emulator-only "sim" commands)
+and keeps the reply cache that makes every command safe to retry; the other half, the 10 ms
+tick (state machine, watchdog, safety monitors, telemetry), is in :mod:`.device`.
+"""
+from __future__ import annotations
+
+import struct
+import zlib
+
+import numpy as np
+
+from experiments.display.thermocue import messages as m
+from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
+                               LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
+                               WATCHDOG_MS)
+from .faults import parse_faults
+from experiments.display.thermocue.framing import encode_frame
+from experiments.display.thermocue.messages import Cmd, Err, Event, Mode, State
+from .pad_physics import (FINGER_ON_PAD_MODEL, FingerScript, FingerSkin, PassiveSample,
+                          finger_pad_resistance)
+
+__all__ = ["HostCommands"]
+
+#: Every silent heartbeat frame (payload 0: feed the watchdog, no reply), one per number.
+_SILENT_HEARTBEATS = frozenset(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
+
+
+class HostCommands:
+    """Command handling of the emulated firmware (a mixin of :class:`~.device.Device`)."""
+
+    def receive(self, data: bytes, at_us: int | None = None) -> None:
+        """Handle bytes from the host (any number of frames, garbage tolerated).
+
+        Parameters
+        ----------
+        data : bytes
+        at_us : int, optional, µs
+            Device time at which the bytes are known to have arrived, when the transport runs
+            behind (a starved emulator process catching up on ticks): valid frames feed the
+            watchdog as of that time. Default: now (``time_us``).
+        """
+        if self.stalled:
+            return
+        stamp = self.time_us if at_us is None else max(self.time_us, int(at_us))
+        if type(data) is bytes and data in _SILENT_HEARTBEATS and not self.parser.buffered:
+            self.parser.frames += 1            # what the parser would say of it, without parsing
+            self.last_rx_us = stamp            # (the host's commonest frame: every 10 ms)
+            return
+        for fr in self.parser.feed(data):
+            self.last_rx_us = stamp
+            if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":
+                continue                           # silent: no reply, nothing to cache
+            hello = fr.type == Cmd.HELLO           # a new session: always carried out
+            hit = None if hello else self.cache.get(fr.type)
+            if hit is not None and hit[0] == fr.seq:
+                self.out += hit[1]                 # a retry: the same answer, not a second action
+                continue
+            try:
+                reply = self._handle(fr.seq, fr.type, fr.payload)
+            except (struct.error, IndexError, ValueError) as exc:
+                reply = self._nak(fr.seq, fr.type, Err.BAD_LENGTH, f"malformed payload: {exc}")
+            if not hello:
+                self.cache[fr.type] = (fr.seq, reply)
+
+    def _nak(self, seq, cmd, code, text="") -> bytes:
+        return self._send(seq, m.Msg.NAK, m.NAK_HEAD.pack(cmd & 0xFF, int(code)) +
+                          text.encode("utf-8")[:200])
+
+    def _ack(self, seq, cmd, payload=b"") -> bytes:
+        return self._send(seq, (cmd | m.REPLY_BIT) & 0xFF, payload)
+
+    def _handle(self, seq: int, cmd: int, p: bytes) -> bytes:
+        if not self.hello and cmd not in BEFORE_HELLO:
+            return self._nak(seq, cmd, Err.NO_HELLO, "no HELLO since power-up")
+        if cmd == Cmd.HEARTBEAT:
+            if p == b"\x00":
+                return b""                         # a silent heartbeat: no reply wanted
+            return self._ack(seq, cmd, m.TIME.pack(self.time_us - self.boot_us))
+        if cmd == Cmd.HELLO:
+            (ver,) = m.HELLO_REQ.unpack(p)
+            if ver != m.PROTOCOL_VERSION:
+                return self._nak(seq, cmd, Err.NOT_SUPPORTED,
+                                 f"protocol {ver} not supported (device speaks {m.PROTOCOL_VERSION})")
+            # a new host: its numbers say nothing about the last host's, so forget the replies
+            # kept for retries (else its SET_LIMITS, SET_NEUTRAL, UPLOAD_BEGIN, ... could be
+            # answered from the cache and not carried out) and any half-done upload
+            self.cache.clear()
+            self.upload = None
+            self.hello = True
+            caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
+            head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
+                                           m.centi(SETPOINT_MAX_C), int(HARD_RATE_C_PER_S * 100),
+                                           m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US,
+                                           self.boot_id)
+            self.log("hello")
+            return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps))
+        if cmd == Cmd.STATUS:
+            return self._ack(seq, cmd, self._status())
+        if cmd == Cmd.ABORT:
+            if self.state in (State.ARMED, State.PLAYING, State.RECORDING):
+                self.end_reason = END_ABORTED
+                self._event(Event.END, END_ABORTED, "aborted by host")
+            if self.state == State.FAULT and self.last_fault in LATCHED_FAULTS:
+                self.log("abort_latched", code=m.error_name(self.last_fault))
+                return self._ack(seq, cmd)         # stopped already; the latch stays (relay open)
+            self._set_state(State.IDLE, "abort")
+            self.enabled = True
+            return self._ack(seq, cmd)
+        if cmd == Cmd.CLEAR_FAULT:
+            if p != m.CLEAR_FAULT_MAGIC:
+                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "CLEAR_FAULT needs the operator's payload")
+            if self.state == State.FAULT:
+                self.log("fault_cleared", code=m.error_name(self.last_fault))
+                self._set_state(State.IDLE, "operator reset")
+                self.enabled = True
+                self.plant.tripped = False
+            return self._ack(seq, cmd)
+        if cmd == Cmd.SET_NEUTRAL:
+            (v,) = m.CENTI.unpack(p)
+            if self.state not in (State.IDLE, State.FAULT):
+                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_NEUTRAL in state {self.state.name}")
+            self.neutral = min(max(v / 100.0, self.lim_min), self.lim_max)
+            self.log("neutral", asked_C=v / 100.0, neutral_C=self.neutral)
+            return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.neutral)))
+        if cmd == Cmd.SET_LIMITS:
+            lo, hi, rate = m.LIMITS.unpack(p)
+            lo, hi = max(lo / 100.0, HARD_MIN_C), min(hi / 100.0, SETPOINT_MAX_C)
+            if self.state != State.IDLE:
+                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_LIMITS in state {self.state.name}")
+            if not lo < hi or rate <= 0:
+                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "empty range or zero rate")
+            self.lim_min, self.lim_max = lo, hi
+            self.lim_rate = min(rate / 100.0, HARD_RATE_C_PER_S)
+            self.neutral = min(max(self.neutral, lo), hi)
+            self.log("limits", min_C=lo, max_C=hi, rate_C_per_s=self.lim_rate,
+                     neutral_C=self.neutral)
+            return self._ack(seq, cmd, m.LIMITS.pack(m.centi(lo), m.centi(hi),
+                                                     int(round(self.lim_rate * 100))))
+        if cmd == Cmd.UPLOAD_BEGIN:
+            n, dt_us = m.UPLOAD_BEGIN.unpack(p)
+            if self.state != State.IDLE:
+                return self._nak(seq, cmd, Err.BAD_STATE, f"UPLOAD in state {self.state.name}")
+            # any UPLOAD_BEGIN in IDLE discards the committed profile and any upload, also one
+            # whose arguments are refused: a host that refused a profile is never left with it
+            self.profile = None
+            self.upload = None
+            if not (2 <= n <= MAX_POINTS) or dt_us < MIN_DT_US:
+                return self._nak(seq, cmd, Err.OUT_OF_RANGE,
+                                 f"n={n} (2..{MAX_POINTS}), dt={dt_us} µs (≥ {MIN_DT_US})")
+            self.upload = dict(n=n, dt_us=dt_us, data=bytearray(2 * n), got=np.zeros(n, bool))
+            self.profile = None
+            return self._ack(seq, cmd)
+        if cmd == Cmd.UPLOAD_CHUNK:
+            off, count = m.UPLOAD_CHUNK_HEAD.unpack_from(p)
+            body = p[m.UPLOAD_CHUNK_HEAD.size:]
+            if self.upload is None:
+                return self._nak(seq, cmd, Err.BAD_STATE, "no UPLOAD_BEGIN")
+            if len(body) != 2 * count:
+                return self._nak(seq, cmd, Err.BAD_LENGTH, f"{count} samples need {2 * count} bytes")
+            if off + count > self.upload["n"]:
+                return self._nak(seq, cmd, Err.OUT_OF_RANGE, f"chunk {off}+{count} > {self.upload['n']}")
+            self.upload["data"][2 * off:2 * (off + count)] = body
+            self.upload["got"][off:off + count] = True
+            return self._ack(seq, cmd, m.UPLOAD_CHUNK_ACK.pack(off, count, zlib.crc32(body)))
+        if cmd == Cmd.UPLOAD_COMMIT:
+            (crc,) = m.COMMIT.unpack(p)
+            up = self.upload
+            if up is None or not up["got"].all():
+                return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "missing samples")
+            mine = zlib.crc32(bytes(up["data"]))
+            if mine != crc:
+                return self._nak(seq, cmd, Err.PROFILE_CRC, f"crc32 {mine:08x} != {crc:08x}")
+            vals = np.frombuffer(bytes(up["data"]), dtype="<i2").astype(float) / 100.0
+            clamped = np.clip(vals, self.lim_min, self.lim_max)
+            n_clamped = int(np.count_nonzero(clamped != vals))
+            if n_clamped:
+                self.log("profile_clamped", samples=n_clamped)
+            self.profile = (clamped.tolist(), up["dt_us"])
+            self.upload = None
+            return self._ack(seq, cmd, m.COMMIT_ACK.pack(len(vals), mine, min(n_clamped, 65535)))
+        if cmd == Cmd.ARM:
+            mode, thr, maxdur = m.ARM.unpack(p)
+            if self.state == State.FAULT:
+                return self._nak(seq, cmd, Err.FAULT_LATCHED, f"fault {m.error_name(self.last_fault)}")
+            if self.state != State.IDLE:
+                return self._nak(seq, cmd, Err.BAD_STATE, f"ARM in state {self.state.name}")
+            if mode not in (Mode.PLAYBACK, Mode.RECORD) or thr == 0 or maxdur == 0:
+                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "mode, threshold or duration")
+            if mode == Mode.PLAYBACK and self.profile is None:
+                return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "no profile committed")
+            self.arm_mode = Mode(mode)
+            self.threshold = thr / 100.0
+            self.max_duration_us = maxdur * 1000
+            self.ready = False
+            self.ready_count = 0
+            self.fresh = False             # contact only after the force fell below half the
+            self.contact_us = 0            # threshold since ARM: a fresh touch, not the last one
+            self.touch_us = None
+            self.end_reason = END_COMPLETE
+            self._set_state(State.ARMED, f"arm {self.arm_mode.name.lower()}")
+            return self._ack(seq, cmd, m.COUNTER.pack(self.counter))
+        if cmd in (Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT):
+            if not self.sim:
+                return self._nak(seq, cmd, Err.NOT_SUPPORTED, "not an emulator")
+            try:
+                args = m.decode_json(p)
+                reply = self._sim(cmd, args)
+            except (ValueError, TypeError, KeyError) as exc:
+                return self._nak(seq, cmd, Err.BAD_ARGUMENT, str(exc))
+            return self._ack(seq, cmd, m.encode_json(reply))
+        return self._nak(seq, cmd, Err.UNKNOWN_COMMAND, f"type 0x{cmd:02x}")
+
+    def _sim(self, cmd, a):
+        if cmd == Cmd.SIM_SAMPLE:
+            self.sample = PassiveSample(a.get("material", "stainless_steel"),
+                                        a.get("roughness_m", 1.6e-6), a.get("thickness_m", 3e-3),
+                                        a.get("temperature_C", 20.0))
+            from stimuli import material
+            material(self.sample.material)                         # unknown name -> error now
+            return dict(vars(self.sample))
+        if cmd == Cmd.SIM_FINGER:
+            f = FingerScript(**{k: float(v) for k, v in a.items()})
+            if not (0.05 <= f.force_N <= 20 and f.hold_s > 0 and f.press_after_s >= 0
+                    and 100e-6 <= f.skin_thickness_m <= 5e-3 and 25 <= f.skin_temperature_C <= 40):
+                raise ValueError(f"finger out of range: {a}")
+            # the finger waits for the cue: if armed but not ready, its clock starts at READY
+            if not (self.state == State.ARMED and not self.ready):
+                f.start_us = self.time_us
+            self.finger = f
+            if self._r_fp is None:
+                self._r_fp = finger_pad_resistance()
+            self.skin = FingerSkin(f.skin_thickness_m, f.skin_temperature_C, self.tick_s, self._r_fp)
+            self.log("finger", **a)
+            reply = dict(start_s=None if f.start_us is None else f.start_us * 1e-6)
+            # what models the finger's next touch, and the planner's decisions (for the host's log)
+            if self.state == State.ARMED and self.arm_mode == Mode.RECORD:
+                reply["sample_model"] = {k: dict(v) for k, v in self.sample_model()[2].items()}
+            elif self.state == State.ARMED:
+                reply["finger_on_pad_model"] = dict(FINGER_ON_PAD_MODEL)
+            return reply
+        specs = parse_faults(a["spec"], where="sim_fault")
+        now = self.time_us * 1e-6
+        shifted = [s.shifted(now) for s in specs]
+        self.faults += shifted
+        for listener in self.fault_listeners:
+            listener(shifted)
+        if not self.stalled and self._fault_active("stall"):
+            self.stalled = True                    # hangs right after this reply
+            self.log("stall")
+        self.log("fault_injected", spec=a["spec"])
+        return dict(now_s=now, faults=len(specs))
+
+    def _status(self) -> bytes:
+        f = self.forces
+        return m.STATUS_REPLY.pack(
+            self.state, self.last_fault, self.time_us - self.boot_us, m.centi(self.sp),
+            m.centi(self.contact_C),
+            m.centi(self.ambient_C), m.centi(self.finger_C), m.centi(self.plant.hs),
+            m.centi(f[0]), m.centi(f[1]), m.centi(f[2]), m.centi(f[3]), m.centi(self.neutral),
+            0 if self.profile is None else len(self.profile[0]),
+            0 if not self.contact_us else self.contact_us - self.boot_us, self.end_reason,
+            self.counter, self.trials, self.boot_id)

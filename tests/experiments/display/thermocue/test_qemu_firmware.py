@@ -1,0 +1,60 @@
+"""The ``qemu-firmware://`` backend: its URL, its availability, QEMU's lifetime.
+
+The protocol behaviour of the firmware it runs is the conformance suite's
+(``tests/conformance``); these tests check the backend's own promises.
+"""
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from experiments.errors import DisplayError, UserInputError
+from experiments.display.thermocue.qemu_firmware import QemuFirmwareDisplay, parse_url
+from experiments.display.registry import backend_for
+
+NO_QEMU = shutil.which("qemu-system-arm") is None
+
+
+def test_registered_for_its_scheme():
+    assert backend_for("qemu-firmware://") is QemuFirmwareDisplay
+
+
+@pytest.mark.parametrize("url, field", [
+    ("qemu-firmware://?bogus=1", "bogus"),
+    ("qemu-firmware://?build=2", "build"),
+    ("qemu-firmware://?image=", "image"),
+    ("qemu-firmware://host/x", "nothing before"),
+])
+def test_bad_url_names_the_option(url, field):
+    with pytest.raises(UserInputError, match=field):
+        QemuFirmwareDisplay.check_url(url)
+
+
+def test_url_options():
+    assert parse_url("qemu-firmware://") == {"image": None, "build": True}
+    opts = parse_url("qemu-firmware://?image=/tmp/x.elf&build=0")
+    assert str(opts["image"]) == "/tmp/x.elf" and opts["build"] is False
+
+
+def test_unavailable_without_qemu_says_why(monkeypatch, tmp_path):
+    monkeypatch.setenv("PATH", str(tmp_path))          # an empty folder: no QEMU on the path
+    ok, reason = QemuFirmwareDisplay.availability()
+    assert not ok and "qemu-system-arm" in reason
+
+
+def test_missing_image_is_one_line_naming_it(tmp_path):
+    path = tmp_path / "none.elf"
+    with pytest.raises(DisplayError, match="none.elf"):
+        QemuFirmwareDisplay.open(f"qemu-firmware://?image={path}")
+
+
+@pytest.mark.skipif(NO_QEMU, reason="qemu-system-arm is not installed here (CI installs it with "
+                                    "scripts/setup)")
+def test_close_ends_qemu():
+    from experiments.display import open_display
+    disp = open_display("qemu-firmware://")
+    proc = disp.qemu
+    assert proc.poll() is None and disp.info.firmware.startswith("thermocue-fw")
+    disp.close()
+    assert proc.poll() is not None
