@@ -56,7 +56,8 @@ class Column:
         round-trip form.
     domain : (lower, upper, what) or None
         The values a reader accepts (``lower <= value <= upper``, None: unbounded; floats must be
-        finite; a flag is 0 or 1), ``what`` in words; blank cells always pass.
+        finite; a flag is 0 or 1), ``what`` in words; empty cells always pass (a "nan" or "n/a" text does not:
+        the writer writes a missing number as an empty cell).
     choices : tuple of str or None
         The values a text column may hold.
     psychopy : bool
@@ -67,6 +68,9 @@ class Column:
         older logs).
     codebook : (unit, meaning) or None
         Its entry in the analysis codebook (``codebook.json``) where analysis exports it.
+    blank : bool
+        Whether a reader accepts a blank cell (False: the session writes a value in every row,
+        and a row without one is refused).
     """
 
     name: str
@@ -80,6 +84,7 @@ class Column:
     psychopy: bool = False
     analysis: str | None = None
     codebook: tuple[str, str] | None = None
+    blank: bool = True
 
     def __post_init__(self):
         if self.group not in GROUPS or self.kind not in KINDS \
@@ -130,7 +135,7 @@ TRIALS = (
            meaning="PsychoPy's column: the window's frame rate as PsychoPy measured it "
                    "(win.getActualFrameRate; n/a: no window; empty: not measurable)"),
     # design
-    Column("block", "design", "str", analysis="required",
+    Column("block", "design", "str", analysis="required", blank=False,
            meaning="Block name from the protocol",
            codebook=(CATEGORY, "protocol block name")),
     Column("trial_index", "design", "int", analysis="required",

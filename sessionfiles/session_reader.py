@@ -227,6 +227,8 @@ def _as_int(v: Any) -> int | None:
 #: (experiments.protocol): Ra beyond 1 cm is no surface finish, and a fingertip's skin is at most
 #: 1 cm thick.
 DOMAIN = {c.name: (c.kind, *c.domain) for c in TRIALS if c.domain}
+#: Columns whose cell is never blank in a row the session wrote (``Column.blank`` is False).
+NOT_BLANK = tuple(c.name for c in TRIALS if not c.blank)
 _FLAGS = {"true": 1, "false": 0, "1": 1, "0": 0, "1.0": 1, "0.0": 0}
 
 
@@ -264,9 +266,16 @@ def row_problem(row: Mapping[str, Any], samples: Iterable[int] | None = None) ->
     mode = row.get("mode")
     if "mode" in row and not _blank(mode) and str(mode).strip() not in MODES:
         return "mode", f"expected one of {', '.join(MODES)}", mode
+    for column in NOT_BLANK:
+        if column in row and _blank(row[column]):
+            return column, "expected a value (the session writes one in every row)", row[column]
     for column, (kind, lo, hi, what) in DOMAIN.items():
         value = row.get(column)
-        if _blank(value):
+        # a missing number is an empty cell in trials.csv (the writer's only form of it; rows
+        # rebuilt from the events carry None or NaN): a "nan", "None" or "n/a" text in a checked
+        # column was not written by a session
+        if value is None or (isinstance(value, float) and math.isnan(value)) \
+                or (isinstance(value, str) and not value.strip()):
             continue
         if kind == "flag":
             ok = _flag(value) is not None

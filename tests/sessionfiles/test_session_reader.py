@@ -82,7 +82,7 @@ def test_encodings_utf8_with_or_without_bom_others_refused_with_the_byte(tmp_pat
     assert check_text(b"a,b\n1,2\n" + b"\x00" * 64, p) == b"a,b\n1,2\n" + b"\x00" * 64
 
 
-GOOD = {"participant": "P01", "session": "S01", "status": "ok", "trial_index": "5", "attempt": "1",
+GOOD = {"participant": "P01", "session": "S01", "block": "real", "status": "ok", "trial_index": "5", "attempt": "1",
         "roughness_id": "2", "response_id": "3", "correct": "0", "rt_s": "0.4",
         "roughness_um": "12.5", "mode": "real", "tracking_rms_C": "", "contact_force_N": "2.4"}
 
@@ -95,6 +95,13 @@ GOOD = {"participant": "P01", "session": "S01", "status": "ok", "trial_index": "
     ("rt_s", "1e999", "expected a finite time >= 0 s"),
     ("rt_s", "nan?", "expected a finite time >= 0 s"),
     ("rt_s", "inf", "expected a finite time >= 0 s"),
+    # a missing number is an empty cell, never a text that pandas or a spreadsheet reads as NaN
+    ("rt_s", "nan", "expected a finite time >= 0 s"),
+    ("rt_s", "NaN", "expected a finite time >= 0 s"),
+    ("rt_s", "n/a", "expected a finite time >= 0 s"),
+    ("correct", "None", "expected an integer, 0 or 1"),
+    ("block", "", "expected a value (the session writes one in every row)"),
+    ("block", "  ", "expected a value (the session writes one in every row)"),
     ("roughness_um", "-1.6", "expected a roughness Ra in (0, 10000] um"),
     ("participant", "P0\x001", "expected text without NUL bytes"),
     ("trial_index", "0", "expected an integer >= 1"),
@@ -210,6 +217,9 @@ def test_folder_names_that_differ_are_reported_and_the_files_identity_used(data)
 @pytest.mark.parametrize("column,value,message", [
     ("rt_s", "-3", "rt_s: expected a finite time >= 0 s (at most a day) (line {line}), got '-3'"),
     ("rt_s", "1e999", "rt_s: expected a finite time >= 0 s (at most a day) (line {line}), got '1e999'"),
+    ("rt_s", "nan", "rt_s: expected a finite time >= 0 s (at most a day) (line {line}), got 'nan'"),
+    ("block", "", "block: expected a value (the session writes one in every row) (line {line}), "
+                  "got ''"),
     ("status", "ol", "status: expected one of ok, fault, aborted (line {line}), got 'ol'"),
     ("response_id", "7", "response_id: expected one of 1, 2, 3, 4 or blank (line {line}), got '7'"),
     ("correct", "0", "correct: expected 1 for response_id"),
