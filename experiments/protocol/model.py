@@ -118,6 +118,11 @@ class ContactSettings:
         No contact within this time: the attempt is aborted.
     rewarm_s : float, s
         Rewarming interval between trials (hand on the hot-water bag).
+    max_attempts : int
+        A trial is attempted at most this many times in one run of the session (faulted,
+        aborted or cut by a lost link); then it is given up (``trial_given_up`` in the log, said
+        on the experimenter's channel) and the session goes on with the next trial. A session
+        that stopped runs it again, as often, on ``resume``; a finished one does not. Default 3.
     """
 
     force_threshold_N: float
@@ -125,6 +130,7 @@ class ContactSettings:
     record_s: float
     trial_timeout_s: float
     rewarm_s: float
+    max_attempts: int = 3
 
 
 @dataclass(frozen=True)

@@ -113,6 +113,7 @@ class Session(TrialSteps):
         self.signals = SignalGuard()
         self._fatal = None          # (code, message) of a fault that stops the session
         self._link_lost = None      # (code, message): the display's port failed in this attempt
+        self._given_up: set[int] = set()   # trials given up in this run ([contact] max_attempts)
         self._reopened = []         # displays opened again after a lost link (closed at the end)
         #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).
         self.hooks = hooks if hooks is not None else hooks_from_env()
@@ -388,6 +389,7 @@ class Session(TrialSteps):
         disp.set_neutral(self.protocol.display.neutral_C)
         faults = 0
         queue = list(todo)
+        tries: dict[int, int] = {}      # attempts of each trial in this run (start or resume)
         while queue:
             spec = queue[0]
             attempt = progress.next_attempt(spec.trial_index)
@@ -396,25 +398,26 @@ class Session(TrialSteps):
             if outcome == "ok":
                 faults = 0
                 queue.pop(0)
-            else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again
-                faults += 1
+            else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again,
+                faults += 1  # up to [contact] max_attempts attempts in this run
+                tries[spec.trial_index] = tries.get(spec.trial_index, 0) + 1
+                if tries[spec.trial_index] >= self.protocol.contact.max_attempts:
+                    queue.pop(0)
+                    self._give_up(spec.trial_index, tries[spec.trial_index])
             if self._fatal is not None:
                 return self._stop_fatal(disp, queue)
-            if self._link_lost is not None:
+            lost = self._link_lost is not None
+            if lost:
                 disp = self._reconnect(disp, spec.trial_index)
                 if disp is None:
                     return self._stop_link_lost(queue)
+            if faults >= self.max_consecutive_faults:
+                # (a lost link that connecting again cured counts too: a link that drops on every
+                # attempt stops the session here instead of retrying one trial for ever)
+                return self._stop_faults(disp, faults, queue)
+            if lost:
                 self.machine.go("idle")
                 continue          # the same trial at once, no rewarm (still a consecutive fault)
-            if faults >= self.max_consecutive_faults:
-                self.machine.go("idle")
-                self.machine.go("stopped")
-                self._neutral(disp)
-                self.log_event("session_stopped", reason=f"{faults} consecutive faults",
-                               n_completed=self.n_trials - len(queue))
-                self._report(f"stopped after {faults} consecutive faults; resume with "
-                             f"`thermocue resume {self.directory}`")
-                return 1
             if queue:
                 self._rewarm()
             self.machine.go("idle")
@@ -422,10 +425,14 @@ class Session(TrialSteps):
         self._neutral(disp)
         self._write_trials()
         self._export_bids()          # (before session_finished: that stays the log's last event)
-        self.log_event("session_finished", n_completed=self.n_trials)
+        self.log_event("session_finished", n_completed=self._n_completed([]),
+                       n_given_up=len(self._given_up))
         self._write_trials()
-        self._say(f"session finished: {self.n_trials} trials, {clock_text(self._elapsed())} since "
-                  f"its first start; data in {self.directory}")
+        given_up = (f" ({len(self._given_up)} given up after {self.protocol.contact.max_attempts} "
+                    f"attempts: trial {', '.join(map(str, sorted(self._given_up)))})"
+                    if self._given_up else "")
+        self._say(f"session finished: {self.n_trials} trials{given_up}, "
+                  f"{clock_text(self._elapsed())} since its first start; data in {self.directory}")
         if self.responder is not None:
             self.responder.show_text("Thank you: the session is finished.")
         return 0
@@ -522,13 +529,39 @@ class Session(TrialSteps):
                      f"connected again, the trial runs again")
         return again
 
+    def _give_up(self, trial_index: int, attempts: int) -> None:
+        """Log that a trial reached ``[contact] max_attempts`` attempts in this run without an
+        ``ok`` one (a resume after a stop runs it again, with as many attempts)."""
+        limit = self.protocol.contact.max_attempts
+        self._given_up.add(trial_index)
+        self.log_event("trial_given_up", trial_index=trial_index, attempts=attempts,
+                       max_attempts=limit)
+        self._report(f"trial {trial_index}: given up after {attempts} attempts without a "
+                     f"clean one (the protocol's [contact] max_attempts = {limit}); the session "
+                     f"goes on without it")
+
+    def _n_completed(self, queue) -> int:
+        """Trials with an ``ok`` attempt: neither still to run nor given up."""
+        return self.n_trials - len(queue) - len(self._given_up)
+
+    def _stop_faults(self, disp, faults: int, queue) -> int:
+        """Stop after ``max_consecutive_faults`` faulted attempts in a row (resumable)."""
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        self._neutral(disp)
+        self.log_event("session_stopped", reason=f"{faults} consecutive faults",
+                       n_completed=self._n_completed(queue))
+        self._report(f"stopped after {faults} consecutive faults; resume with "
+                     f"`thermocue resume {self.directory}`")
+        return 1
+
     def _stop_link_lost(self, queue) -> int:
         """Stop after a lost link that one reconnect did not cure (resumable once fixed)."""
         lost, why = self._lost_because
         self.machine.go("idle")
         self.machine.go("stopped")
         self.log_event("session_stopped", reason="display link lost", message=lost,
-                       reconnect=why, n_completed=self.n_trials - len(queue))
+                       reconnect=why, n_completed=self._n_completed(queue))
         self._report(f"stopped: the display's link was lost ({_bare(lost)}) and connecting "
                      f"again failed ({_bare(why)}); check its cable and power, then resume with "
                      f"`thermocue resume {self.directory}`")
@@ -542,7 +575,7 @@ class Session(TrialSteps):
         self._neutral(disp)
         advice = "the display restarted: resume to shake hands with it again"
         self.log_event("session_stopped", reason=f"display fault {code}", message=message,
-                       n_completed=self.n_trials - len(queue))
+                       n_completed=self._n_completed(queue))
         self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
         return 1
 

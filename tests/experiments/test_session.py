@@ -124,6 +124,43 @@ def test_consecutive_faults_stop_cleanly_and_resume_finishes(tmp_path):
         ("2", "3", "fault"), ("2", "4", "ok"), ("3", "1", "ok"), ("4", "1", "ok")]
 
 
+def test_a_trial_is_given_up_after_the_protocols_max_attempts_and_the_session_goes_on(tmp_path):
+    proto = write_protocol(tmp_path, sim_samples=())
+    proto.write_text(proto.read_text().replace("rewarm_s = 0.0", "rewarm_s = 0.0\nmax_attempts = 2"))
+    s = create_session(proto, P01, tmp_path / "data", "scripted://", seed=7,
+                       responder_name="scripted-test", clock="virtual", max_consecutive_faults=5)
+    assert s.protocol.contact.max_attempts == 2
+    out = io.StringIO()
+    s.out = out
+    disp = ScriptedDisplay(script=["ok", "fault", "raise", "ok", "ok"])
+    assert s.run(ScriptedResponder(), display=disp) == 0
+    assert [(r["trial_index"], r["attempt"], r["status"]) for r in rows(s.directory / "trials.csv")] \
+        == [("1", "1", "ok"), ("2", "1", "fault"), ("2", "2", "fault"), ("3", "1", "ok"),
+            ("4", "1", "ok")]
+    ev = read_json_lines(s.directory / "events.jsonl")
+    given = [e for e in ev if e["event"] == "trial_given_up"]
+    assert [(e["trial_index"], e["attempts"], e["max_attempts"]) for e in given] == [(2, 2, 2)]
+    assert ev[-1]["event"] == "session_finished" and ev[-1]["n_completed"] == 3 \
+        and ev[-1]["n_given_up"] == 1
+
+
+def test_a_link_that_drops_on_every_attempt_stops_the_session_instead_of_retrying_for_ever(tmp_path):
+    # the in-process emulator's injected disconnect comes back with every reconnect (its device
+    # time starts again at 0): before, the lost-link path skipped the fault count and one session
+    # logged thousands of attempts of trial 1
+    proto = write_protocol(tmp_path, contact_s=0.5, real_samples=(1,), sim_samples=(3,))
+    out = io.StringIO()
+    s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&faults=disconnect@1",
+                       seed=4, clock="virtual", out=out)
+    assert s.run(ScriptedResponder()) == 1
+    ev = read_json_lines(s.directory / "events.jsonl")
+    assert sum(e["event"] == "trial_started" for e in ev) == 3
+    assert sum(e["event"] == "display_reconnected" for e in ev) == 3
+    assert [e["trial_index"] for e in ev if e["event"] == "trial_given_up"] == [1]
+    assert ev[-1]["event"] == "session_stopped" and ev[-1]["reason"] == "3 consecutive faults"
+    assert "stopped after 3 consecutive faults" in out.getvalue()
+
+
 def test_no_contact_aborts_the_attempt_and_runs_the_trial_again(tmp_path):
     s = new_session(tmp_path)
     disp = ScriptedDisplay(script=["no_contact", "ok", "ok", "ok", "ok"])
