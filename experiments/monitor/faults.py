@@ -16,6 +16,8 @@ FAULT_WORDS = {
                     "sensor): the relay was opened; it stays until an operator resets it",
     "FAULT_LATCHED": "the display refused to arm: an earlier fault is latched until an operator "
                      "resets it (thermocue clear-fault)",
+    "BAD_STATE": "the display refused the command in the state it was in (after a latched "
+                 "fault it refuses every trial until an operator resets it)",
     "LINK_TIMEOUT": "the display did not answer after the retries",
     "LINK_LOST": "the display's port failed (unplugged cable, powered off); its watchdog takes "
                  "the pad to neutral",

@@ -47,6 +47,7 @@
 
   const liveCharts = makeCharts($("live-temp"), $("live-force"));
   let picked = null;
+  window.monitorCharts = { live: liveCharts, picked: null };   // read by the browser tests
 
   function seriesOf(cols, fault) {
     const n = cols.t.length;
@@ -165,7 +166,7 @@
       return resp.json();
     }).then((d) => {
       if (d.error) { note.hidden = false; note.textContent = d.error; return; }
-      if (!picked) picked = makeCharts($("picked-temp"), $("picked-force"));
+      if (!picked) picked = window.monitorCharts.picked = makeCharts($("picked-temp"), $("picked-force"));
       draw(picked, d.trace, d.fault);
       note.hidden = !d.fault;
       if (d.fault) note.textContent = faultText(d.fault, "") + " (marked ● on the trace)";
