@@ -243,8 +243,11 @@ class FolderView:
             left = 0.0
         elif s["end"] is not None:
             left = None
+        words = _MACHINE_WORDS.get(s["machine"], s["machine"])
+        if s["machine"] == "wait_contact" and device in ("PLAYING", "RECORDING"):
+            words = "touch in progress"     # the engine logs playback/record once it ends
         return {"state": "neutral" if s["end"] else page_state(s["machine"], device, s["armed"]),
-                "machine": s["machine"], "machine_words": _MACHINE_WORDS.get(s["machine"], s["machine"]),
+                "machine": s["machine"], "machine_words": words,
                 "trial": s["trial"], "attempt": s["attempt"], "block": s["block"],
                 "block_position": self._block_position(s["trial"], s["block"]),
                 "elapsed_s": None if s["first_start"] is None else max(0.0, end_s - s["first_start"]),

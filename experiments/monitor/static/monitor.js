@@ -27,9 +27,9 @@
       title: "Pad temperature and its target", width: width(), height: 280,
       scales: { x: { time: false } },
       series: [x,
-        { label: "target °C", stroke: "#555", dash: [6, 4], width: 1.5 },
-        { label: "pad (contact) °C", stroke: "#d62728", width: 2 },
-        { label: "finger (IR) °C", stroke: "#1f77b4", width: 1 },
+        { label: "pad (contact) °C", stroke: "#d62728", width: 3, points: { show: false } },
+        { label: "target °C", stroke: "#111", dash: [5, 4], width: 1.5, points: { show: false } },
+        { label: "finger (IR) °C", stroke: "#1f77b4", width: 1, points: { show: false } },
         { label: "fault", stroke: "#000", fill: "#f00", width: 0, paths: () => null,
           points: { show: true, size: 14, width: 2, stroke: "#000", fill: "#f00" } }],
       axes: [{ label: "device time (s)" }, { label: "°C" }],
@@ -38,8 +38,8 @@
       title: "Contact force (four sensors summed) and the threshold", width: width(), height: 180,
       scales: { x: { time: false } },
       series: [x,
-        { label: "force N", stroke: "#2ca02c", width: 2 },
-        { label: "threshold N", stroke: "#999", dash: [4, 4], width: 1 }],
+        { label: "force N", stroke: "#2ca02c", width: 2, points: { show: false } },
+        { label: "threshold N", stroke: "#999", dash: [4, 4], width: 1, points: { show: false } }],
       axes: [{ label: "device time (s)" }, { label: "N" }],
     }, [[], [], []], forceEl);
     return { temp, force };
@@ -58,7 +58,7 @@
     }
     const thr = meta && meta.force_threshold_N !== null ? meta.force_threshold_N : null;
     return {
-      temp: [cols.t, cols.target, cols.contact, cols.finger, mark],
+      temp: [cols.t, cols.contact, cols.target, cols.finger, mark],
       force: [cols.t, cols.force, new Array(n).fill(thr)],
     };
   }
@@ -93,7 +93,8 @@
     stats.lastT = live.cols.t.length ? live.cols.t[live.cols.t.length - 1] : null;
     $("live-title").textContent = "Trial " + tr.key[0] + ", attempt " + tr.key[1] +
       (tr.done ? " (ended)" : " (running)");
-    $("live-note").textContent = live.fault ? faultText(live.fault, "") + " (marked ● on the trace)" : "";
+    $("live-note").textContent = live.fault ? faultText(live.fault, "") + " (marked ● on the trace)"
+      : (tr.done && !live.cols.t.length ? "no trace: the display did not run this attempt" : "");
     $("live-note").className = live.fault ? "faultnote" : "note";
     if (!dirty) { dirty = true; requestAnimationFrame(render); }
   }

@@ -158,7 +158,7 @@ def test_a_finished_session_is_browsed_and_a_damaged_log_is_said_on_the_page(tmp
         wait_for(lambda: d.execute_script(
             "const p = window.monitorCharts.picked; return p && p.temp.data[0].length") == frames,
             what="the clicked trial's whole trace on its chart")
-        assert d.execute_script("return window.monitorCharts.picked.temp.data[1]"
+        assert d.execute_script("return window.monitorCharts.picked.temp.data[2]"
                                 ".filter(v => v !== null).length") == frames     # its target
     # the same folder with a damaged line in its log: the page says so, in words
     lines = (folder / "events.jsonl").read_bytes().splitlines(keepends=True)
