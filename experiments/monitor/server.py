@@ -159,7 +159,7 @@ class Monitor:
     """The view of ``folder`` served on ``host``:``port`` (0: a free port)."""
 
     def __init__(self, folder, host: str = "127.0.0.1", port: int = 0, *, token: bool | None = None,
-                 poll_s: float = 0.05, say=None, uplot: Path | None = None):
+                 poll_s: float = 0.04, say=None, uplot: Path | None = None):
         self.view = FolderView(folder)
         self.poll_s = float(poll_s)
         local = host in _LOCAL and token is not True

@@ -3,8 +3,10 @@
 "use strict";
 (function () {
   const $ = (id) => document.getElementById(id);
-  const stats = { updates: 0, frames: 0, lastT: null, lastUpdateMs: null, renders: 0 };
-  window.monitorStats = stats;                 // read by the browser tests and the benchmark
+  // read by the browser tests and benchmarks/bench_monitor.py: history holds [Date.now() ms,
+  // the last frame's device time] per redraw of the running trial (the last 20,000)
+  const stats = { updates: 0, frames: 0, lastT: null, lastUpdateMs: null, renders: 0, history: [] };
+  window.monitorStats = stats;
   let meta = null;
   let rows = [];
   let live = null;                             // {key, cols, fault}
@@ -74,6 +76,8 @@
     if (live) {
       draw(liveCharts, live.cols, live.fault);
       stats.renders += 1;
+      if (stats.history.length >= 20000) stats.history.splice(0, 10000);
+      stats.history.push([Date.now(), stats.lastT]);
     }
   }
 
