@@ -1,11 +1,13 @@
 """`thermocue monitor`: the experimenter's live view of a session folder, as a local web page.
 
 Also :func:`start_beside` / :func:`stop_beside`: ``thermocue run ... --monitor`` (and
-``resume``) start it in a process of its own beside the session (niced: it must never slow the
-session) and stop it when the session ends.
+``resume``) start it in a process of its own beside the session and stop it when the session
+ends (or when the session's process is gone). The monitor runs at nice 10 wherever it is
+started: it must never slow a session.
 """
 from __future__ import annotations
 
+import argparse
 import os
 import signal
 import subprocess
@@ -27,6 +29,8 @@ def register(sub) -> None:
                         "network); the URL then holds a random token, and requests without it "
                         "get 403")
     p.add_argument("--port", type=int, default=0, metavar="N", help="port (default: a free one)")
+    # run/resume --monitor: stop when that process is gone (even killed)
+    p.add_argument("--exit-with", type=int, default=None, help=argparse.SUPPRESS)
     p.set_defaults(func=_run)
 
 
@@ -48,6 +52,10 @@ def _run(ns) -> int:
         return 1
     host = ns.host or "127.0.0.1"
     try:
+        os.nice(10)        # below the session wherever it is started: it must never slow it
+    except OSError:
+        pass
+    try:
         monitor = Monitor(ns.folder, host=host, port=ns.port, token=True if ns.host else None,
                           say=_say)
     except OSError as exc:
@@ -63,7 +71,12 @@ def _run(ns) -> int:
         print(monitor.url, flush=True)
         _say(f"the experimenter's view of {ns.folder}: {monitor.url}"
              + ("" if monitor.token is None else " (keep the URL: its token is the key)"))
-        await stop.wait()
+        while not stop.is_set():
+            try:
+                await asyncio.wait_for(stop.wait(), timeout=1.0)
+            except asyncio.TimeoutError:
+                if ns.exit_with is not None and os.getppid() != ns.exit_with:
+                    break      # the session's process is gone
         monitor.stop()
 
     asyncio.run(serve())
@@ -71,13 +84,15 @@ def _run(ns) -> int:
 
 
 def start_beside(folder, out=sys.stderr):
-    """Start ``thermocue monitor FOLDER`` in a niced process of its own; say its URL on ``out``.
+    """Start ``thermocue monitor FOLDER`` in a process of its own (it lowers its own priority,
+    and stops when this process is gone); it says its URL on the terminal.
 
     Returns the process (None when it could not start: said, and the session goes on)."""
-    cmd = [sys.executable, "-m", "experiments", "monitor", str(folder)]
+    cmd = [sys.executable, "-m", "experiments", "monitor", str(folder),
+           "--exit-with", str(os.getpid())]
     try:
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True,
-                                preexec_fn=lambda: os.nice(10), start_new_session=True)
+                                start_new_session=True)
     except OSError as exc:
         print(f"{PREFIX}: not started ({exc}); the session goes on without it", file=out, flush=True)
         return None

@@ -70,7 +70,9 @@ class FolderView:
     def poll(self) -> None:
         problems = []
         if not self.folder.is_dir():
-            self.problem = (f"{self.folder}: no such session folder (yet): waiting for it; a "
+            self.problem = (f"{self.folder}: expected a session folder, got a file" if
+                            self.folder.exists() else
+                            f"{self.folder}: no such session folder (yet): waiting for it; a "
                             f"session folder holds session.json and events.jsonl")
             return
         if self.meta is None:

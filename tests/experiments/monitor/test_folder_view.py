@@ -41,6 +41,12 @@ def test_a_missing_folder_is_a_sentence_and_the_view_follows_it_once_it_appears(
     assert view.status()["end"] == "finished" and view.status()["time_left_s"] == 0.0
 
 
+def test_a_file_given_as_the_folder_is_named(finished):
+    view = FolderView(finished / "trials.csv")
+    view.poll()
+    assert view.problem == f"{finished / 'trials.csv'}: expected a session folder, got a file"
+
+
 def test_a_half_written_last_line_waits_and_a_damaged_line_stops_the_view_there(tmp_path, finished):
     folder = tmp_path / "S01"
     shutil.copytree(finished, folder)

@@ -84,3 +84,35 @@ def test_the_monitors_stderr_says_the_url_and_it_stops_cleanly_on_ctrl_c(folder)
     assert proc.returncode == 0
     err = proc.stderr.read()
     assert f"the experimenter's view of {folder}: {url}" in err and "Traceback" not in err
+
+
+def test_a_monitor_beside_a_session_stops_when_the_sessions_process_is_killed(folder):
+    # run --monitor starts it with --exit-with (its own pid): a SIGKILLed session leaves no
+    # monitor serving behind it
+    import os
+    import signal
+    import subprocess
+    import sys
+    parent = subprocess.Popen(
+        [sys.executable, "-c",
+         "import subprocess, sys\n"
+         "from experiments.cli.monitor import start_beside\n"
+         f"p = start_beside({str(folder)!r})\n"
+         "print(p.pid, flush=True)\n"
+         "import time; time.sleep(60)\n"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    monitor_pid = int(parent.stdout.readline())
+    os.kill(parent.pid, signal.SIGKILL)
+    parent.wait()
+    end = time.monotonic() + 15
+    while time.monotonic() < end:
+        try:                              # gone, or a zombie its new parent has not reaped yet
+            with open(f"/proc/{monitor_pid}/stat") as fh:
+                if fh.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    break
+        except FileNotFoundError:
+            break
+        time.sleep(0.1)
+    else:
+        os.kill(monitor_pid, signal.SIGKILL)
+        pytest.fail("the monitor kept serving after the session's process was killed")
