@@ -109,3 +109,41 @@ def test_a_fifo_in_the_logs_place_is_a_sentence_not_a_hang(tmp_path, finished):
     view.poll()
     assert "events.jsonl" in view.problem and "cannot be read" in view.problem
     json.dumps(view.status())                       # the page's status still serialises
+
+
+def test_the_running_attempt_that_faults_gets_its_marker_on_the_live_trace(tmp_path, finished):
+    # the log cut just after the faulted attempt's trial_completed: that attempt is the live one
+    folder = tmp_path / "S01"
+    shutil.copytree(finished, folder)
+    lines = (finished / "events.jsonl").read_bytes().splitlines(keepends=True)
+    cut = next(i for i, line in enumerate(lines) if b'"trial_completed"' in line)
+    (folder / "events.jsonl").write_bytes(b"".join(lines[:cut + 1]))
+    view = FolderView(folder)
+    view.poll()
+    assert view.live.key == (1, 1) and view.live.done
+    msg = update_for(view, Cursor())
+    assert msg["trace"]["fault"]["code"] == "OVER_TEMPERATURE" and msg["trace"]["done"]
+    assert msg["status"]["last_fault"]["code"] == "OVER_TEMPERATURE"
+    assert msg["status"]["state"] == "neutral"     # the machine went on to write
+
+
+def test_a_watchdog_trip_is_marked_where_the_display_fell_back_to_neutral():
+    from experiments.monitor.trace import TraceColumns, fault_marker
+    data = TraceColumns()
+    data.add_lines([b"time_s,target_C,contact_C,ambient_C,finger_C,force1_N,force2_N,force3_N,"
+                    b"force4_N,state"]
+                   + [f"{0.01 * i:.2f},30,30.{i},20,35,0.5,0.5,0.5,0.5,{s}".encode()
+                      for i, s in enumerate(["ARMED", "PLAYING", "PLAYING", "IDLE", "IDLE"])])
+    marker = fault_marker(data, "WATCHDOG", "host heartbeat lost")
+    assert (marker["time_s"], marker["value_C"]) == (0.03, 30.3)
+    assert "heard nothing from the computer for 90 ms" in marker["words"]
+
+
+def test_answers_are_shown_only_in_blocks_that_give_the_participant_feedback(finished):
+    view = FolderView(finished)
+    view.poll()
+    assert all(r["answer"] is None and r["correct"] is None for r in view.rows)   # no feedback
+    view.meta["blocks"] = [{"name": "real", "feedback": True, "response": True}]
+    view._end_attempt({"event": "trial_completed", "trial_index": 9, "attempt": 1,
+                       "row": {"status": "ok", "block": "real", "response_id": 2, "correct": 0}})
+    assert (view.rows[-1]["answer"], view.rows[-1]["correct"]) == (2, 0)
