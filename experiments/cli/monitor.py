@@ -69,8 +69,13 @@ def _run(ns) -> int:
             loop.add_signal_handler(sig, stop.set)
         monitor.start()
         print(monitor.url, flush=True)
-        _say(f"the experimenter's view of {ns.folder}: {monitor.url}"
-             + ("" if monitor.token is None else " (keep the URL: its token is the key)"))
+        note = ""
+        if monitor.token is not None:
+            note = " (keep the URL: its token is the key"
+            if host in ("0.0.0.0", "::"):
+                note += f"; from another computer put this machine's address for {host}"
+            note += ")"
+        _say(f"the experimenter's view of {ns.folder}: {monitor.url}{note}")
         while not stop.is_set():
             try:
                 await asyncio.wait_for(stop.wait(), timeout=1.0)

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from experiments.monitor.faults import explain
-from experiments.monitor.tail import LineTail
+from experiments.monitor.tail import LineTail, Restarted
 from experiments.monitor.time_left import TimeLeft, event_seconds
 from experiments.monitor.trace import LiveTrace, fault_marker, read_trace
 from experiments.session_reader import read_regular_bytes
@@ -52,8 +52,9 @@ class FolderView:
         self.folder = Path(folder)
         self.meta: dict | None = None
         self.meta_version = 0
+        self.generation = 0                      # bumped when the log must be read afresh
         self.problem: str | None = None
-        self.events = LineTail(self.folder / "events.jsonl")
+        self.events = LineTail(self.folder / "events.jsonl", same_name=True)
         self.damaged_at: int | None = None       # line of events.jsonl the view stopped at
         self.rows: list[dict] = []
         self.row_faults: dict = {}               # trace_file -> marker (made when clicked)
@@ -121,6 +122,11 @@ class FolderView:
                     f"shows the session up to the line before it"]
         try:
             lines = self.events.read()
+        except Restarted:                  # cut (a resume's repair) or replaced: start afresh
+            folder, generation = self.folder, self.generation
+            self.__init__(folder)
+            self.generation = generation + 1       # the pages start afresh too (stream.py)
+            return self._read_meta() + self._read_events()
         except OSError as exc:
             return [f"{path}: cannot be read ({exc.strerror or exc})"]
         first = self.events.lines_read - len(lines) + 1

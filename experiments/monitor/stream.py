@@ -6,7 +6,8 @@ message (or None): ``meta`` (the session's record, once), ``problem`` (what is w
 folder, or null), ``rows`` from ``rows_from`` (finished attempts), ``trace`` (the running
 attempt's frames: ``reset`` with a new attempt, else the frames from ``from``; ``fault`` once the
 attempt ended in one) and ``status`` (state, trial n of N, elapsed, time left: when it changed,
-and once a second for the clocks).
+and once a second for the clocks). When the view read the log afresh (it was cut or replaced),
+the page gets everything again, starting with ``rows_from`` 0 (the table cleared).
 """
 from __future__ import annotations
 
@@ -26,18 +27,22 @@ class Cursor:
     trace_fault: bool = False
     version: int = -1
     status_at: float = 0.0
+    generation: int = 0
 
 
 def update_for(view, cursor: Cursor, now_s: float | None = None) -> dict | None:
     now_s = time.time() if now_s is None else now_s
     msg: dict = {}
+    if cursor.generation != view.generation:       # the log was read afresh: so is the page
+        cursor.__init__(generation=view.generation)
+        msg["rows_from"], msg["rows"] = 0, []
     if view.meta is not None and cursor.meta_version != view.meta_version:
         msg["meta"] = view.meta_public()
         cursor.meta_version = view.meta_version
     if cursor.problem != view.problem:
         msg["problem"] = view.problem
         cursor.problem = view.problem
-    if len(view.rows) > cursor.rows:
+    if len(view.rows) > cursor.rows or "rows" in msg:
         msg["rows_from"], msg["rows"] = cursor.rows, view.rows[cursor.rows:]
         cursor.rows = len(view.rows)
     trace = _trace_part(view.live, cursor)

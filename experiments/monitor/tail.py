@@ -13,7 +13,7 @@ import os
 import stat
 from pathlib import Path
 
-__all__ = ["LineTail", "NotRegular", "open_regular"]
+__all__ = ["LineTail", "NotRegular", "Restarted", "open_regular"]
 
 #: Bytes read per call at most (a whole session's log is ~0.2 MB; a trace ~0.2 MB).
 _CHUNK = 4 << 20
@@ -34,18 +34,27 @@ def open_regular(path) -> int:
     return fd
 
 
+class Restarted(Exception):
+    """The file was cut shorter (a resume repairing a torn last line) or replaced by another
+    file: what was read of it no longer holds; read it again from the start."""
+
+
 class LineTail:
     """The complete lines appended to ``path`` since the last :meth:`read`.
 
     :meth:`read` returns ``[]`` while the file does not exist (it may be created later) and
     raises ``OSError`` (:class:`NotRegular`, permission denied) for a file it cannot follow.
+    With ``same_name`` it raises :class:`Restarted` when the file was cut shorter than what was
+    read or another file took its name (a trace is followed across its rename instead).
     """
 
-    def __init__(self, path):
+    def __init__(self, path, same_name: bool = False):
         self.path = Path(path)
+        self.same_name = same_name
         self.fd: int | None = None
         self.pending = b""
         self.lines_read = 0
+        self.offset = 0
 
     def read(self) -> list[bytes]:
         if self.fd is None:
@@ -53,6 +62,15 @@ class LineTail:
                 self.fd = open_regular(self.path)
             except FileNotFoundError:
                 return []
+        if self.same_name:
+            st = os.fstat(self.fd)
+            try:
+                replaced = os.stat(self.path).st_ino != st.st_ino
+            except FileNotFoundError:
+                replaced = True
+            if replaced or st.st_size < self.offset:
+                self.close()
+                raise Restarted(self.path)
         chunks = []
         while True:
             chunk = os.read(self.fd, _CHUNK)
@@ -63,6 +81,7 @@ class LineTail:
                 break
         if not chunks:
             return []
+        self.offset += sum(len(c) for c in chunks)
         data = self.pending + b"".join(chunks)
         head, sep, self.pending = data.rpartition(b"\n")
         if not sep:

@@ -147,3 +147,37 @@ def test_answers_are_shown_only_in_blocks_that_give_the_participant_feedback(fin
     view._end_attempt({"event": "trial_completed", "trial_index": 9, "attempt": 1,
                        "row": {"status": "ok", "block": "real", "response_id": 2, "correct": 0}})
     assert (view.rows[-1]["answer"], view.rows[-1]["correct"]) == (2, 0)
+
+
+def test_a_log_cut_shorter_or_replaced_is_read_again_from_its_start(tmp_path, finished):
+    # thermocue resume cuts a torn last line; a log restored from a backup is another file
+    folder = tmp_path / "S01"
+    shutil.copytree(finished, folder)
+    whole = (finished / "events.jsonl").read_bytes()
+    view = FolderView(folder)
+    view.poll()
+    assert len(view.rows) == 5
+    lines = whole.splitlines(keepends=True)
+    cut = next(i for i, line in enumerate(lines) if b'"trial_completed"' in line)
+    with open(folder / "events.jsonl", "r+b") as fh:        # the same file, cut shorter
+        fh.truncate(len(b"".join(lines[:cut + 1])))
+    view.poll()
+    assert len(view.rows) == 1 and view.problem is None and view.meta is not None
+    (folder / "events.new").write_bytes(whole)
+    (folder / "events.new").replace(folder / "events.jsonl")   # another file under the name
+    view.poll()
+    assert len(view.rows) == 5 and view.status()["end"] == "finished"
+
+
+def test_a_page_starts_afresh_when_the_log_does(tmp_path, finished):
+    folder = tmp_path / "S01"
+    shutil.copytree(finished, folder)
+    view = FolderView(folder)
+    view.poll()
+    cursor = Cursor()
+    assert len(update_for(view, cursor)["rows"]) == 5
+    with open(folder / "events.jsonl", "r+b") as fh:
+        fh.truncate(0)
+    view.poll()
+    msg = update_for(view, cursor)
+    assert (msg["rows_from"], msg["rows"]) == (0, [])          # the page clears its table
