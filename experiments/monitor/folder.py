@@ -57,7 +57,6 @@ class FolderView:
         self.events = LineTail(self.folder / "events.jsonl", same_name=True)
         self.damaged_at: int | None = None       # line of events.jsonl the view stopped at
         self.rows: list[dict] = []
-        self.row_faults: dict = {}               # trace_file -> marker (made when clicked)
         self.live: LiveTrace | None = None
         self.version = 0                         # bumped by every event taken
         self._faults: dict = {}                  # (trial, attempt) -> (code, message)
@@ -272,8 +271,9 @@ class FolderView:
     def trial_trace(self, trace_file: str) -> dict | None:
         """A finished attempt's trace and its fault marker; None unless a row names the file."""
         row = next((r for r in self.rows if r["trace_file"] == trace_file and trace_file), None)
-        if row is None:
-            return None
+        parts = Path(trace_file).parts
+        if row is None or len(parts) != 2 or parts[0] != "traces" or not parts[1].endswith(".csv"):
+            return None                     # (a log naming a file outside traces/ is not followed)
         data = read_trace(self.folder / trace_file)
         fault = None
         if row["status"] != "ok":
