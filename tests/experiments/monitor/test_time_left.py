@@ -100,5 +100,6 @@ def test_the_terminals_time_left_is_the_measured_estimate_with_the_rewarm(tmp_pa
     want = TimeLeft(modes, rewarm_s=2.0).feed_all(events[:upto + 1]).seconds_left(
         event_seconds(events[upto]))
     assert want >= 2 * 2.0 - 2.0                     # two trials of at least one rewarm each, less one
-    assert abs(said_s - want) <= 1.0                 # the line's M:SS of the same estimate
+    # the line's M:SS (seconds cut off) of the same estimate, made a moment after the event
+    assert want - 2.0 < said_s <= want
     assert said_s >= 2
