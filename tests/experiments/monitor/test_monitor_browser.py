@@ -160,6 +160,15 @@ def test_a_finished_session_is_browsed_and_a_damaged_log_is_said_on_the_page(tmp
             what="the clicked trial's whole trace on its chart")
         assert d.execute_script("return window.monitorCharts.picked.temp.data[2]"
                                 ".filter(v => v !== null).length") == frames     # its target
+    # served with --host: the page, its script, the stream and the trace all under the token
+    with monitor_process(folder, "--host", "127.0.0.1") as (_, url), chromium() as d:
+        d.get(url)
+        wait_for(lambda: len(_rows(d)) == len(written), what="the table, under the token")
+        _click_row(d, last["trial_index"], last["attempt"])
+        wait_for(lambda: d.execute_script(
+            "const p = window.monitorCharts.picked; return p && p.temp.data[0].length") == frames,
+            what="a trace, under the token")
+        assert not [e for e in d.get_log("browser") if e["level"] == "SEVERE"]
     # the same folder with a damaged line in its log: the page says so, in words
     lines = (folder / "events.jsonl").read_bytes().splitlines(keepends=True)
     lines[20] = b"{not json\n"
