@@ -14,6 +14,7 @@ import os
 import platform
 import struct
 import sys
+import time
 from array import array
 from importlib import metadata
 from pathlib import Path
@@ -80,27 +81,38 @@ _PACK_READINGS = struct.Struct("@7d").pack
 class TraceWriter:
     """Streams telemetry frames of one trial attempt to a CSV file.
 
-    Lines are written as frames arrive and flushed every ``flush_every`` frames, so a killed
-    session leaves the trace up to the last flush; :meth:`close` fsyncs the file and its folder.
+    Lines are written as frames arrive and flushed every ``flush_every`` frames or, at the
+    first frame after ``flush_interval_s`` of the host's time since the last flush, whichever
+    comes first: a killed session leaves the trace up to the last flush, and a reader following
+    the folder (``thermocue monitor``) sees the trial's frames at most about
+    ``flush_interval_s`` after they arrived (it reads up to the last complete line: a full
+    buffer may reach the file mid-line). A flush hands the lines to the OS (no fsync);
+    :meth:`close` fsyncs the file and its folder.
 
     Parameters
     ----------
     path : path-like
         The CSV file (created; an existing file is never overwritten: FileExistsError).
     flush_every : int
-        Frames between flushes (default 50: 0.5 s of telemetry at 100 Hz).
+        Frames between flushes at most (default 50: a virtual clock's burst of frames).
+    flush_interval_s : float
+        Host seconds between flushes at most while frames arrive (default 0.05: 100 Hz
+        telemetry is flushed every 5 frames, 20 ``write`` calls a second).
     durable : bool
         False: :meth:`close` does not fsync (a simulated study's traces).
     """
 
-    def __init__(self, path, flush_every: int = 50, *, durable: bool = True):
+    def __init__(self, path, flush_every: int = 50, *, durable: bool = True,
+                 flush_interval_s: float = 0.05):
         self.path = Path(path)
         self.flush_every = int(flush_every)
+        self.flush_interval_s = float(flush_interval_s)
         self.durable = bool(durable)
         # "x": a trace is never overwritten (the session moves an old one aside first)
         self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
         self._n = 0
+        self._flushed_at = time.monotonic()
         # per frame: time, target, contact, the four forces (doubles, not objects: a trace's
         # readings kept as Python floats and tuples cost more than the line written)
         self._values = array("d")
@@ -136,8 +148,10 @@ class TraceWriter:
         self._fh.write(line)
         self._values.frombytes(_PACK_READINGS(t, target, contact, f0, f1, f2, f3))
         self._n += 1
-        if self._n % self.flush_every == 0:
+        now = time.monotonic()
+        if self._n % self.flush_every == 0 or now - self._flushed_at >= self.flush_interval_s:
             self._fh.flush()
+            self._flushed_at = now
 
     @property
     def frames(self) -> int:

@@ -305,6 +305,23 @@ def test_only_the_figure9_package_and_the_cli_import_analysis_from_experiments()
     assert _violations(("experiments",), allowed) == []
 
 
+#: What the monitor must not import: it reads the session folder only, and never talks to the
+#: display or runs a session (nor the analysis: its memory and start-up stay small).
+NOT_FOR_THE_MONITOR = ("experiments.session", "experiments.display",
+                       "experiments.emulators", "experiments.responders", "experiments.cli",
+                       "experiments.psychopy_plugin", "experiments.simulation", "analysis",
+                       "serial")
+
+
+def test_the_monitor_reads_the_folder_and_imports_no_display_emulator_or_session_code():
+    def allowed(target, _):
+        return not _within(target, NOT_FOR_THE_MONITOR)
+    assert _violations(("experiments.monitor",), allowed) == []
+    # and the rule sees it: the monitor does import the folder's reader
+    assert any(_within(m, ("experiments.monitor",)) and _within(t, ("sessionfiles.session_reader",))
+               for m, t, _ in IMPORTS)
+
+
 # --------------------------------------------------------------------------- no cycles
 #: Modules of the tree (``a.b`` for ``a/b.py`` and ``a/b/__init__.py``).
 MODULES = {_module_name(p)[0] for package in PACKAGES for p in (ROOT / package).rglob("*.py")}

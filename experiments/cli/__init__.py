@@ -40,28 +40,25 @@ SUBCOMMANDS = {
     "explain": "explain",
     "export-bids": "export_bids",
     "psyexp": "psyexp",
+    "monitor": "monitor",
 }
 
 
 def _user_errors():
-    """Exception classes that mean "bad input": reported in one line, exit 2."""
+    """Exception classes that mean "bad input": reported in one line, exit 2.
+
+    Evaluated when an exception reaches :func:`main`: a package that was never imported raised
+    none of its errors, so only those already imported are looked up (``import analysis`` for
+    its LogError alone took seconds on a loaded machine, and ``thermocue monitor`` carried
+    pandas and scipy in memory for it).
+    """
     from experiments.errors import UserInputError
     classes = [UserInputError]
-    try:
-        from participants_schema import ParticipantError
-        classes.append(ParticipantError)
-    except ImportError:  # pragma: no cover - package always present when installed
-        pass
-    try:
-        from stimuli import ModelInputError
-        classes.append(ModelInputError)
-    except ImportError:  # pragma: no cover
-        pass
-    try:
-        from analysis import LogError
-        classes.append(LogError)
-    except ImportError:  # pragma: no cover
-        pass
+    for module, name in (("participants_schema", "ParticipantError"),
+                         ("stimuli", "ModelInputError"), ("analysis.errors", "LogError")):
+        cls = getattr(sys.modules.get(module), name, None)
+        if cls is not None:
+            classes.append(cls)
     return tuple(classes)
 
 
@@ -91,11 +88,10 @@ def main(args: list[str] | None = None) -> int:
     """Parse ``args`` (default ``sys.argv[1:]``), run the subcommand, return the exit status."""
     parser = build_parser()
     ns = parser.parse_args(args)
-    user_errors = _user_errors()
     try:
         with configure_logging(quiet=ns.quiet):
             status = ns.func(ns)
-    except user_errors as exc:
+    except _user_errors() as exc:
         print(f"thermocue {ns.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -23,7 +23,8 @@ def register(sub) -> None:
 
 def _run(ns) -> int:
     from experiments.cli.run import (check_common, check_window, experimenter_for,
-                                     open_display_or_report, responder_options)
+                                     open_display_or_report, responder_options, start_monitor,
+                                     stop_monitor)
     from experiments.errors import SessionError
     from experiments.responders import get_responder
     from experiments.session import open_session
@@ -58,4 +59,8 @@ def _run(ns) -> int:
         return 1
     with display:
         session.check_display(display)
-        return session.run(responder, display=display)
+        beside = start_monitor(ns, session.directory)
+        try:
+            return session.run(responder, display=display)
+        finally:
+            stop_monitor(beside, session.directory)

@@ -47,6 +47,9 @@ def add_common(p) -> None:
     p.add_argument("--experimenter-screen", type=int, default=None, metavar="N",
                    help="show the experimenter's lines (sample to place, progress, warnings) in "
                         "a PsychoPy window on screen N too (default: the terminal only)")
+    p.add_argument("--monitor", action="store_true",
+                   help="also serve the experimenter's live view of the session as a local web "
+                        "page (thermocue monitor, in a process of its own; its URL is printed)")
     # SUPPRESS: absent here, ``thermocue --quiet run`` (the top-level option) stands
     p.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS,
                    help="no progress lines on stderr (errors and why a run stopped are still printed)")
@@ -160,10 +163,26 @@ def _run(ns) -> int:
         session = plan.write()
         session.experimenter = experimenter_for(ns)
         print(session.directory, file=sys.stdout, flush=True)
+        beside = start_monitor(ns, session.directory)
         try:
             return session.run(responder, display=display)
         finally:
+            stop_monitor(beside, session.directory)
             remove_if_unused(session.directory)
+
+
+def start_monitor(ns, folder):
+    """``--monitor``: thermocue monitor beside the session (its own process), or None."""
+    if not getattr(ns, "monitor", False):
+        return None
+    from experiments.cli.monitor import start_beside
+    return start_beside(folder)
+
+
+def stop_monitor(proc, folder) -> None:
+    if proc is not None:
+        from experiments.cli.monitor import stop_beside
+        stop_beside(proc, folder)
 
 
 def refuse_second_live_session(plan, allowed: bool, experimenter) -> None:

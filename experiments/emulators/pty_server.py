@@ -251,6 +251,7 @@ def serve(*, faults=None, clock: str = "real", seed: int = 0, link: str | None =
             jlog(dict(t_s=round(dev.time_us * 1e-6, 6), event="stop",
                       dropped_output_bytes=pty.dropped + len(pty.pending),
                       max_late_ms=round(core.max_late_s * 1e3, 1),
+                      max_host_gap_ms=round(dev.max_rx_gap_us * 1e-3, 1),
                       max_pending_bytes=pty.max_pending, state=dev.state.name,
                       last_fault=dev.last_fault, setpoint_C=round(dev.sp, 3),
                       pad_C=round(dev.plant.pad, 3)))

@@ -33,6 +33,7 @@ from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
 from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from sessionfiles.session_files import schedule_sha256
+from experiments.monitor.time_left import TimeLeft
 
 __all__ = ["Session"]
 
@@ -97,7 +98,8 @@ class Session(TrialSteps):
             from experiments.responders.experimenter import TerminalExperimenter
             experimenter = TerminalExperimenter(out)
         self.experimenter = experimenter
-        self._trial_seconds: list[float] = []   # durations of the trials run so far (for the ETA)
+        #: The time left, from the trial durations measured in the log (the monitor's estimate)
+        self._time_left = self._new_time_left()
         #: trials.csv, rebuilt from events.jsonl after every trial (made anew by each run)
         self._trials_table = TrialsTable(self.events_path, self.trials_path, durable=durable)
         self.log = None
@@ -198,7 +200,13 @@ class Session(TrialSteps):
         if self.log is None or self.log.closed:
             return None
         with self.signals.critical():
-            return self.log.append(kind, **fields)
+            event = self.log.append(kind, **fields)
+        self._time_left.feed(event)
+        return event
+
+    def _new_time_left(self, events=()) -> TimeLeft:
+        rewarm_s = 0.0 if self.clock.virtual else self.protocol.contact.rewarm_s
+        return TimeLeft({s.trial_index: s.mode for s in self.schedule}, rewarm_s).feed_all(events)
 
     def _on_state(self, old: str, new: str, **context) -> None:
         self.log_event("state", **{"from": old, "to": new}, **context)
@@ -245,6 +253,7 @@ class Session(TrialSteps):
                 f"traces/, got a log without {'; '.join(missing[:3])}{more}: it was cut or "
                 f"replaced by an older copy; restore it from a backup (nothing was changed)")
         progress = replay(events)
+        self._time_left = self._new_time_left(events)
         since = _seconds_since_first_start(events)
         self._started = time.monotonic() - since
         self._date = _psychopy_date(time.time() - since)

@@ -51,7 +51,6 @@ class TrialAttempt:
     attempt: int
     logged_end: bool = False
     row: dict = field(default_factory=dict)      # the trial row being filled
-    t0: float = 0.0                               # time.monotonic() at the prompt
     block: object = None
     sample: object = None
     real: bool = False
@@ -106,7 +105,6 @@ class TrialSteps:
                                                  if k != "trial_index"})
         started_at = _now_iso()
         self.hooks.at("trial_started", spec, attempt)
-        t.t0 = time.monotonic()
         text = self._progress_text(spec)
         self._say(text + (f" | attempt {attempt}" if attempt > 1 else ""))
         self.responder.progress(text)   # the experimenter's; responders do not show it
@@ -277,7 +275,6 @@ class TrialSteps:
                                         + f": it was sample {sample.label}",
                                         self.protocol.presentation.feedback_s)
                 self.log_event("feedback", **ctx, correct=int(right))
-        self._trial_seconds.append(time.monotonic() - t.t0)
         self.hooks.at("after_response", spec, t.attempt)
 
     def _write(self, t: TrialAttempt) -> None:
@@ -354,10 +351,10 @@ class TrialSteps:
     def _progress_text(self, spec) -> str:
         text = (f"trial {spec.trial_index} of {self.n_trials} | block {spec.block} | "
                 f"elapsed {clock_text(self._elapsed())}")
-        if self._trial_seconds:   # the mean trial of this run so far, times the trials left
-            left = self.n_trials - spec.trial_index + 1
-            eta = left * sum(self._trial_seconds) / len(self._trial_seconds)
-            text += f" | about {clock_text(eta)} left"
+        # measured trial durations, the rewarm included (thermocue monitor's estimate)
+        left = self._time_left.seconds_left(time.time())
+        if left is not None:
+            text += f" | about {clock_text(left)} left"
         return text
 
     def _elapsed(self) -> float:

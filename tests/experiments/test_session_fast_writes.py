@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import time
 
 import numpy as np
 import pytest
@@ -245,3 +246,17 @@ def test_package_versions_are_read_once_per_process_and_handed_out_as_new_dicts(
         assert sf.package_versions()["numpy"] == np.__version__
     finally:
         sf._package_versions.cache_clear()
+
+
+def test_a_trace_reaches_the_file_while_the_trial_runs(tmp_path):
+    # thermocue monitor follows the trace as it is written: a frame that comes flush_interval_s
+    # or more after the last flush is on disk at once, many frames before flush_every
+    path = tmp_path / "trial-001.csv"
+    w = TraceWriter(path, flush_every=10**6, flush_interval_s=0.05)
+    tele = Telemetry(0, 0.01, 32.0, 31.9, 20.0, 35.0, (0.0,) * 4, "ARMED", None)
+    w.write(tele)
+    time.sleep(0.06)
+    w.write(tele._replace(device_time_s=0.02, state="PLAYING"))
+    on_disk = path.read_text(encoding="utf-8").splitlines()
+    assert len(on_disk) == 3 and on_disk[-1].endswith(",PLAYING")     # header and both frames
+    w.close()

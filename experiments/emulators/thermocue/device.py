@@ -107,6 +107,9 @@ class Device(HostCommands):
         self.enabled = True
         self.hello = False
         self.last_rx_us = 0
+        #: The longest host silence the watchdog saw while armed, playing or recording, µs
+        #: (logged with the emulator's stop record: a session's heartbeat gaps, as the device saw them)
+        self.max_rx_gap_us = 0
         self.cache = {}                    # command type -> (seq, reply bytes)
         self.upload = None                 # dict while uploading
         self.profile = None                # committed: (values °C list, dt_us)
@@ -139,6 +142,12 @@ class Device(HostCommands):
         self._r_fp = finger_pad_resistance()     # imports stimuli now, not mid-trial
 
     # ------------------------------------------------------------------ output helpers
+    def heard(self, stamp_us: int) -> None:
+        """A valid host frame at ``stamp_us``: it feeds the watchdog."""
+        if self.state in _ACTIVE and stamp_us - self.last_rx_us > self.max_rx_gap_us:
+            self.max_rx_gap_us = stamp_us - self.last_rx_us
+        self.last_rx_us = stamp_us
+
     def log(self, kind: str, **fields) -> None:
         if self._log is not None:
             self._log(dict(t_s=round(self.time_us * 1e-6, 6), event=kind, state=self.state.name,

@@ -47,10 +47,10 @@ class HostCommands:
         stamp = self.time_us if at_us is None else max(self.time_us, int(at_us))
         if type(data) is bytes and data in _SILENT_HEARTBEATS and not self.parser.buffered:
             self.parser.frames += 1            # what the parser would say of it, without parsing
-            self.last_rx_us = stamp            # (the host's commonest frame: every 10 ms)
+            self.heard(stamp)                  # (the host's commonest frame: every 10 ms)
             return
         for fr in self.parser.feed(data):
-            self.last_rx_us = stamp
+            self.heard(stamp)
             if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":
                 continue                           # silent: no reply, nothing to cache
             hello = fr.type == Cmd.HELLO           # a new session: always carried out

@@ -148,6 +148,8 @@ class Serial(EmulatedPort):
             self.is_open = False
             self._stop_clock(self._cond)
             if self._log is not None:
+                dev = self.core.device
+                dev.log("stop", max_host_gap_ms=round(dev.max_rx_gap_us * 1e-3, 1))
                 self._log.close()
             if self._hb_pipe is not None:
                 for end in self._hb_pipe:

@@ -123,6 +123,19 @@ def test_watchdog_returns_to_neutral_within_100_ms(host):
     assert any(r["event"] == "watchdog" for r in host.log)
 
 
+def test_the_longest_host_silence_while_active_is_kept(host):
+    # the session's heartbeat gaps as the device sees them (benchmarks/bench_monitor.py)
+    host.step(50, heartbeat=False)                       # idle: a silence that does not count
+    assert host.dev.max_rx_gap_us == 0
+    host.upload(np.full(3000, 25.0))
+    host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
+    host.step(20)                                        # a heartbeat every 10 ms tick
+    assert host.dev.max_rx_gap_us == 10_000
+    host.step(5, heartbeat=False)
+    host.step(1)                                         # 60 ms without a host frame, armed
+    assert host.dev.max_rx_gap_us == 60_000
+
+
 def test_heartbeats_keep_the_watchdog_quiet(host):
     host.upload(np.full(3000, 25.0))
     host.send(Cmd.ARM, m.ARM.pack(0, 200, 30000))
