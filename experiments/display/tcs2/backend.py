@@ -218,7 +218,7 @@ class Tcs2Display(Display, scheme="tcs2"):
             raise UserInputError(f"display: {exc}") from None
         self.emulated = "thermocue-emulator" in about["firmware"]
         self.info = DeviceInfo(
-            device_id=about["probe_id"], firmware=about["firmware"],
+            device_id=about["probe_id"], firmware=about["firmware"], image_id=about["firmware"],
             capabilities=("playback", "sim") if self.emulated else ("playback",), protocol=0,
             telemetry_hz=100, hard_min_C=cmd.SETPOINT_RANGE_C[0], hard_max_C=self.max_C,
             max_rate_C_per_s=999.9, neutral_C=self.neutral_C, watchdog_ms=0,
