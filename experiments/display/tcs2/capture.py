@@ -10,7 +10,7 @@ write and each non-empty read becomes one line of ``FILE``::
 (device → host), ``hex`` the bytes exactly, ``text`` the same bytes readable (latin-1, for a
 person; ``hex`` is what counts). A lab sends this file to have its own device's replies checked
 against the formats the host assumes (``docs/tcs2.md``), and ``read_capture`` reads it back for
-a replaying device (``experiments.emulators.tcs2.replay``).
+a replaying device (``experiments.emulators.tcs2_replay``).
 """
 from __future__ import annotations
 

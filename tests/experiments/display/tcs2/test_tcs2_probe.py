@@ -11,7 +11,7 @@ from experiments.cli import main
 from experiments.display.tcs2.capture import read_capture
 from experiments.display.tcs2.probe import probe
 from experiments.emulators.pty_server import serve_tcs2
-from experiments.emulators.tcs2.replay import ReplayDevice
+from experiments.emulators.tcs2_replay import ReplayDevice
 from experiments.errors import UserInputError
 from experiments.protocol import load_protocol
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import threading
 import time
 
-from ..pty_server import PtyEndpoint
+from .pty_server import PtyEndpoint
 
 __all__ = ["ReplayDevice"]
 
