@@ -135,6 +135,12 @@ class Tcs2Display(Display, scheme="tcs2"):
         return handshake_or_close(cls(port, limits, name=str(url).split("?", 1)[0], **opts), port)
 
     @classmethod
+    def availability(cls) -> tuple:
+        """Whether a USB serial port is here (the TCS II's, in computer-control mode)."""
+        from ..ports import port_availability
+        return port_availability("the TCS II (USB, computer-control mode)")
+
+    @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """What a TCS II offers (its specification, as the host uses it)."""
         return Capabilities(
