@@ -3,6 +3,7 @@ the source tree's last build (``experiments/display/thermocue/firmware_image.py`
 from __future__ import annotations
 
 import hashlib
+import shutil
 import json
 import struct
 import subprocess
@@ -106,3 +107,31 @@ def test_the_device_image_id_is_compared_with_the_last_build(tmp_path):
     line = image_id_warning(build, "cc33", "/dev/ttyX")
     assert line.startswith("warning: display /dev/ttyX: the device runs image cc33")
     assert "aa11" in line and "bb22" in line and "\n" not in line
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("qemu-system-arm") is None or shutil.which("arm-none-eabi-gcc") is None,
+                    reason="qemu-system-arm or gcc-arm-none-eabi is not installed here (scripts/setup "
+                           "installs both; CI runs this)")
+def test_qemu_firmware_warns_when_the_image_is_not_the_trees_last_build(tmp_path, capfd):
+    from experiments.display.thermocue.qemu_firmware import FIRMWARE_DIR, build_image
+    build_image()                                    # the tree's last build: firmware/out/build.json
+    tree = json.loads((FIRMWARE_DIR / "out" / "build.json").read_text())
+    other = tmp_path / "firmware"                    # another source tree: another version string
+    shutil.copytree(FIRMWARE_DIR / "src", other / "src")
+    shutil.copy2(FIRMWARE_DIR / "build", other / "build")
+    config = other / "src" / "core" / "config.h"
+    config.write_text(config.read_text().replace('"thermocue-fw 1.0.0"', '"thermocue-fw 0.9.9"'))
+    subprocess.run([str(other / "build")], check=True, capture_output=True, timeout=300)
+    image = other / "out" / "thermocue-sim.elf"
+    capfd.readouterr()
+    with open_display(f"qemu-firmware://?image={image}") as disp:
+        assert disp.info.image_id not in {v["image_id"] for k, v in tree.items()
+                                          if isinstance(v, dict) and "image_id" in v}
+        err = capfd.readouterr().err
+    (line,) = [x for x in err.splitlines() if x.startswith("warning:")]
+    assert f"the device runs image {disp.info.image_id}" in line
+    assert "not the source tree's last build" in line and tree["thermocue-sim"]["image_id"][:12] in line
+    with open_display("qemu-firmware://") as disp:   # the tree's own image: no warning
+        assert disp.info.image_id == tree["thermocue-sim"]["image_id"]
+    assert "warning:" not in capfd.readouterr().err
