@@ -32,6 +32,7 @@ SUBCOMMANDS = {
     "emulator": "emulator",
     "displays": "displays",
     "clear-fault": "clear_fault",
+    "tcs2": "tcs2",
     "analyze": "analyze",
     "reproduce": "reproduce",
     "bench": "bench",

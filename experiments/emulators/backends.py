@@ -44,6 +44,11 @@ class EmulatorDisplay(ThermalDisplay, scheme="emulator"):
             raise UserInputError(str(exc)) from None
 
     @classmethod
+    def availability(cls) -> tuple:
+        """Always: the emulator runs in this process (no port to plug in)."""
+        return True, ""
+
+    @classmethod
     def declared_capabilities(cls) -> Capabilities:
         from .thermocue import device_constants as dc
         return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,

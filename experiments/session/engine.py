@@ -29,6 +29,7 @@ from experiments.session.machine import StateMachine, clock_for_url
 from experiments.session.planning import SessionProfiles
 from experiments.session.setup import protocol_source, open_session_display
 from experiments.session.signals import STOPS, SignalGuard, stop_reason
+from experiments.session.store import record_display
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
 from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
@@ -394,7 +395,9 @@ class Session(TrialSteps):
         info = getattr(disp, "info", None)
         self.log_event("display_opened", url=self.display_url,
                        device_id=getattr(info, "device_id", None), firmware=getattr(info, "firmware", None),
-                       capabilities=list(getattr(info, "capabilities", ()) or ()))
+                       capabilities=list(getattr(info, "capabilities", ()) or ()),
+                       image_id=getattr(info, "image_id", "") or "")
+        record_display(self.directory, self.display_url, info, durable=self.durable)
         disp.set_neutral(self.protocol.display.neutral_C)
         faults = 0
         queue = list(todo)
@@ -532,7 +535,9 @@ class Session(TrialSteps):
         self.display = again
         info = getattr(again, "info", None)
         self.log_event("display_reconnected", url=self.display_url, trial_index=trial_index,
-                       device_id=getattr(info, "device_id", None))
+                       device_id=getattr(info, "device_id", None),
+                       image_id=getattr(info, "image_id", "") or "")
+        record_display(self.directory, self.display_url, info, durable=self.durable)
         again.set_neutral(self.protocol.display.neutral_C)
         self._report(f"trial {trial_index}: the display's link was lost ({_bare(message)}); "
                      f"connected again, the trial runs again")

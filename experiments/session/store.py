@@ -21,7 +21,7 @@ from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
 from sessionfiles.session_files import package_versions, schedule_sha256
 
 __all__ = ["SESSION_FORMAT", "StoredSession", "block_roles", "write_session_json",
-           "read_session_json"]
+           "read_session_json", "record_display"]
 
 #: The ``format`` field of ``session.json``.
 SESSION_FORMAT = "thermocue-session/1"
@@ -67,6 +67,31 @@ def write_session_json(directory: Path, plan) -> None:
     })
     ensure_dir(directory / "traces", durable=durable)
 
+
+
+def record_display(directory: Path, url: str, info, *, durable: bool = True) -> dict:
+    """Add the display just opened to ``session.json``'s ``displays`` list (atomically).
+
+    Each entry: ``url``, ``device_id``, ``firmware``, ``image_id`` (the running image's id from
+    HELLO: the reference firmware's GNU build id, ``emulator-<version>``, the TCS II's firmware
+    version; ``""`` when the device states none) and ``opened_at``. A resumed or reconnected
+    session adds one entry per opening, so the file says which device and image ran it.
+    """
+    from sessionfiles.logbook import atomic_write_json
+
+    path = Path(directory) / "session.json"
+    entry = {"url": url, "device_id": getattr(info, "device_id", None),
+             "firmware": getattr(info, "firmware", None),
+             "image_id": getattr(info, "image_id", "") or "", "opened_at": _now_iso()}
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise SessionError(f"{path}: expected a readable session.json to record the display in, "
+                           f"got {exc}") from None
+    displays = meta.get("displays")
+    meta["displays"] = (displays if isinstance(displays, list) else []) + [entry]
+    atomic_write_json(path, meta, durable=durable)
+    return entry
 
 @dataclass
 class StoredSession:

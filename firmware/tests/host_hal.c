@@ -51,5 +51,6 @@ int hal_board_command(uint8_t type, const uint8_t *payload, size_t len, uint8_t 
 }
 const char *hal_capabilities(void) { return ",sim"; }
 const char *hal_device_id(void) { return "THERMOCUE-HOST-TEST"; }
+const char *hal_image_id(void) { return "host-test"; }
 void hal_on_ready(void) { plant_on_ready(&host_plant, host_now_us); }
 void hal_on_arm(int mode) { plant_on_arm(&host_plant, mode); }

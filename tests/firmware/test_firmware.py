@@ -8,6 +8,7 @@ checked on the sim image by ``tests/conformance``.
 """
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -84,6 +85,9 @@ def test_board_image_without_sensors_refuses_to_heat():
         assert hello.type == 0x81
         info = decode_hello(hello.payload, pty)           # the host's checks of every field
         assert info.device_id == "THERMOCUE-F405" and "sim" not in info.capabilities
+        # the image id in HELLO is the linker's build id that firmware/build put in build.json
+        built = json.loads((BOARD_IMAGE.parent / "build.json").read_text())
+        assert info.image_id == built["thermocue-board"]["image_id"] and len(info.image_id) == 40
         st = m.Status.decode(command(2, m.Cmd.STATUS).payload)
         assert st.state == "FAULT" and st.last_fault in ("SENSOR_FAILURE", "SENSOR_STUCK",
                                                          "OVER_TEMPERATURE")

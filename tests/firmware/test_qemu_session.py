@@ -57,3 +57,8 @@ def test_four_trial_session_on_the_firmware_under_qemu(tmp_path):
     assert opened["firmware"].startswith("thermocue-fw")
     assert opened["device_id"] == "THERMOCUE-SIM-F405"
     assert events[-1]["event"] == "session_finished"
+    # session.json names the device and the image it ran: the sim image's build id
+    built = json.loads((ROOT / "firmware" / "out" / "build.json").read_text())
+    (shown,) = json.loads((session / "session.json").read_text())["displays"]
+    assert shown["device_id"] == "THERMOCUE-SIM-F405" and shown["url"] == "qemu-firmware://"
+    assert shown["image_id"] == built["thermocue-sim"]["image_id"] == opened["image_id"]

@@ -135,6 +135,12 @@ class Tcs2Display(Display, scheme="tcs2"):
         return handshake_or_close(cls(port, limits, name=str(url).split("?", 1)[0], **opts), port)
 
     @classmethod
+    def availability(cls) -> tuple:
+        """Whether a USB serial port is here (the TCS II's, in computer-control mode)."""
+        from ..ports import port_availability
+        return port_availability("the TCS II (USB, computer-control mode)")
+
+    @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """What a TCS II offers (its specification, as the host uses it)."""
         return Capabilities(
@@ -218,7 +224,7 @@ class Tcs2Display(Display, scheme="tcs2"):
             raise UserInputError(f"display: {exc}") from None
         self.emulated = "thermocue-emulator" in about["firmware"]
         self.info = DeviceInfo(
-            device_id=about["probe_id"], firmware=about["firmware"],
+            device_id=about["probe_id"], firmware=about["firmware"], image_id=about["firmware"],
             capabilities=("playback", "sim") if self.emulated else ("playback",), protocol=0,
             telemetry_hz=100, hard_min_C=cmd.SETPOINT_RANGE_C[0], hard_max_C=self.max_C,
             max_rate_C_per_s=999.9, neutral_C=self.neutral_C, watchdog_ms=0,

@@ -156,6 +156,12 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
     # ------------------------------------------------------------------ backend
     @classmethod
+    def availability(cls) -> tuple:
+        """Whether a USB serial port (the display's cable) is plugged in (``display/ports.py``)."""
+        from ..ports import port_availability
+        return port_availability("the display's USB-serial cable")
+
+    @classmethod
     def open(cls, url: str, limits: SafetyLimits | None = None, **options) -> "ThermalDisplay":
         """Open ``url`` with pyserial, shake hands, start the heartbeat.
 

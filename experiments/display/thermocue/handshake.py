@@ -80,7 +80,10 @@ def decode_hello(payload: bytes, port: str) -> DeviceInfo:
     except struct.error as exc:   # cannot happen after the length check; kept as a guard
         raise refuse("header", "the version 2 layout", str(exc)) from None
     strings, pos = [], head.size
-    for name in ("device_id", "firmware", "capabilities"):
+    for name in ("device_id", "firmware", "capabilities", "image_id"):
+        if pos >= len(payload) and name == "image_id":
+            strings.append("")     # an older firmware's three-string reply: no image id
+            break
         if pos >= len(payload):
             raise refuse(name, "a length-prefixed string", "the end of the reply")
         n = payload[pos]
@@ -115,7 +118,7 @@ def decode_hello(payload: bytes, port: str) -> DeviceInfo:
         raise refuse("max_points", "≥ 2", npts)
     if mindt * 1e-6 < PROTOCOL_MIN_DT_S:
         raise refuse("min_dt_s", f"≥ {PROTOCOL_MIN_DT_S} s", mindt * 1e-6)
-    dev_id, fw, caps = strings
+    dev_id, fw, caps, image_id = strings
     return DeviceInfo(dev_id, fw, tuple(c for c in caps.split(",") if c), ver, hz,
                       hmin / 100, hmax / 100, rate / 100, neutral / 100, wd, npts,
-                      mindt * 1e-6, boot)
+                      mindt * 1e-6, boot, image_id)

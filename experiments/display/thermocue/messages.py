@@ -198,6 +198,10 @@ class DeviceInfo(_Response):
     min_dt_s : float, s
     boot_id : int
         Drawn afresh at every power-up: a different one means the device restarted.
+    image_id : str
+        The running image's id (the reference firmware: its GNU build id, as ``firmware/build``
+        records it in ``build.json``; the emulator: ``emulator-<version>``); ``""`` when the
+        device's HELLO reply has no fourth string (an older firmware).
     """
 
     device_id: str
@@ -213,6 +217,7 @@ class DeviceInfo(_Response):
     max_points: int
     min_dt_s: float
     boot_id: int = 0
+    image_id: str = ""
 
 
 @dataclass(frozen=True)

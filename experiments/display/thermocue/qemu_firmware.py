@@ -19,6 +19,7 @@ import contextlib
 import re
 import shutil
 import subprocess
+import sys
 import threading
 import time
 import urllib.parse
@@ -31,6 +32,7 @@ from experiments.errors import DisplayError, UserInputError
 
 from ..base import Capabilities, handshake_or_close
 from .driver import ThermalDisplay
+from .firmware_image import check_image, image_id_warning
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
            "start_qemu", "await_link", "stop_qemu", "parse_url"]
@@ -104,7 +106,7 @@ def build_image(image: Path = SIM_IMAGE, force: bool = False) -> Path:
     Raises
     ------
     DisplayError
-        The toolchain is missing or the build failed (its last lines quoted).
+        The toolchain is missing or the build failed (gcc's error line quoted).
     """
     image = Path(image)
     if image.exists() and not force and not _sources_newer(image):
@@ -120,8 +122,9 @@ def build_image(image: Path = SIM_IMAGE, force: bool = False) -> Path:
             return image
         res = subprocess.run([str(FIRMWARE_DIR / "build")], capture_output=True, text=True)
     if res.returncode != 0 or not image.exists():
-        tail = " | ".join((res.stderr or res.stdout).strip().splitlines()[-3:])
-        raise DisplayError(f"display: qemu-firmware: firmware/build failed: {tail}")
+        # firmware/build ends a failure with one line that quotes gcc's first ``error:`` line
+        lines = (res.stderr or res.stdout).strip().splitlines() or ["(no output)"]
+        raise DisplayError(f"display: qemu-firmware: {lines[-1]}")
     return image
 
 
@@ -254,8 +257,7 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         image = opts["image"] or SIM_IMAGE
         if opts["build"] and opts["image"] is None:
             image = build_image(image)
-        elif not Path(image).exists():
-            raise DisplayError(f"display: qemu-firmware: no image at {image}")
+        check_image(image)        # one line naming an empty, garbage or changed image
         options.pop("baudrate", None)
         # QEMU hands the USART one byte per turn of its event loop: about 2.6 kB/s measured
         # here (a 512-sample chunk frame, 1042 bytes, is answered after ~0.4 s, more on a
@@ -287,6 +289,10 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         # never a boot banner: bytes sent before we opened are lost
         handshake_or_close(disp, port, on_failure=disp._finalizer)
         disp.start_heartbeat()
+        warning = image_id_warning(FIRMWARE_DIR / "out" / "build.json", disp.info.image_id,
+                                   f"qemu-firmware ({Path(image).name})")
+        if warning:
+            print(warning, file=sys.stderr)
         return disp
 
     @classmethod

@@ -14,7 +14,7 @@ import numpy as np
 
 from experiments.display.thermocue import messages as m
 from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
-                               LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
+                               IMAGE_ID, LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
                                WATCHDOG_MS)
 from .faults import parse_faults
 from experiments.display.thermocue.framing import encode_frame
@@ -96,7 +96,7 @@ class HostCommands:
                                            m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US,
                                            self.boot_id)
             self.log("hello")
-            return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps))
+            return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps, IMAGE_ID))
         if cmd == Cmd.STATUS:
             return self._ack(seq, cmd, self._status())
         if cmd == Cmd.ABORT:

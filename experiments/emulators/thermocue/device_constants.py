@@ -13,6 +13,7 @@ from experiments.display.thermocue.messages import (END_ABORTED, END_COMPLETE, E
                                                     END_MAX_DURATION, END_RELEASED)
 
 FIRMWARE = "thermocue-emu 1.0.0"
+IMAGE_ID = "emulator-1.0.0"   # HELLO's image id: the emulator has no firmware image, it states its version
 HARD_MIN_C = 10.0          # the firmware's own range: setpoints are clamped to it, always
 HARD_MAX_C = 45.0          # the skin-safe maximum: the pad is never above it for a tick
 SETPOINT_MAX_C = 44.5      # highest setpoint (HELLO's hard_max): a margin below the trip

@@ -137,5 +137,6 @@ int hal_board_command(uint8_t type, const uint8_t *payload, size_t len, uint8_t 
 
 const char *hal_capabilities(void) { return ""; }
 const char *hal_device_id(void) { return "THERMOCUE-F405"; }
+const char *hal_image_id(void) { return stm32_image_id(); }
 void hal_on_ready(void) { }
 void hal_on_arm(int mode) { (void)mode; }

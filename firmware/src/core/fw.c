@@ -310,7 +310,7 @@ static void handle(uint8_t seq, uint8_t cmd, const uint8_t *p, size_t len)
         memset(store, 0, sizeof store);
         F.uploading = false;
         F.hello = true;
-        uint8_t h[23 + 3 * 64], *r = h;
+        uint8_t h[23 + 4 * 64], *r = h;
         r = put_u8(r, FW_PROTOCOL_VERSION);
         r = put_u16(r, FW_TELEMETRY_HZ);
         r = put_i16(r, FW_HARD_MIN_cC);
@@ -324,8 +324,8 @@ static void handle(uint8_t seq, uint8_t cmd, const uint8_t *p, size_t len)
         char caps[64];
         char *c = fmt_str(caps, "playback,record,force4,ir,ambient");
         fmt_str(c, hal_capabilities());
-        const char *strs[3] = {hal_device_id(), FW_VERSION_STRING, caps};
-        for (int i = 0; i < 3; i++) {
+        const char *strs[4] = {hal_device_id(), FW_VERSION_STRING, caps, hal_image_id()};
+        for (int i = 0; i < 4; i++) {
             size_t n = text_len(strs[i], 63);
             *r++ = (uint8_t)n;
             memcpy(r, strs[i], n);

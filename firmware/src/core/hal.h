@@ -53,6 +53,8 @@ int hal_board_command(uint8_t type, const uint8_t *payload, size_t len, uint8_t 
 /* The board's capability string tail (",sim" or ""), its device id. */
 const char *hal_capabilities(void);
 const char *hal_device_id(void);
+/* The running image's id (the linker's GNU build id in hex; build.json records the same). */
+const char *hal_image_id(void);
 /* Called by the core when READY is declared (the scripted finger waits for the cue). */
 void hal_on_ready(void);
 /* Called by the core at every ARM (mode 0 playback, 1 record). */

@@ -156,3 +156,24 @@ void stm32_reset(void)
     SCB_AIRCR = (0x5FAu << 16) | (1u << 2);      /* SYSRESETREQ */
     for (;;) { }
 }
+
+/* The linker's build-id note: namesz u32, descsz u32, type u32, "GNU\0", then the id's bytes. */
+extern const uint8_t _build_id_note[];
+
+const char *stm32_image_id(void)
+{
+    static char hex[2 * 32 + 1];
+    static const char digits[] = "0123456789abcdef";
+    const uint32_t *w = (const uint32_t *)(const void *)_build_id_note;
+    uint32_t namesz = w[0], descsz = w[1];
+    if (w[2] != 3u || namesz != 4u || descsz == 0u || descsz > 32u) {
+        return "none";
+    }
+    const uint8_t *id = _build_id_note + 12 + 4;
+    for (uint32_t i = 0; i < descsz; i++) {
+        hex[2 * i] = digits[id[i] >> 4];
+        hex[2 * i + 1] = digits[id[i] & 15u];
+    }
+    hex[2 * descsz] = 0;
+    return hex;
+}

@@ -15,6 +15,8 @@ void stm32_uart_write(uint8_t b);
 void stm32_iwdg_start(void);
 void stm32_iwdg_feed(void);
 uint32_t stm32_boot_entropy(void);
+/* The image's GNU build id in hex (40 characters; "none" without one), for HELLO. */
+const char *stm32_image_id(void);
 void stm32_reset(void) __attribute__((noreturn));
 
 #endif

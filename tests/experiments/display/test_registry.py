@@ -92,7 +92,7 @@ def test_the_session_refuses_a_backend_that_cannot_run_a_block():
 def test_thermocue_displays_lists_each_backend(capsys):
     assert main(["displays"]) == 0
     out = capsys.readouterr().out
-    assert "emulator  (available)" in out and "serial  (available)" in out
+    assert "emulator  (available)" in out and "\nserial  (" in out and "\ntcs2  (" in out
     assert "contact detection: force; force sensing: yes; telemetry: 100 Hz" in out
     assert main(["displays", "--json"]) == 0
     rows = {r["scheme"]: r for r in json.loads(capsys.readouterr().out)}

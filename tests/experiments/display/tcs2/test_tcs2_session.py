@@ -63,6 +63,10 @@ def test_a_whole_session_on_the_tcs2_emulator_analyses_and_exports(tcs2_pty, tmp
     assert len(extra) <= 3, extra
     assert all(int(r["frames"]) >= 100 and r["frames_lost"] == "0" for r in ok)
     assert all(float(r["tracking_max_C"]) < 1.0 for r in ok)
+    # session.json names the device (its probe id) and its firmware version, the image id here
+    (shown,) = json.loads((session / "session.json").read_text())["displays"]
+    assert (shown["device_id"], shown["image_id"]) == ("EM 00 00 00 00 00 00 01",
+                                                       "012 thermocue-emulator")
     # the contact model is logged with every profile; each played profile starts at the skin
     events = [json.loads(x) for x in (session / "events.jsonl").read_text().splitlines()]
     uploads = [e for e in events if e.get("kind", e.get("event")) == "profile_uploaded"]

@@ -41,6 +41,25 @@ def test_a_good_reply_is_decoded_field_by_field():
     assert info.min_dt_s == 1e-3 and info.boot_id == 7
 
 
+
+def test_the_fourth_string_is_the_image_id_and_an_old_three_string_reply_reads_without_one():
+    new = decode_hello(hello(strings=(b"DEV-1", b"fw 1.0", b"playback", b"cfd5fa07")), "/dev/ttyX")
+    assert (new.device_id, new.capabilities, new.image_id) == ("DEV-1", ("playback",), "cfd5fa07")
+    old = decode_hello(hello(), "/dev/ttyX")
+    assert old.image_id == "" and old.capabilities == ("playback", "record")
+
+
+def test_a_cut_short_image_id_is_refused_naming_it():
+    payload = hello(strings=(b"DEV-1", b"fw 1.0", b"playback")) + b"\x28abc"
+    with pytest.raises(HandshakeRefused, match="image_id"):
+        decode_hello(payload, "/dev/ttyX")
+
+
+def test_the_emulator_states_its_version_as_its_image_id():
+    with open_display("emulator://") as disp:
+        assert disp.info.image_id == "emulator-1.0.0"
+
+
 BAD = [
     ("version", hello(version=3)),
     ("version", hello(version=1)),
