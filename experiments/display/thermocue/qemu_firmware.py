@@ -30,6 +30,7 @@ import serial
 from experiments.errors import DisplayError, UserInputError
 
 from ..base import Capabilities, handshake_or_close
+from ..children import popen_tied
 from .driver import ThermalDisplay
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
@@ -137,10 +138,11 @@ def start_qemu(image: Path) -> tuple:
     if exe is None:
         raise DisplayError(f"display: qemu-firmware: {QEMU} is not installed "
                            f"(scripts/setup installs qemu-system-arm)")
-    proc = subprocess.Popen([exe, "-M", "netduinoplus2", "-nographic", "-kernel", str(image),
-                             "-serial", "pty", "-monitor", "none"],
-                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    # tied to this process: a host killed with SIGKILL or SIGHUP takes QEMU with it
+    proc = popen_tied([exe, "-M", "netduinoplus2", "-nographic", "-kernel", str(image),
+                       "-serial", "pty", "-monitor", "none"],
+                      stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                      stderr=subprocess.STDOUT, text=True, start_new_session=True)
     found: list = []
     lines: list = []
 
