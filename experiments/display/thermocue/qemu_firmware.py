@@ -286,7 +286,8 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
                     raise
                 # QEMU named its pty, then exited: an image it cannot load (the pty vanished
                 # under pyserial's read)
-                proc.wait(timeout=3)
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    proc.wait(timeout=3)
                 said = next((ln for ln in proc.output_lines if "qemu" in ln.lower()
                              and "redirected" not in ln), f"exit status {proc.returncode}")[:200]
                 raise DisplayError(f"display: qemu-firmware: {image}: QEMU could not run it "
