@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from experiments.display.children import popen_tied
 from experiments.responders.hand import press
 from stimuli.paper import GROUP_TARGET_THICKNESS_UM, SAMPLE_ROUGHNESS_UM
 
@@ -61,8 +62,10 @@ def _target(roughness_um, skin_um):
 
 
 def _start_emulator(*args):
-    proc = subprocess.Popen([sys.executable, "-m", "experiments.emulators.pty_server", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # SIGTERM when the benchmark dies: the server ends its pty and its lock file
+    proc = popen_tied([sys.executable, "-m", "experiments.emulators.pty_server", *args],
+                      death_signal=signal.SIGTERM,
+                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     r, _, _ = select.select([proc.stdout], [], [], 60)
     if not r:
         proc.kill()

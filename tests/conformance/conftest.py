@@ -112,8 +112,8 @@ class RawLink:
         self._close()
 
 
-@pytest.fixture
-def raw(backend):
+def open_raw(backend: str) -> RawLink:
+    """A :class:`RawLink` to a just powered-up device of ``backend`` (close it)."""
     if backend == "emulator":
         import experiments.emulators.thermocue  # noqa: F401  (registers emulator:// with pyserial)
         port = serial.serial_for_url(URLS["emulator"], timeout=0.01)
@@ -132,5 +132,17 @@ def raw(backend):
             close()
             raise
         link = RawLink(port, close)
+    return link
+
+
+@pytest.fixture
+def raw(backend):
+    link = open_raw(backend)
     yield link
     link.close()
+
+
+@pytest.fixture
+def open_raw_link():
+    """:func:`open_raw` for a test that opens both backends itself (the fuzz)."""
+    return open_raw

@@ -28,6 +28,8 @@ import subprocess
 import sys
 import time
 
+from ..children import popen_tied
+
 __all__ = ["HeartbeatProcess"]
 
 _HELPER = r"""
@@ -77,7 +79,7 @@ class HeartbeatProcess:
     def __init__(self, fd: int, frame: bytes, period_s: float = 0.01, stall_s: float = 2.0):
         self.stall_s = float(stall_s)
         self._last_ping = time.monotonic()
-        self.proc = subprocess.Popen(
+        self.proc = popen_tied(                     # dies with the host, however it dies
             [sys.executable, "-I", "-S", "-c", _HELPER, str(fd), repr(float(period_s)),
              repr(self.stall_s), frame.hex()],
             pass_fds=(fd,), stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,

@@ -31,6 +31,7 @@ import serial
 from experiments.errors import DisplayError, UserInputError
 
 from ..base import Capabilities, handshake_or_close
+from ..children import popen_tied
 from .driver import ThermalDisplay
 from .firmware_image import check_image, image_id_warning
 
@@ -140,10 +141,11 @@ def start_qemu(image: Path) -> tuple:
     if exe is None:
         raise DisplayError(f"display: qemu-firmware: {QEMU} is not installed "
                            f"(scripts/setup installs qemu-system-arm)")
-    proc = subprocess.Popen([exe, "-M", "netduinoplus2", "-nographic", "-kernel", str(image),
-                             "-serial", "pty", "-monitor", "none"],
-                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    # tied to this process: a host killed with SIGKILL or SIGHUP takes QEMU with it
+    proc = popen_tied([exe, "-M", "netduinoplus2", "-nographic", "-kernel", str(image),
+                       "-serial", "pty", "-monitor", "none"],
+                      stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                      stderr=subprocess.STDOUT, text=True, start_new_session=True)
     found: list = []
     lines: list = []
 
@@ -159,6 +161,7 @@ def start_qemu(image: Path) -> tuple:
     deadline = time.monotonic() + START_TIMEOUT_S
     while not found and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.01)
+    proc.output_lines = lines               # what QEMU said (a refused image's reason)
     if not found:
         stop_qemu(proc)
         said = " | ".join(lines[-3:]) or "nothing"
@@ -278,7 +281,19 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         disp.qemu, disp.image, disp.pty = proc, Path(image), pty
         disp._finalizer = weakref.finalize(disp, stop_qemu, proc)
         try:
-            await_link(port, pty)
+            try:
+                await_link(port, pty)
+            except (serial.SerialException, OSError, DisplayError) as exc:
+                if proc.poll() is None and isinstance(exc, DisplayError):
+                    raise
+                # QEMU named its pty, then exited: an image it cannot load (the pty vanished
+                # under pyserial's read)
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    proc.wait(timeout=3)
+                said = next((ln for ln in proc.output_lines if "qemu" in ln.lower()
+                             and "redirected" not in ln), f"exit status {proc.returncode}")[:200]
+                raise DisplayError(f"display: qemu-firmware: {image}: QEMU could not run it "
+                                   f"(not a firmware image?): {said}") from None
         except BaseException:
             disp._finalizer()
             try:

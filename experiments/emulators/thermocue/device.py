@@ -106,7 +106,7 @@ class Device(HostCommands):
         self._sp_window = deque([self.sp], maxlen=RATE_WINDOW_TICKS)   # setpoints, last 0.1 s
         self.enabled = True
         self.hello = False
-        self.last_rx_us = 0
+        self.last_rx_us = self.last_byte_us = 0
         #: The longest host silence the watchdog saw while armed, playing or recording, µs
         #: (logged with the emulator's stop record: a session's heartbeat gaps, as the device saw them)
         self.max_rx_gap_us = 0
@@ -253,6 +253,8 @@ class Device(HostCommands):
             pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
         if self.faults and not self.stalled:
             self._maybe_reboot()
+        if not self.stalled:
+            self.drop_stale_candidate()
         if self.stalled:
             # firmware hung: the hardware watchdog has opened the relay; only physics goes on
             self.plant.step(self.sp, self.sp, 0.0, False)

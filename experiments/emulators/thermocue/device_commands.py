@@ -15,7 +15,7 @@ import numpy as np
 from experiments.display.thermocue import messages as m
 from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
                                IMAGE_ID, LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
-                               WATCHDOG_MS)
+                               SIM_MAX_S, STALE_US, WATCHDOG_MS)
 from .faults import parse_faults
 from experiments.display.thermocue.framing import encode_frame
 from experiments.display.thermocue.messages import Cmd, Err, Event, Mode, State
@@ -26,6 +26,17 @@ __all__ = ["HostCommands"]
 
 #: Every silent heartbeat frame (payload 0: feed the watchdog, no reply), one per number.
 _SILENT_HEARTBEATS = frozenset(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
+
+
+def _within(args: dict, key: str, default, lo: float, hi: float, none_ok: bool = False):
+    """``args[key]`` (or ``default``), a number in ``[lo, hi]`` (NaN and inf are not); else
+    ValueError naming the key (the device NAKs BAD_ARGUMENT)."""
+    v = args.get(key, default)
+    if v is None and none_ok:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+        raise ValueError(f"{key}: expected a number in {lo:g}..{hi:g}, got {v!r}")
+    return float(v)
 
 
 class HostCommands:
@@ -45,11 +56,25 @@ class HostCommands:
         if self.stalled:
             return
         stamp = self.time_us if at_us is None else max(self.time_us, int(at_us))
+        if data:
+            self.last_byte_us = stamp
         if type(data) is bytes and data in _SILENT_HEARTBEATS and not self.parser.buffered:
             self.parser.frames += 1            # what the parser would say of it, without parsing
             self.heard(stamp)                  # (the host's commonest frame: every 10 ms)
             return
-        for fr in self.parser.feed(data):
+        self._on_frames(self.parser.feed(data), stamp)
+
+    def drop_stale_candidate(self) -> None:
+        """A partial frame that got no byte for 0.2 s of device time: skip one byte, search
+        again (§1), as the firmware does each tick; else its length would swallow what the
+        host sends next."""
+        if (self.parser.buffered and not self.stalled
+                and self.time_us - self.last_byte_us > STALE_US):
+            self.last_byte_us = self.time_us
+            self._on_frames(self.parser.drop_candidate(), self.time_us)
+
+    def _on_frames(self, frames, stamp: int) -> None:
+        for fr in frames:
             self.heard(stamp)
             if fr.type == Cmd.HEARTBEAT and fr.payload == b"\x00":
                 continue                           # silent: no reply, nothing to cache
@@ -207,6 +232,8 @@ class HostCommands:
                 return self._nak(seq, cmd, Err.NOT_SUPPORTED, "not an emulator")
             try:
                 args = m.decode_json(p)
+                if not isinstance(args, dict):
+                    raise ValueError("a sim command's payload is a JSON object")
                 reply = self._sim(cmd, args)
             except (ValueError, TypeError, KeyError) as exc:
                 return self._nak(seq, cmd, Err.BAD_ARGUMENT, str(exc))
@@ -215,15 +242,23 @@ class HostCommands:
 
     def _sim(self, cmd, a):
         if cmd == Cmd.SIM_SAMPLE:
-            self.sample = PassiveSample(a.get("material", "stainless_steel"),
-                                        a.get("roughness_m", 1.6e-6), a.get("thickness_m", 3e-3),
-                                        a.get("temperature_C", 20.0))
+            if not isinstance(a.get("material", ""), str):
+                raise ValueError("SIM_SAMPLE: material is a name")
+            sample = PassiveSample(a.get("material", "stainless_steel"),
+                                   _within(a, "roughness_m", 1.6e-6, 1e-9, 1e-3),
+                                   _within(a, "thickness_m", 3e-3, 1e-5, 0.1, none_ok=True),
+                                   _within(a, "temperature_C", 20.0, 0.0, 60.0))
             from stimuli import material
-            material(self.sample.material)                         # unknown name -> error now
+            material(sample.material)                              # unknown name -> error now
+            self.sample = sample
             return dict(vars(self.sample))
         if cmd == Cmd.SIM_FINGER:
+            bad = [k for k, v in a.items() if isinstance(v, bool) or not isinstance(v, (int, float))]
+            if bad:
+                raise ValueError(f"SIM_FINGER: {', '.join(map(str, bad))}: expected a number")
             f = FingerScript(**{k: float(v) for k, v in a.items()})
-            if not (0.05 <= f.force_N <= 20 and f.hold_s > 0 and f.press_after_s >= 0
+            if not (0.05 <= f.force_N <= 20 and 0 < f.hold_s <= SIM_MAX_S
+                    and 0 <= f.press_after_s <= SIM_MAX_S
                     and 100e-6 <= f.skin_thickness_m <= 5e-3 and 25 <= f.skin_temperature_C <= 40):
                 raise ValueError(f"finger out of range: {a}")
             # the finger waits for the cue: if armed but not ready, its clock starts at READY

@@ -39,9 +39,14 @@ STUCK_SAMPLES = 20         # identical raw readings in a row (100 ms at 200 Hz)
 
 #: Faults that stay latched through ABORT until an operator reset (CLEAR_FAULT).
 LATCHED_FAULTS = (Err.OVER_TEMPERATURE, Err.SENSOR_FAILURE, Err.SENSOR_STUCK)
-#: Commands a device carries out before any HELLO (everything else: NAK NO_HELLO).
-BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT,
-                 Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT)
+#: Commands a device carries out before any HELLO (everything else, the sim bench's commands
+#: too: NAK NO_HELLO; requirement 2 of docs/display-protocol.md §6).
+BEFORE_HELLO = (Cmd.HELLO, Cmd.HEARTBEAT, Cmd.STATUS, Cmd.ABORT, Cmd.CLEAR_FAULT)
+#: A partial frame waits this long (device time, no byte arriving) before the parser skips a
+#: byte and searches again (§1; the firmware does the same).
+STALE_US = 200_000
+#: The longest time a sim command takes (a finger's hold or wait, a fault's @AT_s or +FOR_s), s.
+SIM_MAX_S = 86400.0
 
 
 def make_boot_id(seed: int, boots: int) -> int:

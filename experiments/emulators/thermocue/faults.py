@@ -67,14 +67,19 @@ class FaultSpec:
         return FaultSpec(self.name, self.value, self.at_s + dt_s, self.for_s)
 
 
+#: The largest number a SPEC takes (AT_s and FOR_s: a day, s).
+MAX_VALUE = 86400.0
+
+
 def _number(text, item, what):
     try:
         v = float(text)
     except ValueError:
         raise UserInputError(f"faults: {item!r}: expected {what} to be a number, got {text!r} "
                              f"({GRAMMAR})") from None
-    if v != v or v < 0:
-        raise UserInputError(f"faults: {item!r}: expected {what} ≥ 0, got {text!r} ({GRAMMAR})")
+    if not 0 <= v <= MAX_VALUE:                       # NaN, inf and +1e30 too: a fault that
+        raise UserInputError(f"faults: {item!r}: expected 0 ≤ {what} ≤ {MAX_VALUE:g}, "
+                             f"got {text!r} ({GRAMMAR})")   # would never be carried out
     return v
 
 

@@ -289,8 +289,8 @@ static void handle(uint8_t seq, uint8_t cmd, const uint8_t *p, size_t len)
     uint8_t out[STORE_PAYLOAD], *q = out;
     char text[100];
     bool before_hello_ok = cmd == CMD_HELLO || cmd == CMD_HEARTBEAT || cmd == CMD_STATUS ||
-                           cmd == CMD_ABORT || cmd == CMD_CLEAR_FAULT ||
-                           (cmd >= CMD_SIM_FIRST && cmd <= CMD_SIM_LAST);
+                           cmd == CMD_ABORT || cmd == CMD_CLEAR_FAULT;   /* requirement 2:
+                           no sim command either (the bench is driven within a session) */
     if (!F.hello && !before_hello_ok) {
         nak(seq, cmd, ERR_NO_HELLO, "no HELLO since power-up");
         return;
@@ -399,6 +399,10 @@ static void handle(uint8_t seq, uint8_t cmd, const uint8_t *p, size_t len)
         if (len != 8) { nak(seq, cmd, ERR_BAD_LENGTH, "malformed payload"); return; }
         uint32_t n = get_u32(p), dt = get_u32(p + 4);
         if (F.state != ST_IDLE) { nak(seq, cmd, ERR_BAD_STATE, "UPLOAD outside IDLE"); return; }
+        /* in IDLE any UPLOAD_BEGIN discards the committed profile and any upload, also one it
+         * refuses: a host that refused a profile is never left with it playable (§3) */
+        F.uploading = false;
+        F.have_profile = false;
         if (n < 2 || n > FW_MAX_POINTS || dt < FW_MIN_DT_US) {
             char *t = fmt_str(text, "n=");
             t = fmt_u(t, n);

@@ -3,6 +3,9 @@
 #include <math.h>
 #include <string.h>
 
+/* The longest time a sim command takes (a finger's hold, a fault's @AT_s or +FOR_s): a day. */
+#define SIM_MAX_S 86400.0f
+
 /* the plant's true numbers (the controller's model is 5 % off on purpose) */
 #define CAP_J_PER_K     0.84f
 #define K_W_PER_K       0.38f
@@ -188,7 +191,10 @@ static const char *find_key(const char *s, size_t n, const char *key)
     return NULL;
 }
 
-/* A JSON number at s (no heap, no locale); false if there is none. */
+/* A JSON number at s (no heap, no locale); false if there is none. The exponent is bounded:
+ * beyond 400 (past a double's range either way) it adds nothing, so "1e999999999" costs 400
+ * steps and gives inf (refused by the caller's range check), not 10^9 steps of a silent bench. */
+#define JSON_MAX_EXP 400
 static bool parse_number(const char *s, const char *end, float *out)
 {
     double v = 0, frac = 0.1;
@@ -204,17 +210,45 @@ static bool parse_number(const char *s, const char *end, float *out)
     if (s < end && (*s == 'e' || *s == 'E')) {
         s++;
         if (s < end && (*s == '+' || *s == '-')) { esign = *s == '-' ? -1 : 1; s++; }
-        while (s < end && *s >= '0' && *s <= '9') e = e * 10 + (*s++ - '0');
+        if (!(s < end && *s >= '0' && *s <= '9')) return false;
+        while (s < end && *s >= '0' && *s <= '9') {
+            if (e < JSON_MAX_EXP) e = e * 10 + (*s - '0');
+            s++;
+        }
+        if (e > JSON_MAX_EXP) e = JSON_MAX_EXP;
     }
     while (e-- > 0) v = esign > 0 ? v * 10 : v / 10;
+    if (v > 3.0e38) v = INFINITY;               /* beyond a float: inf, never an undefined cast */
     *out = (float)(sign * v);
     return true;
 }
 
-static bool get_number(const char *s, size_t n, const char *key, float *out)
+/* A key's number: 0 absent, 1 read into *out, -1 present but not a number. */
+static int get_number(const char *s, size_t n, const char *key, float *out)
 {
     const char *v = find_key(s, n, key);
-    return v != NULL && parse_number(v, s + n, out);
+    if (v == NULL) return 0;
+    return parse_number(v, s + n, out) ? 1 : -1;
+}
+
+/* A JSON object: '{' first and '}' last, but for white space (the bench reads nothing else). */
+static bool is_object(const char *s, size_t n)
+{
+    size_t a = 0, b = n;
+    while (a < b && (s[a] == ' ' || s[a] == '\t' || s[a] == '\n' || s[a] == '\r')) a++;
+    while (b > a && (s[b - 1] == ' ' || s[b - 1] == '\t' || s[b - 1] == '\n' || s[b - 1] == '\r')) b--;
+    return b - a >= 2 && s[a] == '{' && s[b - 1] == '}';
+}
+
+/* An optional key within [lo, hi] (NaN and inf fail), or null if null_ok: false if present
+ * and not so. */
+static bool optional_in(const char *s, size_t n, const char *key, float lo, float hi, bool null_ok)
+{
+    float x;
+    const char *v = find_key(s, n, key);
+    if (null_ok && v != NULL && (size_t)(s + n - v) >= 4 && memcmp(v, "null", 4) == 0) return true;
+    int got = get_number(s, n, key, &x);
+    return got == 0 || (got == 1 && x >= lo && x <= hi);
 }
 
 /* ------------------------------------------------------------------ JSON writing */
@@ -272,10 +306,16 @@ int plant_command(plant_t *p, uint64_t now, uint8_t type, const uint8_t *payload
     const char *s = (const char *)payload;
     char *o = (char *)reply;
     if (cap < 96) return refuse(reply, cap, 3, "reply buffer");
+    if (type < 0x30 || type > 0x32) return refuse(reply, cap, 1, "unknown sim command");
+    if (!is_object(s, len)) return refuse(reply, cap, 3, "a sim command's payload is a JSON object");
     if (type == 0x30) {                                         /* SIM_SAMPLE */
         float t;
-        if (!get_number(s, len, "temperature_C", &t) || t < 0.0f || t > 60.0f)
+        if (get_number(s, len, "temperature_C", &t) != 1 || !(t >= 0.0f && t <= 60.0f))
             return refuse(reply, cap, 3, "SIM_SAMPLE needs temperature_C (0..60)");
+        /* not used by this bench, but never accepted out of range (as the emulator) */
+        if (!optional_in(s, len, "roughness_m", 1e-9f, 1e-3f, false) ||
+            !optional_in(s, len, "thickness_m", 1e-5f, 0.1f, true))
+            return refuse(reply, cap, 3, "SIM_SAMPLE: roughness_m 1e-9..1e-3, thickness_m 1e-5..0.1");
         p->sample_temp_C = t;
         o = put_s(o, "{\"temperature_C\":");
         o = put_num(o, t);
@@ -284,12 +324,16 @@ int plant_command(plant_t *p, uint64_t now, uint8_t type, const uint8_t *payload
     }
     if (type == 0x31) {                                         /* SIM_FINGER */
         float after = 0.3f, force = 2.0f, hold = 20.0f, skin = 35.5f;
-        get_number(s, len, "press_after_s", &after);
-        get_number(s, len, "force_N", &force);
-        get_number(s, len, "hold_s", &hold);
-        get_number(s, len, "skin_temperature_C", &skin);
-        if (!(force >= 0.05f && force <= 20.0f && hold > 0.0f && after >= 0.0f &&
-              skin >= 25.0f && skin <= 40.0f))
+        float skin_m = 650e-6f;
+        if (get_number(s, len, "press_after_s", &after) < 0 ||
+            get_number(s, len, "force_N", &force) < 0 ||
+            get_number(s, len, "hold_s", &hold) < 0 ||
+            get_number(s, len, "skin_temperature_C", &skin) < 0 ||
+            get_number(s, len, "skin_thickness_m", &skin_m) < 0)
+            return refuse(reply, cap, 3, "finger: a value is not a number");
+        if (!(force >= 0.05f && force <= 20.0f && hold > 0.0f && hold <= SIM_MAX_S &&
+              after >= 0.0f && after <= SIM_MAX_S && skin >= 25.0f && skin <= 40.0f &&
+              skin_m >= 100e-6f && skin_m <= 5e-3f))
             return refuse(reply, cap, 3, "finger out of range");
         p->finger_set = true;
         p->press_after_s = after;
@@ -324,9 +368,11 @@ int plant_command(plant_t *p, uint64_t now, uint8_t type, const uint8_t *payload
             while (a < b) {
                 char c = *a++;
                 float x;
-                if (!parse_number(a, b, &x)) break;
+                if ((c != '@' && c != '+') || !parse_number(a, b, &x) ||
+                    !(x >= 0.0f && x <= SIM_MAX_S))
+                    return refuse(reply, cap, 3, "SIM_FAULT: @AT_s and +FOR_s are 0..86400 s");
                 if (c == '@') at = x;
-                else if (c == '+') dur = x;
+                else dur = x;
                 while (a < b && *a != '@' && *a != '+') a++;
             }
             if (p->n_faults >= SIM_MAX_FAULTS) return refuse(reply, cap, 3, "too many faults");

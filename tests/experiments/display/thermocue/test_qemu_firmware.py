@@ -58,3 +58,18 @@ def test_close_ends_qemu():
     assert proc.poll() is None and disp.info.firmware.startswith("thermocue-fw")
     disp.close()
     assert proc.poll() is not None
+
+
+@pytest.mark.skipif(NO_QEMU, reason="qemu-system-arm is not installed here (CI installs it with "
+                                    "scripts/setup)")
+@pytest.mark.parametrize("content", [b"", b"hello, not an image\n", bytes(range(256)) * 12],
+                         ids=["empty", "text", "binary junk"])
+def test_an_image_qemu_cannot_run_is_one_line_naming_it(tmp_path, content):
+    """QEMU names its pty, then exits on a file it cannot load: the pty vanished under the
+    reader and pyserial raised SerialException (a traceback for the user)."""
+    path = tmp_path / "bad.elf"
+    path.write_bytes(content)
+    with pytest.raises(DisplayError) as exc:
+        QemuFirmwareDisplay.open(f"qemu-firmware://?image={path}")
+    msg = str(exc.value)
+    assert str(path) in msg and "\n" not in msg and len(msg) < 400

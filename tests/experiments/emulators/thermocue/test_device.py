@@ -175,6 +175,8 @@ def test_overtemperature_is_caught_before_harm():
 
 def test_sim_commands_refused_by_a_real_device():
     h = Host(Device(sim=False))
+    assert nak_code(finger(h)) == Err.NO_HELLO           # requirement 2 first, as the firmware
+    assert h.send(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)).type == Cmd.HELLO | 0x80
     assert nak_code(finger(h)) == Err.NOT_SUPPORTED
 
 
