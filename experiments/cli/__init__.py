@@ -32,6 +32,7 @@ SUBCOMMANDS = {
     "emulator": "emulator",
     "displays": "displays",
     "clear-fault": "clear_fault",
+    "check": "check",
     "analyze": "analyze",
     "reproduce": "reproduce",
     "bench": "bench",

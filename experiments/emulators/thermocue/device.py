@@ -97,6 +97,7 @@ class Device(HostCommands):
         self.lim_min, self.lim_max, self.lim_rate = HARD_MIN_C, SETPOINT_MAX_C, 10.0
         self.plant = PadPlant(self.params, self.tick_s, self.neutral, seed=seed)
         self.set_trip(OVERTEMP_C)
+        self.watchdog_us = WATCHDOG_MS * 1000   # longer only under the late_watchdog fault
         self.seed = seed
         self.boots = 0
         self.boot_us = 0                   # device time counts from the last power-up
@@ -194,6 +195,14 @@ class Device(HostCommands):
         self.log("fault", code=code.name, text=text)
         self._event(Event.FAULT, int(code), text)
 
+    def _fault_value(self, name: str, default: float) -> float:
+        """The VALUE of an active fault ``name``, else ``default``."""
+        t = self.time_us * 1e-6
+        for spec in self.faults:
+            if spec.name == name and spec.active(t):
+                return float(spec.value)
+        return default
+
     def set_trip(self, trip_C: float) -> None:
         """The over-temperature trip (°C): :data:`OVERTEMP_C`, or lower for a test (SET_TRIP)."""
         self.trip_C = self.plant.trip_C = float(trip_C)
@@ -247,6 +256,9 @@ class Device(HostCommands):
             pl.sensor_frozen = self._fault_active("stuck_sensor")
             pl.sensor_override = 150.0 if self._fault_active("sensor_range") else None
             pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
+            pl.relay_dead = self._fault_active("dead_relay")
+            pl.current_scale = self._fault_value("slow_pad", 1.0)
+            self.watchdog_us = int(self._fault_value("late_watchdog", WATCHDOG_MS / 1000) * 1e6)
         if self.faults and not self.stalled:
             self._maybe_reboot()
         if self.stalled:
@@ -259,7 +271,7 @@ class Device(HostCommands):
             self.set_trip(OVERTEMP_C)
         # watchdog: host silent while the pad is doing something (HELLO or not)
         if (state in _ACTIVE
-                and t_us - self.last_rx_us > WATCHDOG_MS * 1000):
+                and t_us - self.last_rx_us > self.watchdog_us):
             ms = (t_us - self.last_rx_us) // 1000
             self.last_fault = int(Err.WATCHDOG)
             self.end_reason = END_FAULT
