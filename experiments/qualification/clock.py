@@ -25,6 +25,13 @@ def check_clock(bench: Bench) -> CheckResult:
     d = bench.display
     if not bench.has("heartbeat"):
         return cannot_run(name, title, limit, "the backend has no acknowledged heartbeat")
+    scheme = getattr(type(d), "scheme", None)
+    if scheme == "tcs2":
+        return cannot_run(name, title, limit, "the TCS II has no device clock: the backend stamps "
+                          "its samples with the host's clock as they arrive, so there is nothing "
+                          "to map (the stamps carry the link's latency)")
+    if scheme == "qemu-firmware":
+        return _paused_clock(bench, name, title)
     dev_clock = getattr(d.port, "device_clock", None)
     if callable(dev_clock) and dev_clock() is not None:
         # an emulator on a virtual clock: the host counts in the device's own seconds
@@ -52,3 +59,27 @@ def check_clock(bench: Bench) -> CheckResult:
                            f"uncertainty {cmap.uncertainty_s * 1e3:.1f} ms",
                            "the link's latency (USB serial adapter, baud rate)")
     return CheckResult(name, title, True, limit, measured)
+
+
+def _paused_clock(bench: Bench, name: str, title: str) -> CheckResult:
+    """The sim image under QEMU: its clock is the timer less QEMU's stalls (it pauses when the
+    host machine is loaded), so no real-time mapping exists; its device time must advance
+    monotonically, by at most the wall time and by at least a fifth of it."""
+    d = bench.display
+    limit = "device time monotonic, advancing 20–100.5 % of wall time over 2 s (the sim image pauses with QEMU)"
+    w0, t0 = time.monotonic(), d.heartbeat()
+    times = [t0]
+    while time.monotonic() - w0 < SPAN_S:
+        time.sleep(0.2)
+        times.append(d.heartbeat())
+    w1 = time.monotonic()
+    share = (times[-1] - t0) / (w1 - w0)
+    mono = all(b >= a for a, b in zip(times, times[1:]))
+    ok = mono and 0.2 <= share <= 1.005
+    return CheckResult(name, title, ok, limit,
+                       f"device time advanced {share:.1%} of wall time, "
+                       f"{'monotonic' if mono else 'went back'}",
+                       "" if ok else "device time does not advance as the sim image's should",
+                       "" if ok else "QEMU's load and the image's timer set-up",
+                       board_only="the drift of the board's crystal against the host "
+                                  "(a real-time mapping)")

@@ -117,6 +117,9 @@ def _paper_profiles(bench: Bench):
 def _play(bench: Bench, t, y):
     """Upload and play one profile with a contact (scripted finger or the operator's weight)."""
     d = bench.display
+    if d.capabilities.contact_detection == "stimulus_start":
+        d.set_neutral(float(y[0]))            # a resting probe starts where the profile starts
+        bench.pause(1.0)
     d.upload_profile(t, y)
     d.arm("playback", force_threshold_N=1.0, max_duration_s=float(t[-1]) + 2.0)
     if bench.scripted:
