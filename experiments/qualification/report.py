@@ -7,6 +7,11 @@ from pathlib import Path
 __all__ = ["write_report", "render_report"]
 
 
+def _cell(text: str) -> str:
+    """A table cell: its own pipes (|ΔT|) escaped."""
+    return str(text).replace("|", "\\|")
+
+
 def render_report(url: str, device: dict, results, opened_error: str | None = None) -> str:
     passed = sum(r.passed for r in results)
     lines = ["# thermocue check", "", f"- display: `{url}`"]
@@ -19,7 +24,7 @@ def render_report(url: str, device: dict, results, opened_error: str | None = No
     lines += ["| check | result | time (s) | limit | measured |", "|---|---|---|---|---|"]
     for r in results:
         lines.append(f"| {r.name} | {'pass' if r.passed else '**FAIL**'} | {r.seconds:.1f} | "
-                     f"{r.limit} | {r.measured} |")
+                     f"{_cell(r.limit)} | {_cell(r.measured)} |")
     lines.append("")
     fails = [r for r in results if not r.passed]
     if fails:

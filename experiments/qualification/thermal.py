@@ -42,11 +42,18 @@ def check_neutral(bench: Bench) -> CheckResult:
 def _step(bench: Bench, target: float, rate: float) -> tuple[dict, Trace]:
     d = bench.display
     start = d.status()
-    t0, y0 = start.device_time_s, start.contact_C
+    t0, y0, sp0 = start.device_time_s, start.contact_C, start.setpoint_C
     d.set_neutral(target)
     slew = abs(target - y0) / rate
     limit_s = slew + STEP_EXTRA_S
     tr = bench.watch(limit_s + 1.5)
+    # the step starts when the device carried out SET_NEUTRAL, not when the host sent it (a
+    # slow link, QEMU's, delays the command): the set-point slews at the rate from there, so
+    # the first reading's set-point dates it -- unless the slew was already over (then the
+    # time before the command, the conservative start)
+    moved = abs(tr.setpoint_C[0] - sp0)
+    if moved < abs(target - sp0) - 0.005:
+        t0 = max(t0, tr.t_s[0] - moved / rate)
     t = np.array(tr.t_s) - t0
     y = np.array(tr.contact_C)
     outside = np.nonzero(np.abs(y - target) > STEP_BAND_C)[0]
