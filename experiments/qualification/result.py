@@ -47,4 +47,4 @@ def cannot_run(name: str, title: str, limit: str, why: str, look_at: str = "",
                board_only: str = "") -> CheckResult:
     """A check this device cannot run: a failure, with the reason."""
     return CheckResult(name, title, False, limit, "not measured", f"cannot run here: {why}",
-                       look_at or "use a device (or backend) that offers it", board_only=board_only)
+                       look_at or "a device (or backend) that offers it", board_only=board_only)
