@@ -172,7 +172,12 @@ def check_tracking(bench: Bench) -> CheckResult:
             bench.pause(0.5)
     finally:
         d.set_neutral(bench.neutral_C)
-    return CheckResult(name, title, not fails, limit, "; ".join(parts), "; ".join(fails),
-                       "" if not fails else "the Peltier module and supply, the heat sink's fan, "
-                       "the controller's gains", plots=plots,
+    look = ""
+    if any("(WATCHDOG" in f or "(LINK_" in f or "(TELEMETRY_LOSS" in f for f in fails):
+        look = ("the link and the host machine's load (a trial ended on host silence or a "
+                "lost link, not on tracking); ")
+    if fails:
+        look += "the Peltier module and supply, the heat sink's fan, the controller's gains"
+    return CheckResult(name, title, not fails, limit, "; ".join(parts), "; ".join(fails), look,
+                       plots=plots,
                        board_only="tracking under a real fingertip's heat load")
