@@ -33,6 +33,7 @@ SUBCOMMANDS = {
     "displays": "displays",
     "clear-fault": "clear_fault",
     "tcs2": "tcs2",
+    "check": "check",
     "analyze": "analyze",
     "reproduce": "reproduce",
     "bench": "bench",

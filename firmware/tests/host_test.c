@@ -272,6 +272,36 @@ int main(void)
         }
         CHECK(answered >= 190, "commands after garbage answered (%d of 200)", answered);
     }
+    /* SET_TRIP: clamped to 20..44.8 °C (never raised); restoring is allowed in FAULT */
+    {
+        n_frames = 0;                        /* room for this block's replies */
+        uint8_t hello = 2;
+        send(199, 0x01, &hello, 1);
+        reply_to(199, 0x01);
+        send(198, 0x21, NULL, 0);
+        reply_to(198, 0x21);
+        send(197, 0x23, "OPERATOR-RESET", 14);
+        reply_to(197, 0x23);
+        CHECK(fw_state() == 0, "IDLE before SET_TRIP (state %d)", fw_state());
+        int16_t v = 6000;
+        send(200, 0x24, &v, 2);
+        frame_t *r = reply_to(200, 0x24);
+        CHECK(r && r->type == 0xA4 && get_i16(r->payload) == 4480, "SET_TRIP never above 44.8");
+        v = 3400;
+        send(202, 0x24, &v, 2);
+        r = reply_to(202, 0x24);
+        CHECK(r && r->type == 0xA4 && get_i16(r->payload) == 3400, "SET_TRIP 34 °C");
+        v = 500;
+        send(201, 0x24, &v, 2);
+        r = reply_to(201, 0x24);
+        CHECK(r && r->type == 0xA4 && get_i16(r->payload) == 2000, "SET_TRIP never below 20");
+        v = 4500;                            /* restoring: allowed in any state */
+        send(206, 0x24, &v, 2);
+        r = reply_to(206, 0x24);
+        CHECK(r && r->type == 0xA4 && get_i16(r->payload) == 4480, "SET_TRIP restored");
+        send(196, 0x23, "OPERATOR-RESET", 14);
+        reply_to(196, 0x23);
+    }
     CHECK(fw_boot_id() == boot, "boot id unchanged without a power-up");
     printf("%d checks, %d failures\n", checks, failures);
     return failures != 0;

@@ -541,6 +541,14 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                                    f"stop, and resume to shake hands again")
         return st
 
+    def set_trip(self, temperature_C: float) -> float:
+        """Lower the device's over-temperature trip (°C) for a test (``thermocue check``);
+        return the trip it holds. The device never raises it above its own, and restores its
+        own at HELLO, at power-up and when the host falls silent; send a value at or above the
+        device's own trip (45 °C) to restore it at once. IDLE only."""
+        p = self._transact(Cmd.SET_TRIP, m.CENTI.pack(int(round(temperature_C * 100))))
+        return m.CENTI.unpack(p)[0] / 100.0
+
     def clear_fault(self) -> None:
         """Operator reset of a latched fault (over-temperature, sensor): FAULT -> IDLE.
 

@@ -41,6 +41,7 @@ class Cmd(enum.IntEnum):
     ABORT = 0x21
     STATUS = 0x22
     CLEAR_FAULT = 0x23     # operator reset of a latched fault (never sent by a session)
+    SET_TRIP = 0x24        # a qualification test lowers the over-temperature trip (thermocue check)
     SIM_SAMPLE = 0x30      # emulator only (capability "sim")
     SIM_FINGER = 0x31
     SIM_FAULT = 0x32

@@ -96,7 +96,8 @@ class Device(HostCommands):
         self.neutral = DEFAULT_NEUTRAL_C
         self.lim_min, self.lim_max, self.lim_rate = HARD_MIN_C, SETPOINT_MAX_C, 10.0
         self.plant = PadPlant(self.params, self.tick_s, self.neutral, seed=seed)
-        self.plant.trip_C = OVERTEMP_C
+        self.set_trip(OVERTEMP_C)
+        self.watchdog_us = WATCHDOG_MS * 1000   # longer only under the late_watchdog fault
         self.seed = seed
         self.boots = 0
         self.boot_us = 0                   # device time counts from the last power-up
@@ -203,6 +204,18 @@ class Device(HostCommands):
         self.log("fault", code=code.name, text=text)
         self._event(Event.FAULT, int(code), text)
 
+    def _fault_value(self, name: str, default: float) -> float:
+        """The VALUE of an active fault ``name``, else ``default``."""
+        t = self.time_us * 1e-6
+        for spec in self.faults:
+            if spec.name == name and spec.active(t):
+                return float(spec.value)
+        return default
+
+    def set_trip(self, trip_C: float) -> None:
+        """The over-temperature trip (°C): :data:`OVERTEMP_C`, or lower for a test (SET_TRIP)."""
+        self.trip_C = self.plant.trip_C = float(trip_C)
+
     def _maybe_reboot(self) -> None:
         """The ``reboot`` fault: a power cycle (a USB brown-out) at its time, once per spec."""
         t = self.time_us * 1e-6
@@ -227,6 +240,7 @@ class Device(HostCommands):
         self._sp_window.append(self.sp)
         self.enabled = True
         self.plant.tripped = False
+        self.set_trip(OVERTEMP_C)
         self.hello = False
         self.last_rx_us = self.time_us
         self.cache = {}
@@ -251,6 +265,9 @@ class Device(HostCommands):
             pl.sensor_frozen = self._fault_active("stuck_sensor")
             pl.sensor_override = 150.0 if self._fault_active("sensor_range") else None
             pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
+            pl.relay_dead = self._fault_active("dead_relay")
+            pl.current_scale = self._fault_value("slow_pad", 1.0)
+            self.watchdog_us = int(self._fault_value("late_watchdog", WATCHDOG_MS / 1000) * 1e6)
         if self.faults and not self.stalled:
             self._maybe_reboot()
         if not self.stalled:
@@ -260,9 +277,12 @@ class Device(HostCommands):
             self.plant.step(self.sp, self.sp, 0.0, False)
             return
         state = prev_state = self.state
+        # host loss restores the normal trip, in any state
+        if self.trip_C != OVERTEMP_C and t_us - self.last_rx_us > WATCHDOG_MS * 1000:
+            self.set_trip(OVERTEMP_C)
         # watchdog: host silent while the pad is doing something (HELLO or not)
         if (state in _ACTIVE
-                and t_us - self.last_rx_us > WATCHDOG_MS * 1000):
+                and t_us - self.last_rx_us > self.watchdog_us):
             ms = (t_us - self.last_rx_us) // 1000
             self.last_fault = int(Err.WATCHDOG)
             self.end_reason = END_FAULT
@@ -355,7 +375,7 @@ class Device(HostCommands):
                 self._trip(Err.SENSOR_FAILURE, f"contact sensor reads {y:.2f} °C")
             elif self.enabled and self.plant.same_count >= STUCK_SAMPLES:
                 self._trip(Err.SENSOR_STUCK, f"contact sensor stuck at {y:.3f} °C")
-            elif self.plant.tripped or y > OVERTEMP_C or self.plant.hs > HEATSINK_MAX_C:
+            elif self.plant.tripped or y > self.trip_C or self.plant.hs > HEATSINK_MAX_C:
                 self._trip(Err.OVER_TEMPERATURE,
                            f"pad {y:.2f} °C, heat sink {self.plant.hs:.2f} °C")
         state = self.state

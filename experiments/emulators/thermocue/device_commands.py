@@ -14,8 +14,8 @@ import numpy as np
 
 from experiments.display.thermocue import messages as m
 from .device_constants import (BEFORE_HELLO, END_ABORTED, END_COMPLETE, FIRMWARE, HARD_MIN_C, HARD_RATE_C_PER_S,
-                               IMAGE_ID, LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, SETPOINT_MAX_C,
-                               SIM_MAX_S, STALE_US, WATCHDOG_MS)
+                               IMAGE_ID, LATCHED_FAULTS, MAX_POINTS, MIN_DT_US, OVERTEMP_C,
+                               SETPOINT_MAX_C, SIM_MAX_S, STALE_US, TRIP_TEST_MIN_C, WATCHDOG_MS)
 from .faults import parse_faults
 from experiments.display.thermocue.framing import encode_frame
 from experiments.display.thermocue.messages import Cmd, Err, Event, Mode, State
@@ -115,6 +115,7 @@ class HostCommands:
             self.cache.clear()
             self.upload = None
             self.hello = True
+            self.set_trip(OVERTEMP_C)              # a lowered test trip never outlives its host
             caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
             head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
                                            m.centi(SETPOINT_MAX_C), int(HARD_RATE_C_PER_S * 100),
@@ -143,6 +144,15 @@ class HostCommands:
                 self.enabled = True
                 self.plant.tripped = False
             return self._ack(seq, cmd)
+        if cmd == Cmd.SET_TRIP:
+            # a qualification test lowers the over-temperature trip; never above OVERTEMP_C
+            if len(p) != m.CENTI.size:
+                return self._nak(seq, cmd, Err.BAD_LENGTH, "malformed payload")
+            (v,) = m.CENTI.unpack(p)
+            if self.state != State.IDLE and v / 100.0 < OVERTEMP_C:    # restoring: any state
+                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_TRIP in state {self.state.name}")
+            self.set_trip(min(max(v / 100.0, TRIP_TEST_MIN_C), OVERTEMP_C))
+            return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.trip_C)))
         if cmd == Cmd.SET_NEUTRAL:
             (v,) = m.CENTI.unpack(p)
             if self.state not in (State.IDLE, State.FAULT):

@@ -34,6 +34,7 @@ RELEASE_MS = 50            # force below half the threshold this long ends a tri
 OVERTEMP_C = HARD_MAX_C - 0.2   # contact sensor reading that cuts the Peltier current within
                                 # the same 5 ms control step (PadPlant.trip_C): the sensor's lag
                                 # and one step of a stuck full-current heater stay below 45 °C
+TRIP_TEST_MIN_C = 20.0     # the lowest trip SET_TRIP accepts (thermocue check's test)
 HEATSINK_MAX_C = 70.0
 STUCK_SAMPLES = 20         # identical raw readings in a row (100 ms at 200 Hz)
 

@@ -15,6 +15,11 @@ Grammar (also quoted in every error message)::
     stuck_sensor    the contact sensor's reading freezes
     sensor_range    the contact sensor reads 150 °C (open circuit)
     overtemp        the Peltier driver sticks at full heating current
+    dead_relay      the Peltier relay never opens: on a fault the driver keeps the current it
+                    had (a driver enabled through the relay), so the pad goes on heating
+    slow_pad=F      the Peltier module gives only F (0 < F ≤ 1) of its current (a worn module,
+                    a weak supply, a fan that does not cool the heat sink): the pad is slow
+    late_watchdog=S the firmware's watchdog trips after S seconds of host silence, not 90 ms
     reboot          the device restarts (a power cycle, e.g. a USB brown-out) once at AT_s:
                     power-up state, no HELLO, a new boot id, device time from 0
 
@@ -32,7 +37,8 @@ from experiments.errors import UserInputError
 __all__ = ["FaultSpec", "parse_faults", "LinkFaults", "GRAMMAR", "FAULT_NAMES"]
 
 GRAMMAR = 'SPEC := NAME["="VALUE]["@"AT_s]["+"FOR_s] ("," ...)*, NAME one of ' \
-          "drop, corrupt, garbage, delay, disconnect, stall, stuck_sensor, sensor_range, overtemp, reboot"
+          "drop, corrupt, garbage, delay, disconnect, stall, stuck_sensor, sensor_range, overtemp, " \
+          "dead_relay, slow_pad, late_watchdog, reboot"
 
 #: name -> (needs a value, value range)
 FAULT_NAMES = {
@@ -45,6 +51,9 @@ FAULT_NAMES = {
     "stuck_sensor": (False, None),
     "sensor_range": (False, None),
     "overtemp": (False, None),
+    "dead_relay": (False, None),
+    "slow_pad": (True, (0.01, 1.0)),
+    "late_watchdog": (True, (0.0, 60.0)),
     "reboot": (False, None),
 }
 LINK_FAULTS = ("drop", "corrupt", "garbage", "delay", "disconnect")

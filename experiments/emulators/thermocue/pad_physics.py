@@ -294,6 +294,8 @@ class PadPlant:
         self._y_prev = self.pad
         self._q_prev = 0.0
         self.stuck_current = None
+        self.current_scale = 1.0         # fault slow_pad: the share of the current the module gives
+        self.relay_dead = False          # fault dead_relay: disabled, the driver keeps its current
         self.sensor_override = None
         self.sensor_frozen = False
         self.trip_C = None               # over-temperature cut: a reading above it opens the relay
@@ -323,6 +325,8 @@ class PadPlant:
         trip = self.trip_C if self.trip_C is not None else math.inf
         if self.tripped:
             enabled = False
+        imax *= self.current_scale
+        held = self.current if self.relay_dead else 0.0   # a relay that never opens
         dsp = (sp1 - sp0) / n
         y = self.sensor
         same = self.same_count
@@ -361,7 +365,7 @@ class PadPlant:
                 i = imax if i > imax else -imax if i < -imax else i
                 q_prev = ah * (y + KELVIN) * i + 0.5 * rh * i * i
             else:
-                i = 0.0
+                i = held
                 q_prev = 0.0
                 d_hat = 0.0
             y_prev = y

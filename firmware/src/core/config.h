@@ -16,6 +16,7 @@
 #define FW_HARD_MAX_cC          4500        /* skin-safe maximum, 45.00 °C: never exceeded */
 #define FW_SETPOINT_MAX_cC      4450        /* highest setpoint (HELLO hard_max), below the trip */
 #define FW_OVERTEMP_cC          4480        /* contact reading that cuts the heater (44.80 °C) */
+#define FW_TRIP_TEST_MIN_cC     2000        /* lowest trip SET_TRIP accepts (a test's), 20.00 °C */
 #define FW_HEATSINK_MAX_cC      7000        /* heat sink over-temperature, 70.00 °C */
 #define FW_SENSOR_LO_cC         (-1000)     /* contact reading outside -10..90 °C: sensor failure */
 #define FW_SENSOR_HI_cC         9000

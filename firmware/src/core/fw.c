@@ -49,6 +49,7 @@ static struct {
     uint8_t last_fault, end_reason, arm_mode, tx_seq, pending_fault;
     bool hello, relay, ready, fresh, uploading, have_profile;
     int32_t neutral_cC, lim_min_cC, lim_max_cC;
+    int32_t trip_cC;                         /* over-temperature trip; lowered by SET_TRIP */
     uint32_t lim_rate_cC_per_s;
     float sp_C, sp_prev_C;
     float window[FW_RATE_WINDOW_TICKS];
@@ -205,6 +206,7 @@ static void power_up_state(void)
     proto_parser_init(&parser);
     F.state = ST_IDLE;
     F.neutral_cC = FW_DEFAULT_NEUTRAL_cC;
+    F.trip_cC = FW_OVERTEMP_cC;
     F.lim_min_cC = FW_HARD_MIN_cC;
     F.lim_max_cC = FW_SETPOINT_MAX_cC;
     F.lim_rate_cC_per_s = FW_DEFAULT_RATE_cC_per_s;
@@ -310,6 +312,7 @@ static void handle(uint8_t seq, uint8_t cmd, const uint8_t *p, size_t len)
         memset(store, 0, sizeof store);
         F.uploading = false;
         F.hello = true;
+        F.trip_cC = FW_OVERTEMP_cC;          /* a lowered test trip never outlives its host */
         uint8_t h[23 + 4 * 64], *r = h;
         r = put_u8(r, FW_PROTOCOL_VERSION);
         r = put_u16(r, FW_TELEMETRY_HZ);
@@ -363,6 +366,18 @@ static void handle(uint8_t seq, uint8_t cmd, const uint8_t *p, size_t len)
         }
         ack(seq, cmd, NULL, 0);
         return;
+    case CMD_SET_TRIP: {
+        /* a qualification test lowers the trip; it can never be raised above FW_OVERTEMP_cC */
+        if (len != 2) { nak(seq, cmd, ERR_BAD_LENGTH, "malformed payload"); return; }
+        if (F.state != ST_IDLE && get_i16(p) < FW_OVERTEMP_cC) {   /* restoring: any state */
+            nak(seq, cmd, ERR_BAD_STATE, "SET_TRIP lowers the trip in IDLE only");
+            return;
+        }
+        F.trip_cC = clamp32(get_i16(p), FW_TRIP_TEST_MIN_cC, FW_OVERTEMP_cC);
+        put_i16(out, (int16_t)F.trip_cC);
+        ack(seq, cmd, out, 2);
+        return;
+    }
     case CMD_SET_NEUTRAL: {
         if (len != 2) { nak(seq, cmd, ERR_BAD_LENGTH, "malformed payload"); return; }
         if (F.state != ST_IDLE && F.state != ST_FAULT) {
@@ -536,6 +551,7 @@ static unsigned store_slot(uint8_t type)
     case CMD_ABORT: return 7;
     case CMD_STATUS: return 8;
     case CMD_CLEAR_FAULT: return 9;
+    case CMD_SET_TRIP: return 13;
     case 0x30: return 10;
     case 0x31: return 11;
     case 0x32: return 12;
@@ -580,7 +596,7 @@ static void control_step(unsigned phase)
             F.pending_fault = FAULT_SENSOR_FAILURE;
         else if (F.relay && F.same_count + 1u >= FW_STUCK_SAMPLES)
             F.pending_fault = FAULT_SENSOR_STUCK;
-        else if (y > (float)FW_OVERTEMP_cC / 100.0f ||
+        else if (y > (float)F.trip_cC / 100.0f ||
                  F.s.heatsink_C > (float)FW_HEATSINK_MAX_cC / 100.0f)
             F.pending_fault = FAULT_OVER_TEMPERATURE;
     }
@@ -606,6 +622,9 @@ static void tick(void)
     uint64_t t = F.now_us;
     int prev = F.state;
     char text[64];
+    /* host loss restores the normal trip, in any state */
+    if (F.trip_cC != FW_OVERTEMP_cC && t - F.last_rx_us > (uint64_t)FW_WATCHDOG_MS * 1000u)
+        F.trip_cC = FW_OVERTEMP_cC;
     /* watchdog: host silent while the pad is doing something, HELLO or not */
     if (active(F.state) && t - F.last_rx_us > (uint64_t)FW_WATCHDOG_MS * 1000u) {
         uint64_t ms = (t - F.last_rx_us) / 1000u;

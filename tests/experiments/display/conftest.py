@@ -24,3 +24,18 @@ def sim_display(display):
     if "sim" not in display.info.capabilities:
         pytest.skip("needs the emulator's sim commands (capability 'sim')")
     return display
+
+
+#: The device checks that take more than a few seconds on the default emulator: marked slow
+#: there only; against a device named with --display every check runs (none is deselected).
+SLOW_ON_THE_EMULATOR = ("check_tracking", "check_neutral", "check_step")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--display") != "emulator://":
+        return
+    for item in items:
+        if item.name.startswith("test_device_check[") and any(
+                s in item.name for s in SLOW_ON_THE_EMULATOR):
+            item.add_marker(pytest.mark.slow)

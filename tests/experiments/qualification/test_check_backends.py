@@ -1,0 +1,110 @@
+"""thermocue check on the other backends: the TCS II emulator (its subset passes, the rest
+fails with reasons), a plain serial port (a pty served by ``thermocue emulator --link``), the
+firmware under QEMU (the sim image passes, the board image fails on its sensors), and the
+command line's exit codes."""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import time
+
+import pytest
+
+from experiments.qualification.qualify import qualify
+from experiments.qualification.runner import CHECKS
+from experiments.qualification.safety_checks import check_overtemp, check_watchdog
+from experiments.qualification.sensors import check_sensors
+
+THERMOCUE = [sys.executable, "-m", "experiments"]
+QEMU = pytest.mark.skipif(shutil.which("qemu-system-arm") is None,
+                          reason="qemu-system-arm is not installed here (scripts/setup installs it)")
+
+
+def _by_name(results):
+    return {r.name: r for r in results}
+
+
+@pytest.mark.slow
+def test_the_tcs2_emulator_passes_its_subset_and_fails_the_rest_with_reasons(tmp_path):
+    from experiments.protocol import load_protocol
+    proto = load_protocol("roughness_recognition_tcs2")
+    results, path = qualify("tcs2://emulator", tmp_path, protocol=proto,
+                            limits=proto.display.safety_limits())
+    r = _by_name(results)
+    assert {n for n, x in r.items() if x.passed} == {"neutral", "step", "tracking"}
+    expected_reason = {"sensors": "no finger (IR), heat sink reading", "force": "no force sensors",
+                       "limits": "no way to send a set-point past the host",
+                       "overtemp": "no command to lower its over-temperature trip",
+                       "watchdog": "no host-silence watchdog", "clock": "no device clock"}
+    for name, words in expected_reason.items():
+        assert r[name].reason.startswith("cannot run here:") and words in r[name].reason, name
+    assert "result: **FAIL** (3 of 9 checks passed)" in path.read_text()
+
+
+@pytest.mark.slow
+def test_safety_checks_pass_on_a_plain_serial_port(tmp_path):
+    """A pty from `thermocue emulator --link`: the driver's heartbeat helper, a real tty."""
+    from experiments.display import open_display
+    from experiments.qualification.bench import Bench
+    link = tmp_path / "display"
+    proc = subprocess.Popen(THERMOCUE + ["emulator", "--link", str(link)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 30
+        while not link.exists():
+            assert proc.poll() is None and time.monotonic() < deadline, "emulator did not start"
+            time.sleep(0.05)
+        d = open_display(str(link))
+        try:
+            b = Bench(d, str(link), tmp_path)
+            results = [check_sensors(b), check_overtemp(b), check_watchdog(b)]
+        finally:
+            d.close()
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+    assert [(r.name, r.passed, r.reason) for r in results] == [
+        ("sensors", True, ""), ("overtemp", True, ""), ("watchdog", True, "")]
+
+
+@QEMU
+@pytest.mark.slow
+def test_the_sim_image_passes_every_check(tmp_path):
+    results, path = qualify("qemu-firmware://", tmp_path, profile_s=1.0)
+    assert [(r.name, r.reason) for r in results if not r.passed] == []
+    assert len(results) == len(CHECKS)
+
+
+@QEMU
+@pytest.mark.slow
+def test_the_board_image_fails_clearly_on_its_sensors(tmp_path):
+    from experiments.display.thermocue.qemu_firmware import BOARD_IMAGE
+    results, path = qualify(f"qemu-firmware://?image={BOARD_IMAGE}", tmp_path)
+    r = _by_name(results)
+    assert not any(x.passed for x in results)
+    assert "SENSOR_FAILURE" in r["sensors"].reason
+    assert "thermistor's wiring" in r["sensors"].look_at
+    text = path.read_text()
+    assert "result: **FAIL** (0 of 9 checks passed)" in text and "SENSOR_FAILURE" in text
+
+
+def test_a_bad_url_is_one_line_and_exit_2(tmp_path):
+    p = subprocess.run(THERMOCUE + ["check", "emulator://?faults=nonsense", "--out",
+                                    str(tmp_path / "o"), "--no-prompt"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2
+    assert "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "o" / "check.md").exists()
+
+
+@pytest.mark.slow
+def test_a_failing_check_exits_1_with_what_to_look_at(tmp_path):
+    p = subprocess.run(THERMOCUE + ["check", "emulator://?clock=virtual&faults=stuck_sensor@0.5",
+                                    "--out", str(tmp_path), "--no-prompt", "--profile-s", "0.5"],
+                       capture_output=True, text=True, timeout=280)
+    assert p.returncode == 1, p.stderr[-2000:]
+    assert "FAIL sensors: the device latched SENSOR_STUCK" in p.stdout
+    assert "look at the contact thermistor's wiring" in p.stdout
+    assert "left)" in p.stderr                      # progress with the time remaining
+    assert "## What to look at" in (tmp_path / "check.md").read_text()
