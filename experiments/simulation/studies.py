@@ -152,11 +152,25 @@ class PersonPool:
         return sorted({h for h, _ in self.simulated}, key=REPLAY_NAMES.index)
 
 
-def _lead(t, T, tau):
-    """The pad face when a sensor of time constant ``tau`` is made to follow ``T``: T + tau T'."""
+def _lead(t, T, tau, max_rate=None):
+    """The pad face when a sensor of time constant ``tau`` is made to follow ``T``: T + tau T',
+    slewed to ``max_rate`` (K/s) when given, as the display's rate limit would.
+
+    Returns ``(face, peak)``: the face and the peak rate of T + tau T' before slewing, K/s.
+    """
+    T = np.asarray(T, dtype=float)
     if not tau:
-        return np.asarray(T, dtype=float)
-    return np.asarray(T, dtype=float) + float(tau) * np.gradient(np.asarray(T, float), np.asarray(t, float))
+        return T, 0.0
+    t = np.asarray(t, float)
+    face = T + float(tau) * np.gradient(T, t)
+    peak = float(np.max(np.abs(np.diff(face) / np.diff(t)))) if t.size > 1 else 0.0
+    if max_rate is not None and peak > max_rate:
+        out = face.copy()
+        steps = float(max_rate) * np.diff(t)
+        for i in range(1, out.size):
+            out[i] = out[i - 1] + np.clip(face[i] - out[i - 1], -steps[i - 1], steps[i - 1])
+        face = out
+    return face, peak
 
 
 def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: int = 0,
@@ -180,7 +194,10 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     dermis_fraction : (low, high)
         Range of ``d / L`` persons are drawn from (the cohort's 0.55–0.65).
     sensor_tau_s : float, s
-        The pad sensor's time constant (0: the pad face is the target).
+        The pad sensor's time constant (0: the pad face is the target).  The face, T + tau T',
+        is slewed to the protocol's ``[display] max_rate_C_per_s`` where it would be faster
+        (a display cannot drive its face faster); the unslewed peak rate is recorded in
+        ``settings["sensor_lag_peak_rate_C_per_s"]``.
     real_from : PersonPool, optional
         A pool of the same persons (receptor depth, d / L range) whose real-sample features are
         reused (the sensor lag changes only the replayed ones).
@@ -214,10 +231,18 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
     people, display_plans = [], []
     profiles = {}
+    max_rate = float(base.display.max_rate_C_per_s)
+    peak_rate = 0.0
+    surfaces = {}                 # the pad face of each profile (sensor lead, slewed)
     for group in groups:
         for h, proto in variants.items():
             profiles[(h, group)] = [simulated_target_profile(proto, {}, group, None, s.id,
                                                              s.roughness_um) for s in samples]
+            surfaces[(h, group)] = []
+            for pr in profiles[(h, group)]:
+                face, peak = _lead(pr.times, pr.temperature, sensor_tau_s, max_rate)
+                peak_rate = max(peak_rate, peak)
+                surfaces[(h, group)].append((pr.times, face))
     for group in groups:
         Ls = np.linspace(*GROUP_THICKNESS_UM[group], GRID_L)
         grid_L[group] = Ls
@@ -248,8 +273,7 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                                                      force=force))
                     responses = {}     # same skin and resistance: shared by every replay
                     for h in variants:
-                        surf = [(pr.times, _lead(pr.times, pr.temperature, sensor_tau_s))
-                                for pr in profiles[(h, group)]]
+                        surf = surfaces[(h, group)]
                         f0 = imposed_features(p, surf, r_pad, responses, display_plans)
                         sims[h][i, j, k] = f0
                         dsims[h][i, j, k] = imposed_features(p1, surf, r_pad, responses,
@@ -264,6 +288,9 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                       roughness_um=tuple(s.roughness_um for s in samples),
                       settings={"seed": int(seed), "dermis_fraction": tuple(dermis_fraction),
                                 "sensor_tau_s": float(sensor_tau_s),
+                                "sensor_lag_peak_rate_C_per_s": peak_rate,
+                                "max_rate_C_per_s": max_rate,
+                                "replay_skin_C": float(sim0.skin_temperature_C),
                                 "model_tolerance_C": float(params.model_tolerance_C),
                                 "planner_decisions": {
                                     "real": _planner_decisions(
