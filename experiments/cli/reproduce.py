@@ -53,8 +53,9 @@ def register(sub) -> None:
                         "run in DIR, without simulating")
     p.add_argument("--force-sd-N", type=float, default=None, metavar="N",
                    help="figure9 only: spread (sd, N) of the per-touch contact force about the "
-                        "paper's 2 N in the simulated studies (default 0.25: an assumption, the "
-                        "paper says 'about 2 N'; 0: every touch at 2 N)")
+                        "lab's 2.5 N (clipped to 2.05-3 N, past the display's 2 N trigger), in "
+                        "the simulated studies and the emulated sessions alike (default 0.25: "
+                        "an assumption, the paper says 'about 2 N'; 0: every touch at 2.5 N)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="figure9 only: run the simulated studies and the sessions on the dask "
                         "scheduler at ADDRESS (tcp://host:port) instead of a local cluster")

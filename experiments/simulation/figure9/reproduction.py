@@ -163,7 +163,9 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         study = run_figure9_study(out_dir, seed=seed, workers=workers,
                                   participants=participants, replay=headline[0],
                                   target_side=target_side, rate_limit=rate_limit,
-                                  responder_options={**options, "observer": headline[1]},
+                                  responder_options={**options, "observer": headline[1],
+                                                     **({} if force_sd_N is None else
+                                                        {"force_sd_N": lab.force_sd_N})},
                                   sweep=sweep)
         seconds["study_s"] = time.perf_counter() - t1
         t2 = time.perf_counter()

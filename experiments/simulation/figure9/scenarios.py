@@ -371,10 +371,11 @@ SENSITIVITY_CHOICES = {
         "1 per sample (the paper; default)": {},
         "3 per sample": {"familiarise_reps": 3},
     },
-    "contact force per touch": {
-        "2 N every touch": {"lab": {"force_sd_N": 0.0}},
-        "2 ± 0.25 N (default)": {},
-        "2 ± 0.5 N": {"lab": {"force_sd_N": 0.5}},
+    "contact force per touch (clipped to 2.05-3 N: past the 2 N trigger)": {
+        "2.2 ± 0.1 N (just past the trigger)": {"lab": {"force_N": 2.2, "force_sd_N": 0.1}},
+        "2.5 N every touch": {"lab": {"force_sd_N": 0.0}},
+        "2.5 ± 0.25 N (default)": {},
+        "2.5 ± 0.5 N": {"lab": {"force_sd_N": 0.5}},
     },
     "pad sensor lag": {
         "none (default)": {},
