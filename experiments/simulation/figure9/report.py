@@ -83,6 +83,7 @@ def _claims_md(result, reading: str) -> str:
     claims = [c for c in CLAIMS if c.id in wide.columns]
     n = result.n_studies()
     rows = []
+    whole, paper = (scenario_statuses(result, reading, paper_only=v) for v in (False, True))
     for k in wide.index:
         st = claim_statuses(result, k, reading)
         row = {"replay": k[0], "profile model": REPLAY_HYPOTHESES[k[0]].profile_model,
@@ -92,8 +93,8 @@ def _claims_md(result, reading: str) -> str:
             row[c.short + ("*" if c.own else "")] = f"{MARK[s]} {p:.2f} [{lo:.2f}, {hi:.2f}]"
         for key, name in (("all", "all"), ("all_paper", "paper")):
             row[name] = f"{wide.loc[k, key]:.2f} [{low.loc[k, key]:.2f}, {high.loc[k, key]:.2f}]"
-        row["result"] = scenario_statuses(result, reading)[k]
-        row["paper only"] = scenario_statuses(result, reading, paper_only=True)[k]
+        row["result"] = whole[k]
+        row["paper only"] = paper[k]
         rows.append(row)
     return _md(pd.DataFrame(rows))
 

@@ -48,12 +48,18 @@ class ScenarioResult:
     proportions: pd.DataFrame
     settings: dict = field(default_factory=dict)
     runs: list = field(default_factory=list)
+    #: Tables derived from ``claims`` (which is not changed after the result is made).
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def bounds(self, reading: str = "descriptive") -> tuple:
         """``(low, high)``: the intervals' ends, shaped as :meth:`wide`."""
-        sel = self.claims[self.claims["reading"] == reading]
-        return tuple(sel.pivot_table(index=["hypothesis", "observer"], columns="claim",
-                                     values=v, sort=False) for v in ("mc_low", "mc_high"))
+        key = ("bounds", reading)
+        if key not in self.cache:
+            sel = self.claims[self.claims["reading"] == reading]
+            self.cache[key] = tuple(sel.pivot_table(index=["hypothesis", "observer"],
+                                                    columns="claim", values=v, sort=False)
+                                    for v in ("mc_low", "mc_high"))
+        return self.cache[key]
 
     def n_studies(self) -> pd.Series:
         """Studies simulated per scenario (sequential: they differ)."""
@@ -70,9 +76,13 @@ class ScenarioResult:
 
     def wide(self, reading: str = "descriptive") -> pd.DataFrame:
         """Scenario rows, claim columns: probabilities in one reading."""
-        sel = self.claims[self.claims["reading"] == reading] if "reading" in self.claims else self.claims
-        return sel.pivot_table(index=["hypothesis", "observer"], columns="claim",
-                               values="probability", sort=False)
+        key = ("wide", reading)
+        if key not in self.cache:
+            sel = (self.claims[self.claims["reading"] == reading] if "reading" in self.claims
+                   else self.claims)
+            self.cache[key] = sel.pivot_table(index=["hypothesis", "observer"], columns="claim",
+                                              values="probability", sort=False)
+        return self.cache[key]
 
 
 def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM,

@@ -38,11 +38,20 @@ def _claims(wide, paper_only: bool = False):
 def claim_statuses(result, scenario, reading: str = "descriptive",
                    paper_only: bool = False) -> dict:
     """claim id -> (status, probability, low, high) of one scenario."""
-    wide = result.wide(reading)
-    low, high = result.bounds(reading)
-    k = tuple(scenario)
-    return {c.id: (claim_status(low.loc[k, c.id], high.loc[k, c.id]), wide.loc[k, c.id],
-                   low.loc[k, c.id], high.loc[k, c.id]) for c in _claims(wide, paper_only)}
+    key = ("claim_statuses", reading)
+    if key not in result.cache:
+        wide = result.wide(reading)
+        low, high = result.bounds(reading)
+        claims = _claims(wide)
+        result.cache[key] = {
+            k: {c.id: (claim_status(lo[c.id], hi[c.id]), p[c.id], lo[c.id], hi[c.id])
+                for c in claims}
+            for k, p, lo, hi in zip(wide.index, wide.to_dict("records"),
+                                    low.loc[wide.index].to_dict("records"),
+                                    high.loc[wide.index].to_dict("records"))}
+    own = {c.id for c in _claims(result.wide(reading)) if c.own}
+    return {cid: v for cid, v in result.cache[key][tuple(scenario)].items()
+            if not (paper_only and cid in own)}
 
 
 def scenario_statuses(result, reading: str = "descriptive", paper_only: bool = False) -> dict:
