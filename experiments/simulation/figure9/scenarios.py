@@ -467,24 +467,8 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
     base_lab = variability or DEFAULT_LAB
     extra_pools = dict(extra_pools or {})
     choices = SENSITIVITY_CHOICES if choices is None else choices
-    # the pools the settings need, built first (on the sweep's workers when there is one)
-    wanted = {}
-    for settings in choices.values():
-        for change in settings.values():
-            for key in POOL_KEYS:
-                k = (key, change.get(key))
-                if key in change and k not in extra_pools and k not in wanted:
-                    same_people = ({"receptor_depth_um": pool.receptor_depth_um,
-                                    "real_from": pool} if key == "sensor_tau_s" else {})
-                    wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
-                                 "params": pool.params,
-                                 "dermis_fraction": pool.settings["dermis_fraction"],
-                                 key: change[key], **same_people}
-    if wanted:
-        jobs = [(protocol, kw) for kw in wanted.values()]
-        built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
-                 else [_build_pool_task(*job) for job in jobs])
-        extra_pools.update(zip(wanted, built))
+    extra_pools.update(_sensitivity_pools(pool, hypothesis, choices, extra_pools, protocol,
+                                          sweep))
     scenarios, labels, notes = [], [], []
     for ci, (choice, settings) in enumerate(choices.items()):
         for si, (label, change) in enumerate(settings.items()):
@@ -517,6 +501,29 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
     table.attrs["runs"] = [({"choice": c, "setting": s}, res)
                            for (c, s), res in zip(labels, merged)]
     return table
+
+
+def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -> dict:
+    """The person pools the settings need and ``have`` lacks, built first (on the sweep's
+    workers when there is one): ``(key, value) -> PersonPool``."""
+    wanted = {}
+    for settings in choices.values():
+        for change in settings.values():
+            for key in POOL_KEYS:
+                k = (key, change.get(key))
+                if key in change and k not in have and k not in wanted:
+                    same_people = ({"receptor_depth_um": pool.receptor_depth_um,
+                                    "real_from": pool} if key == "sensor_tau_s" else {})
+                    wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
+                                 "params": pool.params,
+                                 "dermis_fraction": pool.settings["dermis_fraction"],
+                                 key: change[key], **same_people}
+    if not wanted:
+        return {}
+    jobs = [(protocol, kw) for kw in wanted.values()]
+    built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
+             else [_build_pool_task(*job) for job in jobs])
+    return dict(zip(wanted, built))
 
 
 def _slew_note(pool) -> str:

@@ -152,3 +152,23 @@ def test_the_figure_reads_without_the_text():
         assert "1# ... is often confused" in paper[0].get_text().replace("\n", " ")
     finally:
         agg_pyplot().close(fig)
+
+
+def test_reproduce_from_a_folder_without_the_tables_is_one_line(tmp_path, capsys):
+    from experiments.cli import main
+    src = tmp_path / "src"
+    src.mkdir()
+    assert main(["reproduce", "figure9", "--from", str(src), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{src / 'studies.csv'}: --from: expected the per-study table" in err[0]
+    # a table without a claim's outcome column names the file and the column
+    (src / "studies.csv").write_text("hypothesis,observer,study,rise_real,rise_real_descriptive\n"
+                                     "skin,absolute,0,0.1,1\n")
+    (src / "sensitivity_studies.csv").write_text("choice,setting,study\n")
+    assert main(["reproduce", "figure9", "--from", str(src), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "studies.csv: rise_real_inferential: expected a column" in err[0]
+    # --from simulates nothing: a simulation option with it is refused
+    assert main(["reproduce", "figure9", "--from", str(src), "--out", str(tmp_path / "o"),
+                 "--studies", "10"]) == 2
+    assert "--studies: expected nothing with --from" in capsys.readouterr().err
