@@ -191,7 +191,8 @@ def _sensitivity_md(sens: pd.DataFrame) -> str:
                     continue
                 s = claim_status(r[c + "_low"], r[c + "_high"]) if cid != "all" else "shown"
                 mark = "†" if c in differs else ("?" if s == "undecided" else "")
-                short = next((x.short for x in CLAIMS if x.id == cid), "all")
+                short = next((x.short + ("*" if x.own else "") for x in CLAIMS if x.id == cid),
+                             "all")
                 row[short + tag] = f"{r[c]:.2f}{mark}"
         row["result"] = f"{r['status']} / {r['status_inf']}"
         row["paper only"] = f"{r['paper_status']} / {r['paper_status_inf']}"
