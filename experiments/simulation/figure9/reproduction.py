@@ -327,8 +327,15 @@ def recompute_from(src_dir, out_dir) -> dict:
     settings = dict(record.get("scenario_settings") or {})
     roughness = tuple(settings.get("roughness_um") or (1.6, 12.5, 50.0, 100.0))
     result = result_from_runs(runs, roughness, settings)
-    sens = mark_differences(pd.DataFrame([sensitivity_row(k["choice"], k["setting"], res)
-                                           for k, res in sens_runs]), SENSITIVITY_CHOICES)
+    notes = {}                    # how a row's lab was made realisable (not in the studies)
+    if (src / "sensitivity.csv").is_file():
+        old = pd.read_csv(src / "sensitivity.csv").fillna({"note": ""})
+        if "note" in old:
+            notes = {(r.choice, r.setting): r.note for r in old.itertuples()}
+    sens = mark_differences(pd.DataFrame([
+        dict(sensitivity_row(k["choice"], k["setting"], res),
+             note=notes.get((k["choice"], k["setting"]), "")) for k, res in sens_runs]),
+        SENSITIVITY_CHOICES)
     best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
     named = record.get("headline") or {}
     headline = (named.get("replay", best["descriptive"][0]),

@@ -120,12 +120,15 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     sens = pd.read_csv(out / "sensitivity.csv")
     fitted = sens[sens["choice"] == "receptor depth (fitted)"]
     assert 1 <= len(fitted) <= 3 and fitted["setting"].str.contains("fitted").any()
-    assert set(sens["choice"]) >= {"contact force per touch", "pad sensor lag",
+    assert set(sens["choice"]) >= {"contact force per touch (clipped to 2.05-3 N: past the 2 N "
+                                   "trigger)", "pad sensor lag", "receptor depth (hypothesis)",
+                                   "skin temperature of the replays",
                                    "skin temperature within participant",
                                    "skin temperature between participants", "cohort"}
     printed = capsys.readouterr().out.strip().splitlines()
-    assert printed[0].startswith("Figure 9 / Table 2 claims. Read descriptively, ")
-    assert ". Read inferentially, " in printed[0]
+    assert printed[0].startswith("Figure 9 / Table 2 claims (99 % Wilson intervals over 40-")
+    assert ". Read descriptively, " in printed[0] and ". Read inferentially, " in printed[0]
+    assert ". On the paper's own claims alone (without the * criteria): " in printed[0]
     assert printed[1].startswith("The 2-participant emulated study (skin replay, relative "
                                  "observer) shows (descriptive, inferential): rise R ")
     # two tables of 20 scenarios (5 replays x 4 observers), each with a title, header and rule
