@@ -169,7 +169,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                   sweep=sweep)
         seconds["study_s"] = time.perf_counter() - t1
         t2 = time.perf_counter()
-        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab)
+        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab,
+                                  min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)))
         if depth is not None:
             runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
             sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
@@ -215,7 +216,7 @@ def _group_pool(group, hypotheses, seed):
     return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
 
 
-def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
+def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None):
     """Fit the receptor depth to the emulated study's real block; the headline at that depth.
 
     Returns None without a study with both groups; else ``row`` (a sensitivity row),
@@ -246,7 +247,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
                  f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
         settings[label] = ({"pool": depth_pool, "noise": noise}, what, share)
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                      variability=lab,
+                      variability=lab, max_studies=max_studies,
                       choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})
     record = {"estimate_share_of_L": fit.estimate, "interval_share_of_L": list(fit.interval),
               "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
