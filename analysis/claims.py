@@ -150,7 +150,9 @@ CLAIMS = (
           "Spearman correlation of the replayed temperature at 20 s (35 °C skin, 24 °C steel, "
           "650 µm) with roughness 0.4-100 µm",
           "= +1: strictly increasing (a property of the replay, not of a study)",
-          "as descriptive: a deterministic property of the replay, no test"),
+          "as descriptive: a deterministic property of the replay, no test",
+          own="the paper's Table 2 was read by a sensor on the skin side; that the display's "
+              "replayed temperature must rise likewise is the project's reading"),
 )
 
 
@@ -335,13 +337,15 @@ def answers_from_trials(trials: pd.DataFrame, roughness_ids=(1, 2, 3, 4)) -> np.
     return out
 
 
-def claim_probabilities(verdicts: dict) -> pd.DataFrame:
-    """Probability (with its 95 % Monte-Carlo interval) that a study shows each claim.
+def claim_probabilities(verdicts: dict, level: float = 0.95) -> pd.DataFrame:
+    """Probability (with its Monte-Carlo Wilson interval) that a study shows each claim.
 
     Parameters
     ----------
     verdicts : dict
         From :func:`evaluate_claims` on many simulated studies.
+    level : float
+        Confidence level of the Wilson score interval (:func:`wilson_interval`) over studies.
 
     Returns
     -------
@@ -356,7 +360,7 @@ def claim_probabilities(verdicts: dict) -> pd.DataFrame:
     for cid, stat, holds in shown + [("all", joint.astype(float), joint)]:
         n = holds.size
         k = int(np.sum(holds))
-        lo, hi = wilson_interval(k, n)
+        lo, hi = wilson_interval(k, n, level)
         rows.append({"claim": cid, "probability": k / n, "mc_low": float(lo),
                      "mc_high": float(hi), "n_studies": n,
                      "mean_statistic": float(np.mean(stat[np.isfinite(stat)])) if np.any(np.isfinite(stat)) else float("nan")})

@@ -42,11 +42,20 @@ def register(sub) -> None:
                         "participants' decision rule); default: the best match")
     p.add_argument("--studies", type=int, default=None, metavar="N",
                    help="figure9 only: simulated 15+15 studies per scenario and per sensitivity "
-                        "row (default 200)")
+                        "row in the first round (default 200); undecided ones get more")
+    p.add_argument("--max-studies", type=int, default=None, metavar="N",
+                   help="figure9 only: cap of the studies added sequentially to a scenario "
+                        "whose result is undecided at this precision (default 3200; a "
+                        "sensitivity row stops at 800)")
+    p.add_argument("--from", dest="from_dir", default=None, metavar="DIR",
+                   help="figure9 only: recompute the claims, verdict and figure from the "
+                        "per-study tables (studies.csv, sensitivity_studies.csv) of an earlier "
+                        "run in DIR, without simulating")
     p.add_argument("--force-sd-N", type=float, default=None, metavar="N",
                    help="figure9 only: spread (sd, N) of the per-touch contact force about the "
-                        "paper's 2 N in the simulated studies (default 0.25: an assumption, the "
-                        "paper says 'about 2 N'; 0: every touch at 2 N)")
+                        "lab's 2.5 N (clipped to 2.05-3 N, past the display's 2 N trigger), in "
+                        "the simulated studies and the emulated sessions alike (default 0.25: "
+                        "an assumption, the paper says 'about 2 N'; 0: every touch at 2.5 N)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="figure9 only: run the simulated studies and the sessions on the dask "
                         "scheduler at ADDRESS (tcp://host:port) instead of a local cluster")
@@ -82,6 +91,7 @@ def _out_dir(path: str, create: bool = True) -> Path:
 
 #: Options that only the figure9 study takes (argparse dest, option).
 _FIGURE9_ONLY = (("replay", "--replay"), ("observer", "--observer"), ("studies", "--studies"),
+                 ("max_studies", "--max-studies"), ("from_dir", "--from"),
                  ("force_sd_N", "--force-sd-N"), ("scheduler", "--scheduler"),
                  ("target_side", "--target-side"), ("rate_limit", "--rate-limit"),
                  ("participants", "--participants"), ("workers", "--workers"),
@@ -118,13 +128,26 @@ def _run(ns) -> int:
         return 0
     # figure9: the simulated cohort (experiments/participant_model/cohort.py, figure9.py)
     from experiments.cli.run import responder_options
-    from experiments.simulation.figure9.reproduction import run_reproduction
+    from experiments.simulation.figure9.reproduction import recompute_from, run_reproduction
+    if ns.from_dir is not None:
+        for dest, option in _FIGURE9_ONLY:
+            if dest != "from_dir" and getattr(ns, dest) not in (None, []):
+                raise UserInputError(f"{option}: expected nothing with --from (it simulates "
+                                     f"nothing), got {getattr(ns, dest)!r}")
+        if Path(ns.from_dir).resolve() == out.resolve():
+            raise UserInputError(f"{ns.out}: --out: expected a folder other than --from's")
+        out.mkdir(parents=True, exist_ok=True)
+        folder.begin()
+        recompute_from(ns.from_dir, out)
+        folder.finish()
+        return 0
     if out.is_dir():          # an earlier run's COMPLETE goes first (the study makes the folder)
         folder.begin()
     run_reproduction(out, seed=ns.seed, target_side=ns.target_side, rate_limit=ns.rate_limit,
                      participants=ns.participants, workers=ns.workers, replay=ns.replay,
                      observer=ns.observer, scheduler=ns.scheduler, force_sd_N=ns.force_sd_N,
                      **({} if ns.studies is None else {"n_studies": ns.studies}),
+                     **({} if ns.max_studies is None else {"max_studies": ns.max_studies}),
                      responder_options=responder_options(ns.responder_option))
     folder.finish()
     return 0

@@ -63,8 +63,14 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     skin_temperature_C : float, °C, optional
         Default: the record's ``initial_skin_temperature_C``, else 35.75 °C.
     press_after_s, force_N : float, s / N
-        The scripted finger: when it presses after being armed, and how hard (default: the
-        protocol's force threshold + 0.5 N, i.e. 2.5 N for the paper's 2 N).
+        The scripted finger: when it presses after being armed, and how hard.  Without
+        ``force_N`` each trial's press is drawn from the lab the Monte Carlo simulates
+        (:data:`experiments.participant_model.lab.DEFAULT_LAB`: 2.5 ± 0.25 N, clipped to
+        2.05-3 N, past the 2 N trigger), from ``(seed, trial_index)``; ``force_N`` presses every
+        trial at that force.
+    force_sd_N : float, N, optional
+        The lab's per-touch force spread instead of the default's 0.25 N (``reproduce figure9
+        --force-sd-N`` passes its own, so that the emulated study and the Monte Carlo share it).
     hold_s : float, s, optional
         How long the finger stays on, from the start of the press. Default: on trials that ask
         for an answer, the model's feature window + 0.5 s (the paper's participants withdrew
@@ -105,7 +111,8 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     human = False
 
     def __init__(self, seed=None, skin_thickness_um=None, dermis_fraction=None,
-                 skin_temperature_C=None, press_after_s=0.3, force_N=None, hold_s=None,
+                 skin_temperature_C=None, press_after_s=0.3, force_N=None, force_sd_N=None,
+                 hold_s=None,
                  log_percepts=True, pad_roughness_um=None, pad_material=None, pad_contact=True,
                  observer="absolute", **perception):
         super().__init__()
@@ -124,7 +131,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         if unknown:
             raise UserInputError(f"responder 'simulated': unknown option(s) {unknown}; expected "
                                  f"seed, skin_thickness_um, dermis_fraction, skin_temperature_C, "
-                                 f"press_after_s, force_N, hold_s, log_percepts, pad_roughness_um, "
+                                 f"press_after_s, force_N, force_sd_N, hold_s, log_percepts, pad_roughness_um, "
                                  f"pad_material, pad_contact, observer (and its parameters) or one of "
                                  f"{sorted(_PARAM_FIELDS)}")
         values = {}
@@ -148,6 +155,12 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         }
         self.press_after_s = _number("press_after_s", press_after_s)
         self.force_N = None if force_N is None else _number("force_N", force_N)
+        from experiments.participant_model.lab import DEFAULT_LAB
+        try:
+            self.lab = DEFAULT_LAB if force_sd_N is None else dataclasses.replace(
+                DEFAULT_LAB, force_sd_N=_number("force_sd_N", force_sd_N))
+        except ValueError as exc:
+            raise UserInputError(f"responder 'simulated': {exc}") from None
         self.hold_given = hold_s is not None
         self.hold_s = self.params.duration_s + 0.5 if hold_s is None else _number("hold_s", hold_s)
         self.log_percepts = log_percepts not in (False, "false", "False", "0", 0)
@@ -232,7 +245,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         _, skin_temperature = self._trial(trial)
         reply = press(display, sample=(None if trial.mode == "simulated"
                                        else _sample_for(self.session, trial, self.params)),
-                      press_after_s=self.press_after_s, force_N=self._force(),
+                      press_after_s=self.press_after_s, force_N=self._force(trial),
                       hold_s=self.hold_for(trial), skin_thickness_m=person.skin_thickness_m,
                       skin_temperature_C=skin_temperature)
         if hasattr(self.session, "log_finger_model"):
@@ -265,18 +278,21 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
         needed = contact.max_contact_s if trial.mode == "simulated" else contact.record_s
         return max(self.hold_s, float(needed) + HOLD_MARGIN_S)
 
-    def _force(self) -> float:
+    def _force(self, trial) -> float:
+        """This trial's press, N: ``force_N``, else a draw from the lab (:attr:`lab`) from
+        ``(seed, trial_index)`` (its own generator: the trial's other draws are unchanged)."""
         if self.force_N is not None:
             return self.force_N
-        contact = getattr(getattr(self.session, "protocol", None), "contact", None)
-        threshold = getattr(contact, "force_threshold_N", 2.0)
-        return float(threshold) + 0.5
+        self._ensure_person()
+        rng = np.random.default_rng([self.seed, int(trial.trial_index), 0xF0]
+                                    if trial is not None else [self.seed, 0xF0])
+        return float(self.lab.draw_forces(rng))
 
-    def trial_force(self, stimulus) -> float:
+    def trial_force(self, stimulus, trial=None) -> float:
         """The force of this trial's contact, N: what the display measured (the mean summed
         force over the contact, :attr:`TrialStimulus.contact_force_N`), else the scripted press."""
         measured = getattr(stimulus, "contact_force_N", None)
-        return round(float(measured), 2) if measured is not None else self._force()
+        return round(float(measured), 2) if measured is not None else self._force(trial)
 
     def feel(self, trial, stimulus) -> tuple[np.ndarray, np.ndarray, float]:
         """The receptor temperature trace this trial produced: ``(t_s, receptor_C, skin_C)``."""
@@ -292,7 +308,7 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                                       sample_thickness_m=sample["thickness_m"],
                                       material_temperature_C=sample["temperature_C"],
                                       skin_temperature_C=skin_temperature,
-                                      force_N=self.trial_force(stimulus))   # Eq. 5
+                                      force_N=self.trial_force(stimulus, trial))   # Eq. 5
         # the scene planner's decision for what was felt: model, method, tolerance, error bound
         self.log("simulated_receptor_model", trial_index=int(trial.trial_index),
                  **(person.last_plan or {}))

@@ -31,6 +31,13 @@ class _Profile:
     def __getattr__(self, name):
         return getattr(self._prof, name)
 
+    @property
+    def error_bound(self) -> float:
+        """How far the uploaded profile may be from the replay it names, K: the model's own
+        bound plus the most the rate limit (``rate_limit = "slew"``) changed it."""
+        change = float(self.parameters.get("rate_limited_max_change_C") or 0.0)
+        return float(self._prof.error_bound) + change
+
 
 def simulated_target_profile(protocol, participant: dict, group, skin_thickness_um,
                              roughness_id, roughness_um):

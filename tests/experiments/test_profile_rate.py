@@ -41,3 +41,21 @@ def test_bad_arguments():
         limit_rate(np.r_[np.zeros(20), 5.0, np.zeros(20)], 0.01, 0.05)
     with pytest.raises(ValueError, match="positive"):
         limit_rate(np.r_[0.0, 5.0], 0.0, 10.0)
+
+
+def test_the_slew_enters_the_uploaded_profiles_error_bound():
+    # compensated 3#/4# need the rate limit: what it changed is part of how far the uploaded
+    # profile may be from the replay it names (error_bound_C of profile_uploaded)
+    from experiments.protocol import load_protocol
+    from experiments.session.setup import simulated_target_profile
+    from experiments.simulation.replay import protocol_variant
+    proto = protocol_variant(load_protocol("roughness_recognition"), "compensated")
+    slewed = 0
+    for sample in proto.samples:
+        prof = simulated_target_profile(proto, {}, "A", None, sample.id, sample.roughness_um)
+        change = prof.parameters["rate_limited_max_change_C"]
+        unslewed = simulated_target_profile(proto, {}, "A", None, sample.id, sample.roughness_um)
+        assert prof.error_bound == pytest.approx(unslewed._prof.error_bound + change)
+        assert np.max(np.abs(prof.temperature - prof._prof.temperature)) <= prof.error_bound
+        slewed += change > 0.1
+    assert slewed >= 2                                        # 3# and 4#: 0.26 and 0.16 K

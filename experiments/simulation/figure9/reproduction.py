@@ -20,143 +20,25 @@ from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["run_reproduction", "claims_screen", "verdict_line", "sessions_claims_line", "PRINTED",
-           "planner_note",
-           "claims_held", "reproducing_scenarios", "DEFAULT_STUDIES"]
+__all__ = ["run_reproduction", "recompute_from", "claims_screen", "verdict_line",
+           "sessions_claims_line", "PRINTED", "planner_note", "claims_held",
+           "reproducing_scenarios", "DEFAULT_STUDIES"]
 
-#: The paper's method as printed: Eq. 7's material side as printed (half-space), judged as the
-#: project's original absolute observer did.
-PRINTED = ("printed", "absolute")
-#: A claim is marked as reproduced (✓) in a scenario when at least this share of simulated
-#: studies shows it.
-MAJORITY = 0.5
-#: Simulated studies per scenario and per sensitivity row by default (``--studies``).
-DEFAULT_STUDIES = 200
+from .precision import FIRST_STUDIES, MAX_STUDIES, MC_LEVEL, SENSITIVITY_MAX_STUDIES
+from .report import depth_text, planner_note, write_outputs as _write_outputs
+from .verdict import PRINTED, claims_held, claims_screen, reproducing_scenarios, verdict_line
 
-#: How each reading is named in lines and tables.
-READING_TEXT = {"descriptive": "read descriptively (the direction the paper states, in a "
-                               "study's point estimates)",
-                "inferential": f"read inferentially (each direction with its one-sided test "
-                               f"at 0.05)"}
+#: Simulated studies per scenario and per sensitivity row in the first round (``--studies``);
+#: more are added to undecided ones up to ``--max-studies`` (:mod:`.precision`).
+DEFAULT_STUDIES = FIRST_STUDIES
 
 log = logging.getLogger("thermocue.study")
-
-
-def _mark(p: float) -> str:
-    return f"{'✓' if p >= MAJORITY else '✗'}{p:4.2f}"
-
-
-def _claim_ids(wide):
-    from analysis.claims import CLAIMS
-    return [c for c in CLAIMS if c.id in wide.columns]
-
-
-def claims_screen(result, headline=None) -> str:
-    """The claims table on one screen per reading: scenario rows, claim columns, ✓/✗ with P."""
-    from experiments.simulation.replay import REPLAY_HYPOTHESES
-    blocks = []
-    for reading in ("descriptive", "inferential"):
-        wide = result.wide(reading)
-        claims = _claim_ids(wide)
-        shorts = [c.short + ("*" if c.own else "") for c in claims] + ["all"]
-        ids = [c.id for c in claims] + ["all"]
-        head = f"{'replay':<12}{'observer':<16}" + "".join(f"{s:>10}" for s in shorts)
-        lines = [f"{reading.upper()}: claims {READING_TEXT[reading]}", head, "-" * len(head)]
-        for (h, o), row in wide.iterrows():
-            star = " <- headline" if headline == (h, o) else ""
-            lines.append(f"{h:<12}{o:<16}" + "".join(f"{_mark(row[i]):>10}" for i in ids) + star)
-        blocks.append("\n".join(lines))
-    n = int(result.claims["n_studies"].iloc[0])
-    models = "; ".join(f"{h.name}: {h.profile_model}" for h in REPLAY_HYPOTHESES.values())
-    blocks.append(f"probability that a simulated 15+15 study shows the claim ({n} studies per "
-                  f"scenario); ✓ when ≥ {MAJORITY:g}; 'all': every claim in the same study; "
-                  f"* the project's own criterion\nprofile models: {models}")
-    return "\n\n".join(blocks)
-
-
-def claims_held(result, scenario, reading: str = "descriptive") -> tuple[int, int]:
-    """``(claims shown by at least MAJORITY of studies, claims)`` of one scenario."""
-    wide = result.wide(reading)
-    ids = [c.id for c in _claim_ids(wide)]
-    row = wide.loc[tuple(scenario)]
-    return sum(bool(row[i] >= MAJORITY) for i in ids), len(ids)
-
-
-def reproducing_scenarios(result, reading: str = "descriptive") -> list:
-    """Scenarios in which every claim is shown by at least MAJORITY of simulated studies."""
-    out = []
-    for k in result.wide(reading).index:
-        held, total = claims_held(result, k, reading)
-        if held == total:
-            out.append(k)
-    return out
-
-
-def _reading_sentence(result, reading: str) -> str:
-    """What one reading says: reproduced under which scenarios, else the best match and why not."""
-    from experiments.simulation.figure9.scenarios import best_scenario, tied_scenarios
-    from experiments.simulation.replay import REPLAY_HYPOTHESES
-    wide = result.wide(reading)
-    best = best_scenario(result, reading)
-    row = wide.loc[best]
-    held, total = claims_held(result, best, reading)
-    label = REPLAY_HYPOTHESES[best[0]].label
-    ties = tied_scenarios(result, best, reading)
-    tie = f", tied at {row['all']:.2f} with {len(ties)} other scenario(s)" if ties else ""
-    failed = [f"{c.short} {row[c.id]:.2f}" for c in _claim_ids(wide) if row[c.id] < MAJORITY]
-    reproducers = reproducing_scenarios(result, reading)
-    head = f"Read {reading}ly"
-    if best in reproducers:
-        others = [f"{h}/{o}" for h, o in reproducers if (h, o) != best]
-        return (f"{head}, the claims are reproduced under the {label} replay with the {best[1]} "
-                f"observer (every claim in at least half of simulated 15+15 studies; all in one "
-                f"study with probability {row['all']:.2f}{tie})"
-                + (f", and also under {', '.join(others)}" if others else ""))
-    if reproducers:
-        return (f"{head}, the claims are reproduced under "
-                f"{', '.join(f'{h}/{o}' for h, o in reproducers)}; the best match by the "
-                f"probability of all claims in one study is the {label} replay with the "
-                f"{best[1]} observer ({held} of {total} claims, all in one study with "
-                f"probability {row['all']:.2f}{tie})")
-    return (f"{head}, no scenario reproduces the claims (none has every claim in at least half "
-            f"of its simulated 15+15 studies); best match: the {label} replay with the {best[1]} "
-            f"observer, {held} of {total} claims, all in one study with probability "
-            f"{row['all']:.2f}{tie}; shown by fewer than half: {', '.join(failed)}")
-
-
-def _printed_sentence(result) -> str:
-    """How the printed Eq. 7 fares in both readings (its best observer in each)."""
-    parts = []
-    for reading in ("descriptive", "inferential"):
-        wide = result.wide(reading)
-        rows = [k for k in wide.index if k[0] == PRINTED[0]]
-        if not rows:
-            return ""
-        best = max(rows, key=lambda k: (claims_held(result, k, reading)[0], wide.loc[k, "all"]))
-        held, total = claims_held(result, best, reading)
-        parts.append(f"{reading} {held} of {total} claims at best ({best[1]} observer)")
-    return "under the printed Eq. 7 (material side): " + ", ".join(parts)
-
-
-def verdict_line(result, best=None) -> str:
-    """One line: are the paper's claims reproduced, in each reading, and under which hypothesis.
-
-    A scenario *reproduces* the paper in a reading when every claim, read that way, is shown by
-    at least :data:`MAJORITY` of its simulated studies.  The line states the descriptive reading
-    (the paper's directions in a study's point estimates), then the inferential one (each with
-    its one-sided test), then how the printed Eq. 7 fares in both.  ``best`` is accepted for
-    compatibility and not used: each reading names its own best match.
-    """
-    printed = _printed_sentence(result)
-    return ("Figure 9 / Table 2 claims. " + _reading_sentence(result, "descriptive") + ". "
-            + _reading_sentence(result, "inferential") + "." + (f" {printed[0].upper()}"
-                                                                  f"{printed[1:]}." if printed else ""))
 
 
 def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None, replay=None,
                      observer=None, responder_options=None, n_studies: int = DEFAULT_STUDIES,
                      target_side=None, rate_limit=None, scheduler: str | None = None,
-                     force_sd_N: float | None = None) -> dict:
+                     force_sd_N: float | None = None, max_studies: int | None = None) -> dict:
     """Run everything ``reproduce figure9`` promises (see the module docstring).
 
     Progress is logged at INFO on ``thermocue.study``; the verdict and the claims table are
@@ -178,7 +60,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     responder_options : dict, optional
         For every simulated participant of the headline study.
     n_studies : int
-        Simulated studies per scenario and per sensitivity row.
+        Simulated studies per scenario and per sensitivity row in the first round.
+    max_studies : int, optional
+        Cap of the sequential studies of one scenario (default :data:`.precision.MAX_STUDIES`,
+        at least ``n_studies``); a sensitivity row stops at
+        :data:`.precision.SENSITIVITY_MAX_STUDIES` (or this cap if lower).
     target_side, rate_limit : str, optional
         Single-field overrides of the headline's protocol variant (after ``replay``); a
         ``target_side`` without ``replay`` names the replay hypothesis that plays that side of
@@ -201,7 +87,9 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     from sessionfiles.logbook import atomic_write_json, atomic_write_text
     from experiments.responders import get_responder
     from experiments.participant_model.cohort import paper_cohort
-    from experiments.simulation.figure9.scenarios import (best_scenario, evaluate_scenarios,
+    from experiments.simulation.figure9.precision import study_table
+    from experiments.simulation.figure9.scenarios import (SENSITIVITY_CHOICES, mark_differences,
+                                                          best_scenario, evaluate_scenarios,
                                                           sensitivity)
     from experiments.simulation.figure9.study import _positive_int, run_figure9_study
     from experiments.participant_model.observers import OBSERVERS
@@ -216,6 +104,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     if workers is not None:
         _positive_int(workers, "--workers")
     _positive_int(n_studies, "--studies")
+    if max_studies is None:
+        max_studies = max(MAX_STUDIES, n_studies)
+    if _positive_int(max_studies, "--max-studies") < n_studies:
+        raise UserInputError(f"--max-studies: expected at least --studies ({n_studies}), got "
+                             f"{max_studies}")
     lab = DEFAULT_LAB
     if force_sd_N is not None:
         if isinstance(force_sd_N, bool) or not isinstance(force_sd_N, (int, float)) \
@@ -250,47 +143,53 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                                    for g in GROUPS], what="person pools"))
         seconds["pool_s"] = time.perf_counter() - t0
         result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
-                                    variability=lab)
+                                    variability=lab, max_studies=max_studies)
+        seconds["claims_s"] = time.perf_counter() - t0 - seconds["pool_s"]
         best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
         headline = (replay or best["descriptive"][0], observer or best["descriptive"][1])
+        default_run = next(res for keys, res in result.runs
+                           if (keys["hypothesis"], keys["observer"]) == headline)
         sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                           variability=lab)
+                           variability=lab, default_run=default_run,
+                           max_studies=min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)))
         seconds["scenarios_s"] = time.perf_counter() - t0
-        log.info("figure9: %d scenarios x %d simulated studies and %d sensitivity rows in "
-                 "%.1f s on %d workers; headline: %s replay, %s observer", len(result.wide()),
-                 n_studies, len(sens), seconds["scenarios_s"], sweep.n_workers, *headline)
+        seconds["studies_simulated"] = int(result.n_studies().sum()) + sum(
+            len(res["proportions"]) for _, res in sens.attrs["runs"] if res is not default_run)
+        log.info("figure9: %d scenarios (%d-%d simulated studies each) and %d sensitivity rows "
+                 "in %.1f s on %d workers; headline: %s replay, %s observer", len(result.wide()),
+                 result.n_studies().min(), result.n_studies().max(), len(sens),
+                 seconds["scenarios_s"], sweep.n_workers, *headline)
         t1 = time.perf_counter()
         study = run_figure9_study(out_dir, seed=seed, workers=workers,
                                   participants=participants, replay=headline[0],
                                   target_side=target_side, rate_limit=rate_limit,
-                                  responder_options={**options, "observer": headline[1]},
+                                  responder_options={**options, "observer": headline[1],
+                                                     **({} if force_sd_N is None else
+                                                        {"force_sd_N": lab.force_sd_N})},
                                   sweep=sweep)
         seconds["study_s"] = time.perf_counter() - t1
         t2 = time.perf_counter()
-        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab)
+        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab,
+                                  min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)))
         if depth is not None:
-            sens = pd.concat([sens, depth["row"]], ignore_index=True)
+            runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
+            sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
+                                     SENSITIVITY_CHOICES)
+            sens.attrs["runs"] = runs
         seconds["depth_fit_s"] = time.perf_counter() - t2
-    # tables
     from analysis.exports import write_csv        # whole or not at all
-    write_csv(result.claims, out_dir / "claims.csv")
-    write_csv(result.proportions, out_dir / "scenario_proportions.csv")
-    write_csv(sens, out_dir / "sensitivity.csv")
-    # figure
+    write_csv(study_table(result.runs), out_dir / "studies.csv")
+    write_csv(study_table(sens.attrs["runs"]), out_dir / "sensitivity_studies.csv")
     analysis = study.get("analysis")
-    files = []
-    if analysis is not None:
-        files = _figure(out_dir, result, analysis, headline, best, n_studies, len(study["sessions"]))
+    observed = analysis.proportions if analysis is not None else None
     sessions_line = ""
     if analysis is not None:
         sessions_line = sessions_claims_line(analysis.log.analysable, headline)
-    report = out_dir / "report.md"
-    screen = claims_screen(result, headline)
-    verdict = verdict_line(result)
-    opening = _report_opening(verdict, screen, result, sens, headline, best, n_studies,
-                              sessions_line, lab, depth)
-    body = report.read_text(encoding="utf-8") if report.is_file() else ""
-    atomic_write_text(report, opening + body)
+    depth_record = None if depth is None else depth["record"]
+    outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
+                             len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
+                             body=True)
+    files, verdict, screen = outputs["files"], outputs["verdict"], outputs["screen"]
     seconds["total_s"] = time.perf_counter() - t0
     study_json = out_dir / "study.json"
     if study_json.is_file():
@@ -300,7 +199,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                       for r, b in best.items()},
                        "scenario_settings": {**result.settings, "lab": lab.to_dict()},
                        "verdict": verdict, "reproduction_seconds": seconds,
-                       "receptor_depth_fit": None if depth is None else depth["record"]})
+                       "receptor_depth_fit": depth_record})
         atomic_write_json(study_json, record)
     log.info("figure9: results in %s (%.1f s)", out_dir, seconds["total_s"])
     print(verdict)
@@ -317,7 +216,7 @@ def _group_pool(group, hypotheses, seed):
     return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
 
 
-def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
+def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None):
     """Fit the receptor depth to the emulated study's real block; the headline at that depth.
 
     Returns None without a study with both groups; else ``row`` (a sensitivity row),
@@ -348,49 +247,12 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab):
                  f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
         settings[label] = ({"pool": depth_pool, "noise": noise}, what, share)
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                      variability=lab,
+                      variability=lab, max_studies=max_studies,
                       choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})
-    profile = ", ".join(f"{d:.2f}: {v - fit.profile.max():+.1f}" for d, v in fit.profile.items())
-    text = (f"Receptor depth fitted to the emulated study's real-block answers (profile "
-            f"likelihood over depth shares {DEPTH_SHARES[0]:g}-{DEPTH_SHARES[-1]:g} of L and noise "
-            f"floors, absolute observer, answers treated as independent): {fit.estimate:.2f} of "
-            f"L, 95 % likelihood-ratio interval {fit.interval[0]:.2f}-{fit.interval[1]:.2f} "
-            f"({'identifiable' if fit.identifiable() else 'not identifiable: the profile is flat'}"
-            f" on this grid), noise {fit.noise_C:g} K; log-likelihood relative to the maximum: "
-            f"{profile}. The paper's own proportions cannot be used the same way: its Figure 9 "
-            f"is printed as a chart without numbers, and the text gives none.")
     record = {"estimate_share_of_L": fit.estimate, "interval_share_of_L": list(fit.interval),
               "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
               "profile": {f"{d:.2f}": float(v) for d, v in fit.profile.items()}}
-    return {"row": row, "record": record, "text": text}
-
-
-def _figure(out_dir, result, analysis, headline, best, n_studies, n_sessions) -> list:
-    """``figure9.png`` / ``.pdf``: the printed Eq. 7 and the headline, as distributions."""
-    from experiments.simulation.figure9.plot import claims_note, plot_figure9_distribution
-    from experiments.simulation.replay import REPLAY_HYPOTHESES
-    props = result.proportions
-
-    def rows(scenario):
-        return props[(props.hypothesis == scenario[0]) & (props.observer == scenario[1])]
-    held_d, total = claims_held(result, headline, "descriptive")
-    held_i, _ = claims_held(result, headline, "inferential")
-    if headline != best["descriptive"]:
-        named = "Scenario chosen by --replay/--observer"
-    elif held_d == total:
-        named = "Best match (descriptive reading): reproduces the claims"
-    else:
-        named = "Best match by the stated rule, not a reproduction"
-    return plot_figure9_distribution(
-        rows(PRINTED), rows(headline), analysis.proportions, out_dir / "figure9.png",
-        left_title=(f"Figure 9 as the paper's method predicts it\n{REPLAY_HYPOTHESES[PRINTED[0]].label}"
-                    f" replay\n{PRINTED[1]} observer\n{n_studies} simulated 15+15 studies"),
-        right_title=(f"{named}\n{REPLAY_HYPOTHESES[headline[0]].label} replay, {headline[1]} "
-                     f"observer\nclaims shown by ≥ half of studies: {held_d}/{total} "
-                     f"descriptive, {held_i}/{total} inferential\n{n_studies} simulated "
-                     f"studies; ×: the one emulated study ({n_sessions} sessions)"),
-        left_note=claims_note(result.claims, PRINTED),
-        right_note=claims_note(result.claims, headline))
+    return {"row": row, "record": record, "text": depth_text(record)}
 
 
 def _sessions_verdicts(trials: pd.DataFrame, headline):
@@ -422,126 +284,72 @@ def sessions_claims_line(trials: pd.DataFrame, headline) -> str:
             " (statistic in brackets).")
 
 
-def _md(df: pd.DataFrame, digits: int = 2) -> str:
-    cols = list(df.columns)
-    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
-    for row in df.itertuples(index=False):
-        lines.append("| " + " | ".join(f"{v:.{digits}f}" if isinstance(v, float) else str(v)
-                                       for v in row) + " |")
-    return "\n".join(lines)
+def recompute_from(src_dir, out_dir) -> dict:
+    """``reproduce figure9 --from SRC --out OUT``: claims, verdict and figure from the per-study
+    tables of an earlier run, without simulating.
 
+    Reads ``SRC/studies.csv`` and ``SRC/sensitivity_studies.csv`` (:func:`.precision.study_table`),
+    the headline and the lab from ``SRC/study.json`` and the emulated study's proportions from
+    ``SRC/proportions.csv`` (both optional); writes ``claims.csv``,
+    ``scenario_proportions.csv``, ``sensitivity.csv``, ``figure9.png`` / ``.pdf`` and the
+    report's opening as ``report.md`` in ``OUT``, and prints the verdict and the claims table.
 
-def _expected_table(result) -> pd.DataFrame:
-    """Scenario rows; real and simulated 1#-4# (groups pooled) and A - B, real and simulated."""
-    p = result.proportions
-    rows = []
-    for (h, o), sel in p.groupby(["hypothesis", "observer"], sort=False):
-        row = {"replay": h, "observer": o}
-        for mode, tag in (("real", "R"), ("simulated", "S")):
-            m = sel[sel["mode"] == mode]
-            for rid, v in m.groupby("roughness_id")["expected"].mean().items():
-                row[f"{tag} {rid}#"] = float(v)
-            by_group = m.groupby("group")["expected"].mean()
-            row[f"A-B {tag}"] = float(by_group.get("A", float("nan")) - by_group.get("B", float("nan")))
-        rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def _claims_md(result, reading: str) -> str:
-    """The claims table of one reading, each row naming its profile model."""
-    from experiments.simulation.replay import REPLAY_HYPOTHESES
-    wide = result.wide(reading).reset_index()
-    claims = _claim_ids(result.wide(reading))
-    ids = [c.id for c in claims] + ["all"]
-    shown = pd.DataFrame({"replay": wide["hypothesis"],
-                          "profile model": [REPLAY_HYPOTHESES[h].profile_model
-                                            for h in wide["hypothesis"]],
-                          "observer": wide["observer"]})
-    for c, i in zip([c.short + ("*" if c.own else "") for c in claims] + ["all"], ids):
-        shown[c] = [f"{'✓' if p >= MAJORITY else '✗'} {p:.2f}" for p in wide[i]]
-    return _md(shown)
-
-
-def planner_note(settings: dict) -> str:
-    """The report's sentences on the scene planner's decisions in the simulated studies: every
-    receptor temperature of the person pool (real contacts and replayed profiles) went through
-    it; per path, the models chosen, how often, method, tolerance and largest error bound; and
-    the models of the 'T2 rise' claim's replayed Table 2 temperatures, per replay."""
-    dec = settings.get("planner_decisions") or {}
-    parts = []
-    for path, what in (("real", "real contacts"), ("display", "replayed profiles felt on the pad")):
-        models = "; ".join(f"{m}, method {e['method']}, error bound at most {e['max_bound_K']:.2g} "
-                           f"K ({e['count']} evaluations)" for m, e in dec.get(path, {}).items())
-        parts.append(f"{what}: {models or 'none recorded'}")
-    t2 = settings.get("table2_replay_models") or {}
-    t2_text = "; ".join(
-        f"{h}: " + ", ".join(f"{e['model']} (method {e['method']}, tolerance "
-                             f"{'none' if e['tolerance_K'] is None else format(e['tolerance_K'], 'g')}"
-                             f"{'' if e['tolerance_K'] is None else ' K'}, error bound at most "
-                             f"{e['max_bound_K']:.2g} K)" for e in models)
-        for h, models in t2.items())
-    t2_sentence = (f" The 'T2 rise' claim's replayed Table 2 temperatures (20 s, 35 °C skin on "
-                   f"24 °C steel), per replay: {t2_text}." if t2_text else "")
-    return (f"Every receptor temperature of the simulated persons went through the scene planner "
-            f"at a tolerance of {settings.get('model_tolerance_C', float('nan')):g} K (a quarter "
-            f"of the smallest difference at the receptors between the stimuli to tell apart, real "
-            f"and replayed, not the perceptual floor); models chosen: " + "; ".join(parts) + "."
-            + t2_sentence)
-
-
-def _report_opening(verdict, screen, result, sens, headline, best, n_studies,
-                    sessions_line="", lab=None, depth=None) -> str:
-    from analysis.claims import CLAIMS
-    from experiments.simulation.replay import REPLAY_HYPOTHESES
-    from experiments.simulation.studies import __doc__ as studies_doc
-    claim_lines = "\n".join(
-        f"- **{c.short}** ({c.id}): {c.text}. {c.quote}. Statistic: {c.statistic}. "
-        f"Descriptive: {c.descriptive}. Inferential: {c.inferential}."
-        + (f" *The project's own criterion*: {c.own}." if c.own else "") for c in CLAIMS)
-    hyp_lines = "\n".join(f"- **{h.name}**: {h.label}; plays {h.profile_model}. {h.reason}."
-                          for h in REPLAY_HYPOTHESES.values())
-    ids = [c.id for c in CLAIMS if c.id in sens.columns] + ["all"]
-    sens_cols = ["choice", "setting"] + [i for i in ids if i in sens.columns] + \
-        [i + "_inf" for i in ids if i + "_inf" in sens.columns] + \
-        ["p_real_A", "p_real_B", "p_sim_A", "p_sim_B"]
-    note = studies_doc.split("Where this differs from emulated sessions")[1].split("Everything else")[0]
-    note = "\n".join(line for line in note.splitlines() if not set(line.strip()) <= {"-"})
-    repro = {r: reproducing_scenarios(result, r) for r in ("descriptive", "inferential")}
-    title = ("Figure 9, reproduced" if repro["descriptive"] or repro["inferential"]
-             else "Figure 9, not reproduced by any scenario")
-    lab_text = ", ".join(f"{k} {v}" for k, v in (lab.to_dict().items() if lab else []))
-    sections = []
-    for reading in ("descriptive", "inferential"):
-        sections.append(
-            f"### Claims {READING_TEXT[reading]}\n\n"
-            f"Best match: {best[reading][0]} replay, {best[reading][1]} observer; reproducing "
-            f"(every claim ✓): {', '.join(f'{h}/{o}' for h, o in repro[reading]) or 'none'}."
-            f"\n\n{_claims_md(result, reading)}\n")
-    return (f"# {title}\n\n**{verdict}**\n\n"
-            + (f"{sessions_line}\n\n" if sessions_line else "") +
-            f"## The paper's claims under each scenario\n\n"
-            f"Probability that one simulated 15 + 15 study shows the claim ({n_studies} studies "
-            f"per scenario, the observer models applied to simulated percepts, a fresh cohort "
-            f"per study; lab: {lab_text}; 95 % Monte-Carlo intervals in `claims.csv`); ✓ when "
-            f"at least {MAJORITY:g}; * marks a criterion that is the project's own reading. "
-            f"Headline scenario (its sessions below): {headline[0]} replay, {headline[1]} "
-            f"observer (the best match read descriptively unless chosen by option). The best "
-            f"match of a reading has the highest probability of showing every claim in one "
-            f"study (ties to the higher mean probability of the single claims).\n\n"
-            + "\n".join(sections) +
-            f"\nExpected proportion correct per scenario (mean over the simulated studies, groups "
-            f"A and B; every cell's median and 50 / 95 % single-study ranges in "
-            f"`scenario_proportions.csv`):\n\n{_md(_expected_table(result))}\n\n"
-            f"Claims:\n\n{claim_lines}\n\nReplay hypotheses:\n\n{hyp_lines}\n\n"
-            f"Where the simulated studies are not exactly the emulated sessions:\n{note}\n"
-            f"{planner_note(result.settings)}\n\n"
-            f"## Sensitivity of the headline scenario\n\n"
-            f"The headline scenario with one choice changed at a time ({n_studies} studies "
-            f"each): the claims' probabilities read descriptively (claim columns) and "
-            f"inferentially (`_inf`); p_*: expected proportion correct, mean over samples.\n\n"
-            f"{_md(sens[sens_cols])}\n\n"
-            + (f"{depth['text']}\n\n" if depth else "") +
-            f"The figure: `figure9.png` (and `figure9.pdf`): per cell the median of the "
-            f"simulated studies' proportion correct with the middle 50 % and 95 % of them; left, "
-            f"the paper's method as printed (printed Eq. 7 replay, absolute observer); right, "
-            f"the headline scenario with its one emulated study on top (×).\n\n---\n\n")
+    Raises
+    ------
+    UserInputError
+        A missing or malformed table, naming the file (and the column).
+    """
+    from experiments.errors import UserInputError
+    from experiments.simulation.figure9.precision import runs_from_table
+    from experiments.simulation.figure9.scenarios import (SENSITIVITY_CHOICES, mark_differences,
+                                                          sensitivity_row, best_scenario,
+                                                          result_from_runs)
+    src, out_dir = Path(src_dir), Path(out_dir)
+    tables = {}
+    for name in ("studies.csv", "sensitivity_studies.csv"):
+        path = src / name
+        if not path.is_file():
+            raise UserInputError(f"{path}: --from: expected the per-study table of a "
+                                 f"`reproduce figure9` run, got no such file")
+        try:
+            tables[name] = pd.read_csv(path)
+        except (OSError, ValueError) as exc:
+            raise UserInputError(f"{path}: --from: expected a CSV table, got {exc}") from None
+    try:
+        runs = runs_from_table(tables["studies.csv"], ("hypothesis", "observer"),
+                               str(src / "studies.csv"))
+        sens_runs = runs_from_table(tables["sensitivity_studies.csv"], ("choice", "setting"),
+                                    str(src / "sensitivity_studies.csv"))
+    except ValueError as exc:
+        raise UserInputError(str(exc)) from None
+    record = {}
+    if (src / "study.json").is_file():
+        record = json.loads((src / "study.json").read_text(encoding="utf-8"))
+    settings = dict(record.get("scenario_settings") or {})
+    roughness = tuple(settings.get("roughness_um") or (1.6, 12.5, 50.0, 100.0))
+    result = result_from_runs(runs, roughness, settings)
+    notes = {}                    # how a row's lab was made realisable (not in the studies)
+    if (src / "sensitivity.csv").is_file():
+        old = pd.read_csv(src / "sensitivity.csv").fillna({"note": ""})
+        if "note" in old:
+            notes = {(r.choice, r.setting): r.note for r in old.itertuples()}
+    sens = mark_differences(pd.DataFrame([
+        dict(sensitivity_row(k["choice"], k["setting"], res),
+             note=notes.get((k["choice"], k["setting"]), "")) for k, res in sens_runs]),
+        SENSITIVITY_CHOICES)
+    best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
+    named = record.get("headline") or {}
+    headline = (named.get("replay", best["descriptive"][0]),
+                named.get("observer", best["descriptive"][1]))
+    observed = None
+    if (src / "proportions.csv").is_file():
+        observed = pd.read_csv(src / "proportions.csv")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
+                             len(record.get("participants") or []) if observed is not None else 0,
+                             lab=settings.get("lab"), depth_record=record.get("receptor_depth_fit"),
+                             body=False)
+    print(outputs["verdict"])
+    print(outputs["screen"])
+    return {"headline": headline, "best": best, "scenarios": result, "sensitivity": sens,
+            **outputs}

@@ -20,7 +20,8 @@ from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_M
                           TABLE2_ROUGHNESS_UM)
 
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
-           "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM"]
+           "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
+           "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios"]
 
 #: One receptor depth below the surface for everyone, µm: 0.4 x 860 µm, the middle of the
 #: model's 0.35-0.45 L at the mean thickness of the two groups' ranges (675 and 1050 µm).
@@ -34,8 +35,8 @@ class ScenarioResult:
     Attributes
     ----------
     claims : pandas.DataFrame
-        One row per (hypothesis, observer, reading, claim): probability, mc_low, mc_high,
-        n_studies, mean_statistic.
+        One row per (hypothesis, observer, reading, claim): probability, mc_low, mc_high (the
+        Wilson interval at :data:`.precision.MC_LEVEL`), n_studies, mean_statistic.
     proportions : pandas.DataFrame
         One row per (hypothesis, observer, group, mode, roughness_id): expected proportion
         correct (mean over studies) and a single study's quantiles: study_low / study_high
@@ -46,12 +47,42 @@ class ScenarioResult:
     claims: pd.DataFrame
     proportions: pd.DataFrame
     settings: dict = field(default_factory=dict)
+    runs: list = field(default_factory=list)
+    #: Tables derived from ``claims`` (which is not changed after the result is made).
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def bounds(self, reading: str = "descriptive") -> tuple:
+        """``(low, high)``: the intervals' ends, shaped as :meth:`wide`."""
+        key = ("bounds", reading)
+        if key not in self.cache:
+            sel = self.claims[self.claims["reading"] == reading]
+            self.cache[key] = tuple(sel.pivot_table(index=["hypothesis", "observer"],
+                                                    columns="claim", values=v, sort=False)
+                                    for v in ("mc_low", "mc_high"))
+        return self.cache[key]
+
+    def n_studies(self) -> pd.Series:
+        """Studies simulated per scenario (sequential: they differ)."""
+        sel = self.claims[self.claims["claim"] == "all"]
+        return sel.groupby(["hypothesis", "observer"], sort=False)["n_studies"].max()
+
+    def answer_shares(self, scenario) -> np.ndarray | None:
+        """Mean share of the simulated block's answers per class (1# first), or None."""
+        for keys, res in self.runs:
+            if (keys.get("hypothesis"), keys.get("observer")) == tuple(scenario):
+                share = res.get("answer_share")
+                return None if share is None else np.nanmean(share, axis=0)
+        return None
 
     def wide(self, reading: str = "descriptive") -> pd.DataFrame:
         """Scenario rows, claim columns: probabilities in one reading."""
-        sel = self.claims[self.claims["reading"] == reading] if "reading" in self.claims else self.claims
-        return sel.pivot_table(index=["hypothesis", "observer"], columns="claim",
-                               values="probability", sort=False)
+        key = ("wide", reading)
+        if key not in self.cache:
+            sel = (self.claims[self.claims["reading"] == reading] if "reading" in self.claims
+                   else self.claims)
+            self.cache[key] = sel.pivot_table(index=["hypothesis", "observer"], columns="claim",
+                                              values="probability", sort=False)
+        return self.cache[key]
 
 
 def table2_replay_temperatures(hypothesis: str, roughness_um=TABLE2_ROUGHNESS_UM,
@@ -130,11 +161,15 @@ def study_task(pool, hypothesis: str, observer: str, n_studies: int, n_per_group
     out = simulate_studies(pool, hypothesis, get_observer(observer), n_studies=n_studies,
                            n_per_group=n_per_group, familiarise_reps=familiarise_reps,
                            params=params, seed=seed, variability=variability)
+    answered = out.answers.sum(axis=-2)                            # (S, P, 2, C)
     readings = evaluate_readings(out.correct, out.groups, out.repetitions, temps,
-                                 answered=out.answers.sum(axis=-2))
+                                 answered=answered)
     props = np.stack([out.correct[:, out.groups == g].mean(axis=1) / out.repetitions
                       for g in GROUPS], axis=1)
-    return {"readings": readings, "proportions": props}
+    pooled = answered[:, :, 1].sum(axis=1).astype(float)           # (S, C) simulated block
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = pooled / pooled.sum(axis=1, keepdims=True)
+    return {"readings": readings, "proportions": props, "answer_share": share}
 
 
 def _merge(parts: list) -> dict:
@@ -144,14 +179,26 @@ def _merge(parts: list) -> dict:
                     for cid in parts[0]["readings"][r]}
                 for r in parts[0]["readings"]}
     return {"readings": readings,
-            "proportions": np.concatenate([p["proportions"] for p in parts])}
+            "proportions": np.concatenate([p["proportions"] for p in parts]),
+            "answer_share": np.concatenate([p["answer_share"] for p in parts])}
 
 
 def _claim_rows(readings: dict, keys: dict) -> list:
-    from analysis.claims import claim_probabilities
+    """Per reading, the claims' probabilities; besides ``all``, ``all_paper``: every claim that
+    is the paper's own statement (no ``*``) in the same study."""
+    from analysis.claims import CLAIMS, claim_probabilities, wilson_interval
+    from experiments.simulation.figure9.precision import MC_LEVEL
+    own = {c.id for c in CLAIMS if c.own}
     tables = []
     for reading, verdicts in readings.items():
-        table = claim_probabilities(verdicts)
+        table = claim_probabilities(verdicts, MC_LEVEL)
+        paper = [h for cid, (_, h) in verdicts.items() if cid not in own]
+        joint = np.logical_and.reduce(paper)
+        k, n = int(joint.sum()), joint.size
+        lo, hi = wilson_interval(k, n, MC_LEVEL)
+        table = pd.concat([table, pd.DataFrame([{
+            "claim": "all_paper", "probability": k / n, "mc_low": float(lo), "mc_high": float(hi),
+            "n_studies": n, "mean_statistic": k / n}])], ignore_index=True)
         for i, (k, v) in enumerate({**keys, "reading": reading}.items()):
             table.insert(i, k, v)
         tables.append(table)
@@ -159,8 +206,14 @@ def _claim_rows(readings: dict, keys: dict) -> list:
 
 
 def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
-                  seed: int = 0, sweep=None, decisions: dict | None = None) -> list:
+                  seed: int = 0, sweep=None, decisions: dict | None = None,
+                  max_studies: int | None = None) -> list:
     """Simulate every scenario's studies (on ``sweep`` if given, else here), merged per scenario.
+
+    With ``max_studies``, studies are added sequentially (:mod:`.precision`): after the first
+    ``n_studies``, every scenario still undecided (:func:`.precision.needs_more`) gets as many
+    again, until it is decided or has ``max_studies``.  Chunk ``ci`` of a scenario always has
+    the seed ``(seed, tag, ci)``: the result does not depend on the workers.
 
     Parameters
     ----------
@@ -177,36 +230,63 @@ def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
     list of dict
         Per scenario: ``readings`` and ``proportions`` (see :func:`study_task`).
     """
+    from experiments.simulation.figure9.precision import needs_more, round_sizes
     from experiments.simulation.sweep import chunks
-    sizes = chunks(n_studies)
     temps = {}
-    tasks, owner, weights = [], [], []
     pools = {}
-    for si, sc in enumerate(scenarios):
+    for sc in scenarios:
         h = sc["hypothesis"]
         if h not in temps:
             plans = [] if decisions is None else decisions.setdefault(h, [])
             temps[h] = table2_replay_temperatures(h, decisions=plans)
         use_pool = sc.get("pool", pool)
-        key = id(use_pool)
-        if key not in pools:
-            pools[key] = sweep.scatter(use_pool) if sweep is not None else use_pool
-        for ci, size in enumerate(sizes):
-            tasks.append((pools[key], h, sc["observer"], size, n_per_group,
-                          sc.get("familiarise_reps", 1), sc.get("params"),
-                          (int(seed), int(sc["tag"]), ci), temps[h], sc.get("variability")))
-            owner.append(si)
-            weights.append(size)
-    if sweep is not None:
-        parts = sweep.map(study_task, tasks, what="simulated studies", weights=weights)
-    else:
-        parts = [study_task(*t) for t in tasks]
-    return [_merge([p for p, o in zip(parts, owner) if o == si]) for si in range(len(scenarios))]
+        if id(use_pool) not in pools:
+            pools[id(use_pool)] = sweep.scatter(use_pool) if sweep is not None else use_pool
+    parts = {si: [] for si in range(len(scenarios))}
+    next_chunk = {si: 0 for si in range(len(scenarios))}
+    active = list(range(len(scenarios)))
+    rounds = round_sizes(n_studies, max_studies if max_studies is not None else n_studies)
+    for size in rounds:
+        tasks, owner, weights = [], [], []
+        for si in active:
+            sc = scenarios[si]
+            for chunk in chunks(size):
+                ci = next_chunk[si]
+                next_chunk[si] += 1
+                tasks.append((pools[id(sc.get("pool", pool))], sc["hypothesis"], sc["observer"],
+                              chunk, n_per_group, sc.get("familiarise_reps", 1), sc.get("params"),
+                              (int(seed), int(sc["tag"]), ci), temps[sc["hypothesis"]],
+                              sc.get("variability")))
+                owner.append(si)
+                weights.append(chunk)
+        if sweep is not None:
+            done = sweep.map(study_task, tasks, what="simulated studies", weights=weights)
+        else:
+            done = [study_task(*t) for t in tasks]
+        for si, part in zip(owner, done):
+            parts[si].append(part)
+        active = [si for si in active if needs_more(_merge(parts[si])["readings"])]
+        if not active:
+            break
+    return [_merge(parts[si]) for si in range(len(scenarios))]
+
+
+def result_from_runs(runs, roughness_um=(), settings: dict | None = None) -> "ScenarioResult":
+    """A :class:`ScenarioResult` from runs ``[(keys, merged result)]`` (simulated, or read back
+    from ``studies.csv`` by :func:`.precision.runs_from_table`)."""
+    claim_rows, prop_rows = [], []
+    for keys, res in runs:
+        claim_rows += _claim_rows(res["readings"], keys)
+        prop_rows += _proportion_rows(res["proportions"], roughness_um, keys)
+    return ScenarioResult(claims=pd.concat(claim_rows, ignore_index=True),
+                          proportions=pd.DataFrame(prop_rows), settings=dict(settings or {}),
+                          runs=list(runs))
 
 
 def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 400,
                        n_per_group: int = 15, familiarise_reps: int = 1, params=None,
-                       seed: int = 0, sweep=None, variability=None) -> ScenarioResult:
+                       seed: int = 0, sweep=None, variability=None,
+                       max_studies: int | None = None) -> ScenarioResult:
     """Claims (both readings) and expected proportions for every (hypothesis x observer) scenario.
 
     Parameters
@@ -222,6 +302,9 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
         Where the studies run (default: here, one after the other; same results).
     variability : LabVariability, optional
         :class:`..studies.LabVariability` of every study (default: none).
+    max_studies : int, optional
+        Add studies sequentially up to this cap (:func:`run_scenarios`); default: exactly
+        ``n_studies``.
     """
     from experiments.participant_model.observers import OBSERVERS
     hypotheses = list(hypotheses or sorted({h for h, _ in pool.simulated},
@@ -233,48 +316,50 @@ def evaluate_scenarios(pool, hypotheses=None, observers=None, n_studies: int = 4
                  for hi, h in enumerate(hypotheses) for oi, o in enumerate(observers)]
     table2_plans = {}
     merged = run_scenarios(pool, scenarios, n_studies, n_per_group=n_per_group, seed=seed,
-                           sweep=sweep, decisions=table2_plans)
-    claim_rows, prop_rows = [], []
-    for sc, res in zip(scenarios, merged):
-        keys = {"hypothesis": sc["hypothesis"], "observer": sc["observer"]}
-        claim_rows += _claim_rows(res["readings"], keys)
-        prop_rows += _proportion_rows(res["proportions"], pool.roughness_um, keys)
-    return ScenarioResult(claims=pd.concat(claim_rows, ignore_index=True),
-                          proportions=pd.DataFrame(prop_rows),
-                          settings={"n_studies": int(n_studies), "n_per_group": int(n_per_group),
-                                    "familiarise_reps": int(familiarise_reps), "seed": int(seed),
-                                    "table2_replay_models": {h: replay_models(v) for h, v
-                                                             in table2_plans.items()},
-                                    **pool.settings})
+                           sweep=sweep, decisions=table2_plans, max_studies=max_studies)
+    runs = [({"hypothesis": sc["hypothesis"], "observer": sc["observer"]}, res)
+            for sc, res in zip(scenarios, merged)]
+    return result_from_runs(runs, pool.roughness_um, {
+        "n_studies": int(n_studies), "max_studies": int(max_studies or n_studies),
+        "n_per_group": int(n_per_group), "familiarise_reps": int(familiarise_reps),
+        "seed": int(seed), "roughness_um": [float(r) for r in pool.roughness_um],
+        "table2_replay_models": {h: replay_models(v) for h, v
+                                                    in table2_plans.items()},
+        **pool.settings})
 
 
-def best_scenario(result: ScenarioResult, reading: str = "descriptive") -> tuple[str, str]:
+def best_scenario(result: ScenarioResult, reading: str = "descriptive",
+                  key: str = "all") -> tuple[str, str]:
     """``(hypothesis, observer)`` that best matches the paper's evidence in one reading.
 
     The paper reports one study in which every claim held: the scenario under which a study
     shows all of them at once most often (claim ``all``) matches it best; ties (to two decimals)
     go to the higher mean probability over the single claims, then to the earlier row
     (hypotheses in :data:`stimuli.paper.REPLAY_NAMES` order; observers in
-    :data:`..observers.OBSERVERS` order).
+    :data:`..observers.OBSERVERS` order).  ``key="all_paper"``: the same on the paper's own
+    claims alone (without the project's ``*`` criteria).
     """
     wide = result.wide(reading)
-    single = wide.drop(columns=["all"], errors="ignore").mean(axis=1)
-    score = pd.DataFrame({"all": wide["all"].round(2), "mean": single})
+    key = key if key in wide.columns else "all"
+    single = wide.drop(columns=["all", "all_paper"], errors="ignore").mean(axis=1)
+    score = pd.DataFrame({"all": wide[key].round(2), "mean": single})
     order = score.sort_values(["all", "mean"], ascending=False, kind="stable")
     return tuple(order.index[0])
 
 
-def tied_scenarios(result: ScenarioResult, best, reading: str = "descriptive") -> list:
+def tied_scenarios(result: ScenarioResult, best, reading: str = "descriptive",
+                   key: str = "all") -> list:
     """Scenarios other than ``best`` tied with it on :func:`best_scenario`'s first key.
 
     That is the probability of showing every claim in one study, rounded to two decimals;
     among them the choice went to the higher mean probability of the single claims.
     """
     wide = result.wide(reading)
-    if "all" not in wide.columns:
+    key = key if key in wide.columns else "all"
+    if key not in wide.columns:
         return []
-    key = wide["all"].round(2)
-    return [k for k in wide.index if k != tuple(best) and key.loc[k] == key.loc[tuple(best)]]
+    rounded = wide[key].round(2)
+    return [k for k in wide.index if k != tuple(best) and rounded.loc[k] == rounded.loc[tuple(best)]]
 
 
 #: Choices the headline depends on, each with its alternatives (label -> changes).  Keys of a
@@ -282,9 +367,9 @@ def tied_scenarios(result: ScenarioResult, best, reading: str = "descriptive") -
 #: ``familiarise_reps``, ``lab`` (:class:`..studies.LabVariability` fields).  The first
 #: setting of each choice marked "(default)" is the headline's own.
 SENSITIVITY_CHOICES = {
-    "receptor depth": {
-        "0.35-0.45 L below the surface (default)": {},
-        f"{ABSOLUTE_RECEPTOR_DEPTH_UM:g} µm below the surface for all": {
+    "receptor depth (hypothesis)": {
+        "scales with skin thickness: 0.35-0.45 L below the surface (default)": {},
+        f"fixed absolute depth: {ABSOLUTE_RECEPTOR_DEPTH_UM:g} µm below the surface for all": {
             "receptor_depth_um": ABSOLUTE_RECEPTOR_DEPTH_UM},
     },
     "noise floor": {
@@ -296,15 +381,20 @@ SENSITIVITY_CHOICES = {
         "1 per sample (the paper; default)": {},
         "3 per sample": {"familiarise_reps": 3},
     },
-    "contact force per touch": {
-        "2 N every touch": {"lab": {"force_sd_N": 0.0}},
-        "2 ± 0.25 N (default)": {},
-        "2 ± 0.5 N": {"lab": {"force_sd_N": 0.5}},
+    "contact force per touch (clipped to 2.05-3 N: past the 2 N trigger)": {
+        "2.2 ± 0.1 N (just past the trigger)": {"lab": {"force_N": 2.2, "force_sd_N": 0.1}},
+        "2.5 N every touch": {"lab": {"force_sd_N": 0.0}},
+        "2.5 ± 0.25 N (default)": {},
+        "2.5 ± 0.5 N": {"lab": {"force_sd_N": 0.5}},
     },
     "pad sensor lag": {
         "none (default)": {},
-        "0.1 s": {"sensor_tau_s": 0.1},
-        "0.3 s": {"sensor_tau_s": 0.3},
+        "0.1 s (pad face slewed to the 10 °C/s rate limit)": {"sensor_tau_s": 0.1},
+        "0.3 s (pad face slewed to the 10 °C/s rate limit)": {"sensor_tau_s": 0.3},
+    },
+    "skin temperature of the replays": {
+        "35.5 °C (the protocol's [simulation] skin_temperature_C; default)": {},
+        "36 °C (the paper's simulations)": {"replay_skin_C": 36.0},
     },
     "skin temperature within participant": {
         "none": {"lab": {"skin_temperature_sd_C": 0.0}},
@@ -323,14 +413,28 @@ SENSITIVITY_CHOICES = {
 
 
 def _build_pool_task(protocol, kwargs):
-    """:func:`..studies.build_pool` as a sweep task."""
+    """:func:`..studies.build_pool` as a sweep task (``replay_skin_C``: the protocol's
+    ``[simulation] skin_temperature_C`` changed to it, i.e. the replays computed for that skin)."""
     from experiments.simulation.studies import build_pool
+    kwargs = dict(kwargs)
+    skin_C = kwargs.pop("replay_skin_C", None)
+    if skin_C is not None:
+        from experiments.protocol import load_protocol, parse_protocol
+        from experiments.simulation.replay import _with_simulation
+        base = protocol if hasattr(protocol, "data") else load_protocol(protocol)
+        protocol = parse_protocol(_with_simulation(base.data, skin_temperature_C=float(skin_C)),
+                                  source=f"{base.name} (replays for {skin_C:g} °C skin)", path=None)
     return build_pool(protocol, **kwargs)
+
+
+#: The keys of a sensitivity change that need a person pool of their own.
+POOL_KEYS = ("receptor_depth_um", "sensor_tau_s", "replay_skin_C")
 
 
 def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed: int = 0,
                 protocol="roughness_recognition", sweep=None, variability=None,
-                extra_pools: dict | None = None, choices=None) -> pd.DataFrame:
+                extra_pools: dict | None = None, choices=None, max_studies: int | None = None,
+                default_run: dict | None = None) -> pd.DataFrame:
     """The headline scenario with one choice changed at a time (:data:`SENSITIVITY_CHOICES`).
 
     Parameters
@@ -340,42 +444,41 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
         receptor depth), used instead of building it.
     choices : dict, optional
         Default :data:`SENSITIVITY_CHOICES`.
+    max_studies : int, optional
+        Add studies to a row sequentially up to this cap (:func:`run_scenarios`).
+    default_run : dict, optional
+        The headline scenario's own studies (a merged result of :func:`run_scenarios`): rows
+        that change nothing (``{}``) are this run, so every default row is the same numbers as
+        the claims table's headline row; without it they are simulated like the others.
 
     Returns
     -------
     pandas.DataFrame
         One row per (choice, setting): the claims' probabilities in both readings
-        (``<claim>`` descriptive, ``<claim>_inf`` inferential) and the expected proportion
-        correct, real and simulated, per group (mean over samples).
+        (``<claim>`` descriptive, ``<claim>_inf`` inferential) with their intervals
+        (``_low`` / ``_high``), ``n_studies``, the headline's status in each reading
+        (``status`` / ``status_inf``, on every claim; ``paper_status`` / ``paper_status_inf`` on
+        the paper's own claims), ``differs`` (claims whose interval does not overlap the
+        default's) and the expected proportion correct, real and simulated, per group (mean
+        over samples).  The attribute ``runs`` holds ``[(keys, merged result)]`` per row.
     """
     import dataclasses as dc
     from experiments.simulation.studies import DEFAULT_LAB, GROUPS
     base_lab = variability or DEFAULT_LAB
     extra_pools = dict(extra_pools or {})
     choices = SENSITIVITY_CHOICES if choices is None else choices
-    # the pools the settings need, built first (on the sweep's workers when there is one)
-    wanted = {}
-    for settings in choices.values():
-        for change in settings.values():
-            for key in ("receptor_depth_um", "sensor_tau_s"):
-                k = (key, change.get(key))
-                if key in change and k not in extra_pools and k not in wanted:
-                    same_people = ({"receptor_depth_um": pool.receptor_depth_um,
-                                    "real_from": pool} if key == "sensor_tau_s" else {})
-                    wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
-                                 "params": pool.params,
-                                 "dermis_fraction": pool.settings["dermis_fraction"],
-                                 key: change[key], **same_people}
-    if wanted:
-        jobs = [(protocol, kw) for kw in wanted.values()]
-        built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
-                 else [_build_pool_task(*job) for job in jobs])
-        extra_pools.update(zip(wanted, built))
-    scenarios, labels = [], []
+    extra_pools.update(_sensitivity_pools(pool, hypothesis, choices, extra_pools, protocol,
+                                          sweep))
+    scenarios, labels, notes = [], [], []
     for ci, (choice, settings) in enumerate(choices.items()):
         for si, (label, change) in enumerate(settings.items()):
+            if not change and default_run is not None:
+                labels.append((choice, label))
+                scenarios.append(None)
+                notes.append("")
+                continue
             use_pool, params, lab = change.get("pool", pool), pool.params, base_lab
-            for key in ("receptor_depth_um", "sensor_tau_s"):
+            for key in POOL_KEYS:
                 if key in change:
                     use_pool = extra_pools[(key, change[key])]
             if "noise" in change:
@@ -388,16 +491,88 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
                               "familiarise_reps": change.get("familiarise_reps", 1),
                               "variability": lab})
             labels.append((choice, label))
-    merged = run_scenarios(pool, scenarios, n_studies, seed=seed, sweep=sweep)
-    rows = []
-    for (choice, label), res in zip(labels, merged):
-        row = {"choice": choice, "setting": label}
-        for reading, suffix in (("descriptive", ""), ("inferential", "_inf")):
-            for r in _claim_rows({reading: res["readings"][reading]}, {})[0].itertuples():
-                row[r.claim + suffix] = r.probability
-        p = res["proportions"].mean(axis=0)                         # (groups, modes, C)
-        for gi, g in enumerate(GROUPS):
-            row[f"p_real_{g}"] = float(p[gi, 0].mean())
-            row[f"p_sim_{g}"] = float(p[gi, 1].mean())
-        rows.append(row)
-    return pd.DataFrame(rows)
+            notes.append(_slew_note(use_pool) if "sensor_tau_s" in change else "")
+    simulated = iter(run_scenarios(pool, [sc for sc in scenarios if sc is not None], n_studies,
+                                   seed=seed, sweep=sweep, max_studies=max_studies))
+    merged = [default_run if sc is None else next(simulated) for sc in scenarios]
+    rows = [dict(sensitivity_row(choice, label, res), note=note)
+            for (choice, label), res, note in zip(labels, merged, notes)]
+    table = mark_differences(pd.DataFrame(rows), choices)
+    table.attrs["runs"] = [({"choice": c, "setting": s}, res)
+                           for (c, s), res in zip(labels, merged)]
+    return table
+
+
+def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -> dict:
+    """The person pools the settings need and ``have`` lacks, built first (on the sweep's
+    workers when there is one): ``(key, value) -> PersonPool``."""
+    wanted = {}
+    for settings in choices.values():
+        for change in settings.values():
+            for key in POOL_KEYS:
+                k = (key, change.get(key))
+                if key in change and k not in have and k not in wanted:
+                    same_people = ({"receptor_depth_um": pool.receptor_depth_um,
+                                    "real_from": pool} if key == "sensor_tau_s" else {})
+                    wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
+                                 "params": pool.params,
+                                 "dermis_fraction": pool.settings["dermis_fraction"],
+                                 key: change[key], **same_people}
+    if not wanted:
+        return {}
+    jobs = [(protocol, kw) for kw in wanted.values()]
+    built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
+             else [_build_pool_task(*job) for job in jobs])
+    return dict(zip(wanted, built))
+
+
+def _slew_note(pool) -> str:
+    """How a sensor-lag pool's pad face was made realisable (the display's rate limit)."""
+    peak = pool.settings.get("sensor_lag_peak_rate_C_per_s", 0.0)
+    limit = pool.settings.get("max_rate_C_per_s", float("inf"))
+    if peak > limit:
+        return (f"pad face T + tau dT/dt would reach {peak:.0f} °C/s; slewed to the display's "
+                f"{limit:g} °C/s")
+    return f"pad face within the {limit:g} °C/s rate limit (peak {peak:.1f} °C/s)"
+
+
+def sensitivity_row(choice, label, res) -> dict:
+    """One row of :func:`sensitivity` from a run's merged result."""
+    from analysis.claims import CLAIMS
+    from experiments.simulation.figure9.precision import claim_status, scenario_status
+    from experiments.simulation.studies import GROUPS
+    own = {c.id for c in CLAIMS if c.own}
+    row = {"choice": choice, "setting": label}
+    for reading, suffix in (("descriptive", ""), ("inferential", "_inf")):
+        statuses = {}
+        for r in _claim_rows({reading: res["readings"][reading]}, {})[0].itertuples():
+            row[r.claim + suffix] = r.probability
+            row[r.claim + suffix + "_low"] = r.mc_low
+            row[r.claim + suffix + "_high"] = r.mc_high
+            row["n_studies"] = int(r.n_studies)
+            if r.claim != "all":
+                statuses[r.claim] = claim_status(r.mc_low, r.mc_high)
+        row["status" + suffix] = scenario_status(statuses.values())
+        row["paper_status" + suffix] = scenario_status(v for k, v in statuses.items()
+                                                       if k not in own)
+    p = res["proportions"].mean(axis=0)                         # (groups, modes, C)
+    for gi, g in enumerate(GROUPS):
+        row[f"p_real_{g}"] = float(p[gi, 0].mean())
+        row[f"p_sim_{g}"] = float(p[gi, 1].mean())
+    return row
+
+
+def mark_differences(table: pd.DataFrame, choices) -> pd.DataFrame:
+    """``differs``: the claims (``_inf``: inferential) of each row whose interval does not
+    overlap the default row's (the first setting whose change is ``{}``); empty otherwise."""
+    defaults = [(c, s) for c, settings in choices.items() for s, ch in settings.items() if not ch]
+    table = table.copy()
+    table["differs"] = ""
+    if not defaults or table.empty:
+        return table
+    ref = table[(table.choice == defaults[0][0]) & (table.setting == defaults[0][1])].iloc[0]
+    claims = [c[:-4] for c in table.columns if c.endswith("_low") and c[:-4] + "_high" in table]
+    for i, row in table.iterrows():
+        table.at[i, "differs"] = " ".join(
+            c for c in claims if row[c + "_low"] > ref[c + "_high"] or row[c + "_high"] < ref[c + "_low"])
+    return table

@@ -269,11 +269,32 @@ def _note_simulation(report, protocol) -> None:
             f"the simulated participants feel the pad through it\n"
             f"- profiles faster than the display's {protocol.display.max_rate_C_per_s:g} °C/s: "
             f"`{sim.rate_limit}`\n"
+            f"- replays computed for {sim.skin_temperature_C:g} °C skin (the protocol's "
+            f"[simulation] skin_temperature_C; the paper's simulations used 36 °C: a sensitivity "
+            f"row)\n"
+            + _replay_bounds(protocol) +
             f"- protocol: `{protocol.path if protocol.path is not None else 'protocol.json'}` "
             f"(sha256 {protocol.hash[:12]})\n")
     text += _felt_at_receptors(protocol)
     with open(report, "a", encoding="utf-8") as fh:
         fh.write(text)
+
+
+def _replay_bounds(protocol) -> str:
+    """One line: each group's uploaded profiles' ``error_bound_C`` (the model's bound plus what
+    the rate limit changed), naming the profiles the slew changed and by how much."""
+    from experiments.session.setup import simulated_target_profile
+    cells, slewed = [], []
+    for group in sorted(protocol.simulation.group_skin_thickness_um):
+        for sample in protocol.samples:
+            prof = simulated_target_profile(protocol, {}, group, None, sample.id,
+                                            sample.roughness_um)
+            cells.append(f"{group} {sample.label} {prof.error_bound:.3g}")
+            change = prof.parameters["rate_limited_max_change_C"]
+            if change > 0:
+                slewed.append(f"{group} {sample.label} by {change:.2f} K")
+    return (f"- error_bound_C of the uploaded profiles (model bound + rate-limit change), K: "
+            + ", ".join(cells) + "; slewed: " + (", ".join(slewed) or "none") + "\n")
 
 
 def _felt_at_receptors(protocol, at_s: float = 5.0) -> str:

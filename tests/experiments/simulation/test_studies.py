@@ -10,7 +10,7 @@ from experiments.participant_model.observers import get_observer
 from experiments.simulation.studies import (LabVariability, build_pool, person_features,
                                             simulate_studies)
 
-#: No lab variability: every touch at 2 N and the person's own skin temperature.
+#: No lab variability: every touch at the lab's 2.5 N and the person's own skin temperature.
 STILL = LabVariability(force_sd_N=0.0, skin_temperature_sd_C=0.0)
 
 
@@ -24,8 +24,10 @@ def test_absolute_observer_studies_match_predicted_cell_probabilities():
     # predicted_cell_probabilities is the older, independent Monte Carlo of the same absolute
     # observer (person by person, one test presentation per sample)
     pool = build_pool(hypotheses=("slab",), seed=3)
+    # that Monte Carlo touches at 2 N; the lab's lightest touch is 2.05 N (past the trigger)
     out = simulate_studies(pool, "slab", get_observer("absolute"), n_studies=300, seed=1,
-                           variability=STILL)
+                           variability=LabVariability(force_N=2.05, force_sd_N=0.0,
+                                                      skin_temperature_sd_C=0.0))
     ours = out.proportions()                                       # (group, mode, sample)
     ref = predicted_cell_probabilities(n_people=40, n_reps=200, seed=5)
     for gi, g in enumerate("AB"):
@@ -188,15 +190,15 @@ def test_force_moves_the_real_features_as_eq5_says(slab_pool):
 def test_touch_to_touch_variability_costs_accuracy(slab_pool):
     # per-touch force and skin temperature move a sample's features from touch to touch, so
     # the familiarisation templates fit the test touches less well: measured (400 studies,
-    # seed 4) 0.64 still, 0.60 with the default lab, 0.52 with 0.5 N and 0.3 K; the Monte-Carlo
-    # standard error of each mean is about 0.0013
+    # seed 4) 0.628 still, 0.608 with the default lab, 0.584 with 0.5 N and 0.3 K (forces
+    # clipped to 2.05-3 N); the Monte-Carlo standard error of each mean is about 0.0013
     obs = get_observer("absolute")
     means = []
     for lab in (STILL, LabVariability(), LabVariability(force_sd_N=0.5, skin_temperature_sd_C=0.3)):
         out = simulate_studies(slab_pool, "slab", obs, n_studies=400, seed=4, variability=lab)
         assert np.all(out.answers.sum(axis=-1) == 3)
         means.append(out.correct[:, :, 0].sum(axis=(1, 2)).mean() / (30 * 12))
-    assert means[0] - means[1] > 0.02 and means[1] - means[2] > 0.04, means
+    assert means[0] - means[1] > 0.01 and means[1] - means[2] > 0.01, means
 
 
 def test_a_reused_cohort_needs_enough_persons(slab_pool):
@@ -213,7 +215,8 @@ def test_a_reused_cohort_needs_enough_persons(slab_pool):
 def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     from experiments.simulation.figure9.scenarios import evaluate_scenarios
     from experiments.simulation.sweep import Sweep
-    kw = dict(observers=["absolute", "relative"], n_studies=250, seed=5)
+    # sequential: scenarios still undecided after 250 studies get 250 more, up to 1000
+    kw = dict(observers=["absolute", "relative"], n_studies=250, seed=5, max_studies=1000)
     here = evaluate_scenarios(slab_pool, **kw)
     with Sweep(workers=1) as one:
         on_one = evaluate_scenarios(slab_pool, sweep=one, **kw)
@@ -224,8 +227,10 @@ def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     pd.testing.assert_frame_equal(on_one.claims, on_two.claims)
     pd.testing.assert_frame_equal(here.claims, on_two.claims)
     pd.testing.assert_frame_equal(on_one.proportions, on_two.proportions)
-    # 250 studies = tasks of 100, 100 and 50: not one chunk per worker
-    assert set(on_two.claims["n_studies"]) == {250}
+    # rounds of 250, 250 and 500 studies (tasks of 100, 100 and 50 ...): not one chunk per
+    # worker, and the rounds a scenario took depend on its results only
+    assert set(on_two.claims["n_studies"]) <= {250, 500, 1000}
+    pd.testing.assert_series_equal(on_one.n_studies(), here.n_studies())
 
 
 def test_pools_built_per_group_merge_into_the_whole_pool(slab_pool):
@@ -238,3 +243,25 @@ def test_pools_built_per_group_merge_into_the_whole_pool(slab_pool):
         for k in ref:
             np.testing.assert_array_equal(mine[k], ref[k])
     assert whole.settings["planner_decisions"] == slab_pool.settings["planner_decisions"]
+
+
+def test_force_interpolation_is_within_a_hundredth_of_a_kelvin_of_the_exact_model(slab_pool):
+    # the features of a touch between the force grid's points, against the model at that force
+    # (the earlier 1/2/3 N grid was up to 0.14 K off at 1.5 N; the docs promise 0.01 K)
+    from experiments.protocol import load_protocol
+    from experiments.participant_model.person import SimulatedPerson
+    from experiments.simulation.studies import FORCE_GRID_N, _force_weights
+    base = load_protocol("roughness_recognition")
+    L, frac = slab_pool.grid_L_um["A"][2], slab_pool.grid_fraction[2]     # a grid person
+    p = SimulatedPerson(L * 1e-6, frac, slab_pool.skin_reference_C)
+    table = slab_pool.real["A"][2, 2]                                     # (nForce, C, F)
+    worst = np.zeros(4)
+    for force in (2.05, 2.15, 2.45, 2.6, 2.85, 2.95):
+        assert force not in FORCE_GRID_N
+        w = _force_weights(np.array(force))
+        grid = np.einsum("k,kcf->cf", w, table)
+        exact = np.array([p.features(*p.feel_real(s.roughness_m, sample_thickness_m=3e-3,
+                                                  material_temperature_C=20.0, force_N=force))
+                          for s in base.samples])
+        worst = np.maximum(worst, np.abs(grid - exact).max(axis=0))
+    assert np.all(worst < 0.01), worst
