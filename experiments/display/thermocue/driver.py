@@ -37,6 +37,7 @@ within 100 ms of the host falling silent. A trial that goes wrong ends as a
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import secrets
 import threading
@@ -58,7 +59,7 @@ from .handshake import decode_hello
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from ..safety import SafetyLimits, check_profile
 from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
-                              TrialInProgress)
+                              TrialInProgress, evidence_fault)
 
 __all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
 
@@ -495,15 +496,18 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 self._safe_abort()
         expected = tr.last_counter - tr.counter0
         lost = max(0, expected - tr.frames)
-        if status == "ok" and expected > 0 and lost > self.max_frame_loss * expected:
-            status, code, msg = "fault", "TELEMETRY_LOSS", f"{lost} of {expected} frames lost"
         rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
         mx = tr.max_err if tr.n_track else float("nan")
         dur = (tr.end_time_s - tr.contact_s) if (tr.end_time_s is not None and
                                                  tr.contact_s is not None) else 0.0
-        return TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
-                              tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
-                              self._parser.bad_frames - tr.bad0)
+        rec = TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
+                             tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
+                             self._parser.bad_frames - tr.bad0, tr.active_frames)
+        why = evidence_fault(rec, self.max_frame_loss) if status == "ok" else None
+        if why is not None:
+            self._safe_abort()
+            rec = dataclasses.replace(rec, status="fault", fault_code=why[0], fault_message=why[1])
+        return rec
 
     def abort(self) -> None:
         """Stop whatever runs; the device returns to neutral (and leaves FAULT)."""

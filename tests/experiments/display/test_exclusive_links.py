@@ -13,12 +13,11 @@ import threading
 
 import pytest
 
+from _device_proxy import start_emulator, stop
 from experiments.display import open_display
 from experiments.display.registry import backends
 from experiments.display.safety import SafetyLimits
 
-sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1] / "emulators"))
-from test_pty_server import start_emulator, stop  # noqa: E402
 
 #: How each scheme's link is served for this test; emulator:// has no link another program
 #: could open (each open builds its own device inside the opening process).
@@ -42,7 +41,7 @@ def _assert_refused(path: str) -> None:
 
 
 def _serial(tmp_path):
-    proc, path, _ = start_emulator(tmp_path)
+    proc, path = start_emulator(tmp_path)
     try:
         with open_display(path) as first:
             _assert_refused(path)
