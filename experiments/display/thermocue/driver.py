@@ -51,7 +51,7 @@ from experiments.errors import (DisplayBadReply, DisplayError, DisplayFaultLatch
                                 SafetyLimitError, UserInputError)
 
 from . import messages as m
-from .framing import FrameParser
+from .framing import SOF, FrameParser
 from .link import ProtocolLink
 from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
                            open_serial_port)
@@ -77,6 +77,10 @@ def _json_object(payload: bytes) -> dict:
 #: After an operator's reset, how long the device is watched for a fault that trips again, s
 #: (a stuck sensor takes 20 identical readings, 0.2 s; an out-of-range one trips at once).
 RESET_WATCH_S = 1.0
+#: The text probe written before the first frame on an OS serial port (a TCS II answers it), and
+#: how long its answer is awaited, s (a TCS II answers within a few ms over USB).
+TEXT_PROBE = b"?\r"
+TEXT_PROBE_WAIT_S = 0.15
 
 class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
@@ -113,6 +117,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     """
 
     description = "thermocue display protocol (reference firmware, or any device speaking it)"
+    _probe_text = True     # look for a TCS II before the first frame (an OS serial port only)
     url_grammar = "/dev/ttyUSB0 | COM3 | PTY_PATH | pyserial URL"
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
@@ -225,6 +230,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     # ------------------------------------------------------------------ session set-up
     def handshake(self) -> DeviceInfo:
         """HELLO: learn the device id, firmware, capabilities and limits; send our limits."""
+        self._refuse_text_device()
         try:
             self.port.reset_input_buffer()
         except (serial.SerialException, OSError):
@@ -257,6 +263,32 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._uploaded = False
         self.set_neutral(lim.neutral_C)
         return self.info
+
+    def _refuse_text_device(self) -> None:
+        """Before any binary frame: is a QST.Lab TCS II (a text protocol) on the other end?
+
+        On an OS serial port (a device path, a pty) the host first writes ``?`` and a carriage
+        return: a TCS II answers ``TCS``; a device of this protocol skips the two bytes as noise
+        before a frame's start. A TCS II is refused in one line naming its scheme, and no binary
+        frame is ever sent to it (what one would do to a real TCS II is unknown).
+        """
+        if not self._probe_text or not isinstance(self.port, serial.Serial):
+            return
+        try:
+            self.port.reset_input_buffer()
+            self.port.write(TEXT_PROBE)
+            got = bytearray()
+            end = time.monotonic() + TEXT_PROBE_WAIT_S
+            while time.monotonic() < end and b"\r" not in got and b"\n" not in got:
+                got += self.port.read(max(1, self.port.in_waiting))
+        except (serial.SerialException, OSError) as exc:
+            self._link_error = exc
+            raise DisplayLinkLost(f"display: cannot use {self.port_name}: {exc}") from exc
+        if b"TCS" in got and SOF not in got:
+            raise DisplayError(
+                f"display: {self.port_name} answers '?' with text ({bytes(got[:20])!r}): a QST.Lab "
+                f"TCS II, not a display of the thermocue protocol; open it as "
+                f"tcs2://{self.port_name} (nothing else was sent to it)")
 
     def _hello(self) -> DeviceInfo:
         """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`)."""
@@ -574,6 +606,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         port = open_serial_port(url, baudrate)
         try:
             disp = cls(port, None)
+            disp._refuse_text_device()
             before = disp._read_status()
             if before.state != "FAULT":
                 return before.state, before.last_fault, before.state
