@@ -24,6 +24,7 @@ from ..trial_recording import TrialInProgress, TrialRecording, evidence_fault
 from . import commands as cmd
 from .commands import ReplyError
 from .profile_compiler import STEP_S, segments_to_samples
+from .watch import over_temperature, stop_and_verify
 
 __all__ = ["TcsTrial", "SILENCE_S", "Q_EVERY_S", "READY_TOLERANCE_C", "READY_S", "END_FRACTION"]
 
@@ -260,6 +261,12 @@ class TcsTrial:
             self.q_pending = max(0, self.q_pending - 1)
             if any(errs):
                 self._zone_fault(errs)
+            return
+        hot = over_temperature(temps, self.d.max_C)
+        if hot is not None:             # a safety input: stopped at once, not at the profile's end
+            self.done, self.end_reason = True, "fault"
+            self.fault = ("OVER_TEMPERATURE", f"{hot}; {stop_and_verify(self.d)}")
+            self.tr.event(DeviceEvent("END", now, 4, "OVER_TEMPERATURE"))
             return
         if self.contact_s is None:
             if self.started_at is None:
