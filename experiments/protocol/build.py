@@ -147,6 +147,7 @@ def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
         record_s=c.number("record_s", gt=0, le=600),
         trial_timeout_s=c.number("trial_timeout_s", gt=0, le=MAX_WAIT_S, why=_WAIT_WHY),
         rewarm_s=c.number("rewarm_s", ge=0, le=MAX_WAIT_S, why=_WAIT_WHY),
+        max_attempts=c.integer("max_attempts", 3, ge=1, le=100),
     )
     if contact.record_s > contact.max_contact_s:
         c.fail("record_s", f"a number ≤ max_contact_s ({_fmt(contact.max_contact_s)})", contact.record_s)

@@ -118,6 +118,9 @@ class ContactSettings:
         No contact within this time: the attempt is aborted.
     rewarm_s : float, s
         Rewarming interval between trials (hand on the hot-water bag).
+    max_attempts : int
+        A trial is attempted at most this many times in one run of the session (default 3):
+        once it has failed that often the session stops, resumable, with one line.
     """
 
     force_threshold_N: float
@@ -125,6 +128,7 @@ class ContactSettings:
     record_s: float
     trial_timeout_s: float
     rewarm_s: float
+    max_attempts: int = 3
 
 
 @dataclass(frozen=True)

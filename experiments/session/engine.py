@@ -387,6 +387,7 @@ class Session(TrialSteps):
                        capabilities=list(getattr(info, "capabilities", ()) or ()))
         disp.set_neutral(self.protocol.display.neutral_C)
         faults = 0
+        tries, max_tries = {}, self.protocol.contact.max_attempts   # failed attempts, this run
         queue = list(todo)
         while queue:
             spec = queue[0]
@@ -398,23 +399,18 @@ class Session(TrialSteps):
                 queue.pop(0)
             else:  # "fault" (written as such) or "no_contact" (aborted): the same trial again
                 faults += 1
+                tries[spec.trial_index] = tries.get(spec.trial_index, 0) + 1
             if self._fatal is not None:
                 return self._stop_fatal(disp, queue)
+            # both bounds on every path, a reconnection's too (a replayed fault never loops)
+            if faults >= self.max_consecutive_faults or tries.get(spec.trial_index, 0) >= max_tries:
+                return self._stop_bounded(disp, queue, spec.trial_index, faults, max_tries)
             if self._link_lost is not None:
                 disp = self._reconnect(disp, spec.trial_index)
                 if disp is None:
                     return self._stop_link_lost(queue)
                 self.machine.go("idle")
                 continue          # the same trial at once, no rewarm (still a consecutive fault)
-            if faults >= self.max_consecutive_faults:
-                self.machine.go("idle")
-                self.machine.go("stopped")
-                self._neutral(disp)
-                self.log_event("session_stopped", reason=f"{faults} consecutive faults",
-                               n_completed=self.n_trials - len(queue))
-                self._report(f"stopped after {faults} consecutive faults; resume with "
-                             f"`thermocue resume {self.directory}`")
-                return 1
             if queue:
                 self._rewarm()
             self.machine.go("idle")

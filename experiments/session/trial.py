@@ -295,6 +295,19 @@ class TrialSteps:
         self.responder.rewarm(0.0 if self.clock.virtual else seconds)
 
     # -- the side exits ----------------------------------------------------------------------
+    def _stop_bounded(self, disp, queue, index: int, faults: int, max_tries: int) -> int:
+        """Stop, resumable, at a bound on failed attempts (logged as ``session_stopped``)."""
+        reason = (f"{faults} consecutive faults" if faults >= self.max_consecutive_faults else
+                  f"trial {index}: {max_tries} failed attempts ([contact] max_attempts)")
+        self.machine.go("idle")
+        self.machine.go("stopped")
+        if self._link_lost is None:
+            self._neutral(disp)
+        self._link_lost = None
+        self.log_event("session_stopped", reason=reason, n_completed=self.n_trials - len(queue))
+        self._report(f"stopped after {reason}; resume with `thermocue resume {self.directory}`")
+        return 1
+
     def _fault(self, disp, t: TrialAttempt, exc, rec=None) -> str:
         """``fault`` -> ``write``: neutral, the attempt written as a fault (run again)."""
         spec, attempt, ctx, row = t.spec, t.attempt, t.ctx, t.row
