@@ -51,11 +51,11 @@ from experiments.errors import (DisplayBadReply, DisplayError, DisplayFaultLatch
                                 SafetyLimitError, UserInputError)
 
 from . import messages as m
-from .framing import SOF, FrameParser
+from .framing import FrameParser
 from .link import ProtocolLink
 from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
                            open_serial_port)
-from .handshake import decode_hello
+from .handshake import decode_hello, refuse_text_device
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from ..safety import SafetyLimits, check_profile
 from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
@@ -77,10 +77,6 @@ def _json_object(payload: bytes) -> dict:
 #: After an operator's reset, how long the device is watched for a fault that trips again, s
 #: (a stuck sensor takes 20 identical readings, 0.2 s; an out-of-range one trips at once).
 RESET_WATCH_S = 1.0
-#: The text probe written before the first frame on an OS serial port (a TCS II answers it), and
-#: how long its answer is awaited, s (a TCS II answers within a few ms over USB).
-TEXT_PROBE = b"?\r"
-TEXT_PROBE_WAIT_S = 0.15
 
 class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
@@ -265,30 +261,14 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         return self.info
 
     def _refuse_text_device(self) -> None:
-        """Before any binary frame: is a QST.Lab TCS II (a text protocol) on the other end?
-
-        On an OS serial port (a device path, a pty) the host first writes ``?`` and a carriage
-        return: a TCS II answers ``TCS``; a device of this protocol skips the two bytes as noise
-        before a frame's start. A TCS II is refused in one line naming its scheme, and no binary
-        frame is ever sent to it (what one would do to a real TCS II is unknown).
-        """
-        if not self._probe_text or not isinstance(self.port, serial.Serial):
-            return
-        try:
-            self.port.reset_input_buffer()
-            self.port.write(TEXT_PROBE)
-            got = bytearray()
-            end = time.monotonic() + TEXT_PROBE_WAIT_S
-            while time.monotonic() < end and b"\r" not in got and b"\n" not in got:
-                got += self.port.read(max(1, self.port.in_waiting))
-        except (serial.SerialException, OSError) as exc:
-            self._link_error = exc
-            raise DisplayLinkLost(f"display: cannot use {self.port_name}: {exc}") from exc
-        if b"TCS" in got and SOF not in got:
-            raise DisplayError(
-                f"display: {self.port_name} answers '?' with text ({bytes(got[:20])!r}): a QST.Lab "
-                f"TCS II, not a display of the thermocue protocol; open it as "
-                f"tcs2://{self.port_name} (nothing else was sent to it)")
+        """Before any binary frame on an OS serial port: refuse a TCS II (:func:`.handshake.
+        refuse_text_device`); not for a port this class knows to be the firmware."""
+        if self._probe_text and isinstance(self.port, serial.Serial):
+            try:
+                refuse_text_device(self.port, self.port_name)
+            except (serial.SerialException, OSError) as exc:
+                self._link_error = exc
+                raise DisplayLinkLost(f"display: cannot use {self.port_name}: {exc}") from exc
 
     def _hello(self) -> DeviceInfo:
         """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`)."""

@@ -272,7 +272,7 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
             port = open_serial_port(pty, 115200)
         except DisplayError as exc:
             stop_qemu(proc)
-            raise DisplayError(f"display: qemu-firmware: {exc}") from exc
+            raise DisplayError(f"display: qemu-firmware: {str(exc).removeprefix('display: ')}") from exc
         disp = cls(port, limits, **options)
         disp.qemu, disp.image, disp.pty = proc, Path(image), pty
         disp._finalizer = weakref.finalize(disp, stop_qemu, proc)
