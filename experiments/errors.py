@@ -44,6 +44,14 @@ class DisplayLinkLost(DisplayError):
     code = "LINK_LOST"
 
 
+class DisplayBadReply(DisplayError):
+    """The display answered a command with a reply the protocol does not have (a wrong size, an
+    unknown state or code): nothing of it is used. ``code`` is ``"BAD_REPLY"``, the fault code a
+    trial that met it carries; the message names the command."""
+
+    code = "BAD_REPLY"
+
+
 class DisplayRefused(DisplayError):
     """The display answered a command with an error code."""
 

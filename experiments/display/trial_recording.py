@@ -4,16 +4,20 @@
 error against the uploaded profile, how and when it ended) without keeping the frames;
 :class:`TrialRecording` is what :meth:`ThermalDisplay.run_trial
 <experiments.display.thermocue.driver.ThermalDisplay.run_trial>` returns; :func:`not_delivered` judges a
-trial against the device's own account (``docs/display-protocol.md`` §5, "A delivered trial").
+trial against the device's own account and :func:`evidence_fault` against its telemetry
+(``docs/display-protocol.md`` §5, "A delivered trial"): every backend and the session judge
+with these two.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 from .thermocue import messages as m
 from .thermocue.messages import END_NAMES, DeviceEvent, Status, Telemetry
 
-__all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS"]
+__all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS", "evidence_fault", "NO_TELEMETRY",
+           "NO_TRACKING", "MAX_FRAME_LOSS"]
 
 ACTIVE_STATES = ("ARMED", "PLAYING", "RECORDING")
 
@@ -36,7 +40,8 @@ class TrialRecording:
         ``"ok"``, ``"fault"`` or ``"aborted"``.
     fault_code, fault_message : str or None
         Device codes (``WATCHDOG``, ``OVER_TEMPERATURE``, ``SENSOR_FAILURE``, ``SENSOR_STUCK``)
-        or host codes (``LINK_TIMEOUT``, ``LINK_LOST``, ``TRIAL_TIMEOUT``, ``TELEMETRY_LOSS``).
+        or host codes (``LINK_TIMEOUT``, ``LINK_LOST``, ``TRIAL_TIMEOUT``, ``TELEMETRY_LOSS``,
+        ``NO_TELEMETRY``, ``NO_TRACKING``, ``BAD_REPLY``, ...: ``docs/display-protocol.md`` §7).
     contact_time_s : float or None, s
         Device time of contact.
     frames, frames_lost : int
@@ -51,6 +56,9 @@ class TrialRecording:
         Contact to end.
     bad_frames : int
         Frames rejected by the CRC check during the trial.
+    contact_frames : int or None
+        Frames in an active state (playing, recording) from the contact on: the telemetry that
+        covers the stimulation (None: not counted apart, ``frames`` stands for it).
     """
 
     status: str
@@ -65,6 +73,7 @@ class TrialRecording:
     end_reason: str | None = None
     duration_s: float = 0.0
     bad_frames: int = 0
+    contact_frames: int | None = None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -80,6 +89,7 @@ class TrialInProgress:
         self.counter0 = 0                # the device's frame counter at ARM (set from its reply)
         self.last_counter = 0
         self.frames = 0
+        self.active_frames = 0           # frames in PLAYING / RECORDING: the contact covered
         self.pending: list = []          # frames before run_trial() attaches a callback
         self.callback = None
         self.pending_events: list = []   # events before run_trial() or poll() attach on_event
@@ -108,6 +118,7 @@ class TrialInProgress:
         st = fr.state
         if st == "PLAYING" or st == "RECORDING":
             self.active_seen = True
+            self.active_frames += 1
             contact_s = self.contact_s
             if contact_s is None:        # CONTACT event lost: the first active frame bounds it
                 self.contact_s = contact_s = fr.device_time_s
@@ -197,4 +208,39 @@ def not_delivered(st: Status | None, tr: TrialInProgress) -> str | None:
         return "the device saw no contact since ARM"
     if tr.end_reason not in DELIVERED_ENDS:
         return f"the device ended the trial with reason {tr.end_reason!r}"
+    return None
+
+
+#: Host fault codes of a trial the telemetry does not show delivered (docs/display-protocol.md §7).
+NO_TELEMETRY = "NO_TELEMETRY"
+NO_TRACKING = "NO_TRACKING"
+#: Default bound of the fraction of telemetry frames a delivered trial may lose.
+MAX_FRAME_LOSS = 0.01
+
+
+def evidence_fault(rec, max_frame_loss: float = MAX_FRAME_LOSS) -> tuple | None:
+    """Why ``rec``'s telemetry does not show its trial delivered: ``(code, message)``, or None.
+
+    The one rule every backend and the session apply to a trial the device calls delivered
+    (docs/display-protocol.md §5): no frame covering the contact is ``NO_TELEMETRY``; more than
+    ``max_frame_loss`` of the expected frames missing is ``TELEMETRY_LOSS``; a playback without a
+    tracking value (no frame to compare with the profile) is ``NO_TRACKING``. A device that says
+    "complete" proves nothing by itself: the pad's temperature during the contact is the
+    evidence.
+    """
+    covered = getattr(rec, "contact_frames", None)
+    frames = int(getattr(rec, "frames", 0) or 0)
+    covered = frames if covered is None else int(covered)
+    if covered <= 0:
+        return NO_TELEMETRY, (f"no telemetry covering the contact ({frames} frames in all): the "
+                              f"trial's delivery is not shown")
+    lost = int(getattr(rec, "frames_lost", 0) or 0)
+    expected = frames + lost
+    if expected > 0 and lost > max_frame_loss * expected:
+        return "TELEMETRY_LOSS", f"{lost} of {expected} frames lost"
+    rms = getattr(rec, "tracking_rms_C", math.nan)
+    if getattr(rec, "mode", "playback") == "playback" and not (
+            isinstance(rms, (int, float)) and math.isfinite(rms)):
+        return NO_TRACKING, ("no tracking value: no telemetry during the playback to compare "
+                             "with the uploaded profile")
     return None

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from experiments.display.trial_recording import evidence_fault
 from experiments.errors import DisplayError, DisplayLinkLost, DisplayRestarted
 from sessionfiles.logbook import now_iso as _now_iso
 from experiments.session.machine import SessionInterrupted
@@ -375,6 +376,8 @@ class TrialSteps:
             why = "NOT_DELIVERED", "ok without a contact"
         elif end is not None and end not in _DELIVERED_ENDS:
             why = "NOT_DELIVERED", f"ok with end reason {end!r}"
+        elif evidence_fault(rec) is not None:     # the displays' own rule, for every display
+            why = evidence_fault(rec)
         elif not real:
             err = rec.tracking_max_C
             limit = self.protocol.simulation.max_tracking_error_C

@@ -127,7 +127,7 @@ def test_name_or_path(tmp_path):
     ("repetitions = 3", "repetitions = 0", "blocks[1].repetitions: expected an integer ≥ 1, got 0"),
     ('mode = "simulated"', 'mode = "virtual"', "blocks[2].mode: expected one of 'real', 'simulated', got 'virtual'"),
     ("rewarm_s = 30.0", "rewarm_s = 30.0\ncolour = 'red'",
-     "contact.colour: expected one of the known keys (force_threshold_N, max_contact_s, record_s, "
+     "contact.colour: expected one of the known keys (force_threshold_N, max_attempts, max_contact_s, record_s, "
      "rewarm_s, trial_timeout_s), got an unknown key 'colour'"),
     ("[display]", "[displays]",
      "display: expected a table, got nothing (the key is required; is 'displays' a misspelling?)"),

@@ -34,8 +34,10 @@ and returning to neutral.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
+import threading
 
 import numpy as np
 import serial
@@ -52,12 +54,22 @@ from .commands import ReplyError
 from .link import LineLink
 from .profile_compiler import MAX_SEGMENTS, MAX_SEGMENT_STEPS, RESOLUTION_C, compile_profile
 from .trial import TcsTrial
+from .watch import NEUTRAL_TOLERANCE_C, RETURN_S, IdleWatch, over_temperature, stop_and_verify
 from .url import URL_GRAMMAR, parse_tcs2_url
 
 __all__ = ["Tcs2Display", "parse_tcs2_url", "URL_GRAMMAR"]
 
 #: Abort attempts after a fault (each waits up to 0.5 s for the device to answer).
 ABORT_ATTEMPTS = 3
+
+
+def _locked(method):
+    """Run ``method`` holding the display's I/O lock (the idle watch never reads meanwhile)."""
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        with self._io:
+            return method(self, *args, **kwargs)
+    return wrapper
 _NAN4 = (math.nan,) * 4
 
 
@@ -108,6 +120,10 @@ class Tcs2Display(Display, scheme="tcs2"):
         self.tracking_profile = None              # (dt, target list) for the tracking error
         self._trial = None
         self.script = None               # the emulated participant: (press_after_s, hold_s)
+        self._io = threading.RLock()      # the link: commands, trials and the idle watch
+        self._watch = None                # IdleWatch on a real clock, after the handshake
+        self._off_since = None            # when the probe was first seen off neutral, idle
+        self.idle_fault = None            # (code, message) the idle watch found, for arm()
         self.last_recording: TrialRecording | None = None
         self.trials = 0
 
@@ -132,7 +148,10 @@ class Tcs2Display(Display, scheme="tcs2"):
         if options:
             raise UserInputError(f"display: {url!r}: unknown option(s) {sorted(options)}")
         port = open_serial_port(pyurl, baud)
-        return handshake_or_close(cls(port, limits, name=str(url).split("?", 1)[0], **opts), port)
+        disp = handshake_or_close(cls(port, limits, name=str(url).split("?", 1)[0], **opts), port)
+        if not disp.link.virtual:
+            disp._watch = IdleWatch(disp)     # between trials, on a real clock
+        return disp
 
     @classmethod
     def availability(cls) -> tuple:
@@ -240,6 +259,44 @@ class Tcs2Display(Display, scheme="tcs2"):
             raise DisplayError(f"display {self.name}: Q {when}: {bad}")
 
     # ------------------------------------------------------------------ between trials
+    def check_idle(self) -> None:
+        """One look at the probe while the host expects neutral (``Oe``); stop what is wrong.
+
+        A zone above the maximum is ``OVER_TEMPERATURE`` at once; a stimulating zone off the
+        neutral temperature for :data:`~.watch.RETURN_S` is ``STIMULATION_RUNNING``. Either is
+        stopped (``A``, verified) and kept in :attr:`idle_fault` for the next :meth:`arm`.
+        """
+        with self._io:
+            if self._trial is not None or self.max_C is None:
+                return
+            (line,) = self.link.ask("Oe")
+            try:
+                temps = cmd.parse_temperatures(line)
+            except ReplyError as exc:
+                raise DisplayError(str(exc)) from None
+            now = self.link.clock()
+            why = over_temperature(temps, self.max_C)
+            code = "OVER_TEMPERATURE"
+            if why is None:
+                off = [z for z in self.zones if abs(temps[z] - self.neutral_C) > NEUTRAL_TOLERANCE_C]
+                if not off:
+                    self._off_since = None
+                    return
+                if self._off_since is None:
+                    self._off_since = now
+                    return
+                if now - self._off_since < RETURN_S:
+                    return
+                code = "STIMULATION_RUNNING"
+                why = (", ".join(f"zone {z} at {temps[z]:.1f} °C" for z in off) +
+                       f", not at neutral {self.neutral_C:g} °C for {now - self._off_since:.1f} s "
+                       f"after the trial")
+            self._off_since = None
+            outcome = stop_and_verify(self)
+            if self.idle_fault is None:
+                self.idle_fault = (code, f"between trials: {why}; {outcome}")
+
+    @_locked
     def set_neutral(self, temperature_C: float) -> float:
         """Hold the probe at ``temperature_C`` (°C, 0.1 °C steps) between stimulations."""
         v = self.limits.check_setpoint(temperature_C, "neutral_C")
@@ -284,6 +341,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         """
         self.compile(times_s, target_C)
 
+    @_locked
     def upload_profile(self, times_s, target_C) -> ProfileReceipt:
         """Compile, send by ``Uw``, enable by ``Ue``, read back by ``Ur`` and compare.
 
@@ -334,6 +392,7 @@ class Tcs2Display(Display, scheme="tcs2"):
                               max_deviation_C=c.max_deviation_C, segments=c.count)
 
     # ------------------------------------------------------------------ trials
+    @_locked
     def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
             max_duration_s: float = 20.0) -> None:
         """Get ready to stimulate (the TCS II has no force threshold: contact is the start)."""
@@ -346,6 +405,12 @@ class Tcs2Display(Display, scheme="tcs2"):
             raise UserInputError(f"display: arm.max_duration_s: expected 0 < value ≤ 3600, got "
                                  f"{max_duration_s!r}")
         self.link.drain(0.03)               # lines left from an earlier, faulted trial
+        self.check_idle()                   # what the probe does now, on any clock
+        if self.idle_fault is not None:
+            (code, msg), self.idle_fault = self.idle_fault, None
+            exc = DisplayError(f"display {self.name}: {code}: {msg}")
+            exc.code = code
+            raise exc
         self._trial = TcsTrial(self, max_duration_s)
 
     def sim_finger(self, press_after_s: float = 0.3, force_N: float = 2.0, hold_s: float = 20.0,
@@ -363,6 +428,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         """The TCS II has no bench for real samples."""
         raise DisplayError("display: the TCS II has no bench for real samples (record mode)")
 
+    @_locked
     def run_trial(self, timeout_s: float = 30.0, on_telemetry=None, on_event=None) -> TrialRecording:
         """Start the stimulation (or wait for the trigger) and stream it to its end."""
         run = self._trial
@@ -373,6 +439,7 @@ class Tcs2Display(Display, scheme="tcs2"):
             run.pump(timeout_s)
         return self._finish(run)
 
+    @_locked
     def poll(self, on_telemetry=None, on_event=None) -> bool:
         """Route what has arrived without waiting; return whether the armed trial has ended."""
         run = self._trial
@@ -391,6 +458,7 @@ class Tcs2Display(Display, scheme="tcs2"):
         self.last_recording = rec
         return rec
 
+    @_locked
     def abort(self) -> None:
         """Stop the stimulation; the probe returns to neutral."""
         self.link.send("A")
@@ -410,6 +478,7 @@ class Tcs2Display(Display, scheme="tcs2"):
                 if self.link.lost:
                     return                # the port is gone: nothing more can be sent
 
+    @_locked
     def status(self) -> Status:
         """Temperatures (``E``) and errors (``Q``) now, as a :class:`Status`."""
         try:
@@ -424,11 +493,13 @@ class Tcs2Display(Display, scheme="tcs2"):
                       0 if self.tracking_profile is None else len(self.tracking_profile[1]), None, 0, 0,
                       self.trials, 0)
 
+    @_locked
     def heartbeat(self) -> float:
         """One ``?`` round trip; return the host's clock (the TCS II has no clock of its own)."""
         self.link.ask("?", skip=cmd.is_temperature_line)
         return self.link.clock()
 
+    @_locked
     def is_awake(self) -> bool:
         """Whether the device answers ``?`` (never raises)."""
         try:
@@ -437,7 +508,10 @@ class Tcs2Display(Display, scheme="tcs2"):
             return False
 
     def close(self) -> None:
-        """Abort to neutral (best effort) and close the port."""
+        """Stop the idle watch, abort to neutral (best effort) and close the port."""
+        if self._watch is not None:
+            self._watch.stop()
+            self._watch = None
         if self.port.is_open:
             if not self.link.lost:
                 self.safe_abort()

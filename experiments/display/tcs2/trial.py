@@ -12,6 +12,7 @@ safe_abort`); :meth:`TcsTrial.recording` judges it.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -19,10 +20,11 @@ import numpy as np
 from experiments.errors import DisplayError, DisplayTimeout
 
 from ..thermocue.messages import DeviceEvent, Telemetry
-from ..trial_recording import TrialInProgress, TrialRecording
+from ..trial_recording import TrialInProgress, TrialRecording, evidence_fault
 from . import commands as cmd
 from .commands import ReplyError
 from .profile_compiler import STEP_S, segments_to_samples
+from .watch import over_temperature, stop_and_verify
 
 __all__ = ["TcsTrial", "SILENCE_S", "Q_EVERY_S", "READY_TOLERANCE_C", "READY_S", "END_FRACTION"]
 
@@ -260,6 +262,12 @@ class TcsTrial:
             if any(errs):
                 self._zone_fault(errs)
             return
+        hot = over_temperature(temps, self.d.max_C)
+        if hot is not None:             # a safety input: stopped at once, not at the profile's end
+            self.done, self.end_reason = True, "fault"
+            self.fault = ("OVER_TEMPERATURE", f"{hot}; {stop_and_verify(self.d)}")
+            self.tr.event(DeviceEvent("END", now, 4, "OVER_TEMPERATURE"))
+            return
         if self.contact_s is None:
             if self.started_at is None:
                 return                  # the display between stimulations (muted; stale)
@@ -300,7 +308,11 @@ class TcsTrial:
             status, (code, msg) = "fault", self.fault
         elif self.end_reason == "aborted":
             status = "aborted"
-        elif expected and lost > 0.01 * expected:
-            status, code, msg = "fault", "TELEMETRY_LOSS", f"{lost} of {expected} lines lost"
-        return TrialRecording(status, code, msg, self.contact_s, self.frames, lost, rms, mx,
-                              "playback", self.end_reason, played if self.contact_s else 0.0, 0)
+        rec = TrialRecording(status, code, msg, self.contact_s, self.frames, lost, rms, mx,
+                             "playback", self.end_reason, played if self.contact_s else 0.0, 0,
+                             tr.active_frames)
+        why = evidence_fault(rec) if status == "ok" else None
+        if why is not None:           # the rule every backend applies (trial_recording)
+            self.d.safe_abort()
+            rec = dataclasses.replace(rec, status="fault", fault_code=why[0], fault_message=why[1])
+        return rec

@@ -37,6 +37,7 @@ within 100 ms of the host falling silent. A trial that goes wrong ends as a
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import secrets
 import threading
@@ -46,7 +47,7 @@ import zlib
 import numpy as np
 import serial
 
-from experiments.errors import (DisplayError, DisplayFaultLatched, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
+from experiments.errors import (DisplayBadReply, DisplayError, DisplayFaultLatched, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
                                 SafetyLimitError, UserInputError)
 
 from . import messages as m
@@ -54,15 +55,23 @@ from .framing import FrameParser
 from .link import ProtocolLink
 from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
                            open_serial_port)
-from .handshake import decode_hello
+from .handshake import decode_hello, refuse_text_device
 from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
 from ..safety import SafetyLimits, check_profile
 from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
-                              TrialInProgress)
+                              TrialInProgress, evidence_fault)
 
 __all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
 
 CHUNK = 512                    # samples per upload chunk
+
+
+def _json_object(payload: bytes) -> dict:
+    """A sim command's reply: a JSON object (anything else is a bad reply)."""
+    obj = m.decode_json(payload)
+    if not isinstance(obj, dict):
+        raise ValueError(f"expected a JSON object, got {type(obj).__name__}")
+    return obj
 
 
 #: After an operator's reset, how long the device is watched for a fault that trips again, s
@@ -104,6 +113,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     """
 
     description = "thermocue display protocol (reference firmware, or any device speaking it)"
+    _probe_text = True     # look for a TCS II before the first frame (an OS serial port only)
     url_grammar = "/dev/ttyUSB0 | COM3 | PTY_PATH | pyserial URL"
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
@@ -222,6 +232,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     # ------------------------------------------------------------------ session set-up
     def handshake(self) -> DeviceInfo:
         """HELLO: learn the device id, firmware, capabilities and limits; send our limits."""
+        self._refuse_text_device()
         try:
             self.port.reset_input_buffer()
         except (serial.SerialException, OSError):
@@ -239,7 +250,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                                    f"[{lim.min_C}, {lim.max_C}]")
         sent = (m.centi(lim.min_C), m.centi(lim.max_C),
                 min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
-        got = m.LIMITS.unpack(self._transact(Cmd.SET_LIMITS, m.LIMITS.pack(*sent)))
+        got = self._ask(Cmd.SET_LIMITS, m.LIMITS, m.LIMITS.pack(*sent))
         # the range lies inside the device's, so it must hold it exactly; the rate may be
         # lowered to the device's own maximum (a tighter limit, and so not a mismatch)
         want = (sent[0], sent[1], min(sent[2], rate))
@@ -255,6 +266,16 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self.set_neutral(lim.neutral_C)
         return self.info
 
+    def _refuse_text_device(self) -> None:
+        """Before any binary frame on an OS serial port: refuse a TCS II (:func:`.handshake.
+        refuse_text_device`); not for a port this class knows to be the firmware."""
+        if self._probe_text and isinstance(self.port, serial.Serial):
+            try:
+                refuse_text_device(self.port, self.port_name)
+            except (serial.SerialException, OSError) as exc:
+                self._link_error = exc
+                raise DisplayLinkLost(f"display: cannot use {self.port_name}: {exc}") from exc
+
     def _hello(self) -> DeviceInfo:
         """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`)."""
         return decode_hello(self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
@@ -262,7 +283,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
     def _read_status(self) -> Status:
         """One STATUS round trip, as the device answers it (no check against the handshake)."""
-        return Status.decode(self._transact(Cmd.STATUS))
+        return self._ask(Cmd.STATUS, Status.decode)
 
     def _refuse_latched_fault(self) -> None:
         """Stop at the handshake, with what to do, if the device is latched in FAULT.
@@ -285,7 +306,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         """Set the temperature held between trials; return what the device holds, °C."""
         v = self.limits.check_setpoint(temperature_C, "neutral_C")
         sent = m.centi(v)
-        (held,) = m.CENTI.unpack(self._transact(Cmd.SET_NEUTRAL, m.CENTI.pack(sent)))
+        (held,) = self._ask(Cmd.SET_NEUTRAL, m.CENTI, m.CENTI.pack(sent))
         if held != sent:
             raise DisplayError(f"display: SET_NEUTRAL: sent {sent / 100} °C, the device "
                                f"acknowledged {held / 100} °C (a stale reply, or limits other "
@@ -335,15 +356,14 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             body = raw[2 * off:2 * min(off + CHUNK, len(q))]
             count = len(body) // 2
             for attempt in range(self.retries + 1):
-                ack = UploadAck(*m.UPLOAD_CHUNK_ACK.unpack(self._transact(
-                    Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_HEAD.pack(off, count) + body)))
+                ack = UploadAck(*self._ask(Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_ACK,
+                                           m.UPLOAD_CHUNK_HEAD.pack(off, count) + body))
                 if (ack.offset, ack.count, ack.crc32) == (off, count, zlib.crc32(body)):
                     break
             else:
                 raise DisplayError(f"display: upload chunk at {off}: the device's checksum does "
                                    f"not match after {self.retries + 1} attempts")
-        ack = CommitAck(*m.COMMIT_ACK.unpack(self._transact(Cmd.UPLOAD_COMMIT,
-                                                            m.COMMIT.pack(zlib.crc32(raw)))))
+        ack = CommitAck(*self._ask(Cmd.UPLOAD_COMMIT, m.COMMIT_ACK, m.COMMIT.pack(zlib.crc32(raw))))
         if ack.clamped:
             raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
                                    f"its own range; refusing to play it")
@@ -391,12 +411,11 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             self._trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
             self._trial.bad0 = self._parser.bad_frames
             try:
-                p = self._transact(Cmd.ARM, m.ARM.pack(md, int(round(force_threshold_N * 100)),
-                                                       int(round(max_duration_s * 1000))))
+                (c0,) = self._ask(Cmd.ARM, m.COUNTER, m.ARM.pack(
+                    md, int(round(force_threshold_N * 100)), int(round(max_duration_s * 1000))))
             except DisplayError:
                 self._trial = None
                 raise
-            c0 = m.COUNTER.unpack(p)[0]
             self._trial.counter0 = self._trial.last_counter = c0
             self._trial.pending = [f for f in self._trial.pending if f.counter > c0]
 
@@ -451,6 +470,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                                 tr.fault = st.last_fault or "FAULT"
             except DisplayTimeout as exc:
                 host_fault = ("LINK_TIMEOUT", str(exc))
+            except DisplayBadReply as exc:
+                host_fault = ("BAD_REPLY", str(exc))
             except DisplayError as exc:
                 host_fault = ("LINK_LOST", str(exc))
             rec = self._finish(tr, host_fault)
@@ -484,6 +505,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                                     f"its event was lost on the link")
             except DisplayLinkLost as exc:
                 host_fault = ("LINK_LOST", str(exc))
+            except DisplayBadReply as exc:
+                host_fault = ("BAD_REPLY", str(exc))
             except DisplayError as exc:
                 host_fault = ("LINK_TIMEOUT", str(exc))
         if tr.fault is not None:
@@ -501,15 +524,18 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 self._safe_abort()
         expected = tr.last_counter - tr.counter0
         lost = max(0, expected - tr.frames)
-        if status == "ok" and expected > 0 and lost > self.max_frame_loss * expected:
-            status, code, msg = "fault", "TELEMETRY_LOSS", f"{lost} of {expected} frames lost"
         rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
         mx = tr.max_err if tr.n_track else float("nan")
         dur = (tr.end_time_s - tr.contact_s) if (tr.end_time_s is not None and
                                                  tr.contact_s is not None) else 0.0
-        return TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
-                              tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
-                              self._parser.bad_frames - tr.bad0)
+        rec = TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
+                             tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
+                             self._parser.bad_frames - tr.bad0, tr.active_frames)
+        why = evidence_fault(rec, self.max_frame_loss) if status == "ok" else None
+        if why is not None:
+            self._safe_abort()
+            rec = dataclasses.replace(rec, status="fault", fault_code=why[0], fault_message=why[1])
+        return rec
 
     def abort(self) -> None:
         """Stop whatever runs; the device returns to neutral (and leaves FAULT)."""
@@ -574,6 +600,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         port = open_serial_port(url, baudrate)
         try:
             disp = cls(port, None)
+            disp._refuse_text_device()
             before = disp._read_status()
             if before.state != "FAULT":
                 return before.state, before.last_fault, before.state
@@ -595,7 +622,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
     def heartbeat(self) -> float:
         """One acknowledged heartbeat; return the device time, s."""
-        t = m.TIME.unpack(self._transact(Cmd.HEARTBEAT))[0] * 1e-6
+        t = self._ask(Cmd.HEARTBEAT, m.TIME)[0] * 1e-6
         self._dev_time = max(self._dev_time, t)
         return t
 
@@ -605,7 +632,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         PsychoPy's devices offer the same check (``isAwake``) before an experiment starts.
         """
         try:
-            m.TIME.unpack(self._transact(Cmd.HEARTBEAT, retries=0))
+            self._ask(Cmd.HEARTBEAT, m.TIME, retries=0)
             return True
         except DisplayError:
             return False
@@ -653,7 +680,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         if self.info is None or "sim" not in self.info.capabilities:
             raise DisplayError("display: sim commands need the emulator (capability 'sim'); "
                                f"this device offers {self.info.capabilities if self.info else ()}")
-        return m.decode_json(self._transact(cmd, m.encode_json(args)))
+        return self._ask(cmd, _json_object, m.encode_json(args))
 
     def sim_sample(self, material: str = "stainless_steel", roughness_m: float = 1.6e-6,
                    thickness_m: float | None = 3e-3, temperature_C: float = 20.0) -> dict:

@@ -28,13 +28,15 @@ field                     accepted      why
 from __future__ import annotations
 
 import struct
+import time
 
 from experiments.errors import DisplayError
 
 from . import messages as m
+from .framing import SOF
 from .messages import DeviceInfo
 
-__all__ = ["HandshakeRefused", "decode_hello", "WATCHDOG_MS_RANGE", "TELEMETRY_HZ_RANGE",
+__all__ = ["HandshakeRefused", "decode_hello", "refuse_text_device", "TEXT_PROBE", "WATCHDOG_MS_RANGE", "TELEMETRY_HZ_RANGE",
            "PROTOCOL_MIN_C", "PROTOCOL_MAX_SETPOINT_C", "PROTOCOL_MAX_RATE_C_PER_S"]
 
 WATCHDOG_MS_RANGE = (50, 90)
@@ -122,3 +124,34 @@ def decode_hello(payload: bytes, port: str) -> DeviceInfo:
     return DeviceInfo(dev_id, fw, tuple(c for c in caps.split(",") if c), ver, hz,
                       hmin / 100, hmax / 100, rate / 100, neutral / 100, wd, npts,
                       mindt * 1e-6, boot, image_id)
+
+
+#: The text probe written before the first frame on an OS serial port (a TCS II answers it), and
+#: how long its answer is awaited, s (a TCS II answers within a few ms over USB).
+TEXT_PROBE = b"?\r"
+TEXT_PROBE_WAIT_S = 0.15
+
+
+def refuse_text_device(port, name: str) -> None:
+    """Is a QST.Lab TCS II (a text protocol) on ``port``? Ask before any binary frame.
+
+    Writes ``?`` and a carriage return: a TCS II answers ``TCS``; a device of this protocol skips
+    the two bytes as noise before a frame's start. A TCS II is refused in one line naming the
+    scheme to open it with; no binary frame is ever sent to it (what one would do to a real
+    TCS II is unknown). Port errors propagate (``serial.SerialException``, ``OSError``).
+
+    Raises
+    ------
+    DisplayError
+        The device answered as a TCS II.
+    """
+    port.reset_input_buffer()
+    port.write(TEXT_PROBE)
+    got = bytearray()
+    end = time.monotonic() + TEXT_PROBE_WAIT_S
+    while time.monotonic() < end and b"\r" not in got and b"\n" not in got:
+        got += port.read(max(1, port.in_waiting))
+    if b"TCS" in got and SOF not in got:
+        raise DisplayError(f"display: {name} answers '?' with text ({bytes(got[:20])!r}): a QST.Lab "
+                           f"TCS II, not a display of the thermocue protocol; open it as "
+                           f"tcs2://{name} (nothing else was sent to it)")

@@ -10,19 +10,21 @@ constructor sets the fields it uses.
 """
 from __future__ import annotations
 
+import json
+import struct
 import threading
 import time
 
 import serial
 
-from experiments.errors import (DisplayError, DisplayLinkLost, DisplayRefused, DisplayRestarted,
-                                DisplayTimeout)
+from experiments.errors import (DisplayBadReply, DisplayError, DisplayLinkLost, DisplayRefused,
+                                DisplayRestarted, DisplayTimeout)
 
 from . import messages as m
 from .framing import encode_frame
 from .messages import Cmd, DeviceEvent, Msg, Telemetry
 
-__all__ = ["ProtocolLink"]
+__all__ = ["ProtocolLink", "decode_reply"]
 
 # ARM's and ABORT's reply types (0xA0, 0xA1) are also TELEMETRY's and EVENT's, whose frames carry
 # the device's own numbers: a reply of these types is one only with the reply's size (4 and 0
@@ -38,6 +40,35 @@ _EVENT = int(Msg.EVENT)
 _HEARTBEAT_REPLY = int(Cmd.HEARTBEAT | m.REPLY_BIT)
 _TIME_SIZE = m.TIME.size
 _decode_telemetry = Telemetry.decode
+
+
+def _cmd_name(cmd: int) -> str:
+    try:
+        return m.Cmd(cmd).name
+    except ValueError:
+        return f"command 0x{cmd:02x}"
+
+
+def decode_reply(cmd: int, payload: bytes, decode):
+    """The one checked decoder of every reply: ``decode`` (a ``struct.Struct``, whose size the
+    payload must have exactly, or a function of the payload) applied to ``payload``.
+
+    Raises
+    ------
+    DisplayBadReply
+        A payload of the wrong size, or with a value the protocol does not have (an unknown
+        state, a malformed JSON reply): one line naming the command; nothing of it is used.
+    """
+    try:
+        if isinstance(decode, struct.Struct):
+            if len(payload) != decode.size:
+                raise ValueError(f"expected {decode.size} bytes")
+            return decode.unpack(payload)
+        return decode(payload)
+    except (struct.error, ValueError, KeyError, IndexError, TypeError, UnicodeDecodeError,
+            json.JSONDecodeError) as exc:
+        raise DisplayBadReply(f"display: {_cmd_name(cmd)}: a reply the protocol does not have "
+                              f"({len(payload)} bytes, {str(exc)[:80]}); not using it") from None
 
 
 class ProtocolLink:
@@ -213,6 +244,11 @@ class ProtocolLink:
                     if answer is not None:
                         if answer.type == want:
                             return answer.payload
+                        if len(answer.payload) < m.NAK_HEAD.size:
+                            raise DisplayBadReply(
+                                f"display: {Cmd(cmd).name}: a NAK of {len(answer.payload)} "
+                                f"byte(s), not the protocol's (refused command, code, text); "
+                                f"not using it")
                         _, code = m.NAK_HEAD.unpack_from(answer.payload)
                         text = answer.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
                         if code == m.Err.NO_HELLO and cmd != Cmd.HELLO and self.info is not None:
@@ -226,6 +262,10 @@ class ProtocolLink:
                     self._heartbeat_if_due()
             raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
                                  f"{timeout_s} s, got none after {retries + 1} attempts")
+
+    def _ask(self, cmd: int, decode, payload: bytes = b"", **kw):
+        """:meth:`_transact`, its reply decoded by :func:`decode_reply` (checked)."""
+        return decode_reply(cmd, self._transact(cmd, payload, **kw), decode)
 
     # ------------------------------------------------------------------ the heartbeat
     def start_heartbeat(self) -> None:

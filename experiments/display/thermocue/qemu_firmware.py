@@ -30,7 +30,7 @@ import serial
 
 from experiments.errors import DisplayError, UserInputError
 
-from ..base import Capabilities, handshake_or_close
+from ..base import Capabilities, handshake_or_close, open_serial_port
 from ..children import popen_tied
 from .driver import ThermalDisplay
 from .firmware_image import check_image, image_id_warning
@@ -231,6 +231,7 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
     """
 
     description = "the reference C firmware (firmware/) as its real binary under qemu-system-arm"
+    _probe_text = False    # the firmware this class started, never a TCS II
     url_grammar = URL_GRAMMAR
 
     @classmethod
@@ -273,10 +274,12 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
         options.setdefault("heartbeat_s", QEMU_HEARTBEAT_S)
         proc, pty = start_qemu(Path(image))
         try:
-            port = serial.Serial(pty, 115200, timeout=0.01, write_timeout=1.0)
-        except (serial.SerialException, OSError) as exc:
+            # exclusive, as every serial port: a second program on the firmware's pty (another
+            # session, `thermocue clear-fault PTY`) could set its neutral or limits under ours
+            port = open_serial_port(pty, 115200)
+        except DisplayError as exc:
             stop_qemu(proc)
-            raise DisplayError(f"display: qemu-firmware: cannot open {pty}: {exc}") from exc
+            raise DisplayError(f"display: qemu-firmware: {str(exc).removeprefix('display: ')}") from exc
         disp = cls(port, limits, **options)
         disp.qemu, disp.image, disp.pty = proc, Path(image), pty
         disp._finalizer = weakref.finalize(disp, stop_qemu, proc)

@@ -18,7 +18,10 @@ Faults (``FAULTS`` grammar): ``drop=P`` (each stream line lost with probability 
 ``garbage`` (a line of binary junk), ``unknown`` (a well-formed line the protocol does not
 have), ``halfline`` (half a stream line, then 1 s of silence), ``silent`` (nothing more is
 answered or printed), ``disconnect`` (the port fails), ``zone`` (``zone@N:T:Z``: zone Z, default
-3, reports error 2 in ``Q`` and its sensor sticks); ``om_cap=X`` makes the device hold at most
+3, reports error 2 in ``Q`` and its sensor sticks), ``overheat`` (``overheat@N:T:Z``: zone Z's
+driver sticks at full heating, whatever the maximum, towards 55 °C, until ``A``), ``runon``
+(after the stimulation's profile ends, silently, the zones go on stimulating at 50 °C for 14 s
+unless ``A`` stops them); ``om_cap=X`` makes the device hold at most
 X °C as its maximum whatever ``Om`` asks (a device that reports another maximum).
 """
 from __future__ import annotations
@@ -34,7 +37,11 @@ FIRMWARE = "012 thermocue-emulator"
 PROBE_ID = "EM 00 00 00 00 00 00 01"
 _LAG_S = 0.015
 _MAX_RATE = 300.0
-_KINDS = ("garbage", "unknown", "halfline", "silent", "disconnect", "zone")
+_KINDS = ("garbage", "unknown", "halfline", "silent", "disconnect", "zone", "overheat", "runon")
+#: What the ``overheat`` fault heats a zone to, and the ``runon`` fault keeps stimulating at, °C,
+#: and for how long the run-on lasts, s.
+OVERHEAT_C = 55.0
+RUNON_C, RUNON_S = 50.0, 14.0
 HELP_LINES = (
     "TCS2 emulator",
     f"Firmware: {FIRMWARE}",
@@ -120,7 +127,10 @@ class Tcs2Device:
         self.setpoints = [32.0] * 5
         self.errors = [0] * 6
         self.stuck = [False] * 5
-        self.state = "idle"            # idle, stim, follow
+        self.state = "idle"            # idle, stim, follow, runon
+        self.hot = [False] * 5         # overheat: the zone's driver stuck at full heating
+        self.runon = False             # runon: the stimulation goes on after its profile
+        self._runon_until = 0.0
         self.stim_count = 0
         self.stim_t = 0.0
         self._plans = None
@@ -303,6 +313,7 @@ class Tcs2Device:
         self._plans = plans
 
     def _abort(self) -> None:
+        self.hot = [False] * 5
         self.state = "idle"
         self._plans = None
         self.setpoints = [self.neutral_dC / 10] * 5
@@ -335,13 +346,21 @@ class Tcs2Device:
                     self.setpoints[z] = v
             if running:
                 stream = self.ob
+            elif self.runon:            # fault: done, yet it goes on stimulating, silently
+                self.runon = False
+                self.state = "runon"
+                self._runon_until = self.time_s + RUNON_S
+                self.setpoints = [RUNON_C] * 5
             else:
                 self._abort()           # done: back to neutral at the return speed
+        elif self.state == "runon" and self.time_s >= self._runon_until:
+            self._abort()
         a = 1.0 - math.exp(-TICK_S / _LAG_S)
         for z in range(5):
             if self.stuck[z]:
                 continue
-            step = (self.setpoints[z] - self.temps[z]) * a
+            target = OVERHEAT_C if self.hot[z] else self.setpoints[z]
+            step = (target - self.temps[z]) * a
             lim = _MAX_RATE * TICK_S
             self.temps[z] += max(-lim, min(lim, step))
         if self.state == "stim":
@@ -380,6 +399,10 @@ class Tcs2Device:
                 self.silent_forever = True
             elif f.kind == "disconnect":
                 self.disconnected = True
+            elif f.kind == "overheat":
+                self.hot[f.arg - 1] = True
+            elif f.kind == "runon":
+                self.runon = True
             elif f.kind == "zone":
                 self.errors[f.arg] = 2
                 self.stuck[f.arg - 1] = True
