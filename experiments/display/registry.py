@@ -139,12 +139,16 @@ def shown_url(url) -> str:
 
 
 def _bounded(exc: Exception, url) -> Exception:
-    """``exc`` with the URL shown by :func:`shown_url` and its message on one line."""
+    """``exc`` with the URL shown by :func:`shown_url`, any other long piece of it (a backend
+    quoting an option's value) cut to :data:`MAX_URL_SHOWN` characters, on one line."""
     url = str(url)
     text = str(exc)
     if len(url) > MAX_URL_SHOWN:
         short = shown_url(url)
         text = text.replace(repr(url), short).replace(url, short)
+        text = re.sub(r"\S{%d,}" % (MAX_URL_SHOWN + 1),
+                      lambda m: m.group(0) if m.group(0) in short else m.group(0)[:MAX_URL_SHOWN] + "…",
+                      text)
     exc.args = (_one_line(text, 2 * MAX_URL_SHOWN + 400),) + tuple(exc.args[1:])
     return exc
 
