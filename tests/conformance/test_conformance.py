@@ -199,7 +199,7 @@ def test_over_temperature_is_latched_until_operator_reset(display):
     tel = []
     rec = display.run_trial(timeout_s=3.0, on_telemetry=tel.append)
     assert rec.status != "ok"
-    st = display.status()
+    st = display.wire_status()
     assert st.state == "FAULT" and st.last_fault == "OVER_TEMPERATURE" and st.end_reason == 4
     assert tel[-1].state == "FAULT" and tel[-1].fault == "OVER_TEMPERATURE"
     # the pad above the 45 °C hard maximum for at most one 10 ms tick (§6)
@@ -217,7 +217,7 @@ def test_over_temperature_is_latched_until_operator_reset(display):
 def test_stuck_contact_sensor_is_latched(display):
     fault_ends_s = display.sim_fault("stuck_sensor+0.5")["now_s"] + 0.5
     wait_device_time(display, fault_ends_s + 0.1)   # 20 identical readings take 0.1 s
-    st = display.status()
+    st = display.wire_status()
     assert st.state == "FAULT" and st.last_fault == "SENSOR_STUCK"
     display.abort()
     assert display.status().state == "FAULT"
