@@ -53,11 +53,13 @@ class DisplayBadReply(DisplayError):
 
 
 class DisplayRefused(DisplayError):
-    """The display answered a command with an error code."""
+    """The display answered a command with an error code: ``code`` as the device sent it,
+    ``code_name`` its name (``"BAD_STATE"``), which callers log."""
 
-    def __init__(self, message: str, code: int | None = None):
+    def __init__(self, message: str, code: int | None = None, code_name: str | None = None):
         super().__init__(message)
         self.code = code
+        self.code_name = code_name
 
 
 class DisplayFaultLatched(DisplayError):

@@ -225,6 +225,35 @@ def test_the_display_never_imports_the_emulators_the_session_the_responders_or_t
     assert _violations(DISPLAY, allowed) == []
 
 
+#: The display's contract: its loose modules (base, types, registry, safety, trial_recording).
+DISPLAY_CONTRACT = tuple(f"experiments.display.{p.stem}" for p in sorted(
+    (ROOT / "experiments" / "display").glob("*.py")) if p.stem != "__init__")
+#: The backends' subpackages of the display.
+DISPLAY_BACKENDS = tuple(f"experiments.display.{d.name}" for d in sorted(
+    (ROOT / "experiments" / "display").iterdir()) if (d / "__init__.py").exists())
+
+
+def test_the_display_contract_imports_no_backend():
+    # the contract's types are neutral (experiments.display.types): no wire format owns them,
+    # so the contract never imports a backend (the registry loads them by name only)
+    def allowed(target, _):
+        return not _within(target, DISPLAY_BACKENDS)
+    assert {"experiments.display.thermocue", "experiments.display.tcs2"} <= set(DISPLAY_BACKENDS)
+    assert "experiments.display.types" in DISPLAY_CONTRACT
+    found = [(m, t, line) for m, t, line in STATIC_IMPORTS
+             if m in DISPLAY_CONTRACT and not allowed(t, m)]
+    assert found == []
+
+
+def test_the_callers_of_a_display_import_no_backend_but_the_operator_reset():
+    # the session, the responders, the plugin and the CLI read the neutral types; only
+    # `thermocue clear-fault`, a command of the thermocue protocol, names its driver
+    def allowed(target, module):
+        return not _within(target, DISPLAY_BACKENDS) or module == "experiments.cli.clear_fault"
+    assert _violations(("experiments.session", "experiments.responders",
+                        "experiments.psychopy_plugin", "experiments.cli"), allowed) == []
+
+
 def test_the_session_the_responders_and_the_plugin_never_import_the_emulators():
     def allowed(target, _):
         return not _within(target, EMULATORS)
@@ -421,13 +450,7 @@ def _explain(component, graph) -> str:
 
 
 #: Package-level cycles tolerated for now, each with its reason (none at module level).
-ALLOWED_PACKAGE_CYCLES: dict[tuple[str, ...], str] = {
-    ("experiments.display", "experiments.display.thermocue"):
-        "the Display contract (base, trial_recording) still describes a device, its status and its "
-        "telemetry with the thermocue protocol's wire types (messages.DeviceInfo, Status, "
-        "Telemetry, DeviceEvent), which the thermocue backend's driver implements; neutral types "
-        "in experiments.display end it",
-}
+ALLOWED_PACKAGE_CYCLES: dict[tuple[str, ...], str] = {}
 
 MODULE_GRAPH = _module_graph()
 PACKAGE_GRAPH = _package_graph(MODULE_GRAPH)

@@ -22,14 +22,27 @@ def register(sub) -> None:
 
 
 def describe() -> list[dict]:
-    """One dict per registered backend: scheme, URL grammar, description, availability, capabilities."""
-    from experiments.display.registry import backends
+    """One dict per registered backend (scheme, URL grammar, example URLs, description,
+    availability, capabilities) and one per refused plugin (``broken``: why); a backend whose
+    own statements fail is listed as broken, and the others still are."""
+    from experiments.display.registry import backends, broken_plugins
     rows = []
     for cls in backends():
-        ok, reason = cls.availability()
-        rows.append(dict(scheme=cls.scheme, url=cls.url_grammar, description=cls.description,
-                         available=bool(ok), unavailable_reason=reason or None,
-                         capabilities=cls.declared_capabilities().to_dict()))
+        row = dict(scheme=cls.scheme, url=cls.url_grammar, description=cls.description,
+                   examples=[url for url, _ in getattr(cls, "example_urls", ()) or ()])
+        try:
+            ok, reason = cls.availability()
+            row.update(available=bool(ok), unavailable_reason=reason or None,
+                       capabilities=cls.declared_capabilities().to_dict(), broken=None)
+        except Exception as exc:    # a plugin that states too little: listed, not fatal
+            row.update(available=False, unavailable_reason=None, capabilities=None,
+                       broken=f"{cls.__module__}.{cls.__qualname__}: {type(exc).__name__}: "
+                              f"{' '.join(str(exc).split())[:300]}")
+        rows.append(row)
+    for name, (module, why) in sorted(broken_plugins().items()):
+        rows.append(dict(scheme=None, plugin=name, module=module, url=None, description=None,
+                         examples=[], available=False, unavailable_reason=None,
+                         capabilities=None, broken=why))
     return rows
 
 
@@ -40,11 +53,19 @@ def _run(ns) -> int:
         print()
         return 0
     for r in rows:
+        if r["scheme"] is None:
+            print(f"plugin {r['plugin']} ({r['module']})  (broken: {r['broken']})")
+            continue
+        if r["broken"]:
+            print(f"{r['scheme']}  (broken: {r['broken']})")
+            continue
         c = r["capabilities"]
         state = "available" if r["available"] else f"not available here: {r['unavailable_reason']}"
         lo, hi = c["safe_range_C"]
         print(f"{r['scheme']}  ({state})")
         print(f"    URL: {r['url']}")
+        if r["examples"]:
+            print(f"    e.g. {', '.join(r['examples'])}")
         print(f"    {r['description']}")
         print(f"    contact detection: {c['contact_detection']}; force sensing: "
               f"{'yes' if c['force_sensing'] else 'no'}; telemetry: {c['telemetry_hz']:g} Hz")

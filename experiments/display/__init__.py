@@ -14,9 +14,9 @@ from __future__ import annotations
 import importlib
 
 #: public name -> the module that defines it
-_EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "thermocue.messages",
-            "DeviceEvent": "thermocue.messages", "Status": "thermocue.messages",
-            "Telemetry": "thermocue.messages", "ContactEvent": "trial_recording",
+_EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "types",
+            "DeviceEvent": "types", "Status": "types",
+            "Telemetry": "types", "ContactEvent": "trial_recording",
             "TrialRecording": "trial_recording", "ThermalDisplay": "thermocue.driver",
             "open_display": "registry", "backends": "registry", "backend_for": "registry",
             "Display": "base", "EmulatedDisplay": "base", "Capabilities": "base",

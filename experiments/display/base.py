@@ -8,9 +8,12 @@ precisely, once it has shaken hands with its device (:attr:`Display.capabilities
 that needs what a backend lacks (real trials without force sensing, a profile longer than it
 holds) is refused before the first trial (:mod:`experiments.session.setup`).
 
-The base is an abstract class with a structural ``isinstance`` check (as
-:class:`collections.abc.Iterable` has): anything with the engine's methods counts as a display,
-so a test's stand-in needs no inheritance, and something without ``run_trial`` is not one.
+:class:`Display` declares everything a caller uses -- the session, the PsychoPy plugin
+(``poll``, ``heartbeat``, ``is_awake``), ``thermocue displays`` (``example_urls``,
+``declared_capabilities``, ``availability``) -- abstract, or with a documented default; a
+backend that passes the contract test (``tests/experiments/display/test_contract.py``) works in
+all of them. What a display reports is in the neutral types of :mod:`.types`. A class is a
+display only by subclassing :class:`Display` (no structural check).
 """
 from __future__ import annotations
 
@@ -20,12 +23,12 @@ from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Callable, ClassVar
 
 if TYPE_CHECKING:   # the types in the signatures; importing them here would pull in numpy
-    from .thermocue.messages import DeviceInfo, Status, Telemetry
+    from .types import DeviceEvent, DeviceInfo, Status, Telemetry
     from .safety import SafetyLimits
     from .trial_recording import TrialRecording
 
 __all__ = ["Capabilities", "ProfileReceipt", "Display", "EmulatedDisplay", "open_serial_port",
-           "handshake_or_close"]
+           "check_serial_url", "handshake_or_close"]
 
 #: How a backend learns that the finger touched: a force threshold on the pad's sensors, or the
 #: start of stimulation (a probe that rests on the skin has no force sensor).
@@ -125,7 +128,7 @@ class ProfileReceipt:
 
 
 class Display(abc.ABC):
-    """A thermal display the session can run trials on.
+    """A thermal display the session, the PsychoPy plugin and the command line run trials on.
 
     Subclass with ``scheme=`` to register a backend for URLs of that scheme
     (``class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware")``); the registry then
@@ -138,14 +141,21 @@ class Display(abc.ABC):
         The URL scheme the class was registered for (class attribute).
     description : str
         One line for ``thermocue displays`` (class attribute).
+    url_grammar : str
+        The URL grammar, for messages and ``thermocue displays`` (class attribute).
+    example_urls : tuple of (str, str)
+        ``(url, label)`` pairs a user can open as they are (an emulator, a simulated device);
+        ``{port}`` in a URL stands for each serial port the system lists (``tcs2://{port}``).
+        ``thermocue displays``, the PsychoPy plugin's device list and the contract test read
+        backends from this alone (class attribute; empty: nothing to open without hardware).
     info : DeviceInfo or None
-        The handshake's answer (``device_id``, ``firmware``, ``capabilities``); logged.
+        The handshake's answer (:class:`~experiments.display.types.DeviceInfo`); None before.
     """
 
     scheme: ClassVar[str | None] = None
     description: ClassVar[str] = ""
-    #: The URL grammar, for messages and ``thermocue displays``.
     url_grammar: ClassVar[str] = ""
+    example_urls: ClassVar[tuple] = ()
     info: "DeviceInfo | None" = None
 
     def __init_subclass__(cls, scheme: str | None = None, **kwargs):
@@ -155,23 +165,12 @@ class Display(abc.ABC):
             cls.scheme = scheme
             register(scheme, cls)
 
-    @classmethod
-    def __subclasshook__(cls, other):
-        if cls in (Display, EmulatedDisplay):
-            needed = cls._structural_methods()
-            if all(any(name in vars(k) and vars(k)[name] is not None for k in other.__mro__)
-                   for name in needed):
-                return True
-        return NotImplemented
-
-    @classmethod
-    def _structural_methods(cls) -> tuple:
-        return ("set_neutral", "upload_profile", "arm", "run_trial", "abort")
-
     # ------------------------------------------------------------------ opening
     @classmethod
     def open(cls, url: str, limits: "SafetyLimits | None" = None, **options) -> "Display":
         """Open ``url``, shake hands with the device and keep it alive; return the display.
+
+        Every registered backend overrides it (the contract test checks).
 
         Raises
         ------
@@ -185,7 +184,8 @@ class Display(abc.ABC):
     @classmethod
     def check_url(cls, url: str) -> None:
         """Raise :class:`~experiments.errors.UserInputError` if ``url`` is malformed for this
-        backend (an unknown option, a missing port), without opening anything."""
+        backend (an unknown option, a missing port), without opening anything. Default: every
+        URL of the scheme is accepted here and checked when opened."""
 
     @classmethod
     def declared_capabilities(cls) -> Capabilities:
@@ -194,13 +194,21 @@ class Display(abc.ABC):
 
     @classmethod
     def availability(cls) -> tuple:
-        """``(True, "")`` when the backend can be opened here, else ``(False, reason)``."""
+        """``(True, "")`` when the backend can be opened here, else ``(False, reason)``.
+        Default: available (nothing beyond Python is needed)."""
         return True, ""
 
     @property
     def capabilities(self) -> Capabilities:
-        """What the opened device can do (its handshake refines the declared capabilities)."""
+        """What the opened device can do. Default: the declared capabilities (a backend whose
+        handshake tells more refines them)."""
         return self.declared_capabilities()
+
+    def check_profile_capacity(self, times_s, target_C) -> None:
+        """Raise :class:`~experiments.errors.UserInputError` if the device cannot play this
+        target (s, °C) as it would be uploaded; the session asks before writing its folder.
+        Default: nothing beyond ``info.max_points`` and ``info.min_dt_s``, which the session
+        checks itself (a device that plays samples as given)."""
 
     # ------------------------------------------------------------------ the engine's calls
     @abc.abstractmethod
@@ -219,19 +227,46 @@ class Display(abc.ABC):
     @abc.abstractmethod
     def run_trial(self, timeout_s: float = 30.0,
                   on_telemetry: "Callable[[Telemetry], None] | None" = None,
-                  on_event=None) -> "TrialRecording":
-        """Run the armed trial to its end; each telemetry frame to ``on_telemetry``."""
+                  on_event: "Callable[[DeviceEvent], None] | None" = None) -> "TrialRecording":
+        """Run the armed trial to its end; each telemetry frame to ``on_telemetry``, each
+        :class:`~experiments.display.types.DeviceEvent` to ``on_event``."""
+
+    @abc.abstractmethod
+    def poll(self, on_telemetry: "Callable[[Telemetry], None] | None" = None,
+             on_event: "Callable[[DeviceEvent], None] | None" = None) -> bool:
+        """Route what has arrived without waiting; return whether the armed trial has ended
+        (False with nothing armed).
+
+        For a caller with its own loop (PsychoPy's frame loop): call it often, then
+        :meth:`run_trial` once it returns True (or after :meth:`abort`) for the recording.
+        """
 
     @abc.abstractmethod
     def abort(self) -> None:
         """Stop whatever runs and return to neutral (the engine then sets neutral)."""
 
+    @abc.abstractmethod
     def status(self) -> "Status":
-        """The device's state now."""
-        raise NotImplementedError(f"{type(self).__name__}.status")
+        """The device's state now (:class:`~experiments.display.types.Status`)."""
 
+    @abc.abstractmethod
+    def heartbeat(self) -> float:
+        """One acknowledged round trip; return the device's clock, s (a device without a
+        clock: the host's monotonic clock). The plugin maps clocks with bursts of these."""
+
+    def is_awake(self) -> bool:
+        """Whether the device answers now; never raises. Default: one :meth:`heartbeat`,
+        False on a :class:`~experiments.errors.DisplayError`."""
+        from experiments.errors import DisplayError
+        try:
+            self.heartbeat()
+            return True
+        except DisplayError:
+            return False
+
+    @abc.abstractmethod
     def close(self) -> None:
-        """Return to neutral (best effort) and release the port."""
+        """Return to neutral (best effort) and release the port; safe to call twice."""
 
     def __enter__(self):
         return self
@@ -242,11 +277,9 @@ class Display(abc.ABC):
 
 
 class EmulatedDisplay(Display):
-    """A :class:`Display` whose bench is scripted (capability ``"sim"``): an emulator."""
-
-    @classmethod
-    def _structural_methods(cls) -> tuple:
-        return Display._structural_methods() + ("sim_sample", "sim_finger")
+    """A :class:`Display` that may have a scripted bench: its :attr:`~Display.info` then
+    lists the capability ``"sim"`` (an emulator), and the session's stand-in hand calls these.
+    A class is one only by subclassing it."""
 
     @abc.abstractmethod
     def sim_sample(self, material: str = "stainless_steel", roughness_m: float = 1.6e-6,
@@ -259,17 +292,42 @@ class EmulatedDisplay(Display):
         """Press the emulated finger ``press_after_s`` after arming, for ``hold_s``."""
 
 
+def check_serial_url(url: str) -> None:
+    """Refuse a pyserial URL that pyserial would answer with a traceback: a ``hwgrep://``
+    pattern that is not a regular expression.
+
+    Raises
+    ------
+    UserInputError
+        One line naming the pattern's error.
+    """
+    import re
+
+    from experiments.errors import UserInputError
+    url = str(url)
+    if url[:9].lower() == "hwgrep://":
+        pattern = url[9:].split("&", 1)[0]
+        try:
+            re.compile(pattern, re.I)
+        except re.error as exc:
+            raise UserInputError(f"display: hwgrep://: expected a regular expression for the "
+                                 f"port, got {pattern[:200]!r} ({exc})") from None
+
+
 def open_serial_port(url: str, baudrate: int = 115200):
     """Open ``url`` with ``serial.serial_for_url`` as every serial backend does (10 ms reads).
 
     Raises
     ------
+    UserInputError
+        A pyserial URL pyserial cannot read (:func:`check_serial_url`).
     DisplayError
         The port cannot be opened (names the URL).
     """
     import serial
 
     from experiments.errors import DisplayError
+    check_serial_url(url)
     # exclusive: a second program on the same port (another session, the PsychoPy plugin,
     # `thermocue clear-fault`) would read half of this one's replies and telemetry. A host that
     # has just died holds the lock until its heartbeat helper sees the closed pipe and exits

@@ -1,26 +1,35 @@
 """The display backends by URL scheme, and :func:`open_display`, the one way to open a display.
 
-A backend registers itself by subclassing :class:`~.display_base.Display` with ``scheme=``
-(as PsychoPy's devices register by subclassing ``BaseDevice``). The built-in backends live in
-the modules of :data:`BUILTIN_MODULES`, imported on first lookup so that importing the package
-does not start QEMU's or the thermode's code; a third-party backend is a module listed under the
-``thermocue.displays`` entry-point group (imported the same way: the emulators register
-``emulator://`` so, from :mod:`experiments.emulators.backends`, which the display never imports),
-or any module imported before the display is opened.
+A backend registers itself by subclassing :class:`~.base.Display` with ``scheme=`` (as
+PsychoPy's devices register by subclassing ``BaseDevice``). The built-in backends live in the
+modules of :data:`BUILTIN_MODULES`, imported on first lookup so that importing the package does
+not start QEMU's or the thermode's code; a third-party backend is a module named by an entry
+point of the ``thermocue.displays`` group (imported the same way: the emulators register
+``emulator://`` so, from :mod:`experiments.emulators.backends`, which the display never
+imports), or any module imported before the display is opened.
 
-URL grammar: ``SCHEME://REST``; a URL without ``://`` (``/dev/ttyUSB0``, ``COM3``, a pty path)
-is the thermocue display protocol on a serial port (scheme ``serial``). pyserial's own URL
-schemes (``loop://``, ``socket://``, ``rfc2217://``, ``spy://``) also reach the thermocue
-protocol's driver.
+A plugin is not trusted: one whose import raises, or calls ``sys.exit``, is refused, its
+registrations undone, and it is listed by name with the reason (:func:`broken_plugins`,
+``thermocue displays``); the other backends work on. pyserial's own URL schemes
+(:data:`PYSERIAL_SCHEMES`) are reserved: they reach the thermocue protocol's serial backend,
+and no plugin can claim one.
+
+URL grammar: ``SCHEME://REST``; a URL without a scheme (``/dev/ttyUSB0``, ``COM3``, a pty path)
+is the thermocue display protocol on a serial port (scheme ``serial``), and so are pyserial's
+URLs (``loop://``, ``socket://``, ``rfc2217://``, ``spy://``, ``hwgrep://``). ``SCHEME:`` with
+fewer than two slashes (``tcs2:/tmp/x``) is refused, not read as a path. Every URL error is one
+line showing at most :data:`MAX_URL_SHOWN` characters of the URL (:func:`shown_url`).
 """
 from __future__ import annotations
 
 import importlib
+import re
 import threading
 
-from experiments.errors import UserInputError
+from experiments.errors import DisplayError, UserInputError
 
-__all__ = ["open_display", "backend_for", "backends", "register", "scheme_of", "BUILTIN_MODULES"]
+__all__ = ["open_display", "backend_for", "backends", "register", "scheme_of", "check_url",
+           "broken_plugins", "shown_url", "BUILTIN_MODULES", "PYSERIAL_SCHEMES", "MAX_URL_SHOWN"]
 
 #: Modules that define the built-in backends (each registers its classes on import).
 BUILTIN_MODULES = (
@@ -32,12 +41,17 @@ BUILTIN_MODULES = (
 #: The entry-point group of third-party backends.
 ENTRY_POINT_GROUP = "thermocue.displays"
 
-#: pyserial's URL schemes, served by the thermocue protocol's serial backend.
+#: pyserial's URL schemes, served by the thermocue protocol's serial backend (reserved).
 PYSERIAL_SCHEMES = ("loop", "socket", "rfc2217", "spy", "hwgrep", "alt", "cp2110")
 
+#: The most characters of a URL an error message shows.
+MAX_URL_SHOWN = 200
+
 _REGISTRY: dict = {}
+_BROKEN: dict = {}          # entry point name -> (the module it names, why it was refused)
 _LOADED = False
 _LOCK = threading.Lock()
+_SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]+):")
 
 
 def register(scheme: str, cls) -> None:
@@ -46,9 +60,16 @@ def register(scheme: str, cls) -> None:
     Raises
     ------
     ValueError
-        ``scheme`` is taken by another class (a backend cannot replace another silently).
+        ``scheme`` is taken by another class (a backend cannot replace another silently), is
+        one of pyserial's (:data:`PYSERIAL_SCHEMES`), or is not a URL scheme.
     """
-    key = scheme.lower()
+    key = str(scheme).lower()
+    if key in PYSERIAL_SCHEMES:
+        raise ValueError(f"display registry: scheme {scheme!r} is reserved: pyserial's "
+                         f"{scheme}:// URLs reach the thermocue protocol's serial backend")
+    if not re.fullmatch(r"[a-z][a-z0-9+.-]+", key):
+        raise ValueError(f"display registry: scheme {shown_url(scheme)}: expected a URL scheme "
+                         f"(a letter, then letters, digits, '+', '-' or '.')")
     old = _REGISTRY.get(key)
     if old is not None and old is not cls and (old.__module__, old.__qualname__) != (
             cls.__module__, cls.__qualname__):
@@ -71,20 +92,82 @@ def _load_builtins() -> None:
             # something it needs is an error to see
             if exc.name is None or not (name == exc.name or name.startswith(exc.name + ".")):
                 raise
+    from importlib.metadata import entry_points
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        _load_plugin(ep)
+
+
+def _load_plugin(ep) -> None:
+    """Import one ``thermocue.displays`` entry point; refuse it (registrations undone, listed
+    by :func:`broken_plugins`) when its import raises or exits."""
+    before = dict(_REGISTRY)
     try:
-        from importlib.metadata import entry_points
-        for ep in entry_points(group=ENTRY_POINT_GROUP):
-            ep.load()
-    except Exception as exc:   # a broken third-party plugin must not stop the built-in ones
+        ep.load()
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:        # SystemExit too: a plugin must not end the program
+        _REGISTRY.clear()
+        _REGISTRY.update(before)
+        if isinstance(exc, SystemExit):
+            why = f"its import called sys.exit({exc.code!r}); refused"
+        else:
+            why = f"its import failed: {type(exc).__name__}: {_one_line(str(exc))}"
+        _BROKEN[ep.name] = (ep.value, why)
         import warnings
-        warnings.warn(f"display registry: a {ENTRY_POINT_GROUP} entry point failed to load: "
-                      f"{exc}", RuntimeWarning, stacklevel=2)
+        warnings.warn(f"display registry: plugin {ep.name!r} ({ep.value}, entry point group "
+                      f"{ENTRY_POINT_GROUP}): {why}", RuntimeWarning, stacklevel=3)
+
+
+def broken_plugins() -> dict:
+    """The refused plugins: entry point name -> ``(module, reason)``."""
+    _load_builtins()
+    return dict(_BROKEN)
+
+
+def _one_line(text: str, limit: int = 300) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[:limit] + "…"
+
+
+def shown_url(url) -> str:
+    """``url`` for a message: quoted, on one line, at most :data:`MAX_URL_SHOWN` characters of
+    it (then how long it was)."""
+    url = str(url)
+    if len(url) <= MAX_URL_SHOWN:
+        return repr(url)
+    return f"{url[:MAX_URL_SHOWN]!r}… ({len(url)} characters)"
+
+
+def _bounded(exc: Exception, url) -> Exception:
+    """``exc`` with the URL shown by :func:`shown_url`, any other long piece of it (a backend
+    quoting an option's value) cut to :data:`MAX_URL_SHOWN` characters, on one line."""
+    url = str(url)
+    text = str(exc)
+    if len(url) > MAX_URL_SHOWN:
+        short = shown_url(url)
+        text = text.replace(repr(url), short).replace(url, short)
+        text = re.sub(r"\S{%d,}" % (MAX_URL_SHOWN + 1),
+                      lambda m: m.group(0) if m.group(0) in short else m.group(0)[:MAX_URL_SHOWN] + "…",
+                      text)
+    exc.args = (_one_line(text, 2 * MAX_URL_SHOWN + 400),) + tuple(exc.args[1:])
+    return exc
 
 
 def scheme_of(url: str) -> str:
-    """The backend scheme of a display URL (``serial`` for a path or a pyserial URL)."""
+    """The backend scheme of a display URL (``serial`` for a path or a pyserial URL).
+
+    Raises
+    ------
+    UserInputError
+        ``SCHEME:`` without ``//`` after it (``tcs2:/tmp/x``): not read as a path.
+    """
     url = str(url)
     if "://" not in url:
+        m = _SCHEME.match(url)
+        if m is not None:     # a drive letter (C:) is one character: never a scheme here
+            raise UserInputError(f"display: {shown_url(url)}: expected {m.group(1)}://... (a "
+                                 f"scheme is followed by two slashes; tcs2:///dev/ttyACM0 for a "
+                                 f"path) or a serial device path")
         return "serial"
     scheme = url.split("://", 1)[0].lower()
     return "serial" if scheme in PYSERIAL_SCHEMES else scheme
@@ -104,14 +187,32 @@ def backend_for(url: str):
         return _REGISTRY[scheme]
     except KeyError:
         known = ", ".join(f"{s}://" for s in sorted(_REGISTRY) if s != "serial")
-        raise UserInputError(f"display: {url!r}: no display backend for the scheme {scheme!r}; "
-                             f"expected a serial device path or one of {known}") from None
+        raise UserInputError(f"display: {shown_url(url)}: no display backend for the scheme "
+                             f"{shown_url(scheme)}; expected a serial device path or one of "
+                             f"{known}") from None
 
 
 def backends() -> list:
     """The registered backend classes, by scheme."""
     _load_builtins()
     return [_REGISTRY[s] for s in sorted(_REGISTRY)]
+
+
+def check_url(url: str):
+    """The backend of ``url`` after its own check of the URL (nothing opened); every error one
+    bounded line.
+
+    Raises
+    ------
+    UserInputError
+        No backend for the scheme, or a URL its backend refuses.
+    """
+    backend = backend_for(url)
+    try:
+        backend.check_url(str(url))
+    except UserInputError as exc:
+        raise _bounded(exc, url) from None
+    return backend
 
 
 def open_display(url: str, limits=None, **options):
@@ -135,8 +236,12 @@ def open_display(url: str, limits=None, **options):
     Raises
     ------
     UserInputError
-        No backend for the scheme, or a malformed URL.
+        No backend for the scheme, or a malformed URL (one line, the URL bounded).
     DisplayError
-        The device cannot be reached or is refused at the handshake.
+        The device cannot be reached or is refused at the handshake (one line, the URL bounded).
     """
-    return backend_for(url).open(str(url), limits, **options)
+    backend = check_url(url)
+    try:
+        return backend.open(str(url), limits, **options)
+    except (DisplayError, UserInputError) as exc:
+        raise _bounded(exc, url)

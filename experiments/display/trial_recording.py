@@ -13,8 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-from .thermocue import messages as m
-from .thermocue.messages import END_NAMES, DeviceEvent, Status, Telemetry
+from .types import DeviceEvent, Status, Telemetry
 
 __all__ = ["ContactEvent", "TrialRecording", "DELIVERED_ENDS", "evidence_fault", "NO_TELEMETRY",
            "NO_TRACKING", "MAX_FRAME_LOSS"]
@@ -164,11 +163,11 @@ class TrialInProgress:
                 pass
         elif k == "END":
             self.ended = True
-            self.end_reason = END_NAMES.get(ev.arg, str(ev.arg))
+            self.end_reason = ev.reason
             self.end_time_s = ev.device_time_s
         elif k in ("FAULT", "WATCHDOG"):
             if self.fault is None:
-                self.fault = m.error_name(ev.arg) if k == "FAULT" else "WATCHDOG"
+                self.fault = ev.reason or k
                 self.fault_msg = ev.text
             self.ended = True
             self.end_reason = "fault"

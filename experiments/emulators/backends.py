@@ -34,6 +34,7 @@ class EmulatorDisplay(ThermalDisplay, scheme="emulator"):
 
     description = "the Python emulator of the thermocue display, in this process"
     url_grammar = "emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=ID]"
+    example_urls = (("emulator://", "Thermal display (emulator)"),)
 
     @classmethod
     def check_url(cls, url: str) -> None:

@@ -28,8 +28,6 @@ from .profiles import load_protocol_for_cue
 
 __all__ = ["ThermalCueDevice", "ContactResponse"]
 
-_END_RELEASED = 1           # END event arg (docs/display-protocol.md §4)
-
 
 class ContactResponse(BaseResponse):
     """A force threshold crossing on the display.
@@ -116,34 +114,36 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
         """Every display backend thermocue has (its display registry), and the serial ports the
         system lists now; nothing is opened or probed.
 
-        The emulators (``emulator://``, ``tcs2://emulator``, and ``qemu-firmware://`` where
-        ``qemu-system-arm`` is installed) are listed as they are; each serial port is listed
-        once per backend that speaks over one (the thermocue protocol: the port's path; the
-        TCS II: ``tcs2://PORT``). A backend registered by another package is listed by its
-        scheme and description. A port listed is only a candidate: a display is recognised when
-        opened (the handshake names its firmware).
+        Each backend is listed from what it states (:attr:`~experiments.display.base.Display.
+        example_urls`): its examples as they are (``emulator://``, ``tcs2://emulator``,
+        ``qemu-firmware://``) when it can be opened here (its ``availability``), and an example
+        with ``{port}`` once per serial port (the thermocue protocol: the port's path; the TCS
+        II: ``tcs2://PORT``). A backend that states no example is listed by its scheme and
+        description. A port listed is only a candidate: a display is recognised when opened
+        (the handshake names its firmware).
         """
-        import shutil
-
         from serial.tools import list_ports
 
         from experiments.display.registry import backends
         cls_name = "experiments.psychopy_plugin.device.ThermalCueDevice"
-        per_port = {"serial": ("Thermal display", "{port}"), "tcs2": ("TCS II", "tcs2://{port}")}
-        fixed = {"emulator": [("Thermal display (emulator)", "emulator://")],
-                 "tcs2": [("TCS II (emulator)", "tcs2://emulator")],
-                 "qemu-firmware": [("Thermal display firmware under QEMU", "qemu-firmware://")]
-                 if shutil.which("qemu-system-arm") else []}
         ports = [p for p in list_ports.comports() if p.hwid != "n/a"]   # n/a: a legacy UART
         profiles = []
         for backend in backends():
             scheme, about = backend.scheme, backend.description
-            listed = [{"deviceName": name, "url": url} for name, url in fixed.get(scheme, [])]
-            if scheme in per_port:
-                name, url = per_port[scheme]
-                listed += [{"deviceName": f"{name} on {p.device}", "url": url.format(port=p.device),
-                            "port": p.device, "portDescription": p.description} for p in ports]
-            elif scheme not in fixed:
+            examples = tuple(getattr(backend, "example_urls", ()) or ())
+            try:
+                available = bool(backend.availability()[0])
+            except Exception:        # a third-party backend's own check failing: not offered
+                available = False
+            listed = []
+            for url, name in examples:
+                if "{port}" in url:
+                    listed += [{"deviceName": name.format(port=p.device),
+                                "url": url.format(port=p.device), "port": p.device,
+                                "portDescription": p.description} for p in ports]
+                elif available:
+                    listed.append({"deviceName": name, "url": url})
+            if not examples:
                 listed.append({"deviceName": about or scheme, "url": f"{scheme}://"})
             profiles += [dict(p, scheme=scheme, description=about, deviceClass=cls_name)
                          for p in listed]
@@ -187,7 +187,7 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
                 force = None
             self.receiveMessage(ContactResponse(self._toPsychopy(ev.device_time_s), True,
                                                 ev.device_time_s, force, "contact", device=self))
-        elif ev.kind == "END" and ev.arg == _END_RELEASED:
+        elif ev.kind == "END" and ev.reason == "released":
             self.receiveMessage(ContactResponse(self._toPsychopy(ev.device_time_s), False,
                                                 ev.device_time_s, None, "release", device=self))
 

@@ -112,15 +112,15 @@ def check_overtemp(bench: Bench) -> CheckResult:
                       {"contact": tr.contact_C, "setpoint": tr.setpoint_C}, hlines={"trip": held})
     fault_at = next((i for i, s in enumerate(tr.states) if s == "FAULT"), None)
     measured = f"trip held {held:g} °C, restored to {restored:g} °C; "
-    if fault_at is None or st.last_fault != "OVER_TEMPERATURE":
-        return CheckResult(name, title, False, limit, measured + f"state {st.state}, fault {st.last_fault}",
+    if fault_at is None or st.fault != "OVER_TEMPERATURE":
+        return CheckResult(name, title, False, limit, measured + f"state {st.state}, fault {st.fault}",
                            "no OVER_TEMPERATURE fault latched past the trip",
                            "the firmware's trip (image flashed) and the contact sensor's "
                            "calibration constant", plots=[plot], board_only="the trip at 44.8 °C")
     peak = float(y[fault_at:].max())
     after = y[fault_at:]
     fall = peak - float(after[-1])
-    measured += (f"FAULT {st.last_fault} at {t[fault_at]:.2f} s; peak {peak:.2f} °C; fell {fall:.2f} °C "
+    measured += (f"FAULT {st.fault} at {t[fault_at]:.2f} s; peak {peak:.2f} °C; fell {fall:.2f} °C "
                  f"in {t[-1] - t[fault_at]:.2f} s")
     fails = []
     if peak > held + TRIP_OVERRUN_C:
@@ -141,7 +141,8 @@ def check_watchdog(bench: Bench) -> CheckResult:
     name, title = "watchdog", "the watchdog cuts heating when the host goes silent"
     d = bench.display
     info = getattr(d, "info", None)
-    stated = getattr(info, "watchdog_ms", None)
+    watchdog_s = getattr(info, "watchdog_s", None)
+    stated = None if watchdog_s is None else int(round(watchdog_s * 1000))   # ms
     limit = (f"WATCHDOG within the stated {stated} ms + one 10 ms tick of the last host frame; "
              f"set-point back to neutral" if stated else "WATCHDOG within the stated time")
     if not (bench.has("stop_heartbeat") and stated):
@@ -180,12 +181,12 @@ def check_watchdog(bench: Bench) -> CheckResult:
                            "the firmware's watchdog (image flashed)")
     ms = wd[0].arg
     measured = (f"WATCHDOG {ms} ms after the last host frame; state {st.state}, fault "
-                f"{st.last_fault}; set-point {tr.setpoint_C[-1]:.2f} °C {tr.t_s[-1] - t0:.2f} s later")
+                f"{st.fault}; set-point {tr.setpoint_C[-1]:.2f} °C {tr.t_s[-1] - t0:.2f} s later")
     fails = []
     if ms > allowed:
         fails.append(f"the watchdog tripped {ms} ms after the last host frame (> {allowed} ms)")
-    if st.state != "IDLE" or st.last_fault != "WATCHDOG":
-        fails.append(f"after the trip: state {st.state}, fault {st.last_fault}")
+    if st.state != "IDLE" or st.fault != "WATCHDOG":
+        fails.append(f"after the trip: state {st.state}, fault {st.fault}")
     if not back:
         fails.append("the set-point did not return to neutral")
     plot = bench.plot("watchdog", "after the watchdog trip", np.array(tr.t_s) - t0,

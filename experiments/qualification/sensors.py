@@ -35,8 +35,8 @@ def check_sensors(bench: Bench) -> CheckResult:
     while True:
         for key, v in zip(readings, (st.contact_C, st.ambient_C, st.finger_C, st.heatsink_C)):
             readings[key].append(v)
-        if st.state == "FAULT" and st.last_fault:
-            faults.add(st.last_fault)
+        if st.state == "FAULT" and st.fault:
+            faults.add(st.fault)
         if st.device_time_s >= t_end:
             break
         bench.pause(0.05)

@@ -343,21 +343,22 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
     from experiments.errors import ProtocolError, SafetyLimitError
-    from experiments.display.registry import backend_for
+    from experiments.display.registry import backend_for, check_url, open_display, shown_url
 
     src = source or protocol_source(protocol)
     try:
         backend = backend_for(url)
     except UserInputError as exc:
         raise UserInputError(f"{option}: expected a display URL or a serial device path, got "
-                             f"{url!r} ({str(exc).split('; ', 1)[-1]})") from None
+                             f"{shown_url(url)} ({str(exc).split('; ', 1)[-1]})") from None
     try:
-        backend.check_url(url)
+        check_url(url)
     except UserInputError as exc:
-        raise UserInputError(f"{option}: expected a display URL, got {url!r}: {exc}") from None
+        raise UserInputError(f"{option}: expected a display URL, got {shown_url(url)}: "
+                             f"{exc}") from None
     _check_backend(protocol, backend.declared_capabilities(), backend.scheme, src)
     try:
-        return backend.open(url, limits=protocol.display.safety_limits())
+        return open_display(url, limits=protocol.display.safety_limits())
     except SafetyLimitError as exc:
         text = str(exc).split(": ", 2)[-1] if str(exc).startswith("display: limits: ") else str(exc)
         raise ProtocolError(f"{src}: display.min_C, display.max_C: {text}") from None
@@ -365,16 +366,16 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
         cause = exc.__cause__
         if isinstance(cause, ValueError):     # pyserial: an unknown URL scheme or option
             raise UserInputError(f"{option}: expected a display URL or a serial device path, "
-                                 f"got {url!r} ({cause})") from None
+                                 f"got {shown_url(url)} ({cause})") from None
         if "://" not in url and cause is not None:
             if not os.path.lexists(url):
-                raise DisplayError(f"display: cannot open {url!r}: no such device (is the display "
+                raise DisplayError(f"display: cannot open {shown_url(url)}: no such device (is the display "
                                    f"connected and the path right?)") from None
             if not _is_terminal(url):
-                raise UserInputError(f"{option}: expected a serial device (a terminal), got {url!r}, "
+                raise UserInputError(f"{option}: expected a serial device (a terminal), got {shown_url(url)}, "
                                      f"which is not one") from None
             if isinstance(cause, OSError) and cause.errno in (errno.EACCES, errno.EPERM):
-                raise DisplayError(f"display: cannot open {url!r}: permission denied (is the user "
+                raise DisplayError(f"display: cannot open {shown_url(url)}: permission denied (is the user "
                                    f"in the serial-port group, e.g. dialout?)") from None
         raise
 

@@ -300,8 +300,7 @@ class TrialSteps:
         else:
             code, message = getattr(exc, "code", None), str(exc)
             if isinstance(code, int):   # DisplayRefused: the device's code, named like a device fault
-                from experiments.display.thermocue.messages import error_name
-                code = error_name(code)
+                code = getattr(exc, "code_name", None) or f"CODE_{code}"
             elif code is None:
                 code = type(exc).__name__
         if isinstance(exc, DisplayRestarted) or str(code) in _FATAL_CODES:

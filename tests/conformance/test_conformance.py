@@ -36,7 +36,7 @@ def ramp_profile(duration_s=0.6, start_C=32.0, slope_C_per_s=5.0, step_s=0.001):
 
 # ---------------------------------------------------------------------------- handshake
 def test_handshake_declares_the_protocols_numbers(display):
-    info = display.info
+    info = display.hello                           # the HELLO reply as the protocol has it
     assert info.protocol == 2
     assert info.telemetry_hz == 100
     assert info.watchdog_ms == 90                  # §6: 90 ms + one 10 ms tick = 100 ms
@@ -83,7 +83,7 @@ def played(shared_display):
     d.sim_finger(press_after_s=0.2, force_N=2.0, hold_s=3.0)
     tel, events = [], []
     rec = d.run_trial(timeout_s=10.0, on_telemetry=tel.append, on_event=events.append)
-    return dict(rec=rec, telemetry=tel, events=events, status=d.status(), profile=(t, y))
+    return dict(rec=rec, telemetry=tel, events=events, status=d.wire_status(), profile=(t, y))
 
 
 def test_contact_starts_playback_and_the_trial_is_delivered(played):
@@ -130,10 +130,10 @@ def test_arm_resets_the_last_trials_account_and_abort_ends_it(played, display):
     t, y = ramp_profile(0.5, 32.0, 2.0)
     display.upload_profile(t, y)
     display.arm("playback", 2.0, 5.0)
-    st = display.status()
+    st = display.wire_status()
     assert st.state == "ARMED" and st.contact_time_s is None and st.end_reason == 0
     display.abort()
-    st = display.status()
+    st = display.wire_status()
     assert st.state == "IDLE" and st.end_reason == 3 and st.contact_time_s is None
 
 
@@ -168,7 +168,7 @@ def test_over_temperature_is_latched_until_operator_reset(display):
     tel = []
     rec = display.run_trial(timeout_s=3.0, on_telemetry=tel.append)
     assert rec.status != "ok"
-    st = display.status()
+    st = display.wire_status()
     assert st.state == "FAULT" and st.last_fault == "OVER_TEMPERATURE" and st.end_reason == 4
     assert tel[-1].state == "FAULT" and tel[-1].fault == "OVER_TEMPERATURE"
     # the pad above the 45 °C hard maximum for at most one 10 ms tick (§6)
@@ -186,7 +186,7 @@ def test_over_temperature_is_latched_until_operator_reset(display):
 def test_stuck_contact_sensor_is_latched(display):
     fault_ends_s = display.sim_fault("stuck_sensor+0.5")["now_s"] + 0.5
     wait_device_time(display, fault_ends_s + 0.1)   # 20 identical readings take 0.1 s
-    st = display.status()
+    st = display.wire_status()
     assert st.state == "FAULT" and st.last_fault == "SENSOR_STUCK"
     display.abort()
     assert display.status().state == "FAULT"
@@ -203,7 +203,7 @@ def test_stuck_contact_sensor_is_latched(display):
 def test_restart_is_detected_and_a_new_boot_id_drawn(fresh_display):
     """Requirement 5 and the host's side of a restart (§6): a power cycle is seen as one."""
     d = fresh_display
-    boot = d.info.boot_id
+    boot = d.hello.boot_id
     wait_device_time(d, 1.0)
     before_s = d.status().device_time_s
     d.sim_fault("reboot@0.1")
@@ -213,8 +213,8 @@ def test_restart_is_detected_and_a_new_boot_id_drawn(fresh_display):
         while time.monotonic() < deadline:
             d.status()
             time.sleep(0.05)
-    info = d.handshake()                          # a resume shakes hands again
-    assert info.boot_id != boot
+    d.handshake()                                 # a resume shakes hands again
+    assert d.hello.boot_id != boot
     after_s = d.status().device_time_s
     # device time restarted from 0 (a device clock never runs faster than the wall clock)
     assert after_s <= time.monotonic() - injected + 0.05 and before_s >= 1.0

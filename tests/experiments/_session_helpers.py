@@ -8,7 +8,8 @@ from pathlib import Path
 
 from experiments.errors import DisplayError, DisplayTimeout
 from experiments.display.thermocue.driver import TrialRecording
-from experiments.display.thermocue.messages import Telemetry
+from experiments.display.base import EmulatedDisplay
+from experiments.display.types import DeviceInfo, Status, Telemetry
 from experiments.responders.base import Responder, Response
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -152,17 +153,16 @@ class ScriptedResponder(Responder, name="scripted-test"):
 
 
 # --------------------------------------------------------------------------- stand-in display
-@dataclass
-class Info:
-    device_id: str = "scripted"
-    firmware: str = "0"
-    capabilities: tuple = ("sim",)
+def Info():
+    return DeviceInfo(device_id="scripted", firmware="0", capabilities=("sim",), telemetry_hz=10.0,
+                      hard_min_C=10.0, hard_max_C=44.5, max_rate_C_per_s=100.0, neutral_C=32.0,
+                      max_points=65536, min_dt_s=0.001)
 
 
 @dataclass
-class ScriptedDisplay:
-    """Follows the driver's contract (:class:`experiments.display.base.EmulatedDisplay`,
-    frames and recordings of the driver's own types); ``script`` says per run_trial call what happens:
+class ScriptedDisplay(EmulatedDisplay):
+    """Follows the driver's contract (a subclass of :class:`experiments.display.base.EmulatedDisplay`,
+    frames and recordings of the contract's types); ``script`` says per run_trial call what happens:
     ``"ok"``, ``"fault"`` (faulted recording), ``"raise"`` (DisplayError), ``"timeout"``
     (DisplayTimeout) or ``"no_contact"``."""
 
@@ -194,6 +194,19 @@ class ScriptedDisplay:
 
     def sim_finger(self, **kw):
         self.calls.append(("sim_finger",))
+
+    def poll(self, on_telemetry=None, on_event=None):
+        return False
+
+    def status(self):
+        return Status("IDLE", None, 0.0, 32.0, 32.0, 20.0, 35.0, (0.0,) * 4, 32.0, 0, None, None,
+                      self.n_runs)
+
+    def heartbeat(self):
+        return 0.0
+
+    def close(self):
+        pass
 
     def run_trial(self, timeout_s, on_telemetry=None):
         what = self.script[self.n_runs] if self.n_runs < len(self.script) else "ok"

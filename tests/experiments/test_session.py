@@ -93,7 +93,8 @@ def test_a_refused_command_is_written_with_the_devices_code_name(tmp_path):
         def arm(self, **kw):
             super().arm(**kw)
             if len([c for c in self.calls if c[0] == "arm"]) == 2:
-                raise DisplayRefused("display: ARM refused: FAULT_LATCHED (clear it)", code=10)
+                raise DisplayRefused("display: ARM refused: FAULT_LATCHED (clear it)", code=10,
+                                     code_name="FAULT_LATCHED")
 
     s = new_session(tmp_path)
     disp = Refusing()

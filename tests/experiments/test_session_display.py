@@ -1,8 +1,9 @@
 """The engine's Display base: the real driver and the tests' stand-in both satisfy it.
 
 The stand-in (``_session_helpers.ScriptedDisplay``) must keep the driver's contract, or the
-engine tests prove nothing about the real display: the same methods, callable the way the
-engine calls them, and frames and recordings of the driver's own types.
+engine tests prove nothing about the real display: a subclass of the base, the same methods,
+callable the way the engine and the PsychoPy plugin call them, and frames and recordings of
+the contract's own types.
 """
 from __future__ import annotations
 
@@ -13,8 +14,9 @@ import numpy as np
 from _session_helpers import ScriptedDisplay
 from experiments.display import open_display
 from experiments.display.thermocue.driver import ThermalDisplay, TrialRecording
-from experiments.display.thermocue.messages import Telemetry
+from experiments.display.types import Telemetry
 from experiments.display.base import Display, EmulatedDisplay
+from experiments.display.tcs2.backend import Tcs2Display
 
 #: The calls the engine (and the emulated hand) make, as (args, kwargs).
 ENGINE_CALLS = {
@@ -28,12 +30,25 @@ ENGINE_CALLS = {
     "sim_finger": ((), {"press_after_s": 0.3, "force_N": 2.5, "hold_s": 2.0,
                         "skin_thickness_m": 800e-6, "skin_temperature_C": 35.5}),
 }
+#: ... and the PsychoPy plugin (poll in its frame loop, heartbeat bursts for its clock map),
+#: the trial's end (status) and every caller's last call (close).
+PLUGIN_CALLS = {
+    "poll": ((), {"on_event": print}),
+    "heartbeat": ((), {}),
+    "status": ((), {}),
+    "close": ((), {}),
+}
 
 
-def test_the_engine_calls_are_the_abstract_methods():
-    # what a backend must implement is exactly what the engine (and the emulated hand) calls
-    assert set(EmulatedDisplay.__abstractmethods__) == set(ENGINE_CALLS)
-    assert set(Display.__abstractmethods__) == set(ENGINE_CALLS) - {"sim_sample", "sim_finger"}
+def test_the_callers_calls_are_the_abstract_methods():
+    # what a backend must implement is exactly what the engine, the emulated hand and the
+    # plugin call (is_awake has a default: one heartbeat)
+    calls = set(ENGINE_CALLS) | set(PLUGIN_CALLS)
+    assert set(EmulatedDisplay.__abstractmethods__) == calls
+    assert set(Display.__abstractmethods__) == calls - {"sim_sample", "sim_finger"}
+    for name in ("is_awake", "check_profile_capacity", "check_url", "availability",
+                 "capabilities", "example_urls", "open", "declared_capabilities"):
+        assert hasattr(Display, name), name
 
 
 def test_the_real_driver_satisfies_the_protocol():
@@ -42,14 +57,14 @@ def test_the_real_driver_satisfies_the_protocol():
         assert isinstance(display, Display) and isinstance(display, EmulatedDisplay)
     finally:
         display.close()
-    for name, (args, kwargs) in ENGINE_CALLS.items():   # callable the way the engine calls it
+    for name, (args, kwargs) in {**ENGINE_CALLS, **PLUGIN_CALLS}.items():   # as callers call it
         inspect.signature(getattr(ThermalDisplay, name)).bind(None, *args, **kwargs)
 
 
 def test_the_stand_in_satisfies_it_and_returns_the_drivers_types():
     display = ScriptedDisplay(script=["ok", "fault", "no_contact"])
     assert isinstance(display, Display) and isinstance(display, EmulatedDisplay)
-    for name, (args, kwargs) in ENGINE_CALLS.items():
+    for name, (args, kwargs) in {**ENGINE_CALLS, **PLUGIN_CALLS}.items():
         inspect.signature(getattr(ScriptedDisplay, name)).bind(None, *args, **kwargs)
     display.arm(mode="record", force_threshold_N=2.0, max_duration_s=5.0)
     for _ in range(3):
@@ -59,13 +74,34 @@ def test_the_stand_in_satisfies_it_and_returns_the_drivers_types():
         assert frames and all(type(f) is Telemetry for f in frames)
 
 
-def test_something_without_run_trial_is_not_a_display():
-    class Half:
+def test_a_display_is_one_by_subclassing_only():
+    # no structural check: having the methods does not make a class a display, and a backend
+    # with sim_* methods is not an EmulatedDisplay unless it says so
+    class Lookalike:
         info = None
 
         def set_neutral(self, c): ...
         def upload_profile(self, t, y): ...
         def arm(self, **kw): ...
+        def run_trial(self, **kw): ...
+        def abort(self): ...
+        def sim_sample(self, **kw): ...
+        def sim_finger(self, **kw): ...
+
+    assert not isinstance(Lookalike(), Display) and not issubclass(Lookalike, EmulatedDisplay)
+    assert hasattr(Tcs2Display, "sim_finger") and not issubclass(Tcs2Display, EmulatedDisplay)
+    assert issubclass(Tcs2Display, Display)
+
+    class Half(Display):          # a subclass that leaves out a declared call is not usable
+        def set_neutral(self, c): ...
+        def upload_profile(self, t, y): ...
+        def arm(self, **kw): ...
+        def run_trial(self, **kw): ...
         def abort(self): ...
 
-    assert not isinstance(Half(), Display)
+    try:
+        Half()
+    except TypeError as exc:
+        assert all(n in str(exc) for n in ("close", "heartbeat", "poll", "status"))
+    else:
+        raise AssertionError("a display without poll, heartbeat, status and close was made")

@@ -18,7 +18,7 @@ import time
 import numpy as np
 import pytest
 
-from experiments.display.thermocue.messages import Telemetry
+from experiments.display.types import Telemetry
 from sessionfiles.logbook import append_text, read_events, trials_csv_text, trials_from_events
 from sessionfiles.logformat import TRACE_COLUMNS, TRACE_DECIMALS, format_cell
 from experiments.session.trials_table import TrialsTable

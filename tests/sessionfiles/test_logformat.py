@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from sessionfiles import logformat
-from experiments.display.thermocue.messages import Telemetry
+from experiments.display.types import Telemetry
 from sessionfiles.logbook import EventLog
 from sessionfiles.logformat import (
     COLUMN_DECIMALS,

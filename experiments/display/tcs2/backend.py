@@ -22,7 +22,7 @@ it and ``Q`` no error. A profile is compiled to segments (:mod:`.profile_compile
 ``Uw``, enabled by ``Ue`` and read back by ``Ur``, which must equal what was sent.
 
 A trial streams the 100 Hz temperature lines into the session's telemetry (one
-:class:`~experiments.display.thermocue.messages.Telemetry` a line: contact = the mean of the stimulating
+:class:`~experiments.display.types.Telemetry` a line: contact = the mean of the stimulating
 zones, ambient = the neutral sensor; no force, no skin thermometer: NaN) and polls ``Q``. A
 silent device, a line that is not text, a half line, a reply the protocol does not have, a zone
 error: the host sends ``A`` (abort to neutral) and the trial ends as a flagged
@@ -46,7 +46,7 @@ from experiments.errors import DisplayError, SafetyLimitError, UserInputError
 
 from ..base import (Capabilities, Display, ProfileReceipt, handshake_or_close,
                             open_serial_port)
-from ..thermocue.messages import DeviceInfo, Status
+from ..types import DeviceInfo, Status
 from ..safety import SafetyLimits
 from ..trial_recording import TrialRecording
 from . import commands as cmd
@@ -70,7 +70,6 @@ def _locked(method):
         with self._io:
             return method(self, *args, **kwargs)
     return wrapper
-_NAN4 = (math.nan,) * 4
 
 
 
@@ -101,6 +100,7 @@ class Tcs2Display(Display, scheme="tcs2"):
 
     description = "QST.Lab TCS II thermode (ASCII serial); tcs2://emulator: its emulator here"
     url_grammar = URL_GRAMMAR
+    example_urls = (("tcs2://emulator", "TCS II (emulator)"), ("tcs2://{port}", "TCS II on {port}"))
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, zones=(1, 2, 3, 4, 5),
                  start: str = "command", tolerance_C: float = RESOLUTION_C, name: str = "?"):
@@ -242,12 +242,14 @@ class Tcs2Display(Display, scheme="tcs2"):
         except ValueError as exc:                     # a command the host refuses to format
             raise UserInputError(f"display: {exc}") from None
         self.emulated = "thermocue-emulator" in about["firmware"]
+        # the TCS II's ASCII protocol has no version, and the device no watchdog: None
         self.info = DeviceInfo(
             device_id=about["probe_id"], firmware=about["firmware"], image_id=about["firmware"],
-            capabilities=("playback", "sim") if self.emulated else ("playback",), protocol=0,
-            telemetry_hz=100, hard_min_C=cmd.SETPOINT_RANGE_C[0], hard_max_C=self.max_C,
-            max_rate_C_per_s=999.9, neutral_C=self.neutral_C, watchdog_ms=0,
-            max_points=MAX_SEGMENTS * MAX_SEGMENT_STEPS + 1, min_dt_s=0.001, boot_id=0)
+            capabilities=("playback", "sim") if self.emulated else ("playback",),
+            telemetry_hz=100.0, hard_min_C=cmd.SETPOINT_RANGE_C[0], hard_max_C=self.max_C,
+            max_rate_C_per_s=999.9, neutral_C=self.neutral_C,
+            max_points=MAX_SEGMENTS * MAX_SEGMENT_STEPS + 1, min_dt_s=0.001,
+            protocol=None, watchdog_s=None)
         return self.info
 
     def _check_errors(self, when: str) -> None:
@@ -488,10 +490,15 @@ class Tcs2Display(Display, scheme="tcs2"):
         except ReplyError as exc:
             raise DisplayError(str(exc)) from None
         zone = float(np.mean([temps[z] for z in self.zones]))
-        return Status("IDLE" if self._trial is None else "ARMED", None, self.link.clock(),
-                      self.neutral_C, zone, temps[0], math.nan, math.nan, _NAN4, self.neutral_C,
-                      0 if self.tracking_profile is None else len(self.tracking_profile[1]), None, 0, 0,
-                      self.trials, 0)
+        last = self.last_recording
+        # no device clock (the host's), no skin thermometer, no force plate: None
+        return Status(state="IDLE" if self._trial is None else "ARMED", fault=None,
+                      device_time_s=self.link.clock(), setpoint_C=self.neutral_C, contact_C=zone,
+                      ambient_C=temps[0], finger_C=None, forces_N=None, neutral_C=self.neutral_C,
+                      profile_points=(0 if self.tracking_profile is None
+                                      else len(self.tracking_profile[1])),
+                      contact_time_s=last.contact_time_s if last else None,
+                      end_reason=last.end_reason if last else None, trials=self.trials)
 
     @_locked
     def heartbeat(self) -> float:

@@ -4,7 +4,7 @@
 :meth:`~.backend.Tcs2Display.poll` advance: before the start it waits until every stimulating
 zone rests within :data:`READY_TOLERANCE_C` of the profile's start (``Oe``, up to
 :data:`READY_S`), asks ``Q``, sends ``L`` (or pulses the emulator's trigger input, or waits for
-the device's); each temperature line becomes a :class:`~experiments.display.thermocue.messages.Telemetry`
+the device's); each temperature line becomes a :class:`~experiments.display.types.Telemetry`
 frame (time: the first line's arrival plus 10 ms a line); ``Q`` is asked every
 :data:`Q_EVERY_S` and once after the stream ends. A silent device, garbage, a half line, an
 unknown reply or a zone error end it as a fault after ``A`` (:meth:`~.backend.Tcs2Display.
@@ -19,7 +19,7 @@ import numpy as np
 
 from experiments.errors import DisplayError, DisplayTimeout
 
-from ..thermocue.messages import DeviceEvent, Telemetry
+from ..types import DeviceEvent, Telemetry
 from ..trial_recording import TrialInProgress, TrialRecording, evidence_fault
 from . import commands as cmd
 from .commands import ReplyError
@@ -99,9 +99,8 @@ class TcsTrial:
             if self.fault is not None:
                 return                  # a late reply to Q showed an error: ended as a fault
         now = self.d.link.clock()
-        self.tr.event(DeviceEvent("END", now, {"complete": 0, "released": 1, "max_duration": 2,
-                                               "aborted": 3}.get(reason, 4),
-                                  fault[0] if fault else ""))
+        named = reason if reason in ("complete", "released", "max_duration", "aborted") else "fault"
+        self.tr.event(DeviceEvent("END", now, named, fault[0] if fault else ""))
 
     def _collect_pending_q(self) -> None:
         """Read the replies to ``Q`` still on their way (up to 0.5 s), so that none is taken
@@ -273,7 +272,7 @@ class TcsTrial:
                 return                  # the display between stimulations (muted; stale)
             self.contact_s = now
             self.next_q = now + Q_EVERY_S
-            self.tr.event(DeviceEvent("CONTACT", now, 0, "stimulus start"))
+            self.tr.event(DeviceEvent("CONTACT", now, None, "stimulus start"))
         self.frames += 1
         self.last_line_at = now
         t_rel = (self.frames - 1) * STEP_S

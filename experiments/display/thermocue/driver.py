@@ -53,12 +53,14 @@ from experiments.errors import (DisplayBadReply, DisplayError, DisplayFaultLatch
 from . import messages as m
 from .framing import FrameParser
 from .link import ProtocolLink
-from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, handshake_or_close,
-                           open_serial_port)
+from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, check_serial_url,
+                    handshake_or_close, open_serial_port)
+from . import neutral
 from .handshake import decode_hello, refuse_text_device
-from .messages import Cmd, CommitAck, DeviceInfo, Mode, Status, UploadAck
+from .messages import Cmd, CommitAck, Mode, UploadAck
+from ..types import DeviceInfo, Status
 from ..safety import SafetyLimits, check_profile
-from ..trial_recording import (ACTIVE_STATES, END_NAMES, ContactEvent, TrialRecording, not_delivered,
+from ..trial_recording import (ACTIVE_STATES, ContactEvent, TrialRecording, not_delivered,
                               TrialInProgress, evidence_fault)
 
 __all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
@@ -115,6 +117,12 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     description = "thermocue display protocol (reference firmware, or any device speaking it)"
     _probe_text = True     # look for a TCS II before the first frame (an OS serial port only)
     url_grammar = "/dev/ttyUSB0 | COM3 | PTY_PATH | pyserial URL"
+    example_urls = (("{port}", "Thermal display on {port}"),)
+
+    @classmethod
+    def check_url(cls, url: str) -> None:
+        """A pyserial URL pyserial cannot read is refused in one line (``hwgrep://[``)."""
+        check_serial_url(url)
 
     def __init__(self, port, limits: SafetyLimits | None = None, *, reply_timeout_s: float = 0.25,
                  retries: int = 3, heartbeat_s: float = 0.01, max_frame_loss: float = 0.01,
@@ -135,7 +143,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self.heartbeats_sent = 0                # by the heartbeat thread
         self.max_tx_gap_s = 0.0                 # longest wall-time gap between written frames
         self.max_frame_loss = float(max_frame_loss)
-        self.info: DeviceInfo | None = None
+        self.info: DeviceInfo | None = None     # the handshake's answer, neutral
+        self.hello: m.DeviceInfo | None = None  # ... as the protocol's HELLO reply (boot id)
         self._lock = threading.RLock()
         self._parser = FrameParser()
         # a random start: a host that reconnects must not repeat its predecessor's numbers
@@ -238,7 +247,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         except (serial.SerialException, OSError):
             pass
         self._parser.reset()
-        self.info = self._hello()
+        self._hello()
         self._refuse_latched_fault()
         rate = int(round(self.info.max_rate_C_per_s * 100))
         self._restart = None
@@ -277,13 +286,22 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 raise DisplayLinkLost(f"display: cannot use {self.port_name}: {exc}") from exc
 
     def _hello(self) -> DeviceInfo:
-        """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`)."""
-        return decode_hello(self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
+        """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`); sets
+        :attr:`info` (neutral) and the boot id."""
+        wire = decode_hello(self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
                             self.port_name)
+        self.hello = wire
+        self.info = neutral.device_info(wire)
+        return self.info
 
-    def _read_status(self) -> Status:
+    def _read_status(self) -> m.Status:
         """One STATUS round trip, as the device answers it (no check against the handshake)."""
-        return self._ask(Cmd.STATUS, Status.decode)
+        return self._ask(Cmd.STATUS, m.Status.decode)
+
+    def wire_status(self) -> m.Status:
+        """One STATUS round trip as the protocol's reply (:class:`.messages.Status`: numeric
+        end reason, boot id), for the protocol's conformance tests; callers use :meth:`status`."""
+        return self._read_status()
 
     def _refuse_latched_fault(self) -> None:
         """Stop at the handshake, with what to do, if the device is latched in FAULT.
@@ -467,7 +485,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                         if st.state not in ACTIVE_STATES:
                             tr.ended = True
                             if st.state == "FAULT" and tr.fault is None:
-                                tr.fault = st.last_fault or "FAULT"
+                                tr.fault = st.fault or "FAULT"
             except DisplayTimeout as exc:
                 host_fault = ("LINK_TIMEOUT", str(exc))
             except DisplayBadReply as exc:
@@ -495,12 +513,12 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                     tr.contact_s = st.contact_time_s
                     tr.active_seen = True
                 if st.state not in ACTIVE_STATES:
-                    tr.end_reason = END_NAMES.get(st.end_reason, str(st.end_reason))
+                    tr.end_reason = st.end_reason
                 if st.state == "FAULT" and tr.fault is None:
-                    tr.fault = st.last_fault or "FAULT"
+                    tr.fault = st.fault or "FAULT"
                 elif tr.end_reason == "fault" and tr.fault is None:
                     # the WATCHDOG or FAULT event was lost: the device still says why
-                    tr.fault = st.last_fault or "FAULT"
+                    tr.fault = st.fault or "FAULT"
                     tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
                                     f"its event was lost on the link")
             except DisplayLinkLost as exc:
@@ -559,13 +577,13 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             If the boot id differs from the handshake's (the device restarted).
         """
         st = self._read_status()
-        if self.info is not None and st.boot_id != self.info.boot_id:
-            self._restarted(f"boot id {st.boot_id:08x}, not {self.info.boot_id:08x} as at HELLO")
+        if self.hello is not None and st.boot_id != self.hello.boot_id:
+            self._restarted(f"boot id {st.boot_id:08x}, not {self.hello.boot_id:08x} as at HELLO")
         if self._restart is not None:
             raise DisplayRestarted(f"display: restarted since the handshake ({self._restart}); "
                                    f"it no longer holds this session's limits and neutral: "
                                    f"stop, and resume to shake hands again")
-        return st
+        return neutral.status(st)
 
     def set_trip(self, temperature_C: float) -> float:
         """Lower the device's over-temperature trip (°C) for a test (``thermocue check``);
@@ -604,7 +622,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             before = disp._read_status()
             if before.state != "FAULT":
                 return before.state, before.last_fault, before.state
-            disp.info = disp._hello()
+            disp._hello()
             disp.clear_fault()
             # a cause still there (a sensor out of range or stuck) trips it again at once:
             # watch it for RESET_WATCH_S before calling the reset done

@@ -22,7 +22,8 @@ from experiments.errors import (DisplayBadReply, DisplayError, DisplayLinkLost, 
 
 from . import messages as m
 from .framing import encode_frame
-from .messages import Cmd, DeviceEvent, Msg, Telemetry
+from .messages import Cmd, DeviceEvent, Msg
+from .neutral import decode_telemetry, event as _neutral_event
 
 __all__ = ["ProtocolLink", "decode_reply"]
 
@@ -39,7 +40,7 @@ _TELEMETRY = int(Msg.TELEMETRY)
 _EVENT = int(Msg.EVENT)
 _HEARTBEAT_REPLY = int(Cmd.HEARTBEAT | m.REPLY_BIT)
 _TIME_SIZE = m.TIME.size
-_decode_telemetry = Telemetry.decode
+_decode_telemetry = decode_telemetry       # wire frame -> the contract's neutral Telemetry
 
 
 def _cmd_name(cmd: int) -> str:
@@ -199,7 +200,7 @@ class ProtocolLink:
                     trial.telemetry(tel)
             elif t == _EVENT:
                 try:
-                    ev = DeviceEvent.decode(fr.payload)
+                    ev = _neutral_event(DeviceEvent.decode(fr.payload))
                 except Exception:
                     self._parser.bad_frames += 1
                     continue
@@ -258,7 +259,8 @@ class ProtocolLink:
                                 f"refused: NO_HELLO); it no longer holds this session's "
                                 f"limits and neutral: stop, and resume to shake hands again")
                         raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
-                                             f"{m.error_name(code)} ({text})", code=code)
+                                             f"{m.error_name(code)} ({text})", code=code,
+                                             code_name=m.error_name(code))
                     self._heartbeat_if_due()
             raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
                                  f"{timeout_s} s, got none after {retries + 1} attempts")

@@ -233,6 +233,7 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
     description = "the reference C firmware (firmware/) as its real binary under qemu-system-arm"
     _probe_text = False    # the firmware this class started, never a TCS II
     url_grammar = URL_GRAMMAR
+    example_urls = (("qemu-firmware://", "Thermal display firmware under QEMU"),)
 
     @classmethod
     def check_url(cls, url: str) -> None:

@@ -57,7 +57,7 @@ def test_every_faulted_trial_is_reported(fault, code):
             assert dev.state.name == "FAULT" and dev.sp == LIMITS.neutral_C
             assert d.status().state == "FAULT"
             d.abort()                          # the session acknowledges the fault
-            assert d.status().last_fault == code
+            assert d.status().fault == code
         assert min(seen) >= LIMITS.min_C and max(seen) <= LIMITS.max_C
 
 

@@ -145,4 +145,5 @@ def test_over_a_pty_the_host_refuses_and_writes_nothing_after_hello(field, paylo
 
 def test_the_emulator_passes_the_handshake_checks():
     with open_display("emulator://?clock=virtual") as d:
-        assert d.info.watchdog_ms == 90 and d.info.protocol == 2
+        assert d.hello.watchdog_ms == 90 and d.hello.protocol == 2       # the wire reply
+        assert d.info.watchdog_s == pytest.approx(0.090) and d.info.protocol == 2   # neutral
