@@ -122,6 +122,8 @@ class Status(_Json):
         How the last trial ended (one of :data:`END_REASONS`); None: no trial has ended.
     trials : int
         Trials armed since the device was opened or powered up.
+    heatsink_C : float or None, °C
+        The heat sink's thermometer; None: the device has none (or does not report it).
     """
 
     state: str
@@ -137,6 +139,7 @@ class Status(_Json):
     contact_time_s: float | None
     end_reason: str | None
     trials: int
+    heatsink_C: float | None = None
 
 
 class Telemetry(NamedTuple):

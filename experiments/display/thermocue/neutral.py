@@ -33,7 +33,7 @@ def status(w: m.Status) -> Status:
                   finger_C=w.finger_C, forces_N=tuple(w.forces_N), neutral_C=w.neutral_C,
                   profile_points=w.profile_points, contact_time_s=w.contact_time_s,
                   end_reason=m.END_NAMES.get(w.end_reason, str(w.end_reason)) if ended else None,
-                  trials=w.trials)
+                  trials=w.trials, heatsink_C=w.heatsink_C)
 
 
 def event(w: m.DeviceEvent) -> DeviceEvent:
