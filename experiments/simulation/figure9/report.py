@@ -295,7 +295,7 @@ def write_outputs(out_dir, result, sens, headline, best, observed, n_sessions: i
     new opening.  Returns ``files``, ``verdict``, ``screen``.
     """
     from analysis.exports import write_csv        # whole or not at all
-    from experiments.logbook import atomic_write_text
+    from sessionfiles.logbook import atomic_write_text
     out_dir = Path(out_dir)
     write_csv(result.claims, out_dir / "claims.csv")
     write_csv(result.proportions, out_dir / "scenario_proportions.csv")
