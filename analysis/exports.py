@@ -55,6 +55,17 @@ COLUMNS = {
     "fault_code": (_C, "display fault code of the attempt, if any"),
     "abort_reason": (_C, "why the attempt was aborted (no_contact, interrupted, killed, error)"),
     "familiarisation": ("bool", "row of a familiarisation (unscored) block"),
+    "display_backend": (_C, "display the session ran on: the scheme of session.json's display_url "
+                            "(serial, emulator, qemu-firmware, tcs2, ...; empty: not recorded)"),
+    "device_id": (_C, "the display device's id as session.json records it (empty: not recorded)"),
+    "firmware_hash": (_C, "hash of the display's firmware image as session.json records it "
+                          "(empty: not recorded)"),
+    "contact_model": (_C, "the protocol's [simulation] contact_model: press (finger presses onto "
+                          "the pad) or resting (probe rests on the skin); empty: not recorded"),
+    "protocol_name": (_C, "the session's protocol"),
+    "protocol_hash": (_C, "hash of the session's stored protocol"),
+    "condition": (_C, "display_backend/contact_model (unrecorded for a value not recorded): "
+                      "trials of different conditions are never pooled (--condition)"),
     "included": ("bool", "row used in the analysis"),
     "exclusion": (_C, "why the row is not used (familiarisation, status, superseded attempt)"),
     "source": ("path", "file the row was read from"),

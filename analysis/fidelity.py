@@ -43,7 +43,9 @@ from experiments.session_reader import read_text_file
 
 from .errors import LogError
 from .inference import holm
-from .models import ModelFit, contrast_se, model_data, reference_p, reference_quantile
+from .wording import p_text, signed
+from .models import (ModelFit, contrast_se, design_gap, model_data, reference_p,
+                     reference_quantile)
 
 __all__ = ["DEFAULT_EQUIVALENCE_MARGIN_PP", "mode_contrasts", "tost", "equivalence_margin",
            "FIDELITY_COLUMNS"]
@@ -270,6 +272,9 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
         df = contrast_df(fit, data, group)
         c = _contrast(_rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples),
                       fit, reference_quantile(level, df), df)
+        gap = design_gap(data, groups=which, modes=("real", "simulated"))
+        if gap:                    # that group's real or simulated cells are not identified
+            c = {k: np.nan for k in c}
         t = tost(c["difference"], c["difference_se"], margin, df, alpha)
         who = "groups A and B weighted equally" if group == "both" else f"group {group}"
         rows.append({"role": "averaged", "model": fit.kind, "scale": scale, "group": group,
@@ -277,7 +282,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
                      "compares": f"real - simulated, {who}, mean over the samples: log odds "
                                  f"ratio; difference of mean {scale} proportions correct",
                      **c, "interval": _interval_name(fit, df),
-                     "test": _test_name(df, _lone_group(fit, data, group)),
+                     "test": f"not tested: {gap}" if gap else
+                             _test_name(df, _lone_group(fit, data, group)),
                      "df": df, "p_holm": np.nan,
                      "margin": margin, "tost_p_value": t["p_value"],
                      "tost_ci_low": t["ci_low"], "tost_ci_high": t["ci_high"],
@@ -285,15 +291,19 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     per = []
     for group in groups:
         df = contrast_df(fit, data, group)
+        gap = design_gap(data, groups=[group], modes=("real", "simulated"))
         for r in samples:
             c = _contrast(_rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r]),
                           fit, reference_quantile(level, df), df)
+            if gap:
+                c = {k: np.nan for k in c}
             per.append({"role": "per-sample", "model": fit.kind, "scale": scale, "group": group,
                         "roughness_id": int(r),
                         "compares": f"real - simulated, group {group}, sample {r}#: log odds "
                                     f"ratio; difference of {scale} proportions correct",
                         **c, "interval": _interval_name(fit, df),
-                        "test": _test_name(df, _lone_group(fit, data, group)),
+                        "test": f"not tested: {gap}" if gap else
+                                _test_name(df, _lone_group(fit, data, group)),
                         "df": df, "margin": np.nan,
                         "tost_p_value": np.nan, "tost_ci_low": np.nan, "tost_ci_high": np.nan,
                         "equivalent": False, "basis": basis, "note": note})
@@ -312,11 +322,12 @@ def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
         return ("Real vs simulated: not estimable (both modes and a model with a mode term are "
                 "needed).")
     r = sel.iloc[0]
-    pp = lambda v: f"{100 * v:+.1f}"
+    pp = lambda v: signed(100 * v)      # noqa: E731 - percentage points, never "-0.0"
     if r["test"].startswith("not tested"):
+        estimate = (f"real minus simulated {pp(r['difference'])} percentage points of "
+                    f"proportion correct; " if np.isfinite(r["difference"]) else "")
         return (f"Real vs simulated (GEE, population-averaged, both groups weighted equally, "
-                f"mean over the samples): real minus simulated {pp(r['difference'])} "
-                f"percentage points of proportion correct; {r['test']}: no interval and no "
+                f"mean over the samples): {estimate}{r['test']}: no interval and no "
                 f"equivalence test.")
     verdict = ("shown: simulated samples are recognised as well as real ones within the margin"
                if r["equivalent"] else
@@ -328,25 +339,27 @@ def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
         f"weighted equally, mean over the samples): real minus simulated "
         f"{pp(r['difference'])} percentage points of proportion correct "
         f"(95 % CI {pp(r['difference_ci_low'])} to {pp(r['difference_ci_high'])}; log odds "
-        f"ratio {r['estimate']:+.2f}, {r['test']} p = {r['p_value']:.3f}). Equivalence "
+        f"ratio {signed(r['estimate'], 2)}, {r['test']} {p_text(r['p_value'])}). Equivalence "
         f"within +-{margin_pp:g} points ({source}; two one-sided {r['test']} tests at "
         f"{alpha:g}, {100 * (1 - 2 * alpha):.0f} % CI {pp(r['tost_ci_low'])} to "
-        f"{pp(r['tost_ci_high'])}): p = {r['tost_p_value']:.3f}, equivalence {verdict}."]
+        f"{pp(r['tost_ci_high'])}): {p_text(r['tost_p_value'])}, equivalence {verdict}."]
     for g in ("A", "B"):
         s = table[(table["model"] == "gee") & (table["role"] == "averaged") & (table["group"] == g)]
         if not s.empty:
             s = s.iloc[0]
             if s["test"].startswith("not tested"):
-                lines.append(f"Group {g}: {pp(s['difference'])} points; {s['test']}.")
+                lines.append(f"Group {g}: " + (f"{pp(s['difference'])} points; "
+                             if np.isfinite(s["difference"]) else "") + f"{s['test']}.")
                 continue
             lines.append(f"Group {g}: {pp(s['difference'])} points "
                          f"({pp(s['difference_ci_low'])} to {pp(s['difference_ci_high'])}), "
-                         f"TOST p = {s['tost_p_value']:.3f}.")
+                         f"TOST {p_text(s['tost_p_value'])}.")
     if not per.empty:
         lines.append(
             "Per sample (8 real - simulated contrasts, Holm-adjusted): "
-            + ("none differs at 0.05 after adjustment" if named.empty else
+            + ("no sample's difference is significant at 0.05 after adjustment (which does "
+               "not show that they are equal)" if named.empty else
                ", ".join(f"group {x.group} {x.roughness_id}# ({pp(x.difference)} points, "
-                         f"p_holm = {x.p_holm:.3f})" for x in named.itertuples()))
-            + f" (smallest adjusted p {per['p_holm'].min():.3f}).")
+                         f"adjusted {p_text(x.p_holm)})" for x in named.itertuples()))
+            + f" (smallest adjusted {p_text(per['p_holm'].min())}).")
     return " ".join(lines)

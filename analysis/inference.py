@@ -34,7 +34,7 @@ import pandas as pd
 import patsy
 from scipy import special, stats
 
-from .models import ModelFit, contrast_se, has_group_by_roughness, model_data
+from .models import ModelFit, contrast_se, design_gap, has_group_by_roughness, model_data
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",
            "averaged_contrast", "CHANCE"]
@@ -131,11 +131,17 @@ def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
     """
     data = model_data(trials)
     out = {"test": f"Wald F, small-sample ({fit.kind})", "chi2": np.nan, "df": 0, "f": np.nan,
-           "df_denominator": 0, "p_value": np.nan,
+           "df_denominator": 0, "p_value": np.nan, "reason": "",
            "hypothesis": "no A - B difference on any sample in either mode"}
     if fit.formula is None or "group" not in fit.formula or set(data["group"]) != {"A", "B"}:
+        out["reason"] = "not tested: " + (design_gap(data) or "no group term in the model")
         return out
-    modes = sorted(data["mode"].unique())
+    modes = [m for m in sorted(data["mode"].unique()) if not design_gap(data, modes=[m])]
+    if not modes:
+        out["reason"] = f"not tested: {design_gap(data)}"
+        return out
+    if len(modes) < data["mode"].nunique():
+        out["hypothesis"] += (f" (only {', '.join(modes)}: {design_gap(data)})")
     samples = sorted(data["roughness_id"].unique())
     if not has_group_by_roughness(fit):
         samples = samples[:1]      # the model has one A - B log odds ratio per mode
@@ -148,8 +154,9 @@ def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
     rank = np.linalg.matrix_rank(v)
     chi2 = float(est @ np.linalg.pinv(v) @ est)
     m = data["participant"].nunique()
-    if m <= rank:
-        out.update(chi2=chi2, df=int(rank))
+    if m <= rank or rank == 0:
+        out.update(chi2=chi2, df=int(rank), reason=f"not tested: {m} participants for a "
+                   f"{rank}-df test (the covariance of the A - B differences has rank {rank})")
         return out
     f = chi2 * (m - rank) / (rank * (m - 1))
     out.update(chi2=chi2, df=int(rank), f=f, df_denominator=int(m - rank),
@@ -172,10 +179,11 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
     out = {"model": fit.kind, "compares": "(A - B, real) - (A - B, simulated), averaged over samples",
            "log_odds": np.nan, "se": np.nan, "ci_low": np.nan, "ci_high": np.nan,
            "p_value": np.nan, "difference_of_differences": np.nan, "dd_low": np.nan,
-           "dd_high": np.nan}
+           "dd_high": np.nan, "reason": ""}
     data = model_data(trials)
-    if fit.formula is None or "group" not in fit.formula or set(data["group"]) != {"A", "B"} \
-            or set(data["mode"]) != {"real", "simulated"}:
+    gap = design_gap(data, modes=("real", "simulated"))
+    if fit.formula is None or "group" not in fit.formula or "mode" not in fit.formula or gap:
+        out["reason"] = "not tested: " + (gap or "the model has no group and mode terms")
         return out
     samples = sorted(data["roughness_id"].unique())
     x = {(g, m): _rows(fit, [g], [m], samples) for g in ("A", "B") for m in ("real", "simulated")}
@@ -189,6 +197,9 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
         dd += s * q.mean()
         grad += s * (q * (1 - q)) @ x[k] / len(q)
     dse = contrast_se(fit, grad)
+    if not (np.isfinite(se) and se > 0):
+        out["reason"] = "not tested: the standard error is zero (no variation to test against)"
+        return out
     out.update(log_odds=est, se=se, ci_low=est - z * se, ci_high=est + z * se,
                p_value=float(fit.p_value(est / se)) if se > 0 else np.nan,
                difference_of_differences=dd, dd_low=dd - z * dse, dd_high=dd + z * dse)

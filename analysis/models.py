@@ -458,6 +458,12 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                          f"model: {fit.formula}"])
     out = pd.DataFrame(rows, columns=columns)
     out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
+    for mode in out["mode"].unique():          # a group without this mode: no A - B in it
+        gap = design_gap(data, modes=[mode])
+        if gap:
+            sel = out["mode"] == mode
+            out.loc[sel, CONTRAST_COLUMNS[3:-1]] = np.nan
+            out.loc[sel, "basis"] = f"not estimable: {gap}"
     lone = lone_group(data)
     if lone is not None:               # estimates only: no SE the data can support
         out[["se", "ci_low", "ci_high", "p_value", "difference_low", "difference_high"]] = np.nan
@@ -498,6 +504,24 @@ def log_odds_contrast(xa, xb, beta, cov, z, df=None) -> list:
     return [est, se, est - z * se, est + z * se, np.exp(est),
             float(reference_p(est / se, df)) if se > 0 else np.nan, pa, pb,
             pa - pb, pa - pb - z * dse, pa - pb + z * dse]
+
+
+def design_gap(data: pd.DataFrame, groups=("A", "B"), modes=None) -> str:
+    """What the design lacks for a contrast over ``groups`` x ``modes`` (``""``: nothing).
+
+    A group without trials in a mode (a TCS II session has simulated blocks only) leaves that
+    group x mode cell of the model unidentified: any contrast using it is not estimable, and
+    saying so beats a number the data do not hold. ``modes`` defaults to the modes present.
+    """
+    modes = sorted(data["mode"].unique()) if modes is None else list(modes)
+    have = set(zip(data["group"].astype(str), data["mode"].astype(str)))
+    for g in groups:
+        if g not in set(data["group"].astype(str)):
+            return f"no trials of group {g}"
+        for m in modes:
+            if (g, m) not in have:
+                return f"group {g} has no {m} trials"
+    return ""
 
 
 def lone_group(trials: pd.DataFrame) -> tuple[str, int] | None:

@@ -87,7 +87,7 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
     """
     rows = []
     def from_contrast(role, r, p_holm=np.nan):
-        return {"role": role, "test": _t_label(gee.df), "model": r["model"],
+        return {"role": role, "test": _contrast_test(r, gee.df), "model": r["model"],
                 "compares": r["compares"],
                 "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
                 "ci_high": r["ci_high"], "interval": _interval_label(gee.df),
@@ -102,7 +102,11 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         rows.append(from_contrast("primary", first))
     if gee.formula is not None:
         omni = omnibus_group_test(gee, trials)
-        if omni["df"]:
+        if omni["reason"]:
+            rows.append({"role": "omnibus", "test": omni["reason"], "model": "gee",
+                         "compares": omni["hypothesis"], "basis": f"model: {gee.formula}",
+                         "note": ""})
+        elif omni["df"]:
             rows.append({"role": "omnibus", "test": f"Wald F({omni['df']}, "
                          f"{omni['df_denominator']}), small-sample, from Wald chi2 = "
                          f"{omni['chi2']:.3f}",
@@ -117,7 +121,11 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         if fit is None or fit.formula is None:
             continue
         it = interaction_test(fit, trials, level=level)
-        if np.isfinite(it["log_odds"]):
+        if it["reason"]:
+            rows.append({"role": "interaction", "test": it["reason"], "model": fit.kind,
+                         "compares": it["compares"], "interval": "none (see test)",
+                         "basis": f"model: {fit.formula}", "note": ""})
+        elif np.isfinite(it["log_odds"]):
             scale = ("population-averaged" if fit.kind == "gee"
                      else "typical participant (u = 0)")
             rows.append({"role": "interaction", "test": _t_label(fit.df), "model": fit.kind,
@@ -194,6 +202,17 @@ def complete_cases_row(trials: pd.DataFrame, missing: pd.DataFrame,
             "basis": f"model: {fit.formula}", "note": "; ".join(fit.notes)}
 
 
+def _contrast_test(r, df) -> str:
+    """The ``test`` of a contrast row: its reference distribution, or why it is not tested."""
+    basis = str(r["basis"])
+    if not np.isfinite(r["log_odds_ratio_A_vs_B"]):
+        return "not tested: " + (basis.split(": ", 1)[1] if basis.startswith("not estimable")
+                                 else basis)
+    if not (np.isfinite(r["se"]) and r["se"] > 0):
+        return "not tested: the standard error is zero (no variation to test against)"
+    return _t_label(df)
+
+
 def _interval_label(df) -> str:
     return f"Wald, t({df:g})" if df else "Wald, normal"
 
@@ -211,6 +230,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             progress: Callable[[str], None] | None = None,
             sessions: str = "first",
             equivalence_margin_pp: float | None = None,
+            condition: str | None = None,
             before_write: Callable | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
@@ -249,6 +269,10 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         Margin of the real-vs-simulated equivalence test, percentage points of proportion
         correct; None: the protocol's ``[analysis] equivalence_margin_pp``, else 10
         (:func:`analysis.fidelity.equivalence_margin`).
+    condition : str, optional
+        ``BACKEND/CONTACT``: analyse the sessions of that display backend and contact model
+        only (:func:`analysis.conditions.choose_condition`); sessions of two conditions without
+        it are refused, never pooled.
     before_write : callable, optional
         Called once, with no argument, just before the first output is written (the command
         line's :meth:`experiments.atomicfile.OutputFolder.begin`: a refused or failed analysis
@@ -268,7 +292,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     say(f"loading sessions under {data_dir}")
-    log = load_trials(data_dir, sessions=sessions)
+    log = load_trials(data_dir, sessions=sessions, condition=condition)
     trials = log.analysable
     if trials.empty:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "

@@ -398,7 +398,8 @@ def test_a_group_of_one_participant_gets_no_group_comparison_test():
     assert compared["p_value"].isna().all() and compared["ci_low"].isna().all()
     assert compared.loc[compared["role"] == "primary", "estimate"].notna().all()
     text = " ".join(tests_summary(contrasts, table))
-    assert "No comparison of the groups is tested" in text and "group B has 1 participant" in text
+    assert "Not tested (primary, omnibus, per-sample, interaction;" in text \
+        and "group B has 1 participant" in text
     assert "nan" not in text
 
     # two participants in B: tested as before

@@ -129,9 +129,27 @@ def test_summary_names_only_holm_adjusted_results():
                   "basis": "model"} for r in (1, 3, 4)]
         return pd.DataFrame(rows)
     text = " ".join(tests_summary(pd.DataFrame(), table(0.08)))
-    assert "no single sample shows a group difference" in text and "2#" not in text
+    # non-significance is not absence: the old "no single sample shows a group difference
+    # (all adjusted p >= 0.05)" read a failed test as no difference
+    assert "no single sample shows a group difference" not in text and "2#" not in text
+    assert ("no single sample's group difference is significant at 0.05 (smallest adjusted "
+            "p 0.080); this does not show that the samples do not differ") in text
     text = " ".join(tests_summary(pd.DataFrame(), table(0.03)))
     assert "remains for: group A - group B, real sample 2# (adjusted p = 0.030)" in text
+    # the omnibus test rejects, no sample survives Holm: the groups differ somewhere
+    rejected = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.005,
+                                         "statistic": 3.1, "df": 8, "basis": "model",
+                                         "test": "Wald F(8, 22)", "compares": "no A - B"}]),
+                          table(0.08)])
+    text = " ".join(tests_summary(pd.DataFrame(), rejected))
+    assert "no single sample" not in text and "all adjusted p >= 0.05" not in text
+    assert ("The omnibus test rejects (p = 0.005): the groups differ on at least one sample in "
+            "one mode, but after Holm's adjustment for the 4 per-sample comparisons none of them "
+            "on its own is significant at 0.05 (smallest adjusted p 0.080): the data do not say "
+            "which.") in text
+    tiny = rejected.assign(p_value=rejected["p_value"].where(rejected["role"] != "omnibus", 2e-5))
+    text = " ".join(tests_summary(pd.DataFrame(), tiny))
+    assert "rejects (p < 0.001)" in text and "p = 0.000" not in text
     # the omnibus test comes first: when it does not reject, no sample is named
     gated = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.2,
                                       "statistic": 1.3, "df": 8, "basis": "model",
