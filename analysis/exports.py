@@ -127,7 +127,6 @@ COLUMNS = {
                      "effects, log odds; icc_latent: fraction 0-1; corr_*: correlation; "
                      "lrt_slope: likelihood-ratio statistic)"),
     "se": (_L, "standard error of the estimate"),
-    "z": ("ratio", "estimate / se"),
     "p_value": (_P, "two-sided p-value, unadjusted"),
     "p_holm": (_P, "Holm-adjusted p-value within the table's family of tests"),
     "ci_low": (_L, "confidence interval, lower end (same scale as the estimate)"),
@@ -200,7 +199,8 @@ COLUMNS = {
     "hu_chance": (_F, "chance value of hu for these marginals"),
     "spearman_pooled": ("ratio", "Spearman rank correlation of stimulus and response, all trials"),
     "mean_participant_spearman": ("ratio", "mean (Fisher z) of the participants' own Spearman rho"),
-    "t_p_value": (_P, "one-sample t-test of the participants' Fisher z against 0"),
+    "t_p_value": (_P, "one-sample t-test of the participants' Fisher z against 0, t(t_df)"),
+    "t_df": (_N, "degrees of freedom of that t-test (participants - 1)"),
     "po_slope": (_L, "proportional-odds log odds of a higher answer per sample step"),
     "po_se": (_L, "its participant-cluster-robust standard error"),
     "po_ci_low": (_L, "interval, lower end"),

@@ -103,14 +103,16 @@ def averaged_contrast(fit: ModelFit, mode: str = "real", samples=(1, 2, 3, 4),
     Returns
     -------
     dict or None
-        ``log_odds_ratio, se, p_value, difference`` (None without a group term).
+        ``log_odds_ratio, se, p_value, difference, difference_low, difference_high`` (None
+        without a group term; the difference's interval by the delta method at ``level``).
     """
     from .models import log_odds_contrast
     if fit.formula is None or "group" not in fit.formula:
         return None
     xa, xb = _rows(fit, ["A"], [mode], samples), _rows(fit, ["B"], [mode], samples)
     v = log_odds_contrast(xa, xb, fit.params, fit.cov, fit.quantile(level), fit.df)
-    return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8]}
+    return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8],
+            "difference_low": v[9], "difference_high": v[10]}
 
 
 def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:

@@ -312,15 +312,17 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
         # table refers it to t(participants - 2) (reference_df), so only the ratio is theirs
         ratio = np.asarray(res.tvalues)
         table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
-                              "z": ratio, "p_value": reference_p(ratio, df),
-                              "ci_low": params - z * se, "ci_high": params + z * se})
+                              "statistic": ratio, "p_value": reference_p(ratio, df),
+                              "ci_low": params - z * se, "ci_high": params + z * se,
+                              "test": f"Wald t({df:g})" if df else "Wald z (normal)"})
         return ModelFit(kind="gee", formula=candidate, requested=formula, table=table,
                         notes=notes, params=params, cov=np.asarray(res.cov_params()),
                         design_info=x.design_info, result=res, df=df)
     notes.append("GEE: no formula could be fitted")
     warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
     return ModelFit(kind="gee", formula=None, requested=formula, table=pd.DataFrame(
-        columns=["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high"]), notes=notes)
+        columns=["term", "log_odds", "se", "statistic", "p_value", "ci_low", "ci_high", "test"]),
+        notes=notes)
 
 
 def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,

@@ -199,6 +199,7 @@ def complete_cases_row(trials: pd.DataFrame, missing: pd.DataFrame,
             "ci_high": est + q * se, "interval": _interval_label(fit.df),
             "statistic": est / se if se else np.nan, "df": fit.df if fit.df else np.nan,
             "p_value": row["p_value"], "difference": row["difference"],
+            "difference_ci_low": row["difference_low"], "difference_ci_high": row["difference_high"],
             "basis": f"model: {fit.formula}", "note": "; ".join(fit.notes)}
 
 

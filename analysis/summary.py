@@ -59,10 +59,7 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                      f"({str(row.iloc[0]['basis']).removeprefix('not estimable: ')}).")
         elif not row.empty:
             r = row.iloc[0]
-            verdict = ("the 95 % interval excludes equal odds: the data show a difference"
-                       if r["ci_low"] > 0 or r["ci_high"] < 0 else
-                       "the 95 % interval includes equal odds: these data neither show a "
-                       "difference nor rule one out")
+            verdict = odds_verdict(r["ci_low"], r["ci_high"])
             line += (f" Averaged over the four samples, the GEE puts group A's odds of a correct "
                      f"answer at {r['odds_ratio_A_vs_B']:.2f} times group B's (95 % CI "
                      f"{np.exp(r['ci_low']):.2f}-{np.exp(r['ci_high']):.2f}, "
@@ -124,6 +121,19 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
     if notes:
         out.append("Model notes:\n" + "\n".join(f"- {n}" for n in notes))
     return "\n\n".join(out)
+
+
+def odds_verdict(ci_low: float, ci_high: float) -> str:
+    """What a log odds ratio's 95 % interval says, in words that match the numbers.
+
+    An interval that excludes 0 shows a difference; one that includes 0 shows neither a
+    difference nor its absence (the old wording, "the interval excludes no difference", read
+    as the second).
+    """
+    if ci_low > 0 or ci_high < 0:
+        return "the 95 % interval excludes equal odds: the data show a difference"
+    return ("the 95 % interval includes equal odds: these data neither show a difference nor "
+            "rule one out")
 
 
 def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[str]:

@@ -192,6 +192,20 @@ def _compute(ns, effects, sizes, map_tasks) -> int:
     return _write(ns, result, source, sizes, progress)
 
 
+def not_reached(sizes) -> str:
+    """What the grid searched, when a power target was not reached on it.
+
+    ``[15, 30, 60]`` -> ``not reached up to 60 per group (grid searched: 15, 30, 60)``;
+    with unequal groups (``13:17``) the sizes searched are named as A + B, never as one
+    "up to" size that neither group had.
+    """
+    grid = ", ".join(f"{s[0]} + {s[1]}" if isinstance(s, tuple) else str(s) for s in sizes)
+    if any(isinstance(s, tuple) and s[0] != s[1] for s in sizes):
+        return f"not reached on the grid searched ({grid} participants, group A + group B)"
+    largest = max(s[0] if isinstance(s, tuple) else s for s in sizes)
+    return f"not reached up to {largest} per group (grid searched: {grid})"
+
+
 def _effects(text: str) -> list[float]:
     from experiments.errors import UserInputError
     try:
@@ -224,7 +238,6 @@ def _write(ns, result, source, sizes, progress) -> int:
     folder.finish()
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
     print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))
-    grid_max = max(max(s) if isinstance(s, tuple) else s for s in sizes)
     by_effect = result.settings.get("n_for_80_by_effect")
     for target, key in ((80, "n_for_80"), (90, "n_for_90")):
         found = (result.settings[f"{key}_by_effect"] if by_effect is not None
@@ -233,7 +246,7 @@ def _write(ns, result, source, sizes, progress) -> int:
             where = f" at A - B {float(effect):+g} points" if effect is not None else ""
             print(f"n per group for {target} % power{where}: "
                   + (f"{n:.0f} (interpolated on the grid; Monte Carlo error in power.csv)"
-                     if n is not None else f"not reached up to {grid_max} per group"))
+                     if n is not None else not_reached(sizes)))
     if by_effect is not None:
         print("Observed (post-hoc) power is not shown: computed at the effect the study found it "
               "is a function of the study's p-value and says nothing beyond it.")

@@ -323,3 +323,19 @@ def test_a_single_task_runs_in_this_process_with_the_same_result():
         table = power_curve(_cells(0.15), (5,), map_tasks=sweep.map, **kw).table
         assert sweep.client is None and sweep.cluster is None     # no cluster was started
     pd.testing.assert_frame_equal(here.table, table)
+
+
+def test_cli_power_names_the_grid_it_searched(tmp_path, capsys):
+    """With unequal groups 13:17 it printed 'not reached up to 17 per group'."""
+    from experiments.cli.power import not_reached
+    cells = tmp_path / "cells.csv"
+    _write_cells(cells, _cells(0.0))
+    assert main(["power", "--cells", str(cells), "--n-per-group", "13:17", "--simulations", "4",
+                 "--out", str(tmp_path / "power")]) == 0
+    out = capsys.readouterr().out
+    assert "up to 17 per group" not in out
+    assert ("n per group for 80 % power: not reached on the grid searched (13 + 17 "
+            "participants, group A + group B)") in out
+    assert not_reached([15, 30, 60]) == "not reached up to 60 per group (grid searched: 15, 30, 60)"
+    assert not_reached([(20, 20), 10]) == ("not reached up to 20 per group (grid searched: "
+                                          "20 + 20, 10)")
