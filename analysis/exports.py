@@ -191,9 +191,6 @@ COLUMNS = {
     "kappa": ("ratio", "Cohen's kappa of stimulus vs response"),
     "mean_hu": (_F, "mean of Wagner's unbiased hit rates over the samples"),
     "measure": (_C, "per-participant measure summarised (it_bits_corrected, kappa, mean_hu)"),
-    "pct_boot_low": ("see measure", "percentile bootstrap interval over participants (resampled "
-                                    "within group), lower end"),
-    "pct_boot_high": ("see measure", "the same interval, upper end"),
     "hit_rate": (_F, "proportion of the sample's trials named correctly"),
     "hu": (_F, "Wagner's unbiased hit rate"),
     "hu_chance": (_F, "chance value of hu for these marginals"),
@@ -221,6 +218,8 @@ COLUMNS = {
     "mean_difference_A_minus_B": (_F, "mean observed A - B proportion difference"),
     "expected_difference_A_minus_B": (_F, "A - B difference of mean proportions the model implies"),
     "participant_sd": (_L, "SD of participant random intercepts"),
+    "sd_basis": (_C, "where the participant SD of these rows comes from: the analysis's point "
+                     "estimate, an end of its 95 % profile interval, or stated"),
     "alpha": (_P, "two-sided significance level"),
     "missing_rate": (_F, "share of scheduled trials dropped at random"),
     "fallbacks": (_F, "share of cohorts fitted with a fallback formula"),

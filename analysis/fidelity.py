@@ -43,7 +43,8 @@ from experiments.session_reader import read_text_file
 
 from .errors import LogError
 from .inference import holm
-from .wording import p_text, signed
+from .small_sample import row_df
+from .wording import df_text, p_text, signed
 from .models import (ModelFit, contrast_se, design_gap, model_data, reference_p,
                      reference_quantile)
 
@@ -217,13 +218,13 @@ def _test_name(df: float | None, lone: str | None = None) -> str:
     if lone is not None:
         return (f"not tested: group {lone} has 1 participant (no between-participant "
                 f"reference for its mode contrast)")
-    return f"Wald t({df:g})" if df else "Wald z (normal)"
+    return f"Wald t({df_text(df)})" if df else "Wald z (normal)"
 
 
 def _interval_name(fit: ModelFit, df: float | None) -> str:
     if df is not None and np.isnan(df):
         return "none (see test)"
-    ref = f"t({df:g})" if df else "normal"
+    ref = f"t({df_text(df)})" if df else "normal"
     if fit.cov_robust is not None:
         return f"Wald, {ref}; SE the larger of model-based and bias-reduced participant sandwich"
     return f"Wald, {ref}"
@@ -270,8 +271,11 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     for group in groups + (["both"] if len(groups) > 1 else []):
         which = groups if group == "both" else [group]
         df = contrast_df(fit, data, group)
-        c = _contrast(_rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples),
-                      fit, reference_quantile(level, df), df)
+        xr, xs = _rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples)
+        if group == "both" and df and np.isfinite(df) and _group_by_mode(fit):
+            # two independent group means, unequal groups: Welch-Satterthwaite (GEE)
+            df = row_df(fit, xr.mean(axis=0) - xs.mean(axis=0))
+        c = _contrast(xr, xs, fit, reference_quantile(level, df), df)
         gap = design_gap(data, groups=which, modes=("real", "simulated"))
         if gap:                    # that group's real or simulated cells are not identified
             c = {k: np.nan for k in c}

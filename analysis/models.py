@@ -36,6 +36,7 @@ import patsy
 from scipy import sparse, special, stats
 
 from .errors import ModelWarning
+from .small_sample import group_covariances, row_df
 
 __all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data",
            "lone_group", "lone_group_reason"]
@@ -100,6 +101,8 @@ class ModelFit:
     theta: np.ndarray | None = None
     cov_full: np.ndarray | None = None
     cov_robust: np.ndarray | None = None
+    #: The GEE's sandwich split by group, ``{g: (W_g, m_g)}`` (:mod:`analysis.small_sample`).
+    cov_by_group: dict | None = None
 
     def quantile(self, level: float) -> float:
         """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""
@@ -317,7 +320,9 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
                               "test": f"Wald t({df:g})" if df else "Wald z (normal)"})
         return ModelFit(kind="gee", formula=candidate, requested=formula, table=table,
                         notes=notes, params=params, cov=np.asarray(res.cov_params()),
-                        design_info=x.design_info, result=res, df=df)
+                        design_info=x.design_info, result=res, df=df,
+                        cov_by_group=group_covariances(
+                            res, dict(zip(data["participant"], data["group"]))))
     notes.append("GEE: no formula could be fitted")
     warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
     return ModelFit(kind="gee", formula=None, requested=formula, table=pd.DataFrame(
@@ -449,22 +454,25 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
             if label != 0 and not per_sample:
                 cell = data[(data["mode"] == mode) & (data["roughness_id"] == label)]
                 if fit.kind == "gee":
-                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z, fit.df)])
+                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z, fit.df),
+                                 fit.df])
                 continue
             grid = pd.DataFrame({"group": ["A"] * len(levels) + ["B"] * len(levels),
                                  "mode": mode, "roughness_id": list(levels) * 2,
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
+            xa, xb = x[: len(levels)], x[len(levels):]
+            df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0))
             rows.append([fit.kind, mode, label,
-                         *log_odds_contrast(x[: len(levels)], x[len(levels):], beta, cov, z, fit.df),
-                         f"model: {fit.formula}"])
+                         *log_odds_contrast(xa, xb, beta, cov, reference_quantile(level, df), df),
+                         f"model: {fit.formula}", df])
     out = pd.DataFrame(rows, columns=columns)
     out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
     for mode in out["mode"].unique():          # a group without this mode: no A - B in it
         gap = design_gap(data, modes=[mode])
         if gap:
             sel = out["mode"] == mode
-            out.loc[sel, CONTRAST_COLUMNS[3:-1]] = np.nan
+            out.loc[sel, CONTRAST_COLUMNS[3:-2]] = np.nan
             out.loc[sel, "basis"] = f"not estimable: {gap}"
     lone = lone_group(data)
     if lone is not None:               # estimates only: no SE the data can support
@@ -476,7 +484,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
 #: Columns of :func:`group_contrasts`.
 CONTRAST_COLUMNS = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low",
                     "ci_high", "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
-                    "difference_A_minus_B", "difference_low", "difference_high", "basis"]
+                    "difference_A_minus_B", "difference_low", "difference_high", "basis", "df"]
 
 
 def _compares(mode: str, roughness_id: int, kind: str) -> str:

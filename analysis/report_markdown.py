@@ -238,14 +238,14 @@ def _missing_section(r: AnalysisResult) -> list[str]:
 
 
 def _agreement_comparison_md(table) -> list[str]:
-    """Per-participant IT, kappa and Hu: means with bootstrap intervals, A - B with Welch t."""
+    """Per-participant IT, kappa and Hu: means with t intervals, A - B with Welch's t."""
     if table is None or table.empty:
         return []
     return ["Per participant (each participant's own confusion matrix per mode; participants "
-            "are the units): mean per group x mode with a percentile bootstrap interval "
-            "(participants resampled within group), and group A - B with its bootstrap interval "
-            "and Welch's t-test (`agreement_participants.csv` has every participant's values). "
-            "The coverage of these intervals was not measured.", "",
+            "are the units): mean per group x mode with a t(n - 1) interval on the "
+            "participants' values, and group A - B with Welch's t interval and test "
+            "(Welch-Satterthwaite df; `agreement_participants.csv` has every participant's "
+            "values). Their coverage is in benchmarks/README.md.", "",
             _md_table(table.drop(columns=["interval"])), ""]
 
 

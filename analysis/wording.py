@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["p_text", "signed"]
+__all__ = ["p_text", "signed", "df_text"]
 
 
 def p_text(p, digits: int = 3) -> str:
@@ -21,6 +21,15 @@ def p_text(p, digits: int = 3) -> str:
         return "p not computed"
     floor = 10.0 ** -digits
     return f"p < {floor:.{digits}f}" if p < floor else f"p = {p:.{digits}f}"
+
+
+def df_text(df) -> str:
+    """Degrees of freedom as printed: ``28`` (a whole number), ``11.3`` (Satterthwaite).
+
+    >>> df_text(28.0), df_text(11.34)
+    ('28', '11.3')
+    """
+    return f"{df:.0f}" if abs(df - round(df)) < 1e-9 else f"{df:.1f}"
 
 
 def signed(value, digits: int = 1) -> str:

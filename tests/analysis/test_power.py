@@ -231,22 +231,35 @@ def test_stated_effect_is_the_population_averaged_difference(effect):
             assert out[key] == before[key]
 
 
+@pytest.mark.slow
 def test_power_from_analysis_takes_the_design_and_curves_over_effects(study, tmp_path, capsys):
     from analysis import analyze
     data, _ = study(n_per_group=5, sigma=0.5, seed=9)
     analyze(data, tmp_path / "res", n_boot=20)
     assert main(["power", "--from-analysis", str(tmp_path / "res"), "--effect-pp", "0,25",
-                 "--n-per-group", "6", "--simulations", "40", "--out", str(tmp_path / "p")]) == 0
+                 "--n-per-group", "6", "--simulations", "15", "--workers", "1",
+                 "--out", str(tmp_path / "p")]) == 0
     out = capsys.readouterr().out
     assert "Observed (post-hoc) power is not shown" in out
-    t = pd.read_csv(tmp_path / "p" / "power.csv")
+    all_sd = pd.read_csv(tmp_path / "p" / "power.csv")
+    t = all_sd[all_sd["sd_basis"] == "point estimate of the analysis"].reset_index(drop=True)
     assert list(t["effect_pp"]) == [0.0, 25.0]
     assert list(t["expected_difference_A_minus_B"]) == pytest.approx([0.0, 0.25], abs=1e-9)
     glmm = pd.read_csv(tmp_path / "res" / "glmm.csv").set_index("term")
-    assert (t["participant_sd"] == glmm.loc["participant_sd", "log_odds"]).all()
+    sd = glmm.loc["participant_sd"]
+    assert (t["participant_sd"] == sd["log_odds"]).all()
     assert t.loc[0, "power"] <= 0.2 and t.loc[1, "power"] > t.loc[0, "power"]
+    # the pilot's SD is uncertain: power at both ends of its profile interval too, each named
+    ends = {basis: float(v) for basis, v in all_sd.groupby("sd_basis")["participant_sd"].first().items()}
+    assert ends == pytest.approx({"point estimate of the analysis": sd["log_odds"],
+                                  "lower end of its 95 % profile interval": max(sd["ci_low"], 0),
+                                  "upper end of its 95 % profile interval": sd["ci_high"]})
+    for value in ends.values():
+        assert f"Conditional on participant SD = {value:.3f}" in out
+        assert f"n per group for 80 % power at A - B +25 points, conditional on SD = {value:.3f}" in out
     summary = json.loads((tmp_path / "p" / "power_summary.json").read_text())
     assert summary["repetitions"] == 3 and summary["effects_pp"] == [0.0, 25.0]
+    assert len(summary["by_participant_sd"]) == 3
 
 
 def test_power_is_the_same_here_and_on_one_or_two_dask_workers(caplog):
@@ -334,8 +347,9 @@ def test_cli_power_names_the_grid_it_searched(tmp_path, capsys):
                  "--out", str(tmp_path / "power")]) == 0
     out = capsys.readouterr().out
     assert "up to 17 per group" not in out
-    assert ("n per group for 80 % power: not reached on the grid searched (13 + 17 "
-            "participants, group A + group B)") in out
+    assert ("n per group for 80 % power, conditional on SD = 0.500: not reached on the grid "
+            "searched (13 + 17 participants, group A + group B)") in out
+    assert "Conditional on participant SD = 0.500 (default):" in out
     assert not_reached([15, 30, 60]) == "not reached up to 60 per group (grid searched: 15, 30, 60)"
     assert not_reached([(20, 20), 10]) == ("not reached up to 20 per group (grid searched: "
                                           "20 + 20, 10)")
