@@ -71,8 +71,8 @@ def agreement_comparison(per: pd.DataFrame, *, level: float = 0.95) -> pd.DataFr
     -----
     A group's mean: one-sample t(n - 1) interval; A - B: Welch's t interval and test with the
     Welch-Satterthwaite df. The percentile bootstrap they replace covered 0.92 (13 + 17) and
-    0.89-0.92 (20 + 8): it uses no small-sample correction. Measured coverage of these in
-    benchmarks/README.md (``benchmarks/bench_agreement_coverage.py``).
+    0.89-0.92 (20 + 8): it uses no small-sample correction. These cover 0.93-0.95 (A - B) and
+    0.93-0.94 (group means) there (``benchmarks/bench_agreement_coverage.py``).
     """
     rows = []
     for measure in MEASURES:

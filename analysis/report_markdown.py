@@ -245,7 +245,8 @@ def _agreement_comparison_md(table) -> list[str]:
             "are the units): mean per group x mode with a t(n - 1) interval on the "
             "participants' values, and group A - B with Welch's t interval and test "
             "(Welch-Satterthwaite df; `agreement_participants.csv` has every participant's "
-            "values). Their coverage is in benchmarks/README.md.", "",
+            "values). Measured coverage: A - B 0.93-0.95, group means 0.93-0.94 (400 "
+            "simulated studies at 13 + 17 and 20 + 8; benchmarks/README.md).", "",
             _md_table(table.drop(columns=["interval"])), ""]
 
 
