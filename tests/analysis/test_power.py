@@ -298,7 +298,9 @@ def test_cli_power_runs_on_a_local_cluster_with_progress(tmp_path, capsys):
     # the same table as the same computation here
     here = power_curve(read_cells(cells), (5,), simulations=30, test="cluster-t", seed=12,
                        participant_sd=0.5, cells_scale="marginal").table
-    pd.testing.assert_frame_equal(pd.read_csv(out / "power.csv"), here, check_dtype=False)
+    written = pd.read_csv(out / "power.csv")
+    assert set(written.pop("sd_basis")) == {"default"}       # the one SD used, named
+    pd.testing.assert_frame_equal(written, here, check_dtype=False)
     assert main(["power", "--cells", str(cells), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
     assert "--workers: expected an integer >= 1" in capsys.readouterr().err
 
@@ -321,7 +323,8 @@ def test_cli_power_sends_the_cohorts_to_a_running_scheduler(tmp_path, capsys):
     assert "power: 30 of 30 cohorts" in capsys.readouterr().err
     here = power_curve(read_cells(cells), (6,), simulations=30, test="cluster-t", seed=13,
                        participant_sd=0.5, cells_scale="marginal").table
-    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv"), here,
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv").drop(
+                                      columns="sd_basis"), here,
                                   check_dtype=False)
     assert prefixes["cohort_task"]["memory"] == 2, prefixes     # each computed once, there
 
