@@ -8,7 +8,11 @@
   the Hotelling-type small-sample correction for a sandwich covariance from
   m clusters [2]_, :math:`F = \\chi^2 (m - q) / (q (m - 1)) \\sim F(q, m - q)`.
   Uncorrected, the 8-df Wald test rejected 18-21 % of null datasets with 30
-  participants; corrected, 3.5 % (benchmarks/bench_recovery.py).
+  participants; corrected, 3.5 % (benchmarks/bench_recovery.py). For the GEE (whose
+  sandwich splits by group) the F uses each group's own covariance instead
+  (:func:`analysis.small_sample.omnibus_f`, Nel-van der Merwe): the pooled F(q, m - q)
+  rejected 0.07-0.26 with 20 + 8 and 24 + 6 participants. Every both-groups contrast
+  refers to t with its Welch-Satterthwaite df (:func:`analysis.small_sample.row_df`).
 - **Per-sample tests**: the per-sample A - B rows with Holm-adjusted p-values
   [1]_ (the family is all per-sample rows of both modes).
 - **Group × mode interaction**: the A - B difference with real samples minus
