@@ -35,6 +35,21 @@ COLUMNS = {
     # identifiers and design
     "stimulus_roughness_id": (_C, "sample presented (1-4)"),
     "familiarisation": ("bool", "row of a familiarisation (unscored) block"),
+    "display_backend": (_C, "display the session ran on: the scheme of session.json's display_url "
+                            "(serial, emulator, qemu-firmware, tcs2, ...; empty: not recorded)"),
+    "device_id": (_C, "the display device's id as HELLO (or the TCS II's identification) gave it, "
+                      "from session.json's displays; several joined by ' + ' (empty: not "
+                      "recorded)"),
+    "firmware_image_id": (_C, "the firmware image's id the device reported (the thermocue "
+                              "firmware's build id, a TCS II's firmware version), from "
+                              "session.json's displays; several joined by ' + ' (empty: not "
+                              "recorded)"),
+    "contact_model": (_C, "the protocol's [simulation] contact_model: press (finger presses onto "
+                          "the pad) or resting (probe rests on the skin); empty: not recorded"),
+    "protocol_name": (_C, "the session's protocol"),
+    "protocol_hash": (_C, "hash of the session's stored protocol"),
+    "condition": (_C, "display_backend/contact_model (unrecorded for a value not recorded): "
+                      "trials of different conditions are never pooled (--condition)"),
     "included": ("bool", "row used in the analysis"),
     "exclusion": (_C, "why the row is not used (familiarisation, status, superseded attempt)"),
     "source": ("path", "file the row was read from"),
@@ -93,7 +108,6 @@ COLUMNS = {
                      "effects, log odds; icc_latent: fraction 0-1; corr_*: correlation; "
                      "lrt_slope: likelihood-ratio statistic)"),
     "se": (_L, "standard error of the estimate"),
-    "z": ("ratio", "estimate / se"),
     "p_value": (_P, "two-sided p-value, unadjusted"),
     "p_holm": (_P, "Holm-adjusted p-value within the table's family of tests"),
     "ci_low": (_L, "confidence interval, lower end (same scale as the estimate)"),
@@ -158,15 +172,13 @@ COLUMNS = {
     "kappa": ("ratio", "Cohen's kappa of stimulus vs response"),
     "mean_hu": (_F, "mean of Wagner's unbiased hit rates over the samples"),
     "measure": (_C, "per-participant measure summarised (it_bits_corrected, kappa, mean_hu)"),
-    "pct_boot_low": ("see measure", "percentile bootstrap interval over participants (resampled "
-                                    "within group), lower end"),
-    "pct_boot_high": ("see measure", "the same interval, upper end"),
     "hit_rate": (_F, "proportion of the sample's trials named correctly"),
     "hu": (_F, "Wagner's unbiased hit rate"),
     "hu_chance": (_F, "chance value of hu for these marginals"),
     "spearman_pooled": ("ratio", "Spearman rank correlation of stimulus and response, all trials"),
     "mean_participant_spearman": ("ratio", "mean (Fisher z) of the participants' own Spearman rho"),
-    "t_p_value": (_P, "one-sample t-test of the participants' Fisher z against 0"),
+    "t_p_value": (_P, "one-sample t-test of the participants' Fisher z against 0, t(t_df)"),
+    "t_df": (_N, "degrees of freedom of that t-test (participants - 1)"),
     "po_slope": (_L, "proportional-odds log odds of a higher answer per sample step"),
     "po_se": (_L, "its participant-cluster-robust standard error"),
     "po_ci_low": (_L, "interval, lower end"),
@@ -187,6 +199,8 @@ COLUMNS = {
     "mean_difference_A_minus_B": (_F, "mean observed A - B proportion difference"),
     "expected_difference_A_minus_B": (_F, "A - B difference of mean proportions the model implies"),
     "participant_sd": (_L, "SD of participant random intercepts"),
+    "sd_basis": (_C, "where the participant SD of these rows comes from: the analysis's point "
+                     "estimate, an end of its 95 % profile interval, or stated"),
     "alpha": (_P, "two-sided significance level"),
     "missing_rate": (_F, "share of scheduled trials dropped at random"),
     "fallbacks": (_F, "share of cohorts fitted with a fallback formula"),

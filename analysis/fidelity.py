@@ -43,7 +43,10 @@ from sessionfiles.session_reader import read_text_file
 
 from .errors import LogError
 from .inference import holm
-from .models import ModelFit, contrast_se, model_data, reference_p, reference_quantile
+from .small_sample import row_df
+from .wording import df_text, p_text, signed
+from .models import (ModelFit, contrast_se, design_gap, model_data, reference_p,
+                     reference_quantile)
 
 __all__ = ["DEFAULT_EQUIVALENCE_MARGIN_PP", "mode_contrasts", "tost", "equivalence_margin",
            "FIDELITY_COLUMNS"]
@@ -215,13 +218,13 @@ def _test_name(df: float | None, lone: str | None = None) -> str:
     if lone is not None:
         return (f"not tested: group {lone} has 1 participant (no between-participant "
                 f"reference for its mode contrast)")
-    return f"Wald t({df:g})" if df else "Wald z (normal)"
+    return f"Wald t({df_text(df)})" if df else "Wald z (normal)"
 
 
 def _interval_name(fit: ModelFit, df: float | None) -> str:
     if df is not None and np.isnan(df):
         return "none (see test)"
-    ref = f"t({df:g})" if df else "normal"
+    ref = f"t({df_text(df)})" if df else "normal"
     if fit.cov_robust is not None:
         return f"Wald, {ref}; SE the larger of model-based and bias-reduced participant sandwich"
     return f"Wald, {ref}"
@@ -268,8 +271,14 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     for group in groups + (["both"] if len(groups) > 1 else []):
         which = groups if group == "both" else [group]
         df = contrast_df(fit, data, group)
-        c = _contrast(_rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples),
-                      fit, reference_quantile(level, df), df)
+        xr, xs = _rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples)
+        if group == "both" and df and np.isfinite(df) and _group_by_mode(fit):
+            # two independent group means, unequal groups: Welch-Satterthwaite (GEE)
+            df = row_df(fit, xr.mean(axis=0) - xs.mean(axis=0))
+        c = _contrast(xr, xs, fit, reference_quantile(level, df), df)
+        gap = design_gap(data, groups=which, modes=("real", "simulated"))
+        if gap:                    # that group's real or simulated cells are not identified
+            c = {k: np.nan for k in c}
         t = tost(c["difference"], c["difference_se"], margin, df, alpha)
         who = "groups A and B weighted equally" if group == "both" else f"group {group}"
         rows.append({"role": "averaged", "model": fit.kind, "scale": scale, "group": group,
@@ -277,7 +286,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
                      "compares": f"real - simulated, {who}, mean over the samples: log odds "
                                  f"ratio; difference of mean {scale} proportions correct",
                      **c, "interval": _interval_name(fit, df),
-                     "test": _test_name(df, _lone_group(fit, data, group)),
+                     "test": f"not tested: {gap}" if gap else
+                             _test_name(df, _lone_group(fit, data, group)),
                      "df": df, "p_holm": np.nan,
                      "margin": margin, "tost_p_value": t["p_value"],
                      "tost_ci_low": t["ci_low"], "tost_ci_high": t["ci_high"],
@@ -285,15 +295,19 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     per = []
     for group in groups:
         df = contrast_df(fit, data, group)
+        gap = design_gap(data, groups=[group], modes=("real", "simulated"))
         for r in samples:
             c = _contrast(_rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r]),
                           fit, reference_quantile(level, df), df)
+            if gap:
+                c = {k: np.nan for k in c}
             per.append({"role": "per-sample", "model": fit.kind, "scale": scale, "group": group,
                         "roughness_id": int(r),
                         "compares": f"real - simulated, group {group}, sample {r}#: log odds "
                                     f"ratio; difference of {scale} proportions correct",
                         **c, "interval": _interval_name(fit, df),
-                        "test": _test_name(df, _lone_group(fit, data, group)),
+                        "test": f"not tested: {gap}" if gap else
+                                _test_name(df, _lone_group(fit, data, group)),
                         "df": df, "margin": np.nan,
                         "tost_p_value": np.nan, "tost_ci_low": np.nan, "tost_ci_high": np.nan,
                         "equivalent": False, "basis": basis, "note": note})
@@ -312,11 +326,12 @@ def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
         return ("Real vs simulated: not estimable (both modes and a model with a mode term are "
                 "needed).")
     r = sel.iloc[0]
-    pp = lambda v: f"{100 * v:+.1f}"
+    pp = lambda v: signed(100 * v)      # noqa: E731 - percentage points, never "-0.0"
     if r["test"].startswith("not tested"):
+        estimate = (f"real minus simulated {pp(r['difference'])} percentage points of "
+                    f"proportion correct; " if np.isfinite(r["difference"]) else "")
         return (f"Real vs simulated (GEE, population-averaged, both groups weighted equally, "
-                f"mean over the samples): real minus simulated {pp(r['difference'])} "
-                f"percentage points of proportion correct; {r['test']}: no interval and no "
+                f"mean over the samples): {estimate}{r['test']}: no interval and no "
                 f"equivalence test.")
     verdict = ("shown: simulated samples are recognised as well as real ones within the margin"
                if r["equivalent"] else
@@ -328,25 +343,27 @@ def fidelity_paragraph(table: pd.DataFrame, margin_pp: float, source: str,
         f"weighted equally, mean over the samples): real minus simulated "
         f"{pp(r['difference'])} percentage points of proportion correct "
         f"(95 % CI {pp(r['difference_ci_low'])} to {pp(r['difference_ci_high'])}; log odds "
-        f"ratio {r['estimate']:+.2f}, {r['test']} p = {r['p_value']:.3f}). Equivalence "
+        f"ratio {signed(r['estimate'], 2)}, {r['test']} {p_text(r['p_value'])}). Equivalence "
         f"within +-{margin_pp:g} points ({source}; two one-sided {r['test']} tests at "
         f"{alpha:g}, {100 * (1 - 2 * alpha):.0f} % CI {pp(r['tost_ci_low'])} to "
-        f"{pp(r['tost_ci_high'])}): p = {r['tost_p_value']:.3f}, equivalence {verdict}."]
+        f"{pp(r['tost_ci_high'])}): {p_text(r['tost_p_value'])}, equivalence {verdict}."]
     for g in ("A", "B"):
         s = table[(table["model"] == "gee") & (table["role"] == "averaged") & (table["group"] == g)]
         if not s.empty:
             s = s.iloc[0]
             if s["test"].startswith("not tested"):
-                lines.append(f"Group {g}: {pp(s['difference'])} points; {s['test']}.")
+                lines.append(f"Group {g}: " + (f"{pp(s['difference'])} points; "
+                             if np.isfinite(s["difference"]) else "") + f"{s['test']}.")
                 continue
             lines.append(f"Group {g}: {pp(s['difference'])} points "
                          f"({pp(s['difference_ci_low'])} to {pp(s['difference_ci_high'])}), "
-                         f"TOST p = {s['tost_p_value']:.3f}.")
+                         f"TOST {p_text(s['tost_p_value'])}.")
     if not per.empty:
         lines.append(
             "Per sample (8 real - simulated contrasts, Holm-adjusted): "
-            + ("none differs at 0.05 after adjustment" if named.empty else
+            + ("no sample's difference is significant at 0.05 after adjustment (which does "
+               "not show that they are equal)" if named.empty else
                ", ".join(f"group {x.group} {x.roughness_id}# ({pp(x.difference)} points, "
-                         f"p_holm = {x.p_holm:.3f})" for x in named.itertuples()))
-            + f" (smallest adjusted p {per['p_holm'].min():.3f}).")
+                         f"adjusted {p_text(x.p_holm)})" for x in named.itertuples()))
+            + f" (smallest adjusted {p_text(per['p_holm'].min())}).")
     return " ".join(lines)

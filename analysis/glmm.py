@@ -59,7 +59,8 @@ _SIGMA_MAX = 20.0
 
 # --------------------------------------------------------------------------- shared by the ML fits
 #: Columns of the ML mixed models' tables (:func:`fit_glmm`, :func:`analysis.glmm_slope.fit_glmm_slope`).
-ML_COLUMNS = ["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high", "interval"]
+ML_COLUMNS = ["term", "log_odds", "se", "statistic", "p_value", "ci_low", "ci_high", "interval",
+              "test"]
 
 
 def ml_wald(theta, hess, p: int, res):
@@ -82,10 +83,11 @@ def ml_wald(theta, hess, p: int, res):
 def wald_table(terms, beta, se, df, q) -> pd.DataFrame:
     """Fixed effects with Wald ratios, p-values and intervals against t(``df``) (``q`` its
     two-sided quantile; normal without ``df``)."""
-    return pd.DataFrame({"term": terms, "log_odds": beta, "se": se, "z": beta / se,
+    return pd.DataFrame({"term": terms, "log_odds": beta, "se": se, "statistic": beta / se,
                          "p_value": reference_p(beta / se, df),
                          "ci_low": beta - q * se, "ci_high": beta + q * se,
-                         "interval": f"Wald, t({df:g})" if df else "Wald"})
+                         "interval": f"Wald, t({df:g})" if df else "Wald",
+                         "test": f"Wald t({df:g})" if df else "Wald z (normal)"})
 
 
 def profile_cut(level: float, df) -> float:
@@ -448,9 +450,9 @@ def _fit_glmm_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
         table = wald_table(x.columns, beta, se, df, zt)
         icc = lambda s: s ** 2 / (s ** 2 + ICC_LATENT_VARIANCE)
         table.loc[len(table)] = ["participant_sd", sigma, np.sqrt(cov_full[-1, -1]), np.nan,
-                                 np.nan, low, high, how]
+                                 np.nan, low, high, how, ""]
         table.loc[len(table)] = ["icc_latent", icc(sigma), np.nan, np.nan, np.nan, icc(low),
-                                 icc(high), how + " (of participant_sd)"]
+                                 icc(high), how + " (of participant_sd)", ""]
         grad = glmm_deviance(theta, data, n_agq, grad=True)[1]
         convergence = {"method": f"ML, adaptive Gauss-Hermite ({n_agq} nodes), scipy L-BFGS-B",
                        "optimiser_success": bool(res.success), "optimiser_status": int(res.status),

@@ -450,13 +450,14 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
             if profile:
                 with np.errstate(all="ignore"):
                     low, high = _profile_sd(data, z, theta, res.fun, n_agq, level, cut_df, which)
-            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how]
+            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how, ""]
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
             lrt = max(0.0, 2 * (loglik - intercept_fit.convergence["log_likelihood"]))
             pv = 0.5 * stats.chi2.sf(lrt, 1) + 0.5 * stats.chi2.sf(lrt, 2)
             table.loc[len(table)] = ["lrt_slope", lrt, np.nan, np.nan, pv, np.nan, np.nan,
-                                     "LR test vs intercept only, 50:50 chi2(1)/chi2(2)"]
+                                     "LR test vs intercept only, 50:50 chi2(1)/chi2(2)",
+                                     "LR, 50:50 chi2(1)/chi2(2) mixture"]
         conv = {"method": f"ML, adaptive Gauss-Hermite ({n_agq}x{n_agq} nodes), scipy L-BFGS-B",
                 "optimiser_success": bool(res.success), "optimiser_status": int(res.status),
                 "optimiser_message": str(res.message), "iterations": int(res.nit),

@@ -72,6 +72,7 @@ from sessionfiles.logformat import (  # noqa: F401 - REQUIRED_COLUMNS, STATUSES 
 from sessionfiles.session_reader import (SessionFileError, SessionFolder, read_session_folder,
                                         read_session_folders, row_problem)
 
+from .conditions import CONDITION_COLUMNS, choose_condition, session_condition
 from .errors import LogError, LogWarning
 from .session_meta import block_roles, not_recognition_reason, read_session_meta
 from .session_policy import SESSION_POLICIES, apply_policy, session_state
@@ -119,6 +120,8 @@ class TrialLog:
     #: Session folders found but not read as a session (``path``, ``reason``): a copy of
     #: another folder's session (read once), a folder without trial rows.
     not_read: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=["path", "reason"]))
+    #: The condition analysed, ``BACKEND/CONTACT`` (:mod:`analysis.conditions`).
+    condition: str = ""
 
     @property
     def analysable(self) -> pd.DataFrame:
@@ -393,7 +396,7 @@ def _check_identity(rows: pd.DataFrame, path: Path, read: SessionFolder) -> None
                            f"{rows[column].iloc[i]!r}")
 
 
-def load_trials(data_dir, sessions: str = "first") -> TrialLog:
+def load_trials(data_dir, sessions: str = "first", condition: str | None = None) -> TrialLog:
     """Load, validate and combine every session under ``data_dir``.
 
     Parameters
@@ -404,6 +407,10 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     sessions : {"first", "latest", "all"}
         Which sessions are analysed: each participant's first complete session (default),
         the latest complete one, or all of them (incomplete ones included).
+    condition : str, optional
+        ``BACKEND/CONTACT`` (:func:`analysis.conditions.choose_condition`): analyse only the
+        sessions of that display and contact model. Without it, sessions of two or more
+        conditions are refused (never pooled).
 
     Returns
     -------
@@ -458,7 +465,8 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
                             "group": str(context.get("group", "")),
                             "session": sf.session,
                             "path": str(folder), "source": "session.json", "n_rows": 0,
-                            "skipped": reason, **session_state(folder, meta)})
+                            "skipped": reason, **session_state(folder, meta),
+                            **session_condition(meta)})
             continue
         rows, source = load_session(folder, messages, read=sf, check=False)
         if rows.empty:
@@ -472,7 +480,7 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
             rows["_answered"] = blocks.map(lambda b: roles[b]["response"] if b in roles else None)
         parts.append((rows, sf))
         sessions.append({"path": str(folder), "source": source, "n_rows": len(rows),
-                         **session_state(folder, meta)})
+                         **session_state(folder, meta), **session_condition(meta)})
     if not parts:
         also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
         raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
@@ -486,11 +494,13 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
     sessions = sessions.join(first, on="file").drop(columns="file")
     state = ["complete", "n_done", "n_planned", "created_at"]
-    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows", *state]].copy()
+    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows", *state,
+                         *CONDITION_COLUMNS]].copy()
     sessions["skipped"] = ""
     if skipped:
         sessions = pd.concat([sessions, pd.DataFrame(skipped)], ignore_index=True)
         sessions = sessions.sort_values("path", ignore_index=True)
+    sessions, chosen = choose_condition(sessions, condition)
     sessions = apply_policy(sessions, policy).drop(columns="created_at")
     trials = _drop_duplicates(trials, messages)
     for column in ("participant", "group"):
@@ -506,11 +516,20 @@ def load_trials(data_dir, sessions: str = "first") -> TrialLog:
     out_of_policy = trials["source"].map(lambda f: str(Path(f).parent) in left_out)
     trials.loc[out_of_policy, "exclusion"] = "session not analysed"
     trials.loc[out_of_policy, "included"] = False
-    order = [*ANALYSIS_ORDER, "familiarisation", "included", "exclusion", "source", "line"]
+    by_folder = sessions.set_index("path")
+    folder_of = trials["source"].map(lambda f: str(Path(f).parent))
+    other = folder_of.map(by_folder["skipped"]).fillna("").str.startswith("condition ")
+    trials.loc[other, "exclusion"] = "another condition (see --condition)"
+    trials.loc[other, "included"] = False
+    for column in CONDITION_COLUMNS:
+        trials[column] = folder_of.map(by_folder[column]).fillna("")
+    order = [*ANALYSIS_ORDER, "familiarisation", *CONDITION_COLUMNS, "included", "exclusion",
+             "source", "line"]
     trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
                                        ignore_index=True)
     return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy,
-                    not_read=pd.DataFrame(not_read, columns=["path", "reason"]))
+                    not_read=pd.DataFrame(not_read, columns=["path", "reason"]),
+                    condition=chosen)
 
 
 def _same(a, b) -> bool:

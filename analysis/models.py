@@ -36,6 +36,7 @@ import patsy
 from scipy import sparse, special, stats
 
 from .errors import ModelWarning
+from .small_sample import group_covariances, row_df
 
 __all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data",
            "lone_group", "lone_group_reason"]
@@ -100,6 +101,8 @@ class ModelFit:
     theta: np.ndarray | None = None
     cov_full: np.ndarray | None = None
     cov_robust: np.ndarray | None = None
+    #: The GEE's sandwich split by group, ``{g: (W_g, m_g)}`` (:mod:`analysis.small_sample`).
+    cov_by_group: dict | None = None
 
     def quantile(self, level: float) -> float:
         """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""
@@ -312,15 +315,19 @@ def fit_gee(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95
         # table refers it to t(participants - 2) (reference_df), so only the ratio is theirs
         ratio = np.asarray(res.tvalues)
         table = pd.DataFrame({"term": x.columns, "log_odds": params, "se": se,
-                              "z": ratio, "p_value": reference_p(ratio, df),
-                              "ci_low": params - z * se, "ci_high": params + z * se})
+                              "statistic": ratio, "p_value": reference_p(ratio, df),
+                              "ci_low": params - z * se, "ci_high": params + z * se,
+                              "test": f"Wald t({df:g})" if df else "Wald z (normal)"})
         return ModelFit(kind="gee", formula=candidate, requested=formula, table=table,
                         notes=notes, params=params, cov=np.asarray(res.cov_params()),
-                        design_info=x.design_info, result=res, df=df)
+                        design_info=x.design_info, result=res, df=df,
+                        cov_by_group=group_covariances(
+                            res, dict(zip(data["participant"], data["group"]))))
     notes.append("GEE: no formula could be fitted")
     warnings.warn("; ".join(notes), ModelWarning, stacklevel=2)
     return ModelFit(kind="gee", formula=None, requested=formula, table=pd.DataFrame(
-        columns=["term", "log_odds", "se", "z", "p_value", "ci_low", "ci_high"]), notes=notes)
+        columns=["term", "log_odds", "se", "statistic", "p_value", "ci_low", "ci_high", "test"]),
+        notes=notes)
 
 
 def fit_bayes(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
@@ -447,17 +454,26 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
             if label != 0 and not per_sample:
                 cell = data[(data["mode"] == mode) & (data["roughness_id"] == label)]
                 if fit.kind == "gee":
-                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z, fit.df)])
+                    rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z, fit.df),
+                                 fit.df])
                 continue
             grid = pd.DataFrame({"group": ["A"] * len(levels) + ["B"] * len(levels),
                                  "mode": mode, "roughness_id": list(levels) * 2,
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
+            xa, xb = x[: len(levels)], x[len(levels):]
+            df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0))
             rows.append([fit.kind, mode, label,
-                         *log_odds_contrast(x[: len(levels)], x[len(levels):], beta, cov, z, fit.df),
-                         f"model: {fit.formula}"])
+                         *log_odds_contrast(xa, xb, beta, cov, reference_quantile(level, df), df),
+                         f"model: {fit.formula}", df])
     out = pd.DataFrame(rows, columns=columns)
     out["compares"] = [_compares(r.mode, r.roughness_id, fit.kind) for r in out.itertuples()]
+    for mode in out["mode"].unique():          # a group without this mode: no A - B in it
+        gap = design_gap(data, modes=[mode])
+        if gap:
+            sel = out["mode"] == mode
+            out.loc[sel, CONTRAST_COLUMNS[3:-2]] = np.nan
+            out.loc[sel, "basis"] = f"not estimable: {gap}"
     lone = lone_group(data)
     if lone is not None:               # estimates only: no SE the data can support
         out[["se", "ci_low", "ci_high", "p_value", "difference_low", "difference_high"]] = np.nan
@@ -468,7 +484,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
 #: Columns of :func:`group_contrasts`.
 CONTRAST_COLUMNS = ["model", "mode", "roughness_id", "log_odds_ratio_A_vs_B", "se", "ci_low",
                     "ci_high", "odds_ratio_A_vs_B", "p_value", "p_correct_A", "p_correct_B",
-                    "difference_A_minus_B", "difference_low", "difference_high", "basis"]
+                    "difference_A_minus_B", "difference_low", "difference_high", "basis", "df"]
 
 
 def _compares(mode: str, roughness_id: int, kind: str) -> str:
@@ -498,6 +514,24 @@ def log_odds_contrast(xa, xb, beta, cov, z, df=None) -> list:
     return [est, se, est - z * se, est + z * se, np.exp(est),
             float(reference_p(est / se, df)) if se > 0 else np.nan, pa, pb,
             pa - pb, pa - pb - z * dse, pa - pb + z * dse]
+
+
+def design_gap(data: pd.DataFrame, groups=("A", "B"), modes=None) -> str:
+    """What the design lacks for a contrast over ``groups`` x ``modes`` (``""``: nothing).
+
+    A group without trials in a mode (a TCS II session has simulated blocks only) leaves that
+    group x mode cell of the model unidentified: any contrast using it is not estimable, and
+    saying so beats a number the data do not hold. ``modes`` defaults to the modes present.
+    """
+    modes = sorted(data["mode"].unique()) if modes is None else list(modes)
+    have = set(zip(data["group"].astype(str), data["mode"].astype(str)))
+    for g in groups:
+        if g not in set(data["group"].astype(str)):
+            return f"no trials of group {g}"
+        for m in modes:
+            if (g, m) not in have:
+                return f"group {g} has no {m} trials"
+    return ""
 
 
 def lone_group(trials: pd.DataFrame) -> tuple[str, int] | None:

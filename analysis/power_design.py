@@ -67,7 +67,38 @@ def design_from_analysis(analysis_dir) -> dict:
         pass
     return {"cells": cells, "participant_sd": sd, "n_group_A": int(people.get("A", 0)),
             "n_group_B": int(people.get("B", 0)), "repetitions": reps,
-            "missing_rate": missing_rate}
+            "missing_rate": missing_rate, "participant_sd_interval": sd_interval(folder)}
+
+
+def sd_interval(folder: Path) -> tuple[float, float] | None:
+    """The participant SD's 95 % profile interval of the analysis (``glmm.csv``), or None.
+
+    A pilot's SD is an estimate: at 30 participants its profile interval is wide (0.62-1.24
+    around 0.9 in the worked example), and power moves with it (by up to 0.15 between pilots of
+    one truth), so ``thermocue power --from-analysis`` computes power at both ends as well.
+    """
+    try:
+        row = pd.read_csv(folder / "glmm.csv").set_index("term").loc["participant_sd"]
+        low, high = float(row["ci_low"]), float(row["ci_high"])
+    except (OSError, ValueError, KeyError):
+        return None
+    return (max(low, 0.0), high) if np.isfinite(low) and np.isfinite(high) and high > low else None
+
+
+def sd_scenarios(design: dict, stated: float | None) -> list[tuple[str, float]]:
+    """The participant SDs power is computed at, each with what it is.
+
+    A stated ``--participant-sd``: that value alone. Else the analysis's point estimate and
+    both ends of its 95 % profile interval (the range the pilot cannot rule out).
+    """
+    if stated is not None:
+        return [("stated (--participant-sd)", float(stated))]
+    out = [("point estimate of the analysis", float(design["participant_sd"]))]
+    interval = design.get("participant_sd_interval")
+    if interval is not None:
+        out += [("lower end of its 95 % profile interval", interval[0]),
+                ("upper end of its 95 % profile interval", interval[1])]
+    return out
 
 
 def cells_with_effect(cells, effect_pp: float, *, participant_sd: float,

@@ -148,7 +148,7 @@ def ordinal_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        ``group, mode, spearman_pooled, mean_participant_spearman, t_p_value,
+        ``group, mode, spearman_pooled, mean_participant_spearman, t_p_value, t_df,
         n_participants, po_slope, po_se, po_ci_low, po_ci_high`` (proportional-odds
         log odds of a higher answer per sample step; cluster-robust SE).
     """
@@ -164,9 +164,10 @@ def ordinal_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
         fz = np.arctanh(per)
         mean = float(np.tanh(fz.mean())) if len(per) else np.nan
         p = float(stats.ttest_1samp(fz, 0.0).pvalue) if len(per) > 1 else np.nan
+        t_df = len(per) - 1 if len(per) > 1 else np.nan
         slope, se, low, high = _po_slope(sel, level)
         rows.append({"group": g, "mode": m, "spearman_pooled": pooled,
-                     "mean_participant_spearman": mean, "t_p_value": p,
+                     "mean_participant_spearman": mean, "t_p_value": p, "t_df": t_df,
                      "n_participants": len(per), "po_slope": slope, "po_se": se,
                      "po_ci_low": low, "po_ci_high": high})
     return pd.DataFrame(rows)
@@ -206,14 +207,20 @@ def _gee_terms(data: pd.DataFrame, formula: str, terms, level: float) -> list[di
         except (ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return []
     out = []
-    ci = pd.DataFrame(res.conf_int(alpha=1 - level), index=res.params.index)
+    # referred to t(participants - 2), as every other Wald row (statsmodels' own use the normal)
+    m = data["participant"].nunique()
+    df = float(m - 2) if m > 2 else None
+    q = float(stats.t.ppf(0.5 + level / 2, df) if df else stats.norm.ppf(0.5 + level / 2))
     for term, label in terms:
         if term not in res.params.index:
             continue
         b, se = float(res.params[term]), float(res.bse[term])
+        ratio = b / se if se > 0 else np.nan
+        p = float(2 * (stats.t.sf(abs(ratio), df) if df else stats.norm.sf(abs(ratio))))
         out.append({"model": f"GEE {formula}", "term": term, "meaning": label, "log_odds": b,
-                    "se": se, "ci_low": float(ci.loc[term, 0]), "ci_high": float(ci.loc[term, 1]),
-                    "p_value": float(res.pvalues[term]) if se > 0 else np.nan})
+                    "se": se, "ci_low": b - q * se, "ci_high": b + q * se,
+                    "statistic": ratio, "p_value": p if se > 0 else np.nan,
+                    "test": f"Wald t({df:g})" if df else "Wald z (normal)"})
     return out
 
 
@@ -223,7 +230,8 @@ def covariate_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFram
     Returns
     -------
     pandas.DataFrame
-        ``model, term, meaning, log_odds, se, ci_low, ci_high, p_value``.
+        ``model, term, meaning, log_odds, se, ci_low, ci_high, statistic, p_value, test``
+        (``test`` names the reference: Wald t(participants - 2)).
     """
     data = pd.DataFrame({
         "participant": trials["participant"].astype(str).to_numpy(),
@@ -260,7 +268,7 @@ def covariate_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFram
                            [("log_rt", "log odds per unit log response time "
                                        "(speed-accuracy relation)")], level)
     return pd.DataFrame(rows, columns=["model", "term", "meaning", "log_odds", "se", "ci_low",
-                                       "ci_high", "p_value"])
+                                       "ci_high", "statistic", "p_value", "test"])
 
 
 def force_table(trials: pd.DataFrame) -> pd.DataFrame:

@@ -28,7 +28,8 @@ from .inference import (averaged_contrast, chance_tests, holm, interaction_test,
 from .missing import missing_summary, missing_trials
 from .model_decisions import model_decisions
 from .models import (FORMULA, ModelFit, fit_bayes, fit_gee, group_contrasts, lone_group,
-                     lone_group_reason)
+                     lone_group_reason, reference_quantile)
+from .wording import df_text
 from .proportions import cell_proportions, participant_summary
 from .result import AnalysisResult
 from .psychophysics import (agreement_table, covariate_table, force_table, hu_table, ordinal_table,
@@ -55,8 +56,9 @@ def _write_csv(df: pd.DataFrame, path: Path) -> Path:
 
 
 def _t_label(df) -> str:
-    """The reference distribution of a Wald ratio, named: ``Wald t(df)`` or ``Wald z (normal)``."""
-    return f"Wald t({df:g})" if df else "Wald z (normal)"
+    """The reference distribution of a Wald ratio, named: ``Wald t(df)`` or ``Wald z (normal)``
+    (a Welch-Satterthwaite df with one decimal: ``Wald t(11.3)``)."""
+    return f"Wald t({df_text(df)})" if df else "Wald z (normal)"
 
 
 def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
@@ -87,12 +89,13 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
     """
     rows = []
     def from_contrast(role, r, p_holm=np.nan):
-        return {"role": role, "test": _t_label(gee.df), "model": r["model"],
+        df = r["df"] if "df" in r and pd.notna(r["df"]) else gee.df
+        return {"role": role, "test": _contrast_test(r, df), "model": r["model"],
                 "compares": r["compares"],
                 "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
-                "ci_high": r["ci_high"], "interval": _interval_label(gee.df),
+                "ci_high": r["ci_high"], "interval": _interval_label(df),
                 "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
-                "df": gee.df if gee.df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
+                "df": df if df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
                 "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
                 "difference_ci_high": r["difference_high"], "basis": r["basis"],
                 "note": ("per-sample GEE of this sample's trials alone: the full model could not "
@@ -102,10 +105,14 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         rows.append(from_contrast("primary", first))
     if gee.formula is not None:
         omni = omnibus_group_test(gee, trials)
-        if omni["df"]:
+        if omni["reason"]:
+            rows.append({"role": "omnibus", "test": omni["reason"], "model": "gee",
+                         "compares": omni["hypothesis"], "basis": f"model: {gee.formula}",
+                         "note": ""})
+        elif omni["df"]:
             rows.append({"role": "omnibus", "test": f"Wald F({omni['df']}, "
-                         f"{omni['df_denominator']}), small-sample, from Wald chi2 = "
-                         f"{omni['chi2']:.3f}",
+                         f"{df_text(omni['df_denominator'])}), {omni['method']}, from Wald "
+                         f"chi2 = {omni['chi2']:.3f}",
                          "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
                          "df": omni["df"], "p_value": omni["p_value"],
                          "basis": f"model: {gee.formula}", "note": ""})
@@ -117,18 +124,22 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         if fit is None or fit.formula is None:
             continue
         it = interaction_test(fit, trials, level=level)
-        if np.isfinite(it["log_odds"]):
+        if it["reason"]:
+            rows.append({"role": "interaction", "test": it["reason"], "model": fit.kind,
+                         "compares": it["compares"], "interval": "none (see test)",
+                         "basis": f"model: {fit.formula}", "note": ""})
+        elif np.isfinite(it["log_odds"]):
             scale = ("population-averaged" if fit.kind == "gee"
                      else "typical participant (u = 0)")
-            rows.append({"role": "interaction", "test": _t_label(fit.df), "model": fit.kind,
+            rows.append({"role": "interaction", "test": _t_label(it["df"]), "model": fit.kind,
                          "compares": it["compares"] + f"; proportions {scale}",
                          "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
                          "ci_high": it["ci_high"],
-                         "interval": _interval_label(fit.df) + (
+                         "interval": _interval_label(it["df"]) + (
                              "; SE the larger of model-based and bias-reduced participant "
                              "sandwich" if fit.cov_robust is not None else ""),
                          "statistic": it["log_odds"] / it["se"],
-                         "df": fit.df if fit.df else np.nan, "p_value": it["p_value"],
+                         "df": it["df"] if it["df"] else np.nan, "p_value": it["p_value"],
                          "difference": it["difference_of_differences"],
                          "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
                          "basis": f"model: {fit.formula}"
@@ -185,17 +196,30 @@ def complete_cases_row(trials: pd.DataFrame, missing: pd.DataFrame,
     row = averaged_contrast(fit, "real", level=level) if fit.formula else None
     if row is None:
         return {**base, "test": "not estimable", "note": "; ".join(fit.notes)}
-    q = fit.quantile(level)
+    df = row["df"]
+    q = reference_quantile(level, df)
     est, se = row["log_odds_ratio"], row["se"]
-    return {**base, "test": _t_label(fit.df), "estimate": est, "se": se, "ci_low": est - q * se,
-            "ci_high": est + q * se, "interval": _interval_label(fit.df),
-            "statistic": est / se if se else np.nan, "df": fit.df if fit.df else np.nan,
+    return {**base, "test": _t_label(df), "estimate": est, "se": se, "ci_low": est - q * se,
+            "ci_high": est + q * se, "interval": _interval_label(df),
+            "statistic": est / se if se else np.nan, "df": df if df else np.nan,
             "p_value": row["p_value"], "difference": row["difference"],
+            "difference_ci_low": row["difference_low"], "difference_ci_high": row["difference_high"],
             "basis": f"model: {fit.formula}", "note": "; ".join(fit.notes)}
 
 
+def _contrast_test(r, df) -> str:
+    """The ``test`` of a contrast row: its reference distribution, or why it is not tested."""
+    basis = str(r["basis"])
+    if not np.isfinite(r["log_odds_ratio_A_vs_B"]):
+        return "not tested: " + (basis.split(": ", 1)[1] if basis.startswith("not estimable")
+                                 else basis)
+    if not (np.isfinite(r["se"]) and r["se"] > 0):
+        return "not tested: the standard error is zero (no variation to test against)"
+    return _t_label(df)
+
+
 def _interval_label(df) -> str:
-    return f"Wald, t({df:g})" if df else "Wald, normal"
+    return f"Wald, t({df_text(df)})" if df else "Wald, normal"
 
 
 #: Columns of :func:`tests_table`.
@@ -211,6 +235,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             progress: Callable[[str], None] | None = None,
             sessions: str = "first",
             equivalence_margin_pp: float | None = None,
+            condition: str | None = None,
             before_write: Callable | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
@@ -249,6 +274,10 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         Margin of the real-vs-simulated equivalence test, percentage points of proportion
         correct; None: the protocol's ``[analysis] equivalence_margin_pp``, else 10
         (:func:`analysis.fidelity.equivalence_margin`).
+    condition : str, optional
+        ``BACKEND/CONTACT``: analyse the sessions of that display backend and contact model
+        only (:func:`analysis.conditions.choose_condition`); sessions of two conditions without
+        it are refused, never pooled.
     before_write : callable, optional
         Called once, with no argument, just before the first output is written (the command
         line's :meth:`sessionfiles.atomicfile.OutputFolder.begin`: a refused or failed analysis
@@ -268,7 +297,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     say(f"loading sessions under {data_dir}")
-    log = load_trials(data_dir, sessions=sessions)
+    log = load_trials(data_dir, sessions=sessions, condition=condition)
     trials = log.analysable
     if trials.empty:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "
@@ -339,8 +368,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         per_person = participant_agreement(trials)
         extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),
                   "agreement_participants": per_person,
-                  "agreement_comparison": agreement_comparison(per_person, n_boot=n_boot,
-                                                               level=level, seed=seed),
+                  "agreement_comparison": agreement_comparison(per_person, level=level),
                   "ordinal": ordinal_table(trials, level=level),
                   "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
                   "force": force_table(trials),

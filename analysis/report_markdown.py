@@ -58,8 +58,12 @@ def _md_table(df: pd.DataFrame, digits: int = 3) -> str:
 
 def sessions_markdown(log) -> list:
     """Every session and why it was or was not analysed; trials with the skin out of range."""
-    cols = ["participant", "session", "complete", "n_done", "n_planned", "analysed", "reason"]
+    cols = ["participant", "session", "condition", "device_id", "firmware_image_id", "complete",
+            "n_done", "n_planned", "analysed", "reason"]
     table = log.sessions[[c for c in cols if c in log.sessions.columns]].copy()
+    for c in ("device_id", "firmware_image_id"):          # shown when any session records them
+        if c in table.columns and not table[c].astype(str).str.len().any():
+            table = table.drop(columns=c)
     for c in ("complete", "analysed"):
         if c in table.columns:
             table[c] = table[c].map({True: "yes", False: "no"})
@@ -101,6 +105,7 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
         f"{log.trials['participant'].nunique()} participants, {len(log.trials)} logged rows, "
         f"{len(a)} analysed. Intervals: {pct}; bootstrap: {n_boot} participant resamples "
         f"within group, seed {seed}.", "",
+        *_condition_lines(log),
         "## Summary", "", r.summary, "",
         "![Figure 9](figure9.png)", "",
         *_fidelity_section(r),
@@ -143,6 +148,22 @@ def report_markdown(r: AnalysisResult, data_dir, n_boot: int, level: float, seed
     ]
     parts += [f"- `{k}`: {v}" for k, v in COLUMN_MEANINGS.items()]
     return "\n".join(parts) + "\n"
+
+
+def _condition_lines(log) -> list[str]:
+    """The one condition analysed (display backend / contact model), and the others found."""
+    label = getattr(log, "condition", "")
+    if not label:
+        return []
+    backend, contact = label.split("/", 1)
+    others = log.sessions.get("condition", pd.Series(dtype=str))
+    others = sorted(set(others[(others != label)].dropna()))
+    text = (f"Condition analysed: display backend `{backend}`, contact model `{contact}` "
+            f"(`--condition {label}`; every test below is within this condition).")
+    if others:
+        text += (f" Sessions of other conditions ({', '.join(f'`{o}`' for o in others)}) are not "
+                 f"pooled with it: analyse them with their own `--condition`.")
+    return [text, ""]
 
 
 def _not_read_section(log) -> list[str]:
@@ -217,14 +238,15 @@ def _missing_section(r: AnalysisResult) -> list[str]:
 
 
 def _agreement_comparison_md(table) -> list[str]:
-    """Per-participant IT, kappa and Hu: means with bootstrap intervals, A - B with Welch t."""
+    """Per-participant IT, kappa and Hu: means with t intervals, A - B with Welch's t."""
     if table is None or table.empty:
         return []
     return ["Per participant (each participant's own confusion matrix per mode; participants "
-            "are the units): mean per group x mode with a percentile bootstrap interval "
-            "(participants resampled within group), and group A - B with its bootstrap interval "
-            "and Welch's t-test (`agreement_participants.csv` has every participant's values). "
-            "The coverage of these intervals was not measured.", "",
+            "are the units): mean per group x mode with a t(n - 1) interval on the "
+            "participants' values, and group A - B with Welch's t interval and test "
+            "(Welch-Satterthwaite df; `agreement_participants.csv` has every participant's "
+            "values). Measured coverage: A - B 0.93-0.95, group means 0.93-0.94 (400 "
+            "simulated studies at 13 + 17 and 20 + 8; benchmarks/README.md).", "",
             _md_table(table.drop(columns=["interval"])), ""]
 
 

@@ -6,6 +6,7 @@ import pandas as pd
 
 from .load import TrialLog
 from .models import ModelFit
+from .wording import p_text, signed
 
 __all__ = ["plain_summary"]
 
@@ -53,15 +54,16 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
         line = f"With {mode} samples the answers were correct in {text} of trials (chance: 25 %)."
         row = contrasts[(contrasts["model"] == "gee") & (contrasts["mode"] == mode)
                         & (contrasts["roughness_id"] == 0)]
-        if not row.empty:
+        if not row.empty and not np.isfinite(row.iloc[0]["ci_low"]):
+            line += (f" Group A vs B averaged over the four samples: not tested "
+                     f"({str(row.iloc[0]['basis']).removeprefix('not estimable: ')}).")
+        elif not row.empty:
             r = row.iloc[0]
-            verdict = ("a difference the data support (the interval excludes no difference)"
-                       if r["ci_low"] > 0 or r["ci_high"] < 0 else
-                       "a difference the data cannot tell apart from none")
+            verdict = odds_verdict(r["ci_low"], r["ci_high"])
             line += (f" Averaged over the four samples, the GEE puts group A's odds of a correct "
                      f"answer at {r['odds_ratio_A_vs_B']:.2f} times group B's (95 % CI "
-                     f"{np.exp(r['ci_low']):.2f}-{np.exp(r['ci_high']):.2f}, p = {r['p_value']:.3f}): "
-                     f"{verdict}.")
+                     f"{np.exp(r['ci_low']):.2f}-{np.exp(r['ci_high']):.2f}, "
+                     f"{p_text(r['p_value'])}): {verdict}.")
         out.append(line)
     gap = {}
     for mode in ("real", "simulated"):
@@ -121,6 +123,19 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
     return "\n\n".join(out)
 
 
+def odds_verdict(ci_low: float, ci_high: float) -> str:
+    """What a log odds ratio's 95 % interval says, in words that match the numbers.
+
+    An interval that excludes 0 shows a difference; one that includes 0 shows neither a
+    difference nor its absence (the old wording, "the interval excludes no difference", read
+    as the second).
+    """
+    if ci_low > 0 or ci_high < 0:
+        return "the 95 % interval excludes equal odds: the data show a difference"
+    return ("the 95 % interval includes equal odds: these data neither show a difference nor "
+            "rule one out")
+
+
 def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[str]:
     """Primary test, omnibus, Holm-adjusted per-sample results, interaction: in words."""
     out = []
@@ -129,22 +144,26 @@ def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[s
     withheld = (tests[tests["test"].astype(str).str.startswith("not tested")]
                 if "test" in tests else tests.iloc[:0])
     if not withheld.empty:
-        reason = str(withheld["test"].iloc[0]).removeprefix("not tested: ")
-        out.append(f"No comparison of the groups is tested ({', '.join(sorted(set(withheld['role'])))}): "
-                   f"{reason}. Their estimates, without intervals or p-values, are in tests.csv.")
+        for reason, rows in withheld.groupby("test", sort=False):
+            roles = ", ".join(dict.fromkeys(rows["role"]))
+            out.append(f"Not tested ({roles}; {len(rows)} row(s) of tests.csv): "
+                       f"{str(reason).removeprefix('not tested: ')}. Their estimates, where "
+                       f"there are any, are in tests.csv without intervals or p-values.")
         tests = tests.drop(withheld.index)
     by_role = {role: sel for role, sel in tests.groupby("role")}
     if "primary" in by_role:
         r = by_role["primary"].iloc[0]
         out.append(f"Primary test (the paper's claim: group A vs B with real samples, averaged "
-                   f"over the four samples; GEE, {r.test}): log odds ratio {r.estimate:+.2f} "
-                   f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), p = {r.p_value:.3f}; "
-                   f"difference of mean proportions {100 * r.difference:+.1f} percentage points "
-                   f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
+                   f"over the four samples; GEE, {r.test}): log odds ratio "
+                   f"{signed(r.estimate, 2)} (95 % CI {signed(r.ci_low, 2)} to "
+                   f"{signed(r.ci_high, 2)}), {p_text(r.p_value)}; difference of mean "
+                   f"proportions {signed(100 * r.difference)} percentage points "
+                   f"({signed(100 * r.difference_ci_low)} to "
+                   f"{signed(100 * r.difference_ci_high)}).")
     if "omnibus" in by_role:
         r = by_role["omnibus"].iloc[0]
         out.append(f"Omnibus test of any group difference on any sample ({r.test}; "
-                   f"F = {r.statistic:.2f}): p = {r.p_value:.3f}.")
+                   f"F = {r.statistic:.2f}): {p_text(r.p_value)}.")
     per = by_role.get("per-sample")
     if per is not None and not per.empty:
         missing = per[per["p_value"].isna()]
@@ -156,17 +175,26 @@ def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[s
         n_tests = int(per["p_value"].notna().sum())
         omnibus = by_role.get("omnibus")
         gate = None if omnibus is None else float(omnibus["p_value"].iloc[0])
+        smallest = p_text(per["p_holm"].min()).removeprefix("p = ").removeprefix("p ")
         if gate is not None and not gate < 0.05:
-            out.append(f"The omnibus test does not reject (p = {gate:.3f}), so no single sample "
+            out.append(f"The omnibus test does not reject ({p_text(gate)}), so no single sample "
                        f"is claimed to differ between the groups (Holm-adjusted per-sample "
-                       f"p-values are in tests.csv; the smallest is {per['p_holm'].min():.3f}).")
+                       f"p-values are in tests.csv; the smallest is {smallest}); this is not "
+                       f"evidence that the groups are alike.")
+        elif sig.empty and gate is not None:
+            out.append(f"The omnibus test rejects ({p_text(gate)}): the groups differ on at "
+                       f"least one sample in one mode, but after Holm's adjustment for the "
+                       f"{n_tests} per-sample comparisons none of them on its own is significant "
+                       f"at 0.05 (smallest adjusted p {smallest}): the data do not say which.")
         elif sig.empty:
             out.append(f"After Holm's adjustment for the {n_tests} per-sample comparisons, no "
-                       f"single sample shows a group difference (all adjusted p >= 0.05).")
+                       f"single sample's group difference is significant at 0.05 (smallest "
+                       f"adjusted p {smallest}); this does not show that the samples do not "
+                       f"differ.")
         else:
             out.append(f"After Holm's adjustment for the {n_tests} per-sample comparisons, the "
                        f"group difference remains for: " + "; ".join(
-                           f"{r.compares.split(':')[0]} (adjusted p = {r.p_holm:.3f})"
+                           f"{r.compares.split(':')[0]} (adjusted {p_text(r.p_holm)})"
                            for r in sig.itertuples()) + ".")
         if (per["basis"].astype(str).str.startswith("per-sample")).any():
             out.append("Per-sample group comparisons come from a GEE of each sample's trials "
@@ -177,9 +205,10 @@ def tests_summary(contrasts: pd.DataFrame, tests: pd.DataFrame | None) -> list[s
             else inter.iloc[0]
         if np.isfinite(r.estimate):
             out.append(f"Group x mode interaction (is the A-B gap different with real and simulated "
-                       f"samples?): difference of the two A-B log odds ratios {r.estimate:+.2f} "
-                       f"(95 % CI {r.ci_low:+.2f} to {r.ci_high:+.2f}), {r.test} p = "
-                       f"{r.p_value:.3f}; as "
-                       f"proportions, {100 * r.difference:+.1f} percentage points "
-                       f"({100 * r.difference_ci_low:+.1f} to {100 * r.difference_ci_high:+.1f}).")
+                       f"samples?): difference of the two A-B log odds ratios "
+                       f"{signed(r.estimate, 2)} (95 % CI {signed(r.ci_low, 2)} to "
+                       f"{signed(r.ci_high, 2)}), {r.test} {p_text(r.p_value)}; as proportions, "
+                       f"{signed(100 * r.difference)} percentage points "
+                       f"({signed(100 * r.difference_ci_low)} to "
+                       f"{signed(100 * r.difference_ci_high)}).")
     return out

@@ -31,6 +31,10 @@ def register(sub) -> None:
                    help="margin of the real-vs-simulated equivalence test, percentage points of "
                         "proportion correct (default: the protocol's [analysis] "
                         "equivalence_margin_pp, else 10)")
+    p.add_argument("--condition", default=None, metavar="BACKEND/CONTACT",
+                   help="analyse only the sessions of this display backend and contact model "
+                        "(e.g. tcs2/resting, serial/press); needed when DATA_DIR holds more than "
+                        "one: trials of different displays or contact models are never pooled")
     p.add_argument("--no-mixed", action="store_true",
                    help="skip the maximum-likelihood mixed logit (faster)")
     p.add_argument("--bayes-vb", action="store_true",
@@ -62,6 +66,7 @@ def _run(ns) -> int:
                          bayes=ns.bayes_vb and not ns.no_bayes, mixed=not ns.no_mixed,
                          progress=progress, sessions=ns.sessions,
                          equivalence_margin_pp=ns.equivalence_margin_pp,
+                         condition=ns.condition,
                          before_write=folder.begin)     # COMPLETE removed, written last
     written = {Path(p) for p in result.files.values()}
     written |= {p.with_suffix(".pdf") for p in written if p.suffix == ".png"

@@ -154,24 +154,29 @@ def _compute(ns, effects, sizes, map_tasks) -> int:
         if not Path(ns.from_analysis).is_dir():
             raise UserInputError(f"--from-analysis: expected an output folder of thermocue "
                                  f"analyze, got {ns.from_analysis!r}")
-        from analysis.power_design import design_from_analysis, power_by_effect
+        from analysis.power_design import design_from_analysis, power_by_effect, sd_scenarios
         design = design_from_analysis(ns.from_analysis)
-        sd = design["participant_sd"] if sd is None else sd
+        scenarios = sd_scenarios(design, sd)
         reps = design["repetitions"] if reps is None else reps
         missing_rate = design["missing_rate"] if missing_rate is None else missing_rate
         if ns.n_per_group is None:
             observed = (design["n_group_A"], design["n_group_B"])
             sizes = sorted(set(sizes) | {observed if observed[0] != observed[1] else observed[0]},
                            key=lambda s: sum(s) / 2 if isinstance(s, tuple) else s)
-        result = power_by_effect(design["cells"], effects, sizes, participant_sd=sd,
-                                 mode=ns.mode, simulations=ns.simulations, repetitions=reps,
-                                 alpha=ns.alpha, test=ns.test, missing_rate=missing_rate,
-                                 seed=ns.seed, progress=progress, map_tasks=map_tasks)
+        results = []
+        for basis, sd in scenarios:
+            progress(f"participant SD {sd:.3f} ({basis})")
+            results.append((basis, power_by_effect(
+                design["cells"], effects, sizes, participant_sd=sd, mode=ns.mode,
+                simulations=ns.simulations, repetitions=reps, alpha=ns.alpha, test=ns.test,
+                missing_rate=missing_rate, seed=ns.seed, progress=progress,
+                map_tasks=map_tasks)))
         source = (f"{ns.from_analysis}: design (n {design['n_group_A']}:{design['n_group_B']}, "
                   f"{reps} repetitions, missing {missing_rate:.3f}) and participant SD "
-                  f"{sd:.3f} from the analysis; group B's cells from its mixed model; group A's "
-                  f"set by the stated effect(s)")
-        return _write(ns, result, source, sizes, progress)
+                  + ", ".join(f"{sd:.3f} ({basis})" for basis, sd in scenarios)
+                  + " from the analysis; group B's cells from its mixed model; group A's set "
+                    "by the stated effect(s)")
+        return _write(ns, results, source, sizes, progress)
     elif ns.cells:
         if not Path(ns.cells).is_file():
             raise UserInputError(f"--cells: expected an existing CSV file, got {ns.cells!r}")
@@ -182,6 +187,7 @@ def _compute(ns, effects, sizes, map_tasks) -> int:
             raise UserInputError("--cells: expected a CSV of per-cell probabilities (group, mode, "
                                  "roughness_id, p_correct), got none, and the simulated-participant "
                                  "model is not available")
+    basis = "stated (--participant-sd)" if sd is not None else "default"
     sd = 0.5 if sd is None else sd
     scale = scale or "marginal"
     result = power_curve(cells, sizes, simulations=ns.simulations,
@@ -189,7 +195,21 @@ def _compute(ns, effects, sizes, map_tasks) -> int:
                          participant_sd=sd, mode=ns.mode, alpha=ns.alpha, test=ns.test,
                          cells_scale=scale, missing_rate=missing_rate or 0.0, seed=ns.seed,
                          progress=progress, map_tasks=map_tasks)
-    return _write(ns, result, source, sizes, progress)
+    return _write(ns, [(basis, result)], source, sizes, progress)
+
+
+def not_reached(sizes) -> str:
+    """What the grid searched, when a power target was not reached on it.
+
+    ``[15, 30, 60]`` -> ``not reached up to 60 per group (grid searched: 15, 30, 60)``;
+    with unequal groups (``13:17``) the sizes searched are named as A + B, never as one
+    "up to" size that neither group had.
+    """
+    grid = ", ".join(f"{s[0]} + {s[1]}" if isinstance(s, tuple) else str(s) for s in sizes)
+    if any(isinstance(s, tuple) and s[0] != s[1] for s in sizes):
+        return f"not reached on the grid searched ({grid} participants, group A + group B)"
+    largest = max(s[0] if isinstance(s, tuple) else s for s in sizes)
+    return f"not reached up to {largest} per group (grid searched: {grid})"
 
 
 def _effects(text: str) -> list[float]:
@@ -204,37 +224,50 @@ def _effects(text: str) -> list[float]:
     return values
 
 
-def _write(ns, result, source, sizes, progress) -> int:
+def _write(ns, results, source, sizes, progress) -> int:
+    """Write power.csv (one block per participant SD, ``sd_basis`` saying which), cells.csv,
+    power_summary.json, codebook.json and power.png (the first SD's curve); print each SD's
+    table and the n for 80 % and 90 % power, each "conditional on SD = x"."""
+    import pandas as pd
+
     from analysis.power import plot_power
     from analysis.exports import codebook, write_csv
     from sessionfiles.atomicfile import OutputFolder, output_file
 
+    table = pd.concat([r.table.assign(sd_basis=basis) for basis, r in results], ignore_index=True)
     folder = OutputFolder(ns.out, "thermocue power")
     out = folder.begin()                # every file whole (temporary + rename), COMPLETE last
-    write_csv(result.table, out / "power.csv")
-    write_csv(result.cells, out / "cells.csv")
+    write_csv(table, out / "power.csv")
+    write_csv(results[0][1].cells, out / "cells.csv")
+    grid = [list(s) if isinstance(s, tuple) else s for s in sizes]
+    by_sd = [{**r.settings, "sd_basis": basis} for basis, r in results]
     with output_file(out / "power_summary.json") as fh:
-        fh.write(json.dumps(
-            {**result.settings, "cells_source": source, "n_per_group_grid": [
-                list(s) if isinstance(s, tuple) else s for s in sizes]}, indent=2))
+        fh.write(json.dumps({**by_sd[0], "cells_source": source, "n_per_group_grid": grid,
+                             "by_participant_sd": by_sd}, indent=2))
     with output_file(out / "codebook.json") as fh:
         fh.write(json.dumps(codebook({"power": out / "power.csv", "cells": out / "cells.csv"}),
                             indent=2, ensure_ascii=False))
-    plot_power(result, out / "power.png")
+    plot_power(results[0][1], out / "power.png")
     folder.finish()
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
-    print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))
-    grid_max = max(max(s) if isinstance(s, tuple) else s for s in sizes)
-    by_effect = result.settings.get("n_for_80_by_effect")
-    for target, key in ((80, "n_for_80"), (90, "n_for_90")):
-        found = (result.settings[f"{key}_by_effect"] if by_effect is not None
-                 else {None: result.settings[key]})
-        for effect, n in found.items():
-            where = f" at A - B {float(effect):+g} points" if effect is not None else ""
-            print(f"n per group for {target} % power{where}: "
-                  + (f"{n:.0f} (interpolated on the grid; Monte Carlo error in power.csv)"
-                     if n is not None else f"not reached up to {grid_max} per group"))
-    if by_effect is not None:
+    for basis, result in results:
+        sd = result.settings["participant_sd"]
+        print(f"Conditional on participant SD = {sd:.3f} ({basis}):")
+        print(result.table.drop(columns=["test", "mode", "cells_scale"]).to_string(index=False))
+        by_effect = result.settings.get("n_for_80_by_effect")
+        for target, key in ((80, "n_for_80"), (90, "n_for_90")):
+            found = (result.settings[f"{key}_by_effect"] if by_effect is not None
+                     else {None: result.settings[key]})
+            for effect, n in found.items():
+                where = f" at A - B {float(effect):+g} points" if effect is not None else ""
+                print(f"n per group for {target} % power{where}, conditional on SD = {sd:.3f}: "
+                      + (f"{n:.0f} (interpolated on the grid; Monte Carlo error in power.csv)"
+                         if n is not None else not_reached(sizes)))
+    if len(results) > 1:
+        print("The pilot's participant SD is an estimate: power at the ends of its 95 % profile "
+              "interval shows how far the answer moves with it (Monte Carlo intervals in "
+              "power.csv do not include this).")
+    if results[0][1].settings.get("n_for_80_by_effect") is not None:
         print("Observed (post-hoc) power is not shown: computed at the effect the study found it "
               "is a function of the study's p-value and says nothing beyond it.")
     return 0

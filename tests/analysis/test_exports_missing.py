@@ -94,8 +94,24 @@ def _check_complete_cases(trials, row):
     se = np.sqrt(w @ np.asarray(res.cov_params()) @ w)
     assert row["estimate"] == pytest.approx(est, abs=1e-6)
     assert row["se"] == pytest.approx(se, rel=1e-5)
-    assert row["test"] == "Wald t(5)"
-    assert row["p_value"] == pytest.approx(2 * stats.t.sf(abs(est / se), 5), rel=1e-4)
+    # Welch-Satterthwaite df of the two groups' parts (block-diagonal in cell-means coding)
+    cov_cm = np.asarray(res.cov_params())
+    part = {g: (lambda v: v @ cov_cm @ v)(np.where([c.startswith(g) for c in x.columns], w, 0))
+            for g in "AB"}
+    sizes = d.groupby("group")["participant"].nunique()
+    df = (part["A"] + part["B"]) ** 2 / sum(part[g] ** 2 / (sizes[g] - 1) for g in "AB")
+    assert row["df"] == pytest.approx(df, rel=1e-5) and row["test"] == f"Wald t({df:.1f})"
+    assert row["p_value"] == pytest.approx(2 * stats.t.sf(abs(est / se), df), rel=1e-4)
+    # the difference of mean proportions carries its delta-method interval (it was empty)
+    beta, cov = np.asarray(res.params), np.asarray(res.cov_params())
+    prob = 1 / (1 + np.exp(-beta))
+    sign = np.sign(w)
+    diff = float((sign * prob * np.abs(w)).sum())
+    grad = sign * np.abs(w) * prob * (1 - prob)
+    half = stats.t.ppf(0.975, df) * np.sqrt(grad @ cov @ grad)
+    assert row["difference"] == pytest.approx(diff, abs=1e-6)
+    assert row["difference_ci_low"] == pytest.approx(diff - half, abs=1e-5)
+    assert row["difference_ci_high"] == pytest.approx(diff + half, abs=1e-5)
 
 
 def test_exports_are_full_precision_with_a_complete_codebook(study, tmp_path):

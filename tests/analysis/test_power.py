@@ -231,22 +231,35 @@ def test_stated_effect_is_the_population_averaged_difference(effect):
             assert out[key] == before[key]
 
 
+@pytest.mark.slow
 def test_power_from_analysis_takes_the_design_and_curves_over_effects(study, tmp_path, capsys):
     from analysis import analyze
     data, _ = study(n_per_group=5, sigma=0.5, seed=9)
     analyze(data, tmp_path / "res", n_boot=20)
     assert main(["power", "--from-analysis", str(tmp_path / "res"), "--effect-pp", "0,25",
-                 "--n-per-group", "6", "--simulations", "40", "--out", str(tmp_path / "p")]) == 0
+                 "--n-per-group", "6", "--simulations", "15", "--workers", "1",
+                 "--out", str(tmp_path / "p")]) == 0
     out = capsys.readouterr().out
     assert "Observed (post-hoc) power is not shown" in out
-    t = pd.read_csv(tmp_path / "p" / "power.csv")
+    all_sd = pd.read_csv(tmp_path / "p" / "power.csv")
+    t = all_sd[all_sd["sd_basis"] == "point estimate of the analysis"].reset_index(drop=True)
     assert list(t["effect_pp"]) == [0.0, 25.0]
     assert list(t["expected_difference_A_minus_B"]) == pytest.approx([0.0, 0.25], abs=1e-9)
     glmm = pd.read_csv(tmp_path / "res" / "glmm.csv").set_index("term")
-    assert (t["participant_sd"] == glmm.loc["participant_sd", "log_odds"]).all()
+    sd = glmm.loc["participant_sd"]
+    assert (t["participant_sd"] == sd["log_odds"]).all()
     assert t.loc[0, "power"] <= 0.2 and t.loc[1, "power"] > t.loc[0, "power"]
+    # the pilot's SD is uncertain: power at both ends of its profile interval too, each named
+    ends = {basis: float(v) for basis, v in all_sd.groupby("sd_basis")["participant_sd"].first().items()}
+    assert ends == pytest.approx({"point estimate of the analysis": sd["log_odds"],
+                                  "lower end of its 95 % profile interval": max(sd["ci_low"], 0),
+                                  "upper end of its 95 % profile interval": sd["ci_high"]})
+    for value in ends.values():
+        assert f"Conditional on participant SD = {value:.3f}" in out
+        assert f"n per group for 80 % power at A - B +25 points, conditional on SD = {value:.3f}" in out
     summary = json.loads((tmp_path / "p" / "power_summary.json").read_text())
     assert summary["repetitions"] == 3 and summary["effects_pp"] == [0.0, 25.0]
+    assert len(summary["by_participant_sd"]) == 3
 
 
 def test_power_is_the_same_here_and_on_one_or_two_dask_workers(caplog):
@@ -285,7 +298,9 @@ def test_cli_power_runs_on_a_local_cluster_with_progress(tmp_path, capsys):
     # the same table as the same computation here
     here = power_curve(read_cells(cells), (5,), simulations=30, test="cluster-t", seed=12,
                        participant_sd=0.5, cells_scale="marginal").table
-    pd.testing.assert_frame_equal(pd.read_csv(out / "power.csv"), here, check_dtype=False)
+    written = pd.read_csv(out / "power.csv")
+    assert set(written.pop("sd_basis")) == {"default"}       # the one SD used, named
+    pd.testing.assert_frame_equal(written, here, check_dtype=False)
     assert main(["power", "--cells", str(cells), "--workers", "0", "--out", str(tmp_path / "x")]) == 2
     assert "--workers: expected an integer >= 1" in capsys.readouterr().err
 
@@ -308,7 +323,8 @@ def test_cli_power_sends_the_cohorts_to_a_running_scheduler(tmp_path, capsys):
     assert "power: 30 of 30 cohorts" in capsys.readouterr().err
     here = power_curve(read_cells(cells), (6,), simulations=30, test="cluster-t", seed=13,
                        participant_sd=0.5, cells_scale="marginal").table
-    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv"), here,
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "p" / "power.csv").drop(
+                                      columns="sd_basis"), here,
                                   check_dtype=False)
     assert prefixes["cohort_task"]["memory"] == 2, prefixes     # each computed once, there
 
@@ -323,3 +339,20 @@ def test_a_single_task_runs_in_this_process_with_the_same_result():
         table = power_curve(_cells(0.15), (5,), map_tasks=sweep.map, **kw).table
         assert sweep.client is None and sweep.cluster is None     # no cluster was started
     pd.testing.assert_frame_equal(here.table, table)
+
+
+def test_cli_power_names_the_grid_it_searched(tmp_path, capsys):
+    """With unequal groups 13:17 it printed 'not reached up to 17 per group'."""
+    from experiments.cli.power import not_reached
+    cells = tmp_path / "cells.csv"
+    _write_cells(cells, _cells(0.0))
+    assert main(["power", "--cells", str(cells), "--n-per-group", "13:17", "--simulations", "4",
+                 "--out", str(tmp_path / "power")]) == 0
+    out = capsys.readouterr().out
+    assert "up to 17 per group" not in out
+    assert ("n per group for 80 % power, conditional on SD = 0.500: not reached on the grid "
+            "searched (13 + 17 participants, group A + group B)") in out
+    assert "Conditional on participant SD = 0.500 (default):" in out
+    assert not_reached([15, 30, 60]) == "not reached up to 60 per group (grid searched: 15, 30, 60)"
+    assert not_reached([(20, 20), 10]) == ("not reached up to 20 per group (grid searched: "
+                                          "20 + 20, 10)")

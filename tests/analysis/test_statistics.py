@@ -37,11 +37,33 @@ def test_omnibus_wald_equals_statsmodels_wald_test():
     lmat[np.arange(len(rows)), rows] = 1
     ref = gee.result.wald_test(lmat, scalar=True)
     assert omni["chi2"] == pytest.approx(float(ref.statistic), rel=1e-8)
-    # small-sample (Hotelling-type) F with m = 30 participants: F(8, 22)
-    m = trials["participant"].nunique()
-    assert (omni["df"], omni["df_denominator"]) == (8, m - 8)
-    f = float(ref.statistic) * (m - 8) / (8 * (m - 1))
-    assert omni["p_value"] == pytest.approx(stats.f.sf(f, 8, m - 8), rel=1e-8)
+    # small-sample F with each group's own covariance (Nel-van der Merwe), recomputed here from
+    # statsmodels' GEE in cell-means coding, whose sandwich is block-diagonal by group: S_g is
+    # the A - B contrasts' covariance over group g's block alone
+    import statsmodels.api as sm
+    d = trials.assign(cell=trials["group"] + "_" + trials["mode"] + "_"
+                      + trials["roughness_id"].astype(str))
+    x = pd.get_dummies(d["cell"]).astype(float)
+    cm = sm.GEE(d["correct"].astype(float), x, groups=d["participant"],
+                family=sm.families.Binomial(),
+                cov_struct=sm.cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
+    cols = list(x.columns)
+    lmat = np.zeros((8, len(cols)))
+    for k, (mode, r) in enumerate((m, r) for m in ("real", "simulated") for r in range(1, 5)):
+        lmat[k, cols.index(f"A_{mode}_{r}")] = 1
+        lmat[k, cols.index(f"B_{mode}_{r}")] = -1
+    cov, dvec = np.asarray(cm.cov_params()), lmat @ np.asarray(cm.params)
+    s_g = {g: (lmat * [c.startswith(g) for c in cols]) @ cov
+           @ (lmat * [c.startswith(g) for c in cols]).T for g in "AB"}
+    s = s_g["A"] + s_g["B"]
+    assert float(dvec @ np.linalg.solve(s, dvec)) == pytest.approx(omni["chi2"], rel=1e-5)
+    sizes = trials.groupby("group")["participant"].nunique()
+    nu = (np.trace(s @ s) + np.trace(s) ** 2) / sum(
+        (np.trace(s_g[g] @ s_g[g]) + np.trace(s_g[g]) ** 2) / (sizes[g] - 1) for g in "AB")
+    assert omni["df_denominator"] == pytest.approx(nu - 8 + 1, rel=1e-5)
+    f = omni["chi2"] * (nu - 8 + 1) / (8 * nu)
+    assert omni["f"] == pytest.approx(f, rel=1e-5)
+    assert omni["p_value"] == pytest.approx(stats.f.sf(f, 8, nu - 7), rel=1e-5)
     assert omni["p_value"] > float(ref.pvalue)        # the correction only makes it stricter
 
 
@@ -129,9 +151,27 @@ def test_summary_names_only_holm_adjusted_results():
                   "basis": "model"} for r in (1, 3, 4)]
         return pd.DataFrame(rows)
     text = " ".join(tests_summary(pd.DataFrame(), table(0.08)))
-    assert "no single sample shows a group difference" in text and "2#" not in text
+    # non-significance is not absence: the old "no single sample shows a group difference
+    # (all adjusted p >= 0.05)" read a failed test as no difference
+    assert "no single sample shows a group difference" not in text and "2#" not in text
+    assert ("no single sample's group difference is significant at 0.05 (smallest adjusted "
+            "p 0.080); this does not show that the samples do not differ") in text
     text = " ".join(tests_summary(pd.DataFrame(), table(0.03)))
     assert "remains for: group A - group B, real sample 2# (adjusted p = 0.030)" in text
+    # the omnibus test rejects, no sample survives Holm: the groups differ somewhere
+    rejected = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.005,
+                                         "statistic": 3.1, "df": 8, "basis": "model",
+                                         "test": "Wald F(8, 22)", "compares": "no A - B"}]),
+                          table(0.08)])
+    text = " ".join(tests_summary(pd.DataFrame(), rejected))
+    assert "no single sample" not in text and "all adjusted p >= 0.05" not in text
+    assert ("The omnibus test rejects (p = 0.005): the groups differ on at least one sample in "
+            "one mode, but after Holm's adjustment for the 4 per-sample comparisons none of them "
+            "on its own is significant at 0.05 (smallest adjusted p 0.080): the data do not say "
+            "which.") in text
+    tiny = rejected.assign(p_value=rejected["p_value"].where(rejected["role"] != "omnibus", 2e-5))
+    text = " ".join(tests_summary(pd.DataFrame(), tiny))
+    assert "rejects (p < 0.001)" in text and "p = 0.000" not in text
     # the omnibus test comes first: when it does not reject, no sample is named
     gated = pd.concat([pd.DataFrame([{"role": "omnibus", "model": "gee", "p_value": 0.2,
                                       "statistic": 1.3, "df": 8, "basis": "model",

@@ -1,0 +1,138 @@
+"""Size and coverage of the GEE's group comparisons with unequal groups (Welch-Satterthwaite df,
+Nel-van der Merwe omnibus test), against the old t(m - 2) and F(q, m - q).
+
+Not a test. Datasets from ``tests/analysis/generator.py`` (independent of the code under test):
+no group effect anywhere (``null_cells``), random intercepts SD 0.8, 3 repetitions, 3 % of
+trials lost. Per dataset only what the rows need: one ``fit_gee``, the omnibus test, the
+primary (A - B, real, averaged) row, the GEE interaction, the both-groups real - simulated row
+(``mode_contrasts``). Truths (population-averaged) by 80-node Gauss-Hermite over the random
+effects. Scenarios:
+
+    balanced   15 + 15
+    20+8       20 + 8
+    24+6       24 + 6
+    slope      20 + 8 with a random mode slope (SD 0.8)
+    halfmiss   15 + 15, half the participants lose a random half of their trials
+
+    nice -n 10 .venv/bin/python benchmarks/bench_unequal_groups.py --scenario 20+8 --datasets 300
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+from scipy.special import expit, logit
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests" / "analysis"))
+
+from analysis import fit_gee  # noqa: E402
+from analysis.fidelity import mode_contrasts  # noqa: E402
+from analysis.inference import averaged_contrast, interaction_test, omnibus_group_test  # noqa: E402
+from generator import generate, null_cells  # noqa: E402
+
+SCENARIOS = {"balanced": (15, 15, 0.0, False), "20+8": (20, 8, 0.0, False),
+             "24+6": (24, 6, 0.0, False), "slope": (20, 8, 0.8, False),
+             "halfmiss": (15, 15, 0.0, True)}
+SIGMA = 0.8
+
+
+def truth(cells: dict, slope_sd: float) -> dict:
+    """Population-averaged real - simulated (both groups equally weighted): log odds ratio of
+    the mean marginal log odds, difference of mean marginal proportions."""
+    z, w = np.polynomial.hermite_e.hermegauss(80)
+    w = w / w.sum()
+    sd = {"real": SIGMA, "simulated": np.hypot(SIGMA, slope_sd)}
+    marg = {k: float(w @ expit(logit(p) + sd[k[1]] * z)) for k, p in cells.items()}
+    lo = {m: np.mean([logit(v) for k, v in marg.items() if k[1] == m]) for m in sd}
+    pr = {m: np.mean([v for k, v in marg.items() if k[1] == m]) for m in sd}
+    return {"log_odds": lo["real"] - lo["simulated"], "difference": pr["real"] - pr["simulated"]}
+
+
+def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: dict) -> dict:
+    trials = generate(null_cells(), n_a=n_a, n_b=n_b, sigma=SIGMA, seed=seed, slope_sd=slope_sd)
+    if halfmiss:
+        rng = np.random.default_rng(seed + 10**6)
+        people = trials["participant"].unique()
+        hit = set(rng.choice(people, len(people) // 2, replace=False))
+        drop = trials["participant"].isin(hit) & (rng.random(len(trials)) < 0.5)
+        trials = trials[~drop].reset_index(drop=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = fit_gee(trials)
+        m = trials["participant"].nunique()
+        omni = omnibus_group_test(fit, trials)
+        prim = averaged_contrast(fit, "real")
+        inter = interaction_test(fit, trials)
+        fid = mode_contrasts(fit, trials, margin_pp=10)
+    both = fid[(fid["role"] == "averaged") & (fid["group"] == "both")].iloc[0]
+    old_f = omni["chi2"] * (m - 8) / (8 * (m - 1))
+    t_old = stats.t.ppf(0.975, m - 2)
+    return {
+        "omnibus_tested": bool(np.isfinite(omni["p_value"])),
+        "omnibus_reject": bool(omni["p_value"] < 0.05),
+        "omnibus_old_reject": bool(stats.f.sf(old_f, 8, m - 8) < 0.05),
+        "primary_reject": bool(prim["p_value"] < 0.05),
+        "primary_old_reject": bool(2 * stats.t.sf(abs(prim["log_odds_ratio"] / prim["se"]), m - 2)
+                                   < 0.05),
+        "primary_df": float(prim["df"]),
+        "interaction_reject": bool(inter["p_value"] < 0.05),
+        "both_cover": bool(both["ci_low"] <= target["log_odds"] <= both["ci_high"]),
+        "both_cover_difference": bool(both["difference_ci_low"] <= target["difference"]
+                                      <= both["difference_ci_high"]),
+        "both_old_cover": bool(abs(both["estimate"] - target["log_odds"]) <= t_old * both["se"]),
+        "both_df": float(both["df"]),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenario", choices=sorted(SCENARIOS), required=True)
+    ap.add_argument("--datasets", type=int, default=300)
+    ap.add_argument("--seed", type=int, default=36000000)
+    ap.add_argument("--out", type=Path, default=None, help="JSON file for the tallies")
+    ns = ap.parse_args()
+    n_a, n_b, slope_sd, halfmiss = SCENARIOS[ns.scenario]
+    target = truth(null_cells(), slope_sd)
+    start, cpu = time.time(), time.process_time()
+    rows = []
+    for i in range(ns.datasets):
+        rows.append(one(ns.seed + i, n_a, n_b, slope_sd, halfmiss, target))
+        if ns.out and (i + 1) % 25 == 0:        # a partial tally survives a stopped run
+            ns.out.write_text(json.dumps(tally(rows, ns, start, cpu), indent=1))
+    text = json.dumps(tally(rows, ns, start, cpu), indent=1)
+    print(text)
+    if ns.out:
+        ns.out.write_text(text)
+
+
+def tally(rows: list, ns, start: float, cpu: float) -> dict:
+    """Rejection rates and coverages with binomial SEs over the datasets run so far."""
+    n_a, n_b, slope_sd, _ = SCENARIOS[ns.scenario]
+    n = len(rows)
+    out = {"scenario": ns.scenario, "datasets": n, "n_a": n_a, "n_b": n_b, "slope_sd": slope_sd,
+           "seed": ns.seed, "cpu_s": round(time.process_time() - cpu, 1),
+           "wall_s": round(time.time() - start, 1)}
+    for key in rows[0]:
+        values = np.array([r[key] for r in rows], float)
+        if key.endswith("_df"):
+            out[key + "_median"] = float(np.median(values))
+            continue
+        p = float(values.mean())
+        out[key] = [round(p, 4), round(float(np.sqrt(p * (1 - p) / n)), 4)]
+    tested = [r for r in rows if r["omnibus_tested"]]
+    if tested:
+        out["omnibus_reject_when_tested"] = round(
+            float(np.mean([r["omnibus_reject"] for r in tested])), 4)
+    return out
+
+
+if __name__ == "__main__":
+    main()
