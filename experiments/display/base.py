@@ -198,6 +198,14 @@ class Display(abc.ABC):
         Default: available (nothing beyond Python is needed)."""
         return True, ""
 
+    @classmethod
+    def url_availability(cls, url: str) -> tuple:
+        """:meth:`availability` for one URL of the scheme (one of :attr:`example_urls`, say):
+        ``(True, "")`` when that URL can be opened here. Default: the backend's availability;
+        a backend whose URLs need different things (a port, or none: an emulator behind the
+        same scheme) tells them apart."""
+        return cls.availability()
+
     @property
     def capabilities(self) -> Capabilities:
         """What the opened device can do. Default: the declared capabilities (a backend whose

@@ -137,6 +137,11 @@ class ThermalCueDevice(BaseResponseDevice, aliases=["thermocue", "thermalDisplay
                 available = False
             listed = []
             for url, name in examples:
+                if "{port}" not in url:          # an URL that needs no port of its own
+                    try:
+                        available = bool(backend.url_availability(url)[0])
+                    except Exception:
+                        available = False
                 if "{port}" in url:
                     listed += [{"deviceName": name.format(port=p.device),
                                 "url": url.format(port=p.device), "port": p.device,

@@ -2,6 +2,8 @@
 and answering a known weight."""
 from __future__ import annotations
 
+from experiments.responders.hand import press
+
 from .bench import Bench, finite
 from .result import CheckResult, cannot_run
 
@@ -88,7 +90,7 @@ def check_force(bench: Bench) -> CheckResult:
                            "a force sensor reads off zero with nothing on the pad",
                            "the force sensors' zero (tare) calibration constants and their wiring")
     if bench.scripted:
-        d.sim_finger(press_after_s=0.0, force_N=w, hold_s=1.5)
+        press(d, sample=None, press_after_s=0.0, force_N=w, hold_s=1.5)
         bench.pause(1.0)                       # pressed, settled (τ 0.2 s)
         loaded = sum(d.status().forces_N)
         bench.pause(1.0)                       # released

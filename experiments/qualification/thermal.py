@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from experiments.responders.hand import press
+
 from .bench import Bench, Trace
 from .result import CheckResult, cannot_run
 
@@ -130,7 +132,7 @@ def _play(bench: Bench, t, y):
     d.upload_profile(t, y)
     d.arm("playback", force_threshold_N=1.0, max_duration_s=float(t[-1]) + 2.0)
     if bench.scripted:
-        d.sim_finger(press_after_s=0.2, force_N=2.0, hold_s=float(t[-1]) + 1.0)
+        press(d, sample=None, press_after_s=0.2, force_N=2.0, hold_s=float(t[-1]) + 1.0)
     else:
         bench.prompt("Place the weight on the pad (the profile plays while it rests there), "
                      "then press Enter: ")

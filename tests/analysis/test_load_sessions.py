@@ -89,8 +89,10 @@ def test_latest_and_all(data):
 def test_the_report_lists_every_session_and_the_cold_trials(data):
     text = "\n".join(sessions_markdown(load_trials(data)))
     assert "Inclusion policy (`--sessions first`): each participant's first complete session." in text
-    assert "| P02 | S01 | emulator/press | no | 6 | 12 | no | incomplete: 6 of 12 trials |" in text
-    assert ("| P01 | S02 | emulator/press | yes | 12 | 12 | no | repeated session: P01's first "
-            "complete session is S01 |") in text
+    # each session names the device it ran on and the image id its HELLO reported
+    assert ("| P02 | S01 | emulator/press | EMU-0001 | emulator-1.0.0 | no | 6 | 12 | no | "
+            "incomplete: 6 of 12 trials |") in text
+    assert ("| P01 | S02 | emulator/press | EMU-0001 | emulator-1.0.0 | yes | 12 | 12 | no | "
+            "repeated session: P01's first complete session is S01 |") in text
     cold = re.search(r"(\d+) trial\(s\) were run with the fingertip outside", text)
     assert cold and int(cold.group(1)) == 6 + 12      # every P02 trial, both sessions

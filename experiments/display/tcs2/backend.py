@@ -160,6 +160,14 @@ class Tcs2Display(Display, scheme="tcs2"):
         return port_availability("the TCS II (USB, computer-control mode)")
 
     @classmethod
+    def url_availability(cls, url: str) -> tuple:
+        """``tcs2://emulator`` needs no port (the TCS II emulator in software); any other URL
+        needs the TCS II's (:meth:`availability`)."""
+        if str(url)[len("tcs2://"):].partition("?")[0] == "emulator":
+            return True, ""
+        return cls.availability()
+
+    @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """What a TCS II offers (its specification, as the host uses it)."""
         return Capabilities(

@@ -6,8 +6,8 @@ from experiments.calibration import CalibrationError, load_session_traces
 
 
 def test_onset_and_initial_temperatures_for_a_sensor_on_the_sample(tmp_path):
-    extra = [{"trial_index": 9, "mode": "simulated", "roughness_id": 1, "status": "ok"},
-             {"trial_index": 10, "mode": "real", "roughness_id": 2, "status": "fault"}]
+    extra = [{"trial_index": 9, "block": "simulated", "mode": "simulated", "roughness_id": 1, "status": "ok"},
+             {"trial_index": 10, "block": "real", "mode": "real", "roughness_id": 2, "status": "fault"}]
     sdir = make_session(tmp_path, samples=(1, 4), duration_s=3.0, sample_C=23.0, finger_C=35.4,
                         ambient_C=20.0, extra_rows=extra)
     st = load_session_traces(sdir)

@@ -87,7 +87,7 @@ def runnable_url(cls, url, serve) -> str:
     if url is None:
         pytest.fail(f"backend {cls.scheme}:// ({cls.__module__}) states no example_urls: "
                     f"the contract test cannot run it")
-    ok, reason = cls.availability()
+    ok, reason = cls.url_availability(url) if "{port}" not in url else cls.availability()
     if not ok:
         pytest.fail(f"backend {cls.scheme}:// cannot be opened here: {reason}")
     if "{port}" in url:

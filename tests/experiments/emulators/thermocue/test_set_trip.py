@@ -18,7 +18,7 @@ def test_a_lowered_trip_latches_over_temperature_below_45_C(display):
     display.set_neutral(36.0)                 # slewed past the lowered trip
     display.wait(1.0)
     st = display.status()
-    assert st.state == "FAULT" and st.last_fault == "OVER_TEMPERATURE"
+    assert st.state == "FAULT" and st.fault == "OVER_TEMPERATURE"
     assert st.contact_C < 34.5                # cut as it crossed, the pad relaxing
 
 
