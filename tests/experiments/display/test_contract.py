@@ -87,7 +87,9 @@ def runnable_url(cls, url, serve) -> str:
     if url is None:
         pytest.fail(f"backend {cls.scheme}:// ({cls.__module__}) states no example_urls: "
                     f"the contract test cannot run it")
-    ok, reason = cls.url_availability(url) if "{port}" not in url else cls.availability()
+    # a {port} example is served here on a pty by a stand-in device (the physical port the
+    # backend's availability looks for is not needed); any other URL must be openable as it is
+    ok, reason = cls.url_availability(url) if "{port}" not in url else (True, "")
     if not ok:
         pytest.fail(f"backend {cls.scheme}:// cannot be opened here: {reason}")
     if "{port}" in url:
