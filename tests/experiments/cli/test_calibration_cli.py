@@ -101,8 +101,11 @@ def test_calibrate_an_emulated_exp1_session(tmp_path, capsys):
     pfile = tmp_path / "P01.json"
     shutil.copy(EXAMPLE, pfile)
     data = tmp_path / "DATA"
+    # every press at the lab's 2.5 N (no touch-to-touch spread): the truth below is Eq. 5 at
+    # that one force
     status = main(["run", str(proto), "--participant", str(pfile), "--display", "emulator://?clock=virtual",
-                   "--responder", "simulated", "--data", str(data), "--seed", "1"])
+                   "--responder", "simulated", "--responder-option", "force_sd_N=0",
+                   "--data", str(data), "--seed", "1"])
     assert status == 0, capsys.readouterr().err
     (sdir,) = [p for p in (data / "P01").iterdir() if p.is_dir()]
     out = tmp_path / "cal"

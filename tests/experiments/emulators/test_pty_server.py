@@ -102,7 +102,7 @@ def test_watchdog_brings_the_pad_to_neutral_when_the_host_is_killed(tmp_path):
         time.sleep(1.0)
         with open_display(path) as d:            # a new host asks what happened
             st = d.status()
-        assert st.state == "IDLE" and st.last_fault == "WATCHDOG"
+        assert st.state == "IDLE" and st.fault == "WATCHDOG"
         assert st.setpoint_C == 32.0 and abs(st.contact_C - 32.0) < 0.2
     finally:
         if host.poll() is None:
