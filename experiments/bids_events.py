@@ -55,6 +55,8 @@ import datetime as _dt
 import math
 from typing import Any, Iterable, Mapping
 
+from sessionfiles.logformat import event_time
+
 __all__ = ["EVENT_COLUMNS", "EVENT_SIDECAR", "TRIAL_TYPES", "event_rows", "event_time"]
 
 #: The events table's columns, in order.
@@ -116,16 +118,6 @@ EVENT_SIDECAR = {
 _CONTACT_STATES = {"record": "contact", "playback": "playback"}
 
 
-def event_time(event: Mapping) -> _dt.datetime | None:
-    """The event's ``time`` (UTC, ISO 8601) as an aware datetime, or None if it has none."""
-    text = event.get("time")
-    if not isinstance(text, str):
-        return None
-    try:
-        t = _dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
-    except ValueError:
-        return None
-    return t if t.tzinfo is not None else t.replace(tzinfo=_dt.timezone.utc)
 
 
 def _int(v: Any) -> int | None:

@@ -69,7 +69,7 @@ __all__ = [
     "REQUIRED_FIELDS", "event_problem", "CONTEXT_KEYS", "SPEC_KEYS",
     "TRIAL_COLUMNS", "PSYCHOPY_COLUMNS", "RENAMED_COLUMNS", "COLUMN_DECIMALS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "STATUSES",
     "TRACE_COLUMNS", "FORCE_COLUMNS", "TRACE_DECIMALS",
-    "to_jsonable", "dumps", "format_cell", "decode_event",
+    "to_jsonable", "dumps", "format_cell", "decode_event", "event_time",
     "LogDamageWarning", "LogReport", "read_events", "read_csv_prefix",
     "trials_from_events", "session_context", "SessionProgress", "replay",
 ]
@@ -162,6 +162,19 @@ TRACE_DECIMALS = {c: "10g" for c in TRACE_COLUMNS if c != "state"}
 
 
 # --------------------------------------------------------------------------- encoding
+def event_time(event: Mapping[str, Any]) -> _dt.datetime | None:
+    """An event's ``time`` (UTC, ISO 8601, as the writer stamps it) as an aware datetime, or None
+    if it has none or an unreadable one (a naive time is read as UTC)."""
+    text = event.get("time")
+    if not isinstance(text, str):
+        return None
+    try:
+        t = _dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    return t if t.tzinfo is not None else t.replace(tzinfo=_dt.timezone.utc)
+
+
 def to_jsonable(obj: Any) -> Any:
     """A JSON-ready copy: non-finite floats -> None, numpy -> Python, Path/date -> str.
 

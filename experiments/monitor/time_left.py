@@ -15,8 +15,9 @@ Standard library only: the monitor reads the folder and imports nothing that run
 """
 from __future__ import annotations
 
-import datetime as _dt
 from typing import Iterable, Mapping
+
+from sessionfiles.logformat import event_time
 
 __all__ = ["TimeLeft", "event_seconds"]
 
@@ -27,16 +28,8 @@ _RUN_BOUNDARIES = {"session_started", "session_resumed", "session_interrupted",
 
 def event_seconds(event: Mapping) -> float | None:
     """An event's ``time`` (UTC, ISO 8601) as POSIX seconds, or None."""
-    text = event.get("time")
-    if not isinstance(text, str):
-        return None
-    try:
-        t = _dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
-    except ValueError:
-        return None
-    if t.tzinfo is None:
-        t = t.replace(tzinfo=_dt.timezone.utc)
-    return t.timestamp()
+    t = event_time(event)
+    return None if t is None else t.timestamp()
 
 
 class TimeLeft:
