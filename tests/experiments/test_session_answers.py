@@ -12,7 +12,9 @@ Eq. 5 at the 2.5 N it presses, not 2 N, through the scene planner) and what a tr
 (delivery checks, what the participant sees), so the
 reference was regenerated, on the durable path, at the commit named in its ``_comment``; and
 again when the simulated participant's real-sample percept took the contact force the display
-measured in each trial (``contact_force_N``) instead of the scripted 2.5 N.
+measured in each trial (``contact_force_N``) instead of the scripted 2.5 N; and again when the
+simulated participant began to draw each press and skin temperature from the one lab model of
+the Figure 9 Monte Carlo (2.5 ± 0.25 N, clipped to 2.05-3 N).
 """
 import json
 from pathlib import Path
