@@ -19,7 +19,12 @@ HARDWARE_SAFE = (check_sensors, check_neutral, check_force, check_limits, check_
                  check_watchdog, check_step, check_clock)
 
 
-@pytest.mark.parametrize("check", HARDWARE_SAFE, ids=lambda fn: fn.__name__)
+#: The checks that hold the pad for seconds (a settle, two steps): end-to-end, with the slow tests.
+SLOW = (check_neutral, check_step)
+
+
+@pytest.mark.parametrize("check", [pytest.param(c, marks=pytest.mark.slow) if c in SLOW else c
+                                   for c in HARDWARE_SAFE], ids=lambda fn: fn.__name__)
 def test_qualification_check(display, check, backend, tmp_path):
     res = check(Bench(display, backend, tmp_path))
     assert res.passed, f"{res.name}: {res.reason} (measured: {res.measured})"

@@ -98,6 +98,7 @@ def test_target_side_into_a_folder_that_does_not_exist_yet(tmp_path):
     assert json.loads(session.read_text())["protocol"]["simulation"]["target_side"] == "skin"
 
 
+@pytest.mark.slow
 def test_reproduce_figure9_cli_options(tmp_path, capsys):
     from experiments.cli import main
     out = tmp_path / "fig9"
