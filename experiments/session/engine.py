@@ -407,6 +407,7 @@ class Session(TrialSteps):
             attempt = progress.next_attempt(spec.trial_index)
             progress.attempts[spec.trial_index] = attempt
             outcome = self._run_trial(disp, spec, attempt)
+            gave_up = False
             if outcome == "ok":
                 faults = 0
                 queue.pop(0)
@@ -416,6 +417,7 @@ class Session(TrialSteps):
                 if tries[spec.trial_index] >= self.protocol.contact.max_attempts:
                     queue.pop(0)
                     self._give_up(spec.trial_index, tries[spec.trial_index])
+                    gave_up = True
             if self._fatal is not None:
                 return self._stop_fatal(disp, queue)
             lost = self._link_lost is not None
@@ -427,7 +429,7 @@ class Session(TrialSteps):
                 # (a lost link that connecting again cured counts too: a link that drops on every
                 # attempt stops the session here instead of retrying one trial for ever)
                 return self._stop_faults(disp, faults, queue)
-            if lost:
+            if lost and not gave_up:
                 self.machine.go("idle")
                 continue          # the same trial at once, no rewarm (still a consecutive fault)
             if queue:

@@ -71,6 +71,15 @@ def test_a_trial_is_given_up_after_max_attempts_and_the_session_ends(tmp_path):
         tries = [e for e in events if e["event"] == "display_fault" and e["trial_index"] == index]
         assert len(tries) == 3 and all(e["fault_code"] == "LINK_LOST" for e in tries), tries
     assert out.getvalue().count("given up after 3 attempts") == len(given), out.getvalue()
+    # the trial after a given-up one starts after a rewarm (a lost link's "at once, no rewarm"
+    # is for the same trial again, never for the next one)
+    for k, e in enumerate(events):
+        if e["event"] == "trial_given_up":
+            later = events[k + 1:]
+            start = next((j for j, x in enumerate(later) if x["event"] == "trial_started"), None)
+            if start is not None:
+                assert any(x["event"] == "state" and x.get("to") == "rewarm"
+                           for x in later[:start]), later[:start]
     end = events[-1]
     if code == 0:
         assert end["event"] == "session_finished" and end["n_given_up"] == len(given)
