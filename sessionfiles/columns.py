@@ -56,8 +56,8 @@ class Column:
         round-trip form.
     domain : (lower, upper, what) or None
         The values a reader accepts (``lower <= value <= upper``, None: unbounded; floats must be
-        finite; a flag is 0 or 1), ``what`` in words; empty cells always pass (a "nan" or "n/a" text does not:
-        the writer writes a missing number as an empty cell).
+        finite; a flag is 0 or 1), ``what`` in words; empty cells always pass (a "nan" or
+        "n/a" text does not: the writer writes a missing number as an empty cell).
     choices : tuple of str or None
         The values a text column may hold.
     psychopy : bool
