@@ -82,6 +82,10 @@ def _run(ns) -> int:
             except asyncio.TimeoutError:
                 if ns.exit_with is not None and os.getppid() != ns.exit_with:
                     break      # the session's process is gone
+        # the session's last lines reach the open pages before the server goes: one more read
+        # of the folder, then the streams' own timers (shorter than this one) send it
+        monitor.poll()
+        await asyncio.sleep(max(0.5, 10 * monitor.poll_s))
         monitor.stop()
 
     asyncio.run(serve())
