@@ -135,7 +135,10 @@ def test_a_virtual_clock_emulator_is_unmapped_with_the_reason_not_a_number():
         dev.close()
     status = cols["thermal.clock_status"]
     assert status.startswith("unmapped: "), status
-    assert "ppm" in status or "do not agree" in status or "outside the map" in status
+    # the drift is what a quiet machine reports; a loaded one may first find a burst's round
+    # trips too far apart: either way a stated reason and no mapped time
+    assert ("ppm" in status or "do not agree" in status or "outside the map" in status
+            or "round trips disagree" in status), status
     for k in ("contact_routine_s", "contact_global_s", "contact_duration_s", "clock_offset_s",
               "clock_drift_ppm", "clock_uncertainty_s"):
         assert cols[f"thermal.{k}"] == "", (k, cols[f"thermal.{k}"])
