@@ -184,8 +184,12 @@ class OutputFolder:
 
     Examples
     --------
-    >>> out = OutputFolder("results", "analyze")   # doctest: +SKIP
-    >>> out.begin(); ...; out.finish()              # doctest: +SKIP
+    >>> import tempfile
+    >>> out = OutputFolder(Path(tempfile.mkdtemp()) / "results", "analyze")
+    >>> with output_file(out.begin() / "report.md") as fh:
+    ...     _ = fh.write("# report")
+    >>> out.finish().name, (out.path / "report.md").read_text()
+    ('COMPLETE', '# report')
     """
 
     def __init__(self, path, command: str):
