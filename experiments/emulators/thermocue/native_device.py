@@ -28,7 +28,7 @@ import ctypes
 import math
 
 from experiments.display.thermocue import messages as m
-from experiments.display.thermocue.framing import FrameParser, encode_frame
+from experiments.display.thermocue.framing import Frame, FrameParser, encode_frame
 from experiments.display.thermocue.messages import Cmd, Err, Event, State
 from .device_constants import SIM_MAX_S, TICK_US
 from .faults import parse_faults
@@ -113,7 +113,6 @@ class NativeDevice:
         self.boots = 0
         self.out = bytearray()
         self.direct = None                 # a list while the transport takes decoded frames
-        self._direct_parser = FrameParser()
         self._log_parser = FrameParser()
         self.stalled = False
         self.max_rx_gap_us = 0
@@ -153,6 +152,10 @@ class NativeDevice:
         if not self.core.power_up(self.seed * 7919 + self.boots, 0, self.device_id, image,
                                   self.sim):
             raise RuntimeError("the firmware core's self-check failed")
+        # powered up one control step ago: its first step reads the sensors now, so a STATUS
+        # at once reports readings, not the zeros of a core that has read nothing yet
+        self.boot_us = self.time_us - CONTROL_US
+        self._control(self.time_us)
 
     # ------------------------------------------------------------------ bytes
     def receive(self, data: bytes, at_us: int | None = None) -> None:
@@ -186,7 +189,7 @@ class NativeDevice:
         if self._log is not None:
             self._log_events(data)
         if to_direct and self.direct is not None:
-            self.direct.extend(self._direct_parser.feed(data))
+            self.direct.extend(_whole_frames(data))
         else:
             self.out += data
 
@@ -243,7 +246,6 @@ class NativeDevice:
     def _reboot(self) -> None:
         """A power cycle: the core powers up again (no HELLO, a new boot id, its time from 0)."""
         self.boots += 1
-        self.boot_us = self.time_us
         self.core.take()                   # what it was sending dies with it
         self.out.clear()
         self._alive_until_us = 0
@@ -388,6 +390,19 @@ class NativeDevice:
 
 
 _SIM_COMMANDS = (Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT)
+_tuple_new = tuple.__new__
+
+
+def _whole_frames(data: bytes) -> list:
+    """The core's output as frames, without checking it: the core queues whole frames only
+    (fw.c tx_bytes) and nothing lies between it and here (no fault injected: the direct path).
+    Layout (docs/display-protocol.md §1): A5 5A, length u16, seq, type, crc8, payload, crc16."""
+    out, i, n = [], 0, len(data)
+    while i + 9 <= n:
+        ln = data[i + 2] | data[i + 3] << 8
+        out.append(_tuple_new(Frame, (data[i + 4], data[i + 5], data[i + 7:i + 7 + ln])))
+        i += 9 + ln
+    return out
 
 
 def _within(args: dict, key: str, default, lo: float, hi: float, none_ok: bool = False):
