@@ -25,7 +25,8 @@ URLS = {"emulator": "emulator://?clock=real&seed=7", "qemu-firmware": "qemu-firm
         "emulator-c": "emulator://?clock=real&seed=7&core=c"}
 BACKENDS = [
     "emulator",
-    "emulator-c",
+    # the firmware's C core in the emulator's loop: the same suite again, with the slow tests
+    pytest.param("emulator-c", marks=pytest.mark.slow),
     pytest.param("qemu-firmware", marks=pytest.mark.skipif(
         QEMU_MISSING, reason="qemu-system-arm is not installed here (CI installs it with "
                              "scripts/setup); the firmware's conformance is not tested")),
