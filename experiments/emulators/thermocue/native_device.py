@@ -4,7 +4,7 @@ The firmware's core (:mod:`.native_core`: commands, reply store, states, limits,
 controller) runs unchanged behind a simulation HAL written here in Python: each 5 ms control
 step the pad's physics advance under the drive the core commanded, the sensors are read
 (contact, heat sink, IR finger, ambient, four forces, the sample's thermometer), and the core
-runs one step. The finger (:class:`~.pad_physics.FingerScript`, :class:`~.pad_physics.FingerSkin`),
+runs one step; the finger and its skin advance once per 10 ms tick, as in the twin. The finger (:class:`~.pad_physics.FingerScript`, :class:`~.pad_physics.FingerSkin`),
 the passive sample and every device fault (:mod:`.faults`) stay on this side of the HAL, as on
 the sim bench: ``stuck_sensor``, ``sensor_range``, ``overtemp``, ``dead_relay`` and ``slow_pad``
 act on the physics and the sensors; ``stall`` stops calling the core (the hardware watchdog
@@ -155,7 +155,7 @@ class NativeDevice:
         # powered up one control step ago: its first step reads the sensors now, so a STATUS
         # at once reports readings, not the zeros of a core that has read nothing yet
         self.boot_us = self.time_us - CONTROL_US
-        self._control(self.time_us)
+        self._control(self.time_us, self._world(self.time_us))
 
     # ------------------------------------------------------------------ bytes
     def receive(self, data: bytes, at_us: int | None = None) -> None:
@@ -206,9 +206,10 @@ class NativeDevice:
         """Advance 10 ms of device time (two control steps of the core)."""
         if self.faults:
             self._apply_faults()
+        world = self._world(self.time_us + TICK_US)
         for _ in range(TICK_US // CONTROL_US):
             self.time_us += CONTROL_US
-            self._control(self.time_us)
+            self._control(self.time_us, world)
         self._collect(to_direct=True)
         state = State(self.core.state())
         if state != self._state:
@@ -260,10 +261,9 @@ class NativeDevice:
         if flags & READY and self.finger is not None and self.finger.start_us is None:
             self.finger.start_us = t_us
 
-    def _control(self, t: int) -> None:
-        """One control step at device time ``t``: physics, sensors, the core's step."""
-        if t <= self._alive_until_us and not self.stalled:
-            self._flags(self.core.send(_SILENT_HEARTBEAT, len(_SILENT_HEARTBEAT)), t)
+    def _world(self, t: int) -> tuple:
+        """The bench for the tick ending at ``t``, as the twin's tick computes it: the finger's
+        forces, the skin slab (one 10 ms step), the IR and ambient readings, the heat load."""
         fin = self.finger
         F = fin.force(t) if fin is not None else 0.0
         nz, nf, p = self.noise, self.params.noise_force, self.params
@@ -274,7 +274,7 @@ class NativeDevice:
         touching = F > 0.1
         if touching and self.touch_us is None and self.core.state() in (1, 3):   # armed, rec.
             self.touch_us = t
-        load, finger_C = 0.0, p.room + p.noise_ambient * next(nz)
+        load, finger_C = 0.0, None
         skin = self.skin
         if skin is not None:
             if touching and not self.record:
@@ -283,6 +283,15 @@ class NativeDevice:
             elif not touching:
                 skin.step(False, p.room)
                 finger_C = skin.surface_C(False)
+        if finger_C is None:
+            finger_C = p.room + p.noise_ambient * next(nz)
+        return f, touching, load, finger_C, p.room + p.noise_ambient * next(nz)
+
+    def _control(self, t: int, world: tuple) -> None:
+        """One control step at device time ``t``: the pad's physics, the readings, the core."""
+        if t <= self._alive_until_us and not self.stalled:
+            self._flags(self.core.send(_SILENT_HEARTBEAT, len(_SILENT_HEARTBEAT)), t)
+        f, touching, load, finger_C, ambient_C = world
         if self.stalled:                   # hung: the hardware watchdog opened the relay
             self.plant.step(0.0, False, 0.0)
             return
@@ -290,8 +299,8 @@ class NativeDevice:
         sample_C, skin_side = self._sample_reading(t, touching)
         if skin_side is not None:
             finger_C = skin_side
-        flags = self.core.control(t - self.boot_us, y, p.room + p.noise_ambient * next(nz),
-                                  finger_C, self.plant.hs, f[0], f[1], f[2], f[3], sample_C,
+        flags = self.core.control(t - self.boot_us, y, ambient_C, finger_C, self.plant.hs,
+                                  f[0], f[1], f[2], f[3], sample_C,
                                   int(round(y * 1000.0)) & 0xFFFFFFFF)
         self._flags(flags, t)
 
@@ -375,7 +384,7 @@ class NativeDevice:
         if not armed_waiting:              # the finger waits for the cue (READY) when armed
             f.start_us = self.time_us
         self.finger = f
-        self.skin = FingerSkin(f.skin_thickness_m, f.skin_temperature_C, CONTROL_US * 1e-6,
+        self.skin = FingerSkin(f.skin_thickness_m, f.skin_temperature_C, TICK_US * 1e-6,
                                self._r_fp)
         self.log("finger", **a)
         reply = dict(start_s=None if f.start_us is None else f.start_us * 1e-6)
