@@ -33,7 +33,8 @@ class EmulatorDisplay(ThermalDisplay, scheme="emulator"):
     """
 
     description = "the Python emulator of the thermocue display, in this process"
-    url_grammar = "emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=ID]"
+    url_grammar = ("emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH]"
+                   "[&id=ID][&core=py|c]")
     example_urls = (("emulator://", "Thermal display (emulator)"),)
 
     @classmethod

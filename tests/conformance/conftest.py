@@ -1,4 +1,5 @@
-"""Backends of the protocol conformance suite: the Python emulator and the C firmware under QEMU.
+"""Backends of the protocol conformance suite: the Python emulator, the emulator on the
+firmware's own C core (``core=c``) and the C firmware under QEMU.
 
 Every test of ``test_conformance.py`` runs once per backend (``backend`` parameter). The
 firmware's parametrisation is skipped only when ``qemu-system-arm`` is not installed (CI
@@ -20,9 +21,12 @@ import pytest
 import serial
 
 QEMU_MISSING = shutil.which("qemu-system-arm") is None
-URLS = {"emulator": "emulator://?clock=real&seed=7", "qemu-firmware": "qemu-firmware://"}
+URLS = {"emulator": "emulator://?clock=real&seed=7", "qemu-firmware": "qemu-firmware://",
+        "emulator-c": "emulator://?clock=real&seed=7&core=c"}
 BACKENDS = [
     "emulator",
+    # the firmware's C core in the emulator's loop: the same suite again, with the slow tests
+    pytest.param("emulator-c", marks=pytest.mark.slow),
     pytest.param("qemu-firmware", marks=pytest.mark.skipif(
         QEMU_MISSING, reason="qemu-system-arm is not installed here (CI installs it with "
                              "scripts/setup); the firmware's conformance is not tested")),
@@ -114,9 +118,9 @@ class RawLink:
 
 def open_raw(backend: str) -> RawLink:
     """A :class:`RawLink` to a just powered-up device of ``backend`` (close it)."""
-    if backend == "emulator":
+    if backend in ("emulator", "emulator-c"):
         import experiments.emulators.thermocue  # noqa: F401  (registers emulator:// with pyserial)
-        port = serial.serial_for_url(URLS["emulator"], timeout=0.01)
+        port = serial.serial_for_url(URLS[backend], timeout=0.01)
         link = RawLink(port, port.close)
     else:
         from experiments.display.thermocue.qemu_firmware import await_link, stop_qemu, build_image, start_qemu

@@ -62,12 +62,20 @@ class EmulatorCore:
     log : callable, optional
         Called with a dict for every state change, fault and watchdog trip.
     device_id : str
+    core : {"py", "c"}
+        The firmware: the Python twin (:mod:`.device`) or the firmware's own C core built for
+        this machine (:mod:`.native_device`).
     """
 
     def __init__(self, *, seed: int = 0, faults=None, sim: bool = True, log=None,
-                 device_id: str = "EMU-0001"):
+                 device_id: str = "EMU-0001", core: str = "py"):
         specs = (parse_faults(faults) if isinstance(faults, (str, type(None))) else list(faults))
-        self.device = Device(seed=seed, faults=specs, sim=sim, log=log, device_id=device_id)
+        if core == "c":
+            from .native_device import NativeDevice
+            make = NativeDevice
+        else:
+            make = Device
+        self.device = make(seed=seed, faults=specs, sim=sim, log=log, device_id=device_id)
         self.link = LinkFaults(specs, seed=seed)
         self.device.fault_listeners.append(self.link.add)
         self._delayed = collections.deque()      # (device time due, bytes) held by ``delay``

@@ -3,6 +3,7 @@
 URL grammar::
 
     emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH][&id=DEVICE_ID]
+                [&core=py|c]
 
     faults   fault injection, see experiments.emulators.thermocue.faults (default: none); a "+" is
              a plus (stall@100+5: from 100 s for 5 s), not a space as in HTML forms
@@ -17,6 +18,9 @@ URL grammar::
     sim      offer the emulator-only "sim" commands (default 1)
     log      append the device's state changes, faults and watchdog trips as JSON lines to PATH
     id       device id reported in the handshake (default EMU-0001)
+    core     py: the firmware's Python twin (default); c: the firmware's own C core, built for
+             this machine with cc and loaded with ctypes (native_device.py: the physics, the
+             finger and the faults stay in Python)
 
 pyserial finds this module because ``experiments.display`` adds itself to
 ``serial.protocol_handler_packages`` on import; open it with ``serial.serial_for_url``.
@@ -44,8 +48,8 @@ _FRAME_OVERHEAD = HEADER_SIZE + 2          # bytes of a frame besides its payloa
 _NEVER_SHORT = 16384
 
 URL_GRAMMAR = ("emulator://[?faults=SPEC][&clock=real|virtual][&seed=N][&sim=1|0][&log=PATH]"
-               "[&id=DEVICE_ID]")
-_OPTIONS = ("faults", "clock", "seed", "sim", "log", "id")
+               "[&id=DEVICE_ID][&core=py|c]")
+_OPTIONS = ("faults", "clock", "seed", "sim", "log", "id", "core")
 
 
 def parse_url(url: str) -> dict:
@@ -60,7 +64,7 @@ def parse_url(url: str) -> dict:
     if parts.scheme != "emulator":
         raise SerialException(f"expected a URL of the form {URL_GRAMMAR!r}: not starting with "
                               f"emulator:// ({url!r})")
-    opts = dict(faults=[], clock="real", seed=0, sim=True, log=None, id="EMU-0001")
+    opts = dict(faults=[], clock="real", seed=0, sim=True, log=None, id="EMU-0001", core="py")
     try:
         # parse_qs decodes "+" as a space (HTML forms); here it is the fault SPEC's "+FOR_s"
         query = parts.query.replace("+", "%2B")
@@ -76,6 +80,10 @@ def parse_url(url: str) -> dict:
                 opts["clock"] = value
             elif key == "seed":
                 opts["seed"] = int(value)
+            elif key == "core":
+                if value not in ("py", "c"):
+                    raise ValueError(f"core: expected py or c, got {value!r}")
+                opts["core"] = value
             elif key == "sim":
                 if value not in ("0", "1"):
                     raise ValueError(f"sim: expected 0 or 1, got {value!r}")
@@ -129,7 +137,7 @@ class Serial(EmulatedPort):
         opts = parse_url(self.port)
         self._log = JsonLog(opts["log"])
         self.core = EmulatorCore(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
-                                 log=self._log, device_id=opts["id"])
+                                 log=self._log, device_id=opts["id"], core=opts["core"])
         self.virtual = opts["clock"] == "virtual"
         self._rx.clear()
         self.is_open = True
