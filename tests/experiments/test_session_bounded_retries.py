@@ -43,7 +43,7 @@ def _session(tmp_path, url, max_faults):
 
 
 def test_a_fault_that_replays_on_every_reconnection_stops_the_session_at_max_faults(tmp_path):
-    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5", 2)
+    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5*", 2)
     code = s.run(ScriptedResponder())
     events = read_json_lines(s.directory / "events.jsonl")
     assert code == 1 and s.hooks.n <= 8, (s.hooks.n, out.getvalue())
@@ -61,7 +61,7 @@ def test_a_trial_is_given_up_after_max_attempts_and_the_session_ends(tmp_path):
     # max_attempts 3 per trial (the default), 10 faults in a row allowed: every trial the
     # replayed disconnect cuts is given up after its 3rd attempt; the session goes on to its end
     # (or to the 10th fault in a row), never past 3 attempts of one trial
-    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5", 10)
+    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5*", 10)
     code = s.run(ScriptedResponder())
     events = read_json_lines(s.directory / "events.jsonl")
     assert s.hooks.n <= 12, (s.hooks.n, out.getvalue())
