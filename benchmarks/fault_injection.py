@@ -200,7 +200,8 @@ def run_host(attack: Attack, proto: Path, url: str, data: Path, counts: dict, no
     or second host while it runs."""
     marker = uuid.uuid4().hex
     env = dict(os.environ, FIB_MARK=marker, PYTHONDONTWRITEBYTECODE="1")
-    clock = "real" if attack.name == "host_sighup_real_clock" or attack.backend == "qemu" else "virtual"
+    clock = ("real" if attack.name == "host_sighup_real_clock" or attack.backend == "qemu"
+             or attack.lie else "virtual")
     argv = [sys.executable, "-m", "experiments", "run", str(proto), "--participant", str(P01),
             "--display", url, "--responder", "simulated", "--data", str(data), "--clock", clock,
             "--quiet"]
@@ -364,7 +365,8 @@ def lie(kind: str):
             return [(fr.seq, fr.type, fr.payload[:-3])]
         if kind == "unknown_state" and fr.type == m.Cmd.STATUS | R:
             return [(fr.seq, fr.type, bytes([9]) + fr.payload[1:])]
-        if kind in ("absurd_temperature", "no_telemetry") and fr.type in _telemetry_types(m):
+        if kind in ("absurd_temperature", "no_telemetry") and fr.type == m.Msg.TELEMETRY \
+                and len(fr.payload) == m.TELEMETRY.size:
             if kind == "no_telemetry":
                 return []
             return [(fr.seq, fr.type, _hot(m, fr.type, fr.payload))]
@@ -372,20 +374,11 @@ def lie(kind: str):
     return rewrite
 
 
-def _telemetry_types(m) -> tuple:
-    return tuple(getattr(m.Msg, n) for n in ("TELEMETRY", "TELEMETRY_C") if hasattr(m.Msg, n))
-
-
 def _hot(m, typ, payload: bytes) -> bytes:
     """A telemetry frame whose contact temperature reads 200 °C (the rest unchanged)."""
-    import struct
-    fmt = m.TELEMETRY if typ == getattr(m.Msg, "TELEMETRY", None) else m.TELEMETRY_C
-    fields = list(fmt.unpack(payload[:fmt.size]))
-    fields[3] = 20000 if isinstance(fields[3], int) else 200.0      # centi-°C, or °C
-    try:
-        return fmt.pack(*fields) + payload[fmt.size:]
-    except struct.error:
-        return payload
+    fields = list(m.TELEMETRY.unpack(payload))
+    fields[3] = 20000                             # contact, centi-°C
+    return m.TELEMETRY.pack(*fields)
 
 
 # --------------------------------------------------------------------------- one attack
@@ -416,7 +409,10 @@ def run_attack(attack: Attack, folder: Path, samples=(1, 2, 3)) -> dict:
                 url = "qemu-firmware://"
             else:                                   # the thermocue protocol on a pty
                 device_log = folder / "device.jsonl"
-                proc, path = start_server(folder, "--clock", "virtual", "--log", str(device_log))
+                # behind the proxy (a thread of this process) the device runs on the real clock: a
+                # virtual-clock pty races ahead of a host whose heartbeats the proxy delays
+                proc, path = start_server(folder, "--clock", "real" if attack.lie else "virtual",
+                                          "--log", str(device_log))
                 servers.append(proc)
                 url = path
                 if attack.lie:
