@@ -51,3 +51,5 @@ def test_the_judge_counts_a_commanded_jump_and_an_out_of_range_target():
 def test_the_benchmark_on_the_c_firmware_under_qemu_kills_the_host_and_leaves_no_orphan(tmp_path):
     r = fi.run_attack(_attack("qemu", "host_sigkill"), tmp_path / "qemu", (1,))
     _clean(r)
+    assert r["exit"] == -9, r            # killed mid-session, QEMU running: none of it survived
+    assert list((tmp_path / "qemu" / "data").glob("*/*/events.jsonl")), "no session started"
