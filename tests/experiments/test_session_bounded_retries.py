@@ -2,8 +2,9 @@
 one run, and a session stops after ``max_consecutive_faults`` faulted attempts in a row, on every
 path (a reconnection's too); both are logged, and the session is resumable.
 
-The attack: the in-process emulator with a disconnect on its clock. Each reconnection opens a new
-emulator whose fault schedule replays, so every attempt of the trial is cut off the same way;
+The attack: the in-process emulator with a disconnect on its clock, ``disconnect@1.5*`` (an
+every-opening event: each reconnection opens a new emulator that has it again), so every attempt
+of the trial is cut off the same way;
 before, the reconnect path skipped both bounds and one session logged thousands of attempts.
 """
 from __future__ import annotations
