@@ -18,6 +18,7 @@ import os
 import select
 import shutil
 import subprocess
+import sys
 import time
 
 import pytest
@@ -38,6 +39,16 @@ def display_url(request) -> str:
     if url == DISPLAY_DEFAULT:
         return "emulator://?clock=virtual&seed=20261122"
     return url
+
+
+@pytest.fixture(autouse=True)
+def _fault_events_forgotten():
+    """Each test starts as a new host process would: no ``@T`` fault event of an ``emulator://``
+    URL has fired yet (experiments.emulators.thermocue.faults: once per URL per process)."""
+    yield
+    faults = sys.modules.get("experiments.emulators.thermocue.faults")
+    if faults is not None:
+        faults.forget_fired()
 
 
 def _start_xvfb():

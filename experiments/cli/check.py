@@ -1,8 +1,10 @@
 """`thermocue check URL`: a display's bring-up and qualification, with no finger on it.
 
-Runs every check of :mod:`experiments.qualification` that the display's backend allows (a check
-it cannot run fails with the reason), writes ``check.md`` and the plots to ``--out``, and exits
-0 when every check passed, 1 when any failed, 2 on bad input.
+Runs every check of :mod:`experiments.qualification` that the display backend's declared
+capabilities allow (a check they rule out is listed as not applicable, naming the capability the
+backend lacks, and not run; a check that should run but cannot fails with the reason), writes
+``check.md`` and the plots to ``--out``, and exits 0 when every check that ran passed, 1 when any
+failed (or none ran), 2 on bad input.
 """
 from __future__ import annotations
 
@@ -63,8 +65,12 @@ def _run(ns) -> int:
                             profile_s=ns.profile_s, progress=lambda s: print(s, file=sys.stderr),
                             limits=protocol.display.safety_limits())
     passed = sum(r.passed for r in results)
-    print(f"{path}: {passed} of {len(results)} checks passed")
+    na = [r for r in results if r.not_applicable]
+    ran = len(results) - len(na)
+    print(f"{path}: {passed} of {ran} checks passed"
+          + (f"; {len(na)} not applicable to this backend (not run: "
+             f"{', '.join(f'{r.name}, lacks {r.not_applicable}' for r in na)})" if na else ""))
     for r in results:
-        if not r.passed:
+        if r.failed:
             print(f"  FAIL {r.name}: {r.reason} -- look at {r.look_at}")
-    return 0 if passed == len(results) else 1
+    return 0 if ran and not any(r.failed for r in results) else 1

@@ -27,7 +27,7 @@ if TYPE_CHECKING:   # the types in the signatures; importing them here would pul
     from .safety import SafetyLimits
     from .trial_recording import TrialRecording
 
-__all__ = ["Capabilities", "ProfileReceipt", "Display", "EmulatedDisplay", "open_serial_port",
+__all__ = ["Capabilities", "LACKABLE", "ProfileReceipt", "Display", "EmulatedDisplay", "open_serial_port",
            "check_serial_url", "handshake_or_close"]
 
 #: How a backend learns that the finger touched: a force threshold on the pad's sensors, or the
@@ -37,6 +37,18 @@ CONTACT_DETECTION = ("force", "stimulus_start")
 #: How long a port locked by another program is tried again before the open fails, s: the lock
 #: of a host that has just died lasts until its heartbeat helper has exited (milliseconds).
 IN_USE_WAIT_S = 1.0
+
+
+#: What a display may lack of the thermocue display, and what that means (Capabilities.lacks).
+LACKABLE = {
+    "finger_thermometer": "no thermometer of the finger (IR)",
+    "heat_sink_thermometer": "no thermometer on the heat sink",
+    "stuck_sensor_rule": "no stuck-sensor rule of the device's own to latch a fault",
+    "raw_setpoint": "no way to send a set-point past the host's check (the device's clamp)",
+    "trip_test": "no command to lower the over-temperature trip for a test",
+    "host_watchdog": "no host-silence watchdog the host can test",
+    "device_clock": "no device clock (samples stamped with the host's clock on arrival)",
+}
 
 
 @dataclass(frozen=True)
@@ -68,6 +80,11 @@ class Capabilities:
         Whether the bench is scriptable (``sim_sample``/``sim_finger``: an emulator).
     notes : str
         One line a user reads in ``thermocue displays``.
+    lacks : tuple of str
+        Parts of the thermocue display (docs/display-protocol.md) this device does not have at
+        all, each one of :data:`LACKABLE`. ``thermocue check`` lists the checks that need one
+        as not applicable to the backend, naming it; a check whose parts are declared and that
+        cannot run fails. Default: nothing lacking (a plugin that says nothing is checked whole).
     """
 
     contact_detection: str
@@ -80,8 +97,12 @@ class Capabilities:
     modes: tuple = ("playback", "record")
     scripted_bench: bool = False
     notes: str = ""
+    lacks: tuple = ()
 
     def __post_init__(self):
+        if not set(self.lacks) <= set(LACKABLE):
+            raise ValueError(f"Capabilities.lacks: expected names among {tuple(LACKABLE)}, got "
+                             f"{self.lacks!r}")
         if self.contact_detection not in CONTACT_DETECTION:
             raise ValueError(f"Capabilities.contact_detection: expected one of "
                              f"{CONTACT_DETECTION}, got {self.contact_detection!r}")
@@ -94,6 +115,7 @@ class Capabilities:
         d = asdict(self)
         d["safe_range_C"] = list(self.safe_range_C)
         d["modes"] = list(self.modes)
+        d["lacks"] = list(self.lacks)
         return d
 
 

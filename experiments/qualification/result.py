@@ -29,6 +29,10 @@ class CheckResult:
         File names of the check's plots, relative to the report's folder.
     board_only : str
         What of this check only a physical board can settle ("" when the check settles it here).
+    not_applicable : str
+        The capability the backend declares it lacks (``Capabilities.lacks``, or
+        ``force_sensing``/``playback``) that this check needs: the check was not run on this
+        backend and does not fail the run ("" for a check that ran, or could not and failed).
     """
 
     name: str
@@ -41,10 +45,29 @@ class CheckResult:
     seconds: float = 0.0
     plots: list = field(default_factory=list)
     board_only: str = ""
+    not_applicable: str = ""
+
+    @property
+    def outcome(self) -> str:
+        """``pass``, ``FAIL`` or ``not applicable``."""
+        return "not applicable" if self.not_applicable else ("pass" if self.passed else "FAIL")
+
+    @property
+    def failed(self) -> bool:
+        """Whether the check fails the run (a not-applicable check does not)."""
+        return not self.passed and not self.not_applicable
+
+
+def not_offered(name: str, title: str, limit: str, capability: str, why: str,
+                board_only: str = "") -> CheckResult:
+    """A check the backend's declared capabilities do not offer: listed, not run, not failing."""
+    return CheckResult(name, title, False, limit, "not run",
+                       f"not applicable to this backend: it lacks {capability} ({why})",
+                       board_only=board_only, not_applicable=capability)
 
 
 def cannot_run(name: str, title: str, limit: str, why: str, look_at: str = "",
                board_only: str = "") -> CheckResult:
-    """A check this device cannot run: a failure, with the reason."""
+    """A check this device should run but cannot: a failure, with the reason."""
     return CheckResult(name, title, False, limit, "not measured", f"cannot run here: {why}",
                        look_at or "a device (or backend) that offers it", board_only=board_only)

@@ -3,8 +3,9 @@ from __future__ import annotations
 
 import time
 
+from .applicability import TITLES, missing_capability
 from .clock import check_clock
-from .result import CheckResult
+from .result import CheckResult, not_offered
 from .safety_checks import check_limits, check_overtemp, check_watchdog
 from .sensors import check_force, check_sensors
 from .thermal import check_neutral, check_step, check_tracking
@@ -21,14 +22,25 @@ CHECKS = (
 
 
 def run_checks(bench, checks=CHECKS, progress=None) -> list[CheckResult]:
-    """Run ``checks`` on ``bench``; a check that raises fails with the error as its reason.
+    """Run ``checks`` on ``bench``; a check that raises fails with the error as its reason; a
+    check the backend's declared capabilities do not offer is listed as not applicable
+    (:mod:`.applicability`), not run.
 
     ``progress(text)`` gets one line per check with the time remaining (estimated).
     """
     results = []
     left = sum(s for _, s in checks)
+    caps = bench.display.capabilities
     for i, (fn, est) in enumerate(checks, start=1):
         name = fn.__name__.removeprefix("check_")
+        missing = missing_capability(name, caps)
+        if missing is not None:
+            results.append(not_offered(name, TITLES.get(name, name), "see docs/check.md", *missing))
+            left = max(0.0, left - est)
+            if progress:
+                progress(f"[{i}/{len(checks)}] {name}: not applicable to this backend (it lacks "
+                         f"{missing[0]}: {missing[1]})")
+            continue
         if progress:
             progress(f"[{i}/{len(checks)}] {name}: {fn.__doc__.splitlines()[0]} "
                      f"(about {left:.0f} s left)")
@@ -44,7 +56,7 @@ def run_checks(bench, checks=CHECKS, progress=None) -> list[CheckResult]:
         results.append(res)
         left = max(0.0, left - est)
         if progress:
-            progress(f"      {'pass' if res.passed else 'FAIL'} in {res.seconds:.1f} s"
+            progress(f"      {res.outcome} in {res.seconds:.1f} s"
                      + ("" if res.passed else f": {res.reason}"))
     return results
 

@@ -43,6 +43,10 @@ def check_sensors(bench: Bench) -> CheckResult:
             break
         bench.pause(0.05)
         st = d.status()
+    lacks = set(d.capabilities.lacks)
+    for key, part in (("finger (IR)", "finger_thermometer"), ("heat sink", "heat_sink_thermometer")):
+        if part in lacks:                  # a thermometer the backend declares it has not
+            del readings[key]
     missing = [k for k, v in readings.items() if not all(finite(x) for x in v)]
     bad = {k: (min(v), max(v)) for k, v in readings.items()
            if k not in missing and not all(PLAUSIBLE_C[0] <= x <= PLAUSIBLE_C[1] for x in v)}
@@ -64,10 +68,26 @@ def check_sensors(bench: Bench) -> CheckResult:
         return cannot_run(name, title, limit,
                           f"the device reports no {', '.join(missing)} reading (measured: {measured})",
                           "a device with every thermometer of the protocol's §4")
+    not_here = [part for part in ("finger_thermometer", "heat_sink_thermometer") if part in lacks]
+    if "stuck_sensor_rule" in lacks:       # plausible is all this device lets the host see
+        return CheckResult(name, title, True, f"each reading within {PLAUSIBLE_C[0]:g}–"
+                           f"{PLAUSIBLE_C[1]:g} °C over {WATCH_S:g} s", measured,
+                           _partial(not_here + ["stuck_sensor_rule"]),
+                           board_only="a stuck or drifting probe sensor (the device latches no "
+                                      "stuck-sensor fault the host could see)")
     if not bench.has("set_trip"):
         return cannot_run(name, title, limit, "the backend has no stuck-sensor rule of its own "
                           f"to test (readings plausible: {measured})")
-    return CheckResult(name, title, True, limit, measured)
+    return CheckResult(name, title, True, limit, measured, _partial(not_here))
+
+
+def _partial(parts) -> str:
+    """What of the sensors check this backend's declared capabilities left out ("" if none)."""
+    if not parts:
+        return ""
+    from experiments.display.base import LACKABLE
+    return ("not applicable to this backend, which lacks "
+            + "; ".join(f"{p} ({LACKABLE[p]})" for p in parts))
 
 
 def check_force(bench: Bench) -> CheckResult:

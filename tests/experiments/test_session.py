@@ -151,7 +151,7 @@ def test_a_link_that_drops_on_every_attempt_stops_the_session_instead_of_retryin
     # logged thousands of attempts of trial 1
     proto = write_protocol(tmp_path, contact_s=0.5, real_samples=(1,), sim_samples=(3,))
     out = io.StringIO()
-    s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&faults=disconnect@1",
+    s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&faults=disconnect@1*",
                        seed=4, clock="virtual", out=out)
     assert s.run(ScriptedResponder()) == 1
     ev = read_json_lines(s.directory / "events.jsonl")
@@ -160,6 +160,25 @@ def test_a_link_that_drops_on_every_attempt_stops_the_session_instead_of_retryin
     assert [e["trial_index"] for e in ev if e["event"] == "trial_given_up"] == [1]
     assert ev[-1]["event"] == "session_stopped" and ev[-1]["reason"] == "3 consecutive faults"
     assert "stopped after 3 consecutive faults" in out.getvalue()
+
+
+def test_an_injected_once_fault_faults_one_attempt_and_the_retry_is_ok_as_attempt_2(tmp_path):
+    # disconnect@1 (no "*"): an event that fires once per URL in this process; the device the
+    # session opens again after the lost link does not have it, so trial 1's retry succeeds
+    proto = write_protocol(tmp_path, contact_s=0.5, real_samples=(1,), sim_samples=(3,))
+    out = io.StringIO()
+    s = create_session(proto, P01, tmp_path / "data", "emulator://?clock=virtual&faults=disconnect@1",
+                       seed=4, clock="virtual", out=out)
+    assert s.run(ScriptedResponder()) == 0, out.getvalue()
+    ev = read_json_lines(s.directory / "events.jsonl")
+    assert [(e["trial_index"], e["attempt"], e["fault_code"]) for e in ev
+            if e["event"] == "display_fault"] == [(1, 1, "LINK_LOST")]
+    assert sum(e["event"] == "display_reconnected" for e in ev) == 1
+    table = rows(s.directory / "trials.csv")
+    assert [(r["attempt"], r["status"]) for r in table if r["trial_index"] == "1"] == \
+        [("1", "fault"), ("2", "ok")]
+    assert all(r["status"] == "ok" for r in table if r["trial_index"] != "1")
+    assert ev[-1]["event"] == "session_finished" and ev[-1]["n_given_up"] == 0
 
 
 def test_no_contact_aborts_the_attempt_and_runs_the_trial_again(tmp_path):

@@ -2,8 +2,9 @@
 one run, and a session stops after ``max_consecutive_faults`` faulted attempts in a row, on every
 path (a reconnection's too); both are logged, and the session is resumable.
 
-The attack: the in-process emulator with a disconnect on its clock. Each reconnection opens a new
-emulator whose fault schedule replays, so every attempt of the trial is cut off the same way;
+The attack: the in-process emulator with a disconnect on its clock, ``disconnect@1.5*`` (an
+every-opening event: each reconnection opens a new emulator that has it again), so every attempt
+of the trial is cut off the same way;
 before, the reconnect path skipped both bounds and one session logged thousands of attempts.
 """
 from __future__ import annotations
@@ -43,7 +44,7 @@ def _session(tmp_path, url, max_faults):
 
 
 def test_a_fault_that_replays_on_every_reconnection_stops_the_session_at_max_faults(tmp_path):
-    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5", 2)
+    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5*", 2)
     code = s.run(ScriptedResponder())
     events = read_json_lines(s.directory / "events.jsonl")
     assert code == 1 and s.hooks.n <= 8, (s.hooks.n, out.getvalue())
@@ -61,7 +62,7 @@ def test_a_trial_is_given_up_after_max_attempts_and_the_session_ends(tmp_path):
     # max_attempts 3 per trial (the default), 10 faults in a row allowed: every trial the
     # replayed disconnect cuts is given up after its 3rd attempt; the session goes on to its end
     # (or to the 10th fault in a row), never past 3 attempts of one trial
-    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5", 10)
+    s, out = _session(tmp_path, "emulator://?clock=virtual&faults=disconnect@1.5*", 10)
     code = s.run(ScriptedResponder())
     events = read_json_lines(s.directory / "events.jsonl")
     assert s.hooks.n <= 12, (s.hooks.n, out.getvalue())

@@ -61,6 +61,13 @@ __all__ = ["Tcs2Display", "parse_tcs2_url", "URL_GRAMMAR"]
 
 #: Abort attempts after a fault (each waits up to 0.5 s for the device to answer).
 ABORT_ATTEMPTS = 3
+#: What a TCS II does not have of the thermocue display (``Capabilities.lacks``): its probe
+#: measures its zones and the neutral (skin-side) temperature only; it reports zone errors but
+#: latches no stuck-sensor fault; the host cannot reach past ``Om`` (the device's own maximum),
+#: lower a trip for a test, or test a host-silence watchdog (it has none); its samples carry
+#: no device time.
+TCS2_LACKS = ("finger_thermometer", "heat_sink_thermometer", "stuck_sensor_rule", "raw_setpoint",
+              "trip_test", "host_watchdog", "device_clock")
 
 
 def _locked(method):
@@ -176,7 +183,8 @@ class Tcs2Display(Display, scheme="tcs2"):
             safe_range_C=cmd.SETPOINT_RANGE_C, max_rate_C_per_s=999.9, modes=("playback",),
             scripted_bench=False,
             notes="resting probe, no force plate: simulated trials only (contact = start of "
-                  "stimulation); profiles as ≤ 999 linear segments")
+                  "stimulation); profiles as ≤ 999 linear segments",
+            lacks=TCS2_LACKS)
 
     @property
     def capabilities(self) -> Capabilities:
@@ -188,7 +196,7 @@ class Tcs2Display(Display, scheme="tcs2"):
             max_profile_points=c.max_profile_points, min_profile_step_s=c.min_profile_step_s,
             safe_range_C=(cmd.SETPOINT_RANGE_C[0], self.max_C), max_rate_C_per_s=c.max_rate_C_per_s,
             modes=("playback",), scripted_bench=self.emulated,
-            notes=f"probe {self.info.device_id}, firmware {self.info.firmware}")
+            notes=f"probe {self.info.device_id}, firmware {self.info.firmware}", lacks=c.lacks)
 
     # ------------------------------------------------------------------ handshake
     def _refuse(self, field: str, expected: str, got) -> None:

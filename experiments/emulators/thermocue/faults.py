@@ -3,7 +3,7 @@
 Grammar (also quoted in every error message)::
 
     SPEC := ITEM ("," ITEM)*
-    ITEM := NAME ["=" VALUE] ["@" AT_s] ["+" FOR_s]
+    ITEM := NAME ["=" VALUE] ["@" AT_s ["*"]] ["+" FOR_s]
 
     drop=P          each byte, either direction, is lost with probability P
     corrupt=P       each byte, either direction, gets one bit flipped with probability P
@@ -26,17 +26,34 @@ Grammar (also quoted in every error message)::
 ``@AT_s`` is the device time (s) the fault starts (since power-up for a URL or command-line SPEC,
 since the command for ``sim_fault``); default 0. ``+FOR_s`` is how long it lasts; default for ever.
 Example: ``drop=0.001,corrupt=0.0005,overtemp@2.5``.
+
+When a fault fires, so that a retry can succeed:
+
+* an item **without** ``@`` is a standing condition of the device: every device opened from the
+  URL has it from power-up (``drop=0.01``, ``dead_relay``);
+* an item **with** ``@AT_s`` is an event that fires **once** per URL in a host process: in the
+  first device opened from that ``emulator://`` URL whose clock reaches AT_s. A device opened
+  again from the same URL (a session connecting again after a lost link, whose device clock
+  starts again at 0) does not have it, so the retried trial can end ``ok``;
+* ``@AT_s*`` fires in **every** device opened from the URL, at its AT_s (a device whose link
+  drops on every connection).
+
+The memory of fired events lives in the host process (:func:`fired_faults`); a new process (a
+``thermocue resume``) starts without it. A device served on a pty (``thermocue emulator``) lives as
+long as its server: a host that reconnects finds the same device, whose events have fired.
 """
 from __future__ import annotations
 
 import random
+import threading
 from dataclasses import dataclass
 
 from experiments.errors import UserInputError
 
-__all__ = ["FaultSpec", "parse_faults", "LinkFaults", "GRAMMAR", "FAULT_NAMES"]
+__all__ = ["FaultSpec", "parse_faults", "LinkFaults", "GRAMMAR", "FAULT_NAMES", "faults_for_opening",
+           "note_fired", "fired_faults", "forget_fired"]
 
-GRAMMAR = 'SPEC := NAME["="VALUE]["@"AT_s]["+"FOR_s] ("," ...)*, NAME one of ' \
+GRAMMAR = 'SPEC := NAME["="VALUE]["@"AT_s["*"]]["+"FOR_s] ("," ...)*, NAME one of ' \
           "drop, corrupt, garbage, delay, disconnect, stall, stuck_sensor, sensor_range, overtemp, " \
           "dead_relay, slow_pad, late_watchdog, reboot"
 
@@ -61,19 +78,21 @@ LINK_FAULTS = ("drop", "corrupt", "garbage", "delay", "disconnect")
 
 @dataclass(frozen=True)
 class FaultSpec:
-    """One injected fault: ``name``, ``value`` (probability or seconds), ``at_s``, ``for_s``."""
+    """One injected fault: ``name``, ``value`` (probability or seconds), ``at_s``, ``for_s``;
+    ``once``: an ``@AT_s`` event that fires in one opening of its URL only (module docstring)."""
 
     name: str
     value: float | None = None
     at_s: float = 0.0
     for_s: float | None = None
+    once: bool = False
 
     def active(self, t_s: float) -> bool:
         """Whether the fault acts at device time ``t_s``."""
         return t_s >= self.at_s and (self.for_s is None or t_s < self.at_s + self.for_s)
 
     def shifted(self, dt_s: float) -> "FaultSpec":
-        return FaultSpec(self.name, self.value, self.at_s + dt_s, self.for_s)
+        return FaultSpec(self.name, self.value, self.at_s + dt_s, self.for_s, self.once)
 
 
 #: The largest number a SPEC takes (AT_s and FOR_s: a day, s).
@@ -103,7 +122,7 @@ def parse_faults(spec: str | None, *, where: str = "faults") -> list[FaultSpec]:
     Examples
     --------
     >>> parse_faults("drop=0.01,overtemp@2+1")
-    [FaultSpec(name='drop', value=0.01, at_s=0.0, for_s=None), FaultSpec(name='overtemp', value=None, at_s=2.0, for_s=1.0)]
+    [FaultSpec(name='drop', value=0.01, at_s=0.0, for_s=None, once=False), FaultSpec(name='overtemp', value=None, at_s=2.0, for_s=1.0, once=True)]
     """
     out: list[FaultSpec] = []
     if spec is None or not str(spec).strip():
@@ -116,10 +135,11 @@ def parse_faults(spec: str | None, *, where: str = "faults") -> list[FaultSpec]:
         if "+" in rest:
             rest, f = rest.split("+", 1)
             for_s = _number(f, item, "FOR_s")
-        at_s = 0.0
+        at_s, once = 0.0, False
         if "@" in rest:
             rest, a = rest.split("@", 1)
-            at_s = _number(a, item, "AT_s")
+            once = not a.endswith("*")
+            at_s = _number(a.removesuffix("*"), item, "AT_s")
         value = None
         if "=" in rest:
             rest, v = rest.split("=", 1)
@@ -135,8 +155,42 @@ def parse_faults(spec: str | None, *, where: str = "faults") -> list[FaultSpec]:
         if rng is not None and not (rng[0] <= value <= rng[1]):
             raise UserInputError(f"{where}: {item!r}: expected {rng[0]} ≤ VALUE ≤ {rng[1]}, "
                                  f"got {value!r} ({GRAMMAR})")
-        out.append(FaultSpec(name, value, at_s, for_s))
+        out.append(FaultSpec(name, value, at_s, for_s, once))
     return out
+
+
+# ----------------------------------------------------------------- once-events across openings
+_FIRED: dict[str, set[int]] = {}      # URL -> indices (in its SPEC) of the once-events fired
+_FIRED_LOCK = threading.Lock()
+
+
+def faults_for_opening(key: str, specs: list[FaultSpec]) -> list[FaultSpec]:
+    """The faults a device opened now from URL ``key`` gets: ``specs`` less its once-events that
+    fired in an earlier opening of ``key`` in this process."""
+    with _FIRED_LOCK:
+        fired = _FIRED.get(key, set())
+        return [s for i, s in enumerate(specs) if i not in fired]
+
+
+def note_fired(key: str, specs: list[FaultSpec], t_s: float) -> None:
+    """A device opened from URL ``key`` (its SPEC parsed as ``specs``) reached device time ``t_s``:
+    its once-events due by then have fired and are left out of the next openings of ``key``."""
+    due = {i for i, s in enumerate(specs) if s.once and s.at_s <= t_s}
+    if due:
+        with _FIRED_LOCK:
+            _FIRED.setdefault(key, set()).update(due)
+
+
+def fired_faults(key: str) -> set[int]:
+    """Indices (in the SPEC of URL ``key``) of the once-events fired in this process."""
+    with _FIRED_LOCK:
+        return set(_FIRED.get(key, ()))
+
+
+def forget_fired() -> None:
+    """Forget every fired once-event (as a new host process would; the tests' fixture)."""
+    with _FIRED_LOCK:
+        _FIRED.clear()
 
 
 class LinkFaults:

@@ -6,7 +6,9 @@ URL grammar::
                 [&core=py|c]
 
     faults   fault injection, see experiments.emulators.thermocue.faults (default: none); a "+" is
-             a plus (stall@100+5: from 100 s for 5 s), not a space as in HTML forms
+             a plus (stall@100+5: from 100 s for 5 s), not a space as in HTML forms; an
+             event at "@T" fires in one opening of the URL per process (a reconnection's
+             device does not have it), "@T*" in every opening
     clock    real: the device ticks every 10 ms of wall time in its own thread (default);
              virtual: the device advances only while the host waits for bytes -- each read that
              finds nothing to return steps it by 10 ms ticks until there is something (and,
@@ -37,7 +39,7 @@ from serial.serialutil import SerialException, to_bytes
 from .device import TICK_US, Device
 from ..port.emulated_port import EmulatedPort
 from .emulator_core import EmulatorCore, JsonLog
-from .faults import parse_faults
+from .faults import faults_for_opening, note_fired, parse_faults
 from experiments.display.thermocue.framing import HEADER_SIZE
 
 __all__ = ["Serial", "URL_GRAMMAR", "JsonLog"]
@@ -114,6 +116,7 @@ class Serial(EmulatedPort):
         self._thread = None
         self._stop = False
         self._log = None
+        self._specs = []
         self._hb_pipe = None                   # real clock: (read end, write end) for the helper
         super().__init__(*args, **kwargs)
 
@@ -136,8 +139,10 @@ class Serial(EmulatedPort):
         self._check_can_open()
         opts = parse_url(self.port)
         self._log = JsonLog(opts["log"])
-        self.core = EmulatorCore(seed=opts["seed"], faults=opts["faults"], sim=opts["sim"],
-                                 log=self._log, device_id=opts["id"], core=opts["core"])
+        self._specs = opts["faults"]          # the URL's whole SPEC: its once-events are noted
+        self.core = EmulatorCore(seed=opts["seed"], faults=faults_for_opening(self.port, self._specs),
+                                 sim=opts["sim"], log=self._log, device_id=opts["id"],
+                                 core=opts["core"])
         self.virtual = opts["clock"] == "virtual"
         self._rx.clear()
         self.is_open = True
@@ -155,6 +160,7 @@ class Serial(EmulatedPort):
         if self.is_open:
             self.is_open = False
             self._stop_clock(self._cond)
+            note_fired(self.port, self._specs, self.core.time_s)
             if self._log is not None:
                 dev = self.core.device
                 dev.log("stop", max_host_gap_ms=round(dev.max_rx_gap_us * 1e-3, 1))

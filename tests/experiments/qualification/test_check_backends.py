@@ -1,5 +1,5 @@
-"""thermocue check on the other backends: the TCS II emulator (its subset passes, the rest
-fails with reasons), a plain serial port (a pty served by ``thermocue emulator --link``), the
+"""thermocue check on the other backends: the TCS II emulator (its subset passes, the checks its
+declared capabilities rule out are listed as not applicable), a plain serial port (a pty served by ``thermocue emulator --link``), the
 firmware under QEMU (the sim image passes, the board image fails on its sensors), and the
 command line's exit codes."""
 from __future__ import annotations
@@ -26,20 +26,25 @@ def _by_name(results):
 
 
 @pytest.mark.slow
-def test_the_tcs2_emulator_passes_its_subset_and_fails_the_rest_with_reasons(tmp_path):
+def test_the_tcs2_emulator_passes_its_subset_and_lists_the_rest_as_not_applicable(tmp_path):
     from experiments.protocol import load_protocol
     proto = load_protocol("roughness_recognition_tcs2")
     results, path = qualify("tcs2://emulator", tmp_path, protocol=proto,
                             limits=proto.display.safety_limits())
     r = _by_name(results)
-    assert {n for n, x in r.items() if x.passed} == {"neutral", "step", "tracking"}
-    expected_reason = {"sensors": "no finger (IR), heat sink reading", "force": "no force sensors",
-                       "limits": "no way to send a set-point past the host",
-                       "overtemp": "no command to lower its over-temperature trip",
-                       "watchdog": "no host-silence watchdog", "clock": "no device clock"}
-    for name, words in expected_reason.items():
-        assert r[name].reason.startswith("cannot run here:") and words in r[name].reason, name
-    assert "result: **FAIL** (3 of 9 checks passed)" in path.read_text()
+    assert {n for n, x in r.items() if x.passed} == {"sensors", "neutral", "step", "tracking"}
+    assert not [n for n, x in r.items() if x.failed]
+    lacking = {"force": "force_sensing", "limits": "raw_setpoint", "overtemp": "trip_test",
+               "watchdog": "host_watchdog", "clock": "device_clock"}
+    assert {n: x.not_applicable for n, x in r.items() if x.not_applicable} == lacking
+    for name, capability in lacking.items():
+        assert r[name].reason.startswith(f"not applicable to this backend: it lacks {capability}")
+    assert "finger_thermometer" in r["sensors"].reason and "stuck_sensor_rule" in r["sensors"].reason
+    text = path.read_text()
+    assert "result: **PASS** (4 of 4 checks passed; 5 not applicable to this backend, not run)" in text
+    assert "## Not run on this backend" in text and "## What to look at" not in text
+    for name, capability in lacking.items():
+        assert f"| {name} | not applicable ({capability}) |" in text
 
 
 @pytest.mark.slow

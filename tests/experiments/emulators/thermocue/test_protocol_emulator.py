@@ -49,13 +49,13 @@ def test_real_clock_ticks_in_wall_time():
 def test_a_plus_in_the_url_is_the_faults_duration():
     # audit 34: parse_qs read "+" as a space, so the documented NAME@AT+FOR was refused
     from experiments.emulators.thermocue.faults import FaultSpec
-    want = [FaultSpec("stall", None, 100.0, 5.0), FaultSpec("drop", 0.01, 1.0, 2.5)]
+    want = [FaultSpec("stall", None, 100.0, 5.0, once=True), FaultSpec("drop", 0.01, 1.0, 2.5, once=True)]
     assert parse_url("emulator://?faults=stall@100+5,drop=0.01@1+2.5&seed=2")["faults"] == want
     assert parse_url("emulator://?faults=stall@100%2B5,drop=0.01@1%2B2.5")["faults"] == want
     assert parse_url("emulator://?log=/tmp/a+b.jsonl")["log"] == "/tmp/a+b.jsonl"
     port = serial.serial_for_url("emulator://?clock=virtual&faults=stall@0.1+0.2", timeout=0.01)
     try:
-        assert port.device.faults == [FaultSpec("stall", None, 0.1, 0.2)]
+        assert port.device.faults == [FaultSpec("stall", None, 0.1, 0.2, once=True)]
     finally:
         port.close()
 
