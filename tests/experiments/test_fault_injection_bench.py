@@ -24,6 +24,7 @@ def _clean(r):
     assert {k: r[k] for k in fi.COUNTS} == {k: 0 for k in fi.COUNTS}, r["notes"]
 
 
+@pytest.mark.slow      # two whole sessions in subprocesses: 24 s at load 17
 def test_the_benchmark_s_fast_attacks_count_nothing_unsafe(tmp_path):
     quick = [a for a in fi.ATTACKS if a.quick]
     assert {a.backend for a in quick} == {"emulator", "tcs2"}
