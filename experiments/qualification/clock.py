@@ -13,11 +13,14 @@ __all__ = ["check_clock"]
 SPAN_S = 2.0
 #: Largest mapping uncertainty, s (a contact time mapped to the host to within it).
 MAX_UNCERTAINTY_S = 0.005
+#: Measurements of the map before the check fails (the first that holds is kept).
+ATTEMPTS = 3
 
 
 def check_clock(bench: Bench) -> CheckResult:
     """Two heartbeat bursts 2 s apart map device time to host time: a plausible drift
-    (≤ 2000 ppm), round trips consistent with the map, and an uncertainty ≤ 5 ms."""
+    (≤ 2000 ppm), round trips consistent with the map, and an uncertainty ≤ 5 ms, in one of
+    up to :data:`ATTEMPTS` measurements."""
     from experiments.psychopy_plugin.clock_sync import MAX_DRIFT_PPM, ClockMap, sync_burst
     name, title = "clock", "device time maps to host time"
     limit = (f"drift ≤ {MAX_DRIFT_PPM:g} ppm, every round trip within the map, uncertainty ≤ "
@@ -41,12 +44,18 @@ def check_clock(bench: Bench) -> CheckResult:
                            "" if ok else "device time does not follow the host's wait",
                            "" if ok else "the emulator's clock option",
                            board_only="the drift of a real crystal against the host")
-    first = sync_burst(d.heartbeat, time.monotonic)
-    bench.pause(SPAN_S)
-    last = sync_burst(d.heartbeat, time.monotonic)
-    cmap = ClockMap.from_bursts(first, last)
+    # a host held off by its own machine's load delays round trips (and an in-process
+    # emulator's clock ticks): the map is measured again, up to ATTEMPTS times, and the first
+    # one that holds is kept; a device whose clock really jumps fails every attempt
+    for attempt in range(1, ATTEMPTS + 1):
+        first = sync_burst(d.heartbeat, time.monotonic)
+        bench.pause(SPAN_S)
+        last = sync_burst(d.heartbeat, time.monotonic)
+        cmap = ClockMap.from_bursts(first, last)
+        if not cmap.unmapped and cmap.uncertainty_s <= MAX_UNCERTAINTY_S:
+            break
     measured = (f"offset {cmap.offset_s:.4f} s, drift {cmap.drift * 1e6:.0f} ppm, uncertainty "
-                f"{cmap.uncertainty_s * 1e3:.2f} ms")
+                f"{cmap.uncertainty_s * 1e3:.2f} ms (measurement {attempt} of at most {ATTEMPTS})")
     if cmap.unmapped:
         return CheckResult(name, title, False, limit, measured, f"unmapped: {cmap.unmapped}",
                            "the device's crystal and timer set-up (a QEMU image's clock pauses "

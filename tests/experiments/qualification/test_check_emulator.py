@@ -110,3 +110,19 @@ def test_the_watchdog_check_passes_within_the_stated_time(tmp_path):
     finally:
         b.display.close()
     assert res.passed, res.reason
+
+
+@pytest.mark.slow      # three measurements of 2 s on the real clock
+def test_a_slow_link_fails_the_clock_check_on_every_measurement(tmp_path):
+    # every reply 20 ms late: each round trip's bounds are 20 ms wide, so no measurement maps
+    # the clock to within 5 ms, and measuring again (for a loaded host) does not hide it
+    from experiments.qualification.clock import ATTEMPTS, check_clock
+    url = "emulator://?clock=real&seed=5&faults=delay=0.02"
+    b = Bench(open_display(url), url, tmp_path)
+    try:
+        res = check_clock(b)
+    finally:
+        b.display.close()
+    assert not res.passed
+    assert res.reason.startswith("uncertainty ") and "latency" in res.look_at
+    assert f"(measurement {ATTEMPTS} of at most {ATTEMPTS})" in res.measured
