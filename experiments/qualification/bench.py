@@ -78,8 +78,22 @@ class Bench:
         """Let ``seconds`` pass (device time on a virtual clock), keeping the link alive."""
         if self.has("wait"):
             self.display.wait(seconds)
-        else:
+            return
+        device_clock = getattr(getattr(self.display, "port", None), "device_clock", None)
+        now = device_clock() if callable(device_clock) else None
+        if now is None:
             time.sleep(seconds)
+            return
+        # a virtual clock without a wait of its own (tcs2://emulator?clock=virtual): its time
+        # moves only while the host waits for bytes (a sleep here left the device's time where
+        # it was: the check never ended). A read of nothing waits; what arrives meanwhile is
+        # the display's to read, through a status
+        end = now() + seconds
+        port = self.display.port
+        while now() < end:
+            port.read(0)
+            if port.in_waiting:
+                self.display.status()
 
     def watch(self, seconds: float, period_s: float = 0.02, trace: Trace | None = None,
               until: Callable | None = None) -> Trace:

@@ -47,6 +47,17 @@ def test_the_tcs2_emulator_passes_its_subset_and_lists_the_rest_as_not_applicabl
         assert f"| {name} | not applicable ({capability}) |" in text
 
 
+def test_the_tcs2_emulator_on_its_virtual_clock_finishes_the_check(tmp_path):
+    # its clock moves only while the host waits for bytes: a pause that slept left the device's
+    # time where it was, and the sensors check never ended (stopped after 10 minutes)
+    t0 = time.monotonic()
+    results, path = qualify("tcs2://emulator?clock=virtual", tmp_path)
+    assert time.monotonic() - t0 < 120
+    r = _by_name(results)
+    assert {n for n, x in r.items() if x.passed} == {"sensors", "neutral", "step", "tracking"}
+    assert "result: **PASS** (4 of 4 checks passed" in path.read_text()
+
+
 @pytest.mark.slow
 def test_safety_checks_pass_on_a_plain_serial_port(tmp_path):
     """A pty from `thermocue emulator --link`: the driver's heartbeat helper, a real tty."""
