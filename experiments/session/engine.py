@@ -34,6 +34,7 @@ from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
 from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from sessionfiles.session_files import schedule_sha256
+from participants_schema import skin_um
 from experiments.monitor.time_left import TimeLeft
 
 __all__ = ["Session"]
@@ -52,8 +53,8 @@ class Session(TrialSteps):
     ----------
     directory : Path
     protocol : experiments.protocol.Protocol
-    participant : dict
-        The validated participant record.
+    participant : participants_schema.Participant
+        The validated participant, read once (``Participant.read``).
     assignment : participants_schema.GroupAssignment or None
     group : str
     seed : int
@@ -127,11 +128,7 @@ class Session(TrialSteps):
     # -- paths and context ------------------------------------------------------------------
     @property
     def participant_id(self) -> str:
-        return str(self.participant["id"])
-
-    @property
-    def skin_thickness_um(self):
-        return (self.participant.get("skin_thickness") or {}).get("total_um")
+        return self.participant.id
 
     @property
     def n_trials(self) -> int:
@@ -155,7 +152,8 @@ class Session(TrialSteps):
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,
                 "schedule_sha256": schedule_sha256(self.schedule),
-                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
+                "skin_thickness_um": skin_um(self.participant.measured_skin_m),
+                "sex": self.participant.sex,
                 # PsychoPy-style identity of every trial row (date: the session's first start)
                 "date": self._date, "expName": self.protocol.name, "expStart": self._exp_start,
                 "protocol_version": self.protocol.version, "thermocue_version": thermocue_version()}
@@ -172,18 +170,19 @@ class Session(TrialSteps):
 
         The finger presses 0.3 s after arming with 0.5 N more than the protocol's threshold
         and stays for ``max_contact_s`` (simulated trials) or ``record_s`` (real ones), with the
-        participant's skin thickness (800 µm if the record has none) and
-        ``initial_skin_temperature_C`` (else the middle of the protocol's skin-temperature range).
+        participant's measured skin thickness and ``initial_skin_temperature_C`` (else the middle
+        of the protocol's skin-temperature range).
         """
         contact = self.protocol.contact
         env = self.protocol.environment
-        skin_C = self.participant.get("initial_skin_temperature_C",
-                                      0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C))
-        thickness_um = self.skin_thickness_um or 800.0
+        skin_C = self.participant.initial_skin_temperature_C
+        if skin_C is None:
+            skin_C = 0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C)
         reply = press(display, sample=None if spec.mode == "simulated" else self.sample_for(spec),
                       press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
                       hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
-                      skin_thickness_m=float(thickness_um) * 1e-6, skin_temperature_C=float(skin_C))
+                      skin_thickness_m=self.participant.measured_skin_m,
+                      skin_temperature_C=float(skin_C))
         self.log_event("emulated_touch", trial_index=spec.trial_index, skin_temperature_C=skin_C)
         self.log_finger_model(spec.trial_index, reply)
 

@@ -39,7 +39,7 @@ class _Profile:
         return float(self._prof.error_bound) + change
 
 
-def simulated_target_profile(protocol, participant: dict, group, skin_thickness_um,
+def simulated_target_profile(protocol, participant, group, skin_thickness_um,
                              roughness_id, roughness_um):
     """The target profile a simulated trial uploads (:func:`stimuli.target_profile`).
 
@@ -54,11 +54,12 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     Parameters
     ----------
     protocol : Protocol
-    participant : dict
-        The participant record.
+    participant : participants_schema.Participant or None
+        The participant (None or an empty dict: none, e.g. a simulated study or a check).
     group : str
     skin_thickness_um : float or None, µm
-        The participant's own thickness (for ``skin_thickness = "participant"``).
+        The thickness ``skin_thickness = "participant"`` simulates; None: the participant's
+        measured one (:attr:`~participants_schema.Participant.measured_skin_m`).
     roughness_id : int
     roughness_um : float, µm
 
@@ -77,10 +78,13 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
         names the protocol and the field).
     """
     from experiments.calibration import CalibrationError, calibrated_profile_parameters
+    from participants_schema import skin_um
     from stimuli import ModelInputError, Skin, target_profile
 
     sim = protocol.simulation
     where = protocol.path.name if protocol.path is not None else protocol.name
+    if skin_thickness_um is None and participant:
+        skin_thickness_um = skin_um(participant.measured_skin_m)
     try:
         cal = calibrated_profile_parameters(participant, roughness_id, roughness_um=roughness_um)
     except CalibrationError as exc:
@@ -159,7 +163,7 @@ def _sample_label(protocol, roughness_id, roughness_um) -> str:
         return f"sample {roughness_id}, {roughness_um:g} µm"
 
 
-def check_schedule_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
+def check_schedule_profiles(protocol, participant, group, schedule, *, source: str | None = None
                              ) -> dict:
     """Compute the target profile of every simulated trial and check it against the display's
     safe range and rate limit, before anything is written or played.
@@ -173,7 +177,7 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     Parameters
     ----------
     protocol : Protocol
-    participant : dict
+    participant : participants_schema.Participant
     group : str
     schedule : list of TrialSpec
     source : str, optional
@@ -203,11 +207,9 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     sim, disp = protocol.simulation, protocol.display
     limits = disp.safety_limits()
     try:
-        thickness_um = (participant.get("skin_thickness") or {}).get("total_um")
         profiles = {}
         for rid, rum in keys:
-            profiles[(rid, rum)] = simulated_target_profile(protocol, participant, group, thickness_um,
-                                                            rid, rum)
+            profiles[(rid, rum)] = simulated_target_profile(protocol, participant, group, None, rid, rum)
     except UserInputError:      # SessionError: a calibration, a compensated profile the pad cannot give
         raise
     except ValueError as exc:   # limit_rate below the rounding step, a group without a thickness
