@@ -4,7 +4,8 @@ One concept (~500 lines): the session-level state machine and the state a run ca
 
 The session-level states of :data:`~experiments.session.machine.TRANSITIONS` live here
 (``idle`` between trials, ``finished``, ``stopped``, ``interrupted``: :meth:`Session.run`);
-each trial's states are :class:`~experiments.session.trial.TrialSteps`' methods. Every state
+each trial's states are the methods of its :class:`~experiments.session.trial.TrialSteps`
+(``Session.steps``, which holds the session it runs for). Every state
 change is logged; a log append or a file rewrite is never cut by a signal
 (:mod:`experiments.session.signals`); a fault or an interruption puts the display to neutral
 first. See :mod:`experiments.session` for the files a session writes.
@@ -43,7 +44,7 @@ __all__ = ["Session"]
 _log = logging.getLogger("thermocue.session")
 
 
-class Session(TrialSteps):
+class Session:
     """A session directory and the engine that runs its trials.
 
     Make one with :func:`create_session` (new) or :func:`open_session` (resume), then call
@@ -122,6 +123,8 @@ class Session(TrialSteps):
         #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).
         self.hooks = hooks if hooks is not None else hooks_from_env()
         self._last_block = None
+        #: The trial's states (prompt ... rewarm), run for this session.
+        self.steps = TrialSteps(self)
         self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
         self._exp_start = _psychopy_exp_start(time.time())
 
@@ -207,6 +210,10 @@ class Session(TrialSteps):
     def _new_time_left(self, events=()) -> TimeLeft:
         rewarm_s = 0.0 if self.clock.virtual else self.protocol.contact.rewarm_s
         return TimeLeft({s.trial_index: s.mode for s in self.schedule}, rewarm_s).feed_all(events)
+
+    def _elapsed(self) -> float:
+        """Seconds since the session's first start (its first ``session_started`` event)."""
+        return time.monotonic() - self._started
 
     def _on_state(self, old: str, new: str, **context) -> None:
         self.log_event("state", **{"from": old, "to": new}, **context)
@@ -405,7 +412,7 @@ class Session(TrialSteps):
             spec = queue[0]
             attempt = progress.next_attempt(spec.trial_index)
             progress.attempts[spec.trial_index] = attempt
-            outcome = self._run_trial(disp, spec, attempt)
+            outcome = self.steps.run(disp, spec, attempt)
             gave_up = False
             if outcome == "ok":
                 faults = 0
@@ -432,7 +439,7 @@ class Session(TrialSteps):
                 self.machine.go("idle")
                 continue          # the same trial at once, no rewarm (still a consecutive fault)
             if queue:
-                self._rewarm()
+                self.steps.rewarm()
             self.machine.go("idle")
         self.machine.go("finished")
         self._neutral(disp)
