@@ -139,10 +139,8 @@ def finished_sessions(folder: Path) -> list[Path]:
 
 def _clock_named_in(url: str) -> str | None:
     """``"virtual"`` or ``"real"`` when the URL's query names the clock, else None."""
-    from urllib.parse import parse_qs, urlsplit
-    if "?" not in str(url):
-        return None
-    value = parse_qs(urlsplit(str(url)).query).get("clock", [""])[-1]
+    from experiments.display.url import url_options
+    value = url_options(url).get("clock")
     return value if value in ("virtual", "real") else None
 
 

@@ -345,25 +345,23 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
     from experiments.errors import ProtocolError, SafetyLimitError
-    from experiments.display.registry import backend_for, check_url, open_display, shown_url
+    from experiments.display.registry import UnknownScheme, open_display, parse_display_url, shown_url
 
     src = source or protocol_source(protocol)
+    url = str(url)
     try:
-        backend = backend_for(url)
-    except UserInputError as exc:
+        parsed = parse_display_url(url)         # once: the backend's own check, nothing opened
+    except UnknownScheme as exc:
         raise UserInputError(f"{option}: expected a display URL or a serial device path, got "
-                             f"{shown_url(url)} ({str(exc).split('; ', 1)[-1]})") from None
-    try:
-        check_url(url)
+                             f"{shown_url(url)} ({exc.expected})") from None
     except UserInputError as exc:
         raise UserInputError(f"{option}: expected a display URL, got {shown_url(url)}: "
                              f"{exc}") from None
-    _check_backend(protocol, backend.declared_capabilities(), backend.scheme, src)
+    _check_backend(protocol, parsed.backend.declared_capabilities(), parsed.scheme, src)
     try:
-        return open_display(url, limits=protocol.display.safety_limits())
+        return open_display(parsed, limits=protocol.display.safety_limits())
     except SafetyLimitError as exc:
-        text = str(exc).split(": ", 2)[-1] if str(exc).startswith("display: limits: ") else str(exc)
-        raise ProtocolError(f"{src}: display.min_C, display.max_C: {text}") from None
+        raise ProtocolError(f"{src}: display.min_C, display.max_C: {exc.reason or exc}") from None
     except DisplayError as exc:
         cause = exc.__cause__
         if isinstance(cause, ValueError):     # pyserial: an unknown URL scheme or option
