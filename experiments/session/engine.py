@@ -8,7 +8,9 @@ each trial's states are the methods of its :class:`~experiments.session.trial.Tr
 (``Session.steps``, which holds the session it runs for). Every state
 change is logged; a log append or a file rewrite is never cut by a signal
 (:mod:`experiments.session.signals`); a fault or an interruption puts the display to neutral
-first. See :mod:`experiments.session` for the files a session writes.
+first. How a run ends early (faults in a row, a lost link, a restarted display) and a trial
+given up are :class:`~experiments.session.stops.RunStops`' (``Session.stops``). See
+:mod:`experiments.session` for the files a session writes.
 """
 from __future__ import annotations
 
@@ -16,7 +18,6 @@ import datetime as _dt
 import errno
 import logging
 import os
-import re
 import time
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.store import record_display
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
+from experiments.session.stops import RunStops
 from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from sessionfiles.session_files import schedule_sha256
 from participants_schema import skin_um
@@ -125,6 +127,8 @@ class Session:
         self._last_block = None
         #: The trial's states (prompt ... rewarm), run for this session.
         self.steps = TrialSteps(self)
+        #: How the run ends early (faults, a lost link, a restarted display), a trial given up.
+        self.stops = RunStops(self)
         self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
         self._exp_start = _psychopy_exp_start(time.time())
 
@@ -422,19 +426,19 @@ class Session:
                 tries[spec.trial_index] = tries.get(spec.trial_index, 0) + 1
                 if tries[spec.trial_index] >= self.protocol.contact.max_attempts:
                     queue.pop(0)
-                    self._give_up(spec.trial_index, tries[spec.trial_index])
+                    self.stops.give_up(spec.trial_index, tries[spec.trial_index])
                     gave_up = True
             if self._fatal is not None:
-                return self._stop_fatal(disp, queue)
+                return self.stops.after_fatal(disp, queue)
             lost = self._link_lost is not None
             if lost:
-                disp = self._reconnect(disp, spec.trial_index)
+                disp = self.stops.reconnect(disp, spec.trial_index)
                 if disp is None:
-                    return self._stop_link_lost(queue)
+                    return self.stops.after_link_lost(queue)
             if faults >= self.max_consecutive_faults:
                 # (a lost link that connecting again cured counts too: a link that drops on every
                 # attempt stops the session here instead of retrying one trial for ever)
-                return self._stop_faults(disp, faults, queue)
+                return self.stops.after_faults(disp, faults, queue)
             if lost and not gave_up:
                 self.machine.go("idle")
                 continue          # the same trial at once, no rewarm (still a consecutive fault)
@@ -445,7 +449,7 @@ class Session:
         self._neutral(disp)
         self._write_trials()
         self._export_bids()          # (before session_finished: that stays the log's last event)
-        self.log_event("session_finished", n_completed=self._n_completed([]),
+        self.log_event("session_finished", n_completed=self.stops.n_completed([]),
                        n_given_up=len(self._given_up))
         self._write_trials()
         given_up = (f" ({len(self._given_up)} given up after {self.protocol.contact.max_attempts} "
@@ -516,101 +520,10 @@ class Session:
         self._report(f"session interrupted ({reason}); display neutral; resume with "
                      f"`thermocue resume {self.directory}`")
 
-    def _reconnect(self, disp, trial_index: int):
-        """The display's port failed: close it and open it once more.
-
-        Returns the display opened again (its handshake done, neutral set, logged as
-        ``display_reconnected``), or None if that failed too (logged as ``display_error``).
-        """
-        code, message = self._link_lost
-        self._link_lost = None
-        try:
-            disp.close()
-        except Exception:
-            pass
-        if self.display_url is None:
-            self._lost_because = (message, "no display URL to open again")
-            return None
-        try:
-            again = self._open_display()
-        except DisplayError as exc:
-            if isinstance(exc, UserInputError):
-                raise
-            self.log_event("display_error", step="reconnect", message=str(exc))
-            self._lost_because = (message, str(exc))
-            return None
-        self._reopened.append(again)
-        self.display = again
-        info = getattr(again, "info", None)
-        self.log_event("display_reconnected", url=self.display_url, trial_index=trial_index,
-                       device_id=getattr(info, "device_id", None),
-                       image_id=getattr(info, "image_id", "") or "")
-        record_display(self.directory, self.display_url, info, durable=self.durable)
-        again.set_neutral(self.protocol.display.neutral_C)
-        self._report(f"trial {trial_index}: the display's link was lost ({_bare(message)}); "
-                     f"connected again, the trial runs again")
-        return again
-
-    def _give_up(self, trial_index: int, attempts: int) -> None:
-        """Log that a trial reached ``[contact] max_attempts`` attempts in this run without an
-        ``ok`` one (a resume after a stop runs it again, with as many attempts)."""
-        limit = self.protocol.contact.max_attempts
-        self._given_up.add(trial_index)
-        self.log_event("trial_given_up", trial_index=trial_index, attempts=attempts,
-                       max_attempts=limit)
-        self._report(f"trial {trial_index}: given up after {attempts} attempts without a "
-                     f"clean one (the protocol's [contact] max_attempts = {limit}); the session "
-                     f"goes on without it")
-
-    def _n_completed(self, queue) -> int:
-        """Trials with an ``ok`` attempt: neither still to run nor given up."""
-        return self.n_trials - len(queue) - len(self._given_up)
-
-    def _stop_faults(self, disp, faults: int, queue) -> int:
-        """Stop after ``max_consecutive_faults`` faulted attempts in a row (resumable)."""
-        self.machine.go("idle")
-        self.machine.go("stopped")
-        self._neutral(disp)
-        self.log_event("session_stopped", reason=f"{faults} consecutive faults",
-                       n_completed=self._n_completed(queue))
-        self._report(f"stopped after {faults} consecutive faults; resume with "
-                     f"`thermocue resume {self.directory}`")
-        return 1
-
-    def _stop_link_lost(self, queue) -> int:
-        """Stop after a lost link that one reconnect did not cure (resumable once fixed)."""
-        lost, why = self._lost_because
-        self.machine.go("idle")
-        self.machine.go("stopped")
-        self.log_event("session_stopped", reason="display link lost", message=lost,
-                       reconnect=why, n_completed=self._n_completed(queue))
-        self._report(f"stopped: the display's link was lost ({_bare(lost)}) and connecting "
-                     f"again failed ({_bare(why)}); check its cable and power, then resume with "
-                     f"`thermocue resume {self.directory}`")
-        return 1
-
-    def _stop_fatal(self, disp, queue) -> int:
-        """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
-        code, message = self._fatal
-        self.machine.go("idle")
-        self.machine.go("stopped")
-        self._neutral(disp)
-        advice = "the display restarted: resume to shake hands with it again"
-        self.log_event("session_stopped", reason=f"display fault {code}", message=message,
-                       n_completed=self._n_completed(queue))
-        self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
-        return 1
-
 
 def _relative_to(path, folder) -> str:
     """``path`` relative to ``folder``, with forward slashes (``../../bids/sub-P01/...``)."""
     return Path(os.path.relpath(Path(path).resolve(), Path(folder).resolve())).as_posix()
-
-
-def _bare(message: str) -> str:
-    """A display error's text without its leading ``display:`` (one clean message)."""
-    text = re.sub(r"^(\s*display:\s*)+", "", str(message), flags=re.IGNORECASE).strip()
-    return re.sub(r"^link lost\s*", "", text).strip(" :") or text
 
 
 def _best_effort(call) -> None:
