@@ -112,6 +112,16 @@ def simulated_target_profile(protocol, participant, group, skin_thickness_um,
     except ModelInputError as exc:
         raise SessionError(f"{where}: simulation.target_side: {sim.target_side!r} for sample "
                            f"{roughness_um:g} µm ({resistance_source} resistance): {exc}") from None
+    params, temperature = _session_parameters(protocol, prof, thickness_um, source,
+                                              resistance_source, pad_resistance)
+    return _Profile(prof, params, temperature)
+
+
+def _session_parameters(protocol, prof, thickness_um, source, resistance_source, pad_resistance):
+    """A target profile's ``parameters`` extended by the session's (thickness source, replayed
+    side, pad, rate limiting, contact model), and its temperature when the rate limit or the
+    resting probe changed it (else None)."""
+    sim = protocol.simulation
     params = dict(prof.parameters)
     params.setdefault("skin_thickness_um", thickness_um)
     params["skin_thickness_source"] = source
@@ -143,7 +153,7 @@ def simulated_target_profile(protocol, participant, group, skin_thickness_um,
         params["resting_start_C"] = float(rested[0])
         params["resting_max_change_C"] = given_up
         params["resting_catch_up_s"] = catch_up
-    return _Profile(prof, params, temperature)
+    return params, temperature
 
 
 def protocol_source(protocol) -> str:
