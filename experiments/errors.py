@@ -81,4 +81,14 @@ class SafetyLimitError(DisplayError, UserInputError):
     """A setpoint or profile outside the protocol's safe range or rate limit.
 
     Raised by the host *before* anything is sent.
+
+    Attributes
+    ----------
+    reason : str or None
+        What is wrong without the message's own ``display: limits:`` prefix, when the raiser
+        gives it (a caller that names its own field words its line with it).
     """
+
+    def __init__(self, *args, reason: str | None = None):
+        super().__init__(*args)
+        self.reason = reason

@@ -7,9 +7,11 @@
 'group A: 680 µm, 120 µm below the 800 µm threshold'
 
 ``load_participant(path)`` does the same for a JSON file; ``participants/examples/`` holds
-valid records.
+valid records.  The rest of the code gets a participant as a frozen :class:`Participant`
+(SI units; one skin thickness per purpose), read once: ``Participant.read(path)``.
 """
 from participants_schema.errors import ParticipantError
+from participants_schema.record import Participant, skin_um
 from participants_schema.groups import GroupAssignment, GroupRule, assign_group
 from participants_schema.validate import (
     SCHEMA_PATH,
@@ -20,6 +22,8 @@ from participants_schema.validate import (
 )
 
 __all__ = [
+    "Participant",
+    "skin_um",
     "ParticipantError",
     "load_participant",
     "validate_participant",

@@ -117,8 +117,9 @@ def assign_group(record: Mapping[str, Any], rule: Any = None) -> GroupAssignment
 
     Parameters
     ----------
-    record : dict
-        A validated participant record (:func:`participants_schema.load_participant`).
+    record : Participant or dict
+        A participant (:meth:`participants_schema.Participant.read`) or its validated JSON
+        record (:func:`participants_schema.load_participant`).
     rule : GroupRule, mapping or None
         The protocol's rule (``Protocol.grouping``); None means the paper's
         (800 µm threshold, 50 µm margin, A thinner, B thicker).
@@ -147,6 +148,8 @@ def assign_group(record: Mapping[str, Any], rule: Any = None) -> GroupAssignment
     ('A', -20.0, True)
     """
     rule = GroupRule.coerce(rule)
+    if hasattr(record, "record") and not isinstance(record, Mapping):    # a Participant
+        record = record.record()
     source = str(record.get("id", "<participant>")) if isinstance(record, Mapping) else "<participant>"
     try:
         thickness = record["skin_thickness"]["total_um"]

@@ -176,7 +176,8 @@ def test_sessionfiles_is_the_floor_it_imports_nothing_of_the_tree_above():
 
 #: The log format and the reader, imported by analysis and by the command line: standard library
 #: only (no numpy, pandas), so that reading a log pulls in no numerics.
-STANDARD_LIBRARY_ONLY = ("sessionfiles.columns", "sessionfiles.logformat",
+STANDARD_LIBRARY_ONLY = ("sessionfiles.columns", "sessionfiles.logformat", "sessionfiles.logread",
+                         "sessionfiles.file_read",
                          "sessionfiles.session_reader", "sessionfiles.atomicfile",
                          "sessionfiles.errors")
 

@@ -4,10 +4,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from experiments.protocol import load_protocol
 from experiments.session.setup import simulated_target_profile
+from participants_schema import Participant
 from experiments.display.tcs2.profile_compiler import compile_profile, segments_to_samples
 
 p = load_protocol("roughness_recognition_tcs2")
-rec = {"id": "P01", "skin_thickness": {"total_um": 680}}
+rec = Participant(id="P01", measured_skin_m=680e-6)
 fig, grid = plt.subplots(2, 2, figsize=(10, 6.4), sharey=True)
 for col, (rid, um) in enumerate(((1, 1.6), (4, 100.0))):
     prof = simulated_target_profile(p, rec, "A", 680, rid, um)

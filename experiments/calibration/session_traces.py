@@ -63,6 +63,14 @@ class SessionTraces:
     def participant_id(self) -> str | None:
         return (self.participant or {}).get("id")
 
+    @property
+    def measured_skin_m(self) -> float | None:
+        """The stored record's measured skin thickness (``skin_thickness.total_um``), m: the
+        fit's first guess of L; None when the record has none."""
+        st = (self.participant or {}).get("skin_thickness")
+        total = st.get("total_um") if isinstance(st, dict) else None
+        return float(total) * 1e-6 if total else None
+
 
 def _float(value):
     if value is None or value == "":

@@ -29,6 +29,7 @@ import json
 import math
 from importlib import metadata
 from pathlib import Path
+from typing import Mapping
 
 from experiments.calibration.errors import CalibrationError
 from experiments.calibration.fit import CalibrationFit
@@ -46,13 +47,21 @@ def _key(roughness_um) -> str:
 calibration_key = _key
 
 
+def _calibration_of(record):
+    """The ``calibration`` object of a :class:`participants_schema.Participant` or of a JSON
+    record, or None."""
+    if record is None or isinstance(record, Mapping):
+        return (record or {}).get("calibration")
+    return record.calibration
+
+
 def check_calibration_samples(record, roughness_um, source: str = "participant record") -> None:
     """Refuse a calibration none of whose resistances belongs to a sample of the protocol.
 
     Parameters
     ----------
-    record : dict
-        A validated participant record.
+    record : participants_schema.Participant or dict
+        A validated participant (or its JSON record).
     roughness_um : iterable of float, µm
         The roughness of each sample of the protocol.
     source : str
@@ -64,7 +73,7 @@ def check_calibration_samples(record, roughness_um, source: str = "participant r
         The record has fitted resistances and no key is the Ra of a sample of the protocol
         (they would all be ignored, and every profile silently fall back to Eq. 5).
     """
-    cal = (record or {}).get("calibration")
+    cal = _calibration_of(record)
     table = cal.get("contact_resistance_m2K_W") if isinstance(cal, dict) else None
     if not table:
         return
@@ -178,8 +187,8 @@ def calibrated_profile_parameters(record, roughness_id: int | None, roughness_um
 
     Parameters
     ----------
-    record : dict
-        A participant record (validated).
+    record : participants_schema.Participant or dict
+        A validated participant (or its JSON record).
     roughness_id : int or None
         The protocol's sample id (matched against the ids stored with the calibration).
     roughness_um : float, µm, optional
@@ -209,7 +218,7 @@ def calibrated_profile_parameters(record, roughness_id: int | None, roughness_um
     >>> calibrated_profile_parameters({"id": "P01"}, 2) is None
     True
     """
-    cal = (record or {}).get("calibration")
+    cal = _calibration_of(record)
     if not isinstance(cal, dict):
         return None
     table = cal.get("contact_resistance_m2K_W") or {}

@@ -114,10 +114,7 @@ def run(ns) -> int:
     thickness = _sample_thickness(ns.sample_thickness_um, st.sample_thickness_m)
     mat = get_material(ns.material or st.material_name, thickness=thickness)
     setup = ContactSetup(mat, sensor)
-    guess = None
-    if st.participant and isinstance(st.participant.get("skin_thickness"), dict):
-        total = st.participant["skin_thickness"].get("total_um")
-        guess = float(total) * 1e-6 if total else None
+    guess = st.measured_skin_m
     if ns.bootstrap_samples < 20:
         raise CalibrationError(f"--bootstrap-samples: expected an integer ≥ 20, got {ns.bootstrap_samples!r}")
     if ns.write_participant:       # check before fitting: the record must be this session's participant

@@ -43,15 +43,15 @@ def _prompt(text: str) -> str:
 
 def _run(ns) -> int:
     from experiments.cli.paths import check_writable_dir
-    from experiments.display.registry import backend_for, scheme_of
+    from experiments.display.registry import parse_display_url
     from experiments.errors import UserInputError
     from experiments.protocol import load_protocol
     from experiments.qualification.qualify import qualify
 
-    backend_for(ns.url).check_url(ns.url)            # bad URL: one line, exit 2
+    url = parse_display_url(ns.url)                   # once; a bad URL: one line, exit 2
     if not 0.5 <= ns.profile_s <= 30:
         raise UserInputError(f"--profile-s: expected 0.5–30 s, got {ns.profile_s:g}")
-    name = ns.protocol or ("roughness_recognition_tcs2" if scheme_of(ns.url) == "tcs2"
+    name = ns.protocol or ("roughness_recognition_tcs2" if url.scheme == "tcs2"
                            else "roughness_recognition")
     protocol = load_protocol(name)
     out = check_writable_dir(ns.out, "--out")
@@ -61,7 +61,7 @@ def _run(ns) -> int:
             raise UserInputError("--no-prompt: expected it when stdin is not a terminal (the "
                                  "known-weight test asks the operator)")
         prompt = _prompt
-    results, path = qualify(ns.url, out, prompt=prompt, protocol=protocol,
+    results, path = qualify(url, out, prompt=prompt, protocol=protocol,
                             profile_s=ns.profile_s, progress=lambda s: print(s, file=sys.stderr),
                             limits=protocol.display.safety_limits())
     passed = sum(r.passed for r in results)

@@ -20,9 +20,9 @@ _EXPORTS = {"SafetyLimits": "safety", "DeviceInfo": "types",
             "TrialRecording": "trial_recording", "ThermalDisplay": "thermocue.driver",
             "open_display": "registry", "backends": "registry", "backend_for": "registry",
             "Display": "base", "EmulatedDisplay": "base", "Capabilities": "base",
-            "ProfileReceipt": "base"}
+            "ProfileReceipt": "base", "DisplayURL": "url", "parse_display_url": "registry"}
 
-__all__ = ["open_display", "backends", "backend_for", "Display", "EmulatedDisplay", "Capabilities",
+__all__ = ["open_display", "parse_display_url", "DisplayURL", "backends", "backend_for", "Display", "EmulatedDisplay", "Capabilities",
            "ProfileReceipt", "ThermalDisplay", "SafetyLimits", "Telemetry",
            "ContactEvent", "TrialRecording", "DeviceInfo", "DeviceEvent", "Status"]
 

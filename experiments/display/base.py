@@ -210,6 +210,20 @@ class Display(abc.ABC):
         URL of the scheme is accepted here and checked when opened."""
 
     @classmethod
+    def parse_url(cls, url: str) -> "DisplayURL":
+        """``url`` checked (:meth:`check_url`) and parsed, once: a
+        :class:`~experiments.display.url.DisplayURL` that opens with this backend.
+
+        Raises
+        ------
+        UserInputError
+            A URL this backend refuses (names the option).
+        """
+        from .url import DisplayURL, url_options
+        cls.check_url(str(url))
+        return DisplayURL(str(url), cls.scheme, cls, tuple(url_options(url).items()))
+
+    @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """What the backend can do before a device is opened (its specification)."""
         raise NotImplementedError(f"{cls.__name__}.declared_capabilities")

@@ -29,6 +29,7 @@ import threading
 from experiments.errors import DisplayError, UserInputError
 
 __all__ = ["open_display", "backend_for", "backends", "register", "scheme_of", "check_url",
+           "parse_display_url",
            "broken_plugins", "shown_url", "BUILTIN_MODULES", "PYSERIAL_SCHEMES", "MAX_URL_SHOWN"]
 
 #: Modules that define the built-in backends (each registers its classes on import).
@@ -153,21 +154,30 @@ def _bounded(exc: Exception, url) -> Exception:
     return exc
 
 
+class UnknownScheme(UserInputError):
+    """A URL no registered backend opens. ``expected`` says, after "expected", what would be
+    opened (a caller that names its own option words its line with it)."""
+
+    def __init__(self, message: str, expected: str):
+        super().__init__(message)
+        self.expected = expected
+
+
 def scheme_of(url: str) -> str:
     """The backend scheme of a display URL (``serial`` for a path or a pyserial URL).
 
     Raises
     ------
-    UserInputError
+    UnknownScheme
         ``SCHEME:`` without ``//`` after it (``tcs2:/tmp/x``): not read as a path.
     """
     url = str(url)
     if "://" not in url:
         m = _SCHEME.match(url)
         if m is not None:     # a drive letter (C:) is one character: never a scheme here
-            raise UserInputError(f"display: {shown_url(url)}: expected {m.group(1)}://... (a "
-                                 f"scheme is followed by two slashes; tcs2:///dev/ttyACM0 for a "
-                                 f"path) or a serial device path")
+            expected = (f"{m.group(1)}://... (a scheme is followed by two slashes; "
+                        f"tcs2:///dev/ttyACM0 for a path) or a serial device path")
+            raise UnknownScheme(f"display: {shown_url(url)}: expected {expected}", expected)
         return "serial"
     scheme = url.split("://", 1)[0].lower()
     return "serial" if scheme in PYSERIAL_SCHEMES else scheme
@@ -178,7 +188,7 @@ def backend_for(url: str):
 
     Raises
     ------
-    UserInputError
+    UnknownScheme
         No backend is registered for the URL's scheme (the message lists those that are).
     """
     _load_builtins()
@@ -187,9 +197,9 @@ def backend_for(url: str):
         return _REGISTRY[scheme]
     except KeyError:
         known = ", ".join(f"{s}://" for s in sorted(_REGISTRY) if s != "serial")
-        raise UserInputError(f"display: {shown_url(url)}: no display backend for the scheme "
-                             f"{shown_url(scheme)}; expected a serial device path or one of "
-                             f"{known}") from None
+        expected = f"a serial device path or one of {known}"
+        raise UnknownScheme(f"display: {shown_url(url)}: no display backend for the scheme "
+                            f"{shown_url(scheme)}; expected {expected}", expected) from None
 
 
 def backends() -> list:
@@ -198,21 +208,29 @@ def backends() -> list:
     return [_REGISTRY[s] for s in sorted(_REGISTRY)]
 
 
-def check_url(url: str):
-    """The backend of ``url`` after its own check of the URL (nothing opened); every error one
-    bounded line.
+def parse_display_url(url):
+    """``url`` parsed once by its backend (:meth:`Display.parse_url`; nothing opened): a
+    :class:`~experiments.display.url.DisplayURL`, returned as it is when already one; every
+    error one bounded line.
 
     Raises
     ------
     UserInputError
         No backend for the scheme, or a URL its backend refuses.
     """
+    from .url import DisplayURL
+    if isinstance(url, DisplayURL):
+        return url
     backend = backend_for(url)
     try:
-        backend.check_url(str(url))
+        return backend.parse_url(str(url))
     except UserInputError as exc:
         raise _bounded(exc, url) from None
-    return backend
+
+
+def check_url(url) -> type:
+    """The backend of ``url`` after its own check of the URL (:func:`parse_display_url`)."""
+    return parse_display_url(url).backend
 
 
 def open_display(url: str, limits=None, **options):
@@ -220,9 +238,10 @@ def open_display(url: str, limits=None, **options):
 
     Parameters
     ----------
-    url : str
+    url : str or DisplayURL
         ``emulator://[?...]``, ``qemu-firmware://[?...]``, ``tcs2://PORT``, a serial device path
-        (``/dev/ttyUSB0``) or a pty path, or a pyserial URL.
+        (``/dev/ttyUSB0``) or a pty path, or a pyserial URL; or one already parsed
+        (:func:`parse_display_url`), opened without a second check.
     limits : SafetyLimits, optional
         The protocol's safety limits (default: the protocol's defaults).
     **options
@@ -240,8 +259,8 @@ def open_display(url: str, limits=None, **options):
     DisplayError
         The device cannot be reached or is refused at the handshake (one line, the URL bounded).
     """
-    backend = check_url(url)
+    parsed = parse_display_url(url)
     try:
-        return backend.open(str(url), limits, **options)
+        return parsed.backend.open(parsed.text, limits, **options)
     except (DisplayError, UserInputError) as exc:
-        raise _bounded(exc, url)
+        raise _bounded(exc, parsed.text)

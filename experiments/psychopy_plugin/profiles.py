@@ -68,7 +68,7 @@ def protocol_profile(protocol, participant_file, sample_id) -> CueProfile:
         An unknown sample (names the protocol and the field), a bad participant file.
     """
     from experiments.session.setup import simulated_target_profile
-    from participants_schema import assign_group, load_participant
+    from participants_schema import Participant, assign_group
 
     proto = load_protocol_for_cue(protocol)
     where = proto.path.name if getattr(proto, "path", None) is not None else proto.name
@@ -78,13 +78,12 @@ def protocol_profile(protocol, participant_file, sample_id) -> CueProfile:
     except (KeyError, TypeError, ValueError):
         ids = ", ".join(str(s.id) for s in proto.samples)
         raise UserInputError(f"{where}: samples.id: expected one of {ids}, got {sample_id!r}") from None
-    participant = load_participant(participant_file)
+    participant = Participant.read(participant_file)
     group = assign_group(participant, proto.grouping).group
-    thickness = (participant.get("skin_thickness") or {}).get("total_um")
-    prof = simulated_target_profile(proto, participant, group, thickness, sample.id,
+    prof = simulated_target_profile(proto, participant, group, None, sample.id,
                                     sample.roughness_um)
     return CueProfile(np.asarray(prof.times, float), np.asarray(prof.temperature, float),
-                      f"protocol:{proto.name} sample {sample.id} participant {participant['id']}",
+                      f"protocol:{proto.name} sample {sample.id} participant {participant.id}",
                       dict(prof.parameters, group=group))
 
 

@@ -51,16 +51,21 @@ def _unopened(exc: Exception, checks) -> list[CheckResult]:
     return out
 
 
-def qualify(url: str, out: Path, prompt=None, protocol=None, profile_s: float = 3.0,
+def qualify(url, out: Path, prompt=None, protocol=None, profile_s: float = 3.0,
             progress=None, checks=CHECKS, limits=None):
     """Open ``url`` (the registry), run ``checks``, write ``out/check.md``.
+
+    ``url`` is a display URL, or one parsed already (:class:`~experiments.display.url.DisplayURL`:
+    ``thermocue check`` parses it once and passes it on); the report shows its text.
 
     Returns
     -------
     (results, report_path)
     """
     from experiments.display import open_display
+    from experiments.display.registry import parse_display_url
     from experiments.errors import DisplayError
+    url = parse_display_url(url)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     tracking = protocol.simulation.max_tracking_error_C if protocol is not None else 1.0
@@ -68,11 +73,11 @@ def qualify(url: str, out: Path, prompt=None, protocol=None, profile_s: float = 
         d = open_display(url, limits)
     except DisplayError as exc:
         results = _unopened(exc, checks)
-        return results, write_report(out, url, {}, results, str(exc))
+        return results, write_report(out, url.text, {}, results, str(exc))
     try:
-        bench = Bench(d, url, out, prompt=prompt, tracking_limit_C=tracking, protocol=protocol,
+        bench = Bench(d, url.text, out, prompt=prompt, tracking_limit_C=tracking, protocol=protocol,
                       profile_s=profile_s)
         results = run_checks(bench, checks, progress)
-        return results, write_report(out, url, device_summary(d), results)
+        return results, write_report(out, url.text, device_summary(d), results)
     finally:
         d.close()

@@ -178,10 +178,11 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
     # -- set-up ----------------------------------------------------------------------------
     def begin_session(self, session) -> None:
         super().begin_session(session)
-        record = _participant_record(session)
-        self.person = self.make_person(record)
+        participant = getattr(session, "participant", None)
+        self.person = self.make_person(participant)
         if self.seed is None:
-            self.seed = _stable_seed(f"{record.get('id', 'anonymous')}:{getattr(session, 'seed', '')}")
+            name = participant.id if participant is not None else "anonymous"
+            self.seed = _stable_seed(f"{name}:{getattr(session, 'seed', '')}")
         self.log("simulated_participant", seed=self.seed, observer=self.observer.describe(),
                  **self.person.describe())
         self._relearn_opening_familiarisation(getattr(session, "schedule", ()) or ())
@@ -201,27 +202,32 @@ class SimulatedResponder(Responder, name="simulated", aliases=("model",)):
                 self._learn(trial, TrialStimulus(mode="real", roughness_id=trial.roughness_id,
                                                  roughness_um=trial.roughness_um))
 
-    def make_person(self, record: dict | None = None) -> SimulatedPerson:
-        """The :class:`SimulatedPerson` for a participant record and this responder's options."""
-        record = record or {}
-        st = record.get("skin_thickness", {}) or {}
-        thickness = self._overrides["skin_thickness_um"] or st.get("total_um")
-        if thickness is None:
+    def make_person(self, participant=None) -> SimulatedPerson:
+        """The :class:`SimulatedPerson` for a :class:`participants_schema.Participant` (or None)
+        and this responder's options."""
+        thickness_m = participant.measured_skin_m if participant is not None else None
+        if self._overrides["skin_thickness_um"]:
+            thickness_m = float(self._overrides["skin_thickness_um"]) * 1e-6
+        if thickness_m is None:
             raise UserInputError("responder 'simulated': skin_thickness_um: expected an option or "
                                  "the participant record's skin_thickness.total_um, got neither")
         fraction = self._overrides["dermis_fraction"]
-        if fraction is None:
-            fraction = st["dermis_um"] / st["total_um"] if st.get("dermis_um") and st.get("total_um") else 0.6
-        temperature = self._overrides["skin_temperature_C"] or record.get("initial_skin_temperature_C", 35.75)
+        if fraction is None and participant is not None:
+            fraction = participant.dermis_fraction
+        temperature = self._overrides["skin_temperature_C"]
+        if not temperature:
+            temperature = participant.initial_skin_temperature_C if participant is not None else None
+            temperature = 35.75 if temperature is None else temperature
         try:
-            return SimulatedPerson(skin_thickness_m=float(thickness) * 1e-6, dermis_fraction=float(fraction),
+            return SimulatedPerson(skin_thickness_m=thickness_m,
+                                   dermis_fraction=0.6 if fraction is None else float(fraction),
                                    skin_temperature_C=float(temperature), params=self.params)
         except ValueError as exc:
             raise UserInputError(f"responder 'simulated': {exc}") from None
 
     def _ensure_person(self) -> SimulatedPerson:
         if self.person is None:
-            self.person = self.make_person({})
+            self.person = self.make_person(None)
         if self.seed is None:
             self.seed = 0
         return self.person
@@ -431,14 +437,6 @@ def _block_of(protocol, trial):
 
 def _is_familiarisation(trial) -> bool:
     return trial.mode == "familiarise" or str(getattr(trial, "block", "")).startswith("familiar")
-
-
-def _participant_record(session) -> dict:
-    for name in ("participant", "participant_record", "record"):
-        value = getattr(session, name, None)
-        if isinstance(value, dict):
-            return value
-    return {}
 
 
 def _contact_trace(stimulus) -> tuple[np.ndarray, np.ndarray]:

@@ -4,10 +4,13 @@ One concept (~500 lines): the session-level state machine and the state a run ca
 
 The session-level states of :data:`~experiments.session.machine.TRANSITIONS` live here
 (``idle`` between trials, ``finished``, ``stopped``, ``interrupted``: :meth:`Session.run`);
-each trial's states are :class:`~experiments.session.trial.TrialSteps`' methods. Every state
+each trial's states are the methods of its :class:`~experiments.session.trial.TrialSteps`
+(``Session.steps``, which holds the session it runs for). Every state
 change is logged; a log append or a file rewrite is never cut by a signal
 (:mod:`experiments.session.signals`); a fault or an interruption puts the display to neutral
-first. See :mod:`experiments.session` for the files a session writes.
+first. How a run ends early (faults in a row, a lost link, a restarted display) and a trial
+given up are :class:`~experiments.session.stops.RunStops`' (``Session.stops``). See
+:mod:`experiments.session` for the files a session writes.
 """
 from __future__ import annotations
 
@@ -15,7 +18,6 @@ import datetime as _dt
 import errno
 import logging
 import os
-import re
 import time
 from pathlib import Path
 
@@ -32,8 +34,10 @@ from experiments.session.signals import STOPS, SignalGuard, stop_reason
 from experiments.session.store import record_display
 from experiments.session.traces import keep_trace
 from experiments.session.trials_table import TrialsTable
+from experiments.session.stops import RunStops
 from experiments.session.trial import TrialSteps, TrialAttempt, clock_text
 from sessionfiles.session_files import schedule_sha256
+from participants_schema import skin_um
 from experiments.monitor.time_left import TimeLeft
 
 __all__ = ["Session"]
@@ -42,7 +46,7 @@ __all__ = ["Session"]
 _log = logging.getLogger("thermocue.session")
 
 
-class Session(TrialSteps):
+class Session:
     """A session directory and the engine that runs its trials.
 
     Make one with :func:`create_session` (new) or :func:`open_session` (resume), then call
@@ -52,8 +56,8 @@ class Session(TrialSteps):
     ----------
     directory : Path
     protocol : experiments.protocol.Protocol
-    participant : dict
-        The validated participant record.
+    participant : participants_schema.Participant
+        The validated participant, read once (``Participant.read``).
     assignment : participants_schema.GroupAssignment or None
     group : str
     seed : int
@@ -121,17 +125,17 @@ class Session(TrialSteps):
         #: Called at the trial's pause points (:mod:`experiments.session.hooks`; tests).
         self.hooks = hooks if hooks is not None else hooks_from_env()
         self._last_block = None
+        #: The trial's states (prompt ... rewarm), run for this session.
+        self.steps = TrialSteps(self)
+        #: How the run ends early (faults, a lost link, a restarted display), a trial given up.
+        self.stops = RunStops(self)
         self._date = _psychopy_date(time.time())   # replaced by the first start's on resume
         self._exp_start = _psychopy_exp_start(time.time())
 
     # -- paths and context ------------------------------------------------------------------
     @property
     def participant_id(self) -> str:
-        return str(self.participant["id"])
-
-    @property
-    def skin_thickness_um(self):
-        return (self.participant.get("skin_thickness") or {}).get("total_um")
+        return self.participant.id
 
     @property
     def n_trials(self) -> int:
@@ -155,7 +159,8 @@ class Session(TrialSteps):
                 "protocol": self.protocol.name, "protocol_hash": self.protocol.hash,
                 "seed": self.seed, "n_trials": self.n_trials,
                 "schedule_sha256": schedule_sha256(self.schedule),
-                "skin_thickness_um": self.skin_thickness_um, "sex": self.participant.get("sex"),
+                "skin_thickness_um": skin_um(self.participant.measured_skin_m),
+                "sex": self.participant.sex,
                 # PsychoPy-style identity of every trial row (date: the session's first start)
                 "date": self._date, "expName": self.protocol.name, "expStart": self._exp_start,
                 "protocol_version": self.protocol.version, "thermocue_version": thermocue_version()}
@@ -172,18 +177,19 @@ class Session(TrialSteps):
 
         The finger presses 0.3 s after arming with 0.5 N more than the protocol's threshold
         and stays for ``max_contact_s`` (simulated trials) or ``record_s`` (real ones), with the
-        participant's skin thickness (800 µm if the record has none) and
-        ``initial_skin_temperature_C`` (else the middle of the protocol's skin-temperature range).
+        participant's measured skin thickness and ``initial_skin_temperature_C`` (else the middle
+        of the protocol's skin-temperature range).
         """
         contact = self.protocol.contact
         env = self.protocol.environment
-        skin_C = self.participant.get("initial_skin_temperature_C",
-                                      0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C))
-        thickness_um = self.skin_thickness_um or 800.0
+        skin_C = self.participant.initial_skin_temperature_C
+        if skin_C is None:
+            skin_C = 0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C)
         reply = press(display, sample=None if spec.mode == "simulated" else self.sample_for(spec),
                       press_after_s=0.3, force_N=contact.force_threshold_N + 0.5,
                       hold_s=contact.max_contact_s if spec.mode == "simulated" else contact.record_s,
-                      skin_thickness_m=float(thickness_um) * 1e-6, skin_temperature_C=float(skin_C))
+                      skin_thickness_m=self.participant.measured_skin_m,
+                      skin_temperature_C=float(skin_C))
         self.log_event("emulated_touch", trial_index=spec.trial_index, skin_temperature_C=skin_C)
         self.log_finger_model(spec.trial_index, reply)
 
@@ -208,6 +214,10 @@ class Session(TrialSteps):
     def _new_time_left(self, events=()) -> TimeLeft:
         rewarm_s = 0.0 if self.clock.virtual else self.protocol.contact.rewarm_s
         return TimeLeft({s.trial_index: s.mode for s in self.schedule}, rewarm_s).feed_all(events)
+
+    def _elapsed(self) -> float:
+        """Seconds since the session's first start (its first ``session_started`` event)."""
+        return time.monotonic() - self._started
 
     def _on_state(self, old: str, new: str, **context) -> None:
         self.log_event("state", **{"from": old, "to": new}, **context)
@@ -406,7 +416,7 @@ class Session(TrialSteps):
             spec = queue[0]
             attempt = progress.next_attempt(spec.trial_index)
             progress.attempts[spec.trial_index] = attempt
-            outcome = self._run_trial(disp, spec, attempt)
+            outcome = self.steps.run(disp, spec, attempt)
             gave_up = False
             if outcome == "ok":
                 faults = 0
@@ -416,30 +426,30 @@ class Session(TrialSteps):
                 tries[spec.trial_index] = tries.get(spec.trial_index, 0) + 1
                 if tries[spec.trial_index] >= self.protocol.contact.max_attempts:
                     queue.pop(0)
-                    self._give_up(spec.trial_index, tries[spec.trial_index])
+                    self.stops.give_up(spec.trial_index, tries[spec.trial_index])
                     gave_up = True
             if self._fatal is not None:
-                return self._stop_fatal(disp, queue)
+                return self.stops.after_fatal(disp, queue)
             lost = self._link_lost is not None
             if lost:
-                disp = self._reconnect(disp, spec.trial_index)
+                disp = self.stops.reconnect(disp, spec.trial_index)
                 if disp is None:
-                    return self._stop_link_lost(queue)
+                    return self.stops.after_link_lost(queue)
             if faults >= self.max_consecutive_faults:
                 # (a lost link that connecting again cured counts too: a link that drops on every
                 # attempt stops the session here instead of retrying one trial for ever)
-                return self._stop_faults(disp, faults, queue)
+                return self.stops.after_faults(disp, faults, queue)
             if lost and not gave_up:
                 self.machine.go("idle")
                 continue          # the same trial at once, no rewarm (still a consecutive fault)
             if queue:
-                self._rewarm()
+                self.steps.rewarm()
             self.machine.go("idle")
         self.machine.go("finished")
         self._neutral(disp)
         self._write_trials()
         self._export_bids()          # (before session_finished: that stays the log's last event)
-        self.log_event("session_finished", n_completed=self._n_completed([]),
+        self.log_event("session_finished", n_completed=self.stops.n_completed([]),
                        n_given_up=len(self._given_up))
         self._write_trials()
         given_up = (f" ({len(self._given_up)} given up after {self.protocol.contact.max_attempts} "
@@ -510,101 +520,10 @@ class Session(TrialSteps):
         self._report(f"session interrupted ({reason}); display neutral; resume with "
                      f"`thermocue resume {self.directory}`")
 
-    def _reconnect(self, disp, trial_index: int):
-        """The display's port failed: close it and open it once more.
-
-        Returns the display opened again (its handshake done, neutral set, logged as
-        ``display_reconnected``), or None if that failed too (logged as ``display_error``).
-        """
-        code, message = self._link_lost
-        self._link_lost = None
-        try:
-            disp.close()
-        except Exception:
-            pass
-        if self.display_url is None:
-            self._lost_because = (message, "no display URL to open again")
-            return None
-        try:
-            again = self._open_display()
-        except DisplayError as exc:
-            if isinstance(exc, UserInputError):
-                raise
-            self.log_event("display_error", step="reconnect", message=str(exc))
-            self._lost_because = (message, str(exc))
-            return None
-        self._reopened.append(again)
-        self.display = again
-        info = getattr(again, "info", None)
-        self.log_event("display_reconnected", url=self.display_url, trial_index=trial_index,
-                       device_id=getattr(info, "device_id", None),
-                       image_id=getattr(info, "image_id", "") or "")
-        record_display(self.directory, self.display_url, info, durable=self.durable)
-        again.set_neutral(self.protocol.display.neutral_C)
-        self._report(f"trial {trial_index}: the display's link was lost ({_bare(message)}); "
-                     f"connected again, the trial runs again")
-        return again
-
-    def _give_up(self, trial_index: int, attempts: int) -> None:
-        """Log that a trial reached ``[contact] max_attempts`` attempts in this run without an
-        ``ok`` one (a resume after a stop runs it again, with as many attempts)."""
-        limit = self.protocol.contact.max_attempts
-        self._given_up.add(trial_index)
-        self.log_event("trial_given_up", trial_index=trial_index, attempts=attempts,
-                       max_attempts=limit)
-        self._report(f"trial {trial_index}: given up after {attempts} attempts without a "
-                     f"clean one (the protocol's [contact] max_attempts = {limit}); the session "
-                     f"goes on without it")
-
-    def _n_completed(self, queue) -> int:
-        """Trials with an ``ok`` attempt: neither still to run nor given up."""
-        return self.n_trials - len(queue) - len(self._given_up)
-
-    def _stop_faults(self, disp, faults: int, queue) -> int:
-        """Stop after ``max_consecutive_faults`` faulted attempts in a row (resumable)."""
-        self.machine.go("idle")
-        self.machine.go("stopped")
-        self._neutral(disp)
-        self.log_event("session_stopped", reason=f"{faults} consecutive faults",
-                       n_completed=self._n_completed(queue))
-        self._report(f"stopped after {faults} consecutive faults; resume with "
-                     f"`thermocue resume {self.directory}`")
-        return 1
-
-    def _stop_link_lost(self, queue) -> int:
-        """Stop after a lost link that one reconnect did not cure (resumable once fixed)."""
-        lost, why = self._lost_because
-        self.machine.go("idle")
-        self.machine.go("stopped")
-        self.log_event("session_stopped", reason="display link lost", message=lost,
-                       reconnect=why, n_completed=self._n_completed(queue))
-        self._report(f"stopped: the display's link was lost ({_bare(lost)}) and connecting "
-                     f"again failed ({_bare(why)}); check its cable and power, then resume with "
-                     f"`thermocue resume {self.directory}`")
-        return 1
-
-    def _stop_fatal(self, disp, queue) -> int:
-        """Stop the session after a fault that no re-run can cure (resumable once fixed)."""
-        code, message = self._fatal
-        self.machine.go("idle")
-        self.machine.go("stopped")
-        self._neutral(disp)
-        advice = "the display restarted: resume to shake hands with it again"
-        self.log_event("session_stopped", reason=f"display fault {code}", message=message,
-                       n_completed=self._n_completed(queue))
-        self._report(f"stopped: {advice} (`thermocue resume {self.directory}`)")
-        return 1
-
 
 def _relative_to(path, folder) -> str:
     """``path`` relative to ``folder``, with forward slashes (``../../bids/sub-P01/...``)."""
     return Path(os.path.relpath(Path(path).resolve(), Path(folder).resolve())).as_posix()
-
-
-def _bare(message: str) -> str:
-    """A display error's text without its leading ``display:`` (one clean message)."""
-    text = re.sub(r"^(\s*display:\s*)+", "", str(message), flags=re.IGNORECASE).strip()
-    return re.sub(r"^link lost\s*", "", text).strip(" :") or text
 
 
 def _best_effort(call) -> None:

@@ -7,8 +7,8 @@ session logs each as a ``state`` event), in the manner of PsychoPy's ``Experimen
 from __future__ import annotations
 
 import time
-from urllib.parse import parse_qs, urlsplit
 
+from experiments.display.url import url_options
 from experiments.errors import UserInputError
 
 __all__ = ["TRANSITIONS", "TransitionError", "SessionInterrupted", "StateMachine", "RealClock",
@@ -106,5 +106,4 @@ def clock_for_url(url: str, clock: str = "auto"):
         return RealClock()
     if clock != "auto":
         raise UserInputError(f"--clock: expected 'auto', 'real' or 'virtual', got {clock!r}")
-    query = parse_qs(urlsplit(url).query) if "?" in url else {}
-    return VirtualClock() if query.get("clock", [""])[-1] == "virtual" else RealClock()
+    return VirtualClock() if url_options(url).get("clock") == "virtual" else RealClock()

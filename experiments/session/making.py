@@ -59,7 +59,7 @@ class SessionPlan:
     """
 
     protocol: object
-    participant: dict
+    participant: object           # participants_schema.Participant
     participant_path: str
     assignment: object
     seed: int
@@ -139,10 +139,8 @@ def finished_sessions(folder: Path) -> list[Path]:
 
 def _clock_named_in(url: str) -> str | None:
     """``"virtual"`` or ``"real"`` when the URL's query names the clock, else None."""
-    from urllib.parse import parse_qs, urlsplit
-    if "?" not in str(url):
-        return None
-    value = parse_qs(urlsplit(str(url)).query).get("clock", [""])[-1]
+    from experiments.display.url import url_options
+    value = url_options(url).get("clock")
     return value if value in ("virtual", "real") else None
 
 
@@ -183,11 +181,11 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     """
     from experiments.protocol import load_protocol
     from experiments.schedule import build_schedule
-    from participants_schema import assign_group, load_participant
+    from participants_schema import Participant, assign_group
 
     if not hasattr(protocol, "hash"):
         protocol = load_protocol(protocol)
-    participant = load_participant(participant_path)
+    participant = Participant.read(participant_path)
     from experiments.calibration.writeback import check_calibration_samples
     if any(b.mode == "simulated" for b in protocol.blocks):
         check_calibration_samples(participant, [s.roughness_um for s in protocol.samples],
@@ -195,8 +193,8 @@ def plan_session(protocol, participant_path, data_dir, display_url: str, *, seed
     assignment = assign_group(participant, protocol.grouping)   # None: the paper's 800 µm rule
     if seed is None:
         seed = secrets.randbelow(2**31)
-    schedule = build_schedule(protocol, str(participant["id"]), seed)
-    pid = _safe_name(str(participant["id"]), f"{participant_path}: id")
+    schedule = build_schedule(protocol, participant.id, seed)
+    pid = _safe_name(participant.id, f"{participant_path}: id")
     stem = Path(participant_path).stem
     if stem != pid:   # P09.json holding "id": "P01" would write into P01's folder
         raise SessionError(f"{participant_path}: id: expected {stem!r} (the file's name), got "

@@ -36,8 +36,7 @@ class SessionProfiles:
         key = (spec.roughness_id, spec.roughness_um)
         if key not in self.profiles:
             self.profiles[key] = simulated_target_profile(
-                session.protocol, session.participant, session.group, session.skin_thickness_um,
-                spec.roughness_id, spec.roughness_um)
+                session.protocol, session.participant, session.group, None, spec.roughness_id, spec.roughness_um)
         if key not in self._told:
             from stimuli.planner import plan_line
             self._told.add(key)

@@ -39,7 +39,7 @@ class _Profile:
         return float(self._prof.error_bound) + change
 
 
-def simulated_target_profile(protocol, participant: dict, group, skin_thickness_um,
+def simulated_target_profile(protocol, participant, group, skin_thickness_um,
                              roughness_id, roughness_um):
     """The target profile a simulated trial uploads (:func:`stimuli.target_profile`).
 
@@ -54,11 +54,12 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     Parameters
     ----------
     protocol : Protocol
-    participant : dict
-        The participant record.
+    participant : participants_schema.Participant or None
+        The participant (None or an empty dict: none, e.g. a simulated study or a check).
     group : str
     skin_thickness_um : float or None, µm
-        The participant's own thickness (for ``skin_thickness = "participant"``).
+        The thickness ``skin_thickness = "participant"`` simulates; None: the participant's
+        measured one (:attr:`~participants_schema.Participant.measured_skin_m`).
     roughness_id : int
     roughness_um : float, µm
 
@@ -77,10 +78,13 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
         names the protocol and the field).
     """
     from experiments.calibration import CalibrationError, calibrated_profile_parameters
+    from participants_schema import skin_um
     from stimuli import ModelInputError, Skin, target_profile
 
     sim = protocol.simulation
     where = protocol.path.name if protocol.path is not None else protocol.name
+    if skin_thickness_um is None and participant:
+        skin_thickness_um = skin_um(participant.measured_skin_m)
     try:
         cal = calibrated_profile_parameters(participant, roughness_id, roughness_um=roughness_um)
     except CalibrationError as exc:
@@ -108,6 +112,16 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
     except ModelInputError as exc:
         raise SessionError(f"{where}: simulation.target_side: {sim.target_side!r} for sample "
                            f"{roughness_um:g} µm ({resistance_source} resistance): {exc}") from None
+    params, temperature = _session_parameters(protocol, prof, thickness_um, source,
+                                              resistance_source, pad_resistance)
+    return _Profile(prof, params, temperature)
+
+
+def _session_parameters(protocol, prof, thickness_um, source, resistance_source, pad_resistance):
+    """A target profile's ``parameters`` extended by the session's (thickness source, replayed
+    side, pad, rate limiting, contact model), and its temperature when the rate limit or the
+    resting probe changed it (else None)."""
+    sim = protocol.simulation
     params = dict(prof.parameters)
     params.setdefault("skin_thickness_um", thickness_um)
     params["skin_thickness_source"] = source
@@ -139,7 +153,7 @@ def simulated_target_profile(protocol, participant: dict, group, skin_thickness_
         params["resting_start_C"] = float(rested[0])
         params["resting_max_change_C"] = given_up
         params["resting_catch_up_s"] = catch_up
-    return _Profile(prof, params, temperature)
+    return params, temperature
 
 
 def protocol_source(protocol) -> str:
@@ -159,7 +173,7 @@ def _sample_label(protocol, roughness_id, roughness_um) -> str:
         return f"sample {roughness_id}, {roughness_um:g} µm"
 
 
-def check_schedule_profiles(protocol, participant: dict, group, schedule, *, source: str | None = None
+def check_schedule_profiles(protocol, participant, group, schedule, *, source: str | None = None
                              ) -> dict:
     """Compute the target profile of every simulated trial and check it against the display's
     safe range and rate limit, before anything is written or played.
@@ -173,7 +187,7 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     Parameters
     ----------
     protocol : Protocol
-    participant : dict
+    participant : participants_schema.Participant
     group : str
     schedule : list of TrialSpec
     source : str, optional
@@ -203,11 +217,9 @@ def check_schedule_profiles(protocol, participant: dict, group, schedule, *, sou
     sim, disp = protocol.simulation, protocol.display
     limits = disp.safety_limits()
     try:
-        thickness_um = (participant.get("skin_thickness") or {}).get("total_um")
         profiles = {}
         for rid, rum in keys:
-            profiles[(rid, rum)] = simulated_target_profile(protocol, participant, group, thickness_um,
-                                                            rid, rum)
+            profiles[(rid, rum)] = simulated_target_profile(protocol, participant, group, None, rid, rum)
     except UserInputError:      # SessionError: a calibration, a compensated profile the pad cannot give
         raise
     except ValueError as exc:   # limit_rate below the rounding step, a group without a thickness
@@ -343,25 +355,23 @@ def open_session_display(protocol, url: str, *, option: str = "--display", sourc
         The device cannot be reached (no such device, busy, no answer): a runtime failure.
     """
     from experiments.errors import ProtocolError, SafetyLimitError
-    from experiments.display.registry import backend_for, check_url, open_display, shown_url
+    from experiments.display.registry import UnknownScheme, open_display, parse_display_url, shown_url
 
     src = source or protocol_source(protocol)
+    url = str(url)
     try:
-        backend = backend_for(url)
-    except UserInputError as exc:
+        parsed = parse_display_url(url)         # once: the backend's own check, nothing opened
+    except UnknownScheme as exc:
         raise UserInputError(f"{option}: expected a display URL or a serial device path, got "
-                             f"{shown_url(url)} ({str(exc).split('; ', 1)[-1]})") from None
-    try:
-        check_url(url)
+                             f"{shown_url(url)} ({exc.expected})") from None
     except UserInputError as exc:
         raise UserInputError(f"{option}: expected a display URL, got {shown_url(url)}: "
                              f"{exc}") from None
-    _check_backend(protocol, backend.declared_capabilities(), backend.scheme, src)
+    _check_backend(protocol, parsed.backend.declared_capabilities(), parsed.scheme, src)
     try:
-        return open_display(url, limits=protocol.display.safety_limits())
+        return open_display(parsed, limits=protocol.display.safety_limits())
     except SafetyLimitError as exc:
-        text = str(exc).split(": ", 2)[-1] if str(exc).startswith("display: limits: ") else str(exc)
-        raise ProtocolError(f"{src}: display.min_C, display.max_C: {text}") from None
+        raise ProtocolError(f"{src}: display.min_C, display.max_C: {exc.reason or exc}") from None
     except DisplayError as exc:
         cause = exc.__cause__
         if isinstance(cause, ValueError):     # pyserial: an unknown URL scheme or option

@@ -45,7 +45,7 @@ def write_session_json(directory: Path, plan) -> None:
         "session": plan.name,
         "created_at": _now_iso(),
         "participant_id": plan.participant_id,
-        "participant": plan.participant,
+        "participant": plan.participant.record(),
         "participant_file": str(plan.participant_path),
         "group": assignment.group,
         "group_assignment": assignment.to_dict(),
@@ -103,7 +103,7 @@ class StoredSession:
         The file.
     protocol : Protocol
         Parsed from the stored copy (its hash checked).
-    participant : dict
+    participant : participants_schema.Participant
     group, name, display_url, responder : str
     seed, max_consecutive_faults : int
     schedule : list of TrialSpec
@@ -113,7 +113,7 @@ class StoredSession:
 
     path: Path
     protocol: object
-    participant: dict
+    participant: object
     group: str
     name: str
     seed: int
@@ -138,7 +138,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
     """
     from experiments.protocol import parse_protocol
     from experiments.schedule import TrialSpec, build_schedule
-    from participants_schema import validate_participant
+    from participants_schema import Participant
 
     directory = Path(directory)
     path = directory / "session.json"
@@ -170,7 +170,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
     if protocol.hash != meta["protocol_hash"]:
         table.fail("protocol_hash", f"{protocol.hash} (the stored protocol's hash)",
                    meta["protocol_hash"])
-    participant = validate_participant(meta["participant"], source=f"{path}: participant")
+    participant = Participant.from_record(meta["participant"], source=f"{path}: participant")
     if not isinstance(meta["schedule"], list):
         table.fail("schedule", "a list of trials", Verbatim(type(meta["schedule"]).__name__))
     try:
@@ -179,7 +179,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
         table.fail("schedule", "a list of trials", Verbatim(exc))
     # Sessions written before the field existed used the first algorithm.
     made_by = meta.get("schedule_algorithm", "thermocue-schedule-v1")
-    expected = build_schedule(protocol, str(participant["id"]), seed)
+    expected = build_schedule(protocol, participant.id, seed)
     if made_by != SCHEDULE_ALGORITHM:
         # A newer thermocue cannot rebuild an older algorithm's schedule: the stored one is
         # used (it is what the participant has been given so far), unchecked, and said so.
@@ -192,7 +192,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
         got = meta["schedule"][diff] if diff < len(schedule) else "nothing"
         want = expected[diff].to_dict() if diff < len(expected) else "nothing"
         table.fail("schedule", f"the schedule of the stored protocol, participant "
-                               f"{participant['id']} and seed {seed} ({len(expected)} trials; "
+                               f"{participant.id} and seed {seed} ({len(expected)} trials; "
                                f"trial {diff + 1}: {want})",
                    Verbatim(f"{len(schedule)} trials (trial {diff + 1}: {got})"))
     group = meta["group"]
@@ -206,7 +206,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
                          meta["display_url"], responder or "", max_faults, source, clock)
 
 
-def check_against_log(directory: Path, path: Path, meta: dict, participant: dict, schedule) -> None:
+def check_against_log(directory: Path, path: Path, meta: dict, participant, schedule) -> None:
     """Refuse a ``session.json`` that differs from the log's ``session_started``.
 
     The log is the source of truth: a session.json replaced by another run, or edited by hand
@@ -221,7 +221,7 @@ def check_against_log(directory: Path, path: Path, meta: dict, participant: dict
     started = next((e for e in events if e.get("event") == "session_started"), None)
     if started is None:
         return
-    stored = {"session": meta["session"], "participant": str(participant["id"]),
+    stored = {"session": meta["session"], "participant": participant.id,
               "group": meta["group"], "seed": meta["seed"],
               "protocol_hash": meta["protocol_hash"], "schedule_sha256": schedule_sha256(schedule)}
     for key, value in stored.items():

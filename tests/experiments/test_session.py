@@ -435,12 +435,13 @@ def test_a_compensated_profile_the_pad_cannot_give_names_protocol_and_field(tmp_
     from experiments.errors import SessionError
     from experiments.protocol import load_protocol
     from experiments.session import simulated_target_profile
+    from participants_schema import Participant
     proto = load_protocol(_side_protocol(tmp_path, "compensated"))
     # a calibrated sample resistance below the pad's: no pad temperature can compensate
     record = json.loads(_calibrated_record(tmp_path, resistance=1e-4).read_text())
     with pytest.raises(SessionError, match=r"mini\.toml: simulation\.target_side: 'compensated' "
                                            r"for sample 12\.5 µm \(calibration resistance\)"):
-        simulated_target_profile(proto, record, "A", 680.0, 2, 12.5)
+        simulated_target_profile(proto, Participant.from_record(record), "A", 680.0, 2, 12.5)
 
 
 def _nothing_logged(directory):

@@ -63,12 +63,13 @@ def test_the_rate_message_gives_the_fastest_profiles_rate(tmp_path):
     from experiments.errors import ProtocolError
     from experiments.display.safety import profile_max_rate
     from experiments.session import simulated_target_profile
+    from participants_schema import Participant
     proto = edit(write_protocol(tmp_path), "max_rate_C_per_s = 10.0", "max_rate_C_per_s = 0.5")
     with pytest.raises(ProtocolError) as ei:
         plan_session(proto, P01, tmp_path / "data", EMU, seed=5)
     from experiments.protocol import load_protocol
     p = load_protocol(proto)
-    rates = {i: profile_max_rate(simulated_target_profile(p, json.loads(P01.read_text()), "A", 680.0, i,
+    rates = {i: profile_max_rate(simulated_target_profile(p, Participant.read(P01), "A", 680.0, i,
                                                           p.sample(i).roughness_um).temperature, 0.02, 0.1)
              for i in (1, 2, 3, 4)}
     fastest = max(rates, key=rates.get)

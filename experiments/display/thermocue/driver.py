@@ -254,9 +254,9 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         self._dev_time = 0.0
         lim = self.limits
         if lim.min_C < self.info.hard_min_C or lim.max_C > self.info.hard_max_C:
-            raise SafetyLimitError(f"display: limits: expected a range inside the device's "
-                                   f"[{self.info.hard_min_C}, {self.info.hard_max_C}] °C, got "
-                                   f"[{lim.min_C}, {lim.max_C}]")
+            reason = (f"expected a range inside the device's [{self.info.hard_min_C}, "
+                      f"{self.info.hard_max_C}] °C, got [{lim.min_C}, {lim.max_C}]")
+            raise SafetyLimitError(f"display: limits: {reason}", reason=reason)
         sent = (m.centi(lim.min_C), m.centi(lim.max_C),
                 min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
         got = self._ask(Cmd.SET_LIMITS, m.LIMITS, m.LIMITS.pack(*sent))

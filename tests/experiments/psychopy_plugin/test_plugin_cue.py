@@ -50,10 +50,11 @@ def _run(cue, clock, until_contact=True, timeout_s=10.0):
 def test_protocol_profile_is_the_sessions_profile_for_the_participant():
     from experiments.protocol import load_protocol
     from experiments.session.setup import simulated_target_profile
+    from participants_schema import Participant
     proto = load_protocol("roughness_recognition")
     prof = protocol_profile(proto, P01, 3)
     # P01: 680 µm, group A (< 800 µm); the protocol simulates group A at 650 µm
-    session = simulated_target_profile(proto, {"id": "P01", "skin_thickness": {"total_um": 680}},
+    session = simulated_target_profile(proto, Participant(id="P01", measured_skin_m=680e-6),
                                        "A", 680, 3, 50.0)
     assert prof.parameters["group"] == "A"
     np.testing.assert_array_equal(prof.target_C, np.asarray(session.temperature))

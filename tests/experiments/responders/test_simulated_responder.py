@@ -13,6 +13,7 @@ from experiments.errors import UserInputError
 from experiments.responders import Response, TrialStimulus, get_responder
 from experiments.responders.simulated import SimulatedResponder
 from experiments.schedule import TrialSpec
+from participants_schema import Participant
 
 RA_UM = {1: 1.6, 2: 12.5, 3: 50.0, 4: 100.0}
 
@@ -208,7 +209,7 @@ def test_thermocue_run_with_the_simulated_responder(tmp_path):
 def test_a_new_responder_relearns_the_opening_familiarisation_from_the_schedule():
     # A resumed session gets a fresh responder: its templates must come back identical.
     class FakeSession:
-        participant = {"id": "P9", "skin_thickness": {"total_um": 700.0, "method": "assumed"}}
+        participant = Participant(id="P9", measured_skin_m=700.0e-6)
         seed = 12
         schedule = [spec(i, "familiarise", "real", i) for i in (1, 2, 3, 4)] + \
                    [spec(5, "real", "real", 2), spec(6, "familiarise", "real", 1)]

@@ -7,6 +7,7 @@ import pytest
 
 from experiments.participant_model.prediction import predicted_cell_probabilities
 from experiments.participant_model.observers import get_observer
+from participants_schema import Participant
 from experiments.simulation.studies import (LabVariability, build_pool, person_features,
                                             simulate_studies)
 
@@ -109,7 +110,8 @@ def test_emulated_session_features_are_the_perfect_tracking_features(tmp_path):
             person = SimulatedPerson(st["total_um"] * 1e-6, st["dermis_um"] / st["total_um"],
                                      e["skin_temperature_C"])
             r = rid[e["trial_index"]]
-            prof = simulated_target_profile(proto, record, "B", None, r, proto.sample(r).roughness_um)
+            prof = simulated_target_profile(proto, Participant.from_record(record), "B", None, r,
+                                            proto.sample(r).roughness_um)
             ideal = imposed_features(person, [(prof.times, prof.temperature)],
                                      e["pad_resistance_m2K_W"])[0]
             diffs.append(np.asarray(e["features"]) - ideal)
