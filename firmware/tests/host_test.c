@@ -227,6 +227,25 @@ int main(void)
               (unsigned long long)(at - last));
         CHECK(fw_state() == 0, "IDLE after the watchdog");
     }
+    /* the longest host silence while armed is kept (the sim image reports it: the watchdog's
+     * margin under QEMU); silence while idle does not count */
+    {
+        uint32_t before = fw_timing()->host_gap_max_us;
+        run_us(200000);                                  /* idle: not a gap of an armed device */
+        uint8_t a[7] = {0, 200, 0, 0x10, 0x27, 0, 0};
+        send(41, 0x20, a, 7);
+        reply_to(41, 0x20);
+        run_us(60000);
+        uint8_t silent = 0;
+        send(0, 0x02, &silent, 1);
+        run_us(1000);
+        uint32_t gap = fw_timing()->host_gap_max_us;
+        CHECK(gap >= 60000 && gap <= 70000 && gap > before,   /* + the frames' own time */
+              "longest host silence while armed: %u us (60 ms sent)", (unsigned)gap);
+        send(42, 0x21, NULL, 0);
+        reply_to(42, 0x21);
+        CHECK(fw_state() == 0, "IDLE after ABORT");
+    }
     /* requirement 3/4: over-temperature trips below 45 °C, latched through ABORT */
     {
         const char *spec = "{\"spec\":\"overtemp\"}";

@@ -4,6 +4,7 @@
 #include "hal.h"
 #include "lowlevel.h"
 #include "plant.h"
+#include "fw.h"
 
 static plant_t plant;
 
@@ -59,6 +60,9 @@ int hal_board_command(uint8_t type, const uint8_t *payload, size_t len, uint8_t 
     int n = plant_command(&plant, sim_time_us(), type, payload, len, reply, cap, core_state, ready);
     if (type == 0x32 && n > 1 && (size_t)n + 24 < cap)
         n = plant_json_add_seconds(reply, (size_t)n, "paused_s", paused_us);
+    if (type == 0x32 && n > 1 && (size_t)n + 32 < cap)
+        n = plant_json_add_seconds(reply, (size_t)n, "host_gap_max_s",
+                                   fw_timing()->host_gap_max_us);
     return n;
 }
 
