@@ -14,8 +14,12 @@ static plant_t plant;
  * restart it after 50 ms). The simulated world -- firmware clock, plant, finger, faults --
  * pauses for such a gap instead of jumping: otherwise heartbeats still queued in QEMU's serial
  * input would look late to the firmware's watchdog, and the pad would heat for the length of
- * the stall between two control steps. The paused total is reported by SIM_FAULT. */
-#define STALL_US 2000u
+ * the stall between two control steps. The paused total is reported by SIM_FAULT. Each stall
+ * still counts STALL_US of device time in which no host byte can arrive (QEMU hands the USART
+ * one byte at a time, and only a running guest takes it); on a host loaded so far that QEMU
+ * ran in short slices, 2 ms a stall added up to spurious watchdog trips (1 to 4 in 100 trials
+ * at a load average of 20-25 on 2 cores; 0 at 0.5 ms: benchmarks/README.md). */
+#define STALL_US 500u
 static uint64_t last_raw_us, paused_us;
 
 static uint64_t sim_time_us(void)
