@@ -68,11 +68,14 @@ def check_clock(bench: Bench) -> CheckResult:
 
 
 def _paused_clock(bench: Bench, name: str, title: str) -> CheckResult:
-    """The sim image under QEMU: its clock is the timer less QEMU's stalls (it pauses when the
-    host machine is loaded), so no real-time mapping exists; its device time must advance
-    monotonically, by at most the wall time and by at least a fifth of it."""
+    """The sim image under QEMU: its clock is the timer less QEMU's stalls (it pauses while the
+    host machine holds QEMU off), so no real-time mapping exists. What the image promises: its
+    device time never goes back, advances while it answers, and never runs ahead of wall time.
+    How far it falls behind is the host machine's load, not the image's (a loaded host paused
+    it for more than half of the wall time, measured), so no lower share is asked."""
     d = bench.display
-    limit = "device time monotonic, advancing 20–100.5 % of wall time over 2 s (the sim image pauses with QEMU)"
+    limit = ("device time monotonic, advancing, by at most 100.5 % of wall time over 2 s "
+             "(the sim image pauses with QEMU)")
     w0, t0 = time.monotonic(), d.heartbeat()
     times = [t0]
     while time.monotonic() - w0 < SPAN_S:
@@ -81,11 +84,11 @@ def _paused_clock(bench: Bench, name: str, title: str) -> CheckResult:
     w1 = time.monotonic()
     share = (times[-1] - t0) / (w1 - w0)
     mono = all(b >= a for a, b in zip(times, times[1:]))
-    ok = mono and 0.2 <= share <= 1.005
+    ok = mono and 0.0 < share <= 1.005
     return CheckResult(name, title, ok, limit,
                        f"device time advanced {share:.1%} of wall time, "
                        f"{'monotonic' if mono else 'went back'}",
                        "" if ok else "device time does not advance as the sim image's should",
-                       "" if ok else "QEMU's load and the image's timer set-up",
+                       "" if ok else "the image's timer set-up (TIM2) and its stall rule",
                        board_only="the drift of the board's crystal against the host "
                                   "(a real-time mapping)")

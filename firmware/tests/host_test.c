@@ -210,6 +210,25 @@ int main(void)
         CHECK(r && r->payload[0] == 0 && get_u64(r->payload + 34) != 0 && r->payload[42] == 0,
               "STATUS: idle, contact time, end complete");
     }
+    /* the longest host silence while armed is kept (the sim image reports it: the watchdog's
+     * margin under QEMU); silence while idle does not count */
+    {
+        uint32_t before = fw_timing()->host_gap_max_us;
+        run_us(200000);                                  /* idle: not a gap of an armed device */
+        uint8_t a[7] = {0, 200, 0, 0x10, 0x27, 0, 0};
+        send(41, 0x20, a, 7);
+        reply_to(41, 0x20);
+        run_us(60000);
+        uint8_t silent = 0;
+        send(0, 0x02, &silent, 1);
+        run_us(1000);
+        uint32_t gap = fw_timing()->host_gap_max_us;
+        CHECK(gap >= 60000 && gap <= 70000 && gap > before,   /* + the frames' own time */
+              "longest host silence while armed: %u us (60 ms sent)", (unsigned)gap);
+        send(42, 0x21, NULL, 0);
+        reply_to(42, 0x21);
+        CHECK(fw_state() == 0, "IDLE after ABORT");
+    }
     /* requirement 1: watchdog, armed, host silent -> IDLE within 100 ms of the last frame */
     {
         uint8_t a[7] = {0, 200, 0, 0x10, 0x27, 0, 0};
@@ -226,6 +245,8 @@ int main(void)
         CHECK(at > last && at - last <= 100000 + 250, "watchdog %llu us after the last frame",
               (unsigned long long)(at - last));
         CHECK(fw_state() == 0, "IDLE after the watchdog");
+        CHECK(fw_timing()->host_gap_max_us >= 90000 && fw_timing()->host_gap_max_us <= 100250,
+              "the trip's silence is the longest: %u us", (unsigned)fw_timing()->host_gap_max_us);
     }
     /* requirement 3/4: over-temperature trips below 45 °C, latched through ABORT */
     {

@@ -3,7 +3,7 @@
 Runs one playback trial on ``qemu-firmware://`` and reads the device time stamp of every
 telemetry frame: the firmware stamps a frame with its clock at the moment the 10 ms tick runs,
 so the differences are the tick period as executed, including the main loop's lateness. The sim
-image's clock is TIM2 (1 µs) less the stalls of QEMU's thread (gaps over 2 ms, when the host
+image's clock is TIM2 (1 µs) less the stalls of QEMU's thread (gaps over 0.5 ms, when the host
 machine holds the emulator off); their total is printed too. Usage (from the repository root)::
 
     python firmware/tools/measure_loop.py [--seconds 5]

@@ -16,6 +16,7 @@ a hardware timer that QEMU runs at host real time: trials take their real durati
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 import shutil
 import subprocess
@@ -36,7 +37,7 @@ from .driver import ThermalDisplay
 from .firmware_image import check_image, image_id_warning
 
 __all__ = ["QemuFirmwareDisplay", "FIRMWARE_DIR", "SIM_IMAGE", "BOARD_IMAGE", "build_image",
-           "start_qemu", "await_link", "stop_qemu", "parse_url"]
+           "start_qemu", "await_link", "raise_io_thread", "stop_qemu", "parse_url"]
 
 FIRMWARE_DIR = Path(__file__).resolve().parents[3] / "firmware"
 SIM_IMAGE = FIRMWARE_DIR / "out" / "thermocue-sim.elf"
@@ -170,6 +171,29 @@ def start_qemu(image: Path) -> tuple:
     return proc, found[0]
 
 
+def raise_io_thread(pid: int) -> bool:
+    """Give QEMU's main thread -- its event loop, which carries the pty's bytes into the
+    USART -- nice −10 (when the user has the right; else it stays as it is). Return whether
+    it did.
+
+    Why: the guest's clock (QEMU's timer) runs while QEMU's vCPU thread runs; the sim image
+    pauses it only while that thread is held off. QEMU's model of the USART takes one byte
+    per turn of the event loop, so a heartbeat frame needs ten turns; on a loaded machine the
+    event loop waited for a core while the vCPU thread ran on, and the guest saw host silence
+    that was only bytes waiting in the pty (a spurious watchdog trip). Not real-time
+    priority: the event loop also runs QEMU's timers (the guest's 1 kHz SysTick) and, given
+    a core of its own, used about half of it (measured); under ``SCHED_RR`` it starved the
+    host itself. Call this once the firmware answers (the vCPU thread exists): Linux applies
+    it to the one thread (the main thread's TID is the PID), not to the vCPU thread.
+    """
+    try:
+        if os.getpriority(os.PRIO_PROCESS, pid) > -10:
+            os.setpriority(os.PRIO_PROCESS, pid, -10)
+        return True
+    except (AttributeError, OSError):
+        return False
+
+
 #: How long QEMU may take to notice that the pty has a reader, s.
 LINK_TIMEOUT_S = 10.0
 
@@ -234,6 +258,8 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
     _probe_text = False    # the firmware this class started, never a TCS II
     url_grammar = URL_GRAMMAR
     example_urls = (("qemu-firmware://", "Thermal display firmware under QEMU"),)
+    #: Whether QEMU's event loop got nice −10 (:func:`raise_io_thread`).
+    io_raised = False
 
     @classmethod
     def check_url(cls, url: str) -> None:
@@ -305,6 +331,8 @@ class QemuFirmwareDisplay(ThermalDisplay, scheme="qemu-firmware"):
             except Exception:
                 pass
             raise
+        # the firmware answered: QEMU's threads exist; only its event loop is raised
+        disp.io_raised = raise_io_thread(proc.pid)
         # never a boot banner: bytes sent before we opened are lost
         handshake_or_close(disp, port, on_failure=disp._finalizer)
         disp.start_heartbeat()

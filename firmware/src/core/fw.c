@@ -561,6 +561,9 @@ static unsigned store_slot(uint8_t type)
 
 static void on_frame(uint8_t seq, uint8_t type, const uint8_t *p, size_t len)
 {
+    if (active(F.state) && F.now_us - F.last_rx_us > timing.host_gap_max_us)
+        timing.host_gap_max_us = (uint32_t)(F.now_us - F.last_rx_us > 0xFFFFFFFFu
+                                            ? 0xFFFFFFFFu : F.now_us - F.last_rx_us);
     F.last_rx_us = F.now_us;                 /* any valid host frame feeds the watchdog */
     if (type == CMD_HEARTBEAT && len == 1 && p[0] == 0)
         return;                              /* silent: no reply, nothing stored */
@@ -628,6 +631,8 @@ static void tick(void)
     /* watchdog: host silent while the pad is doing something, HELLO or not */
     if (active(F.state) && t - F.last_rx_us > (uint64_t)FW_WATCHDOG_MS * 1000u) {
         uint64_t ms = (t - F.last_rx_us) / 1000u;
+        if (t - F.last_rx_us > timing.host_gap_max_us)
+            timing.host_gap_max_us = (uint32_t)(t - F.last_rx_us);  /* < 1 h: a tick trips it */
         F.last_fault = FAULT_WATCHDOG;
         F.end_reason = END_FAULT;
         event(EV_WATCHDOG, (int16_t)(ms > 32767u ? 32767u : ms), "host heartbeat lost");

@@ -31,6 +31,8 @@ typedef struct {
     uint32_t ticks;
     uint32_t late_max_us;      /* largest lateness of a control step behind its schedule */
     uint32_t skipped;          /* control steps skipped (more than 10 late) */
+    uint32_t host_gap_max_us;  /* longest host silence (between valid frames) while ARMED,
+                                * PLAYING or RECORDING, up to a watchdog trip: the margin */
 } fw_timing_t;
 
 /* Power-up: self-check of the compiled-in limits, firmware state, boot id. Returns false if

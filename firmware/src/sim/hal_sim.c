@@ -4,6 +4,7 @@
 #include "hal.h"
 #include "lowlevel.h"
 #include "plant.h"
+#include "fw.h"
 
 static plant_t plant;
 
@@ -13,8 +14,12 @@ static plant_t plant;
  * restart it after 50 ms). The simulated world -- firmware clock, plant, finger, faults --
  * pauses for such a gap instead of jumping: otherwise heartbeats still queued in QEMU's serial
  * input would look late to the firmware's watchdog, and the pad would heat for the length of
- * the stall between two control steps. The paused total is reported by SIM_FAULT. */
-#define STALL_US 2000u
+ * the stall between two control steps. The paused total is reported by SIM_FAULT. Each stall
+ * still counts STALL_US of device time in which no host byte can arrive (QEMU hands the USART
+ * one byte at a time, and only a running guest takes it); on a host loaded so far that QEMU
+ * ran in short slices, 2 ms a stall added up to spurious watchdog trips (1 to 4 in 100 trials
+ * at a load average of 20-25 on 2 cores; 0 at 0.5 ms: benchmarks/README.md). */
+#define STALL_US 500u
 static uint64_t last_raw_us, paused_us;
 
 static uint64_t sim_time_us(void)
@@ -59,6 +64,9 @@ int hal_board_command(uint8_t type, const uint8_t *payload, size_t len, uint8_t 
     int n = plant_command(&plant, sim_time_us(), type, payload, len, reply, cap, core_state, ready);
     if (type == 0x32 && n > 1 && (size_t)n + 24 < cap)
         n = plant_json_add_seconds(reply, (size_t)n, "paused_s", paused_us);
+    if (type == 0x32 && n > 1 && (size_t)n + 32 < cap)
+        n = plant_json_add_seconds(reply, (size_t)n, "host_gap_max_s",
+                                   fw_timing()->host_gap_max_us);
     return n;
 }
 

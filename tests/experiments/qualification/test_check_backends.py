@@ -94,6 +94,37 @@ def test_the_sim_image_passes_every_check(tmp_path):
 
 @QEMU
 @pytest.mark.slow
+def test_the_sim_images_clock_check_holds_its_promise_while_qemu_is_held_off(tmp_path):
+    """A loaded host holds QEMU off: the sim image's clock pauses meanwhile (here for 1.6 s of
+    the check's 2 s, so it advances less than a fifth of wall time). The check asks what the
+    image promises -- monotonic, advancing, never ahead of wall time -- and passes; the old
+    limit (at least 20 % of wall time) failed it."""
+    import signal
+    import threading
+    from experiments.display import open_display
+    from experiments.qualification.bench import Bench
+    from experiments.qualification.clock import check_clock
+    d = open_display("qemu-firmware://")
+    try:
+        def hold_off():
+            time.sleep(0.1)
+            d.qemu.send_signal(signal.SIGSTOP)
+            time.sleep(1.6)
+            d.qemu.send_signal(signal.SIGCONT)
+        t = threading.Thread(target=hold_off)
+        t.start()
+        r = check_clock(Bench(d, "qemu-firmware://", tmp_path))
+        t.join()
+    finally:
+        d.qemu.send_signal(signal.SIGCONT)
+        d.close()
+    share = float(r.measured.split("advanced ")[1].split("%")[0]) / 100
+    assert 0.0 < share < 0.2, r.measured        # QEMU was held off: the clock paused
+    assert r.passed, (r.measured, r.reason)
+
+
+@QEMU
+@pytest.mark.slow
 def test_the_board_image_fails_clearly_on_its_sensors(tmp_path):
     from experiments.display.thermocue.qemu_firmware import BOARD_IMAGE
     results, path = qualify(f"qemu-firmware://?image={BOARD_IMAGE}", tmp_path)

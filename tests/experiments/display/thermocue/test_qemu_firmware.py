@@ -5,6 +5,7 @@ The protocol behaviour of the firmware it runs is the conformance suite's
 """
 from __future__ import annotations
 
+import os
 import shutil
 
 import pytest
@@ -58,6 +59,43 @@ def test_close_ends_qemu():
     assert proc.poll() is None and disp.info.firmware.startswith("thermocue-fw")
     disp.close()
     assert proc.poll() is not None
+
+
+def _may_raise_priority() -> bool:
+    """Whether this user may set nice −10 (CAP_SYS_NICE): tried on a child of its own."""
+    import subprocess
+    import sys
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        os.setpriority(os.PRIO_PROCESS, child.pid, -10)
+        return True
+    except OSError:
+        return False
+    finally:
+        child.kill()
+        child.wait()
+
+
+@pytest.mark.skipif(NO_QEMU, reason="qemu-system-arm is not installed here (CI installs it with "
+                                    "scripts/setup)")
+def test_only_qemus_event_loop_is_raised():
+    """QEMU's event loop (its main thread) carries the pty's bytes into the USART: it gets
+    nice −10 where allowed; the vCPU thread (the guest's busy loop) keeps the default."""
+    from experiments.display import open_display
+    disp = open_display("qemu-firmware://")
+    try:
+        pid = disp.qemu.pid
+        nice = {int(tid): os.getpriority(os.PRIO_PROCESS, int(tid))
+                for tid in os.listdir(f"/proc/{pid}/task")}
+    finally:
+        disp.close()
+    assert disp.io_raised == _may_raise_priority()
+    others = [n for tid, n in nice.items() if tid != pid]
+    assert others and all(n == os.getpriority(os.PRIO_PROCESS, 0) for n in others), nice
+    if disp.io_raised:
+        assert nice[pid] == -10, nice
+    else:
+        assert nice[pid] == os.getpriority(os.PRIO_PROCESS, 0), nice
 
 
 @pytest.mark.skipif(NO_QEMU, reason="qemu-system-arm is not installed here (CI installs it with "
