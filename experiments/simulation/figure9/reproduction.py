@@ -223,8 +223,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
     from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
-    from experiments.simulation.figure9.scenarios import sensitivity
-    from experiments.simulation.studies import build_pool
+    from experiments.simulation.figure9.scenarios import _build_pool_task, sensitivity
     analysis = study.get("analysis")
     trials = None if analysis is None else analysis.log.analysable
     if trials is None or trials.empty or trials["group"].nunique() < 2:
@@ -233,7 +232,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     fit = fit_depth(counts, n_studies=20, seed=seed)
     # the estimate and the ends of its interval: the claims' probabilities across the depths
     # the study's answers allow (their best noise each)
-    settings = {}
+    settings, jobs = {}, []
     for what, share in (("fitted", fit.estimate), ("interval low end", fit.interval[0]),
                         ("interval high end", fit.interval[1])):
         if any(abs(share - v[2]) < 1e-9 for v in settings.values()):
@@ -241,11 +240,19 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
         frac = 1.0 - share
         noise = float(fit.grid.loc[fit.grid.depth_share == share].sort_values("loglik")
                       ["noise_C"].iloc[-1])
-        depth_pool = build_pool(hypotheses=(headline[0],), dermis_fraction=(frac, frac),
-                                seed=pool.settings["seed"], params=pool.params)
+        jobs.append(("roughness_recognition", {"hypotheses": (headline[0],),
+                                               "dermis_fraction": (frac, frac),
+                                               "seed": pool.settings["seed"],
+                                               "params": pool.params}))
         label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
                  f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
-        settings[label] = ({"pool": depth_pool, "noise": noise}, what, share)
+        settings[label] = ({"noise": noise}, what, share)
+    # the depths' person pools side by side on the cluster's workers (one after the other here
+    # they were a third of this step)
+    built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
+             else [_build_pool_task(*job) for job in jobs])
+    for (change, *_), depth_pool in zip(settings.values(), built):
+        change["pool"] = depth_pool
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                       variability=lab, max_studies=max_studies,
                       choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})

@@ -429,6 +429,8 @@ def _build_pool_task(protocol, kwargs):
 
 #: The keys of a sensitivity change that need a person pool of their own.
 POOL_KEYS = ("receptor_depth_um", "sensor_tau_s", "replay_skin_C")
+#: Of those, the keys that change only the replayed profiles (the pool's real features reused).
+REAL_UNCHANGED = ("sensor_tau_s", "replay_skin_C")
 
 
 def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed: int = 0,
@@ -512,8 +514,11 @@ def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -
             for key in POOL_KEYS:
                 k = (key, change.get(key))
                 if key in change and k not in have and k not in wanted:
+                    # the sensor lag and the replays' skin temperature change only the replayed
+                    # profiles: the same persons touching the same real samples (the real
+                    # features do not depend on them), so the pool's real features are reused
                     same_people = ({"receptor_depth_um": pool.receptor_depth_um,
-                                    "real_from": pool} if key == "sensor_tau_s" else {})
+                                    "real_from": pool} if key in REAL_UNCHANGED else {})
                     wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
                                  "params": pool.params,
                                  "dermis_fraction": pool.settings["dermis_fraction"],
