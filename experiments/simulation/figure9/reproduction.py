@@ -223,7 +223,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
     from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
-    from experiments.simulation.figure9.scenarios import _build_pool_task, sensitivity
+    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
     analysis = study.get("analysis")
     trials = None if analysis is None else analysis.log.analysable
     if trials is None or trials.empty or trials["group"].nunique() < 2:
@@ -249,8 +249,8 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
         settings[label] = ({"noise": noise}, what, share)
     # the depths' person pools side by side on the cluster's workers (one after the other here
     # they were a third of this step)
-    built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
-             else [_build_pool_task(*job) for job in jobs])
+    built = (sweep.map(build_pool_task, jobs, what="person pools") if sweep is not None
+             else [build_pool_task(*job) for job in jobs])
     for (change, *_), depth_pool in zip(settings.values(), built):
         change["pool"] = depth_pool
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,

@@ -21,7 +21,8 @@ from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_M
 
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
            "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
-           "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios"]
+           "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios",
+           "build_pool_task"]
 
 #: One receptor depth below the surface for everyone, µm: 0.4 x 860 µm, the middle of the
 #: model's 0.35-0.45 L at the mean thickness of the two groups' ranges (675 and 1050 µm).
@@ -412,7 +413,7 @@ SENSITIVITY_CHOICES = {
 }
 
 
-def _build_pool_task(protocol, kwargs):
+def build_pool_task(protocol, kwargs):
     """:func:`..studies.build_pool` as a sweep task (``replay_skin_C``: the protocol's
     ``[simulation] skin_temperature_C`` changed to it, i.e. the replays computed for that skin)."""
     from experiments.simulation.studies import build_pool
@@ -526,8 +527,8 @@ def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -
     if not wanted:
         return {}
     jobs = [(protocol, kw) for kw in wanted.values()]
-    built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
-             else [_build_pool_task(*job) for job in jobs])
+    built = (sweep.map(build_pool_task, jobs, what="person pools") if sweep is not None
+             else [build_pool_task(*job) for job in jobs])
     return dict(zip(wanted, built))
 
 
