@@ -5,7 +5,9 @@
    paper's claims (:mod:`analysis.claims`), and the expected proportions correct.
 2. The headline scenario (the best match to the paper's evidence unless ``--replay`` /
    ``--observer`` say otherwise) run as the 30-participant study on the emulated display
-   (:func:`experiments.simulation.figure9.study.run_figure9_study`), with its analysis.
+   (:func:`experiments.simulation.figure9.study.run_figure9_study`), with its analysis; the
+   sensitivity rows' studies (:func:`.scenarios.sensitivity`) run on the same cluster at the
+   same time (then the fitted-depth rows, which need the study's answers).
 3. ``figure9.png`` / ``.pdf``: the paper's method as printed (material-side replay, absolute
    observer; expected proportions) beside the headline's 30 emulated sessions; ``report.md``
    opening with the verdict, the claims table and the sensitivity table; the claims table last
@@ -16,6 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pandas as pd
@@ -149,25 +152,28 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         headline = (replay or best["descriptive"][0], observer or best["descriptive"][1])
         default_run = next(res for keys, res in result.runs
                            if (keys["hypothesis"], keys["observer"]) == headline)
-        sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                           variability=lab, default_run=default_run,
-                           max_studies=min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)))
         seconds["scenarios_s"] = time.perf_counter() - t0
+        t1 = time.perf_counter()
+        sens, study, seconds["study_s"] = _beside(
+            lambda: sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
+                                variability=lab, default_run=default_run,
+                                max_studies=min(max_studies,
+                                                max(SENSITIVITY_MAX_STUDIES, n_studies))),
+            lambda: run_figure9_study(out_dir, seed=seed, workers=workers,
+                                      participants=participants, replay=headline[0],
+                                      target_side=target_side, rate_limit=rate_limit,
+                                      responder_options={**options, "observer": headline[1],
+                                                         **({} if force_sd_N is None else
+                                                            {"force_sd_N": lab.force_sd_N})},
+                                      sweep=sweep))
+        seconds["sensitivity_and_study_s"] = time.perf_counter() - t1
         seconds["studies_simulated"] = int(result.n_studies().sum()) + sum(
             len(res["proportions"]) for _, res in sens.attrs["runs"] if res is not default_run)
-        log.info("figure9: %d scenarios (%d-%d simulated studies each) and %d sensitivity rows "
-                 "in %.1f s on %d workers; headline: %s replay, %s observer", len(result.wide()),
-                 result.n_studies().min(), result.n_studies().max(), len(sens),
-                 seconds["scenarios_s"], sweep.n_workers, *headline)
-        t1 = time.perf_counter()
-        study = run_figure9_study(out_dir, seed=seed, workers=workers,
-                                  participants=participants, replay=headline[0],
-                                  target_side=target_side, rate_limit=rate_limit,
-                                  responder_options={**options, "observer": headline[1],
-                                                     **({} if force_sd_N is None else
-                                                        {"force_sd_N": lab.force_sd_N})},
-                                  sweep=sweep)
-        seconds["study_s"] = time.perf_counter() - t1
+        log.info("figure9: %d scenarios (%d-%d simulated studies each) in %.1f s, and %d "
+                 "sensitivity rows beside the emulated study (%.1f s together) on %d workers; "
+                 "headline: %s replay, %s observer", len(result.wide()),
+                 result.n_studies().min(), result.n_studies().max(), seconds["scenarios_s"],
+                 len(sens), seconds["sensitivity_and_study_s"], sweep.n_workers, *headline)
         t2 = time.perf_counter()
         depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab,
                                   min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)))
@@ -210,6 +216,29 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
             "study": study, "seconds": seconds, "files": files, "verdict": verdict}
 
 
+def _beside(background, foreground):
+    """``(background(), foreground(), seconds of foreground)``, the two run at the same time.
+
+    The sensitivity rows and the emulated study need only the headline: the rows' studies run
+    on the cluster's workers beside the sessions, and while this process analyses the sessions
+    (when the workers would otherwise wait).  Their tasks and seeds are the same either way, so
+    are the results.  A failure of the foreground does not wait for the background.
+    """
+    start = time.perf_counter()
+    bg = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-sensitivity")
+    try:
+        pending = bg.submit(background)
+        front = foreground()
+    except BaseException:
+        bg.shutdown(wait=False, cancel_futures=True)    # the closing cluster ends the rows
+        raise
+    seconds = time.perf_counter() - start
+    try:
+        return pending.result(), front, seconds
+    finally:
+        bg.shutdown()
+
+
 def _group_pool(group, hypotheses, seed):
     """The person pool of one group (a sweep task)."""
     from experiments.simulation.studies import build_pool
@@ -223,8 +252,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
     from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
-    from experiments.simulation.figure9.scenarios import sensitivity
-    from experiments.simulation.studies import build_pool
+    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
     analysis = study.get("analysis")
     trials = None if analysis is None else analysis.log.analysable
     if trials is None or trials.empty or trials["group"].nunique() < 2:
@@ -233,7 +261,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     fit = fit_depth(counts, n_studies=20, seed=seed)
     # the estimate and the ends of its interval: the claims' probabilities across the depths
     # the study's answers allow (their best noise each)
-    settings = {}
+    settings, jobs = {}, []
     for what, share in (("fitted", fit.estimate), ("interval low end", fit.interval[0]),
                         ("interval high end", fit.interval[1])):
         if any(abs(share - v[2]) < 1e-9 for v in settings.values()):
@@ -241,11 +269,19 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
         frac = 1.0 - share
         noise = float(fit.grid.loc[fit.grid.depth_share == share].sort_values("loglik")
                       ["noise_C"].iloc[-1])
-        depth_pool = build_pool(hypotheses=(headline[0],), dermis_fraction=(frac, frac),
-                                seed=pool.settings["seed"], params=pool.params)
+        jobs.append(("roughness_recognition", {"hypotheses": (headline[0],),
+                                               "dermis_fraction": (frac, frac),
+                                               "seed": pool.settings["seed"],
+                                               "params": pool.params}))
         label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
                  f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
-        settings[label] = ({"pool": depth_pool, "noise": noise}, what, share)
+        settings[label] = ({"noise": noise}, what, share)
+    # the depths' person pools side by side on the cluster's workers (one after the other here
+    # they were a third of this step)
+    built = (sweep.map(build_pool_task, jobs, what="person pools") if sweep is not None
+             else [build_pool_task(*job) for job in jobs])
+    for (change, *_), depth_pool in zip(settings.values(), built):
+        change["pool"] = depth_pool
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                       variability=lab, max_studies=max_studies,
                       choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})

@@ -21,7 +21,8 @@ from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_M
 
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
            "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
-           "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios"]
+           "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios",
+           "build_pool_task"]
 
 #: One receptor depth below the surface for everyone, µm: 0.4 x 860 µm, the middle of the
 #: model's 0.35-0.45 L at the mean thickness of the two groups' ranges (675 and 1050 µm).
@@ -412,7 +413,7 @@ SENSITIVITY_CHOICES = {
 }
 
 
-def _build_pool_task(protocol, kwargs):
+def build_pool_task(protocol, kwargs):
     """:func:`..studies.build_pool` as a sweep task (``replay_skin_C``: the protocol's
     ``[simulation] skin_temperature_C`` changed to it, i.e. the replays computed for that skin)."""
     from experiments.simulation.studies import build_pool
@@ -429,6 +430,8 @@ def _build_pool_task(protocol, kwargs):
 
 #: The keys of a sensitivity change that need a person pool of their own.
 POOL_KEYS = ("receptor_depth_um", "sensor_tau_s", "replay_skin_C")
+#: Of those, the keys that change only the replayed profiles (the pool's real features reused).
+REAL_UNCHANGED = ("sensor_tau_s", "replay_skin_C")
 
 
 def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed: int = 0,
@@ -512,8 +515,11 @@ def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -
             for key in POOL_KEYS:
                 k = (key, change.get(key))
                 if key in change and k not in have and k not in wanted:
+                    # the sensor lag and the replays' skin temperature change only the replayed
+                    # profiles: the same persons touching the same real samples (the real
+                    # features do not depend on them), so the pool's real features are reused
                     same_people = ({"receptor_depth_um": pool.receptor_depth_um,
-                                    "real_from": pool} if key == "sensor_tau_s" else {})
+                                    "real_from": pool} if key in REAL_UNCHANGED else {})
                     wanted[k] = {"hypotheses": (hypothesis,), "seed": pool.settings["seed"],
                                  "params": pool.params,
                                  "dermis_fraction": pool.settings["dermis_fraction"],
@@ -521,8 +527,8 @@ def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -
     if not wanted:
         return {}
     jobs = [(protocol, kw) for kw in wanted.values()]
-    built = (sweep.map(_build_pool_task, jobs, what="person pools") if sweep is not None
-             else [_build_pool_task(*job) for job in jobs])
+    built = (sweep.map(build_pool_task, jobs, what="person pools") if sweep is not None
+             else [build_pool_task(*job) for job in jobs])
     return dict(zip(wanted, built))
 
 

@@ -267,3 +267,16 @@ def test_force_interpolation_is_within_a_hundredth_of_a_kelvin_of_the_exact_mode
                           for s in base.samples])
         worst = np.maximum(worst, np.abs(grid - exact).max(axis=0))
     assert np.all(worst < 0.01), worst
+
+
+@pytest.mark.slow
+def test_the_replays_skin_temperature_leaves_the_real_features_unchanged(slab_pool):
+    # the sensitivity row "36 °C (the paper's simulations)" reuses the default pool's real
+    # features (real_from): built afresh for 36 °C replays, they are the same numbers, and only
+    # the replayed ones move
+    from experiments.simulation.figure9.scenarios import build_pool_task
+    warm = build_pool_task("roughness_recognition", {"hypotheses": ("slab",), "seed": 3,
+                                                      "groups": ("A",), "replay_skin_C": 36.0})
+    np.testing.assert_array_equal(warm.real["A"], slab_pool.real["A"])
+    assert warm.settings["replay_skin_C"] == 36.0 != slab_pool.settings["replay_skin_C"]
+    assert np.max(np.abs(warm.simulated[("slab", "A")] - slab_pool.simulated[("slab", "A")])) > 1e-3
