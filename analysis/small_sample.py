@@ -92,7 +92,7 @@ def welch_df(parts: dict, lvec) -> float:
     return float(total * total / sum(v * v / (m - 1) for v, m in shares))
 
 
-def row_df(fit, lvec) -> float | None:
+def row_df(fit, lvec, *, se_from_cov: bool = False) -> float | None:
     """The df of ``lvec @ fit.params``: Welch-Satterthwaite from the group parts of the
     variance the row's SE uses, else the fit's own ``df`` (t(m - 2); None: normal).
 
@@ -103,6 +103,8 @@ def row_df(fit, lvec) -> float | None:
       larger, the row rests on the participants' scores as the GEE's does: Welch from its
       group parts. When the model-based SE is the larger, the row rests on the likelihood of
       all m participants (the random-effect SDs are estimated from both groups): ``m - 2``.
+    - ``se_from_cov``: the row's SE is ``sqrt(l' fit.cov l)`` whatever the fit carries (the
+      A - B group comparisons): for a mixed model that is the model-based SE, ``m - 2``.
     - Intercept-only mixed model (no sandwich): ``m - 2``. Its per-group rows had
       t(m_g - 1) before, which made them wider than their coverage needs (the 8-person
       group's row covered 150 of 150 datasets at 20 + 8).
@@ -112,7 +114,8 @@ def row_df(fit, lvec) -> float | None:
         return fit.df
     lvec = np.asarray(lvec, float)
     robust = getattr(fit, "cov_robust", None)
-    if robust is not None and float(lvec @ fit.cov @ lvec) > float(lvec @ robust @ lvec):
+    if robust is not None and (se_from_cov
+                               or float(lvec @ fit.cov @ lvec) > float(lvec @ robust @ lvec)):
         return fit.df                 # the model-based SE is the one reported
     df = welch_df(parts, lvec)
     return df if np.isfinite(df) else fit.df

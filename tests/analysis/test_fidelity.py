@@ -361,6 +361,10 @@ def test_participant_sandwich_equals_leave_one_participant_out_refits():
             welch = sum(parts.values()) ** 2 / sum(v ** 2 / (sizes[g] - 1)
                                                    for g, v in parts.items())
             assert row.df == pytest.approx(welch, rel=0.1)
+    # the A - B group comparisons use the model-based covariance alone: t(m - 2), never the
+    # sandwich's df
+    from analysis.models import group_contrasts
+    assert set(group_contrasts(fit, trials)["df"]) == {data.m - 2}
 
 
 def test_a_formula_without_group_by_mode_keeps_t_m_minus_2_on_every_row(trials):
