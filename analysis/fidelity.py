@@ -21,9 +21,10 @@ contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paire
 row of both groups the Welch-Satterthwaite df of its two groups' parts. A mixed-model row takes
 the df of the variance its SE uses (:func:`analysis.small_sample.row_df`): the participant
 sandwich's (split by group, as the GEE's) where that is the larger SE, t(m - 2) where the
-model-based SE is (it rests on every participant's likelihood). A group of one participant has no reference: its rows and the
-both-groups row get no p-value, interval or equivalence test (``test`` says why). From the random-slope mixed model the SE of each contrast is the
-larger of the model-based one and the bias-reduced participant sandwich
+model-based SE is (it rests on every participant's likelihood). A group of one participant
+has no reference: its rows and the both-groups row get no p-value, interval or equivalence test
+(``test`` says why). From the random-slope mixed model the SE of each contrast is the larger of
+the model-based one and the bias-reduced participant sandwich
 (:func:`analysis.models.contrast_se`).
 
 References
