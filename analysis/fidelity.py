@@ -16,11 +16,15 @@ model of ``correct ~ group * mode * C(roughness_id)``:
 - the **per-sample mode contrasts** (group x sample, 8 rows), Holm-adjusted over the 8 (over
   those tested: the rows of a group of one participant have no p-value).
 
-Reference distributions (:func:`contrast_df`): a row of one group is a within-participant
+Reference distributions (:func:`contrast_df`): a GEE row of one group is a within-participant
 contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
-row of both groups t(m - 2). A group of one participant has no reference: its rows and the
-both-groups row get no p-value, interval or equivalence test (``test`` says why). From the random-slope mixed model the SE of each contrast is the
-larger of the model-based one and the bias-reduced participant sandwich
+row of both groups the Welch-Satterthwaite df of its two groups' parts. A mixed-model row takes
+the df of the variance its SE uses (:func:`analysis.small_sample.row_df`): the participant
+sandwich's (split by group, as the GEE's) where that is the larger SE, t(m - 2) where the
+model-based SE is (it rests on every participant's likelihood). A group of one participant
+has no reference: its rows and the both-groups row get no p-value, interval or equivalence test
+(``test`` says why). From the random-slope mixed model the SE of each contrast is the larger of
+the model-based one and the bias-reduced participant sandwich
 (:func:`analysis.models.contrast_se`).
 
 References
@@ -157,7 +161,8 @@ def _rows(fit: ModelFit, group, mode, samples) -> np.ndarray:
     return np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
 
 
-def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str) -> float | None:
+def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str,
+                lvec=None) -> float | None:
     """Degrees of freedom of a real - simulated contrast's t reference.
 
     The mode effect is within participants, and in the fitted ``group * mode * sample`` model a
@@ -169,12 +174,22 @@ def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str) -> float | None:
     participants: ``m - 2`` for every row then. ``None`` (normal) when the fit has no ``df``.
     NaN (no test, no interval: :func:`_lone_group`) when a group's contrast rests on a single
     participant, for that group's rows and the both-groups row that averages it in.
+
+    With ``lvec`` (the row's contrast) and a fit whose variance splits by group (the GEE's
+    sandwich, the random-slope model's participant sandwich), the row's df is
+    :func:`analysis.small_sample.row_df`'s Welch-Satterthwaite df: ``m_g - 1`` for a GEE
+    group row, Welch for both groups, ``m - 2`` where a mixed row reports its model-based SE.
+    A mixed model without a sandwich (intercept only) refers every row to ``m - 2``: its SE
+    rests on the likelihood of all participants, and t(m_g - 1) made its group rows wider
+    than their coverage needs.
     """
     if _lone_group(fit, data, group) is not None:
         return np.nan
     if not fit.df:
         return None
-    if group == "both" or not _group_by_mode(fit):
+    if lvec is not None and _group_by_mode(fit) and fit.cov_by_group:
+        return row_df(fit, lvec)      # Welch-Satterthwaite of the variance the SE uses
+    if group == "both" or not _group_by_mode(fit) or fit.kind != "gee":
         return fit.df
     m_g = data.loc[data["group"] == group, "participant"].nunique()
     return float(m_g - 1)
@@ -270,11 +285,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     rows = []
     for group in groups + (["both"] if len(groups) > 1 else []):
         which = groups if group == "both" else [group]
-        df = contrast_df(fit, data, group)
         xr, xs = _rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples)
-        if group == "both" and df and np.isfinite(df) and _group_by_mode(fit):
-            # two independent group means, unequal groups: Welch-Satterthwaite (GEE)
-            df = row_df(fit, xr.mean(axis=0) - xs.mean(axis=0))
+        df = contrast_df(fit, data, group, xr.mean(axis=0) - xs.mean(axis=0))
         c = _contrast(xr, xs, fit, reference_quantile(level, df), df)
         gap = design_gap(data, groups=which, modes=("real", "simulated"))
         if gap:                    # that group's real or simulated cells are not identified
@@ -294,11 +306,11 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
                      "equivalent": t["equivalent"], "basis": basis, "note": note})
     per = []
     for group in groups:
-        df = contrast_df(fit, data, group)
         gap = design_gap(data, groups=[group], modes=("real", "simulated"))
         for r in samples:
-            c = _contrast(_rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r]),
-                          fit, reference_quantile(level, df), df)
+            xr, xs = _rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r])
+            df = contrast_df(fit, data, group, xr.mean(axis=0) - xs.mean(axis=0))
+            c = _contrast(xr, xs, fit, reference_quantile(level, df), df)
             if gap:
                 c = {k: np.nan for k in c}
             per.append({"role": "per-sample", "model": fit.kind, "scale": scale, "group": group,

@@ -192,7 +192,7 @@ def participant_scores(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray:
     return data.onehot @ (data.x * per_row[:, None])
 
 
-def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray:
+def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5, groups=None):
     """Bias-reduced participant-cluster sandwich covariance of the fixed effects.
 
     With :math:`s_i` participant *i*'s score for :math:`\\beta` at the estimate and
@@ -214,10 +214,18 @@ def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray
     participants are often far from the truth (the mode-slope SD's ML estimate is biased low
     and 0 in some datasets).
 
+    Parameters
+    ----------
+    groups : array_like, optional
+        Each participant's group (participant index order of ``data``). Given, the sum over
+        participants is also split by group (as :func:`analysis.small_sample.group_covariances`
+        splits the GEE's), for the Welch-Satterthwaite df of :func:`analysis.small_sample.row_df`.
+
     Returns
     -------
     ndarray, shape (p, p)
-        On the same scale as the model's Wald covariance (log odds).
+        On the same scale as the model's Wald covariance (log odds). With ``groups``:
+        ``(V, {g: (V_g, m_g)})``, ``V`` the sum of the ``V_g``.
     """
     theta = np.asarray(theta, float)
     p = len(theta) - 3
@@ -234,7 +242,21 @@ def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray
     a_inv = np.linalg.inv(a_i.sum(axis=0))
     lev = np.eye(p)[None] - a_i @ a_inv                      # I - A_i A^-1, (m, p, p)
     s_tilde = np.linalg.solve(lev, s[..., None])[..., 0]
-    return a_inv @ (s_tilde.T @ s_tilde) @ a_inv
+    if groups is None:
+        return a_inv @ (s_tilde.T @ s_tilde) @ a_inv
+    groups = np.asarray(groups)
+    parts = {}
+    for g in np.unique(groups):
+        sg = s_tilde[groups == g]
+        parts[str(g)] = (a_inv @ (sg.T @ sg) @ a_inv, int(len(sg)))
+    return sum(w for w, _ in parts.values()), parts
+
+
+def _person_groups(data_t: pd.DataFrame) -> np.ndarray:
+    """Each participant's group, in :class:`analysis.glmm.GLMMData`'s participant order
+    (participant labels as text, sorted)."""
+    first = data_t.groupby(data_t["participant"].astype(str), sort=True)["group"].first()
+    return first.astype(str).to_numpy()
 
 
 def _objective(data, z, n_agq):
@@ -427,11 +449,12 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
             continue
         try:
             with np.errstate(all="ignore"):
-                cov_robust = participant_sandwich(theta, data, z, n_agq)
+                cov_robust, by_group = participant_sandwich(theta, data, z, n_agq,
+                                                            _person_groups(data_t))
             if not np.all(np.isfinite(cov_robust)):
                 raise np.linalg.LinAlgError("non-finite")
         except np.linalg.LinAlgError:
-            cov_robust = None
+            cov_robust = by_group = None
             notes.append("GLMM slope: the participant sandwich could not be computed (singular "
                          "leverage); mode contrasts use the model-based SE alone")
         lam = _lambda(theta[-3:])
@@ -467,7 +490,8 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         return ModelFit(kind="glmm-slope", formula=candidate, requested=formula,
                         table=table[columns], notes=notes, params=beta, cov=cov,
                         design_info=x.design_info, df=df, convergence=conv, theta=theta,
-                        cov_full=cov_full, cov_robust=cov_robust)
+                        cov_full=cov_full, cov_robust=cov_robust,
+                        cov_by_group=by_group if by_group and len(by_group) == 2 else None)
     notes.append("GLMM slope: no formula could be fitted")
     return ModelFit(kind="glmm-slope", formula=None, requested=formula,
                     table=pd.DataFrame(columns=columns), notes=notes)

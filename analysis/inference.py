@@ -116,7 +116,7 @@ def averaged_contrast(fit: ModelFit, mode: str = "real", samples=(1, 2, 3, 4),
     if fit.formula is None or "group" not in fit.formula:
         return None
     xa, xb = _rows(fit, ["A"], [mode], samples), _rows(fit, ["B"], [mode], samples)
-    df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0))
+    df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0), se_from_cov=True)
     v = log_odds_contrast(xa, xb, fit.params, fit.cov, reference_quantile(level, df), df)
     return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8],
             "difference_low": v[9], "difference_high": v[10], "df": df}

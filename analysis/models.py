@@ -462,7 +462,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                                  "correct": 0, "participant": "x"})
             x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
             xa, xb = x[: len(levels)], x[len(levels):]
-            df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0))
+            df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0), se_from_cov=True)
             rows.append([fit.kind, mode, label,
                          *log_odds_contrast(xa, xb, beta, cov, reference_quantile(level, df), df),
                          f"model: {fit.formula}", df])

@@ -84,22 +84,39 @@ def welch_df(parts: dict, lvec) -> float:
     total = sum(v for v, _ in pieces)
     if not total > 0:
         return np.nan
-    denominator = 0.0
-    for v, m in pieces:
-        if v <= 1e-14 * total:
-            continue
-        if m < 2:
-            return np.nan
-        denominator += v * v / (m - 1)
-    return float(total * total / denominator)
+    shares = [(v, m) for v, m in pieces if v > 1e-14 * total]
+    if any(m < 2 for _, m in shares):
+        return np.nan
+    if len(shares) == 1:                     # one group's contrast: exactly m_g - 1
+        return float(shares[0][1] - 1)
+    return float(total * total / sum(v * v / (m - 1) for v, m in shares))
 
 
-def row_df(fit, lvec) -> float | None:
-    """The df of ``lvec @ fit.params``: Welch-Satterthwaite from the fit's group parts
-    (``fit.cov_by_group``, the GEE), else the fit's own ``df`` (t(m - 2); None: normal)."""
+def row_df(fit, lvec, *, se_from_cov: bool = False) -> float | None:
+    """The df of ``lvec @ fit.params``: Welch-Satterthwaite from the group parts of the
+    variance the row's SE uses, else the fit's own ``df`` (t(m - 2); None: normal).
+
+    - GEE: its SE is the bias-reduced sandwich, split by group (``fit.cov_by_group``): Welch.
+      A one-group contrast (a group's real - simulated row) has one part: ``m_g - 1``.
+    - Random-slope mixed model: its contrast SE is the larger of the model-based SE and the
+      participant sandwich (:func:`analysis.models.contrast_se`). When the sandwich is the
+      larger, the row rests on the participants' scores as the GEE's does: Welch from its
+      group parts. When the model-based SE is the larger, the row rests on the likelihood of
+      all m participants (the random-effect SDs are estimated from both groups): ``m - 2``.
+    - ``se_from_cov``: the row's SE is ``sqrt(l' fit.cov l)`` whatever the fit carries (the
+      A - B group comparisons): for a mixed model that is the model-based SE, ``m - 2``.
+    - Intercept-only mixed model (no sandwich): ``m - 2``. Its per-group rows had
+      t(m_g - 1) before, which made them wider than their coverage needs (the 8-person
+      group's row covered 150 of 150 datasets at 20 + 8).
+    """
     parts = getattr(fit, "cov_by_group", None)
     if not parts or not fit.df:
         return fit.df
+    lvec = np.asarray(lvec, float)
+    robust = getattr(fit, "cov_robust", None)
+    if robust is not None and (se_from_cov
+                               or float(lvec @ fit.cov @ lvec) > float(lvec @ robust @ lvec)):
+        return fit.df                 # the model-based SE is the one reported
     df = welch_df(parts, lvec)
     return df if np.isfinite(df) else fit.df
 

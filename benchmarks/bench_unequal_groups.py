@@ -34,6 +34,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests" / "analysis"))
 
 from analysis import fit_gee  # noqa: E402
+from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
 from analysis.fidelity import mode_contrasts  # noqa: E402
 from analysis.inference import averaged_contrast, interaction_test, omnibus_group_test  # noqa: E402
 from generator import generate, null_cells  # noqa: E402
@@ -53,10 +54,38 @@ def truth(cells: dict, slope_sd: float) -> dict:
     marg = {k: float(w @ expit(logit(p) + sd[k[1]] * z)) for k, p in cells.items()}
     lo = {m: np.mean([logit(v) for k, v in marg.items() if k[1] == m]) for m in sd}
     pr = {m: np.mean([v for k, v in marg.items() if k[1] == m]) for m in sd}
-    return {"log_odds": lo["real"] - lo["simulated"], "difference": pr["real"] - pr["simulated"]}
+    cond = {m: np.mean([logit(p) for k, p in cells.items() if k[1] == m]) for m in sd}
+    return {"log_odds": lo["real"] - lo["simulated"], "difference": pr["real"] - pr["simulated"],
+            "conditional": cond["real"] - cond["simulated"]}
 
 
-def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: dict) -> dict:
+def mixed_rows(trials, target_conditional: float) -> dict:
+    """The random-slope mixed model's real - simulated rows (group A, B, both; log odds for a
+    typical participant, whose truth is the generator's conditional cells) and its interaction
+    (true value 0), as reported (SE the larger of model-based and sandwich, df of
+    ``analysis.small_sample.row_df``); "old" the same intervals with the references before:
+    t(m_g - 1) per group, t(m - 2) both."""
+    fit = fit_glmm_slope(trials, profile=False)
+    if fit.formula is None:
+        return {}
+    fid = mode_contrasts(fit, trials, margin_pp=10)
+    inter = interaction_test(fit, trials)
+    m = {g: trials.loc[trials["group"] == g, "participant"].nunique() for g in ("A", "B")}
+    out = {"mixed_interaction_reject": bool(inter["p_value"] < 0.05)}
+    for g in ("A", "B", "both"):
+        r = fid[(fid["role"] == "averaged") & (fid["group"] == g)].iloc[0]
+        old_df = sum(m.values()) - 2 if g == "both" else m[g] - 1
+        err = abs(r["estimate"] - target_conditional)
+        out[f"mixed_{g}_cover"] = bool(r["ci_low"] <= target_conditional <= r["ci_high"])
+        out[f"mixed_{g}_old_cover"] = bool(err <= stats.t.ppf(0.975, old_df) * r["se"])
+        out[f"mixed_{g}_width_ratio_new_to_old"] = float(
+            (r["ci_high"] - r["ci_low"]) / (2 * stats.t.ppf(0.975, old_df) * r["se"]))
+        out[f"mixed_{g}_df"] = float(r["df"])
+    return out
+
+
+def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: dict,
+        mixed: bool = False) -> dict:
     trials = generate(null_cells(), n_a=n_a, n_b=n_b, sigma=SIGMA, seed=seed, slope_sd=slope_sd)
     if halfmiss:
         rng = np.random.default_rng(seed + 10**6)
@@ -72,6 +101,7 @@ def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: 
         prim = averaged_contrast(fit, "real")
         inter = interaction_test(fit, trials)
         fid = mode_contrasts(fit, trials, margin_pp=10)
+        extra = mixed_rows(trials, target["conditional"]) if mixed else {}
     both = fid[(fid["role"] == "averaged") & (fid["group"] == "both")].iloc[0]
     old_f = omni["chi2"] * (m - 8) / (8 * (m - 1))
     t_old = stats.t.ppf(0.975, m - 2)
@@ -89,6 +119,7 @@ def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: 
                                       <= both["difference_ci_high"]),
         "both_old_cover": bool(abs(both["estimate"] - target["log_odds"]) <= t_old * both["se"]),
         "both_df": float(both["df"]),
+        **extra,
     }
 
 
@@ -98,13 +129,15 @@ def main() -> None:
     ap.add_argument("--datasets", type=int, default=300)
     ap.add_argument("--seed", type=int, default=36000000)
     ap.add_argument("--out", type=Path, default=None, help="JSON file for the tallies")
+    ap.add_argument("--mixed", action="store_true",
+                    help="also the random-slope mixed model's rows (about 1.5 s more a dataset)")
     ns = ap.parse_args()
     n_a, n_b, slope_sd, halfmiss = SCENARIOS[ns.scenario]
     target = truth(null_cells(), slope_sd)
     start, cpu = time.time(), time.process_time()
     rows = []
     for i in range(ns.datasets):
-        rows.append(one(ns.seed + i, n_a, n_b, slope_sd, halfmiss, target))
+        rows.append(one(ns.seed + i, n_a, n_b, slope_sd, halfmiss, target, ns.mixed))
         if ns.out and (i + 1) % 25 == 0:        # a partial tally survives a stopped run
             ns.out.write_text(json.dumps(tally(rows, ns, start, cpu), indent=1))
     text = json.dumps(tally(rows, ns, start, cpu), indent=1)
@@ -120,13 +153,15 @@ def tally(rows: list, ns, start: float, cpu: float) -> dict:
     out = {"scenario": ns.scenario, "datasets": n, "n_a": n_a, "n_b": n_b, "slope_sd": slope_sd,
            "seed": ns.seed, "cpu_s": round(time.process_time() - cpu, 1),
            "wall_s": round(time.time() - start, 1)}
-    for key in rows[0]:
-        values = np.array([r[key] for r in rows], float)
-        if key.endswith("_df"):
+    for key in dict.fromkeys(k for r in rows for k in r):
+        values = np.array([r[key] for r in rows if key in r], float)
+        if key.endswith("_df") or key.endswith("_ratio_new_to_old"):
             out[key + "_median"] = float(np.median(values))
             continue
         p = float(values.mean())
-        out[key] = [round(p, 4), round(float(np.sqrt(p * (1 - p) / n)), 4)]
+        out[key] = [round(p, 4), round(float(np.sqrt(p * (1 - p) / len(values))), 4)]
+        if len(values) < n:
+            out[key].append(len(values))
     tested = [r for r in rows if r["omnibus_tested"]]
     if tested:
         out["omnibus_reject_when_tested"] = round(

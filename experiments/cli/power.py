@@ -198,6 +198,12 @@ def _compute(ns, effects, sizes, map_tasks) -> int:
     return _write(ns, [(basis, result)], source, sizes, progress)
 
 
+def grid_text(sizes) -> str:
+    """The sizes power was computed at: ``[15, (13, 17)]`` -> ``15 per group, 13 + 17``."""
+    return ", ".join(f"{s[0]} + {s[1]}" if isinstance(s, tuple) and s[0] != s[1]
+                     else f"{s[0] if isinstance(s, tuple) else s} per group" for s in sizes)
+
+
 def not_reached(sizes) -> str:
     """What the grid searched, when a power target was not reached on it.
 
@@ -250,6 +256,7 @@ def _write(ns, results, source, sizes, progress) -> int:
     plot_power(results[0][1], out / "power.png")
     folder.finish()
     progress(f"cells from {source}; wrote {out / 'power.csv'}, {out / 'power.png'}")
+    print(f"Grid searched: {grid_text(sizes)} ({ns.simulations} simulated cohorts per size)")
     for basis, result in results:
         sd = result.settings["participant_sd"]
         print(f"Conditional on participant SD = {sd:.3f} ({basis}):")

@@ -353,6 +353,10 @@ def test_cli_power_names_the_grid_it_searched(tmp_path, capsys):
     assert ("n per group for 80 % power, conditional on SD = 0.500: not reached on the grid "
             "searched (13 + 17 participants, group A + group B)") in out
     assert "Conditional on participant SD = 0.500 (default):" in out
+    # the grid is printed whether or not the target was reached
+    assert "Grid searched: 13 + 17 (4 simulated cohorts per size)" in out
+    from experiments.cli.power import grid_text
+    assert grid_text([10, (20, 20), (13, 17)]) == "10 per group, 20 per group, 13 + 17"
     assert not_reached([15, 30, 60]) == "not reached up to 60 per group (grid searched: 15, 30, 60)"
     assert not_reached([(20, 20), 10]) == ("not reached up to 20 per group (grid searched: "
                                           "20 + 20, 10)")
