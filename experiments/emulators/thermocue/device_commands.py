@@ -39,6 +39,33 @@ def _within(args: dict, key: str, default, lo: float, hi: float, none_ok: bool =
     return float(v)
 
 
+def sample_from_args(a: dict) -> PassiveSample:
+    """SIM_SAMPLE's arguments as the passive sample under the finger, checked (ValueError names
+    the bad field; an unknown material raises too): the one reading of them, for both cores."""
+    if not isinstance(a.get("material", ""), str):
+        raise ValueError("SIM_SAMPLE: material is a name")
+    sample = PassiveSample(a.get("material", "stainless_steel"),
+                           _within(a, "roughness_m", 1.6e-6, 1e-9, 1e-3),
+                           _within(a, "thickness_m", 3e-3, 1e-5, 0.1, none_ok=True),
+                           _within(a, "temperature_C", 20.0, 0.0, 60.0))
+    from stimuli import material
+    material(sample.material)                                  # unknown name -> error now
+    return sample
+
+
+def finger_from_args(a: dict) -> FingerScript:
+    """SIM_FINGER's arguments as a finger script, checked (ValueError): for both cores."""
+    bad = [k for k, v in a.items() if isinstance(v, bool) or not isinstance(v, (int, float))]
+    if bad:
+        raise ValueError(f"SIM_FINGER: {', '.join(map(str, bad))}: expected a number")
+    f = FingerScript(**{k: float(v) for k, v in a.items()})
+    if not (0.05 <= f.force_N <= 20 and 0 < f.hold_s <= SIM_MAX_S
+            and 0 <= f.press_after_s <= SIM_MAX_S
+            and 100e-6 <= f.skin_thickness_m <= 5e-3 and 25 <= f.skin_temperature_C <= 40):
+        raise ValueError(f"finger out of range: {a}")
+    return f
+
+
 class HostCommands:
     """Command handling of the emulated firmware (a mixin of :class:`~.device.Device`)."""
 
@@ -252,25 +279,10 @@ class HostCommands:
 
     def _sim(self, cmd, a):
         if cmd == Cmd.SIM_SAMPLE:
-            if not isinstance(a.get("material", ""), str):
-                raise ValueError("SIM_SAMPLE: material is a name")
-            sample = PassiveSample(a.get("material", "stainless_steel"),
-                                   _within(a, "roughness_m", 1.6e-6, 1e-9, 1e-3),
-                                   _within(a, "thickness_m", 3e-3, 1e-5, 0.1, none_ok=True),
-                                   _within(a, "temperature_C", 20.0, 0.0, 60.0))
-            from stimuli import material
-            material(sample.material)                              # unknown name -> error now
-            self.sample = sample
+            self.sample = sample_from_args(a)
             return dict(vars(self.sample))
         if cmd == Cmd.SIM_FINGER:
-            bad = [k for k, v in a.items() if isinstance(v, bool) or not isinstance(v, (int, float))]
-            if bad:
-                raise ValueError(f"SIM_FINGER: {', '.join(map(str, bad))}: expected a number")
-            f = FingerScript(**{k: float(v) for k, v in a.items()})
-            if not (0.05 <= f.force_N <= 20 and 0 < f.hold_s <= SIM_MAX_S
-                    and 0 <= f.press_after_s <= SIM_MAX_S
-                    and 100e-6 <= f.skin_thickness_m <= 5e-3 and 25 <= f.skin_temperature_C <= 40):
-                raise ValueError(f"finger out of range: {a}")
+            f = finger_from_args(a)
             # the finger waits for the cue: if armed but not ready, its clock starts at READY
             if not (self.state == State.ARMED and not self.ready):
                 f.start_us = self.time_us

@@ -30,7 +30,8 @@ import math
 from experiments.display.thermocue import messages as m
 from experiments.display.thermocue.framing import Frame, FrameParser, encode_frame
 from experiments.display.thermocue.messages import Cmd, Err, Event, State
-from .device_constants import SIM_MAX_S, TICK_US
+from .device_commands import finger_from_args, sample_from_args
+from .device_constants import TICK_US
 from .faults import parse_faults
 from .native_core import ARMED, READY, RECORD, RELAY, NativeCore
 from .pad_physics import (CONTACT_AREA_M2, FINGER_ON_PAD_MODEL, FingerScript, FingerSkin,
@@ -345,16 +346,8 @@ class NativeDevice:
 
     def _sim(self, mtype: int, a: dict, core_state: State, ready: bool) -> dict:
         if mtype == Cmd.SIM_SAMPLE:
-            if not isinstance(a.get("material", ""), str):
-                raise ValueError("SIM_SAMPLE: material is a name")
-            sample = PassiveSample(a.get("material", "stainless_steel"),
-                                   _within(a, "roughness_m", 1.6e-6, 1e-9, 1e-3),
-                                   _within(a, "thickness_m", 3e-3, 1e-5, 0.1, none_ok=True),
-                                   _within(a, "temperature_C", 20.0, 0.0, 60.0))
-            from stimuli import material
-            material(sample.material)                          # unknown name -> error now
-            self.sample = sample
-            return dict(vars(sample))
+            self.sample = sample_from_args(a)
+            return dict(vars(self.sample))
         if mtype == Cmd.SIM_FINGER:
             return self._sim_finger(a, core_state, ready)
         if mtype != Cmd.SIM_FAULT:
@@ -372,14 +365,7 @@ class NativeDevice:
         return dict(now_s=now, faults=len(specs))
 
     def _sim_finger(self, a: dict, core_state: State, ready: bool) -> dict:
-        bad = [k for k, v in a.items() if isinstance(v, bool) or not isinstance(v, (int, float))]
-        if bad:
-            raise ValueError(f"SIM_FINGER: {', '.join(map(str, bad))}: expected a number")
-        f = FingerScript(**{k: float(v) for k, v in a.items()})
-        if not (0.05 <= f.force_N <= 20 and 0 < f.hold_s <= SIM_MAX_S
-                and 0 <= f.press_after_s <= SIM_MAX_S
-                and 100e-6 <= f.skin_thickness_m <= 5e-3 and 25 <= f.skin_temperature_C <= 40):
-            raise ValueError(f"finger out of range: {a}")
+        f = finger_from_args(a)
         armed_waiting = core_state == State.ARMED and not ready
         if not armed_waiting:              # the finger waits for the cue (READY) when armed
             f.start_us = self.time_us
@@ -412,13 +398,3 @@ def _whole_frames(data: bytes) -> list:
         out.append(_tuple_new(Frame, (data[i + 4], data[i + 5], data[i + 7:i + 7 + ln])))
         i += 9 + ln
     return out
-
-
-def _within(args: dict, key: str, default, lo: float, hi: float, none_ok: bool = False):
-    v = args.get(key, default)
-    if v is None and none_ok:
-        return None
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
-        raise ValueError(f"{key}: expected a number in {lo:g}..{hi:g}, got {v!r}")
-    return float(v)
-
