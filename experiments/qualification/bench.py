@@ -74,13 +74,18 @@ class Bench:
     def scripted(self) -> bool:
         return bool(self.display.capabilities.scripted_bench)
 
+    def virtual_clock(self):
+        """The device's clock (a callable, s) when the display runs on a virtual clock (an
+        emulator whose time moves only while the host waits for bytes), else None."""
+        device_clock = getattr(getattr(self.display, "port", None), "device_clock", None)
+        return device_clock() if callable(device_clock) else None
+
     def pause(self, seconds: float) -> None:
         """Let ``seconds`` pass (device time on a virtual clock), keeping the link alive."""
         if self.has("wait"):
             self.display.wait(seconds)
             return
-        device_clock = getattr(getattr(self.display, "port", None), "device_clock", None)
-        now = device_clock() if callable(device_clock) else None
+        now = self.virtual_clock()
         if now is None:
             time.sleep(seconds)
             return

@@ -32,8 +32,7 @@ def check_clock(bench: Bench) -> CheckResult:
     #                                                it lacks one: not applicable, not run here)
     if scheme == "qemu-firmware":
         return _paused_clock(bench, name, title)
-    dev_clock = getattr(d.port, "device_clock", None)
-    if callable(dev_clock) and dev_clock() is not None:
+    if bench.virtual_clock() is not None:
         # an emulator on a virtual clock: the host counts in the device's own seconds
         t0 = d.heartbeat()
         bench.pause(0.5)
