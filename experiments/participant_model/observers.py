@@ -47,8 +47,7 @@ in the fast study simulation (:mod:`experiments.simulation.studies`, thousands o
 from __future__ import annotations
 
 import itertools
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

@@ -36,11 +36,9 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import math
 import threading
 
 import numpy as np
-import serial
 
 from experiments.errors import DisplayError, SafetyLimitError, UserInputError
 
