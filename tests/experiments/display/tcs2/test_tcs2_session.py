@@ -60,7 +60,11 @@ def test_a_whole_session_on_the_tcs2_emulator_analyses_and_exports(tcs2_pty, tmp
     # the only extra rows a busy machine may add.
     extra = [(r["status"], r["fault_code"]) for r in rows if r["status"] != "ok"]
     assert all(e in {("fault", "LINK_TIMEOUT"), ("fault", "HALF_LINE")} for e in extra), extra
-    assert len(extra) <= 3, extra
+    # how many depends on the machine's load, not on the design; what the design promises is
+    # that each faulted attempt was run again and a later attempt of that trial was the clean one
+    ok_attempt = {r["trial_index"]: int(r["attempt"]) for r in ok}
+    assert all(int(r["attempt"]) < ok_attempt[r["trial_index"]]
+               for r in rows if r["status"] != "ok"), extra
     assert all(int(r["frames"]) >= 100 and r["frames_lost"] == "0" for r in ok)
     assert all(float(r["tracking_max_C"]) < 1.0 for r in ok)
     # session.json names the device (its probe id) and its firmware version, the image id here
