@@ -416,7 +416,7 @@ def run_attack(attack: Attack, folder: Path, samples=(1, 2, 3)) -> dict:
                 servers.append(proc)
                 url = path
                 if attack.lie:
-                    from _device_proxy import FrameProxy
+                    from experiments.emulators.thermocue.frame_proxy import FrameProxy
                     proxy = FrameProxy(path, lie(attack.lie))
                     url = proxy.path
         lim = limits_of(proto)
