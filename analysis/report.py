@@ -89,66 +89,81 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         is its (denominator) degrees of freedom, empty for the normal.
     """
     rows = []
-    def from_contrast(role, r, p_holm=np.nan):
-        df = r["df"] if "df" in r and pd.notna(r["df"]) else gee.df
-        return {"role": role, "test": _contrast_test(r, df), "model": r["model"],
-                "compares": r["compares"],
-                "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
-                "ci_high": r["ci_high"], "interval": _interval_label(df),
-                "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
-                "df": df if df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
-                "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
-                "difference_ci_high": r["difference_high"], "basis": r["basis"],
-                "note": ("per-sample GEE of this sample's trials alone: the full model could not "
-                         "be fitted" if str(r["basis"]).startswith("per-sample") else "")}
     first = primary_test(contrasts)
     if first is not None:
-        rows.append(from_contrast("primary", first))
+        rows.append(_contrast_row("primary", first, gee.df))
     if gee.formula is not None:
-        omni = omnibus_group_test(gee, trials)
-        if omni["reason"]:
-            rows.append({"role": "omnibus", "test": omni["reason"], "model": "gee",
-                         "compares": omni["hypothesis"], "basis": f"model: {gee.formula}",
-                         "note": ""})
-        elif omni["df"]:
-            rows.append({"role": "omnibus", "test": f"Wald F({omni['df']}, "
-                         f"{df_text(omni['df_denominator'])}), {omni['method']}, from Wald "
-                         f"chi2 = {omni['chi2']:.3f}",
-                         "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
-                         "df": omni["df"], "p_value": omni["p_value"],
-                         "basis": f"model: {gee.formula}", "note": ""})
+        rows += _omnibus_rows(gee, trials)
     if not contrasts.empty:
         per = contrasts[(contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)]
         adjusted = holm(per["p_value"].to_numpy(float))
-        rows += [from_contrast("per-sample", r, a) for (_, r), a in zip(per.iterrows(), adjusted)]
+        rows += [_contrast_row("per-sample", r, gee.df, a)
+                 for (_, r), a in zip(per.iterrows(), adjusted)]
     for fit in (gee, glmm):
-        if fit is None or fit.formula is None:
-            continue
-        it = interaction_test(fit, trials, level=level)
-        if it["reason"]:
-            rows.append({"role": "interaction", "test": it["reason"], "model": fit.kind,
-                         "compares": it["compares"], "interval": "none (see test)",
-                         "basis": f"model: {fit.formula}", "note": ""})
-        elif np.isfinite(it["log_odds"]):
-            scale = ("population-averaged" if fit.kind == "gee"
-                     else "typical participant (u = 0)")
-            rows.append({"role": "interaction", "test": _t_label(it["df"]), "model": fit.kind,
-                         "compares": it["compares"] + f"; proportions {scale}",
-                         "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
-                         "ci_high": it["ci_high"],
-                         "interval": _interval_label(it["df"]) + (
-                             "; SE the larger of model-based and bias-reduced participant "
-                             "sandwich" if fit.cov_robust is not None else ""),
-                         "statistic": it["log_odds"] / it["se"],
-                         "df": it["df"] if it["df"] else np.nan, "p_value": it["p_value"],
-                         "difference": it["difference_of_differences"],
-                         "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
-                         "basis": f"model: {fit.formula}"
-                                  + (" + (1 + mode | participant)" if fit.kind == "glmm-slope"
-                                     else " + (1 | participant)" if fit.kind == "glmm" else ""),
-                         "note": mixed_note if fit.kind != "gee" else
-                                 "; ".join(fit.notes)})
+        if fit is not None and fit.formula is not None:
+            rows += _interaction_rows(fit, trials, level, mixed_note)
     return _withhold_lone_group_tests(pd.DataFrame(rows, columns=TESTS_COLUMNS), trials)
+
+
+def _contrast_row(role: str, r, model_df, p_holm=np.nan) -> dict:
+    """A primary or per-sample row of :func:`tests_table` from a contrast row ``r``; its df is
+    the contrast's own, else the model's (``model_df``)."""
+    df = r["df"] if "df" in r and pd.notna(r["df"]) else model_df
+    return {"role": role, "test": _contrast_test(r, df), "model": r["model"],
+            "compares": r["compares"],
+            "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
+            "ci_high": r["ci_high"], "interval": _interval_label(df),
+            "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
+            "df": df if df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
+            "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
+            "difference_ci_high": r["difference_high"], "basis": r["basis"],
+            "note": ("per-sample GEE of this sample's trials alone: the full model could not "
+                     "be fitted" if str(r["basis"]).startswith("per-sample") else "")}
+
+
+def _omnibus_rows(gee: ModelFit, trials: pd.DataFrame) -> list[dict]:
+    """The omnibus row of :func:`tests_table`: the test, or why it was not done (none without
+    a df)."""
+    omni = omnibus_group_test(gee, trials)
+    if omni["reason"]:
+        return [{"role": "omnibus", "test": omni["reason"], "model": "gee",
+                 "compares": omni["hypothesis"], "basis": f"model: {gee.formula}", "note": ""}]
+    if not omni["df"]:
+        return []
+    return [{"role": "omnibus", "test": f"Wald F({omni['df']}, "
+             f"{df_text(omni['df_denominator'])}), {omni['method']}, from Wald "
+             f"chi2 = {omni['chi2']:.3f}",
+             "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
+             "df": omni["df"], "p_value": omni["p_value"],
+             "basis": f"model: {gee.formula}", "note": ""}]
+
+
+def _interaction_rows(fit: ModelFit, trials, level, mixed_note: str) -> list[dict]:
+    """The mode x group interaction row of :func:`tests_table` from one fit (none when its
+    estimate is not finite)."""
+    it = interaction_test(fit, trials, level=level)
+    if it["reason"]:
+        return [{"role": "interaction", "test": it["reason"], "model": fit.kind,
+                 "compares": it["compares"], "interval": "none (see test)",
+                 "basis": f"model: {fit.formula}", "note": ""}]
+    if not np.isfinite(it["log_odds"]):
+        return []
+    scale = "population-averaged" if fit.kind == "gee" else "typical participant (u = 0)"
+    return [{"role": "interaction", "test": _t_label(it["df"]), "model": fit.kind,
+             "compares": it["compares"] + f"; proportions {scale}",
+             "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
+             "ci_high": it["ci_high"],
+             "interval": _interval_label(it["df"]) + (
+                 "; SE the larger of model-based and bias-reduced participant "
+                 "sandwich" if fit.cov_robust is not None else ""),
+             "statistic": it["log_odds"] / it["se"],
+             "df": it["df"] if it["df"] else np.nan, "p_value": it["p_value"],
+             "difference": it["difference_of_differences"],
+             "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
+             "basis": f"model: {fit.formula}"
+                      + (" + (1 + mode | participant)" if fit.kind == "glmm-slope"
+                         else " + (1 | participant)" if fit.kind == "glmm" else ""),
+             "note": mixed_note if fit.kind != "gee" else "; ".join(fit.notes)}]
 
 
 #: Rows of :func:`tests_table` that compare group A with group B.
