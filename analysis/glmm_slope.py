@@ -44,8 +44,8 @@ import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
-from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, ml_wald, profile_cut, profile_upper,
-                   wald_table)
+from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, logsumexp_rows, ml_wald,
+                   profile_cut, profile_upper, wald_table)
 from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
                      reference_df, reference_quantile)
 
@@ -121,7 +121,7 @@ def _inner(x_eta, z, person, m, k, n, lam, n_agq, b0=None, onehot=None):
     ll = onehot @ ll_rows
     log_terms = ll - 0.5 * np.sum(nodes ** 2, axis=2) + extra[None, :]
     log_det_l = np.log(chol[:, 0, 0]) + np.log(chol[:, 1, 1])
-    norm = special.logsumexp(log_terms, axis=1, keepdims=True)
+    norm = logsumexp_rows(log_terms)
     log_int = norm[:, 0] + np.log(2.0) - log_det_l - np.log(2 * np.pi)
     post = np.exp(log_terms - norm)
     return log_int, nodes, eta_q, post, b

@@ -60,6 +60,15 @@ def _schedule(path: Path) -> list[dict] | None:
             and str(e.get("block")) not in unscored and e.get("mode") != "familiarise"]
 
 
+def _groups(table: pd.DataFrame, keys: list) -> dict:
+    """``table``'s rows per value of ``keys`` (tuple keys), each in ``table``'s order: the same
+    rows a boolean selection per key gives, split once instead of once per session."""
+    if table.empty:
+        return {}
+    return {(k if isinstance(k, tuple) else (k,)): part
+            for k, part in table.groupby(keys, sort=False, observed=True, dropna=False)}
+
+
 def _reason(last: pd.Series | None) -> tuple[str, str]:
     if last is None:
         return "session_ended", "no attempt logged"
@@ -99,10 +108,11 @@ def missing_trials(trials: pd.DataFrame, sessions: pd.DataFrame) -> pd.DataFrame
         attempts, reason, detail``.
     """
     rows = []
+    by_session = _groups(trials, ["participant", "session"])
     for s in sessions.itertuples():
         if getattr(s, "skipped", "") or not getattr(s, "analysed", True):
             continue
-        mine = trials[(trials["participant"] == s.participant) & (trials["session"] == s.session)]
+        mine = by_session.get((s.participant, s.session), trials.iloc[:0])
         scheduled = _schedule(Path(s.path))
         if scheduled is None:
             logged = mine[~mine["familiarisation"]].drop_duplicates("trial_index")
@@ -142,20 +152,21 @@ def missing_summary(trials: pd.DataFrame, sessions: pd.DataFrame,
     keep = sessions.get("skipped", "") == ""
     if "analysed" in sessions:
         keep = keep & sessions["analysed"].astype(bool)
+    by_person, gone_by_person = _groups(trials, ["participant"]), _groups(missing, ["participant"])
     for participant, sel in sessions[keep].groupby("participant"):
         scheduled, sources = 0, set()
+        theirs = by_person.get((participant,), trials.iloc[:0])
         for s in sel.itertuples():
             entries = _schedule(Path(s.path))
             if entries is None:
-                mine = trials[(trials["participant"] == participant) & (trials["session"] == s.session)]
+                mine = theirs[theirs["session"] == s.session]
                 scheduled += mine.loc[~mine["familiarisation"], "trial_index"].nunique()
                 sources.add("logged trials")
             else:
                 scheduled += len(entries)
                 sources.add("session.json")
-        gone = missing[missing["participant"] == participant]
-        mine = trials[(trials["participant"] == participant)
-                      & trials["session"].isin(set(sel["session"])) & ~trials["familiarisation"]]
+        gone = gone_by_person.get((participant,), missing.iloc[:0])
+        mine = theirs[theirs["session"].isin(set(sel["session"])) & ~theirs["familiarisation"]]
         ok = mine[mine["status"].astype(str) == "ok"]
         analysed = int(mine.loc[mine["included"], "trial_index"].nunique())
         row = {"participant": participant, "group": sel["group"].iloc[0], "sessions": len(sel),

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 import warnings
 from pathlib import Path
 from typing import Callable
@@ -88,66 +89,81 @@ def tests_table(gee: ModelFit, glmm: ModelFit | None, contrasts: pd.DataFrame,
         is its (denominator) degrees of freedom, empty for the normal.
     """
     rows = []
-    def from_contrast(role, r, p_holm=np.nan):
-        df = r["df"] if "df" in r and pd.notna(r["df"]) else gee.df
-        return {"role": role, "test": _contrast_test(r, df), "model": r["model"],
-                "compares": r["compares"],
-                "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
-                "ci_high": r["ci_high"], "interval": _interval_label(df),
-                "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
-                "df": df if df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
-                "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
-                "difference_ci_high": r["difference_high"], "basis": r["basis"],
-                "note": ("per-sample GEE of this sample's trials alone: the full model could not "
-                         "be fitted" if str(r["basis"]).startswith("per-sample") else "")}
     first = primary_test(contrasts)
     if first is not None:
-        rows.append(from_contrast("primary", first))
+        rows.append(_contrast_row("primary", first, gee.df))
     if gee.formula is not None:
-        omni = omnibus_group_test(gee, trials)
-        if omni["reason"]:
-            rows.append({"role": "omnibus", "test": omni["reason"], "model": "gee",
-                         "compares": omni["hypothesis"], "basis": f"model: {gee.formula}",
-                         "note": ""})
-        elif omni["df"]:
-            rows.append({"role": "omnibus", "test": f"Wald F({omni['df']}, "
-                         f"{df_text(omni['df_denominator'])}), {omni['method']}, from Wald "
-                         f"chi2 = {omni['chi2']:.3f}",
-                         "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
-                         "df": omni["df"], "p_value": omni["p_value"],
-                         "basis": f"model: {gee.formula}", "note": ""})
+        rows += _omnibus_rows(gee, trials)
     if not contrasts.empty:
         per = contrasts[(contrasts["model"] == "gee") & (contrasts["roughness_id"] > 0)]
         adjusted = holm(per["p_value"].to_numpy(float))
-        rows += [from_contrast("per-sample", r, a) for (_, r), a in zip(per.iterrows(), adjusted)]
+        rows += [_contrast_row("per-sample", r, gee.df, a)
+                 for (_, r), a in zip(per.iterrows(), adjusted)]
     for fit in (gee, glmm):
-        if fit is None or fit.formula is None:
-            continue
-        it = interaction_test(fit, trials, level=level)
-        if it["reason"]:
-            rows.append({"role": "interaction", "test": it["reason"], "model": fit.kind,
-                         "compares": it["compares"], "interval": "none (see test)",
-                         "basis": f"model: {fit.formula}", "note": ""})
-        elif np.isfinite(it["log_odds"]):
-            scale = ("population-averaged" if fit.kind == "gee"
-                     else "typical participant (u = 0)")
-            rows.append({"role": "interaction", "test": _t_label(it["df"]), "model": fit.kind,
-                         "compares": it["compares"] + f"; proportions {scale}",
-                         "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
-                         "ci_high": it["ci_high"],
-                         "interval": _interval_label(it["df"]) + (
-                             "; SE the larger of model-based and bias-reduced participant "
-                             "sandwich" if fit.cov_robust is not None else ""),
-                         "statistic": it["log_odds"] / it["se"],
-                         "df": it["df"] if it["df"] else np.nan, "p_value": it["p_value"],
-                         "difference": it["difference_of_differences"],
-                         "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
-                         "basis": f"model: {fit.formula}"
-                                  + (" + (1 + mode | participant)" if fit.kind == "glmm-slope"
-                                     else " + (1 | participant)" if fit.kind == "glmm" else ""),
-                         "note": mixed_note if fit.kind != "gee" else
-                                 "; ".join(fit.notes)})
+        if fit is not None and fit.formula is not None:
+            rows += _interaction_rows(fit, trials, level, mixed_note)
     return _withhold_lone_group_tests(pd.DataFrame(rows, columns=TESTS_COLUMNS), trials)
+
+
+def _contrast_row(role: str, r, model_df, p_holm=np.nan) -> dict:
+    """A primary or per-sample row of :func:`tests_table` from a contrast row ``r``; its df is
+    the contrast's own, else the model's (``model_df``)."""
+    df = r["df"] if "df" in r and pd.notna(r["df"]) else model_df
+    return {"role": role, "test": _contrast_test(r, df), "model": r["model"],
+            "compares": r["compares"],
+            "estimate": r["log_odds_ratio_A_vs_B"], "se": r["se"], "ci_low": r["ci_low"],
+            "ci_high": r["ci_high"], "interval": _interval_label(df),
+            "statistic": r["log_odds_ratio_A_vs_B"] / r["se"] if r["se"] else np.nan,
+            "df": df if df else np.nan, "p_value": r["p_value"], "p_holm": p_holm,
+            "difference": r["difference_A_minus_B"], "difference_ci_low": r["difference_low"],
+            "difference_ci_high": r["difference_high"], "basis": r["basis"],
+            "note": ("per-sample GEE of this sample's trials alone: the full model could not "
+                     "be fitted" if str(r["basis"]).startswith("per-sample") else "")}
+
+
+def _omnibus_rows(gee: ModelFit, trials: pd.DataFrame) -> list[dict]:
+    """The omnibus row of :func:`tests_table`: the test, or why it was not done (none without
+    a df)."""
+    omni = omnibus_group_test(gee, trials)
+    if omni["reason"]:
+        return [{"role": "omnibus", "test": omni["reason"], "model": "gee",
+                 "compares": omni["hypothesis"], "basis": f"model: {gee.formula}", "note": ""}]
+    if not omni["df"]:
+        return []
+    return [{"role": "omnibus", "test": f"Wald F({omni['df']}, "
+             f"{df_text(omni['df_denominator'])}), {omni['method']}, from Wald "
+             f"chi2 = {omni['chi2']:.3f}",
+             "model": "gee", "compares": omni["hypothesis"], "statistic": omni["f"],
+             "df": omni["df"], "p_value": omni["p_value"],
+             "basis": f"model: {gee.formula}", "note": ""}]
+
+
+def _interaction_rows(fit: ModelFit, trials, level, mixed_note: str) -> list[dict]:
+    """The mode x group interaction row of :func:`tests_table` from one fit (none when its
+    estimate is not finite)."""
+    it = interaction_test(fit, trials, level=level)
+    if it["reason"]:
+        return [{"role": "interaction", "test": it["reason"], "model": fit.kind,
+                 "compares": it["compares"], "interval": "none (see test)",
+                 "basis": f"model: {fit.formula}", "note": ""}]
+    if not np.isfinite(it["log_odds"]):
+        return []
+    scale = "population-averaged" if fit.kind == "gee" else "typical participant (u = 0)"
+    return [{"role": "interaction", "test": _t_label(it["df"]), "model": fit.kind,
+             "compares": it["compares"] + f"; proportions {scale}",
+             "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
+             "ci_high": it["ci_high"],
+             "interval": _interval_label(it["df"]) + (
+                 "; SE the larger of model-based and bias-reduced participant "
+                 "sandwich" if fit.cov_robust is not None else ""),
+             "statistic": it["log_odds"] / it["se"],
+             "df": it["df"] if it["df"] else np.nan, "p_value": it["p_value"],
+             "difference": it["difference_of_differences"],
+             "difference_ci_low": it["dd_low"], "difference_ci_high": it["dd_high"],
+             "basis": f"model: {fit.formula}"
+                      + (" + (1 + mode | participant)" if fit.kind == "glmm-slope"
+                         else " + (1 | participant)" if fit.kind == "glmm" else ""),
+             "note": mixed_note if fit.kind != "gee" else "; ".join(fit.notes)}]
 
 
 #: Rows of :func:`tests_table` that compare group A with group B.
@@ -296,6 +312,69 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     say = progress or (lambda message: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    log, trials, margin_pp, margin_source = _load(data_dir, sessions, condition,
+                                                  equivalence_margin_pp, say)
+    say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable trials; "
+        f"proportions with {n_boot} bootstrap resamples")
+    proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
+    participants = participant_summary(trials)
+    confusion = confusion_matrices(trials)
+    fits = _fit_models(trials, level=level, seed=seed, mixed=mixed, bayes=bayes, say=say)
+    contrasts = _contrasts(fits, trials, level)
+    say("tests: primary, omnibus, Holm, interaction, real vs simulated, chance; missing data; "
+        "psychophysics")
+    choice = choose_mixed(fits.glmm if mixed else None, fits.slope if mixed else None)
+    tests = tests_table(fits.gee, choice.contrasts, contrasts, trials, level, choice.reason)
+    missing_rows = missing_trials(log.trials, log.sessions)
+    missing = missing_summary(log.trials, log.sessions, missing_rows)
+    sensitivity = complete_cases_row(trials, missing, level)
+    if sensitivity is not None:
+        tests = pd.concat([tests, pd.DataFrame([sensitivity], columns=TESTS_COLUMNS)],
+                          ignore_index=True)
+    fidelity = _fidelity(fits.gee, choice, trials, margin_pp, level)
+    _holm_per_model(contrasts)
+    chance = chance_tests(trials, level=level)
+    extras = _extras(trials, log, level)
+    summary = plain_summary(log, proportions, confusion, fits.gee, fits.bayes, contrasts,
+                            fits.glmm, tests,
+                            fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
+                            choice=choice)
+    say(f"writing figures and tables to {out}")
+    if before_write is not None:
+        before_write()
+    tables = {"proportions": proportions, "participants": participants, "confusion": confusion,
+              "gee": fits.gee.table, "glmm": fits.glmm.table, "glmm_slope": fits.slope.table,
+              "contrasts": contrasts, "tests": tests, "fidelity": fidelity, "chance": chance,
+              "missing": missing, "missing_trials": missing_rows, **extras}
+    files, book = _write_outputs(out, log, trials, proportions, confusion, tables, fits, bayes)
+    files["settings"] = out / "settings.json"
+    _write_text(files["settings"], json.dumps(_settings(
+        data_dir, out, n_boot, level, seed, mixed, bayes, fits, choice, margin_pp,
+        margin_source, book), indent=2))
+    result = AnalysisResult(log=log, proportions=proportions, participants=participants,
+                            confusion=confusion, gee=fits.gee, bayes=fits.bayes,
+                            contrasts=contrasts, summary=summary, files=files, glmm=fits.glmm,
+                            tests=tests, chance=chance, missing=missing, extras=extras,
+                            glmm_slope=fits.slope, fidelity=fidelity,
+                            equivalence_margin_pp=margin_pp,
+                            equivalence_margin_source=margin_source, mixed_choice=choice)
+    files["report"] = out / "report.md"
+    _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
+    return result
+
+
+@dataclass
+class _Fits:
+    """The four model fits of one analysis (a model not requested: an empty ``ModelFit``)."""
+
+    gee: ModelFit
+    glmm: ModelFit
+    slope: ModelFit
+    bayes: ModelFit
+
+
+def _load(data_dir, sessions, condition, margin_pp, say):
+    """Step 1: the trials (refusing an empty analysis) and the equivalence margin."""
     say(f"loading sessions under {data_dir}")
     log = load_trials(data_dir, sessions=sessions, condition=condition)
     trials = log.analysable
@@ -303,12 +382,12 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "
                        f"got none of {len(log.trials)} rows")
     analysed_folders = log.sessions.loc[log.sessions["analysed"], "path"]
-    margin_pp, margin_source = equivalence_margin(analysed_folders, equivalence_margin_pp)
-    say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable trials; "
-        f"proportions with {n_boot} bootstrap resamples")
-    proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
-    participants = participant_summary(trials)
-    confusion = confusion_matrices(trials)
+    margin_pp, margin_source = equivalence_margin(analysed_folders, margin_pp)
+    return log, trials, margin_pp, margin_source
+
+
+def _fit_models(trials, *, level, seed, mixed, bayes, say) -> _Fits:
+    """Step 2: each model fitted once (the later steps reuse these fits)."""
     say("fitting the GEE (bias-reduced covariance)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")       # fallbacks are recorded in the notes
@@ -330,8 +409,14 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         else:
             bfit = ModelFit(kind="bayes", formula=None, requested=FORMULA, table=pd.DataFrame(),
                             notes=[])
-    contrasts = group_contrasts(gee, trials, level=level)
-    for fit, label in ((glmm, "glmm"), (bfit, "bayes-vb (mean-field: intervals too narrow)")):
+    return _Fits(gee=gee, glmm=glmm, slope=slope, bayes=bfit)
+
+
+def _contrasts(fits: _Fits, trials, level) -> pd.DataFrame:
+    """Step 3: the A - B contrasts per cell from the GEE, then the mixed and Bayesian fits."""
+    contrasts = group_contrasts(fits.gee, trials, level=level)
+    for fit, label in ((fits.glmm, "glmm"),
+                       (fits.bayes, "bayes-vb (mean-field: intervals too narrow)")):
         if fit.formula is None:
             continue
         extra = group_contrasts(fit, trials, level=level)
@@ -340,70 +425,66 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             extra["p_value"] = np.nan
         contrasts = pd.concat([contrasts, extra], ignore_index=True) if not contrasts.empty \
             else extra
-    say("tests: primary, omnibus, Holm, interaction, real vs simulated, chance; missing data; "
-        "psychophysics")
-    choice = choose_mixed(glmm if mixed else None, slope if mixed else None)
-    tests = tests_table(gee, choice.contrasts, contrasts, trials, level, choice.reason)
-    missing_rows = missing_trials(log.trials, log.sessions)
-    missing = missing_summary(log.trials, log.sessions, missing_rows)
-    sensitivity = complete_cases_row(trials, missing, level)
-    if sensitivity is not None:
-        tests = pd.concat([tests, pd.DataFrame([sensitivity], columns=TESTS_COLUMNS)],
-                          ignore_index=True)
+    return contrasts
+
+
+def _fidelity(gee, choice, trials, margin_pp, level) -> pd.DataFrame:
+    """Step 4: real vs simulated from the GEE, then from the chosen mixed model."""
     fidelity = mode_contrasts(gee, trials, margin_pp=margin_pp, level=level)
     if choice.contrasts is not None:
         more = mode_contrasts(choice.contrasts, trials, margin_pp=margin_pp, level=level)
         more["note"] = choice.reason
         fidelity = pd.concat([fidelity, more], ignore_index=True)
-    if not contrasts.empty:
-        contrasts["p_holm"] = np.nan
-        for model in contrasts["model"].unique():
-            sel = (contrasts["model"] == model) & (contrasts["roughness_id"] > 0)
-            if model.startswith("bayes"):
-                continue
-            contrasts.loc[sel, "p_holm"] = holm(contrasts.loc[sel, "p_value"].to_numpy(float))
-    chance = chance_tests(trials, level=level)
+    return fidelity
+
+
+def _holm_per_model(contrasts: pd.DataFrame) -> None:
+    """Step 5: Holm over each model's per-sample contrasts (``p_holm``, in place; none for the
+    variational Bayes rows, which carry no p-value)."""
+    if contrasts.empty:
+        return
+    contrasts["p_holm"] = np.nan
+    for model in contrasts["model"].unique():
+        sel = (contrasts["model"] == model) & (contrasts["roughness_id"] > 0)
+        if model.startswith("bayes"):
+            continue
+        contrasts.loc[sel, "p_holm"] = holm(contrasts.loc[sel, "p_value"].to_numpy(float))
+
+
+def _extras(trials, log: TrialLog, level) -> dict:
+    """Step 6: the psychophysical tables (agreement, Hu, ordinal, covariates, RT, force) and the
+    sessions' model decisions."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         per_person = participant_agreement(trials)
-        extras = {"agreement": agreement_table(trials), "hu": hu_table(trials),
-                  "agreement_participants": per_person,
-                  "agreement_comparison": agreement_comparison(per_person, level=level),
-                  "ordinal": ordinal_table(trials, level=level),
-                  "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
-                  "force": force_table(trials),
-                  "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],
-                                                                      "path"])}
-    summary = plain_summary(log, proportions, confusion, gee, bfit, contrasts, glmm, tests,
-                            fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
-                            choice=choice)
-    say(f"writing figures and tables to {out}")
-    if before_write is not None:
-        before_write()
-    files = {
-        "figure9": plot_figure9(proportions, out / "figure9.png"),
-        "confusion_png": plot_confusion(confusion, out / "confusion.png"),
-        "proportions": _write_csv(proportions, out / "proportions.csv"),
-        "participants": _write_csv(participants, out / "participants.csv"),
-        "confusion": _write_csv(confusion, out / "confusion.csv"),
-        "gee": _write_csv(gee.table, out / "gee.csv"),
-        "glmm": _write_csv(glmm.table, out / "glmm.csv"),
-        "glmm_slope": _write_csv(slope.table, out / "glmm_slope.csv"),
-        "contrasts": _write_csv(contrasts, out / "contrasts.csv"),
-        "tests": _write_csv(tests, out / "tests.csv"),
-        "fidelity": _write_csv(fidelity, out / "fidelity.csv"),
-        "chance": _write_csv(chance, out / "chance.csv"),
-        "missing": _write_csv(missing, out / "missing.csv"),
-        "missing_trials": _write_csv(missing_rows, out / "missing_trials.csv"),
-        **{name: _write_csv(table, out / f"{name}.csv") for name, table in extras.items()},
+        return {"agreement": agreement_table(trials), "hu": hu_table(trials),
+                "agreement_participants": per_person,
+                "agreement_comparison": agreement_comparison(per_person, level=level),
+                "ordinal": ordinal_table(trials, level=level),
+                "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
+                "force": force_table(trials),
+                "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],
+                                                                    "path"])}
+
+
+def _write_outputs(out: Path, log: TrialLog, trials, proportions, confusion, tables: dict,
+                   fits: _Fits, bayes: bool) -> tuple[dict, dict]:
+    """Step 7: the figures, every CSV (``tables`` by name, then the exports), the convergence
+    details and the codebook; returns the files written, by name, and the codebook."""
+    files = {"figure9": plot_figure9(proportions, out / "figure9.png"),
+             "confusion_png": plot_confusion(confusion, out / "confusion.png")}
+    for name, table in tables.items():
+        files[name] = _write_csv(table, out / f"{name}.csv")
+    files.update({
         "wide": _write_csv(wide_table(trials), out / "wide.csv"),
         "cell_counts": _write_csv(cell_counts(trials), out / "cell_counts.csv"),
         "exclusions": _write_csv(log.exclusion_counts(), out / "exclusions.csv"),
         "sessions": _write_csv(log.sessions, out / "sessions.csv"),
         "trials": _write_csv(log.trials, out / "all_trials.csv"),
-    }
+    })
     if bayes:
-        files["bayes"] = _write_csv(bfit.table, out / "bayes.csv")
+        files["bayes"] = _write_csv(fits.bayes.table, out / "bayes.csv")
+    glmm, slope = fits.glmm, fits.slope
     if glmm.formula is not None:
         files["glmm_convergence"] = out / "glmm_convergence.json"
         _write_text(files["glmm_convergence"], json.dumps(
@@ -413,24 +494,20 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     book = codebook(files)
     files["codebook"] = out / "codebook.json"
     _write_text(files["codebook"], json.dumps(book, indent=2, ensure_ascii=False))
-    files["settings"] = out / "settings.json"
-    _write_text(files["settings"], json.dumps(run_settings(
+    return files, book
+
+
+def _settings(data_dir, out: Path, n_boot, level, seed, mixed, bayes, fits: _Fits, choice,
+              margin_pp, margin_source, book) -> dict:
+    """Step 8: what ``settings.json`` records of this run."""
+    return run_settings(
         data_dir=str(data_dir), out_dir=str(out), n_boot=n_boot, level=level, seed=seed,
-        mixed=mixed, bayes=bayes, gee_formula=gee.formula, glmm_formula=glmm.formula,
-        requested_formula=FORMULA, glmm_method=(glmm.convergence or {}).get("method"),
+        mixed=mixed, bayes=bayes, gee_formula=fits.gee.formula, glmm_formula=fits.glmm.formula,
+        requested_formula=FORMULA, glmm_method=(fits.glmm.convergence or {}).get("method"),
         primary_test="GEE Wald t(participants - 2) of the A-B log odds ratio averaged over samples, real mode",
         multiplicity="Holm over the per-sample A-B tests (both modes); Holm over the 8 "
                      "per-sample real - simulated tests",
         equivalence_margin_pp=margin_pp, equivalence_margin_source=margin_source,
         mixed_model_for_mode_contrasts=(choice.contrasts.kind if choice.contrasts is not None
                                         else None),
-        undocumented_columns=check_codebook(book)), indent=2))
-    result = AnalysisResult(log=log, proportions=proportions, participants=participants,
-                            confusion=confusion, gee=gee, bayes=bfit, contrasts=contrasts,
-                            summary=summary, files=files, glmm=glmm, tests=tests, chance=chance,
-                            missing=missing, extras=extras, glmm_slope=slope, fidelity=fidelity,
-                            equivalence_margin_pp=margin_pp,
-                            equivalence_margin_source=margin_source, mixed_choice=choice)
-    files["report"] = out / "report.md"
-    _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
-    return result
+        undocumented_columns=check_codebook(book))

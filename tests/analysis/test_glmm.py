@@ -157,3 +157,25 @@ def test_random_mode_slope_agrees_with_lme4_laplace(tmp_path):
                                .to_numpy(float), lme4[1], atol=3e-3)
     sd = fit.table.set_index("term")["log_odds"]
     assert sd["sd_mode_slope"] > 0.5 and abs(sd["corr_intercept_slope"]) < 1
+
+
+def test_row_logsumexp_is_scipys_to_the_bit():
+    """The quadrature's own logsumexp (SciPy's arithmetic without its array-API overhead) gives
+    SciPy's bits: on quadrature-like rows, with tied maxima, an all-equal row, a -inf term, and
+    rows whose result is not finite (handed to SciPy)."""
+    from scipy import special
+
+    from analysis.glmm import logsumexp_rows
+    rng = np.random.default_rng(3)
+    a = rng.normal(-40.0, 15.0, (200, 25))
+    a[0, 3] = a[0, 7] = a[0].max() + 1.0          # two tied maxima
+    a[1] = -3.25                                  # every term tied
+    a[2, 5] = -np.inf                             # one term adds nothing
+    a[3] = -np.inf                                # log of zero
+    a[4, 0] = np.inf
+    a[5, 1] = np.nan
+    got = logsumexp_rows(a)
+    want = special.logsumexp(a, axis=1, keepdims=True)
+    assert got.shape == (200, 1)
+    np.testing.assert_array_equal(got, want)      # bit for bit, NaN and inf included
+    assert np.count_nonzero(got[6:] != want[6:]) == 0 and np.all(np.isfinite(got[6:]))
