@@ -251,14 +251,18 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     Returns None without a study with both groups; else ``row`` (a sensitivity row),
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
-    from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
+    from experiments.simulation.depth_fit import confusion_from_trials, depth_pool_jobs, fit_depth
     from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
     analysis = study.get("analysis")
     trials = None if analysis is None else analysis.log.analysable
     if trials is None or trials.empty or trials["group"].nunique() < 2:
         return None
     counts = confusion_from_trials(trials, "real")
-    fit = fit_depth(counts, n_studies=20, seed=seed)
+    # the grid's seven person pools on the cluster's workers (built here, one after the other,
+    # they were about a third of this step, with the workers idle)
+    grid_pools = (sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
+                  if sweep is not None else None)
+    fit = fit_depth(counts, n_studies=20, seed=seed, pools=grid_pools)
     # the estimate and the ends of its interval: the claims' probabilities across the depths
     # the study's answers allow (their best noise each)
     settings, jobs = {}, []
