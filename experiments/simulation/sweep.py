@@ -33,7 +33,7 @@ STUDIES_PER_TASK = 100
 #: glibc malloc settings of the LocalCluster's worker processes (set before each starts).
 #: dask's default trims the heap back to the OS above 64 KiB, and glibc maps every array over
 #: 128 KiB afresh: a simulated study's arrays (a few MiB) were then mapped, faulted in page by
-#: page and unmapped on every use, which doubled a study's CPU time (half of it in the kernel).
+#: page and unmapped on every use, which doubled a study's CPU time (a third of it in the kernel).
 #: Arrays up to 16 MiB now come from the heap, which keeps up to 64 MiB free per worker.
 #: Only where memory comes from changes, never a number.
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 16 * 2**20, "MALLOC_TRIM_THRESHOLD_": 64 * 2**20}
