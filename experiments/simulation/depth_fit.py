@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["DEPTH_SHARES", "NOISES_C", "answer_probabilities", "confusion_from_trials",
+           "depth_pool_jobs",
            "fit_depth", "DepthFit"]
 
 #: Depth shares of the grid (receptor depth / L).
@@ -89,16 +90,29 @@ class DepthFit:
                     and self.interval[1] == self.profile.index.max())
 
 
+def depth_pool_jobs(depth_shares=DEPTH_SHARES, seed: int = 0) -> list:
+    """``(protocol, build_pool keyword arguments)`` of the pool of each depth share
+    (:func:`experiments.simulation.figure9.scenarios.build_pool_task`'s arguments: a sweep
+    builds them side by side)."""
+    return [("roughness_recognition", {"hypotheses": ("slab",), "seed": seed,
+                                       "dermis_fraction": (1.0 - float(d), 1.0 - float(d))})
+            for d in depth_shares]
+
+
 def fit_depth(counts, depth_shares=DEPTH_SHARES, noises=NOISES_C, *, n_studies: int = 40,
-              seed: int = 0) -> DepthFit:
-    """Profile likelihood of the receptor depth from real-block answer counts (2, C, C)."""
+              seed: int = 0, pools: list | None = None) -> DepthFit:
+    """Profile likelihood of the receptor depth from real-block answer counts (2, C, C).
+
+    ``pools``: the person pools of :func:`depth_pool_jobs` (same order), already built;
+    default: built here, one after the other.
+    """
     counts = np.asarray(counts, dtype=float)
     tasks = [(d, n) for d in depth_shares for n in noises]
-    pools = {}
-    from experiments.simulation.studies import build_pool
-    for d in depth_shares:
-        frac = 1.0 - float(d)
-        pools[d] = build_pool(hypotheses=("slab",), dermis_fraction=(frac, frac), seed=seed)
+    if pools is None:
+        from experiments.simulation.studies import build_pool
+        pools = [build_pool(protocol, **kw)
+                 for protocol, kw in depth_pool_jobs(depth_shares, seed)]
+    pools = dict(zip(depth_shares, pools))
     probs = [answer_probabilities(d, n, n_studies=n_studies, seed=seed, pool=pools[d])
              for d, n in tasks]
     rows = [{"depth_share": d, "noise_C": n, "loglik": float(np.sum(counts * np.log(p)))}

@@ -430,8 +430,9 @@ def _force_weights(force):
     grid = np.asarray(FORCE_GRID_N, float)
     i0, i1, w = _grid_weights(force, grid)
     out = np.zeros(force.shape + (grid.size,))
-    k = np.arange(grid.size)
-    out += (k == i0[..., None]) * (1 - w)[..., None] + (k == i1[..., None]) * w[..., None]
+    # i1 = i0 + 1; on a one-point grid i1 = i0 and w = 0, so the weight 1 is written last
+    np.put_along_axis(out, i1[..., None], w[..., None], axis=-1)
+    np.put_along_axis(out, i0[..., None], (1 - w)[..., None], axis=-1)
     return out
 
 

@@ -91,9 +91,10 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     from experiments.responders import get_responder
     from experiments.participant_model.cohort import paper_cohort
     from experiments.simulation.figure9.precision import study_table
+    from experiments.simulation.depth_fit import depth_pool_jobs
     from experiments.simulation.figure9.scenarios import (SENSITIVITY_CHOICES, mark_differences,
-                                                          best_scenario, evaluate_scenarios,
-                                                          sensitivity)
+                                                          best_scenario, build_pool_task,
+                                                          evaluate_scenarios, sensitivity)
     from experiments.simulation.figure9.study import _positive_int, run_figure9_study
     from experiments.participant_model.observers import OBSERVERS
     from experiments.simulation.replay import REPLAY_HYPOTHESES, replay_hypothesis
@@ -154,11 +155,15 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                            if (keys["hypothesis"], keys["observer"]) == headline)
         seconds["scenarios_s"] = time.perf_counter() - t0
         t1 = time.perf_counter()
-        sens, study, seconds["study_s"] = _beside(
-            lambda: sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                                variability=lab, default_run=default_run,
-                                max_studies=min(max_studies,
-                                                max(SENSITIVITY_MAX_STUDIES, n_studies))),
+        (sens, grid_pools), study, seconds["study_s"] = _beside(
+            lambda: (sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
+                                 variability=lab, default_run=default_run,
+                                 max_studies=min(max_studies,
+                                                 max(SENSITIVITY_MAX_STUDIES, n_studies))),
+                     # the depth fit's grid pools need no answers: built once the rows are
+                     # done, while this process analyses the sessions (a fit needs both groups)
+                     sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
+                     if participants is None or participants >= 2 else None),
             lambda: run_figure9_study(out_dir, seed=seed, workers=workers,
                                       participants=participants, replay=headline[0],
                                       target_side=target_side, rate_limit=rate_limit,
@@ -176,7 +181,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                  len(sens), seconds["sensitivity_and_study_s"], sweep.n_workers, *headline)
         t2 = time.perf_counter()
         depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab,
-                                  min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)))
+                                  min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)),
+                                  grid_pools)
         if depth is not None:
             runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
             sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
@@ -245,20 +251,27 @@ def _group_pool(group, hypotheses, seed):
     return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
 
 
-def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None):
+def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None,
+                      grid_pools=None):
     """Fit the receptor depth to the emulated study's real block; the headline at that depth.
 
+    ``grid_pools``: the fit's grid pools (:func:`..depth_fit.depth_pool_jobs`), already built;
+    default: built now (on ``sweep``'s workers when given).
     Returns None without a study with both groups; else ``row`` (a sensitivity row),
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
-    from experiments.simulation.depth_fit import DEPTH_SHARES, confusion_from_trials, fit_depth
+    from experiments.simulation.depth_fit import confusion_from_trials, depth_pool_jobs, fit_depth
     from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
     analysis = study.get("analysis")
     trials = None if analysis is None else analysis.log.analysable
     if trials is None or trials.empty or trials["group"].nunique() < 2:
         return None
     counts = confusion_from_trials(trials, "real")
-    fit = fit_depth(counts, n_studies=20, seed=seed)
+    # the grid's seven person pools on the cluster's workers (built here, one after the other,
+    # they were about a third of this step, with the workers idle)
+    if grid_pools is None and sweep is not None:
+        grid_pools = sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
+    fit = fit_depth(counts, n_studies=20, seed=seed, pools=grid_pools)
     # the estimate and the ends of its interval: the claims' probabilities across the depths
     # the study's answers allow (their best noise each)
     settings, jobs = {}, []

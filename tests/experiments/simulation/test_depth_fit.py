@@ -15,3 +15,18 @@ def test_depth_is_recovered_from_a_large_studys_real_block():
     assert fit.interval[0] <= 0.40 <= fit.interval[1]
     assert fit.identifiable()                      # 0.25 and 0.55 are excluded by the data
     assert fit.profile.idxmax() == 0.40 and len(fit.grid) == 6
+
+
+def test_grid_pools_built_as_sweep_tasks_give_the_same_fit():
+    # reproduce figure9 builds the grid's pools on the cluster's workers (build_pool_task of
+    # depth_pool_jobs) and passes them in: the same likelihoods, bit for bit, as building them here
+    from experiments.simulation.depth_fit import depth_pool_jobs
+    from experiments.simulation.figure9.scenarios import build_pool_task
+    counts = np.arange(32, dtype=float).reshape(2, 4, 4) % 7
+    shares = (0.30, 0.50)
+    here = fit_depth(counts, depth_shares=shares, noises=(0.3,), n_studies=5, seed=2)
+    pools = [build_pool_task(*job) for job in depth_pool_jobs(shares, seed=2)]
+    given = fit_depth(counts, depth_shares=shares, noises=(0.3,), n_studies=5, seed=2, pools=pools)
+    assert [p.grid_fraction.tolist() for p in pools] == [[0.70], [0.50]]
+    assert here.grid["loglik"].tolist() == given.grid["loglik"].tolist()
+    assert (here.estimate, here.interval) == (given.estimate, given.interval)

@@ -213,10 +213,15 @@ def test_a_reused_cohort_needs_enough_persons(slab_pool):
                          variability=LabVariability(cohort_size=10))
 
 
+def _malloc_environ():
+    import os
+    return {k: os.environ.get(k) for k in ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")}
+
+
 @pytest.mark.slow
 def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     from experiments.simulation.figure9.scenarios import evaluate_scenarios
-    from experiments.simulation.sweep import Sweep
+    from experiments.simulation.sweep import WORKER_MALLOC, Sweep
     # sequential: scenarios still undecided after 250 studies get 250 more, up to 1000
     kw = dict(observers=["absolute", "relative"], n_studies=250, seed=5, max_studies=1000)
     here = evaluate_scenarios(slab_pool, **kw)
@@ -225,6 +230,10 @@ def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
     with Sweep(workers=2) as two:
         on_two = evaluate_scenarios(slab_pool, sweep=two, **kw)
         assert two.n_workers == 2
+        # every worker process started with the sweep's malloc settings (not dask's 64 KiB trim)
+        seen = two.client.run(_malloc_environ)
+        assert len(seen) == 2
+        assert all(env == {k: str(v) for k, v in WORKER_MALLOC.items()} for env in seen.values())
     import pandas as pd
     pd.testing.assert_frame_equal(on_one.claims, on_two.claims)
     pd.testing.assert_frame_equal(here.claims, on_two.claims)
