@@ -24,7 +24,7 @@ RELAX_C, RELAX_S = 0.3, 1.5
 def _raw_neutral(d, value_C: float) -> float:
     """SET_NEUTRAL past the host's own check (the device's clamp is what is tested)."""
     from experiments.display.thermocue import messages as m
-    p = d._transact(m.Cmd.SET_NEUTRAL, m.CENTI.pack(int(round(value_C * 100))))
+    p = d.link.transact(m.Cmd.SET_NEUTRAL, m.CENTI.pack(int(round(value_C * 100))))
     return m.CENTI.unpack(p)[0] / 100.0
 
 
