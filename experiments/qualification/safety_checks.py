@@ -42,7 +42,8 @@ def check_limits(bench: Bench) -> CheckResult:
         host = "host sent it"
     except (SafetyLimitError, UserInputError):
         host = "host refused"
-    if not hasattr(d, "_transact"):
+    from experiments.display.thermocue.link import ProtocolLink
+    if not isinstance(getattr(d, "link", None), ProtocolLink):      # a thermocue protocol link
         return cannot_run(name, title, limit, f"{host}; the backend has no way to send a "
                           "set-point past the host's check, so the device's clamp is untested",
                           board_only="")

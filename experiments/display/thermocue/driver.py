@@ -1,6 +1,6 @@
 """The host side: :class:`ThermalDisplay` over any pyserial URL, and :func:`open_display`.
 
-One concept (~540 lines): the display's commands as the host sends them.
+One concept (~560 lines): the display's commands as the host sends them.
 
 The display's commands (handshake, neutral, upload, arm, run a trial, status, the emulator's
 "sim" commands) on the link it holds, :attr:`ThermalDisplay.link` (:class:`~.link.ProtocolLink`:
@@ -15,19 +15,7 @@ answered with an earlier host's replies; the handshake checks that the device ho
 limits and neutral temperature it was sent. Telemetry and events that arrive while waiting for
 a reply are routed to the armed trial, never held in bulk.
 
-Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
-(serial device, pty) a helper process (:mod:`.heartbeat`) writes a silent heartbeat every
-``heartbeat_s`` (10 ms) -- no thread of ours, and so no GIL-holding main thread (a PsychoPy
-window, a slow telemetry callback, a long C call), can hold it back. Elsewhere (``emulator://``)
-a dedicated thread does the same without waiting for the I/O lock. Every command and every pass
-of the I/O loop also counts (any valid frame feeds the watchdog). Both stop heartbeating when the
-thread doing I/O has shown no sign of life for ``host_stall_s`` (2 s): a hung host program still
-lets the device's watchdog take the pad to neutral. On a virtual clock the I/O thread heartbeats
-in device time.
-
-A frame read only in part waits for its rest for ``stale_s`` (0.2 s of wall time) before the
-parser gives up on it: a pty hands a frame over in pieces when the kernel's buffers wrap, and a
-loaded machine may take tens of ms to deliver the second piece.
+Heartbeats and partly received frames: :mod:`.link`.
 
 Failure policy: a refused command raises :class:`DisplayRefused` (with the device's code); no
 answer after the retries raises :class:`DisplayTimeout`; a dead link raises :class:`DisplayError`
@@ -38,10 +26,7 @@ within 100 ms of the host falling silent. A trial that goes wrong ends as a
 from __future__ import annotations
 
 import dataclasses
-import math
-import zlib
 
-import numpy as np
 import serial
 
 from experiments.errors import (DisplayBadReply, DisplayError, DisplayFaultLatched, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
@@ -51,18 +36,16 @@ from . import messages as m
 from .link import ProtocolLink
 from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, check_serial_url,
                     handshake_or_close, open_serial_port)
-from . import neutral
-from .handshake import decode_hello, refuse_text_device
-from .messages import Cmd, CommitAck, Mode, UploadAck
+from . import neutral, upload
+from .handshake import (decode_hello, device_capabilities, protocol_capabilities,
+                        refuse_text_device, send_limits)
+from .messages import Cmd, Mode
 from ..types import DeviceInfo, Status
-from ..safety import SafetyLimits, check_profile
+from ..safety import SafetyLimits
 from ..trial_recording import (ACTIVE_STATES, ContactEvent, TrialRecording, not_delivered,
                               TrialInProgress, evidence_fault)
 
 __all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
-
-CHUNK = 512                    # samples per upload chunk
-
 
 def _json_object(payload: bytes) -> dict:
     """A sim command's reply: a JSON object (anything else is a bad reply)."""
@@ -71,10 +54,6 @@ def _json_object(payload: bytes) -> dict:
         raise ValueError(f"expected a JSON object, got {type(obj).__name__}")
     return obj
 
-
-#: After an operator's reset, how long the device is watched for a fault that trips again, s
-#: (a stuck sensor takes 20 identical readings, 0.2 s; an out-of-range one trips at once).
-RESET_WATCH_S = 1.0
 
 class ThermalDisplay(EmulatedDisplay, scheme="serial"):
     """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
@@ -192,31 +171,12 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
     @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """The protocol's ranges (a device declares its own at the handshake)."""
-        from .handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
-                                PROTOCOL_MIN_C, PROTOCOL_MIN_DT_S)
-        return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
-                            max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,
-                            safe_range_C=(PROTOCOL_MIN_C, PROTOCOL_MAX_SETPOINT_C),
-                            max_rate_C_per_s=PROTOCOL_MAX_RATE_C_PER_S,
-                            modes=("playback", "record"), scripted_bench=False,
-                            notes="numbers as the protocol allows them; the device states its own "
-                                  "at the handshake")
+        return protocol_capabilities()
 
     @property
     def capabilities(self) -> Capabilities:
         """What the opened device declared at the handshake (before it: the protocol's ranges)."""
-        info = self.info
-        if info is None:
-            return self.declared_capabilities()
-        modes = tuple(md for md in ("playback", "record") if md in info.capabilities)
-        return Capabilities(contact_detection="force", force_sensing=True,
-                            telemetry_hz=float(info.telemetry_hz), max_profile_points=info.max_points,
-                            min_profile_step_s=info.min_dt_s,
-                            safe_range_C=(info.hard_min_C, info.hard_max_C),
-                            max_rate_C_per_s=info.max_rate_C_per_s,
-                            modes=modes or ("playback", "record"),
-                            scripted_bench="sim" in info.capabilities,
-                            notes=f"{info.device_id}, {info.firmware}")
+        return protocol_capabilities() if self.info is None else device_capabilities(self.info)
 
     @property
     def port_name(self) -> str:
@@ -234,26 +194,10 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
         self.link.parser.reset()
         self._hello()
         self._refuse_latched_fault()
-        rate = int(round(self.info.max_rate_C_per_s * 100))
         self.link.restart = None
         self.link.dev_time = 0.0
         lim = self.limits
-        if lim.min_C < self.info.hard_min_C or lim.max_C > self.info.hard_max_C:
-            reason = (f"expected a range inside the device's [{self.info.hard_min_C}, "
-                      f"{self.info.hard_max_C}] °C, got [{lim.min_C}, {lim.max_C}]")
-            raise SafetyLimitError(f"display: limits: {reason}", reason=reason)
-        sent = (m.centi(lim.min_C), m.centi(lim.max_C),
-                min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
-        got = self.link.ask(Cmd.SET_LIMITS, m.LIMITS, m.LIMITS.pack(*sent))
-        # the range lies inside the device's, so it must hold it exactly; the rate may be
-        # lowered to the device's own maximum (a tighter limit, and so not a mismatch)
-        want = (sent[0], sent[1], min(sent[2], rate))
-        if got != want:
-            raise DisplayError(
-                f"display: SET_LIMITS: sent {sent[0] / 100}–{sent[1] / 100} °C at "
-                f"{sent[2] / 100} °C/s, the device acknowledged {got[0] / 100}–{got[1] / 100} °C "
-                f"at {got[2] / 100} °C/s (a stale reply?); not going on with limits it does "
-                f"not hold")
+        send_limits(self.link, self.info, lim)
         self._held_limits = lim
         self._profile = None                     # a playback needs an upload on this connection
         self._uploaded = False
@@ -349,50 +293,20 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
                                    f"holds {self._held_limits}, the host now has {self.limits}); "
                                    f"refusing to upload: open the display again with the new "
                                    f"limits")
-        max_pts = self.info.max_points if self.info else None
-        dt, y = check_profile(times_s, target_C, self.limits, max_points=max_pts)
-        q = np.round(y * 100.0).astype("<i2")
-        raw = q.tobytes()
-        dt_us = int(round(dt * 1e6))
+        dt, y, q = upload.quantize(times_s, target_C, self.limits,
+                                   self.info.max_points if self.info else None)
         self._uploaded = True
-        self.link.transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(q), dt_us))
-        for off in range(0, len(q), CHUNK):
-            body = raw[2 * off:2 * min(off + CHUNK, len(q))]
-            count = len(body) // 2
-            for attempt in range(self.link.retries + 1):
-                ack = UploadAck(*self.link.ask(Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_ACK,
-                                           m.UPLOAD_CHUNK_HEAD.pack(off, count) + body))
-                if (ack.offset, ack.count, ack.crc32) == (off, count, zlib.crc32(body)):
-                    break
-            else:
-                raise DisplayError(f"display: upload chunk at {off}: the device's checksum does "
-                                   f"not match after {self.link.retries + 1} attempts")
-        ack = CommitAck(*self.link.ask(Cmd.UPLOAD_COMMIT, m.COMMIT_ACK, m.COMMIT.pack(zlib.crc32(raw))))
-        if ack.clamped:
-            raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
-                                   f"its own range; refusing to play it")
-        held = q.astype(float) / 100.0
-        self._profile = (dt, held.tolist())
-        return ProfileReceipt(points=ack.points, step_s=dt, crc32=ack.crc32, clamped=ack.clamped,
-                              max_deviation_C=float(np.max(np.abs(held - y))), segments=None)
+        receipt, self._profile = upload.send(self.link, self.link.retries, dt, y, q)
+        return receipt
 
     def _discard_profile(self) -> None:
-        """Leave the device with no committed profile (best effort; never raises).
-
-        An UPLOAD_BEGIN discards any profile on every device of this protocol; one of two samples
-        at the smallest step that is never completed leaves nothing ARM could play (ARM in
-        playback is then refused, PROFILE_INCOMPLETE, until a new commit). Nothing is sent when
-        this connection has uploaded nothing (a refusal by the host's own check then sends
-        nothing at all).
-        """
+        """Leave the device with no committed profile (best effort; never raises;
+        :func:`.upload.discard`). Nothing is sent when this connection has uploaded nothing (a
+        refusal by the host's own check then sends nothing at all)."""
         self._profile = None
         if self.info is None or self.link.error is not None or not self._uploaded:
             return
-        dt_us = max(1000, int(round(self.info.min_dt_s * 1e6)))
-        try:
-            self.link.transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(2, dt_us), retries=1)
-        except DisplayError:
-            pass     # link gone: this host arms nothing without a new upload on a new connection
+        upload.discard(self.link, self.info.min_dt_s)
 
     def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
             max_duration_s: float = 20.0) -> None:
@@ -495,18 +409,7 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
             # events and telemetry): its end reason and contact time decide, not what we saw.
             try:
                 st = self.status()
-                if st.contact_time_s is not None:
-                    tr.contact_s = st.contact_time_s
-                    tr.active_seen = True
-                if st.state not in ACTIVE_STATES:
-                    tr.end_reason = st.end_reason
-                if st.state == "FAULT" and tr.fault is None:
-                    tr.fault = st.fault or "FAULT"
-                elif tr.end_reason == "fault" and tr.fault is None:
-                    # the WATCHDOG or FAULT event was lost: the device still says why
-                    tr.fault = st.fault or "FAULT"
-                    tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
-                                    f"its event was lost on the link")
+                tr.take_status(st)
             except DisplayLinkLost as exc:
                 host_fault = ("LINK_LOST", str(exc))
             except DisplayBadReply as exc:
@@ -526,15 +429,7 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
             if why is not None:
                 status, code, msg = "fault", "NOT_DELIVERED", why
                 self._safe_abort()
-        expected = tr.last_counter - tr.counter0
-        lost = max(0, expected - tr.frames)
-        rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
-        mx = tr.max_err if tr.n_track else float("nan")
-        dur = (tr.end_time_s - tr.contact_s) if (tr.end_time_s is not None and
-                                                 tr.contact_s is not None) else 0.0
-        rec = TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
-                             tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
-                             self.link.parser.bad_frames - tr.bad0, tr.active_frames)
+        rec = tr.recording(status, code, msg, self.link.parser.bad_frames - tr.bad0)
         why = evidence_fault(rec, self.max_frame_loss) if status == "ok" else None
         if why is not None:
             self._safe_abort()
@@ -588,41 +483,14 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
 
     @classmethod
     def operator_reset(cls, url: str, baudrate: int = 115200) -> tuple[str, str | None, str]:
-        """The operator's reset of a display latched in FAULT: STATUS, then HELLO and CLEAR_FAULT.
-
-        For a person who has checked the pad and its sensors (``thermocue clear-fault URL``);
-        the device is watched for :data:`RESET_WATCH_S` after the reset, so that a cause still
-        there (a sensor out of range or stuck) is reported as FAULT, not as a successful reset;
-        sets no limits and arms nothing. A device that is not in FAULT is left as it is: it is
-        asked STATUS alone (allowed before a HELLO), since a HELLO starts a new host's session
-        on the device (a host using it would lose its half-done upload and its retry replies).
+        """The operator's reset of a display latched in FAULT (:func:`.operator_reset.reset`).
 
         Returns
         -------
         (state_before, fault, state_after) : tuple of str, str or None, str
         """
-        port = open_serial_port(url, baudrate)
-        try:
-            disp = cls(port, None)
-            disp._refuse_text_device()
-            before = disp._read_status()
-            if before.state != "FAULT":
-                return before.state, before.last_fault, before.state
-            disp._hello()
-            disp.clear_fault()
-            # a cause still there (a sensor out of range or stuck) trips it again at once:
-            # watch it for RESET_WATCH_S before calling the reset done
-            end = disp.link.clock() + RESET_WATCH_S
-            after = disp._read_status()
-            while after.state != "FAULT" and disp.link.clock() < end:
-                disp.wait(0.05)
-                after = disp._read_status()
-            return before.state, before.last_fault, after.state
-        finally:
-            try:
-                port.close()
-            except Exception:
-                pass
+        from .operator_reset import reset
+        return reset(cls, url, baudrate)
 
     def heartbeat(self) -> float:
         """One acknowledged heartbeat; return the device time, s."""

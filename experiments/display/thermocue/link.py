@@ -7,6 +7,20 @@ to the armed trial, :attr:`ProtocolLink.trial`; the awaited reply to
 :meth:`ProtocolLink.transact`, with its timeout and retries), the heartbeat that feeds the
 device's watchdog (in the I/O loop, and in a thread or a helper process on a real clock), and
 noticing a device restart (:attr:`ProtocolLink.restart`).
+
+Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
+(serial device, pty) a helper process (:mod:`.heartbeat`) writes a silent heartbeat every
+``heartbeat_s`` (10 ms) -- no thread of ours, and so no GIL-holding main thread (a PsychoPy
+window, a slow telemetry callback, a long C call), can hold it back. Elsewhere (``emulator://``)
+a dedicated thread does the same without waiting for the I/O lock. Every command and every pass
+of the I/O loop also counts (any valid frame feeds the watchdog). Both stop heartbeating when the
+thread doing I/O has shown no sign of life for ``host_stall_s`` (2 s): a hung host program still
+lets the device's watchdog take the pad to neutral. On a virtual clock the I/O thread heartbeats
+in device time.
+
+A frame read only in part waits for its rest for ``stale_s`` (0.2 s of wall time) before the
+parser gives up on it: a pty hands a frame over in pieces when the kernel's buffers wrap, and a
+loaded machine may take tens of ms to deliver the second piece.
 """
 from __future__ import annotations
 
@@ -18,7 +32,7 @@ import time
 
 import serial
 
-from experiments.errors import (DisplayBadReply, DisplayError, DisplayLinkLost, DisplayRefused,
+from experiments.errors import (DisplayBadReply, DisplayLinkLost, DisplayRefused,
                                 DisplayRestarted, DisplayTimeout)
 
 from . import messages as m
