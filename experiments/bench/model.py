@@ -1,6 +1,7 @@
 """Speed against error of every thermal-model method on a 20 s profile sampled at 1 kHz.
 
-One concept (~650 lines): ``thermocue bench model``, its problems, references and rows.
+One concept (~500 lines): ``thermocue bench model``, its problems and rows (the mpmath references
+they are measured against: :mod:`.model_references`).
 
 Two problems, both the paper's simulated trial (stainless steel half-space, R_a = 12.5 µm -> Eq. 5
 resistance, skin 650 µm with receptors at 0.6 L, T_S0 = 35.5 °C, T_M0 = 20 °C):
@@ -37,8 +38,9 @@ import numpy as np
 
 __all__ = ["run_model_benchmark", "machine_info"]
 
-DURATION_S = 20.0
-RATE_HZ = 1000.0
+from .model_references import (DURATION_S, RATE_HZ, interface_reference,  # noqa: E402
+                               layered_reference, receptor_reference,
+                               receptor_robin_reference, reference_times)
 SKIN_THICKNESS_M = 650e-6
 ROUGHNESS_M = 12.5e-6
 T_SKIN_C = 35.5
@@ -87,154 +89,6 @@ def _best_seconds(fn, repeat=7, budget_s=3.0):
     return best
 
 
-# --------------------------------------------------------------------------- references
-def _reference_times():
-    geo = np.unique(np.round(np.geomspace(1e-3, DURATION_S, 30) * RATE_HZ).astype(int))
-    uni = np.round(np.linspace(0.5, DURATION_S, 12) * RATE_HZ).astype(int)
-    return np.unique(np.concatenate([geo, uni]))          # sample indices
-
-
-def _interface_reference(skin, steel, R, idx, dps=40):
-    """theta_M(L+, t) by mpmath Talbot inversion of the transform in docs/design.md (independent of stimuli)."""
-    import mpmath as mp
-    with mp.workdps(dps):
-        a_s = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
-        b_s = mp.sqrt(mp.mpf(skin.conductivity) * mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
-        b_m = mp.sqrt(mp.mpf(steel.conductivity) * mp.mpf(steel.density) * mp.mpf(steel.specific_heat))
-        L, Rm = mp.mpf(skin.thickness), mp.mpf(R)
-
-        def fhat(s):
-            p = mp.sqrt(s)
-            F = (1 / s) / (Rm + mp.tanh(p / mp.sqrt(a_s) * L) / (b_s * p) + 1 / (b_m * p))
-            return F / (b_m * p)
-
-        return np.array([float(mp.invertlaplace(fhat, mp.mpf(int(i)) / int(RATE_HZ), method="talbot"))
-                         for i in idx])
-
-
-def _receptor_reference(skin, h, idx, dps=30):
-    """Exact receptor response (relative to T_S0) of the piecewise-linear history h, in mpmath.
-
-    u_i = h_0 S(t_i) + sum_j s_j [R(t_i - t_j) - R(t_i - t_{j+1})], with the slab's step response S
-    and its integral R from the image series (tau < 1/4) or the eigen series, each summed in
-    mpmath until the terms fall below 1e-40.
-    """
-    import mpmath as mp
-    with mp.workdps(dps):
-        L = mp.mpf(skin.thickness)
-        a = mp.mpf(skin.conductivity) / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
-        xi = mp.mpf(skin.dermis) / L
-        Td = L * L / a
-        dt = mp.mpf(1) / int(RATE_HZ)
-        tiny = mp.mpf(10) ** -40
-
-        def i2erfc4(z):            # 4 i^2 erfc(z)
-            return (1 + 2 * z * z) * mp.erfc(z) - 2 * z * mp.exp(-z * z) / mp.sqrt(mp.pi)
-
-        def S_R(m):
-            if m == 0:
-                return mp.mpf(0), mp.mpf(0)
-            tau = a * m * dt / (L * L)
-            S = R = mp.mpf(0)
-            if tau < mp.mpf(1) / 4:
-                n = 0
-                while True:
-                    za = (2 * n + 1 - xi) / (2 * mp.sqrt(tau))
-                    zb = (2 * n + 1 + xi) / (2 * mp.sqrt(tau))
-                    dS = mp.erfc(za) - mp.erfc(zb)
-                    S += dS
-                    R += Td * tau * (i2erfc4(za) - i2erfc4(zb))
-                    if abs(dS) < tiny and n > 0:
-                        break
-                    n += 1
-            else:
-                S, R = xi, xi * m * dt - Td * (xi - xi ** 3) / 6
-                n = 1
-                while True:
-                    e = mp.exp(-(n * mp.pi) ** 2 * tau)
-                    sgn = (-1) ** n * mp.sin(n * mp.pi * xi)
-                    S += 2 / mp.pi * sgn / n * e
-                    R -= Td * 2 / mp.pi ** 3 * sgn / n ** 3 * e
-                    if e < tiny:
-                        break
-                    n += 1
-            return S, R
-
-        return _duhamel_mp(S_R, h, idx, dt)
-
-
-def _receptor_robin_reference(skin, R, h, idx, dps=30):
-    """Receptor response (relative to T_S0) through a finger-pad resistance R, in mpmath.
-
-    The Duhamel sum of :func:`_receptor_reference` with the Robin slab's step response S and its
-    integral, from the eigenfunction series (independent of stimuli's Laplace inversion): with
-    u(0) = 0 and lambda u_x(L) = (h - u(L)) / R, the modes are sin(mu_n x / L) with
-    sin mu + b mu cos mu = 0, b = lambda R / L, mu_n in ((n - 1/2) pi, n pi);
-    S = x/G + sum c_n sin(mu_n xi) e^(-mu_n^2 tau), G = L + R lambda,
-    c_n = -L^2 (sin mu - mu cos mu) / (mu^2 G N_n), N_n = L/2 (1 - sin 2mu / (2 mu));
-    int_0^t S = x t/G + phi(x) - sum c_n sin(mu_n xi) L^2/(alpha mu_n^2) e^(-mu_n^2 tau), where
-    phi = x^3/(6 alpha G) - x L^2 (3 lambda R + L)/(6 alpha G^2) is the ramp's quasi-static part.
-    Terms are summed until e^(-mu_n^2 tau) < 1e-40.
-    """
-    import mpmath as mp
-    with mp.workdps(dps):
-        L = mp.mpf(skin.thickness)
-        lam = mp.mpf(skin.conductivity)
-        a = lam / (mp.mpf(skin.density) * mp.mpf(skin.specific_heat))
-        Rm = mp.mpf(R)
-        x = mp.mpf(skin.dermis)
-        xi = x / L
-        G = L + Rm * lam
-        b = lam * Rm / L
-        dt = mp.mpf(1) / int(RATE_HZ)
-        tiny = mp.mpf(10) ** -40
-        phi = x ** 3 / (6 * a * G) - x * L * L * (3 * lam * Rm + L) / (6 * a * G * G)
-        tau1 = a * dt / (L * L)
-        modes = []              # (mu^2, c_n sin(mu xi), same * L^2 / (alpha mu^2))
-        n = 1
-        while True:
-            mu = mp.findroot(lambda m: mp.sin(m) + b * m * mp.cos(m),
-                             ((n - mp.mpf(1) / 2) * mp.pi, n * mp.pi), solver="anderson")
-            N = L / 2 * (1 - mp.sin(2 * mu) / (2 * mu))
-            cs = -L * L * (mp.sin(mu) - mu * mp.cos(mu)) / (mu * mu * G * N) * mp.sin(mu * xi)
-            modes.append((mu * mu, cs, cs * L * L / (a * mu * mu)))
-            if mp.exp(-mu * mu * tau1) < tiny:
-                break
-            n += 1
-
-        def S_R(m):
-            if m == 0:
-                return mp.mpf(0), mp.mpf(0)
-            tau = tau1 * m
-            S, Ri = x / G, x * m * dt / G + phi
-            for mu2, cs, cr in modes:
-                e = mp.exp(-mu2 * tau)
-                S += cs * e
-                Ri -= cr * e
-                if e < tiny:
-                    break
-            return S, Ri
-
-        return _duhamel_mp(S_R, h, idx, dt)
-
-
-def _duhamel_mp(S_R, h, idx, dt):
-    """u_i = h_0 S(t_i) + sum_j s_j [R(t_i - t_j) - R(t_i - t_{j+1})] in mpmath (inside workdps)."""
-    import mpmath as mp
-    top = int(max(idx))
-    SR = [S_R(m) for m in range(top + 1)]
-    D = [SR[m][1] - SR[m - 1][1] for m in range(1, top + 1)]      # D_m, m = 1..top
-    hm = [mp.mpf(float(v)) for v in h[: top + 1]]
-    slopes = [(hm[j + 1] - hm[j]) / dt for j in range(top)]
-    out = []
-    for i in idx:
-        i = int(i)
-        u = hm[0] * SR[i][0] + mp.fsum(slopes[j] * D[i - j - 1] for j in range(i))
-        out.append(float(u))
-    return np.array(out)
-
-
-# --------------------------------------------------------------------------- bench-only method
 def modal_recursion(skin, t, surface_temperature, initial_temperature, depth, tol_K=1e-7):
     """Eigen series advanced mode by mode with an exact recursion per sample step (bench only).
 
@@ -312,12 +166,12 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     dT = T_SKIN_C - T_MATERIAL_C
     contact = Contact(skin, steel, resistance=R, skin_temperature=T_SKIN_C,
                       material_temperature=T_MATERIAL_C)
-    idx = _reference_times()
+    idx = reference_times()
     if quick:
         idx = idx[::4]
     echo(f"thermocue bench model: {machine_info()['cpu_model']}, {n} points ({DURATION_S:g} s at "
          f"{RATE_HZ:g} Hz); computing mpmath references at {idx.size} times ...")
-    ref_if = T_MATERIAL_C + dT * _interface_reference(skin, steel, R, idx)
+    ref_if = T_MATERIAL_C + dT * interface_reference(skin, steel, R, idx)
     rows = []
 
     # ---- interface temperature (Eq. 7's quantity)
@@ -349,7 +203,7 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     # ---- receptor under the display replaying that profile
     g = contact.interface_temperature(t, side="material", method="exact")
     echo("  receptor reference (mpmath Duhamel sum) ...")
-    ref_rc = T_SKIN_C + _receptor_reference(skin, g - T_SKIN_C, idx)
+    ref_rc = T_SKIN_C + receptor_reference(skin, g - T_SKIN_C, idx)
 
     def bench_rc(method, setting, fn, note=""):
         vals = fn()
@@ -376,7 +230,7 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     # ---- the same display profile felt through the finger-pad resistance (Robin boundary)
     R_pad = float(contact_resistance(PAD_ROUGHNESS_M, skin=skin, material=material(PAD_MATERIAL)))
     echo(f"  finger-pad reference (R_pad = {R_pad:.4g} m² K/W, mpmath Robin eigen series) ...")
-    ref_pad = T_SKIN_C + _receptor_robin_reference(skin, R_pad, g - T_SKIN_C, idx)
+    ref_pad = T_SKIN_C + receptor_robin_reference(skin, R_pad, g - T_SKIN_C, idx)
 
     def bench_pad(method, setting, fn, note=""):
         vals = fn()
@@ -498,36 +352,6 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
     return result
 
 
-def _layered_reference(layers, steel, R, idx, dps=30):
-    """theta_S at the receptor (the dermis-epidermis boundary) of a layered, perfused skin on a
-    steel half-space: 2 x 2 transfer matrices in mpmath (plain cosh/sinh, from the core up; not
-    stimuli.layered's impedance recursion) inverted by mpmath's Talbot method."""
-    import mpmath as mp
-    from stimuli.layered import BLOOD_HEAT_CAPACITY
-    with mp.workdps(dps):
-        rows = [(mp.mpf(l.thickness), mp.mpf(l.conductivity), mp.mpf(l.density) * mp.mpf(l.specific_heat),
-                 mp.mpf(l.perfusion) * mp.mpf(BLOOD_HEAT_CAPACITY)) for l in layers]
-        b_m = mp.sqrt(mp.mpf(steel.conductivity) * mp.mpf(steel.density) * mp.mpf(steel.specific_heat))
-        Rm = mp.mpf(R)
-
-        def stack(s, n):
-            M = mp.eye(2)
-            for h, k, rc, wb in rows[:n]:
-                q = mp.sqrt((s * rc + wb) / k)
-                z = 1 / (k * q)
-                M = mp.matrix([[mp.cosh(q * h), z * mp.sinh(q * h)],
-                               [mp.sinh(q * h) / z, mp.cosh(q * h)]]) * M
-            return M
-
-        def fhat(s):
-            M = stack(s, len(rows))
-            F = 1 / (s * (Rm + M[0, 1] / M[1, 1] + 1 / (b_m * mp.sqrt(s))))
-            return 1 / s - F * stack(s, len(rows) - 1)[0, 1] / M[1, 1]
-
-        return np.array([float(mp.invertlaplace(fhat, mp.mpf(int(i)) / int(RATE_HZ), method="talbot"))
-                         for i in idx])
-
-
 def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     """Rows "layered": the exact layered and perfused contact (receptor) and the scene planner."""
     from stimuli.layered import LayeredContact, skin_layers
@@ -545,7 +369,7 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
         layers = skin_layers(skin, perfusion=w)
         c = LayeredContact(layers, steel, R, T_SKIN_C, T_MATERIAL_C)
         echo(f"  layered reference ({setting}, mpmath transfer matrices, {ridx.size} times) ...")
-        ref = T_MATERIAL_C + dT * _layered_reference(layers, steel, R, ridx)   # theta -> °C
+        ref = T_MATERIAL_C + dT * layered_reference(layers, steel, R, ridx)   # theta -> °C
 
         def fn(c=c):
             return c.temperature("receptor", t, skin.dermis)

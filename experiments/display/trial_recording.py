@@ -187,6 +187,38 @@ class TrialInProgress:
         self.pending_events = []
         self.on_event = on_event
 
+    def take_status(self, st: Status) -> None:
+        """Take the device's own account of the trial (a STATUS after its end).
+
+        STATUS survives a burst that ate the events and telemetry: its end reason and contact
+        time decide, not what was seen on the link.
+        """
+        if st.contact_time_s is not None:
+            self.contact_s = st.contact_time_s
+            self.active_seen = True
+        if st.state not in ACTIVE_STATES:
+            self.end_reason = st.end_reason
+        if st.state == "FAULT" and self.fault is None:
+            self.fault = st.fault or "FAULT"
+        elif self.end_reason == "fault" and self.fault is None:
+            # the WATCHDOG or FAULT event was lost: the device still says why
+            self.fault = st.fault or "FAULT"
+            self.fault_msg = (f"the device ended the trial by a fault ({self.fault}); "
+                              f"its event was lost on the link")
+
+    def recording(self, status: str, code, msg, bad_frames: int) -> "TrialRecording":
+        """The :class:`TrialRecording` of this trial, judged ``status`` (``code``, ``msg``),
+        with ``bad_frames`` frames that failed their layout during it."""
+        expected = self.last_counter - self.counter0
+        lost = max(0, expected - self.frames)
+        rms = math.sqrt(self.sq / self.n_track) if self.n_track else float("nan")
+        mx = self.max_err if self.n_track else float("nan")
+        dur = (self.end_time_s - self.contact_s) if (self.end_time_s is not None and
+                                                     self.contact_s is not None) else 0.0
+        return TrialRecording(status, code, msg, self.contact_s if self.active_seen else None,
+                              self.frames, lost, rms, mx, self.mode, self.end_reason,
+                              max(0.0, dur), bad_frames, self.active_frames)
+
 
 #: How a delivered trial ends (the device's end reasons other than aborted and fault).
 DELIVERED_ENDS = ("complete", "released", "max_duration")

@@ -24,7 +24,7 @@ RELAX_C, RELAX_S = 0.3, 1.5
 def _raw_neutral(d, value_C: float) -> float:
     """SET_NEUTRAL past the host's own check (the device's clamp is what is tested)."""
     from experiments.display.thermocue import messages as m
-    p = d._transact(m.Cmd.SET_NEUTRAL, m.CENTI.pack(int(round(value_C * 100))))
+    p = d.link.transact(m.Cmd.SET_NEUTRAL, m.CENTI.pack(int(round(value_C * 100))))
     return m.CENTI.unpack(p)[0] / 100.0
 
 
@@ -42,7 +42,8 @@ def check_limits(bench: Bench) -> CheckResult:
         host = "host sent it"
     except (SafetyLimitError, UserInputError):
         host = "host refused"
-    if not hasattr(d, "_transact"):
+    from experiments.display.thermocue.link import ProtocolLink
+    if not isinstance(getattr(d, "link", None), ProtocolLink):      # a thermocue protocol link
         return cannot_run(name, title, limit, f"{host}; the backend has no way to send a "
                           "set-point past the host's check, so the device's clamp is untested",
                           board_only="")

@@ -123,7 +123,9 @@ def open_raw(backend: str) -> RawLink:
         port = serial.serial_for_url(URLS[backend], timeout=0.01)
         link = RawLink(port, port.close)
     else:
-        from experiments.display.thermocue.qemu_firmware import await_link, stop_qemu, build_image, start_qemu
+        from experiments.display.thermocue.qemu_firmware import (await_link, build_image,
+                                                                 raise_io_thread, start_qemu,
+                                                                 stop_qemu)
         proc, pty = start_qemu(build_image())
         port = serial.Serial(pty, 115200, timeout=0.01)
 
@@ -135,6 +137,10 @@ def open_raw(backend: str) -> RawLink:
         except BaseException:
             close()
             raise
+        # as the display's runner does once the firmware answers (QemuFirmwareDisplay.open):
+        # QEMU's event loop raised, so that a loaded machine does not hold the pty's bytes
+        # back from the guest while its clock runs on (a spurious watchdog trip)
+        raise_io_thread(proc.pid)
         link = RawLink(port, close)
     return link
 

@@ -1,10 +1,10 @@
 """The host side: :class:`ThermalDisplay` over any pyserial URL, and :func:`open_display`.
 
-One concept (~540 lines): the display's commands as the host sends them.
+One concept (~560 lines): the display's commands as the host sends them.
 
 The display's commands (handshake, neutral, upload, arm, run a trial, status, the emulator's
-"sim" commands) on the link of :mod:`.link` (:class:`~.link.ProtocolLink`: numbered requests,
-replies, heartbeats); the armed trial's book-keeping and the recording it yields are in
+"sim" commands) on the link it holds, :attr:`ThermalDisplay.link` (:class:`~.link.ProtocolLink`:
+numbered requests, replies, heartbeats); the armed trial's book-keeping and the recording it yields are in
 :mod:`.trial_recording`.
 
 One port, one lock, one parser. Commands are request/reply with a sequence number, a timeout and
@@ -15,19 +15,7 @@ answered with an earlier host's replies; the handshake checks that the device ho
 limits and neutral temperature it was sent. Telemetry and events that arrive while waiting for
 a reply are routed to the armed trial, never held in bulk.
 
-Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
-(serial device, pty) a helper process (:mod:`.heartbeat`) writes a silent heartbeat every
-``heartbeat_s`` (10 ms) -- no thread of ours, and so no GIL-holding main thread (a PsychoPy
-window, a slow telemetry callback, a long C call), can hold it back. Elsewhere (``emulator://``)
-a dedicated thread does the same without waiting for the I/O lock. Every command and every pass
-of the I/O loop also counts (any valid frame feeds the watchdog). Both stop heartbeating when the
-thread doing I/O has shown no sign of life for ``host_stall_s`` (2 s): a hung host program still
-lets the device's watchdog take the pad to neutral. On a virtual clock the I/O thread heartbeats
-in device time.
-
-A frame read only in part waits for its rest for ``stale_s`` (0.2 s of wall time) before the
-parser gives up on it: a pty hands a frame over in pieces when the kernel's buffers wrap, and a
-loaded machine may take tens of ms to deliver the second piece.
+Heartbeats and partly received frames: :mod:`.link`.
 
 Failure policy: a refused command raises :class:`DisplayRefused` (with the device's code); no
 answer after the retries raises :class:`DisplayTimeout`; a dead link raises :class:`DisplayError`
@@ -38,35 +26,26 @@ within 100 ms of the host falling silent. A trial that goes wrong ends as a
 from __future__ import annotations
 
 import dataclasses
-import math
-import secrets
-import threading
-import time
-import zlib
 
-import numpy as np
 import serial
 
 from experiments.errors import (DisplayBadReply, DisplayError, DisplayFaultLatched, DisplayLinkLost, DisplayRestarted, DisplayTimeout,
                                 SafetyLimitError, UserInputError)
 
 from . import messages as m
-from .framing import FrameParser
 from .link import ProtocolLink
 from ..base import (Capabilities, EmulatedDisplay, ProfileReceipt, check_serial_url,
                     handshake_or_close, open_serial_port)
-from . import neutral
-from .handshake import decode_hello, refuse_text_device
-from .messages import Cmd, CommitAck, Mode, UploadAck
+from . import neutral, upload
+from .handshake import (decode_hello, device_capabilities, protocol_capabilities,
+                        refuse_text_device, send_limits)
+from .messages import Cmd, Mode
 from ..types import DeviceInfo, Status
-from ..safety import SafetyLimits, check_profile
+from ..safety import SafetyLimits
 from ..trial_recording import (ACTIVE_STATES, ContactEvent, TrialRecording, not_delivered,
                               TrialInProgress, evidence_fault)
 
 __all__ = ["ThermalDisplay", "TrialRecording", "ContactEvent"]
-
-CHUNK = 512                    # samples per upload chunk
-
 
 def _json_object(payload: bytes) -> dict:
     """A sim command's reply: a JSON object (anything else is a bad reply)."""
@@ -76,11 +55,7 @@ def _json_object(payload: bytes) -> dict:
     return obj
 
 
-#: After an operator's reset, how long the device is watched for a fault that trips again, s
-#: (a stuck sensor takes 20 identical readings, 0.2 s; an out-of-range one trips at once).
-RESET_WATCH_S = 1.0
-
-class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
+class ThermalDisplay(EmulatedDisplay, scheme="serial"):
     """A Peltier thermal display of the thermocue protocol (or its emulator) on a pyserial port.
 
     The display backend for a serial device path (``/dev/ttyUSB0``, a pty) and pyserial URLs.
@@ -107,6 +82,8 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
     Attributes
     ----------
+    link : ProtocolLink
+        The link below the commands (:mod:`.link`): numbered requests, replies, heartbeats.
     heartbeats_sent : int
         Heartbeats written by the fallback heartbeat thread (not by the helper process).
     max_tx_gap_s : float, s
@@ -128,50 +105,37 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                  retries: int = 3, heartbeat_s: float = 0.01, max_frame_loss: float = 0.01,
                  host_stall_s: float = 2.0, stale_s: float = 0.2):
         self.port = port
+        self.link = ProtocolLink(port, reply_timeout_s=reply_timeout_s, retries=retries,
+                                 heartbeat_s=heartbeat_s, host_stall_s=host_stall_s,
+                                 stale_s=stale_s)
         self.limits = limits or SafetyLimits()
-        self.reply_timeout_s = float(reply_timeout_s)
-        self.retries = int(retries)
-        self.heartbeat_s = float(heartbeat_s)
-        self.host_stall_s = float(host_stall_s)
-        self.stale_s = float(stale_s)
-        self._wlock = threading.Lock()          # writes and sequence numbers, any thread
-        self._last_tx = -1e9                    # wall time of the last frame written
-        self._alive = time.monotonic()          # wall time the I/O thread last did something
-        self._hb_proc = None                    # HeartbeatProcess on a port with a descriptor
-        self._cand_key = None                   # parser progress when a partial frame was seen
-        self._cand_since = 0.0
-        self.heartbeats_sent = 0                # by the heartbeat thread
-        self.max_tx_gap_s = 0.0                 # longest wall-time gap between written frames
         self.max_frame_loss = float(max_frame_loss)
         self.info: DeviceInfo | None = None     # the handshake's answer, neutral
         self.hello: m.DeviceInfo | None = None  # ... as the protocol's HELLO reply (boot id)
-        self._lock = threading.RLock()
-        self._parser = FrameParser()
-        # a random start: a host that reconnects must not repeat its predecessor's numbers
-        self._seq = secrets.randbelow(256)
-        self._last_seq_by_type: dict[int, int] = {}
-        # the loop's clock, s: a port whose device runs on a virtual clock says so by offering
-        # device_clock() (a function returning device seconds, or None on a real clock); every
-        # other port (a serial device, a pty) runs on wall time
-        device_clock = getattr(port, "device_clock", None)
-        device_clock = device_clock() if callable(device_clock) else None
-        self._virtual = device_clock is not None
-        self._clock = device_clock if self._virtual else time.monotonic
-        # ... and may offer read_frames(): read() as decoded frames when nothing can damage them
-        self._read_direct = getattr(port, "read_frames", None) if self._virtual else None
-        self._dev_time = 0.0
-        self._hb_clock = -1e9
-        self._hb_dev = -1e9
-        self._trial: TrialInProgress | None = None
         self._profile = None
         self._held_limits: SafetyLimits | None = None   # what the device acknowledged at HELLO
         self._uploaded = False                  # an UPLOAD_BEGIN went out on this connection
-        self._hb_thread = None
-        self._hb_stop = threading.Event()
-        self._link_error: Exception | None = None
-        self._restart: str | None = None       # why we think the device restarted
         self.last_recording: TrialRecording | None = None
         self.last_contact: ContactEvent | None = None
+
+    # ------------------------------------------------------------------ the link's
+    @property
+    def heartbeats_sent(self) -> int:
+        """Heartbeats written by the fallback heartbeat thread (:class:`~.link.ProtocolLink`)."""
+        return self.link.heartbeats_sent
+
+    @property
+    def max_tx_gap_s(self) -> float:
+        """Longest wall-time gap between frames this process wrote, s (:class:`~.link.ProtocolLink`)."""
+        return self.link.max_tx_gap_s
+
+    def start_heartbeat(self) -> None:
+        """Start the background heartbeat (:meth:`.link.ProtocolLink.start_heartbeat`)."""
+        self.link.start_heartbeat()
+
+    def stop_heartbeat(self) -> None:
+        """Stop the background heartbeat (:meth:`.link.ProtocolLink.stop_heartbeat`)."""
+        self.link.stop_heartbeat()
 
     # ------------------------------------------------------------------ backend
     @classmethod
@@ -207,31 +171,12 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
     @classmethod
     def declared_capabilities(cls) -> Capabilities:
         """The protocol's ranges (a device declares its own at the handshake)."""
-        from .handshake import (PROTOCOL_MAX_RATE_C_PER_S, PROTOCOL_MAX_SETPOINT_C,
-                                PROTOCOL_MIN_C, PROTOCOL_MIN_DT_S)
-        return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
-                            max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,
-                            safe_range_C=(PROTOCOL_MIN_C, PROTOCOL_MAX_SETPOINT_C),
-                            max_rate_C_per_s=PROTOCOL_MAX_RATE_C_PER_S,
-                            modes=("playback", "record"), scripted_bench=False,
-                            notes="numbers as the protocol allows them; the device states its own "
-                                  "at the handshake")
+        return protocol_capabilities()
 
     @property
     def capabilities(self) -> Capabilities:
         """What the opened device declared at the handshake (before it: the protocol's ranges)."""
-        info = self.info
-        if info is None:
-            return self.declared_capabilities()
-        modes = tuple(md for md in ("playback", "record") if md in info.capabilities)
-        return Capabilities(contact_detection="force", force_sensing=True,
-                            telemetry_hz=float(info.telemetry_hz), max_profile_points=info.max_points,
-                            min_profile_step_s=info.min_dt_s,
-                            safe_range_C=(info.hard_min_C, info.hard_max_C),
-                            max_rate_C_per_s=info.max_rate_C_per_s,
-                            modes=modes or ("playback", "record"),
-                            scripted_bench="sim" in info.capabilities,
-                            notes=f"{info.device_id}, {info.firmware}")
+        return protocol_capabilities() if self.info is None else device_capabilities(self.info)
 
     @property
     def port_name(self) -> str:
@@ -246,29 +191,13 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             self.port.reset_input_buffer()
         except (serial.SerialException, OSError):
             pass
-        self._parser.reset()
+        self.link.parser.reset()
         self._hello()
         self._refuse_latched_fault()
-        rate = int(round(self.info.max_rate_C_per_s * 100))
-        self._restart = None
-        self._dev_time = 0.0
+        self.link.restart = None
+        self.link.dev_time = 0.0
         lim = self.limits
-        if lim.min_C < self.info.hard_min_C or lim.max_C > self.info.hard_max_C:
-            reason = (f"expected a range inside the device's [{self.info.hard_min_C}, "
-                      f"{self.info.hard_max_C}] °C, got [{lim.min_C}, {lim.max_C}]")
-            raise SafetyLimitError(f"display: limits: {reason}", reason=reason)
-        sent = (m.centi(lim.min_C), m.centi(lim.max_C),
-                min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
-        got = self._ask(Cmd.SET_LIMITS, m.LIMITS, m.LIMITS.pack(*sent))
-        # the range lies inside the device's, so it must hold it exactly; the rate may be
-        # lowered to the device's own maximum (a tighter limit, and so not a mismatch)
-        want = (sent[0], sent[1], min(sent[2], rate))
-        if got != want:
-            raise DisplayError(
-                f"display: SET_LIMITS: sent {sent[0] / 100}–{sent[1] / 100} °C at "
-                f"{sent[2] / 100} °C/s, the device acknowledged {got[0] / 100}–{got[1] / 100} °C "
-                f"at {got[2] / 100} °C/s (a stale reply?); not going on with limits it does "
-                f"not hold")
+        send_limits(self.link, self.info, lim)
         self._held_limits = lim
         self._profile = None                     # a playback needs an upload on this connection
         self._uploaded = False
@@ -282,21 +211,22 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             try:
                 refuse_text_device(self.port, self.port_name)
             except (serial.SerialException, OSError) as exc:
-                self._link_error = exc
+                self.link.error = exc
                 raise DisplayLinkLost(f"display: cannot use {self.port_name}: {exc}") from exc
 
     def _hello(self) -> DeviceInfo:
         """One HELLO round trip, the reply checked (:func:`~.handshake.decode_hello`); sets
         :attr:`info` (neutral) and the boot id."""
-        wire = decode_hello(self._transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
+        wire = decode_hello(self.link.transact(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)),
                             self.port_name)
         self.hello = wire
         self.info = neutral.device_info(wire)
+        self.link.handshaken = True
         return self.info
 
     def _read_status(self) -> m.Status:
         """One STATUS round trip, as the device answers it (no check against the handshake)."""
-        return self._ask(Cmd.STATUS, m.Status.decode)
+        return self.link.ask(Cmd.STATUS, m.Status.decode)
 
     def wire_status(self) -> m.Status:
         """One STATUS round trip as the protocol's reply (:class:`.messages.Status`: numeric
@@ -324,7 +254,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         """Set the temperature held between trials; return what the device holds, °C."""
         v = self.limits.check_setpoint(temperature_C, "neutral_C")
         sent = m.centi(v)
-        (held,) = self._ask(Cmd.SET_NEUTRAL, m.CENTI, m.CENTI.pack(sent))
+        (held,) = self.link.ask(Cmd.SET_NEUTRAL, m.CENTI, m.CENTI.pack(sent))
         if held != sent:
             raise DisplayError(f"display: SET_NEUTRAL: sent {sent / 100} °C, the device "
                                f"acknowledged {held / 100} °C (a stale reply, or limits other "
@@ -363,50 +293,20 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                                    f"holds {self._held_limits}, the host now has {self.limits}); "
                                    f"refusing to upload: open the display again with the new "
                                    f"limits")
-        max_pts = self.info.max_points if self.info else None
-        dt, y = check_profile(times_s, target_C, self.limits, max_points=max_pts)
-        q = np.round(y * 100.0).astype("<i2")
-        raw = q.tobytes()
-        dt_us = int(round(dt * 1e6))
+        dt, y, q = upload.quantize(times_s, target_C, self.limits,
+                                   self.info.max_points if self.info else None)
         self._uploaded = True
-        self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(q), dt_us))
-        for off in range(0, len(q), CHUNK):
-            body = raw[2 * off:2 * min(off + CHUNK, len(q))]
-            count = len(body) // 2
-            for attempt in range(self.retries + 1):
-                ack = UploadAck(*self._ask(Cmd.UPLOAD_CHUNK, m.UPLOAD_CHUNK_ACK,
-                                           m.UPLOAD_CHUNK_HEAD.pack(off, count) + body))
-                if (ack.offset, ack.count, ack.crc32) == (off, count, zlib.crc32(body)):
-                    break
-            else:
-                raise DisplayError(f"display: upload chunk at {off}: the device's checksum does "
-                                   f"not match after {self.retries + 1} attempts")
-        ack = CommitAck(*self._ask(Cmd.UPLOAD_COMMIT, m.COMMIT_ACK, m.COMMIT.pack(zlib.crc32(raw))))
-        if ack.clamped:
-            raise SafetyLimitError(f"display: profile: the device clamped {ack.clamped} samples to "
-                                   f"its own range; refusing to play it")
-        held = q.astype(float) / 100.0
-        self._profile = (dt, held.tolist())
-        return ProfileReceipt(points=ack.points, step_s=dt, crc32=ack.crc32, clamped=ack.clamped,
-                              max_deviation_C=float(np.max(np.abs(held - y))), segments=None)
+        receipt, self._profile = upload.send(self.link, self.link.retries, dt, y, q)
+        return receipt
 
     def _discard_profile(self) -> None:
-        """Leave the device with no committed profile (best effort; never raises).
-
-        An UPLOAD_BEGIN discards any profile on every device of this protocol; one of two samples
-        at the smallest step that is never completed leaves nothing ARM could play (ARM in
-        playback is then refused, PROFILE_INCOMPLETE, until a new commit). Nothing is sent when
-        this connection has uploaded nothing (a refusal by the host's own check then sends
-        nothing at all).
-        """
+        """Leave the device with no committed profile (best effort; never raises;
+        :func:`.upload.discard`). Nothing is sent when this connection has uploaded nothing (a
+        refusal by the host's own check then sends nothing at all)."""
         self._profile = None
-        if self.info is None or self._link_error is not None or not self._uploaded:
+        if self.info is None or self.link.error is not None or not self._uploaded:
             return
-        dt_us = max(1000, int(round(self.info.min_dt_s * 1e6)))
-        try:
-            self._transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(2, dt_us), retries=1)
-        except DisplayError:
-            pass     # link gone: this host arms nothing without a new upload on a new connection
+        upload.discard(self.link, self.info.min_dt_s)
 
     def arm(self, mode: str = "playback", force_threshold_N: float = 2.0,
             max_duration_s: float = 20.0) -> None:
@@ -423,19 +323,19 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                 raise UserInputError(f"display: arm.{name}: expected 0 < value ≤ {hi}, got {v!r}")
         if mode == "playback" and self._profile is None:
             raise UserInputError("display: arm: expected a profile uploaded before a playback trial")
-        self._check_link()
+        self.link.check()
         md = Mode.PLAYBACK if mode == "playback" else Mode.RECORD
-        with self._lock:
-            self._trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
-            self._trial.bad0 = self._parser.bad_frames
+        with self.link.lock:
+            self.link.trial = TrialInProgress(mode, self._profile if mode == "playback" else None)
+            self.link.trial.bad0 = self.link.parser.bad_frames
             try:
-                (c0,) = self._ask(Cmd.ARM, m.COUNTER, m.ARM.pack(
+                (c0,) = self.link.ask(Cmd.ARM, m.COUNTER, m.ARM.pack(
                     md, int(round(force_threshold_N * 100)), int(round(max_duration_s * 1000))))
             except DisplayError:
-                self._trial = None
+                self.link.trial = None
                 raise
-            self._trial.counter0 = self._trial.last_counter = c0
-            self._trial.pending = [f for f in self._trial.pending if f.counter > c0]
+            self.link.trial.counter0 = self.link.trial.last_counter = c0
+            self.link.trial.pending = [f for f in self.link.trial.pending if f.counter > c0]
 
     def run_trial(self, timeout_s: float = 30.0, on_telemetry=None, on_event=None) -> TrialRecording:
         """Stream the armed trial until it ends, faults or times out.
@@ -455,19 +355,19 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         -------
         TrialRecording
         """
-        tr = self._trial
+        tr = self.link.trial
         if tr is None:
             raise UserInputError("display: run_trial: expected arm() first")
-        with self._lock:
+        with self.link.lock:
             tr.callback = on_telemetry
             tr.attach_on_event(on_event)
             if on_telemetry is not None:
                 for fr in tr.pending:
                     on_telemetry(fr)
             tr.pending = []
-            clock, read, dispatch = self._clock, self._read_frames, self._dispatch_all
-            heartbeat = self._heartbeat_if_due
-            silent_s = max(0.3, 3 * self.reply_timeout_s)   # telemetry this quiet: ask STATUS
+            clock, read, dispatch = self.link.clock, self.link.read_frames, self.link.dispatch_all
+            heartbeat = self.link.heartbeat_if_due
+            silent_s = max(0.3, 3 * self.link.reply_timeout_s)   # telemetry this quiet: ask STATUS
             start = clock()
             tr.last_frame_clock = start
             host_fault = None
@@ -481,7 +381,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
                         break
                     if now - tr.last_frame_clock > silent_s:
                         st = self.status()        # telemetry silent: is the device there at all?
-                        tr.last_frame_clock = self._clock()
+                        tr.last_frame_clock = self.link.clock()
                         if st.state not in ACTIVE_STATES:
                             tr.ended = True
                             if st.state == "FAULT" and tr.fault is None:
@@ -493,7 +393,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             except DisplayError as exc:
                 host_fault = ("LINK_LOST", str(exc))
             rec = self._finish(tr, host_fault)
-        self._trial = None
+        self.link.trial = None
         self.last_recording = rec
         self.last_contact = (ContactEvent(rec.contact_time_s, tr.contact_force)
                              if rec.contact_time_s is not None else None)
@@ -509,18 +409,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             # events and telemetry): its end reason and contact time decide, not what we saw.
             try:
                 st = self.status()
-                if st.contact_time_s is not None:
-                    tr.contact_s = st.contact_time_s
-                    tr.active_seen = True
-                if st.state not in ACTIVE_STATES:
-                    tr.end_reason = st.end_reason
-                if st.state == "FAULT" and tr.fault is None:
-                    tr.fault = st.fault or "FAULT"
-                elif tr.end_reason == "fault" and tr.fault is None:
-                    # the WATCHDOG or FAULT event was lost: the device still says why
-                    tr.fault = st.fault or "FAULT"
-                    tr.fault_msg = (f"the device ended the trial by a fault ({tr.fault}); "
-                                    f"its event was lost on the link")
+                tr.take_status(st)
             except DisplayLinkLost as exc:
                 host_fault = ("LINK_LOST", str(exc))
             except DisplayBadReply as exc:
@@ -531,7 +420,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             status, code, msg = "fault", tr.fault, tr.fault_msg or f"device fault {tr.fault}"
         elif host_fault is not None:
             status, code, msg = "fault", host_fault[0], host_fault[1]
-            if self._link_error is None:
+            if self.link.error is None:
                 self._safe_abort()     # (a lost port takes nothing more: the watchdog acts)
         elif tr.end_reason == "aborted":
             status = "aborted"
@@ -540,15 +429,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             if why is not None:
                 status, code, msg = "fault", "NOT_DELIVERED", why
                 self._safe_abort()
-        expected = tr.last_counter - tr.counter0
-        lost = max(0, expected - tr.frames)
-        rms = math.sqrt(tr.sq / tr.n_track) if tr.n_track else float("nan")
-        mx = tr.max_err if tr.n_track else float("nan")
-        dur = (tr.end_time_s - tr.contact_s) if (tr.end_time_s is not None and
-                                                 tr.contact_s is not None) else 0.0
-        rec = TrialRecording(status, code, msg, tr.contact_s if tr.active_seen else None,
-                             tr.frames, lost, rms, mx, tr.mode, tr.end_reason, max(0.0, dur),
-                             self._parser.bad_frames - tr.bad0, tr.active_frames)
+        rec = tr.recording(status, code, msg, self.link.parser.bad_frames - tr.bad0)
         why = evidence_fault(rec, self.max_frame_loss) if status == "ok" else None
         if why is not None:
             self._safe_abort()
@@ -557,14 +438,14 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
     def abort(self) -> None:
         """Stop whatever runs; the device returns to neutral (and leaves FAULT)."""
-        self._transact(Cmd.ABORT)
-        if self._trial is not None:
-            self._trial.ended = True
-            self._trial.end_reason = "aborted"
+        self.link.transact(Cmd.ABORT)
+        if self.link.trial is not None:
+            self.link.trial.ended = True
+            self.link.trial.end_reason = "aborted"
 
     def _safe_abort(self) -> None:
         try:
-            self._transact(Cmd.ABORT, retries=1)
+            self.link.transact(Cmd.ABORT, retries=1)
         except DisplayError:
             pass                 # link gone: the device's watchdog takes the pad to neutral
 
@@ -578,9 +459,9 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         """
         st = self._read_status()
         if self.hello is not None and st.boot_id != self.hello.boot_id:
-            self._restarted(f"boot id {st.boot_id:08x}, not {self.hello.boot_id:08x} as at HELLO")
-        if self._restart is not None:
-            raise DisplayRestarted(f"display: restarted since the handshake ({self._restart}); "
+            self.link.restarted(f"boot id {st.boot_id:08x}, not {self.hello.boot_id:08x} as at HELLO")
+        if self.link.restart is not None:
+            raise DisplayRestarted(f"display: restarted since the handshake ({self.link.restart}); "
                                    f"it no longer holds this session's limits and neutral: "
                                    f"stop, and resume to shake hands again")
         return neutral.status(st)
@@ -590,7 +471,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         return the trip it holds. The device never raises it above its own, and restores its
         own at HELLO, at power-up and when the host falls silent; send a value at or above the
         device's own trip (45 °C) to restore it at once. IDLE only."""
-        p = self._transact(Cmd.SET_TRIP, m.CENTI.pack(int(round(temperature_C * 100))))
+        p = self.link.transact(Cmd.SET_TRIP, m.CENTI.pack(int(round(temperature_C * 100))))
         return m.CENTI.unpack(p)[0] / 100.0
 
     def clear_fault(self) -> None:
@@ -598,50 +479,23 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
 
         Never called by a session: a latched fault stops it, and a person decides.
         """
-        self._transact(Cmd.CLEAR_FAULT, m.CLEAR_FAULT_MAGIC)
+        self.link.transact(Cmd.CLEAR_FAULT, m.CLEAR_FAULT_MAGIC)
 
     @classmethod
     def operator_reset(cls, url: str, baudrate: int = 115200) -> tuple[str, str | None, str]:
-        """The operator's reset of a display latched in FAULT: STATUS, then HELLO and CLEAR_FAULT.
-
-        For a person who has checked the pad and its sensors (``thermocue clear-fault URL``);
-        the device is watched for :data:`RESET_WATCH_S` after the reset, so that a cause still
-        there (a sensor out of range or stuck) is reported as FAULT, not as a successful reset;
-        sets no limits and arms nothing. A device that is not in FAULT is left as it is: it is
-        asked STATUS alone (allowed before a HELLO), since a HELLO starts a new host's session
-        on the device (a host using it would lose its half-done upload and its retry replies).
+        """The operator's reset of a display latched in FAULT (:func:`.operator_reset.reset`).
 
         Returns
         -------
         (state_before, fault, state_after) : tuple of str, str or None, str
         """
-        port = open_serial_port(url, baudrate)
-        try:
-            disp = cls(port, None)
-            disp._refuse_text_device()
-            before = disp._read_status()
-            if before.state != "FAULT":
-                return before.state, before.last_fault, before.state
-            disp._hello()
-            disp.clear_fault()
-            # a cause still there (a sensor out of range or stuck) trips it again at once:
-            # watch it for RESET_WATCH_S before calling the reset done
-            end = disp._clock() + RESET_WATCH_S
-            after = disp._read_status()
-            while after.state != "FAULT" and disp._clock() < end:
-                disp.wait(0.05)
-                after = disp._read_status()
-            return before.state, before.last_fault, after.state
-        finally:
-            try:
-                port.close()
-            except Exception:
-                pass
+        from .operator_reset import reset
+        return reset(cls, url, baudrate)
 
     def heartbeat(self) -> float:
         """One acknowledged heartbeat; return the device time, s."""
-        t = self._ask(Cmd.HEARTBEAT, m.TIME)[0] * 1e-6
-        self._dev_time = max(self._dev_time, t)
+        t = self.link.ask(Cmd.HEARTBEAT, m.TIME)[0] * 1e-6
+        self.link.dev_time = max(self.link.dev_time, t)
         return t
 
     def is_awake(self) -> bool:
@@ -650,19 +504,19 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         PsychoPy's devices offer the same check (``isAwake``) before an experiment starts.
         """
         try:
-            self._ask(Cmd.HEARTBEAT, m.TIME, retries=0)
+            self.link.ask(Cmd.HEARTBEAT, m.TIME, retries=0)
             return True
         except DisplayError:
             return False
 
     def wait(self, seconds: float) -> None:
         """Let ``seconds`` pass (device time on a virtual clock) while keeping the link alive."""
-        with self._lock:
-            end = self._clock() + seconds
-            while self._clock() < end:
-                for fr in self._read_frames():
-                    self._dispatch(fr)
-                self._heartbeat_if_due()
+        with self.link.lock:
+            end = self.link.clock() + seconds
+            while self.link.clock() < end:
+                for fr in self.link.read_frames():
+                    self.link.dispatch(fr)
+                self.link.heartbeat_if_due()
 
     def poll(self, on_telemetry=None, on_event=None) -> bool:
         """Route what has arrived, without waiting; return whether the armed trial has ended.
@@ -672,9 +526,9 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         get the :class:`TrialRecording`. The callbacks are attached to the armed trial as
         :meth:`run_trial` attaches them (telemetry received before is replayed first).
         """
-        self._check_link()
-        with self._lock:
-            tr = self._trial
+        self.link.check()
+        with self.link.lock:
+            tr = self.link.trial
             if tr is not None and on_telemetry is not None and tr.callback is None:
                 for fr in tr.pending:
                     on_telemetry(fr)
@@ -682,15 +536,15 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
             if tr is not None and on_event is not None:
                 tr.attach_on_event(on_event)
             try:
-                while self._virtual or self.port.in_waiting > 0:
-                    for fr in self._read_frames():
-                        self._dispatch(fr)
-                    if self._virtual:
+                while self.link.virtual or self.port.in_waiting > 0:
+                    for fr in self.link.read_frames():
+                        self.link.dispatch(fr)
+                    if self.link.virtual:
                         break
             except (serial.SerialException, OSError) as exc:
-                self._link_error = exc
+                self.link.error = exc
                 raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
-            self._heartbeat_if_due()
+            self.link.heartbeat_if_due()
         return tr is not None and tr.ended
 
     # ------------------------------------------------------------------ emulator-only
@@ -698,7 +552,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         if self.info is None or "sim" not in self.info.capabilities:
             raise DisplayError("display: sim commands need the emulator (capability 'sim'); "
                                f"this device offers {self.info.capabilities if self.info else ()}")
-        return self._ask(cmd, _json_object, m.encode_json(args))
+        return self.link.ask(cmd, _json_object, m.encode_json(args))
 
     def sim_sample(self, material: str = "stainless_steel", roughness_m: float = 1.6e-6,
                    thickness_m: float | None = 3e-3, temperature_C: float = 20.0) -> dict:
@@ -726,7 +580,7 @@ class ThermalDisplay(ProtocolLink, EmulatedDisplay, scheme="serial"):
         """Stop the heartbeat, put the display to neutral (best effort), close the port."""
         self.stop_heartbeat()
         if self.port.is_open:
-            if self._link_error is None:
+            if self.link.error is None:
                 self._safe_abort()
             try:
                 self.port.close()

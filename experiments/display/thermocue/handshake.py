@@ -5,7 +5,8 @@ pad to neutral when the host falls silent, the device's own setpoint range and r
 layer of limits), and the telemetry rate from which the host tells a delivered trial and measures
 the tracking error. A device that declares numbers outside what the argument needs is refused at
 the handshake, with one line naming the port and the field; a reply too short or malformed to
-decode is refused the same way, never with a ``struct.error``.
+decode is refused the same way, never with a ``struct.error``. Then the host sends its limits
+(:func:`send_limits`); :func:`device_capabilities` is what the reply declares.
 
 Bounds (the spec's, not the emulator's):
 
@@ -30,13 +31,15 @@ from __future__ import annotations
 import struct
 import time
 
-from experiments.errors import DisplayError
+from experiments.errors import DisplayError, SafetyLimitError
 
 from . import messages as m
 from .framing import SOF
+from ..base import Capabilities
 from .messages import DeviceInfo
 
-__all__ = ["HandshakeRefused", "decode_hello", "refuse_text_device", "TEXT_PROBE", "WATCHDOG_MS_RANGE", "TELEMETRY_HZ_RANGE",
+__all__ = ["HandshakeRefused", "decode_hello", "refuse_text_device", "protocol_capabilities",
+           "device_capabilities", "send_limits", "TEXT_PROBE", "WATCHDOG_MS_RANGE", "TELEMETRY_HZ_RANGE",
            "PROTOCOL_MIN_C", "PROTOCOL_MAX_SETPOINT_C", "PROTOCOL_MAX_RATE_C_PER_S"]
 
 WATCHDOG_MS_RANGE = (50, 90)
@@ -155,3 +158,58 @@ def refuse_text_device(port, name: str) -> None:
         raise DisplayError(f"display: {name} answers '?' with text ({bytes(got[:20])!r}): a QST.Lab "
                            f"TCS II, not a display of the thermocue protocol; open it as "
                            f"tcs2://{name} (nothing else was sent to it)")
+
+
+def protocol_capabilities() -> Capabilities:
+    """The :class:`~..base.Capabilities` the protocol allows (before a device states its own)."""
+    return Capabilities(contact_detection="force", force_sensing=True, telemetry_hz=100.0,
+                        max_profile_points=65536, min_profile_step_s=PROTOCOL_MIN_DT_S,
+                        safe_range_C=(PROTOCOL_MIN_C, PROTOCOL_MAX_SETPOINT_C),
+                        max_rate_C_per_s=PROTOCOL_MAX_RATE_C_PER_S,
+                        modes=("playback", "record"), scripted_bench=False,
+                        notes="numbers as the protocol allows them; the device states its own "
+                              "at the handshake")
+
+
+def device_capabilities(info) -> Capabilities:
+    """The :class:`~..base.Capabilities` a device declared at the handshake (``info``: the
+    neutral :class:`~..types.DeviceInfo`)."""
+    modes = tuple(md for md in ("playback", "record") if md in info.capabilities)
+    return Capabilities(contact_detection="force", force_sensing=True,
+                        telemetry_hz=float(info.telemetry_hz), max_profile_points=info.max_points,
+                        min_profile_step_s=info.min_dt_s,
+                        safe_range_C=(info.hard_min_C, info.hard_max_C),
+                        max_rate_C_per_s=info.max_rate_C_per_s,
+                        modes=modes or ("playback", "record"),
+                        scripted_bench="sim" in info.capabilities,
+                        notes=f"{info.device_id}, {info.firmware}")
+
+
+def send_limits(link, info, lim) -> None:
+    """SET_LIMITS with the host's limits ``lim``, checked against the device's range (``info``,
+    neutral :class:`~..types.DeviceInfo`) before and against its acknowledgement after.
+
+    Raises
+    ------
+    SafetyLimitError
+        If ``lim`` does not lie inside the device's range (nothing sent).
+    DisplayError
+        If the device acknowledged limits other than those sent.
+    """
+    rate = int(round(info.max_rate_C_per_s * 100))
+    if lim.min_C < info.hard_min_C or lim.max_C > info.hard_max_C:
+        reason = (f"expected a range inside the device's [{info.hard_min_C}, "
+                  f"{info.hard_max_C}] °C, got [{lim.min_C}, {lim.max_C}]")
+        raise SafetyLimitError(f"display: limits: {reason}", reason=reason)
+    sent = (m.centi(lim.min_C), m.centi(lim.max_C),
+            min(int(round(lim.max_rate_C_per_s * 100)), 0xFFFF))
+    got = link.ask(m.Cmd.SET_LIMITS, m.LIMITS, m.LIMITS.pack(*sent))
+    # the range lies inside the device's, so it must hold it exactly; the rate may be
+    # lowered to the device's own maximum (a tighter limit, and so not a mismatch)
+    want = (sent[0], sent[1], min(sent[2], rate))
+    if got != want:
+        raise DisplayError(
+            f"display: SET_LIMITS: sent {sent[0] / 100}–{sent[1] / 100} °C at "
+            f"{sent[2] / 100} °C/s, the device acknowledged {got[0] / 100}–{got[1] / 100} °C "
+            f"at {got[2] / 100} °C/s (a stale reply?); not going on with limits it does "
+            f"not hold")

@@ -1,27 +1,42 @@
 """The host's end of the display protocol's link: numbered requests, replies, heartbeats.
 
-:class:`ProtocolLink` is the half of :class:`~experiments.display.thermocue.driver.ThermalDisplay` below
-its commands: sequence numbers (never a type's last one; 0 kept for the helper's silent
-heartbeats), writing, reading and routing frames (telemetry and events to the armed trial, the
-awaited reply to :meth:`ProtocolLink._transact`, with its timeout and retries), the heartbeat
-that feeds the device's watchdog (in the I/O loop, and in a thread or a helper process on a
-real clock), and noticing a device restart. It keeps no state of its own: ThermalDisplay's
-constructor sets the fields it uses.
+:class:`ProtocolLink` is what :class:`~experiments.display.thermocue.driver.ThermalDisplay`
+holds below its commands (``display.link``): sequence numbers (never a type's last one; 0 kept
+for the helper's silent heartbeats), writing, reading and routing frames (telemetry and events
+to the armed trial, :attr:`ProtocolLink.trial`; the awaited reply to
+:meth:`ProtocolLink.transact`, with its timeout and retries), the heartbeat that feeds the
+device's watchdog (in the I/O loop, and in a thread or a helper process on a real clock), and
+noticing a device restart (:attr:`ProtocolLink.restart`).
+
+Heartbeats (timing budget in ``docs/display-protocol.md`` §6): on a port with a file descriptor
+(serial device, pty) a helper process (:mod:`.heartbeat`) writes a silent heartbeat every
+``heartbeat_s`` (10 ms) -- no thread of ours, and so no GIL-holding main thread (a PsychoPy
+window, a slow telemetry callback, a long C call), can hold it back. Elsewhere (``emulator://``)
+a dedicated thread does the same without waiting for the I/O lock. Every command and every pass
+of the I/O loop also counts (any valid frame feeds the watchdog). Both stop heartbeating when the
+thread doing I/O has shown no sign of life for ``host_stall_s`` (2 s): a hung host program still
+lets the device's watchdog take the pad to neutral. On a virtual clock the I/O thread heartbeats
+in device time.
+
+A frame read only in part waits for its rest for ``stale_s`` (0.2 s of wall time) before the
+parser gives up on it: a pty hands a frame over in pieces when the kernel's buffers wrap, and a
+loaded machine may take tens of ms to deliver the second piece.
 """
 from __future__ import annotations
 
 import json
+import secrets
 import struct
 import threading
 import time
 
 import serial
 
-from experiments.errors import (DisplayBadReply, DisplayError, DisplayLinkLost, DisplayRefused,
+from experiments.errors import (DisplayBadReply, DisplayLinkLost, DisplayRefused,
                                 DisplayRestarted, DisplayTimeout)
 
 from . import messages as m
-from .framing import encode_frame
+from .framing import FrameParser, encode_frame
 from .messages import Cmd, DeviceEvent, Msg
 from .neutral import decode_telemetry, event as _neutral_event
 
@@ -73,7 +88,76 @@ def decode_reply(cmd: int, payload: bytes, decode):
 
 
 class ProtocolLink:
-    """Requests, replies and heartbeats on one port (a mixin of ``ThermalDisplay``)."""
+    """Requests, replies and heartbeats on one port (held by ``ThermalDisplay`` as ``link``).
+
+    Parameters
+    ----------
+    port : serial.SerialBase
+    reply_timeout_s, retries, heartbeat_s, host_stall_s, stale_s
+        As :class:`~experiments.display.thermocue.driver.ThermalDisplay` documents them.
+
+    Attributes
+    ----------
+    lock : threading.RLock
+        Held by whoever does I/O (a command, the trial loop); the heartbeat thread only
+        drains the input when nobody holds it.
+    parser : FrameParser
+    clock : callable
+        The loop's clock, s: device time on a virtual clock, else ``time.monotonic``.
+    virtual : bool
+    dev_time : float, s
+        The latest device time seen.
+    trial : TrialInProgress or None
+        The armed trial, to which telemetry and events are routed.
+    handshaken : bool
+        A HELLO was answered on this link: a NO_HELLO refusal then means a restart.
+    restart : str or None
+        Why the device is thought to have restarted since the handshake.
+    error : Exception or None
+        A link failure seen by a thread other than the caller's (raised by :meth:`check`).
+    heartbeats_sent, max_tx_gap_s
+        As :class:`~experiments.display.thermocue.driver.ThermalDisplay` documents them.
+    """
+
+    def __init__(self, port, *, reply_timeout_s: float = 0.25, retries: int = 3,
+                 heartbeat_s: float = 0.01, host_stall_s: float = 2.0, stale_s: float = 0.2):
+        self.port = port
+        self.reply_timeout_s = float(reply_timeout_s)
+        self.retries = int(retries)
+        self.heartbeat_s = float(heartbeat_s)
+        self.host_stall_s = float(host_stall_s)
+        self.stale_s = float(stale_s)
+        self._wlock = threading.Lock()          # writes and sequence numbers, any thread
+        self._last_tx = -1e9                    # wall time of the last frame written
+        self._alive = time.monotonic()          # wall time the I/O thread last did something
+        self._hb_proc = None                    # HeartbeatProcess on a port with a descriptor
+        self._cand_key = None                   # parser progress when a partial frame was seen
+        self._cand_since = 0.0
+        self.heartbeats_sent = 0                # by the heartbeat thread
+        self.max_tx_gap_s = 0.0                 # longest wall-time gap between written frames
+        self.lock = threading.RLock()
+        self.parser = FrameParser()
+        # a random start: a host that reconnects must not repeat its predecessor's numbers
+        self._seq = secrets.randbelow(256)
+        self._last_seq_by_type: dict[int, int] = {}
+        # the loop's clock, s: a port whose device runs on a virtual clock says so by offering
+        # device_clock() (a function returning device seconds, or None on a real clock); every
+        # other port (a serial device, a pty) runs on wall time
+        device_clock = getattr(port, "device_clock", None)
+        device_clock = device_clock() if callable(device_clock) else None
+        self.virtual = device_clock is not None
+        self.clock = device_clock if self.virtual else time.monotonic
+        # ... and may offer read_frames(): read() as decoded frames when nothing can damage them
+        self._read_direct = getattr(port, "read_frames", None) if self.virtual else None
+        self.dev_time = 0.0
+        self._hb_clock = -1e9
+        self._hb_dev = -1e9
+        self.trial = None
+        self.handshaken = False
+        self._hb_thread = None
+        self._hb_stop = threading.Event()
+        self.error: Exception | None = None
+        self.restart: str | None = None
 
     # ------------------------------------------------------------------ low level
     def _next_seq(self, mtype: int) -> int:
@@ -105,18 +189,18 @@ class ProtocolLink:
         try:
             self.port.write(data)
         except (serial.SerialException, OSError) as exc:
-            self._link_error = exc
+            self.error = exc
             raise DisplayLinkLost(f"display: link lost while writing: {exc}") from exc
         now = time.monotonic()
         if self._last_tx > 0:
             self.max_tx_gap_s = max(self.max_tx_gap_s, now - self._last_tx)
         self._last_tx = now
 
-    def _read_frames(self):
+    def read_frames(self):
         try:
             port = self.port
-            if self._virtual:                    # the emulator returns what one wait produced
-                parser = self._parser
+            if self.virtual:                    # the emulator returns what one wait produced
+                parser = self.parser
                 read_direct = self._read_direct
                 if read_direct is not None and not parser.buffered:
                     frames = read_direct(65536)
@@ -133,12 +217,12 @@ class ProtocolLink:
                 if n > 0:
                     data += port.read(n)
         except (serial.SerialException, OSError) as exc:
-            self._link_error = exc
+            self.error = exc
             raise DisplayLinkLost(f"display: link lost while reading: {exc}") from exc
         self._touch()
         if not data:
-            return self._stale_candidate() if self._parser.buffered else []
-        return self._parser.feed(data)
+            return self._stale_candidate() if self.parser.buffered else []
+        return self.parser.feed(data)
 
     def _stale_candidate(self):
         """Give up on a partial frame only once the parser has made no progress for ``stale_s``.
@@ -147,7 +231,7 @@ class ProtocolLink:
         candidate whose length field is garbage is abandoned after ``stale_s`` (and sooner by
         itself once enough later bytes arrive for its CRC to fail).
         """
-        p = self._parser
+        p = self.parser
         key = (p.frames, p.bad_frames, p.bytes_skipped, p.buffered)
         now = time.monotonic()
         if key != self._cand_key:
@@ -164,21 +248,21 @@ class ProtocolLink:
         if self._hb_proc is not None:
             self._hb_proc.ping()
 
-    def _heartbeat_if_due(self) -> None:
+    def heartbeat_if_due(self) -> None:
         self._touch()
-        c = self._clock()
+        c = self.clock()
         period = self.heartbeat_s
-        if (c - self._hb_clock >= period or self._dev_time - self._hb_dev >= period
-                or (not self._virtual and self._alive - self._last_tx >= period)):
-            self._hb_clock, self._hb_dev = c, self._dev_time
+        if (c - self._hb_clock >= period or self.dev_time - self._hb_dev >= period
+                or (not self.virtual and self._alive - self._last_tx >= period)):
+            self._hb_clock, self._hb_dev = c, self.dev_time
             # silent (no reply wanted): telemetry or the next reply shows the device is alive
             self._write_heartbeat()
 
-    def _dispatch(self, fr) -> None:
+    def dispatch(self, fr) -> None:
         """Route a frame that is not the awaited reply."""
-        self._dispatch_all((fr,))
+        self.dispatch_all((fr,))
 
-    def _dispatch_all(self, frames) -> None:
+    def dispatch_all(self, frames) -> None:
         """Route frames that are not an awaited reply, in order (the I/O loop's batch of a read:
         one call for all of them, the commonest, telemetry, first)."""
         for fr in frames:
@@ -187,61 +271,61 @@ class ProtocolLink:
                 try:
                     tel = _decode_telemetry(fr.payload)
                 except Exception:    # a frame with a good CRC but a wrong layout: count, go on
-                    self._parser.bad_frames += 1
+                    self.parser.bad_frames += 1
                     continue
                 t_s = tel[1]                                    # device_time_s
-                if t_s < self._dev_time - 0.05:                 # telemetry is never a cached reply
-                    self._restarted(f"its time went back from {self._dev_time:.3f} s to "
+                if t_s < self.dev_time - 0.05:                 # telemetry is never a cached reply
+                    self.restarted(f"its time went back from {self.dev_time:.3f} s to "
                                     f"{t_s:.3f} s")
-                self._dev_time = t_s
-                trial = self._trial
+                self.dev_time = t_s
+                trial = self.trial
                 if trial is not None:
-                    trial.last_frame_clock = self._clock()
+                    trial.last_frame_clock = self.clock()
                     trial.telemetry(tel)
             elif t == _EVENT:
                 try:
                     ev = _neutral_event(DeviceEvent.decode(fr.payload))
                 except Exception:
-                    self._parser.bad_frames += 1
+                    self.parser.bad_frames += 1
                     continue
-                self._dev_time = max(self._dev_time, ev.device_time_s)
-                if self._trial is not None:
-                    self._trial.event(ev)
+                self.dev_time = max(self.dev_time, ev.device_time_s)
+                if self.trial is not None:
+                    self.trial.event(ev)
             elif t == _HEARTBEAT_REPLY and len(fr.payload) == _TIME_SIZE:
                 # not a restart test: a retried heartbeat is answered from the device's cache
-                self._dev_time = max(self._dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
+                self.dev_time = max(self.dev_time, m.TIME.unpack(fr.payload)[0] * 1e-6)
 
-    def _restarted(self, why: str) -> None:
+    def restarted(self, why: str) -> None:
         """Note a device restart: the next command raises :class:`DisplayRestarted`."""
-        if self._restart is None:
-            self._restart = why
-        if self._trial is not None and self._trial.fault is None:
-            self._trial.fault, self._trial.fault_msg = "DEVICE_RESTARTED", f"display restarted: {why}"
-            self._trial.ended = True
+        if self.restart is None:
+            self.restart = why
+        if self.trial is not None and self.trial.fault is None:
+            self.trial.fault, self.trial.fault_msg = "DEVICE_RESTARTED", f"display restarted: {why}"
+            self.trial.ended = True
 
-    def _transact(self, cmd: int, payload: bytes = b"", *, timeout_s: float | None = None,
+    def transact(self, cmd: int, payload: bytes = b"", *, timeout_s: float | None = None,
                   retries: int | None = None) -> bytes:
         """Send a command, return the reply payload; raise on refusal or silence."""
         timeout_s = self.reply_timeout_s if timeout_s is None else timeout_s
         retries = self.retries if retries is None else retries
-        with self._lock:
+        with self.lock:
             seq = self._next_seq(cmd)
             frame = encode_frame(seq, cmd, payload)
             want = (cmd | m.REPLY_BIT) & 0xFF
             size = _REPLY_SIZE.get(want)
             for attempt in range(retries + 1):
                 self._write(frame)
-                self._hb_clock, self._hb_dev = self._clock(), self._dev_time  # any frame feeds the watchdog
-                deadline = self._clock() + timeout_s
-                while self._clock() < deadline:
+                self._hb_clock, self._hb_dev = self.clock(), self.dev_time  # any frame feeds the watchdog
+                deadline = self.clock() + timeout_s
+                while self.clock() < deadline:
                     answer = None
-                    for fr in self._read_frames():      # dispatch every other frame, even after
+                    for fr in self.read_frames():      # dispatch every other frame, even after
                         if answer is None and fr.seq == seq and (
                                 (fr.type == want and (size is None or len(fr.payload) == size))
                                 or (fr.type == Msg.NAK and fr.payload[:1] == bytes([cmd]))):
                             answer = fr
                         else:
-                            self._dispatch(fr)
+                            self.dispatch(fr)
                     if answer is not None:
                         if answer.type == want:
                             return answer.payload
@@ -252,8 +336,8 @@ class ProtocolLink:
                                 f"not using it")
                         _, code = m.NAK_HEAD.unpack_from(answer.payload)
                         text = answer.payload[m.NAK_HEAD.size:].decode("utf-8", "replace")
-                        if code == m.Err.NO_HELLO and cmd != Cmd.HELLO and self.info is not None:
-                            self._restarted(f"{Cmd(cmd).name} refused with NO_HELLO")
+                        if code == m.Err.NO_HELLO and cmd != Cmd.HELLO and self.handshaken:
+                            self.restarted(f"{Cmd(cmd).name} refused with NO_HELLO")
                             raise DisplayRestarted(
                                 f"display: restarted since the handshake ({Cmd(cmd).name} "
                                 f"refused: NO_HELLO); it no longer holds this session's "
@@ -261,13 +345,13 @@ class ProtocolLink:
                         raise DisplayRefused(f"display: {Cmd(cmd).name} refused: "
                                              f"{m.error_name(code)} ({text})", code=code,
                                              code_name=m.error_name(code))
-                    self._heartbeat_if_due()
+                    self.heartbeat_if_due()
             raise DisplayTimeout(f"display: {Cmd(cmd).name}: expected a reply within "
                                  f"{timeout_s} s, got none after {retries + 1} attempts")
 
-    def _ask(self, cmd: int, decode, payload: bytes = b"", **kw):
-        """:meth:`_transact`, its reply decoded by :func:`decode_reply` (checked)."""
-        return decode_reply(cmd, self._transact(cmd, payload, **kw), decode)
+    def ask(self, cmd: int, decode, payload: bytes = b"", **kw):
+        """:meth:`transact`, its reply decoded by :func:`decode_reply` (checked)."""
+        return decode_reply(cmd, self.transact(cmd, payload, **kw), decode)
 
     # ------------------------------------------------------------------ the heartbeat
     def start_heartbeat(self) -> None:
@@ -275,7 +359,7 @@ class ProtocolLink:
 
         A helper process on a port with a file descriptor, else a thread (module docstring).
         """
-        if self._virtual or self._hb_thread is not None:
+        if self.virtual or self._hb_thread is not None:
             return
         fd = getattr(self.port, "fd", None)
         if isinstance(fd, int) and fd >= 0 and self._hb_proc is None:
@@ -313,20 +397,20 @@ class ProtocolLink:
                         and now - self._last_tx >= period / 2):
                     self._write_heartbeat()
                     self.heartbeats_sent += 1
-                if not self._lock.acquire(blocking=False):
+                if not self.lock.acquire(blocking=False):
                     continue                   # the I/O thread is reading
                 try:                           # nobody reads: keep the input drained
                     if self.port.in_waiting:
-                        for fr in self._parser.feed(self.port.read(self.port.in_waiting)):
-                            self._dispatch(fr)
+                        for fr in self.parser.feed(self.port.read(self.port.in_waiting)):
+                            self.dispatch(fr)
                 finally:
-                    self._lock.release()
+                    self.lock.release()
             except Exception as exc:           # reported by the next call in the main thread
-                self._link_error = exc
+                self.error = exc
                 return
 
     # ------------------------------------------------------------------ link errors
-    def _check_link(self) -> None:
-        if self._link_error is not None:
-            exc, self._link_error = self._link_error, None
+    def check(self) -> None:
+        if self.error is not None:
+            exc, self.error = self.error, None
             raise DisplayLinkLost(f"display: link lost: {exc}")

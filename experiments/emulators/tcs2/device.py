@@ -181,98 +181,100 @@ class Tcs2Device:
         """Carry out one command line; return the reply lines (most commands print none)."""
         c = line
         try:
-            if c == "?":
-                return ["TCS"]
-            if c == "H":
-                return [x.replace(FIRMWARE, self.firmware) for x in HELP_LINES]
-            if c == "P":
-                return [f"N{self.neutral_dC:03d} Om{self.max_dC:03d} "
-                        f"S{''.join(map(str, self.zones))} Ue{''.join(map(str, self.profile_zones))} "
-                        f"Os{int(self.trigger_in)}"]
-            if c == "E":
-                return ["+".join(f"{int(round(v * 10)):03d}" for v in self._readings())]
-            if c == "Oe":
-                return [self._stream_line()]
-            if c == "Q":
-                return ["".join(str(min(9, e)) for e in self.errors)]
-            if c == "L":
-                self._start()
-                return []
-            if c == "A":
-                self._abort()
-                return []
-            if c == "F":
-                self.ob = self.oa = False
-                return []
-            if c == "Ob":
-                self.ob = True
-                return []
-            if c == "Oa":
-                self.oa = True
-                return []
-            if c in ("Os", "Ose"):
-                self.trigger_in = True
-                return []
-            if c == "Osd":
-                self.trigger_in = False
-                return []
-            if c == "Oo":
-                return []
-            if c == "#T":
-                if self.trigger_in and self.state == "idle":
-                    self._start()
-                return []
-            if c == "Od":
-                self.state = "follow"
-                for z in range(5):
-                    if self.zones[z]:
-                        self.setpoints[z] = min(self.C[z], self.max_dC) / 10
-                return []
-            if c == "Ur":
-                return [f"{z} {self.profile_zones[z - 1]} {len(self.profile[z]):03d}"
-                        + "".join(f"{d:03d}{t:03d}" for d, t in self.profile[z]) for z in range(1, 6)]
-            if c.startswith("Om") and len(c) == 5 and c[2:].isdigit():
-                v = int(c[2:])
-                if not 100 <= v <= 600:
-                    return [f"ERR Om out of range: {c}"]
-                if self.om_cap is not None:
-                    v = min(v, int(round(self.om_cap * 10)))
-                self.max_dC = v
-                return []
-            if c[0] == "N" and len(c) == 4 and c[1:].isdigit():
-                v = int(c[1:])
-                if not 200 <= v <= 400:
-                    return [f"ERR N out of range: {c}"]
-                self.neutral_dC = v
-                if self.state == "idle":
-                    self.setpoints = [v / 10] * 5
-                return []
-            if c[0] == "S" and len(c) == 6 and set(c[1:]) <= {"0", "1"}:
-                self.zones = tuple(int(x) for x in c[1:])
-                return []
-            if c.startswith("Ue") and len(c) == 7 and set(c[2:]) <= {"0", "1"}:
-                self.profile_zones = tuple(int(x) for x in c[2:])
-                return []
-            if c.startswith("Uw"):
-                return self._upload(c)
-            if c[0] in "CVRD" and len(c) >= 3 and c[1] in "012345" and c[2:].isdigit():
-                width = {"C": 3, "V": 4, "R": 4, "D": 5}[c[0]]
-                if len(c) != 2 + width:
-                    return [f"ERR bad length: {c}"]
-                v, zone = int(c[2:]), int(c[1])
-                ok = {"C": 100 <= v <= 600, "V": 1 <= v <= 9999, "R": 1 <= v <= 9999,
-                      "D": 1 <= v <= 99999}[c[0]]
-                if not ok:
-                    return [f"ERR {c[0]} out of range: {c}"]
-                if c[0] == "C":
-                    v = min(v, self.max_dC)      # 'C' is limited to the maximum
-                target = getattr(self, c[0])
-                for z in (range(5) if zone == 0 else [zone - 1]):
-                    target[z] = v
-                return []
+            exact = _EXACT.get(c)
+            if exact is not None:
+                return exact(self)
+            reply = self._set_command(c)
+            if reply is not None:
+                return reply
         except (ValueError, IndexError):
             pass
         return [f"ERR unknown command: {c[:40]}"]
+
+    # the commands without an argument (:data:`_EXACT`)
+    def _help(self) -> list:
+        return [x.replace(FIRMWARE, self.firmware) for x in HELP_LINES]
+
+    def _parameters(self) -> list:
+        return [f"N{self.neutral_dC:03d} Om{self.max_dC:03d} "
+                f"S{''.join(map(str, self.zones))} Ue{''.join(map(str, self.profile_zones))} "
+                f"Os{int(self.trigger_in)}"]
+
+    def _temperatures(self) -> list:
+        return ["+".join(f"{int(round(v * 10)):03d}" for v in self._readings())]
+
+    def _error_codes(self) -> list:
+        return ["".join(str(min(9, e)) for e in self.errors)]
+
+    def _set_outputs(self, ob: bool | None = None, oa: bool | None = None) -> list:
+        if ob is not None:
+            self.ob = ob
+        if oa is not None:
+            self.oa = oa
+        return []
+
+    def _set_trigger_in(self, on: bool) -> list:
+        self.trigger_in = on
+        return []
+
+    def _trigger(self) -> list:
+        if self.trigger_in and self.state == "idle":
+            self._start()
+        return []
+
+    def _follow(self) -> list:
+        self.state = "follow"
+        for z in range(5):
+            if self.zones[z]:
+                self.setpoints[z] = min(self.C[z], self.max_dC) / 10
+        return []
+
+    def _profile_lines(self) -> list:
+        return [f"{z} {self.profile_zones[z - 1]} {len(self.profile[z]):03d}"
+                + "".join(f"{d:03d}{t:03d}" for d, t in self.profile[z]) for z in range(1, 6)]
+
+    def _set_command(self, c: str) -> list | None:
+        """A command with an argument (a setting, an upload); None if ``c`` is none of them."""
+        if c.startswith("Om") and len(c) == 5 and c[2:].isdigit():
+            v = int(c[2:])
+            if not 100 <= v <= 600:
+                return [f"ERR Om out of range: {c}"]
+            if self.om_cap is not None:
+                v = min(v, int(round(self.om_cap * 10)))
+            self.max_dC = v
+            return []
+        if c[0] == "N" and len(c) == 4 and c[1:].isdigit():
+            v = int(c[1:])
+            if not 200 <= v <= 400:
+                return [f"ERR N out of range: {c}"]
+            self.neutral_dC = v
+            if self.state == "idle":
+                self.setpoints = [v / 10] * 5
+            return []
+        if c[0] == "S" and len(c) == 6 and set(c[1:]) <= {"0", "1"}:
+            self.zones = tuple(int(x) for x in c[1:])
+            return []
+        if c.startswith("Ue") and len(c) == 7 and set(c[2:]) <= {"0", "1"}:
+            self.profile_zones = tuple(int(x) for x in c[2:])
+            return []
+        if c.startswith("Uw"):
+            return self._upload(c)
+        if c[0] in "CVRD" and len(c) >= 3 and c[1] in "012345" and c[2:].isdigit():
+            width = {"C": 3, "V": 4, "R": 4, "D": 5}[c[0]]
+            if len(c) != 2 + width:
+                return [f"ERR bad length: {c}"]
+            v, zone = int(c[2:]), int(c[1])
+            ok = {"C": 100 <= v <= 600, "V": 1 <= v <= 9999, "R": 1 <= v <= 9999,
+                  "D": 1 <= v <= 99999}[c[0]]
+            if not ok:
+                return [f"ERR {c[0]} out of range: {c}"]
+            if c[0] == "C":
+                v = min(v, self.max_dC)      # 'C' is limited to the maximum
+            target = getattr(self, c[0])
+            for z in (range(5) if zone == 0 else [zone - 1]):
+                target[z] = v
+            return []
+        return None
 
     def _upload(self, c: str) -> list:
         mask, n, body = c[2:7], c[7:10], c[10:]
@@ -406,3 +408,26 @@ class Tcs2Device:
             elif f.kind == "zone":
                 self.errors[f.arg] = 2
                 self.stuck[f.arg - 1] = True
+
+
+#: The commands without an argument, each to its handler (a reply list; most are empty).
+_EXACT = {
+    "?": lambda d: ["TCS"],
+    "H": Tcs2Device._help,
+    "P": Tcs2Device._parameters,
+    "E": Tcs2Device._temperatures,
+    "Oe": lambda d: [d._stream_line()],
+    "Q": Tcs2Device._error_codes,
+    "L": lambda d: d._start() or [],
+    "A": lambda d: d._abort() or [],
+    "F": lambda d: d._set_outputs(ob=False, oa=False),
+    "Ob": lambda d: d._set_outputs(ob=True),
+    "Oa": lambda d: d._set_outputs(oa=True),
+    "Os": lambda d: d._set_trigger_in(True),
+    "Ose": lambda d: d._set_trigger_in(True),
+    "Osd": lambda d: d._set_trigger_in(False),
+    "Oo": lambda d: [],
+    "#T": Tcs2Device._trigger,
+    "Od": Tcs2Device._follow,
+    "Ur": Tcs2Device._profile_lines,
+}

@@ -253,21 +253,12 @@ class Device(HostCommands):
 
     # ------------------------------------------------------------------ the tick
     def step(self) -> None:
-        """Advance 10 ms of device time."""
+        """Advance 10 ms of device time: faults, host watch, forces, setpoint, physics, safety,
+        the trial's logic, telemetry (each a part below, in this order)."""
         self.time_us += TICK_US
         t_us = self.time_us
         if self.faults:
-            stalled = self._fault_active("stall")
-            if stalled != self.stalled:
-                self.stalled = stalled
-                self.log("stall" if stalled else "unstall")
-            pl = self.plant
-            pl.sensor_frozen = self._fault_active("stuck_sensor")
-            pl.sensor_override = 150.0 if self._fault_active("sensor_range") else None
-            pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
-            pl.relay_dead = self._fault_active("dead_relay")
-            pl.current_scale = self._fault_value("slow_pad", 1.0)
-            self.watchdog_us = int(self._fault_value("late_watchdog", WATCHDOG_MS / 1000) * 1e6)
+            self._apply_faults()
         if self.faults and not self.stalled:
             self._maybe_reboot()
         if not self.stalled:
@@ -276,7 +267,40 @@ class Device(HostCommands):
             # firmware hung: the hardware watchdog has opened the relay; only physics goes on
             self.plant.step(self.sp, self.sp, 0.0, False)
             return
-        state = prev_state = self.state
+        prev_state = self.state
+        state = self._watch_host(t_us, prev_state)
+        fin = self.finger
+        Fsum, touching = self._read_forces(t_us, fin, state)
+        sp_prev = self.sp
+        goal, sp = self._next_setpoint(t_us, state, sp_prev)
+        y = self._physics(t_us, state, sp_prev, sp, touching)
+        self._monitor_safety(state, y)
+        state = self.state
+        if state == _ARMED:
+            self._armed_tick(t_us, fin, Fsum, y, sp, goal)
+        elif state in (_PLAYING, _RECORDING):
+            self._trial_tick(t_us, state, Fsum)
+        # telemetry: while a trial is on, in FAULT, and on the tick a trial ends
+        if self.state != _IDLE or prev_state != _IDLE:
+            self._send_telemetry(t_us, sp)
+
+    def _apply_faults(self) -> None:
+        """The injected faults active now, applied to the firmware and the plant."""
+        stalled = self._fault_active("stall")
+        if stalled != self.stalled:
+            self.stalled = stalled
+            self.log("stall" if stalled else "unstall")
+        pl = self.plant
+        pl.sensor_frozen = self._fault_active("stuck_sensor")
+        pl.sensor_override = 150.0 if self._fault_active("sensor_range") else None
+        pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
+        pl.relay_dead = self._fault_active("dead_relay")
+        pl.current_scale = self._fault_value("slow_pad", 1.0)
+        self.watchdog_us = int(self._fault_value("late_watchdog", WATCHDOG_MS / 1000) * 1e6)
+
+    def _watch_host(self, t_us: int, state: int) -> int:
+        """Host loss restores the normal trip; the watchdog ends a silent host's trial.
+        Returns the state after it."""
         # host loss restores the normal trip, in any state
         if self.trip_C != OVERTEMP_C and t_us - self.last_rx_us > WATCHDOG_MS * 1000:
             self.set_trip(OVERTEMP_C)
@@ -290,8 +314,11 @@ class Device(HostCommands):
             self._event(Event.WATCHDOG, ms, "host heartbeat lost")
             self._set_state(_IDLE, "watchdog")
             state = self.state
-        # finger and forces
-        fin = self.finger
+        return state
+
+    def _read_forces(self, t_us: int, fin, state: int) -> tuple:
+        """The four force sensors (``self.forces``); returns their sum, N, and whether the
+        finger touches."""
         F = fin.force(t_us) if fin is not None else 0.0
         nz = self.noise
         nf = self.params.noise_force
@@ -304,8 +331,11 @@ class Device(HostCommands):
         touching = F > 0.1
         if touching and self.touch_us is None and state in _ACTIVE:
             self.touch_us = t_us
-        # setpoint
-        sp_prev = self.sp
+        return Fsum, touching
+
+    def _next_setpoint(self, t_us: int, state: int, sp_prev: float) -> tuple:
+        """This tick's goal and setpoint (``self.sp``), °C: the profile, its start or neutral,
+        clamped to the limits and the rate limit over every 0.1 s window."""
         max_step = self.lim_rate * self.tick_s
         if state == _PLAYING:
             vals, dt_us = self.profile
@@ -350,10 +380,15 @@ class Device(HostCommands):
             sp = hi
         self.sp = sp
         window.append(sp)
-        # physics
+        return goal, sp
+
+    def _physics(self, t_us: int, state: int, sp_prev: float, sp: float, touching: bool) -> float:
+        """The finger's skin, the pad, the ambient and contact readings; returns the pad's
+        sensor, °C."""
         load = 0.0
         skin = self.skin
         params = self.params
+        nz = self.noise
         if skin is not None:
             if touching and self.arm_mode == _PLAYBACK:      # the finger is on the pad
                 load = skin.step(True, self.plant.pad) * CONTACT_AREA_M2
@@ -369,7 +404,11 @@ class Device(HostCommands):
             self.contact_C = self._sample_reading(t_us, touching)
         else:
             self.contact_C = y
-        # safety monitors (on the pad's own sensor, whatever the mode)
+        return y
+
+    def _monitor_safety(self, state: int, y: float) -> None:
+        """The safety monitors, on the pad's own sensor ``y`` (°C), whatever the mode (none in
+        FAULT: ``state``, the state after the host watch)."""
         if state != _FAULT:
             if not (-10.0 < y < 90.0):
                 self._trip(Err.SENSOR_FAILURE, f"contact sensor reads {y:.2f} °C")
@@ -378,65 +417,70 @@ class Device(HostCommands):
             elif self.plant.tripped or y > self.trip_C or self.plant.hs > HEATSINK_MAX_C:
                 self._trip(Err.OVER_TEMPERATURE,
                            f"pad {y:.2f} °C, heat sink {self.plant.hs:.2f} °C")
-        state = self.state
-        # trial logic
-        if state == _ARMED:
-            # a finger still pressing from the last trial is not a new contact: contact only
-            # once the force has dropped below half the threshold since ARM (a fresh touch)
-            if not self.fresh and Fsum < 0.5 * self.threshold:
-                self.fresh = True
-            if not self.ready:
-                near = (self.arm_mode == _RECORD or
-                        (abs(y - self.profile[0][0]) < READY_BAND_C and sp == goal))
-                self.ready_count = self.ready_count + 1 if near else 0
-                if self.ready_count >= 10:
-                    self.ready = True
-                    self._event(Event.READY, 0, "ready for contact")
-                    self.log("ready")
-                    if fin is not None and fin.start_us is None:
-                        fin.start_us = t_us
-            elif Fsum >= self.threshold and self.fresh:
-                self.contact_us = t_us
-                self.trials += 1
-                self.release_count = 0
-                self._event(Event.CONTACT, 0, f"{Fsum:.2f} N")
-                self._set_state(_PLAYING if self.arm_mode == _PLAYBACK else _RECORDING,
-                                "contact")
-        elif state in (_PLAYING, _RECORDING):
-            elapsed = t_us - self.contact_us
-            self.release_count = self.release_count + 1 if Fsum < 0.5 * self.threshold else 0
-            reason = None
-            if self.release_count * TICK_US >= RELEASE_MS * 1000:
-                reason = END_RELEASED
-            elif elapsed >= self.max_duration_us:
-                reason = END_MAX_DURATION
-            elif state == _PLAYING and elapsed >= (len(self.profile[0]) - 1) * self.profile[1]:
-                reason = END_COMPLETE
-            if reason is not None:
-                self.end_reason = reason
-                self._event(Event.END, reason, ("complete", "released", "max duration")[reason])
-                self._set_state(_IDLE, "end")
-        # telemetry: while a trial is on, in FAULT, and on the tick a trial ends
-        if self.state != _IDLE or prev_state != _IDLE:
-            self.counter += 1
-            self.tx_seq = seq = (self.tx_seq + 1) & 0xFF
-            fault = self.last_fault if self.state == _FAULT else 0
-            try:
-                payload = _TEL_PACK(
-                    self.counter, t_us - self.boot_us, round(sp * 100), round(self.contact_C * 100),
-                    round(self.ambient_C * 100), round(self.finger_C * 100), round(f0 * 100),
-                    round(f1 * 100), round(f2 * 100), round(f3 * 100), self.state, fault)
-            except struct.error:                   # a reading beyond ±327.67: saturate
-                c = m.centi
-                payload = _TEL_PACK(
-                    self.counter, t_us - self.boot_us, c(sp), c(self.contact_C), c(self.ambient_C),
-                    c(self.finger_C), c(f0), c(f1), c(f2), c(f3), self.state, fault)
-            direct = self.direct
-            if direct is not None:
-                direct.append(_tuple_new(Frame, (seq, _TELEMETRY, payload)))  # Frame(...), sooner
-            else:
-                body = _TEL_PREFIX[seq] + payload
-                self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
+
+    def _armed_tick(self, t_us: int, fin, Fsum: float, y: float, sp: float, goal: float) -> None:
+        """ARMED: wait for the starting temperature (READY), then a fresh contact."""
+        # a finger still pressing from the last trial is not a new contact: contact only
+        # once the force has dropped below half the threshold since ARM (a fresh touch)
+        if not self.fresh and Fsum < 0.5 * self.threshold:
+            self.fresh = True
+        if not self.ready:
+            near = (self.arm_mode == _RECORD or
+                    (abs(y - self.profile[0][0]) < READY_BAND_C and sp == goal))
+            self.ready_count = self.ready_count + 1 if near else 0
+            if self.ready_count >= 10:
+                self.ready = True
+                self._event(Event.READY, 0, "ready for contact")
+                self.log("ready")
+                if fin is not None and fin.start_us is None:
+                    fin.start_us = t_us
+        elif Fsum >= self.threshold and self.fresh:
+            self.contact_us = t_us
+            self.trials += 1
+            self.release_count = 0
+            self._event(Event.CONTACT, 0, f"{Fsum:.2f} N")
+            self._set_state(_PLAYING if self.arm_mode == _PLAYBACK else _RECORDING,
+                            "contact")
+
+    def _trial_tick(self, t_us: int, state: int, Fsum: float) -> None:
+        """PLAYING or RECORDING: end on release, on the maximum duration, at the profile's end."""
+        elapsed = t_us - self.contact_us
+        self.release_count = self.release_count + 1 if Fsum < 0.5 * self.threshold else 0
+        reason = None
+        if self.release_count * TICK_US >= RELEASE_MS * 1000:
+            reason = END_RELEASED
+        elif elapsed >= self.max_duration_us:
+            reason = END_MAX_DURATION
+        elif state == _PLAYING and elapsed >= (len(self.profile[0]) - 1) * self.profile[1]:
+            reason = END_COMPLETE
+        if reason is not None:
+            self.end_reason = reason
+            self._event(Event.END, reason, ("complete", "released", "max duration")[reason])
+            self._set_state(_IDLE, "end")
+
+    def _send_telemetry(self, t_us: int, sp: float) -> None:
+        """One TELEMETRY frame of this tick."""
+        f0, f1, f2, f3 = self.forces
+        self.counter += 1
+        self.tx_seq = seq = (self.tx_seq + 1) & 0xFF
+        fault = self.last_fault if self.state == _FAULT else 0
+        try:
+            payload = _TEL_PACK(
+                self.counter, t_us - self.boot_us, round(sp * 100), round(self.contact_C * 100),
+                round(self.ambient_C * 100), round(self.finger_C * 100), round(f0 * 100),
+                round(f1 * 100), round(f2 * 100), round(f3 * 100), self.state, fault)
+        except struct.error:                   # a reading beyond ±327.67: saturate
+            c = m.centi
+            payload = _TEL_PACK(
+                self.counter, t_us - self.boot_us, c(sp), c(self.contact_C), c(self.ambient_C),
+                c(self.finger_C), c(f0), c(f1), c(f2), c(f3), self.state, fault)
+        direct = self.direct
+        if direct is not None:
+            direct.append(_tuple_new(Frame, (seq, _TELEMETRY, payload)))  # Frame(...), sooner
+        else:
+            body = _TEL_PREFIX[seq] + payload
+            self.out += b"\xa5\x5a" + body + _CRC.pack(crc_hqx(body, 0xFFFF))
+
 
     def sample_model(self):
         """``(material_side_C, skin_side_C, plans)`` of the passive sample under the scripted

@@ -125,157 +125,187 @@ class HostCommands:
         return self._send(seq, (cmd | m.REPLY_BIT) & 0xFF, payload)
 
     def _handle(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """The reply frame(s) to command ``cmd`` (its ``_on_*`` handler; b"" for none)."""
         if not self.hello and cmd not in BEFORE_HELLO:
             return self._nak(seq, cmd, Err.NO_HELLO, "no HELLO since power-up")
-        if cmd == Cmd.HEARTBEAT:
-            if p == b"\x00":
-                return b""                         # a silent heartbeat: no reply wanted
-            return self._ack(seq, cmd, m.TIME.pack(self.time_us - self.boot_us))
-        if cmd == Cmd.HELLO:
-            (ver,) = m.HELLO_REQ.unpack(p)
-            if ver != m.PROTOCOL_VERSION:
-                return self._nak(seq, cmd, Err.NOT_SUPPORTED,
-                                 f"protocol {ver} not supported (device speaks {m.PROTOCOL_VERSION})")
-            # a new host: its numbers say nothing about the last host's, so forget the replies
-            # kept for retries (else its SET_LIMITS, SET_NEUTRAL, UPLOAD_BEGIN, ... could be
-            # answered from the cache and not carried out) and any half-done upload
-            self.cache.clear()
-            self.upload = None
-            self.hello = True
-            self.set_trip(OVERTEMP_C)              # a lowered test trip never outlives its host
-            caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
-            head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
-                                           m.centi(SETPOINT_MAX_C), int(HARD_RATE_C_PER_S * 100),
-                                           m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US,
-                                           self.boot_id)
-            self.log("hello")
-            return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps, IMAGE_ID))
-        if cmd == Cmd.STATUS:
-            return self._ack(seq, cmd, self._status())
-        if cmd == Cmd.ABORT:
-            if self.state in (State.ARMED, State.PLAYING, State.RECORDING):
-                self.end_reason = END_ABORTED
-                self._event(Event.END, END_ABORTED, "aborted by host")
-            if self.state == State.FAULT and self.last_fault in LATCHED_FAULTS:
-                self.log("abort_latched", code=m.error_name(self.last_fault))
-                return self._ack(seq, cmd)         # stopped already; the latch stays (relay open)
-            self._set_state(State.IDLE, "abort")
+        handler = _HANDLERS.get(cmd)
+        if handler is None:
+            return self._nak(seq, cmd, Err.UNKNOWN_COMMAND, f"type 0x{cmd:02x}")
+        return handler(self, seq, cmd, p)
+
+    def _on_heartbeat(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """HEARTBEAT: the device time (a silent one, payload 0, is not answered)."""
+        if p == b"\x00":
+            return b""                         # a silent heartbeat: no reply wanted
+        return self._ack(seq, cmd, m.TIME.pack(self.time_us - self.boot_us))
+
+    def _on_hello(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """HELLO: a new host; the device forgets the last host's replies and upload."""
+        (ver,) = m.HELLO_REQ.unpack(p)
+        if ver != m.PROTOCOL_VERSION:
+            return self._nak(seq, cmd, Err.NOT_SUPPORTED,
+                             f"protocol {ver} not supported (device speaks {m.PROTOCOL_VERSION})")
+        # a new host: its numbers say nothing about the last host's, so forget the replies
+        # kept for retries (else its SET_LIMITS, SET_NEUTRAL, UPLOAD_BEGIN, ... could be
+        # answered from the cache and not carried out) and any half-done upload
+        self.cache.clear()
+        self.upload = None
+        self.hello = True
+        self.set_trip(OVERTEMP_C)              # a lowered test trip never outlives its host
+        caps = "playback,record,force4,ir,ambient" + (",sim" if self.sim else "")
+        head = m.HELLO_REPLY_HEAD.pack(m.PROTOCOL_VERSION, 100, m.centi(HARD_MIN_C),
+                                       m.centi(SETPOINT_MAX_C), int(HARD_RATE_C_PER_S * 100),
+                                       m.centi(self.neutral), WATCHDOG_MS, MAX_POINTS, MIN_DT_US,
+                                       self.boot_id)
+        self.log("hello")
+        return self._ack(seq, cmd, head + m.encode_strings(self.device_id, FIRMWARE, caps, IMAGE_ID))
+
+    def _on_status(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """STATUS: the device's state, sensors and last trial."""
+        return self._ack(seq, cmd, self._status())
+
+    def _on_abort(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """ABORT: stop whatever runs (a latched fault stays latched)."""
+        if self.state in (State.ARMED, State.PLAYING, State.RECORDING):
+            self.end_reason = END_ABORTED
+            self._event(Event.END, END_ABORTED, "aborted by host")
+        if self.state == State.FAULT and self.last_fault in LATCHED_FAULTS:
+            self.log("abort_latched", code=m.error_name(self.last_fault))
+            return self._ack(seq, cmd)         # stopped already; the latch stays (relay open)
+        self._set_state(State.IDLE, "abort")
+        self.enabled = True
+        return self._ack(seq, cmd)
+
+    def _on_clear_fault(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """CLEAR_FAULT: the operator's reset of a latched fault."""
+        if p != m.CLEAR_FAULT_MAGIC:
+            return self._nak(seq, cmd, Err.BAD_ARGUMENT, "CLEAR_FAULT needs the operator's payload")
+        if self.state == State.FAULT:
+            self.log("fault_cleared", code=m.error_name(self.last_fault))
+            self._set_state(State.IDLE, "operator reset")
             self.enabled = True
-            return self._ack(seq, cmd)
-        if cmd == Cmd.CLEAR_FAULT:
-            if p != m.CLEAR_FAULT_MAGIC:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "CLEAR_FAULT needs the operator's payload")
-            if self.state == State.FAULT:
-                self.log("fault_cleared", code=m.error_name(self.last_fault))
-                self._set_state(State.IDLE, "operator reset")
-                self.enabled = True
-                self.plant.tripped = False
-            return self._ack(seq, cmd)
-        if cmd == Cmd.SET_TRIP:
-            # a qualification test lowers the over-temperature trip; never above OVERTEMP_C
-            if len(p) != m.CENTI.size:
-                return self._nak(seq, cmd, Err.BAD_LENGTH, "malformed payload")
-            (v,) = m.CENTI.unpack(p)
-            if self.state != State.IDLE and v / 100.0 < OVERTEMP_C:    # restoring: any state
-                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_TRIP in state {self.state.name}")
-            self.set_trip(min(max(v / 100.0, TRIP_TEST_MIN_C), OVERTEMP_C))
-            return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.trip_C)))
-        if cmd == Cmd.SET_NEUTRAL:
-            (v,) = m.CENTI.unpack(p)
-            if self.state not in (State.IDLE, State.FAULT):
-                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_NEUTRAL in state {self.state.name}")
-            self.neutral = min(max(v / 100.0, self.lim_min), self.lim_max)
-            self.log("neutral", asked_C=v / 100.0, neutral_C=self.neutral)
-            return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.neutral)))
-        if cmd == Cmd.SET_LIMITS:
-            lo, hi, rate = m.LIMITS.unpack(p)
-            lo, hi = max(lo / 100.0, HARD_MIN_C), min(hi / 100.0, SETPOINT_MAX_C)
-            if self.state != State.IDLE:
-                return self._nak(seq, cmd, Err.BAD_STATE, f"SET_LIMITS in state {self.state.name}")
-            if not lo < hi or rate <= 0:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "empty range or zero rate")
-            self.lim_min, self.lim_max = lo, hi
-            self.lim_rate = min(rate / 100.0, HARD_RATE_C_PER_S)
-            self.neutral = min(max(self.neutral, lo), hi)
-            self.log("limits", min_C=lo, max_C=hi, rate_C_per_s=self.lim_rate,
-                     neutral_C=self.neutral)
-            return self._ack(seq, cmd, m.LIMITS.pack(m.centi(lo), m.centi(hi),
-                                                     int(round(self.lim_rate * 100))))
-        if cmd == Cmd.UPLOAD_BEGIN:
-            n, dt_us = m.UPLOAD_BEGIN.unpack(p)
-            if self.state != State.IDLE:
-                return self._nak(seq, cmd, Err.BAD_STATE, f"UPLOAD in state {self.state.name}")
-            # any UPLOAD_BEGIN in IDLE discards the committed profile and any upload, also one
-            # whose arguments are refused: a host that refused a profile is never left with it
-            self.profile = None
-            self.upload = None
-            if not (2 <= n <= MAX_POINTS) or dt_us < MIN_DT_US:
-                return self._nak(seq, cmd, Err.OUT_OF_RANGE,
-                                 f"n={n} (2..{MAX_POINTS}), dt={dt_us} µs (≥ {MIN_DT_US})")
-            self.upload = dict(n=n, dt_us=dt_us, data=bytearray(2 * n), got=np.zeros(n, bool))
-            self.profile = None
-            return self._ack(seq, cmd)
-        if cmd == Cmd.UPLOAD_CHUNK:
-            off, count = m.UPLOAD_CHUNK_HEAD.unpack_from(p)
-            body = p[m.UPLOAD_CHUNK_HEAD.size:]
-            if self.upload is None:
-                return self._nak(seq, cmd, Err.BAD_STATE, "no UPLOAD_BEGIN")
-            if len(body) != 2 * count:
-                return self._nak(seq, cmd, Err.BAD_LENGTH, f"{count} samples need {2 * count} bytes")
-            if off + count > self.upload["n"]:
-                return self._nak(seq, cmd, Err.OUT_OF_RANGE, f"chunk {off}+{count} > {self.upload['n']}")
-            self.upload["data"][2 * off:2 * (off + count)] = body
-            self.upload["got"][off:off + count] = True
-            return self._ack(seq, cmd, m.UPLOAD_CHUNK_ACK.pack(off, count, zlib.crc32(body)))
-        if cmd == Cmd.UPLOAD_COMMIT:
-            (crc,) = m.COMMIT.unpack(p)
-            up = self.upload
-            if up is None or not up["got"].all():
-                return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "missing samples")
-            mine = zlib.crc32(bytes(up["data"]))
-            if mine != crc:
-                return self._nak(seq, cmd, Err.PROFILE_CRC, f"crc32 {mine:08x} != {crc:08x}")
-            vals = np.frombuffer(bytes(up["data"]), dtype="<i2").astype(float) / 100.0
-            clamped = np.clip(vals, self.lim_min, self.lim_max)
-            n_clamped = int(np.count_nonzero(clamped != vals))
-            if n_clamped:
-                self.log("profile_clamped", samples=n_clamped)
-            self.profile = (clamped.tolist(), up["dt_us"])
-            self.upload = None
-            return self._ack(seq, cmd, m.COMMIT_ACK.pack(len(vals), mine, min(n_clamped, 65535)))
-        if cmd == Cmd.ARM:
-            mode, thr, maxdur = m.ARM.unpack(p)
-            if self.state == State.FAULT:
-                return self._nak(seq, cmd, Err.FAULT_LATCHED, f"fault {m.error_name(self.last_fault)}")
-            if self.state != State.IDLE:
-                return self._nak(seq, cmd, Err.BAD_STATE, f"ARM in state {self.state.name}")
-            if mode not in (Mode.PLAYBACK, Mode.RECORD) or thr == 0 or maxdur == 0:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, "mode, threshold or duration")
-            if mode == Mode.PLAYBACK and self.profile is None:
-                return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "no profile committed")
-            self.arm_mode = Mode(mode)
-            self.threshold = thr / 100.0
-            self.max_duration_us = maxdur * 1000
-            self.ready = False
-            self.ready_count = 0
-            self.fresh = False             # contact only after the force fell below half the
-            self.contact_us = 0            # threshold since ARM: a fresh touch, not the last one
-            self.touch_us = None
-            self.end_reason = END_COMPLETE
-            self._set_state(State.ARMED, f"arm {self.arm_mode.name.lower()}")
-            return self._ack(seq, cmd, m.COUNTER.pack(self.counter))
-        if cmd in (Cmd.SIM_SAMPLE, Cmd.SIM_FINGER, Cmd.SIM_FAULT):
-            if not self.sim:
-                return self._nak(seq, cmd, Err.NOT_SUPPORTED, "not an emulator")
-            try:
-                args = m.decode_json(p)
-                if not isinstance(args, dict):
-                    raise ValueError("a sim command's payload is a JSON object")
-                reply = self._sim(cmd, args)
-            except (ValueError, TypeError, KeyError) as exc:
-                return self._nak(seq, cmd, Err.BAD_ARGUMENT, str(exc))
-            return self._ack(seq, cmd, m.encode_json(reply))
-        return self._nak(seq, cmd, Err.UNKNOWN_COMMAND, f"type 0x{cmd:02x}")
+            self.plant.tripped = False
+        return self._ack(seq, cmd)
+
+    def _on_set_trip(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """SET_TRIP: lower the over-temperature trip for a test (never above its own)."""
+        # a qualification test lowers the over-temperature trip; never above OVERTEMP_C
+        if len(p) != m.CENTI.size:
+            return self._nak(seq, cmd, Err.BAD_LENGTH, "malformed payload")
+        (v,) = m.CENTI.unpack(p)
+        if self.state != State.IDLE and v / 100.0 < OVERTEMP_C:    # restoring: any state
+            return self._nak(seq, cmd, Err.BAD_STATE, f"SET_TRIP in state {self.state.name}")
+        self.set_trip(min(max(v / 100.0, TRIP_TEST_MIN_C), OVERTEMP_C))
+        return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.trip_C)))
+
+    def _on_set_neutral(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """SET_NEUTRAL: the temperature held between trials, clamped to the limits."""
+        (v,) = m.CENTI.unpack(p)
+        if self.state not in (State.IDLE, State.FAULT):
+            return self._nak(seq, cmd, Err.BAD_STATE, f"SET_NEUTRAL in state {self.state.name}")
+        self.neutral = min(max(v / 100.0, self.lim_min), self.lim_max)
+        self.log("neutral", asked_C=v / 100.0, neutral_C=self.neutral)
+        return self._ack(seq, cmd, m.CENTI.pack(m.centi(self.neutral)))
+
+    def _on_set_limits(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """SET_LIMITS: the host's range and rate, inside the device's own."""
+        lo, hi, rate = m.LIMITS.unpack(p)
+        lo, hi = max(lo / 100.0, HARD_MIN_C), min(hi / 100.0, SETPOINT_MAX_C)
+        if self.state != State.IDLE:
+            return self._nak(seq, cmd, Err.BAD_STATE, f"SET_LIMITS in state {self.state.name}")
+        if not lo < hi or rate <= 0:
+            return self._nak(seq, cmd, Err.BAD_ARGUMENT, "empty range or zero rate")
+        self.lim_min, self.lim_max = lo, hi
+        self.lim_rate = min(rate / 100.0, HARD_RATE_C_PER_S)
+        self.neutral = min(max(self.neutral, lo), hi)
+        self.log("limits", min_C=lo, max_C=hi, rate_C_per_s=self.lim_rate,
+                 neutral_C=self.neutral)
+        return self._ack(seq, cmd, m.LIMITS.pack(m.centi(lo), m.centi(hi),
+                                                 int(round(self.lim_rate * 100))))
+
+    def _on_upload_begin(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """UPLOAD_BEGIN: discard any profile; start an upload of n samples."""
+        n, dt_us = m.UPLOAD_BEGIN.unpack(p)
+        if self.state != State.IDLE:
+            return self._nak(seq, cmd, Err.BAD_STATE, f"UPLOAD in state {self.state.name}")
+        # any UPLOAD_BEGIN in IDLE discards the committed profile and any upload, also one
+        # whose arguments are refused: a host that refused a profile is never left with it
+        self.profile = None
+        self.upload = None
+        if not (2 <= n <= MAX_POINTS) or dt_us < MIN_DT_US:
+            return self._nak(seq, cmd, Err.OUT_OF_RANGE,
+                             f"n={n} (2..{MAX_POINTS}), dt={dt_us} µs (≥ {MIN_DT_US})")
+        self.upload = dict(n=n, dt_us=dt_us, data=bytearray(2 * n), got=np.zeros(n, bool))
+        self.profile = None
+        return self._ack(seq, cmd)
+
+    def _on_upload_chunk(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """UPLOAD_CHUNK: samples at an offset; acknowledged with their CRC."""
+        off, count = m.UPLOAD_CHUNK_HEAD.unpack_from(p)
+        body = p[m.UPLOAD_CHUNK_HEAD.size:]
+        if self.upload is None:
+            return self._nak(seq, cmd, Err.BAD_STATE, "no UPLOAD_BEGIN")
+        if len(body) != 2 * count:
+            return self._nak(seq, cmd, Err.BAD_LENGTH, f"{count} samples need {2 * count} bytes")
+        if off + count > self.upload["n"]:
+            return self._nak(seq, cmd, Err.OUT_OF_RANGE, f"chunk {off}+{count} > {self.upload['n']}")
+        self.upload["data"][2 * off:2 * (off + count)] = body
+        self.upload["got"][off:off + count] = True
+        return self._ack(seq, cmd, m.UPLOAD_CHUNK_ACK.pack(off, count, zlib.crc32(body)))
+
+    def _on_upload_commit(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """UPLOAD_COMMIT: check the whole profile's CRC, clamp it to the limits, keep it."""
+        (crc,) = m.COMMIT.unpack(p)
+        up = self.upload
+        if up is None or not up["got"].all():
+            return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "missing samples")
+        mine = zlib.crc32(bytes(up["data"]))
+        if mine != crc:
+            return self._nak(seq, cmd, Err.PROFILE_CRC, f"crc32 {mine:08x} != {crc:08x}")
+        vals = np.frombuffer(bytes(up["data"]), dtype="<i2").astype(float) / 100.0
+        clamped = np.clip(vals, self.lim_min, self.lim_max)
+        n_clamped = int(np.count_nonzero(clamped != vals))
+        if n_clamped:
+            self.log("profile_clamped", samples=n_clamped)
+        self.profile = (clamped.tolist(), up["dt_us"])
+        self.upload = None
+        return self._ack(seq, cmd, m.COMMIT_ACK.pack(len(vals), mine, min(n_clamped, 65535)))
+
+    def _on_arm(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """ARM: wait for the starting temperature, then a fresh contact."""
+        mode, thr, maxdur = m.ARM.unpack(p)
+        if self.state == State.FAULT:
+            return self._nak(seq, cmd, Err.FAULT_LATCHED, f"fault {m.error_name(self.last_fault)}")
+        if self.state != State.IDLE:
+            return self._nak(seq, cmd, Err.BAD_STATE, f"ARM in state {self.state.name}")
+        if mode not in (Mode.PLAYBACK, Mode.RECORD) or thr == 0 or maxdur == 0:
+            return self._nak(seq, cmd, Err.BAD_ARGUMENT, "mode, threshold or duration")
+        if mode == Mode.PLAYBACK and self.profile is None:
+            return self._nak(seq, cmd, Err.PROFILE_INCOMPLETE, "no profile committed")
+        self.arm_mode = Mode(mode)
+        self.threshold = thr / 100.0
+        self.max_duration_us = maxdur * 1000
+        self.ready = False
+        self.ready_count = 0
+        self.fresh = False             # contact only after the force fell below half the
+        self.contact_us = 0            # threshold since ARM: a fresh touch, not the last one
+        self.touch_us = None
+        self.end_reason = END_COMPLETE
+        self._set_state(State.ARMED, f"arm {self.arm_mode.name.lower()}")
+        return self._ack(seq, cmd, m.COUNTER.pack(self.counter))
+
+    def _on_sim(self, seq: int, cmd: int, p: bytes) -> bytes:
+        """SIM_SAMPLE, SIM_FINGER, SIM_FAULT: the emulator's scripted bench (JSON arguments)."""
+        if not self.sim:
+            return self._nak(seq, cmd, Err.NOT_SUPPORTED, "not an emulator")
+        try:
+            args = m.decode_json(p)
+            if not isinstance(args, dict):
+                raise ValueError("a sim command's payload is a JSON object")
+            reply = self._sim(cmd, args)
+        except (ValueError, TypeError, KeyError) as exc:
+            return self._nak(seq, cmd, Err.BAD_ARGUMENT, str(exc))
+        return self._ack(seq, cmd, m.encode_json(reply))
 
     def _sim(self, cmd, a):
         if cmd == Cmd.SIM_SAMPLE:
@@ -320,3 +350,23 @@ class HostCommands:
             0 if self.profile is None else len(self.profile[0]),
             0 if not self.contact_us else self.contact_us - self.boot_us, self.end_reason,
             self.counter, self.trials, self.boot_id)
+
+
+#: Each command's handler (a method of :class:`HostCommands`).
+_HANDLERS = {
+    Cmd.HEARTBEAT: HostCommands._on_heartbeat,
+    Cmd.HELLO: HostCommands._on_hello,
+    Cmd.STATUS: HostCommands._on_status,
+    Cmd.ABORT: HostCommands._on_abort,
+    Cmd.CLEAR_FAULT: HostCommands._on_clear_fault,
+    Cmd.SET_TRIP: HostCommands._on_set_trip,
+    Cmd.SET_NEUTRAL: HostCommands._on_set_neutral,
+    Cmd.SET_LIMITS: HostCommands._on_set_limits,
+    Cmd.UPLOAD_BEGIN: HostCommands._on_upload_begin,
+    Cmd.UPLOAD_CHUNK: HostCommands._on_upload_chunk,
+    Cmd.UPLOAD_COMMIT: HostCommands._on_upload_commit,
+    Cmd.ARM: HostCommands._on_arm,
+    Cmd.SIM_SAMPLE: HostCommands._on_sim,
+    Cmd.SIM_FINGER: HostCommands._on_sim,
+    Cmd.SIM_FAULT: HostCommands._on_sim,
+}

@@ -27,7 +27,7 @@ box = []
 t = threading.Thread(target=lambda: box.append(open_display("qemu-firmware://")))
 t.start(); t.join()                 # opened in a thread that has ended: the children must stay
 d = box[0]
-print(d.qemu.pid, d._hb_proc.proc.pid, flush=True)
+print(d.qemu.pid, d.link._hb_proc.proc.pid, flush=True)
 time.sleep(600)
 """
 

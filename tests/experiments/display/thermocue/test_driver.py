@@ -92,7 +92,7 @@ def test_refusal_is_typed(sim_display):
     sim_display.upload_profile(T, PROFILE)
     sim_display.arm("playback")
     with pytest.raises(DisplayRefused) as e:
-        sim_display._transact(0x20, b"\x00\xc8\x00\x10\x27\x00\x00")      # a second ARM
+        sim_display.link.transact(0x20, b"\x00\xc8\x00\x10\x27\x00\x00")      # a second ARM
     assert e.value.code == 4 and "BAD_STATE" in str(e.value)
     sim_display.abort()
     assert sim_display.status().state == "IDLE"
@@ -145,12 +145,12 @@ def test_a_frame_split_by_a_slow_kernel_is_not_lost():
     d = _loop_display(stale_s=0.5)
     fr = _telemetry_frame(7)
     d.port.write(fr[:20])
-    assert d._read_frames() == []
+    assert d.link.read_frames() == []
     for _ in range(5):                                   # five empty reads (50 ms): still waiting
-        assert d._read_frames() == []
+        assert d.link.read_frames() == []
     d.port.write(fr[20:])
-    got = d._read_frames()
-    assert [f.payload for f in got] == [fr[HEADER_SIZE:-2]] and d._parser.bytes_skipped == 0
+    got = d.link.read_frames()
+    assert [f.payload for f in got] == [fr[HEADER_SIZE:-2]] and d.link.parser.bytes_skipped == 0
 
 
 def test_a_garbage_length_is_abandoned_after_stale_s():
@@ -161,11 +161,11 @@ def test_a_garbage_length_is_abandoned_after_stale_s():
     d.port.write(cut + good)
     got = []
     for _ in range(40):                                  # ≥ 0.4 s of empty reads
-        got += d._read_frames()
+        got += d.link.read_frames()
         if got:
             break
     assert [f.payload for f in got] == [good[HEADER_SIZE:-2]]
-    assert d._parser.bytes_skipped == len(cut)
+    assert d.link.parser.bytes_skipped == len(cut)
 
 
 def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tmp_path):
@@ -185,7 +185,7 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
         port = serial.serial_for_url(os.ttyname(slave), timeout=0.01)
         d = ThermalDisplay(port)
         d.start_heartbeat()
-        assert d._hb_proc is not None and d._hb_proc.running
+        assert d.link._hb_proc is not None and d.link._hb_proc.running
         big = [random.random() for _ in range(1_000_000)]
         t0 = time.monotonic()
         big.sort()                                        # one C call: the GIL is ours
@@ -200,7 +200,7 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
         os.close(slave)
     assert held > 0.12
     hb = [f for f in frames if f.type == 0x02 and f.payload == b"\x00"]
-    assert len(hb) >= 0.5 * held / d.heartbeat_s         # ≥ half the 10 ms ticks got through
+    assert len(hb) >= 0.5 * held / d.link.heartbeat_s         # ≥ half the 10 ms ticks got through
 
 
 @pytest.mark.parametrize("hold_s", [0.3])
@@ -212,7 +212,7 @@ def test_the_in_process_emulator_is_heartbeated_by_the_helper_while_the_host_hol
     import random
     import time
     with open_display("emulator://?clock=real") as d:
-        assert d._hb_proc is not None and d._hb_proc.running
+        assert d.link._hb_proc is not None and d.link._hb_proc.running
         d.arm("record", force_threshold_N=2.0, max_duration_s=20.0)
         big = [random.random() for _ in range(100_000)]
         held = 0.0
@@ -238,7 +238,7 @@ def test_a_hung_host_on_the_in_process_emulator_still_meets_the_watchdog(tmp_pat
     import time
     log = tmp_path / "emu.jsonl"
     with open_display(f"emulator://?clock=real&log={log}", host_stall_s=0.5) as d:
-        assert d._hb_proc is not None and d._hb_proc.running
+        assert d.link._hb_proc is not None and d.link._hb_proc.running
         d.wait(0.5)               # the helper up (its own start counts as a sign of life)
         d.arm("record", force_threshold_N=2.0, max_duration_s=20.0)
         time.sleep(1.5)                                  # hung: no I/O, no pings
@@ -313,7 +313,7 @@ def test_a_device_rate_below_the_hosts_is_accepted(monkeypatch):
 def _device_arms_playback(d) -> bool:
     """ARM in playback sent raw (past the host's own check): whether the device accepts it."""
     try:
-        d._transact(Cmd.ARM, m.ARM.pack(0, 200, 1000))
+        d.link.transact(Cmd.ARM, m.ARM.pack(0, 200, 1000))
     except DisplayRefused as exc:
         assert exc.code == m.Err.PROFILE_INCOMPLETE
         return False
@@ -369,8 +369,8 @@ def test_telemetry_and_events_are_not_taken_for_replies(cmd, frame_type, payload
     from experiments.errors import DisplayTimeout
     from experiments.display.thermocue.framing import encode_frame
     d = _loop_display(reply_timeout_s=0.05, retries=0)
-    d._seq = 41                                          # the command goes out as number 42
+    d.link._seq = 41                                          # the command goes out as number 42
     d.port.write(encode_frame(42, frame_type, payload))
     with pytest.raises(DisplayTimeout, match=cmd.name):  # loop:// answers nothing
-        d._transact(cmd, m.ARM.pack(1, 200, 1000) if cmd == Cmd.ARM else b"")
-    assert d._dev_time == pytest.approx(0.05 if cmd == Cmd.ARM else 0.01)   # routed as telemetry / event
+        d.link.transact(cmd, m.ARM.pack(1, 200, 1000) if cmd == Cmd.ARM else b"")
+    assert d.link.dev_time == pytest.approx(0.05 if cmd == Cmd.ARM else 0.01)   # routed as telemetry / event

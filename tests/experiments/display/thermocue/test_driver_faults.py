@@ -139,7 +139,7 @@ def test_a_careless_host_on_a_bad_line_never_gets_an_unsafe_setpoint():
             step()
             ticks.append((before, dev.state.name, dev.sp))
         dev.step = spy
-        raw = d._transact                                  # no SafetyLimits on this path
+        raw = d.link.transact                                  # no SafetyLimits on this path
         assert m.CENTI.unpack(raw(Cmd.SET_NEUTRAL, m.CENTI.pack(6000)))[0] == 4000
         d.wait(1.0)                                        # slews from 32 to 40
         assert m.CENTI.unpack(raw(Cmd.SET_NEUTRAL, m.CENTI.pack(500)))[0] == 1800

@@ -90,10 +90,10 @@ def test_events_before_the_callback_is_attached_are_replayed_in_order(real_clock
     d.arm("playback", force_threshold_N=2.0, max_duration_s=10.0)
     d.sim_finger(press_after_s=0.2, force_N=2.5, hold_s=5.0)
     deadline = time.monotonic() + 10.0
-    while time.monotonic() < deadline and d._trial.contact_s is None:
+    while time.monotonic() < deadline and d.link.trial.contact_s is None:
         d.poll()                                  # routes frames and events; no callbacks yet
         time.sleep(0.01)
-    assert d._trial.contact_s is not None, "no contact within 10 s"
+    assert d.link.trial.contact_s is not None, "no contact within 10 s"
     events = []
     rec = d.run_trial(timeout_s=10.0, on_event=events.append)
     assert rec.status == "ok"
