@@ -357,7 +357,7 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
     from stimuli.layered import LayeredContact, skin_layers
     from stimuli.planner import PROBE_INVERSION_ERROR, PROBE_NODES, plan_scene, plan
     from stimuli.properties import Skin
-    from stimuli.scene import Scene, evaluate
+    from stimuli.scene import Scene
 
     skin = Skin(SKIN_THICKNESS_M)
     dT = T_SKIN_C - T_MATERIAL_C

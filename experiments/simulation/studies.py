@@ -53,7 +53,7 @@ import numpy as np
 
 # the lab (force and skin temperature per touch) is the emulated study's too
 from experiments.participant_model.lab import DEFAULT_LAB, LabVariability
-from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM, PAD_MATERIAL, PAD_ROUGHNESS_M,
+from stimuli.paper import (DERMIS_FRACTION_RANGE, GROUP_THICKNESS_UM,
                           REPLAY_NAMES, SKIN_TEMPERATURE_RANGE_C)
 
 __all__ = ["PersonPool", "build_pool", "merge_pools", "StudyOutcome", "simulate_studies", "GROUPS",

@@ -27,7 +27,7 @@ __all__ = ["run_reproduction", "recompute_from", "claims_screen", "verdict_line"
            "sessions_claims_line", "PRINTED", "planner_note", "claims_held",
            "reproducing_scenarios", "DEFAULT_STUDIES"]
 
-from .precision import FIRST_STUDIES, MAX_STUDIES, MC_LEVEL, SENSITIVITY_MAX_STUDIES
+from .precision import FIRST_STUDIES, MAX_STUDIES, SENSITIVITY_MAX_STUDIES
 from .report import depth_text, planner_note, write_outputs as _write_outputs
 from .verdict import PRINTED, claims_held, claims_screen, reproducing_scenarios, verdict_line
 
@@ -87,7 +87,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     import dataclasses as dc
 
     from experiments.errors import UserInputError
-    from sessionfiles.logbook import atomic_write_json, atomic_write_text
+    from sessionfiles.logbook import atomic_write_json
     from experiments.responders import get_responder
     from experiments.participant_model.cohort import paper_cohort
     from experiments.simulation.figure9.precision import study_table
