@@ -35,7 +35,8 @@ sys.path.insert(0, str(ROOT / "tests" / "analysis"))
 
 from analysis import fit_gee  # noqa: E402
 from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
-from analysis.fidelity import mode_contrasts  # noqa: E402
+from analysis.fidelity import _rows, mode_contrasts  # noqa: E402
+from analysis.small_sample import welch_df  # noqa: E402
 from analysis.inference import averaged_contrast, interaction_test, omnibus_group_test  # noqa: E402
 from generator import generate, null_cells  # noqa: E402
 
@@ -81,6 +82,17 @@ def mixed_rows(trials, target_conditional: float) -> dict:
         out[f"mixed_{g}_width_ratio_new_to_old"] = float(
             (r["ci_high"] - r["ci_low"]) / (2 * stats.t.ppf(0.975, old_df) * r["se"]))
         out[f"mixed_{g}_df"] = float(r["df"])
+        # the parts of the SE, for trying other SE/df rules offline (benchmarks/README.md)
+        which = ["A", "B"] if g == "both" else [g]
+        samples = sorted(trials["roughness_id"].unique())
+        lvec = (_rows(fit, which, "real", samples).mean(axis=0)
+                - _rows(fit, which, "simulated", samples).mean(axis=0))
+        out[f"mixed_{g}_error"] = float(r["estimate"] - target_conditional)
+        out[f"mixed_{g}_var_model"] = float(lvec @ fit.cov @ lvec)
+        robust = fit.cov_robust if fit.cov_robust is not None else fit.cov
+        out[f"mixed_{g}_var_sandwich"] = float(lvec @ robust @ lvec)
+        out[f"mixed_{g}_welch_df"] = (float(welch_df(fit.cov_by_group, lvec))
+                                      if fit.cov_by_group else float("nan"))
     return out
 
 
@@ -131,6 +143,9 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=None, help="JSON file for the tallies")
     ap.add_argument("--mixed", action="store_true",
                     help="also the random-slope mixed model's rows (about 1.5 s more a dataset)")
+    ap.add_argument("--rows", type=Path, default=None,
+                    help="JSON file for every dataset's row (with --mixed: each mixed row's "
+                         "error, model-based and sandwich variances, Welch df)")
     ns = ap.parse_args()
     n_a, n_b, slope_sd, halfmiss = SCENARIOS[ns.scenario]
     target = truth(null_cells(), slope_sd)
@@ -140,10 +155,14 @@ def main() -> None:
         rows.append(one(ns.seed + i, n_a, n_b, slope_sd, halfmiss, target, ns.mixed))
         if ns.out and (i + 1) % 25 == 0:        # a partial tally survives a stopped run
             ns.out.write_text(json.dumps(tally(rows, ns, start, cpu), indent=1))
+        if ns.rows and (i + 1) % 25 == 0:
+            ns.rows.write_text(json.dumps(rows))
     text = json.dumps(tally(rows, ns, start, cpu), indent=1)
     print(text)
     if ns.out:
         ns.out.write_text(text)
+    if ns.rows:
+        ns.rows.write_text(json.dumps(rows))
 
 
 def tally(rows: list, ns, start: float, cpu: float) -> dict:
@@ -154,6 +173,8 @@ def tally(rows: list, ns, start: float, cpu: float) -> dict:
            "seed": ns.seed, "cpu_s": round(time.process_time() - cpu, 1),
            "wall_s": round(time.time() - start, 1)}
     for key in dict.fromkeys(k for r in rows for k in r):
+        if key.endswith("_error") or "_var_" in key:
+            continue                            # raw parts: in --rows only
         values = np.array([r[key] for r in rows if key in r], float)
         if key.endswith("_df") or key.endswith("_ratio_new_to_old"):
             out[key + "_median"] = float(np.median(values))
