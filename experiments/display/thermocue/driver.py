@@ -296,7 +296,7 @@ class ThermalDisplay(EmulatedDisplay, scheme="serial"):
         dt, y, q = upload.quantize(times_s, target_C, self.limits,
                                    self.info.max_points if self.info else None)
         self._uploaded = True
-        receipt, self._profile = upload.send(self.link, self.link.retries, dt, y, q)
+        receipt, self._profile = upload.send(self.link, dt, y, q)
         return receipt
 
     def _discard_profile(self) -> None:

@@ -34,8 +34,9 @@ def quantize(times_s, target_C, limits, max_points):
     return dt, y, np.round(y * 100.0).astype("<i2")
 
 
-def send(link, retries: int, dt: float, y, q) -> tuple[ProfileReceipt, tuple]:
-    """UPLOAD_BEGIN, the chunks (each retried until its checksum matches), UPLOAD_COMMIT.
+def send(link, dt: float, y, q) -> tuple[ProfileReceipt, tuple]:
+    """UPLOAD_BEGIN, the chunks (each retried, up to the link's ``retries``, until its checksum
+    matches), UPLOAD_COMMIT.
 
     Returns
     -------
@@ -48,6 +49,7 @@ def send(link, retries: int, dt: float, y, q) -> tuple[ProfileReceipt, tuple]:
     SafetyLimitError
         If the device clamped samples to its own range.
     """
+    retries = link.retries
     raw = q.tobytes()
     dt_us = int(round(dt * 1e6))
     link.transact(Cmd.UPLOAD_BEGIN, m.UPLOAD_BEGIN.pack(len(q), dt_us))
