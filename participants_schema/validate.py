@@ -1,6 +1,7 @@
 """Load and validate participant records (JSON Schema 2020-12 plus semantic checks).
 
-The schema (``participant.schema.json`` beside this module) fixes the fields and their
+The schema (``participant.schema.json`` beside this module, checked by the one validation
+stack, :mod:`participants_schema.schema_check`) fixes the fields and their
 types; :func:`validate_participant` adds what a schema cannot say well: consent must be
 given, each skin layer is thinner than the whole skin, the thickness is in a range a
 fingertip can have (which catches millimetres typed as micrometres).  Milder oddities
@@ -12,14 +13,13 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
 
-from jsonschema import Draft202012Validator
-
 from participants_schema.errors import ParticipantError
+from participants_schema.schema_check import field_path as _field
+from participants_schema.schema_check import schema_problems
 
 __all__ = [
     "SCHEMA_PATH",
@@ -50,120 +50,11 @@ LAYER_TOLERANCE_REL = 0.02
 #: ... and beyond LAYER_ERROR_REL * total it is an error.
 LAYER_ERROR_REL = 0.25
 
-_TYPE_WORDS = {
-    "number": "a number",
-    "integer": "an integer",
-    "string": "a string",
-    "boolean": "true or false",
-    "object": "an object",
-    "array": "a list",
-    "null": "null",
-}
-
-
 @lru_cache(maxsize=1)
 def load_schema() -> dict:
     """Return the participant JSON Schema (a dict, parsed once)."""
     with open(SCHEMA_PATH, encoding="utf-8") as fh:
         return json.load(fh)
-
-
-@lru_cache(maxsize=1)
-def _validator() -> Draft202012Validator:
-    schema = load_schema()
-    Draft202012Validator.check_schema(schema)
-    return Draft202012Validator(schema, format_checker=Draft202012Validator.FORMAT_CHECKER)
-
-
-def _fmt_num(x: float) -> str:
-    return f"{x:g}"
-
-
-def _describe(schema: Mapping[str, Any]) -> str:
-    """Say in words what a (sub)schema expects, e.g. ``"a number > 0"``."""
-    if "x-expected" in schema:
-        return schema["x-expected"]
-    if "enum" in schema:
-        return "one of " + ", ".join(repr(v) for v in schema["enum"])
-    if "const" in schema:
-        return json.dumps(schema["const"])
-    t = schema.get("type")
-    if isinstance(t, list):
-        words = " or ".join(_TYPE_WORDS.get(x, x) for x in t)
-    elif t is not None:
-        words = _TYPE_WORDS.get(t, t)
-    else:
-        words = "a value"
-    bounds = []
-    if "exclusiveMinimum" in schema:
-        bounds.append(f"> {_fmt_num(schema['exclusiveMinimum'])}")
-    if "minimum" in schema:
-        bounds.append(f"≥ {_fmt_num(schema['minimum'])}")
-    if "exclusiveMaximum" in schema:
-        bounds.append(f"< {_fmt_num(schema['exclusiveMaximum'])}")
-    if "maximum" in schema:
-        bounds.append(f"≤ {_fmt_num(schema['maximum'])}")
-    if bounds:
-        words += " " + " and ".join(bounds)
-    if schema.get("format") == "date":
-        words = "a date (YYYY-MM-DD)"
-    if "minLength" in schema and schema["minLength"] >= 1:
-        words = "a non-empty string"
-    if "maxLength" in schema:
-        words += f" of at most {schema['maxLength']} characters"
-    if "pattern" in schema:
-        words += f" matching {schema['pattern']}"
-    return words
-
-
-def _field(path) -> str:
-    out = ""
-    for part in path:
-        if isinstance(part, int):
-            out += f"[{part}]"
-        else:
-            out += ("." if out else "") + str(part)
-    return out
-
-
-def _join(prefix: str, name: str) -> str:
-    return f"{prefix}.{name}" if prefix else name
-
-
-def _translate(err) -> list[tuple[str, str]]:
-    """A jsonschema ValidationError -> [(field, "expected ..., got ...")]."""
-    field = _field(err.absolute_path)
-    kind = err.validator
-    if kind == "required":
-        missing = [n for n in err.validator_value if n not in err.instance]
-        return [(_join(field, name),
-                 f"expected {_describe(err.schema.get('properties', {}).get(name, {}))}, "
-                 f"got nothing (the field is required)") for name in missing]
-    if kind == "additionalProperties":
-        known = set(err.schema.get("properties", {}))
-        patterns = err.schema.get("patternProperties", {})
-        extra = sorted(k for k in err.instance
-                       if k not in known and not any(re.search(p, k) for p in patterns))
-        name = extra[0] if extra else "?"
-        allowed = ", ".join(sorted(k for k in known if not k.startswith("$")))
-        hint = " or an x_... field" if patterns else ""
-        return [(_join(field, name), f"expected a known field (one of {allowed}{hint}), got an unknown field {name!r}")]
-    if kind == "pattern" and field.endswith("contact_resistance_m2K_W"):
-        return [(field, f"expected keys naming samples by their roughness Ra in µm, as `thermocue "
-                        f"calibrate` writes them (e.g. '1.6', '12.5', '50', '100'), got "
-                        f"{err.instance!r}")]
-    if kind == "type" and field == "":
-        return [("(record)", f"expected a JSON object, got {err.instance!r}")]
-    return [(field or "(record)", f"expected {_describe(err.schema)}, got {err.instance!r}")]
-
-
-def _schema_errors(record: Any) -> list[tuple[str, str]]:
-    errors = sorted(_validator().iter_errors(record),
-                    key=lambda e: ([str(p) for p in e.absolute_path], e.validator))
-    out: list[tuple[str, str]] = []
-    for e in errors:  # "required" yields one error per missing field, each seeing all of them
-        out.extend(item for item in _translate(e) if item not in out)
-    return out
 
 
 def _semantic_errors(record: Mapping[str, Any]) -> list[tuple[str, str]]:
@@ -242,7 +133,7 @@ def validate_participant(record: Any, source: str = "<participant>") -> dict:
     """
     problems = _non_finite(record)   # JSON Schema's bounds let NaN through (NaN > 0 is False)
     if not problems:
-        problems = _schema_errors(record)
+        problems = schema_problems(record, SCHEMA_PATH)
     if not problems:
         problems = _semantic_errors(record)
     if problems:
