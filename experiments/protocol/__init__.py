@@ -43,7 +43,7 @@ from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL,  # n
                                         SIM_CONTACT_MODELS, SIM_RATE_LIMITS, SIM_TARGET_SIDES, SIM_THICKNESS, Block,
                                         ContactSettings, DisplaySettings, Environment, Presentation,
                                         Protocol, Sample, SampleMaterial, Simulation)
-from experiments.records import TableReader
+
 
 __all__ = [
     "PROTOCOLS_DIR",
@@ -61,7 +61,7 @@ __all__ = [
     "parse_protocol",
     "protocol_names",
     "canonical_hash",
-    "TableReader",
+
     "SKIN_SAFE_MIN_C",
     "SKIN_SAFE_MAX_C",
 ]

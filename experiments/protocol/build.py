@@ -1,272 +1,194 @@
 """How parsed protocol content (a TOML file's tables, or ``session.json``'s copy) becomes a
-:class:`~experiments.protocol.model.Protocol`: every table read strictly with the shared table
-reader (:mod:`experiments.records`), each value checked against its range
-(:mod:`experiments.protocol.limits`) and the cross-field rules (max ≥ min, record ≤ contact, ...).
+:class:`~experiments.protocol.model.Protocol`.
 
-A wrong type, an out-of-range value, a missing key or an unknown key raises
-:class:`experiments.errors.ProtocolError` with one line naming the file and the field.
+Types, bounds, required and unknown keys are declared in ``protocol.schema.json`` beside this
+module and checked by the one validation stack (:mod:`participants_schema.schema_check`); what
+is left here is turning the checked tables into the dataclasses (numbers as floats, the defaults
+of the optional keys) and the cross-field rules a schema cannot say (max ≥ min, record ≤
+contact, ids and names used once, a simulated block needs ``[simulation]``, ...).
+
+Every problem raises :class:`experiments.errors.ProtocolError` with one line naming the file and
+the field.
 """
 from __future__ import annotations
 
 import copy
 import hashlib
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from experiments.errors import ProtocolError
 from experiments.protocol.hashing import canonical_json
-from experiments.protocol.limits import (MAX_ID, MAX_REPETITIONS, MAX_TRIALS, MAX_WAIT_S, SKIN_SAFE_MAX_C,
-                                         SKIN_SAFE_MIN_C)
-from experiments.protocol.limits import SKIN_WHY as _SKIN_WHY
-from experiments.protocol.limits import WAIT_WHY as _WAIT_WHY
-from experiments.protocol.model import (SIM_CONTACT_MODELS, DEFAULT_EQUIVALENCE_MARGIN_PP, AnalysisSettings,
-                                        BLOCK_ORDERS, DEFAULT_PAD_MATERIAL, DEFAULT_PAD_ROUGHNESS_UM, MODES,
-                                        ORDERS, SIM_METHODS, SIM_RATE_LIMITS, SIM_REPLAYED_MATERIALS, SIM_TARGET_SIDES,
-                                        SIM_THICKNESS, Block, ContactSettings, DisplaySettings,
+from experiments.protocol.limits import MAX_TRIALS
+from experiments.protocol.model import (AnalysisSettings, Block, ContactSettings, DisplaySettings,
                                         Environment, Presentation, Protocol, Sample, SampleMaterial,
                                         Simulation)
-from experiments.records import TableReader as _Table
-from experiments.records import Verbatim as _Note
-from experiments.records import number_text as _fmt
 from participants_schema import GroupRule
+from participants_schema.schema_check import check_against_schema, load_schema_file
+
+#: The protocol's JSON Schema (Draft 2020-12): every table, key, type, bound and unit.
+SCHEMA_PATH = Path(__file__).with_name("protocol.schema.json")
 
 #: ``[presentation] answer_mode`` values: the participant keys the answer, or says it.
 ANSWER_MODES = ("keyed", "spoken")
 
 
-def _pad_material(s: _Table) -> str:
-    """``[simulation] pad_material``: a ``stimuli.MATERIALS`` name (aliases allowed)."""
-    from stimuli import MATERIALS, ModelInputError, material  # lazy: numpy/scipy
-    name = s.string("pad_material", DEFAULT_PAD_MATERIAL)
-    try:
-        material(name)
-    except ModelInputError:
-        s.fail("pad_material", "one of " + ", ".join(repr(k) for k in sorted(MATERIALS)), name)
-    return name
+class _Fields:
+    """The checked tables of one protocol file, and its one-line error."""
+
+    def __init__(self, source: str, data: Mapping[str, Any]):
+        self.source, self.data = source, data
+        self.schema = load_schema_file(str(SCHEMA_PATH))["properties"]
+
+    def fail(self, field: str, what: str, got: Any) -> None:
+        raise ProtocolError(f"{self.source}: {field}: expected {what}, got {got}")
+
+    def table(self, key: str, item: Mapping[str, Any] | None = None) -> dict | None:
+        """Table ``key`` (or one ``item`` of the array ``key``), numbers as floats; None if absent."""
+        schema = self.schema[key]
+        table = item if item is not None else self.data.get(key)
+        if table is None:
+            return None
+        props = (schema["items"] if item is not None else schema)["properties"]
+        return {k: float(v) if props[k]["type"] == "number" else v for k, v in table.items()}
 
 
-def _read_samples(top: _Table) -> tuple[Sample, ...]:
-    out, ids, labels = [], set(), set()
-    for t in top.tables("samples"):
-        sid = t.integer("id", ge=0, le=MAX_ID)
-        label = t.string("label", str(sid))
-        r = t.number("roughness_um", gt=0, le=10_000, why="Ra beyond 1 cm is no surface finish")
-        t.done()
-        if sid in ids:
-            t.fail("id", "an id not used by another sample", sid)
-        if label in labels:
-            t.fail("label", "a label not used by another sample", label)
-        ids.add(sid)
-        labels.add(label)
-        out.append(Sample(sid, label, r))
-    return tuple(out)
+def _f(x: float) -> str:
+    return f"{x:g}"
 
 
-def _read_blocks(top: _Table, samples: tuple[Sample, ...]) -> tuple[Block, ...]:
+def _check_unique(t: _Fields, key: str, field: str, what: str) -> None:
+    seen = set()
+    for i, item in enumerate(t.data[key]):
+        value = item.get(field, item.get("id")) if field == "label" else item[field]
+        value = str(value) if field == "label" else value
+        if value in seen:
+            t.fail(f"{key}[{i}].{field}", f"{what} not used by another {key[:-1]}", repr(value))
+        seen.add(value)
+
+
+def _samples(t: _Fields) -> tuple[Sample, ...]:
+    _check_unique(t, "samples", "id", "an id")
+    _check_unique(t, "samples", "label", "a label")
+    return tuple(Sample(s["id"], s.get("label", str(s["id"])), s["roughness_um"])
+                 for s in (t.table("samples", item) for item in t.data["samples"]))
+
+
+def _blocks(t: _Fields, samples: tuple[Sample, ...], simulated_ok: bool) -> tuple[Block, ...]:
     ids = [s.id for s in samples]
-    out, names = [], set()
-    for t in top.tables("blocks"):
-        name = t.string("name")
-        if name in names:
-            t.fail("name", "a name not used by another block", name)
-        names.add(name)
-        mode = t.string("mode", choices=MODES)
-        reps = t.integer("repetitions", ge=1, le=MAX_REPETITIONS,
-                         why="a session is at most a few hundred trials")
-        order = t.string("order", "random", choices=ORDERS)
-        chosen = t._get("samples", list(ids), "a list of sample ids")
-        if not isinstance(chosen, list) or not chosen or any(
-                isinstance(c, bool) or not isinstance(c, int) for c in chosen):
-            t.fail("samples", "a non-empty list of sample ids", chosen)
+    _check_unique(t, "blocks", "name", "a name")
+    out = []
+    for i, b in enumerate(t.data["blocks"]):
+        at = f"blocks[{i}]"
+        chosen = b.get("samples", list(ids))
         for c in chosen:
             if c not in ids:
-                t.fail("samples", f"ids of listed samples ({', '.join(map(str, ids))})", c)
+                t.fail(f"{at}.samples", f"ids of listed samples ({', '.join(map(str, ids))})", c)
         if len(set(chosen)) != len(chosen):
-            t.fail("samples", "each sample id once", chosen)
-        response = t.boolean("response", True)
-        scored = t.boolean("scored", response)
+            t.fail(f"{at}.samples", "each sample id once", chosen)
+        response = b.get("response", True)
+        scored = b.get("scored", response)
         if scored and not response:
-            t.fail("scored", "false when response = false", scored)
-        feedback = t.boolean("feedback", False)
-        nir = t.boolean("no_immediate_repeats", False)
-        if nir and len(chosen) < 2 and reps > 1:
-            t.fail("no_immediate_repeats", "false with a single sample", nir)
-        instructions = t.string("instructions", "", nonempty=False)
-        t.done()
-        out.append(Block(name, mode, reps, order, tuple(chosen), scored, feedback, response,
-                         nir, instructions))
+            t.fail(f"{at}.scored", "false when response = false", scored)
+        nir = b.get("no_immediate_repeats", False)
+        if nir and len(chosen) < 2 and b["repetitions"] > 1:
+            t.fail(f"{at}.no_immediate_repeats", "false with a single sample", nir)
+        if b["mode"] == "simulated" and not simulated_ok:
+            t.fail("simulation", f"a [simulation] table because {at} is simulated", "nothing")
+        out.append(Block(b["name"], b["mode"], b["repetitions"], b.get("order", "random"), tuple(chosen),
+                         scored, b.get("feedback", False), response, nir, b.get("instructions", "")))
+    n_trials = sum(b.n_trials for b in out)
+    if n_trials > MAX_TRIALS:
+        t.fail("blocks", f"at most {MAX_TRIALS} trials in all (samples × repetitions; a session "
+                         f"is hours, not days)", f"{n_trials} trials")
     return tuple(out)
 
 
-def _read_authors(p: _Table) -> tuple[str, ...]:
-    """``[protocol] authors``: the study's authors, one name per item (the BIDS export's
-    ``dataset_description.json`` ``Authors``); default none."""
-    listed = p._get("authors", [], "a list of author names (strings)")
-    if not isinstance(listed, list) or any(not isinstance(a, str) or not a.strip() for a in listed):
-        p.fail("authors", "a list of author names, one non-empty string per author", listed)
-    if len({a.strip() for a in listed}) != len(listed):
-        p.fail("authors", "each author once", listed)
-    return tuple(a.strip() for a in listed)
+def _authors(t: _Fields) -> tuple[str, ...]:
+    listed = [a.strip() for a in t.data["protocol"].get("authors", [])]
+    if len(set(listed)) != len(listed):
+        t.fail("protocol.authors", "each author once", t.data["protocol"]["authors"])
+    return tuple(listed)
+
+
+def _ranges(t: _Fields, env: Environment, contact: ContactSettings, display: DisplaySettings) -> None:
+    if env.skin_temperature_max_C < env.skin_temperature_min_C:
+        t.fail("environment.skin_temperature_max_C", f"a number ≥ skin_temperature_min_C "
+               f"({_f(env.skin_temperature_min_C)})", env.skin_temperature_max_C)
+    if contact.record_s > contact.max_contact_s:
+        t.fail("contact.record_s", f"a number ≤ max_contact_s ({_f(contact.max_contact_s)})", contact.record_s)
+    if not display.max_C > display.min_C:
+        t.fail("display.max_C", f"a number > min_C ({_f(display.min_C)})", display.max_C)
+    if not display.min_C <= display.neutral_C <= display.max_C:
+        t.fail("display.neutral_C", f"a number from min_C to max_C ({_f(display.min_C)}-"
+               f"{_f(display.max_C)})", display.neutral_C)
+
+
+def _grouping(t: _Fields) -> GroupRule | None:
+    g = t.table("grouping")
+    if g is None:
+        return None
+    rule = GroupRule(**{"below": "A", "above": "B", "margin_um": 50.0, **g})
+    if rule.above == rule.below:
+        t.fail("grouping.above", "a group name different from below", repr(rule.above))
+    return rule
+
+
+def _simulation(t: _Fields, grouping: GroupRule | None, display: DisplaySettings) -> Simulation | None:
+    s = t.table("simulation")
+    if s is None:
+        return None
+    s = {"skin_thickness": "group", "dermis_fraction": 0.6, "rate_Hz": 100.0, "resolution_C": 0.01,
+         "method": "exact", **s}
+    s["group_skin_thickness_um"] = {k: float(v) for k, v in s.get("group_skin_thickness_um", {}).items()}
+    if s["skin_thickness"] == "group":
+        if grouping is None:
+            t.fail("simulation.skin_thickness", "'participant' when the protocol has no [grouping]", "'group'")
+        if "group_skin_thickness_um" not in t.data["simulation"]:
+            t.fail("simulation.group_skin_thickness_um", "a table", "nothing (the key is required)")
+        for grp in (grouping.below, grouping.above):
+            if grp not in s["group_skin_thickness_um"]:
+                t.fail(f"simulation.group_skin_thickness_um.{grp}", "the group's skin thickness in µm, "
+                       "a number > 0", "nothing (the key is required)")
+    _pad_material(t, s.get("pad_material"))
+    sim = Simulation(**s)
+    if sim.contact_model == "resting" and abs(display.neutral_C - sim.skin_temperature_C) > 1e-9:
+        t.fail("simulation.contact_model", f"a resting probe at the skin temperature: display.neutral_C "
+               f"= simulation.skin_temperature_C ({_f(sim.skin_temperature_C)} °C)",
+               f"'resting' with display.neutral_C = {_f(display.neutral_C)}")
+    return sim
+
+
+def _pad_material(t: _Fields, name: str | None) -> None:
+    """``[simulation] pad_material``: a ``stimuli.MATERIALS`` name (aliases allowed)."""
+    from stimuli import MATERIALS, ModelInputError, material  # lazy: numpy/scipy
+    if name is not None:
+        try:
+            material(name)
+        except ModelInputError:
+            t.fail("simulation.pad_material", "one of " + ", ".join(repr(k) for k in sorted(MATERIALS)),
+                   repr(name))
 
 
 def build_protocol(source: str, data: Any, path: Path | None) -> Protocol:
-    top = _Table(source, data, "")
-    p = top.table("protocol")
-    name = p.string("name")
-    title = p.string("title", name)
-    description = p.string("description", "", nonempty=False).strip()
-    experiment = p.integer("experiment", 0, ge=0, le=MAX_ID)
-    version = p.integer("version", 1, ge=1, le=MAX_ID)
-    authors = _read_authors(p)
-    p.done()
-
-    e = top.table("environment")
-    env = Environment(
-        room_temperature_C=e.number("room_temperature_C", ge=-10, le=50),
-        skin_temperature_min_C=e.number("skin_temperature_min_C", ge=20, le=42),
-        skin_temperature_max_C=e.number("skin_temperature_max_C", ge=20, le=42),
-        measure_skin_temperature=e.boolean("measure_skin_temperature", True),
-    )
-    if env.skin_temperature_max_C < env.skin_temperature_min_C:
-        e.fail("skin_temperature_max_C",
-               f"a number ≥ skin_temperature_min_C ({_fmt(env.skin_temperature_min_C)})",
-               env.skin_temperature_max_C)
-    e.done()
-
-    m = top.table("material")
-    mat = SampleMaterial(m.string("name"), m.number("thickness_mm", None, gt=0, le=1000,
-                                                    why="a sample a finger can touch"))
-    m.done()
-
-    samples = _read_samples(top)
-
-    c = top.table("contact")
-    contact = ContactSettings(
-        force_threshold_N=c.number("force_threshold_N", gt=0, le=50),
-        max_contact_s=c.number("max_contact_s", gt=0, le=600),
-        record_s=c.number("record_s", gt=0, le=600),
-        trial_timeout_s=c.number("trial_timeout_s", gt=0, le=MAX_WAIT_S, why=_WAIT_WHY),
-        rewarm_s=c.number("rewarm_s", ge=0, le=MAX_WAIT_S, why=_WAIT_WHY),
-        max_attempts=c.integer("max_attempts", 3, ge=1, le=100),
-    )
-    if contact.record_s > contact.max_contact_s:
-        c.fail("record_s", f"a number ≤ max_contact_s ({_fmt(contact.max_contact_s)})", contact.record_s)
-    c.done()
-
-    d = top.table("display")
-    display = DisplaySettings(
-        min_C=d.number("min_C", ge=SKIN_SAFE_MIN_C, le=SKIN_SAFE_MAX_C),
-        max_C=d.number("max_C", ge=SKIN_SAFE_MIN_C, le=SKIN_SAFE_MAX_C),
-        max_rate_C_per_s=d.number("max_rate_C_per_s", gt=0, le=100),
-        neutral_C=d.number("neutral_C", ge=SKIN_SAFE_MIN_C, le=SKIN_SAFE_MAX_C),
-    )
-    if not display.max_C > display.min_C:
-        d.fail("max_C", f"a number > min_C ({_fmt(display.min_C)})", display.max_C)
-    if not display.min_C <= display.neutral_C <= display.max_C:
-        d.fail("neutral_C", f"a number from min_C to max_C ({_fmt(display.min_C)}-{_fmt(display.max_C)})",
-               display.neutral_C)
-    d.done()
-
-    grouping = None
-    g = top.table("grouping", required=False)
-    if g is not None:
-        below = g.string("below", "A")
-        above = g.string("above", "B")
-        if above == below:
-            g.fail("above", "a group name different from below", above)
-        grouping = GroupRule(threshold_um=g.number("threshold_um", gt=0, le=10_000, why=_SKIN_WHY),
-                             margin_um=g.number("margin_um", 50.0, ge=0, le=10_000, why=_SKIN_WHY),
-                             below=below, above=above)
-        g.done()
-
-    simulation = None
-    s = top.table("simulation", required=False)
-    if s is not None:
-        how = s.string("skin_thickness", "group", choices=SIM_THICKNESS)
-        gst = s.table("group_skin_thickness_um", required=(how == "group"))
-        per_group = {}
-        if gst is not None:
-            for key in list(gst.data):
-                per_group[key] = gst.number(key, gt=0, le=10_000, why=_SKIN_WHY)
-            gst.done()
-        if how == "group":
-            if grouping is None:
-                s.fail("skin_thickness", "'participant' when the protocol has no [grouping]", how)
-            for grp in (grouping.below, grouping.above):
-                if grp not in per_group:
-                    gst.fail(grp, "the group's skin thickness in µm, a number > 0")
-        simulation = Simulation(
-            skin_thickness=how,
-            group_skin_thickness_um=per_group,
-            dermis_fraction=s.number("dermis_fraction", 0.6, gt=0, lt=1),
-            skin_temperature_C=s.number("skin_temperature_C", ge=20, le=42),
-            material_temperature_C=s.number("material_temperature_C", ge=-10, le=60),
-            duration_s=s.number("duration_s", gt=0, le=600),
-            rate_Hz=s.number("rate_Hz", 100.0, gt=0, le=10000),
-            resolution_C=s.number("resolution_C", 0.01, gt=0, le=1),
-            method=s.string("method", "exact", choices=SIM_METHODS),
-            target_side=s.string("target_side", "material", choices=SIM_TARGET_SIDES),
-            pad_roughness_um=s.number("pad_roughness_um", DEFAULT_PAD_ROUGHNESS_UM, ge=0, le=1000),
-            pad_material=_pad_material(s),
-            rate_limit=s.string("rate_limit", "refuse", choices=SIM_RATE_LIMITS),
-            max_tracking_error_C=s.number("max_tracking_error_C", 1.0, gt=0, le=10),
-            contact_model=s.string("contact_model", "press", choices=SIM_CONTACT_MODELS),
-            replayed_material=s.string("replayed_material", "sample",
-                                       choices=SIM_REPLAYED_MATERIALS),
-        )
-        if (simulation.contact_model == "resting"
-                and abs(display.neutral_C - simulation.skin_temperature_C) > 1e-9):
-            s.fail("contact_model", f"a resting probe at the skin temperature: display.neutral_C "
-                                    f"= simulation.skin_temperature_C "
-                                    f"({_fmt(simulation.skin_temperature_C)} °C)",
-                   _Note(f"'resting' with display.neutral_C = {_fmt(display.neutral_C)}"))
-        s.done()
-
-    sch = top.table("schedule", required=False)
-    block_order = "fixed"
-    if sch is not None:
-        block_order = sch.string("block_order", "fixed", choices=BLOCK_ORDERS)
-        sch.done()
-
-    presentation = Presentation()
-    pr = top.table("presentation", required=False)
-    if pr is not None:
-        presentation = Presentation(
-            instructions_key=pr.boolean("instructions_key", True),
-            instructions_min_s=pr.number("instructions_min_s", 2.0, ge=0, le=600),
-            text_min_s=pr.number("text_min_s", 1.0, ge=0, le=60),
-            answer_during_contact=pr.boolean("answer_during_contact", False),
-            feedback_s=pr.number("feedback_s", 1.5, ge=0, le=60),
-            answer_mode=pr.string("answer_mode", "keyed", choices=ANSWER_MODES),
-        )
-        pr.done()
-
-    analysis = AnalysisSettings()
-    an = top.table("analysis", required=False)
-    if an is not None:
-        analysis = AnalysisSettings(equivalence_margin_pp=an.number(
-            "equivalence_margin_pp", DEFAULT_EQUIVALENCE_MARGIN_PP, gt=0, lt=50,
-            why="percentage points of proportion correct"))
-        an.done()
-
-    blocks = _read_blocks(top, samples)
-    n_trials = sum(b.n_trials for b in blocks)
-    if n_trials > MAX_TRIALS:
-        top.fail("blocks", f"at most {MAX_TRIALS} trials in all (samples × repetitions; a session "
-                           f"is hours, not days)", _Note(f"{n_trials} trials"))
-    if simulation is None:
-        for i, b in enumerate(blocks):
-            if b.mode == "simulated":
-                raise ProtocolError(f"{source}: simulation: expected a [simulation] table because "
-                                    f"blocks[{i}] is simulated, got nothing")
-    top.done()
-
-    canonical = canonical_json(data)
-    return Protocol(name=name, title=title, description=description, experiment=experiment,
-                    version=version, samples=samples, environment=env, material=mat,
-                    contact=contact, display=display, grouping=grouping, simulation=simulation,
-                    block_order=block_order, blocks=blocks, presentation=presentation,
-                    analysis=analysis, authors=authors,
-                    hash=hashlib.sha256(canonical).hexdigest(), path=path,
+    """Check ``data`` against the protocol schema, then build the :class:`Protocol`."""
+    check_against_schema(data, SCHEMA_PATH, source, ProtocolError)
+    t = _Fields(source, data)
+    p = data["protocol"]
+    env, contact = Environment(**t.table("environment")), ContactSettings(**t.table("contact"))
+    display = DisplaySettings(**t.table("display"))
+    _ranges(t, env, contact, display)
+    samples = _samples(t)
+    grouping = _grouping(t)
+    simulation = _simulation(t, grouping, display)
+    return Protocol(name=p["name"], title=p.get("title", p["name"]),
+                    description=p.get("description", "").strip(), experiment=p.get("experiment", 0),
+                    version=p.get("version", 1), samples=samples, environment=env,
+                    material=SampleMaterial(**t.table("material")), contact=contact, display=display,
+                    grouping=grouping, simulation=simulation,
+                    block_order=data.get("schedule", {}).get("block_order", "fixed"),
+                    blocks=_blocks(t, samples, simulation is not None),
+                    presentation=Presentation(**t.table("presentation") or {}),
+                    analysis=AnalysisSettings(**t.table("analysis") or {}), authors=_authors(t),
+                    hash=hashlib.sha256(canonical_json(data)).hexdigest(), path=path,
                     data=copy.deepcopy(dict(data)))
-

@@ -330,11 +330,12 @@ def test_protocol_authors_are_checked(tmp_path):
     proto = _protocol(tmp_path)
     assert load_protocol(proto).authors == ()
     assert load_protocol(_with_authors(proto, ["A. B.", "C. D."])).authors == ("A. B.", "C. D.")
-    for bad, what in (("\"A. B.\"", "a list of author names"), ("[\"A\", \"\"]", "non-empty"),
-                      ("[\"A\", \"A\"]", "each author once")):
+    for bad, what in (("\"A. B.\"", r"protocol\.authors: expected .*a list of author names"),
+                      ("[\"A\", \"\"]", r"protocol\.authors\[1\]: expected a non-empty string, got ''"),
+                      ("[\"A\", \"A\"]", r"protocol\.authors: expected each author once")):
         text = _protocol(tmp_path).read_text().replace("[protocol]\n", f"[protocol]\nauthors = {bad}\n", 1)
         proto.write_text(text)
-        with pytest.raises(ProtocolError, match=r"protocol\.authors: expected .*" + what):
+        with pytest.raises(ProtocolError, match=what):
             load_protocol(proto)
 
 
