@@ -43,12 +43,13 @@ import hashlib
 import itertools
 import re
 from dataclasses import asdict, dataclass, fields
+from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
 from experiments.errors import UserInputError
-from experiments.records import TableReader
+from participants_schema.schema_check import check_against_schema
 
 __all__ = ["TrialSpec", "build_schedule", "derive_seed", "participant_number", "ALGORITHM",
            "block_sequence"]
@@ -56,6 +57,8 @@ __all__ = ["TrialSpec", "build_schedule", "derive_seed", "participant_number", "
 #: Part of every derived seed; change it when the algorithm changes.
 ALGORITHM = "thermocue-schedule-v1"
 _MAX_REDRAWS = 10_000
+#: The schema of a planned trial (also ``session.json``'s ``schedule`` items).
+TRIAL_SCHEMA = Path(__file__).parent / "session" / "trial.schema.json"
 
 
 @dataclass(frozen=True)
@@ -89,21 +92,42 @@ class TrialSpec:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "TrialSpec":
-        """Rebuild from :meth:`to_dict` output (extra keys, e.g. of a trial row, are ignored).
+    def from_dict(cls, d: Mapping[str, Any], source: str = "TrialSpec") -> "TrialSpec":
+        """Rebuild from :meth:`to_dict` output, or a row of ``trials.csv`` (extra keys are ignored;
+        text holding a number is read as one).
+
+        Checked against ``trial.schema.json`` (``experiments/session/``), the schema of
+        ``session.json``'s planned trials.
 
         Raises
         ------
         ValueError
-            If a field is missing or has the wrong type.
+            ``"<source>: <field>: expected ..., got ..."`` if a field is missing or of the wrong type.
         """
-        r = TableReader("TrialSpec", d, "", error=ValueError)
-        r.require(*(f.name for f in fields(cls)))
-        return cls(trial_index=r.integer("trial_index", from_text=True),
-                   block=r.string("block", nonempty=False), mode=r.string("mode", nonempty=False),
-                   roughness_id=r.integer("roughness_id", from_text=True),
-                   roughness_um=r.number("roughness_um", from_text=True),
-                   repetition=r.integer("repetition", from_text=True))
+        if not isinstance(d, Mapping):
+            raise ValueError(f"{source}: expected an object, got {d!r}")
+        names = [f.name for f in fields(cls)]
+        check_against_schema({k: _from_text(k, d[k]) for k in names if k in d}, TRIAL_SCHEMA, source)
+        return cls(**{k: float(v) if k == "roughness_um" else v
+                      for k, v in ((k, _from_text(k, d[k])) for k in names)})
+
+
+def _from_text(key: str, value: Any) -> Any:
+    """A CSV cell as the value it holds: digits an int, a number's text a float, an integral
+    float an int (for the integer fields); anything else unchanged, for the schema to refuse."""
+    if key in ("block", "mode") or isinstance(value, bool):
+        return value
+    integer = key != "roughness_um"
+    if isinstance(value, str):
+        if integer:
+            return int(value) if value.strip().lstrip("-").isdigit() else value
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    if integer and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 def derive_seed(protocol_hash: str, participant_id: str, seed: int, *parts: str) -> int:

@@ -1,8 +1,9 @@
 """``session.json``: written once when a session is made, checked (not trusted) on resume.
 
 :func:`write_session_json` writes it (atomically); :func:`read_session_json` reads it back
-into a :class:`StoredSession`: every field typed and bounded on the shared table reader
-(:mod:`experiments.records`), the protocol copy against its hash, the schedule against
+into a :class:`StoredSession`: every field typed and bounded by ``session.schema.json``
+(beside this module; the one validation stack, :mod:`participants_schema.schema_check`),
+each planned trial by ``trial.schema.json``, the protocol copy against its hash, the schedule against
 ``build_schedule(protocol, participant id, seed)``, and the whole against the log's
 ``session_started`` event (the log is the session's record). Every problem is one line naming
 the file and the field (:class:`~experiments.errors.SessionError`, exit 2).
@@ -15,13 +16,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from experiments.errors import SessionError
-from experiments.records import TableReader, Verbatim
+from participants_schema.schema_check import check_against_schema
 from sessionfiles.logbook import now_iso as _now_iso
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
 from sessionfiles.session_files import package_versions, schedule_sha256
 
 __all__ = ["SESSION_FORMAT", "StoredSession", "block_roles", "write_session_json",
            "read_session_json", "record_display"]
+
+#: The schema of ``session.json`` (Draft 2020-12), and of each planned trial in it.
+SCHEMA_PATH = Path(__file__).with_name("session.schema.json")
+TRIAL_SCHEMA = Path(__file__).with_name("trial.schema.json")
 
 #: The ``format`` field of ``session.json``.
 SESSION_FORMAT = "thermocue-session/1"
@@ -150,33 +155,19 @@ def read_session_json(directory, *, out=None) -> StoredSession:
         raise SessionError(f"{path}: expected a session.json, got no such file") from None
     except (OSError, ValueError) as exc:
         raise SessionError(f"{path}: expected valid JSON, got {exc}") from None
-    if not isinstance(meta, dict):
-        raise SessionError(f"{path}: expected a JSON object, got {type(meta).__name__}")
-    table = TableReader(str(path), meta, "", error=SessionError)
-    table.require("session", "participant", "protocol", "protocol_hash", "seed", "schedule",
-                  "display_url", "group")
-    table.string("session")
-    table.string("protocol_hash")
-    seed = table.integer("seed", ge=0)
-    max_faults = table.integer("max_consecutive_faults", 3, ge=1, le=1000,
-                               why="faults in a row before a session stops")
-    responder = table.string("responder", "", nonempty=False)
-    clock = meta.get("clock")
-    if clock is not None and clock not in ("real", "virtual"):
-        table.fail("clock", "'real' or 'virtual'", clock)
+    check_against_schema(meta, SCHEMA_PATH, str(path), SessionError)
+    seed, responder, clock = meta["seed"], meta.get("responder", ""), meta.get("clock")
+    max_faults = meta.get("max_consecutive_faults", 3)
     source = f"{path}: protocol"
     protocol = parse_protocol(meta["protocol"], source=source,
                               path=Path(meta["protocol_file"]) if meta.get("protocol_file") else None)
     if protocol.hash != meta["protocol_hash"]:
-        table.fail("protocol_hash", f"{protocol.hash} (the stored protocol's hash)",
-                   meta["protocol_hash"])
+        _fail(path, "protocol_hash", f"{protocol.hash} (the stored protocol's hash)",
+              repr(meta["protocol_hash"]))
     participant = Participant.from_record(meta["participant"], source=f"{path}: participant")
-    if not isinstance(meta["schedule"], list):
-        table.fail("schedule", "a list of trials", Verbatim(type(meta["schedule"]).__name__))
-    try:
-        schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
-    except ValueError as exc:
-        table.fail("schedule", "a list of trials", Verbatim(exc))
+    for i, d in enumerate(meta["schedule"]):     # strictly: no key but the trial's six
+        check_against_schema(d, TRIAL_SCHEMA, f"{path}: schedule[{i}]", SessionError)
+    schedule = [TrialSpec.from_dict(d) for d in meta["schedule"]]
     # Sessions written before the field existed used the first algorithm.
     made_by = meta.get("schedule_algorithm", "thermocue-schedule-v1")
     expected = build_schedule(protocol, participant.id, seed)
@@ -191,19 +182,21 @@ def read_session_json(directory, *, out=None) -> StoredSession:
                     min(len(schedule), len(expected)))
         got = meta["schedule"][diff] if diff < len(schedule) else "nothing"
         want = expected[diff].to_dict() if diff < len(expected) else "nothing"
-        table.fail("schedule", f"the schedule of the stored protocol, participant "
-                               f"{participant.id} and seed {seed} ({len(expected)} trials; "
-                               f"trial {diff + 1}: {want})",
-                   Verbatim(f"{len(schedule)} trials (trial {diff + 1}: {got})"))
+        _fail(path, "schedule", f"the schedule of the stored protocol, participant "
+                                f"{participant.id} and seed {seed} ({len(expected)} trials; "
+                                f"trial {diff + 1}: {want})",
+              f"{len(schedule)} trials (trial {diff + 1}: {got})")
     group = meta["group"]
     groups = None if protocol.grouping is None else (protocol.grouping.below, protocol.grouping.above)
-    if not isinstance(group, str) or (groups is not None and group not in groups):
-        table.fail("group", f"one of {groups}" if groups else "a name", group)
+    if groups is not None and group not in groups:
+        _fail(path, "group", f"one of {groups}", repr(group))
     check_against_log(directory, path, meta, participant, schedule)
-    if not isinstance(meta["display_url"], str) or not meta["display_url"]:
-        table.fail("display_url", "a URL", meta["display_url"])
     return StoredSession(path, protocol, participant, group, meta["session"], seed, schedule,
                          meta["display_url"], responder or "", max_faults, source, clock)
+
+
+def _fail(path: Path, field: str, what: str, got: str):
+    raise SessionError(f"{path}: {field}: expected {what}, got {got}")
 
 
 def check_against_log(directory: Path, path: Path, meta: dict, participant, schedule) -> None:

@@ -160,7 +160,7 @@ def test_trialspec_round_trip(rr):
     assert TrialSpec.from_dict(row) == s[5]
     csv_like = {k: str(v) for k, v in s[5].to_dict().items()}  # as read back from trials.csv
     assert TrialSpec.from_dict(csv_like) == s[5]
-    with pytest.raises(ValueError, match="TrialSpec: repetition: expected a value, got nothing"):
+    with pytest.raises(ValueError, match=r"TrialSpec: repetition: expected an integer, got nothing \(the key is required\)"):
         TrialSpec.from_dict({k: v for k, v in s[5].to_dict().items() if k != "repetition"})
     with pytest.raises(ValueError, match="TrialSpec: trial_index: expected an integer, got 'x'"):
         TrialSpec.from_dict(dict(s[5].to_dict(), trial_index="x"))
