@@ -15,11 +15,12 @@ The protocol's :attr:`Protocol.hash` is the SHA-256 of the parsed content in can
 (sorted keys, no whitespace), so comments and layout do not change it, and
 ``parse_protocol(protocol.data)`` (e.g. from ``session.json``) gives the same hash.
 
-One concept, the protocol, in four modules: its typed parts (:mod:`.model`), the ranges it is
-checked against (:mod:`.limits`), how parsed content becomes a :class:`Protocol` (:mod:`.build`)
-and its hash (:mod:`.hashing`); this module finds and reads the files and re-exports every public
-name.  The generic table reader it is read with is :mod:`experiments.records` (shared with
-``session.json`` and :class:`~experiments.schedule.TrialSpec`).
+One concept, the protocol, in four modules and a schema: its typed parts (:mod:`.model`), the
+ranges it is checked against (:mod:`.limits`), its keys, types, units and bounds
+(``protocol.schema.json``, checked by the one validation stack,
+:mod:`participants_schema.schema_check`, shared with ``session.json`` and participant records),
+how checked content becomes a :class:`Protocol` (:mod:`.build`) and its hash (:mod:`.hashing`);
+this module finds and reads the files and re-exports every public name.
 """
 from __future__ import annotations
 
@@ -44,7 +45,6 @@ from experiments.protocol.model import (BLOCK_ORDERS, DEFAULT_PAD_MATERIAL,  # n
                                         ContactSettings, DisplaySettings, Environment, Presentation,
                                         Protocol, Sample, SampleMaterial, Simulation)
 
-
 __all__ = [
     "PROTOCOLS_DIR",
     "Protocol",
@@ -61,7 +61,6 @@ __all__ = [
     "parse_protocol",
     "protocol_names",
     "canonical_hash",
-
     "SKIN_SAFE_MIN_C",
     "SKIN_SAFE_MAX_C",
 ]

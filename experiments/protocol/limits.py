@@ -1,7 +1,9 @@
 """The bounds a protocol is checked against: the skin-safe display range and the upper limits
 that keep any value from hanging or overflowing a session.
 
-One concept, the protocol's ranges; :mod:`experiments.protocol.build` applies them while reading.
+One concept, the protocol's ranges; ``protocol.schema.json`` states them as its bounds
+(``tests/experiments/test_validation_stack.py`` checks the two agree), and
+:mod:`experiments.protocol.build` uses :data:`MAX_TRIALS`.
 """
 from __future__ import annotations
 
