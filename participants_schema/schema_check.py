@@ -169,11 +169,15 @@ def schema_problems(data: Any, schema_path: str | Path) -> list[tuple[str, str]]
     return out
 
 
-def check_against_schema(data: Any, schema_path: str | Path, source: str, error: type = ValueError) -> Any:
+def check_against_schema(data: Any, schema_path: str | Path, source: str, error: type = ValueError,
+                         at: str = "") -> Any:
     """Raise ``error("<source>: <field>: expected ..., got ...")`` for the first problem of
-    ``data`` against the schema file; return ``data`` unchanged when there is none."""
+    ``data`` against the schema file; return ``data`` unchanged when there is none.
+
+    ``at``: where ``data`` sits in its file (``"schedule[3]"``), prefixed to the field."""
     problems = schema_problems(data, schema_path)
     if problems:
         field, message = problems[0]
-        raise error(f"{source}: {message}" if field == "(record)" else f"{source}: {field}: {message}")
+        field = at if field == "(record)" else f"{at}{'' if field.startswith('[') else '.'}{field}" if at else field
+        raise error(f"{source}: {field}: {message}" if field != "(record)" else f"{source}: {message}")
     return data

@@ -110,6 +110,13 @@ def test_the_loaders_raise_their_own_errors_through_the_stack(tmp_path):
     from experiments.session.store import read_session_json
     with pytest.raises(SessionError, match=r"session\.json: seed: expected an integer ≥ 0, got True$"):
         read_session_json(tmp_path / "s")
+    (tmp_path / "s" / "session.json").write_text(json.dumps(dict(  # checked after the protocol's hash
+        _session(), protocol_hash=load_protocol("roughness_recognition").hash, participant=_participant(),
+        schedule=[
+        _trial(), dict(_trial(), response_id=2)])))
+    with pytest.raises(SessionError, match=r"session\.json: schedule\[1\]\.response_id: expected one of "
+                                           r"the known keys \(.*\), got an unknown key 'response_id'$"):
+        read_session_json(tmp_path / "s")
 
 
 @pytest.mark.parametrize("name", protocol_names())
