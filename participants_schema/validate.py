@@ -50,6 +50,7 @@ LAYER_TOLERANCE_REL = 0.02
 #: ... and beyond LAYER_ERROR_REL * total it is an error.
 LAYER_ERROR_REL = 0.25
 
+
 @lru_cache(maxsize=1)
 def load_schema() -> dict:
     """Return the participant JSON Schema (a dict, parsed once)."""

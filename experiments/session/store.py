@@ -19,14 +19,14 @@ from experiments.errors import SessionError
 from participants_schema.schema_check import check_against_schema
 from sessionfiles.logbook import now_iso as _now_iso
 from experiments.schedule import ALGORITHM as SCHEDULE_ALGORITHM
+from experiments.schedule import TRIAL_SCHEMA
 from sessionfiles.session_files import package_versions, schedule_sha256
 
 __all__ = ["SESSION_FORMAT", "StoredSession", "block_roles", "write_session_json",
            "read_session_json", "record_display"]
 
-#: The schema of ``session.json`` (Draft 2020-12), and of each planned trial in it.
+#: The schema of ``session.json`` (Draft 2020-12); each planned trial in it: ``TRIAL_SCHEMA``.
 SCHEMA_PATH = Path(__file__).with_name("session.schema.json")
-TRIAL_SCHEMA = Path(__file__).with_name("trial.schema.json")
 
 #: The ``format`` field of ``session.json``.
 SESSION_FORMAT = "thermocue-session/1"

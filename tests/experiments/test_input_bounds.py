@@ -104,7 +104,7 @@ def test_a_non_utf8_byte_is_named_with_its_offset(tmp_path, capsys):
     ("100000", "max_consecutive_faults: expected an integer ≥ 1 and ≤ 1000"),
     ("NaN", "max_consecutive_faults: expected an integer ≥ 1, got nan"),
 ])
-def test_session_json_is_read_by_the_protocols_table_reader(tmp_path, capsys, value, message):
+def test_session_json_is_checked_by_the_one_validation_stack(tmp_path, capsys, value, message):
     s = create_session(write_protocol(tmp_path), P01, tmp_path / "data", EMU, seed=7,
                        responder_name="simulated")
     path = s.directory / "session.json"
