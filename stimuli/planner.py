@@ -297,9 +297,10 @@ class _Planning:
         self.current, self.current_err, self.prev = self.base, 0.0, None
 
     def skin(self):
+        """The scene's skin (as ``scene.skin``), made once."""
         if "skin" not in self.cache:
             L = self.scene.skin_thickness_m
-            self.cache["skin"] = scene_skin(L, L - self.scene.receptor_depth)   # = scene.skin, made once
+            self.cache["skin"] = scene_skin(L, L - self.scene.receptor_depth)
         return self.cache["skin"]
 
     def layers_screen(self, cand):
