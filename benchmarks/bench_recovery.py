@@ -104,76 +104,82 @@ class Tally:
         return pd.DataFrame(rows)
 
 
-def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_model=False,
-        slope_sd=None, gee_only=False, slope_profile=True):
-    cells = effect_cells() if scenario == "effect" else null_cells()
-    if slope_sd is None:
-        slope_sd = SLOPE_SD if scenario == "slope" else 0.0
-    truth = truths(cells, sigma, slope_sd)
-    # with a true random slope the intercept-only mixed model is misspecified: its intervals
-    # have no true value to cover and are not tallied (the GEE's and the cells' still do)
-    intercept_model_ok = slope_sd == 0
-    grid = pd.DataFrame([(g, m, r, 0, "x") for (g, m, r) in cells],
-                        columns=["group", "mode", "roughness_id", "correct", "participant"])
-    cond_logit = logit(np.array([cells[k] for k in cells]))
-    marg_logit = logit(np.array([truth["marg"][k] for k in cells]))
-    tally = Tally()
-    rejections = {k: 0 for k in ("primary (GEE averaged A-B, real)", "omnibus (GEE, 8 df)",
-                                 "any per-sample, unadjusted", "any per-sample, Holm",
-                                 "interaction (GEE)", "interaction (mixed model as reported)",
-                                 "interaction (GLMM, intercept only)",
-                                 "GLMM group[T.B] (real 1#)",
-                                 "slope model: LR test of the random slope")}
-    fallbacks = {"gee": 0, "glmm": 0}
-    used = {"slope model": 0, "intercept model": 0}
-    glmm_fail = 0
-    start = time.process_time()
-    for i in range(n):
-        trials = generate(cells, sigma=sigma, seed=seed0 + i, slope_sd=slope_sd)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            gee = fit_gee(trials)
-        fallbacks["gee"] += gee.formula != FORMULA
-        if gee.formula == FORMULA:      # the GEE table's coefficients: population-averaged truth
-            x = np.asarray(patsy.build_design_matrices([gee.design_info], grid)[0])
-            beta_true = np.linalg.lstsq(x, marg_logit, rcond=None)[0]
-            for row, b in zip(gee.table.iloc[: len(beta_true)].itertuples(), beta_true):
-                tally.add("gee coefficients (Wald)", row.ci_low, row.ci_high, b)
-        if gee_only:
-            continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            props = cell_proportions(trials, n_boot=n_boot, seed=i)
-            glmm = fit_glmm(trials, profile=profile)
-        fallbacks["glmm"] += glmm.formula != FORMULA
+#: The tests whose rejection rate at 0.05 is counted (the slope model's only with --slope-model).
+TESTS = ("primary (GEE averaged A-B, real)", "omnibus (GEE, 8 df)", "any per-sample, unadjusted",
+         "any per-sample, Holm", "interaction (GEE)", "interaction (mixed model as reported)",
+         "interaction (GLMM, intercept only)", "GLMM group[T.B] (real 1#)",
+         "slope model: LR test of the random slope")
+
+
+def _quiet(fit, *args, **kwargs):
+    """``fit(*args, **kwargs)`` with its warnings silenced."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return fit(*args, **kwargs)
+
+
+class Recovery:
+    """One scenario's tallies over datasets: each dataset analysed as ``thermocue analyze`` does
+    (:meth:`dataset`), its intervals held against the truth and its tests' rejections counted."""
+
+    def __init__(self, cells, sigma, slope_sd, n_boot, profile, slope_model, slope_profile):
+        self.cells, self.sigma, self.slope_sd, self.n_boot = cells, sigma, slope_sd, n_boot
+        self.profile, self.slope_model, self.slope_profile = profile, slope_model, slope_profile
+        self.truth = truths(cells, sigma, slope_sd)
+        # with a true random slope the intercept-only mixed model is misspecified: its intervals
+        # have no true value to cover and are not tallied (the GEE's and the cells' still do)
+        self.intercept_model_ok = slope_sd == 0
+        self.grid = pd.DataFrame([(g, m, r, 0, "x") for (g, m, r) in cells],
+                                 columns=["group", "mode", "roughness_id", "correct", "participant"])
+        self.cond_logit = logit(np.array([cells[k] for k in cells]))
+        self.marg_logit = logit(np.array([self.truth["marg"][k] for k in cells]))
+        self.tally = Tally()
+        self.rejections = {k: 0 for k in TESTS}
+        self.fallbacks = {"gee": 0, "glmm": 0}
+        self.used = {"slope model": 0, "intercept model": 0}
+        self.glmm_fail = 0
+
+    def _fixed_effects(self, family, fit, beta_truth):
+        """Tally the Wald intervals of ``fit``'s coefficients of the full formula against the
+        coefficients that reproduce ``beta_truth`` (cell log odds) on the cell grid."""
+        x = np.asarray(patsy.build_design_matrices([fit.design_info], self.grid)[0])
+        beta_true = np.linalg.lstsq(x, beta_truth, rcond=None)[0]
+        fixed = fit.table.iloc[: len(beta_true)]
+        for row, b in zip(fixed.itertuples(), beta_true):
+            self.tally.add(family, row.ci_low, row.ci_high, b)
+        return fixed
+
+    def gee(self, trials):
+        """The GEE fit; its coefficient table against the population-averaged truth."""
+        gee = _quiet(fit_gee, trials)
+        self.fallbacks["gee"] += gee.formula != FORMULA
+        if gee.formula == FORMULA:
+            self._fixed_effects("gee coefficients (Wald)", gee, self.marg_logit)
+        return gee
+
+    def cells_and_contrasts(self, trials, props, gee, glmm):
+        """The cells' intervals (``props``) and the A - B contrasts (GEE, and the GLMM's when
+        it fits the truth); returns the contrasts."""
         for row in props.itertuples():
-            t = truth["marg"][(row.group, row.mode, row.roughness_id)]
-            tally.add("cell: participant bootstrap", row.boot_low, row.boot_high, t)
-            tally.add("cell: Wilson (trials independent)", row.wilson_low, row.wilson_high, t)
+            t = self.truth["marg"][(row.group, row.mode, row.roughness_id)]
+            self.tally.add("cell: participant bootstrap", row.boot_low, row.boot_high, t)
+            self.tally.add("cell: Wilson (trials independent)", row.wilson_low, row.wilson_high, t)
         contrasts = group_contrasts(gee, trials)
-        if glmm.formula is not None and intercept_model_ok:
+        if glmm.formula is not None and self.intercept_model_ok:
             gc = group_contrasts(glmm, trials)
             gc["model"] = "glmm"
             contrasts = pd.concat([contrasts, gc], ignore_index=True)
         for row in contrasts.itertuples():
             scale = "gee" if row.model == "gee" else "glmm"
-            lor, diff = truth[(scale, row.mode, row.roughness_id)]
+            lor, diff = self.truth[(scale, row.mode, row.roughness_id)]
             which = "averaged" if row.roughness_id == 0 else "per-sample"
-            tally.add(f"{scale} contrast {which}: log odds ratio", row.ci_low, row.ci_high, lor)
-            tally.add(f"{scale} contrast {which}: proportion difference", row.difference_low,
-                      row.difference_high, diff)
-        sl = None
-        if slope_model and glmm.formula is not None:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                sl = fit_glmm_slope(trials, glmm.formula, intercept_fit=glmm,
-                                    profile=slope_profile)
-        # the mixed model the report uses for mode contrasts (analysis.mixed_choice)
-        choice = choose_mixed(glmm if glmm.formula else None, sl)
-        reported_ok = choice.contrasts is not None and (
-            choice.contrasts.kind == "glmm-slope" or intercept_model_ok)
-        tests = tests_table(gee, choice.contrasts, contrasts[contrasts["model"] == "gee"],
-                            trials)
+            self.tally.add(f"{scale} contrast {which}: log odds ratio", row.ci_low, row.ci_high, lor)
+            self.tally.add(f"{scale} contrast {which}: proportion difference", row.difference_low,
+                           row.difference_high, diff)
+        return contrasts
+
+    def mode_contrasts(self, trials, gee, choice, reported_ok):
+        """Real - simulated, averaged, by GEE and by the mixed model the report uses."""
         for fit in (gee, choice.contrasts):
             if fit is None or (fit.kind != "gee" and not reported_ok):
                 continue
@@ -181,100 +187,150 @@ def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_mo
             label = "gee" if fit.kind == "gee" else "mixed (as reported)"
             fid = mode_contrasts(fit, trials, margin_pp=10)
             for row in fid[fid["role"] == "averaged"].itertuples():
-                lor, diff = truth[(scale, "mode", row.group)]
-                tally.add(f"{label} real - simulated averaged: log odds", row.ci_low,
-                          row.ci_high, lor)
-                tally.add(f"{label} real - simulated averaged: proportions",
-                          row.difference_ci_low, row.difference_ci_high, diff)
+                lor, diff = self.truth[(scale, "mode", row.group)]
+                self.tally.add(f"{label} real - simulated averaged: log odds", row.ci_low,
+                               row.ci_high, lor)
+                self.tally.add(f"{label} real - simulated averaged: proportions",
+                               row.difference_ci_low, row.difference_ci_high, diff)
                 # the same by row: group A (t(12)), group B (t(16)), both groups (t(28))
-                tally.add(f"{label} real - simulated, group {row.group}: log odds", row.ci_low,
-                          row.ci_high, lor)
-                tally.add(f"{label} real - simulated, group {row.group}: proportions",
-                          row.difference_ci_low, row.difference_ci_high, diff)
+                self.tally.add(f"{label} real - simulated, group {row.group}: log odds", row.ci_low,
+                               row.ci_high, lor)
+                self.tally.add(f"{label} real - simulated, group {row.group}: proportions",
+                               row.difference_ci_low, row.difference_ci_high, diff)
         if choice.contrasts is not None:
-            used["slope model" if choice.contrasts.kind == "glmm-slope" else "intercept model"] += 1
+            self.used["slope model" if choice.contrasts.kind == "glmm-slope"
+                      else "intercept model"] += 1
+
+    def interactions(self, tests, reported_ok):
+        """The interaction rows of the tests table against the truth."""
         for row in tests.itertuples():
             if row.role == "interaction" and row.model != "gee" and reported_ok:
-                lor, dd = truth[("glmm", "interaction")]
-                tally.add("mixed interaction as reported: log odds", row.ci_low, row.ci_high, lor)
-                tally.add("mixed interaction as reported: proportions", row.difference_ci_low,
-                          row.difference_ci_high, dd)
+                lor, dd = self.truth[("glmm", "interaction")]
+                self.tally.add("mixed interaction as reported: log odds", row.ci_low, row.ci_high,
+                               lor)
+                self.tally.add("mixed interaction as reported: proportions", row.difference_ci_low,
+                               row.difference_ci_high, dd)
             if row.role == "interaction" and row.model == "gee":
-                lor, dd = truth[(row.model, "interaction")]
-                tally.add(f"{row.model} interaction: log odds", row.ci_low, row.ci_high, lor)
-                tally.add(f"{row.model} interaction: proportions", row.difference_ci_low,
-                          row.difference_ci_high, dd)
-        roles = tests.groupby("role")
-        p = {role: sel["p_value"].to_numpy(float) for role, sel in roles}
-        rejections["primary (GEE averaged A-B, real)"] += bool(p.get("primary", [1])[0] < 0.05)
-        rejections["omnibus (GEE, 8 df)"] += bool(p.get("omnibus", [1])[0] < 0.05)
+                lor, dd = self.truth[(row.model, "interaction")]
+                self.tally.add(f"{row.model} interaction: log odds", row.ci_low, row.ci_high, lor)
+                self.tally.add(f"{row.model} interaction: proportions", row.difference_ci_low,
+                               row.difference_ci_high, dd)
+
+    def count_rejections(self, tests, glmm, trials):
+        """The tests table's rejections at 0.05, and the GLMM's own interaction test's."""
+        rej = self.rejections
+        p = {role: sel["p_value"].to_numpy(float) for role, sel in tests.groupby("role")}
+        rej["primary (GEE averaged A-B, real)"] += bool(p.get("primary", [1])[0] < 0.05)
+        rej["omnibus (GEE, 8 df)"] += bool(p.get("omnibus", [1])[0] < 0.05)
         per = tests[tests["role"] == "per-sample"]
-        rejections["any per-sample, unadjusted"] += bool((per["p_value"] < 0.05).any())
-        rejections["any per-sample, Holm"] += bool((per["p_holm"] < 0.05).any())
+        rej["any per-sample, unadjusted"] += bool((per["p_value"] < 0.05).any())
+        rej["any per-sample, Holm"] += bool((per["p_holm"] < 0.05).any())
         inter = tests[tests["role"] == "interaction"].set_index("model")["p_value"]
-        rejections["interaction (GEE)"] += bool(inter.get("gee", 1) < 0.05)
-        rejections["interaction (mixed model as reported)"] += bool(
+        rej["interaction (GEE)"] += bool(inter.get("gee", 1) < 0.05)
+        rej["interaction (mixed model as reported)"] += bool(
             inter.drop("gee", errors="ignore").min() < 0.05) if len(inter) > 1 else False
         it = interaction_test(glmm, trials) if glmm.formula else None
-        rejections["interaction (GLMM, intercept only)"] += bool(
-            it is not None and it["p_value"] < 0.05)
-        if glmm.formula == FORMULA and intercept_model_ok:
-            x = np.asarray(patsy.build_design_matrices([glmm.design_info], grid)[0])
-            beta_true = np.linalg.lstsq(x, cond_logit, rcond=None)[0]
-            fixed = glmm.table.iloc[: len(beta_true)]
-            for row, b in zip(fixed.itertuples(), beta_true):
-                tally.add("glmm fixed effects (Wald)", row.ci_low, row.ci_high, b)
+        rej["interaction (GLMM, intercept only)"] += bool(it is not None and it["p_value"] < 0.05)
+
+    def glmm_intervals(self, glmm):
+        """The GLMM's fixed effects, group test, participant SD and ICC against the truth."""
+        if glmm.formula == FORMULA and self.intercept_model_ok:
+            fixed = self._fixed_effects("glmm fixed effects (Wald)", glmm, self.cond_logit)
             g = fixed.set_index("term").loc["group[T.B]"]
-            rejections["GLMM group[T.B] (real 1#)"] += bool(g["p_value"] < 0.05)
-        if glmm.formula is not None and intercept_model_ok:
+            self.rejections["GLMM group[T.B] (real 1#)"] += bool(g["p_value"] < 0.05)
+        sigma = self.sigma
+        if glmm.formula is not None and self.intercept_model_ok:
             t = glmm.table.set_index("term")
-            how = "profile" if profile else "Wald on log SD"
-            tally.add(f"glmm participant SD ({how})", t.loc["participant_sd", "ci_low"],
-                      t.loc["participant_sd", "ci_high"], sigma)
-            tally.add(f"glmm ICC latent ({how})", t.loc["icc_latent", "ci_low"],
-                      t.loc["icc_latent", "ci_high"], sigma ** 2 / (sigma ** 2 + np.pi ** 2 / 3))
+            how = "profile" if self.profile else "Wald on log SD"
+            self.tally.add(f"glmm participant SD ({how})", t.loc["participant_sd", "ci_low"],
+                           t.loc["participant_sd", "ci_high"], sigma)
+            self.tally.add(f"glmm ICC latent ({how})", t.loc["icc_latent", "ci_low"],
+                           t.loc["icc_latent", "ci_high"], sigma ** 2 / (sigma ** 2 + np.pi ** 2 / 3))
         elif glmm.formula is None:
-            glmm_fail += 1
-        if sl is not None:
-            if sl.formula is None:
-                glmm_fail += 1
-            else:
-                t = sl.table.set_index("term")
-                if sl.formula == FORMULA:
-                    x = np.asarray(patsy.build_design_matrices([sl.design_info], grid)[0])
-                    beta_true = np.linalg.lstsq(x, cond_logit, rcond=None)[0]
-                    for row, b in zip(sl.table.iloc[: len(beta_true)].itertuples(), beta_true):
-                        tally.add("slope model fixed effects (Wald)", row.ci_low, row.ci_high, b)
-                for term, truth_v in (("sd_intercept", sigma), ("sd_mode_slope", slope_sd),
-                                      ("corr_intercept_slope", 0.0 if slope_sd > 0 else None)):
-                    if truth_v is not None and slope_profile:
-                        tally.add(f"slope model {term} (profile)", t.loc[term, "ci_low"],
-                                  t.loc[term, "ci_high"], truth_v)
-                if "lrt_slope" in t.index:
-                    rejections["slope model: LR test of the random slope"] += \
-                        bool(t.loc["lrt_slope", "p_value"] < 0.05)
-        chance = chance_tests(trials)
-        for row in chance.itertuples():
+            self.glmm_fail += 1
+
+    def slope_intervals(self, sl):
+        """The random-slope model's fixed effects, SDs, correlation and LR test."""
+        if sl.formula is None:
+            self.glmm_fail += 1
+            return
+        t = sl.table.set_index("term")
+        if sl.formula == FORMULA:
+            self._fixed_effects("slope model fixed effects (Wald)", sl, self.cond_logit)
+        for term, truth_v in (("sd_intercept", self.sigma), ("sd_mode_slope", self.slope_sd),
+                              ("corr_intercept_slope", 0.0 if self.slope_sd > 0 else None)):
+            if truth_v is not None and self.slope_profile:
+                self.tally.add(f"slope model {term} (profile)", t.loc[term, "ci_low"],
+                               t.loc[term, "ci_high"], truth_v)
+        if "lrt_slope" in t.index:
+            self.rejections["slope model: LR test of the random slope"] += \
+                bool(t.loc["lrt_slope", "p_value"] < 0.05)
+
+    def chance(self, trials):
+        """The chance tests' t intervals against the population-averaged truth."""
+        marg = self.truth["marg"]
+        for row in chance_tests(trials).itertuples():
             if row.family == "cell":
-                t = truth["marg"][(row.group, row.mode, row.roughness_id)]
+                t = marg[(row.group, row.mode, row.roughness_id)]
             else:
-                t = np.mean([truth["marg"][(row.group, row.mode, r)] for r in range(1, 5)])
-            tally.add(f"chance t interval ({row.family})", row.t_low, row.t_high, t)
+                t = np.mean([marg[(row.group, row.mode, r)] for r in range(1, 5)])
+            self.tally.add(f"chance t interval ({row.family})", row.t_low, row.t_high, t)
+
+    def dataset(self, trials, i, gee_only):
+        """Analyse one dataset (``i``: its bootstrap seed) and tally it."""
+        gee = self.gee(trials)
+        if gee_only:
+            return
+        props = _quiet(cell_proportions, trials, n_boot=self.n_boot, seed=i)
+        glmm = _quiet(fit_glmm, trials, profile=self.profile)
+        self.fallbacks["glmm"] += glmm.formula != FORMULA
+        contrasts = self.cells_and_contrasts(trials, props, gee, glmm)
+        sl = None
+        if self.slope_model and glmm.formula is not None:
+            sl = _quiet(fit_glmm_slope, trials, glmm.formula, intercept_fit=glmm,
+                        profile=self.slope_profile)
+        # the mixed model the report uses for mode contrasts (analysis.mixed_choice)
+        choice = choose_mixed(glmm if glmm.formula else None, sl)
+        reported_ok = choice.contrasts is not None and (
+            choice.contrasts.kind == "glmm-slope" or self.intercept_model_ok)
+        tests = tests_table(gee, choice.contrasts, contrasts[contrasts["model"] == "gee"], trials)
+        self.mode_contrasts(trials, gee, choice, reported_ok)
+        self.interactions(tests, reported_ok)
+        self.count_rejections(tests, glmm, trials)
+        self.glmm_intervals(glmm)
+        if sl is not None:
+            self.slope_intervals(sl)
+        self.chance(trials)
+
+    def rejection_table(self, n):
+        """Each test's rejections and rate over ``n`` datasets, with its binomial SE."""
+        rejections = dict(self.rejections)
+        if not self.slope_model:
+            del rejections["slope model: LR test of the random slope"]
+        return pd.DataFrame([{"test": k, "rejections": v, "datasets": n, "rate": v / n,
+                              "binomial_se": np.sqrt(max(v / n * (1 - v / n), 1e-12) / n)}
+                             for k, v in rejections.items()])
+
+
+def run(n, scenario, sigma, seed0, n_boot, progress=True, profile=True, slope_model=False,
+        slope_sd=None, gee_only=False, slope_profile=True):
+    """The coverage table, the rejection table and the run's facts of ``n`` datasets."""
+    cells = effect_cells() if scenario == "effect" else null_cells()
+    if slope_sd is None:
+        slope_sd = SLOPE_SD if scenario == "slope" else 0.0
+    rec = Recovery(cells, sigma, slope_sd, n_boot, profile, slope_model, slope_profile)
+    start = time.process_time()
+    for i in range(n):
+        rec.dataset(generate(cells, sigma=sigma, seed=seed0 + i, slope_sd=slope_sd), i, gee_only)
         if progress and (i + 1) % 10 == 0:
             print(f"  {i + 1}/{n} datasets, {time.process_time() - start:.0f} s CPU",
                   file=sys.stderr, flush=True)
     cpu = time.process_time() - start
-    if not slope_model:
-        del rejections["slope model: LR test of the random slope"]
-    rej = pd.DataFrame([{"test": k, "rejections": v, "datasets": n, "rate": v / n,
-                         "binomial_se": np.sqrt(max(v / n * (1 - v / n), 1e-12) / n)}
-                        for k, v in rejections.items()])
-    return tally.table(), rej, {"fallbacks": fallbacks, "glmm_failed": glmm_fail,
-                                "mixed_model_for_mode_contrasts": used,
-                                "cpu_s": cpu, "datasets": n, "scenario": scenario,
-                                "sigma": sigma, "slope_sd": slope_sd, "slope_model": slope_model,
-                                "seed0": seed0, "n_boot": n_boot,
-                                "load_average": os.getloadavg()}
+    return rec.tally.table(), rec.rejection_table(n), {
+        "fallbacks": rec.fallbacks, "glmm_failed": rec.glmm_fail,
+        "mixed_model_for_mode_contrasts": rec.used, "cpu_s": cpu, "datasets": n,
+        "scenario": scenario, "sigma": sigma, "slope_sd": slope_sd, "slope_model": slope_model,
+        "seed0": seed0, "n_boot": n_boot, "load_average": os.getloadavg()}
 
 
 def main(argv=None):

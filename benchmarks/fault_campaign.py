@@ -345,92 +345,110 @@ def _disk_case(label, T: Totals, code, err, session: Path, folder: Path, cause: 
         T.note(f"disk {label}: resume exit {code}: {err.strip()[:200]}")
 
 
-def part_disk(out: Path, T: Totals, scale: float, rng: random.Random):
-    base = out / "disk"
-    base.mkdir(parents=True)
-    for size in ("24k", "48k", "96k", "160k"):
-        folder = base / f"tmpfs-{size}"
-        mnt = folder / "mnt"
-        if not _mount(mnt, size):
-            T.note("disk: cannot mount a tmpfs (not root?): tmpfs cases skipped")
-            break
-        try:
-            proto = write_protocol(folder, real_reps=1, sim_reps=2)
-            log1 = folder / "dev-1.jsonl"
-            code, err, _ = child(["run", proto, "--participant", P01, "--display",
-                                  f"emulator://?clock=virtual&seed=1&log={log1}", "--responder",
-                                  "simulated", "--data", mnt / "data", "--seed", 1, "--quiet"],
-                                 folder, T)
-            session = mnt / "data" / "P01" / "S01"
-            subprocess.run(["mount", "-o", "remount,size=8m", str(mnt)], check=True)
-            if code == 0:
-                T.note(f"disk tmpfs {size}: the session fit; no failure exercised")
-                continue
-            if not session.exists():          # nothing could be claimed: a one-line refusal
-                T.c["disk_cases"] += 1
-                if code not in (1, 2) or len(err.strip().splitlines()) != 1:
-                    T.c["disk_unclean"] += 1
-                    T.note(f"disk tmpfs {size} (no folder): exit {code}: {err.strip()[:300]}")
-                continue
-            log2 = folder / "dev-2.jsonl"
-            _disk_case(f"tmpfs {size}", T, code, err, session, folder, "disk full",
-                       ["resume", session, "--display", f"emulator://?clock=virtual&seed=2&log={log2}",
-                        "--responder", "simulated", "--quiet"])
-            check_session(session, [log1, log2], T, 12, f"disk tmpfs {size}")
-        finally:
-            subprocess.run(["umount", str(mnt)], capture_output=True)
-    for limit in (9000, 12000, 20000):
-        folder = base / f"fsize-{limit}"
-        folder.mkdir()
+def _disk_tmpfs(base: Path, T: Totals, size: str) -> bool:
+    """A session on a tmpfs of ``size``, then resumed on it enlarged; False if none mounts."""
+    folder = base / f"tmpfs-{size}"
+    mnt = folder / "mnt"
+    if not _mount(mnt, size):
+        T.note("disk: cannot mount a tmpfs (not root?): tmpfs cases skipped")
+        return False
+    try:
         proto = write_protocol(folder, real_reps=1, sim_reps=2)
         log1 = folder / "dev-1.jsonl"
         code, err, _ = child(["run", proto, "--participant", P01, "--display",
                               f"emulator://?clock=virtual&seed=1&log={log1}", "--responder",
-                              "simulated", "--data", folder / "data", "--seed", 1, "--quiet"],
-                             folder, T, limit_bytes=limit)
-        session = folder / "data" / "P01" / "S01"
+                              "simulated", "--data", mnt / "data", "--seed", 1, "--quiet"],
+                             folder, T)
+        session = mnt / "data" / "P01" / "S01"
+        subprocess.run(["mount", "-o", "remount,size=8m", str(mnt)], check=True)
+        if code == 0:
+            T.note(f"disk tmpfs {size}: the session fit; no failure exercised")
+            return True
+        if not session.exists():          # nothing could be claimed: a one-line refusal
+            T.c["disk_cases"] += 1
+            if code not in (1, 2) or len(err.strip().splitlines()) != 1:
+                T.c["disk_unclean"] += 1
+                T.note(f"disk tmpfs {size} (no folder): exit {code}: {err.strip()[:300]}")
+            return True
         log2 = folder / "dev-2.jsonl"
-        _disk_case(f"file size {limit}", T, code, err, session, folder, "file too large",
+        _disk_case(f"tmpfs {size}", T, code, err, session, folder, "disk full",
                    ["resume", session, "--display", f"emulator://?clock=virtual&seed=2&log={log2}",
                     "--responder", "simulated", "--quiet"])
-        check_session(session, [log1, log2], T, 12, f"disk fsize {limit}")
-    # a folder turning read-only mid-session (real clock, so there is a "mid")
+        check_session(session, [log1, log2], T, 12, f"disk tmpfs {size}")
+        return True
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True)
+
+
+def _disk_fsize(base: Path, T: Totals, limit: int) -> None:
+    """A session whose files may not grow beyond ``limit`` bytes (RLIMIT_FSIZE), then resumed."""
+    folder = base / f"fsize-{limit}"
+    folder.mkdir()
+    proto = write_protocol(folder, real_reps=1, sim_reps=2)
+    log1 = folder / "dev-1.jsonl"
+    code, err, _ = child(["run", proto, "--participant", P01, "--display",
+                          f"emulator://?clock=virtual&seed=1&log={log1}", "--responder",
+                          "simulated", "--data", folder / "data", "--seed", 1, "--quiet"],
+                         folder, T, limit_bytes=limit)
+    session = folder / "data" / "P01" / "S01"
+    log2 = folder / "dev-2.jsonl"
+    _disk_case(f"file size {limit}", T, code, err, session, folder, "file too large",
+               ["resume", session, "--display", f"emulator://?clock=virtual&seed=2&log={log2}",
+                "--responder", "simulated", "--quiet"])
+    check_session(session, [log1, log2], T, 12, f"disk fsize {limit}")
+
+
+def _disk_readonly(base: Path, T: Totals) -> None:
+    """A folder turning read-only mid-session (real clock, so there is a "mid"), then resumed."""
     folder = base / "readonly"
     mnt = folder / "mnt"
-    if _mount(mnt, "8m"):
+    if not _mount(mnt, "8m"):
+        return
+    try:
+        proto = write_protocol(folder, real_reps=0 or 1, sim_reps=1)
+        T.c["processes"] += 1
+        env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
+        proc = subprocess.Popen([sys.executable, "-m", "experiments", "run", str(proto),
+                                 "--participant", str(P01), "--display", "emulator://?seed=1",
+                                 "--responder", "simulated", "--data", str(mnt / "data"),
+                                 "--seed", "1", "--quiet"], cwd=ROOT, env=env, text=True,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        time.sleep(6.0)
+        # the session folder turns read-only under the running process (a bind mount of it
+        # onto itself, remounted read-only: new files and renames fail with EROFS; the
+        # whole tmpfs cannot be remounted read-only while files are open for writing)
+        sdir = mnt / "data" / "P01" / "S01"
+        subprocess.run(["mount", "--bind", str(sdir), str(sdir)], check=True)
+        subprocess.run(["mount", "-o", "remount,bind,ro", str(sdir)], check=True)
         try:
-            proto = write_protocol(folder, real_reps=0 or 1, sim_reps=1)
-            T.c["processes"] += 1
-            env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
-            proc = subprocess.Popen([sys.executable, "-m", "experiments", "run", str(proto),
-                                     "--participant", str(P01), "--display", "emulator://?seed=1",
-                                     "--responder", "simulated", "--data", str(mnt / "data"),
-                                     "--seed", "1", "--quiet"], cwd=ROOT, env=env, text=True,
-                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-            time.sleep(6.0)
-            # the session folder turns read-only under the running process (a bind mount of it
-            # onto itself, remounted read-only: new files and renames fail with EROFS; the
-            # whole tmpfs cannot be remounted read-only while files are open for writing)
-            sdir = mnt / "data" / "P01" / "S01"
-            subprocess.run(["mount", "--bind", str(sdir), str(sdir)], check=True)
-            subprocess.run(["mount", "-o", "remount,bind,ro", str(sdir)], check=True)
-            try:
-                _, err = proc.communicate(timeout=120)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                _, err = proc.communicate()
-                T.c["hangs"] += 1
-            if "Traceback" in err:
-                T.c["tracebacks"] += 1
-                T.note(f"read-only: traceback: {err.strip().splitlines()[-1][:200]}")
-            subprocess.run(["umount", str(sdir)], check=True)
-            session = mnt / "data" / "P01" / "S01"
-            _disk_case("read-only", T, proc.returncode, err, session, folder,
-                       "read-only file system",
-                       ["resume", session, "--display", "emulator://?clock=virtual&seed=2",
-                        "--responder", "simulated", "--quiet"])
-        finally:
-            subprocess.run(["umount", str(mnt)], capture_output=True)
+            _, err = proc.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            _, err = proc.communicate()
+            T.c["hangs"] += 1
+        if "Traceback" in err:
+            T.c["tracebacks"] += 1
+            T.note(f"read-only: traceback: {err.strip().splitlines()[-1][:200]}")
+        subprocess.run(["umount", str(sdir)], check=True)
+        session = mnt / "data" / "P01" / "S01"
+        _disk_case("read-only", T, proc.returncode, err, session, folder,
+                   "read-only file system",
+                   ["resume", session, "--display", "emulator://?clock=virtual&seed=2",
+                    "--responder", "simulated", "--quiet"])
+    finally:
+        subprocess.run(["umount", str(mnt)], capture_output=True)
+
+
+def part_disk(out: Path, T: Totals, scale: float, rng: random.Random):
+    """Full disks (small tmpfs), file-size limits and a folder turning read-only mid-session."""
+    base = out / "disk"
+    base.mkdir(parents=True)
+    for size in ("24k", "48k", "96k", "160k"):
+        if not _disk_tmpfs(base, T, size):
+            break
+    for limit in (9000, 12000, 20000):
+        _disk_fsize(base, T, limit)
+    _disk_readonly(base, T)
 
 
 def part_concurrent(out: Path, T: Totals, scale: float, rng: random.Random):

@@ -139,6 +139,137 @@ def _copy_any(src, dst) -> None:
         shutil.copy2(src, dst)
 
 
+def _truncate(target: Path, rng: random.Random) -> None:
+    raw = target.read_bytes()
+    target.write_bytes(raw[:rng.randrange(0, max(1, len(raw)))])
+
+
+def _nul_tail(target: Path, rng: random.Random) -> None:
+    raw = target.read_bytes()
+    cut = rng.randrange(0, max(1, len(raw)))
+    target.write_bytes(raw[:cut] + b"\x00" * rng.randrange(1, 4096))
+
+
+def _flip(target: Path, rng: random.Random) -> None:
+    raw = bytearray(target.read_bytes())
+    for _ in range(rng.randrange(1, 6)):
+        if raw:
+            raw[rng.randrange(len(raw))] ^= 1 << rng.randrange(8)
+    target.write_bytes(bytes(raw))
+
+
+def _dup_line(target: Path, rng: random.Random) -> None:
+    lines = target.read_bytes().splitlines(keepends=True)
+    if len(lines) > 1:
+        i = rng.randrange(1, len(lines))
+        lines.insert(i, lines[i])
+    target.write_bytes(b"".join(lines))
+
+
+def _latin1(target: Path, rng: random.Random) -> None:
+    text = target.read_text("utf-8", errors="replace")
+    at = text.find("\n", len(text) // 3) + 1
+    target.write_bytes(text[:at].encode("utf-8", errors="replace")
+                       + text[at:].replace("a", "\u00e9", 1).encode("latin-1", errors="replace"))
+
+
+#: The damages done to one existing file's bytes (a missing file is deleted instead).
+_FILE_DAMAGE = {
+    "truncate": _truncate,
+    "empty": lambda target, rng: target.write_bytes(b""),
+    "nul_tail": _nul_tail,
+    "flip": _flip,
+    "dup_line": _dup_line,
+    "utf16": lambda target, rng: target.write_bytes(
+        target.read_text("utf-8", errors="replace").encode("utf-16")),
+    "utf16_nobom": lambda target, rng: target.write_bytes(
+        target.read_text("utf-8", errors="replace").encode("utf-16-le")),
+    "latin1": _latin1,
+    "utf8_bom": lambda target, rng: target.write_bytes(b"\xef\xbb\xbf" + target.read_bytes()),
+}
+
+
+def _special_file(kind: str, session: Path, data: Path, rng: random.Random) -> Path:
+    """One of the session's three files replaced by a FIFO, a link to /dev/zero or /dev/urandom,
+    a folder, a socket or a sparse 300 MB file; returns its path under ``data``."""
+    target = rng.choice([session / n for n in ("session.json", "events.jsonl", "trials.csv")])
+    if target.is_dir():
+        shutil.rmtree(target)
+    else:
+        target.unlink(missing_ok=True)
+    if kind == "fifo":
+        os.mkfifo(target)
+    elif kind == "dev_zero":
+        os.symlink("/dev/zero", target)
+    elif kind == "dev_urandom":
+        os.symlink("/dev/urandom", target)
+    elif kind == "folder":
+        target.mkdir()
+    elif kind == "socket":
+        s = socket.socket(socket.AF_UNIX)
+        try:
+            s.bind(str(target))
+        except OSError:            # a path too long for a socket: a FIFO instead
+            os.mkfifo(target)
+        s.close()
+    else:
+        with open(target, "wb") as fh:     # sparse: 300 MB that cost no disk
+            fh.truncate(300 << 20)
+    return target.relative_to(data)
+
+
+def _bad_event_value(session: Path, data: Path, rng: random.Random) -> str:
+    """A bad value in the first answered trial_completed row of the log, trials.csv removed
+    (the log is then the table); returns what was done."""
+    kind = "bad_event_value"
+    path = session / "events.jsonl"
+    if not path.is_file() or path.stat().st_size > (10 << 20):
+        return f"{kind}: no events.jsonl in {session.relative_to(data)}"
+    column, value = rng.choice(BAD_CELLS)
+    out = []
+    done = False
+    for line in path.read_text("utf-8", errors="replace").splitlines(keepends=True):
+        if not done and '"trial_completed"' in line:
+            try:
+                ev = json.loads(line)
+            except ValueError:
+                out.append(line)
+                continue
+            if isinstance(ev.get("row"), dict) and ev["row"].get("response_id") is not None:
+                ev["row"][column] = value
+                line = json.dumps(ev) + "\n"
+                done = True
+        out.append(line)
+    path.write_text("".join(out), encoding="utf-8")
+    (session / "trials.csv").unlink(missing_ok=True)       # the log is then the table
+    return f"{kind} {column}={value!r} in {session.relative_to(data)}/events.jsonl"
+
+
+def _session_damage(kind: str, session: Path, sessions: list, data: Path,
+                    rng: random.Random) -> str:
+    """A damage to the session as a whole (not one file's bytes); returns what was done."""
+    if kind == "delete_traces":
+        shutil.rmtree(session / "traces", ignore_errors=True)
+        return f"{kind} {Path(session.relative_to(data), 'traces')}"
+    if kind == "copy_folder":
+        name = rng.choice([f"{session.parent.name} copy", "backup", "P03"])
+        shutil.copytree(session.parent, data / name, symlinks=True, copy_function=_copy_any)
+        return f"{kind} {Path(name)}"
+    if kind == "swap_meta":
+        other = next((s for s in sessions if s != session), None)
+        if other is not None and (other / "session.json").is_file():
+            shutil.copy(other / "session.json", session / "session.json")
+        return f"{kind} {session.relative_to(data) / 'session.json'}"
+    if kind == "bad_cell":
+        column, value = rng.choice(BAD_CELLS)
+        where = _set_cell(session / "trials.csv", rng, column, value) \
+            if (session / "trials.csv").is_file() else "no trials.csv"
+        return f"{kind} {column}={value!r} ({where}) in {session.relative_to(data)}/trials.csv"
+    if kind == "bad_event_value":
+        return _bad_event_value(session, data, rng)
+    return f"{kind} {_special_file(kind, session, data, rng)}"
+
+
 def damage(data: Path, rng: random.Random) -> list[str]:
     """Apply one kind of damage to a random session under ``data``; return what was done."""
     sessions = sorted(p.parent for p in data.glob("*/*/session.json")) or \
@@ -147,109 +278,15 @@ def damage(data: Path, rng: random.Random) -> list[str]:
     kind = rng.choice(KINDS)
     files = _files(session)
     target = rng.choice(files) if files else session / "trials.csv"
-    rel = target.relative_to(data)
-    if kind in ("truncate", "empty", "nul_tail", "flip", "dup_line", "utf16", "utf16_nobom",
-                "latin1", "utf8_bom") and not target.is_file():
+    if kind in _FILE_DAMAGE and not target.is_file():
         kind = "delete"
-    if kind == "truncate":
-        raw = target.read_bytes()
-        target.write_bytes(raw[:rng.randrange(0, max(1, len(raw)))])
-    elif kind == "empty":
-        target.write_bytes(b"")
-    elif kind == "nul_tail":
-        raw = target.read_bytes()
-        cut = rng.randrange(0, max(1, len(raw)))
-        target.write_bytes(raw[:cut] + b"\x00" * rng.randrange(1, 4096))
-    elif kind == "flip":
-        raw = bytearray(target.read_bytes())
-        for _ in range(rng.randrange(1, 6)):
-            if raw:
-                raw[rng.randrange(len(raw))] ^= 1 << rng.randrange(8)
-        target.write_bytes(bytes(raw))
-    elif kind == "delete":
+    if kind == "delete":
         target.unlink(missing_ok=True)
-    elif kind == "delete_traces":
-        shutil.rmtree(session / "traces", ignore_errors=True)
-        rel = Path(session.relative_to(data), "traces")
-    elif kind == "dup_line":
-        lines = target.read_bytes().splitlines(keepends=True)
-        if len(lines) > 1:
-            i = rng.randrange(1, len(lines))
-            lines.insert(i, lines[i])
-        target.write_bytes(b"".join(lines))
-    elif kind == "copy_folder":
-        name = rng.choice([f"{session.parent.name} copy", "backup", "P03"])
-        shutil.copytree(session.parent, data / name, symlinks=True, copy_function=_copy_any)
-        rel = Path(name)
-    elif kind == "swap_meta":
-        other = next((s for s in sessions if s != session), None)
-        if other is not None and (other / "session.json").is_file():
-            shutil.copy(other / "session.json", session / "session.json")
-        rel = session.relative_to(data) / "session.json"
-    elif kind == "utf16":
-        target.write_bytes(target.read_text("utf-8", errors="replace").encode("utf-16"))
-    elif kind == "utf16_nobom":
-        target.write_bytes(target.read_text("utf-8", errors="replace").encode("utf-16-le"))
-    elif kind == "latin1":
-        text = target.read_text("utf-8", errors="replace")
-        at = text.find("\n", len(text) // 3) + 1
-        target.write_bytes(text[:at].encode("utf-8", errors="replace")
-                           + text[at:].replace("a", "\u00e9", 1).encode("latin-1", errors="replace"))
-    elif kind == "utf8_bom":
-        target.write_bytes(b"\xef\xbb\xbf" + target.read_bytes())
-    elif kind in ("fifo", "dev_zero", "dev_urandom", "folder", "socket", "huge"):
-        target = rng.choice([session / n for n in ("session.json", "events.jsonl", "trials.csv")])
-        rel = target.relative_to(data)
-        if target.is_dir():
-            shutil.rmtree(target)
-        else:
-            target.unlink(missing_ok=True)
-        if kind == "fifo":
-            os.mkfifo(target)
-        elif kind == "dev_zero":
-            os.symlink("/dev/zero", target)
-        elif kind == "dev_urandom":
-            os.symlink("/dev/urandom", target)
-        elif kind == "folder":
-            target.mkdir()
-        elif kind == "socket":
-            s = socket.socket(socket.AF_UNIX)
-            try:
-                s.bind(str(target))
-            except OSError:            # a path too long for a socket: a FIFO instead
-                os.mkfifo(target)
-            s.close()
-        else:
-            with open(target, "wb") as fh:     # sparse: 300 MB that cost no disk
-                fh.truncate(300 << 20)
-    elif kind == "bad_cell":
-        column, value = rng.choice(BAD_CELLS)
-        where = _set_cell(session / "trials.csv", rng, column, value) \
-            if (session / "trials.csv").is_file() else "no trials.csv"
-        return [f"{kind} {column}={value!r} ({where}) in {session.relative_to(data)}/trials.csv"]
-    elif kind == "bad_event_value":
-        path = session / "events.jsonl"
-        if not path.is_file() or path.stat().st_size > (10 << 20):
-            return [f"{kind}: no events.jsonl in {session.relative_to(data)}"]
-        column, value = rng.choice(BAD_CELLS)
-        out = []
-        done = False
-        for line in path.read_text("utf-8", errors="replace").splitlines(keepends=True):
-            if not done and '"trial_completed"' in line:
-                try:
-                    ev = json.loads(line)
-                except ValueError:
-                    out.append(line)
-                    continue
-                if isinstance(ev.get("row"), dict) and ev["row"].get("response_id") is not None:
-                    ev["row"][column] = value
-                    line = json.dumps(ev) + "\n"
-                    done = True
-            out.append(line)
-        path.write_text("".join(out), encoding="utf-8")
-        (session / "trials.csv").unlink(missing_ok=True)       # the log is then the table
-        return [f"{kind} {column}={value!r} in {session.relative_to(data)}/events.jsonl"]
-    return [f"{kind} {rel}"]
+    elif kind in _FILE_DAMAGE:
+        _FILE_DAMAGE[kind](target, rng)
+    else:
+        return [_session_damage(kind, session, sessions, data, rng)]
+    return [f"{kind} {target.relative_to(data)}"]
 
 
 # --------------------------------------------------------------------------- runs

@@ -277,120 +277,160 @@ def _at_probes(scene: Scene, model: Model, probes: np.ndarray, ip: InversionPlan
     return T
 
 
-@lru_cache(maxsize=256)
-def plan_scene(scene: Scene, screen: bool = True) -> Plan:
-    full = scene.full_model()
-    probes, ip = probe_plan(scene.duration_s, scene.rate_Hz, cheap=True)
-    dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
-    inv = INVERSION_ERROR * dT                  # a production evaluation's inversion error
-    pinv = PROBE_INVERSION_ERROR * dT           # a probe value's inversion error
-    base = _with(full, sensor=False)
-    tol = scene.tolerance_K
-    decisions = []
-    cache = {}
-    ref_model, ref_offset = base, 0.0
+class _Planning:
+    """One run of :func:`plan_scene`: the scene's probes and reference, the model so far and the
+    decisions made, one method per step (the sensor, then each effect of :data:`EFFECTS`)."""
 
-    def skin():
-        if "skin" not in cache:
-            L = scene.skin_thickness_m
-            cache["skin"] = scene_skin(L, L - scene.receptor_depth)     # = scene.skin, made once
-        return cache["skin"]
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self.full = scene.full_model()
+        self.probes, self.ip = probe_plan(scene.duration_s, scene.rate_Hz, cheap=True)
+        dT = abs(scene.skin_temperature_C - scene.material_temperature_C)
+        self.inv = INVERSION_ERROR * dT             # a production evaluation's inversion error
+        self.pinv = PROBE_INVERSION_ERROR * dT      # a probe value's inversion error
+        self.base = _with(self.full, sensor=False)
+        self.tol = scene.tolerance_K
+        self.decisions = []
+        self.cache = {}
+        self.ref_model, self.ref_offset = self.base, 0.0
+        self.sensor_bound = 0.0
+        self.current, self.current_err, self.prev = self.base, 0.0, None
 
-    def layers_screen(cand):
-        # why the layers are kept without evaluation (their screens), or None; asked by the
-        # perfusion step and again by the layers' own step: computed once per (reference, candidate)
-        key = ("layers", ref_model, cand, ref_offset)
-        if key not in cache:
-            why = layers_matter(scene, skin())
+    def skin(self):
+        """The scene's skin (as ``scene.skin``), made once."""
+        if "skin" not in self.cache:
+            L = self.scene.skin_thickness_m
+            self.cache["skin"] = scene_skin(L, L - self.scene.receptor_depth)
+        return self.cache["skin"]
+
+    def layers_screen(self, cand):
+        """Why the layers are kept without evaluation (their screens), or None; asked by the
+        perfusion step and again by the layers' own step: computed once per (reference,
+        candidate)."""
+        key = ("layers", self.ref_model, cand, self.ref_offset)
+        if key not in self.cache:
+            why = layers_matter(self.scene, self.skin())
             if why is None:
-                why = lower_screen(scene, ref_model, cand, skin(), tol, ref_offset)
-            cache[key] = why
-        return cache[key]
+                why = lower_screen(self.scene, self.ref_model, cand, self.skin(), self.tol,
+                                   self.ref_offset)
+            self.cache[key] = why
+        return self.cache[key]
 
-    def reference():
-        # the model every candidate is compared with: the full model, or the full model without
-        # perfusion when its closed-form bound (ref_offset, added to every error) neglected it
-        # (never after an evaluation: the sensor's bound evaluates the full model first)
-        if "ref" not in cache:
-            cache["ref"] = _at_probes(scene, ref_model, probes, ip)
-        return cache["ref"]
+    def reference(self):
+        """The model every candidate is compared with, at the probes: the full model, or the
+        full model without perfusion when its closed-form bound (``ref_offset``, added to every
+        error) neglected it (never after an evaluation: the sensor's bound evaluates the full
+        model first)."""
+        if "ref" not in self.cache:
+            self.cache["ref"] = _at_probes(self.scene, self.ref_model, self.probes, self.ip)
+        return self.cache["ref"]
 
-    # the sensor: tau sup|dT/dt|, analytic
-    sensor_bound = 0.0
-    if scene.sensor_time_constant_s > 0:
-        if scene.quantity == "receptor":
-            decisions.append(Decision("sensor", False, 0.0, "not applicable: the receptor is not "
-                                      "read by the pad's sensor"))
+    def sensor(self) -> None:
+        """The sensor: tau sup|dT/dt|, analytic."""
+        scene = self.scene
+        if not scene.sensor_time_constant_s > 0:
+            self.decisions.append(Decision("sensor", False, 0.0, "no sensor lag stated"))
+        elif scene.quantity == "receptor":
+            self.decisions.append(Decision("sensor", False, 0.0, "not applicable: the receptor is "
+                                           "not read by the pad's sensor"))
         else:
-            tt = np.concatenate([[0.0], probes])
-            T0 = evaluate(scene, base, np.array([0.0]))
-            vals = np.concatenate([T0, reference()])
+            tt = np.concatenate([[0.0], self.probes])
+            T0 = evaluate(scene, self.base, np.array([0.0]))
+            vals = np.concatenate([T0, self.reference()])
             # each probe value is within pinv of the exact one (the value at 0 is exact)
-            rate = float(np.max((np.abs(np.diff(vals)) + 2.0 * pinv) / np.diff(tt)))
+            rate = float(np.max((np.abs(np.diff(vals)) + 2.0 * self.pinv) / np.diff(tt)))
             b = scene.sensor_time_constant_s * rate
-            keep = b + inv > tol
+            keep = b + self.inv > self.tol
             if not keep:
-                sensor_bound = b
-            decisions.append(Decision("sensor", keep, b, f"tau {scene.sensor_time_constant_s:g} s x "
-                                      f"max |dT/dt| {rate:.3g} K/s"))
-    else:
-        decisions.append(Decision("sensor", False, 0.0, "no sensor lag stated"))
+                self.sensor_bound = b
+            self.decisions.append(Decision("sensor", keep, b, f"tau {scene.sensor_time_constant_s:g} s"
+                                           f" x max |dT/dt| {rate:.3g} K/s"))
 
-    current, current_err, prev = base, 0.0, None
-    for effect in EFFECTS[1:]:
-        cand = _drop(current, effect, scene)
-        if cand is None:
-            if effect == "slab" and current.geometry == "slab-on-support":
-                decisions.append(Decision("slab", True, math.nan, "kept with its support"))
-            continue
-        why = warmed_through(scene) if (screen and effect == "slab") else None
+    def screened(self, effect: str, cand, screen: bool) -> bool:
+        """Whether a screen keeps ``effect`` without evaluating it (its decision made)."""
+        why = warmed_through(self.scene) if (screen and effect == "slab") else None
+        if why is None:
+            why = self.layers_screen(cand) if (screen and effect == "layered") else None
         if why is not None:
-            decisions.append(Decision(effect, True, math.nan, why))
-            continue
-        why = layers_screen(cand) if (screen and effect == "layered") else None
-        if why is not None:
-            decisions.append(Decision(effect, True, math.nan, why))
-            continue
-        if screen and effect == "perfusion" and "ref" not in cache:
-            b = perfusion_bound(scene, skin())
-            err = b + inv + inv + sensor_bound
-            if err <= tol:          # neglected by the closed form, without evaluating anything
-                decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + PERFUSION_NOTE))
-                current, current_err, ref_model, ref_offset = cand, err, cand, b
-                continue
-            # where heat leaks out of the skin within the scene: the Laplace-domain bound
-            b = perfusion_laplace_bound(scene, current, skin(), tol - inv - inv - sensor_bound)
-            err = b + inv + inv + sensor_bound
-            if err <= tol:
-                decisions.append(Decision(effect, False, b, _NOTES[effect] + "; " + PERFUSION_LAPLACE_NOTE))
-                current, current_err, ref_model, ref_offset = cand, err, cand, b
-                continue
-            # neither bound settles it. Where the layers are kept anyway (their screen says so) the
-            # model stays exact and layered with or without perfusion, and perfusion sits in the
-            # same transfer matrix: dropping it would save nothing (benchmarks/README.md), so
-            # deciding it at the probes would be pure overhead. Kept, unevaluated, bound stated.
-            layers_out = _drop(current, "layered", scene) if full.layered else None
-            if layers_out is not None and layers_screen(layers_out) is not None:
-                decisions.append(Decision(effect, True, b, _NOTES[effect] + "; " + _PERFUSION_KEPT_NOTE))
-                continue
-        ref = reference()
-        prev = ref if prev is None else prev
-        val = _at_probes(scene, cand, probes, ip)
+            self.decisions.append(Decision(effect, True, math.nan, why))
+        return why is not None
+
+    def perfusion_by_bound(self, cand) -> bool:
+        """Whether perfusion is decided without evaluating anything: neglected by its closed
+        form or Laplace-domain bound, or kept unevaluated beside kept layers."""
+        scene, inv, sensor_bound = self.scene, self.inv, self.sensor_bound
+        b = perfusion_bound(scene, self.skin())
+        err = b + inv + inv + sensor_bound
+        if err <= self.tol:          # neglected by the closed form, without evaluating anything
+            self.decisions.append(Decision("perfusion", False, b,
+                                           _NOTES["perfusion"] + "; " + PERFUSION_NOTE))
+            self.current, self.current_err, self.ref_model, self.ref_offset = cand, err, cand, b
+            return True
+        # where heat leaks out of the skin within the scene: the Laplace-domain bound
+        b = perfusion_laplace_bound(scene, self.current, self.skin(), self.tol - inv - inv - sensor_bound)
+        err = b + inv + inv + sensor_bound
+        if err <= self.tol:
+            self.decisions.append(Decision("perfusion", False, b,
+                                           _NOTES["perfusion"] + "; " + PERFUSION_LAPLACE_NOTE))
+            self.current, self.current_err, self.ref_model, self.ref_offset = cand, err, cand, b
+            return True
+        # neither bound settles it. Where the layers are kept anyway (their screen says so) the
+        # model stays exact and layered with or without perfusion, and perfusion sits in the
+        # same transfer matrix: dropping it would save nothing (benchmarks/README.md), so
+        # deciding it at the probes would be pure overhead. Kept, unevaluated, bound stated.
+        layers_out = _drop(self.current, "layered", scene) if self.full.layered else None
+        if layers_out is not None and self.layers_screen(layers_out) is not None:
+            self.decisions.append(Decision("perfusion", True, b,
+                                           _NOTES["perfusion"] + "; " + _PERFUSION_KEPT_NOTE))
+            return True
+        return False
+
+    def at_probes(self, effect: str, cand) -> None:
+        """Decide ``effect`` by evaluating the model without it at the probes."""
+        pinv, inv = self.pinv, self.inv
+        ref = self.reference()
+        self.prev = ref if self.prev is None else self.prev
+        val = _at_probes(self.scene, cand, self.probes, self.ip)
         # probe differences are within 2 pinv of the exact ones (pinv each side; Eq. 7 is exact)
         cand_p = pinv if cand.method == "exact" else 0.0
-        step = SAFETY * (float(np.max(np.abs(val - prev))) + pinv + cand_p)
+        step = SAFETY * (float(np.max(np.abs(val - self.prev))) + pinv + cand_p)
         cand_inv = inv if cand.method == "exact" else 0.0
-        err = SAFETY * (float(np.max(np.abs(val - ref))) + pinv + cand_p) + inv + cand_inv + sensor_bound
-        if ref_offset:
-            err += ref_offset
-        if err <= tol:
-            decisions.append(Decision(effect, False, step, _NOTES[effect]))
-            current, current_err, prev = cand, err, val
+        err = (SAFETY * (float(np.max(np.abs(val - ref))) + pinv + cand_p) + inv + cand_inv
+               + self.sensor_bound)
+        if self.ref_offset:
+            err += self.ref_offset
+        if err <= self.tol:
+            self.decisions.append(Decision(effect, False, step, _NOTES[effect]))
+            self.current, self.current_err, self.prev = cand, err, val
         else:
-            decisions.append(Decision(effect, True, step, _NOTES[effect]))
-    model = _with(current, sensor=full.sensor and sensor_bound == 0.0 and scene.quantity != "receptor")
-    bound = max(current_err, sensor_bound + inv)
-    return Plan(scene, model, full, tuple(decisions), float(bound), probes)
+            self.decisions.append(Decision(effect, True, step, _NOTES[effect]))
+
+    def run(self, screen: bool) -> Plan:
+        """The plan: the sensor, then each effect dropped if its neglect fits the tolerance."""
+        self.sensor()
+        for effect in EFFECTS[1:]:
+            cand = _drop(self.current, effect, self.scene)
+            if cand is None:
+                if effect == "slab" and self.current.geometry == "slab-on-support":
+                    self.decisions.append(Decision("slab", True, math.nan, "kept with its support"))
+                continue
+            if self.screened(effect, cand, screen):
+                continue
+            if (screen and effect == "perfusion" and "ref" not in self.cache
+                    and self.perfusion_by_bound(cand)):
+                continue
+            self.at_probes(effect, cand)
+        full, scene = self.full, self.scene
+        model = _with(self.current, sensor=full.sensor and self.sensor_bound == 0.0
+                      and scene.quantity != "receptor")
+        bound = max(self.current_err, self.sensor_bound + self.inv)
+        return Plan(scene, model, full, tuple(self.decisions), float(bound), self.probes)
+
+
+@lru_cache(maxsize=256)
+def plan_scene(scene: Scene, screen: bool = True) -> Plan:
+    """:func:`plan` of a resolved scene (cached: the same scene is planned once)."""
+    return _Planning(scene).run(screen)
 
 
 def planned_temperature(quantity: str, skin, material, resistance: float, skin_temperature: float,

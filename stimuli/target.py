@@ -280,9 +280,63 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
     ...                material_temperature=20.0, duration=2.0, rate=10.0, cache_dir=d).cached
     True
     """
-    from .contact import Contact
-    from .roughness import contact_resistance
+    a = _checked(material, roughness, skin, skin_temperature, material_temperature, duration, rate,
+                 resolution, sample_thickness, tolerance, resistance, side, pad_resistance, force)
+    params = _parameters(a.mat, a.skin, a.rough, a.R, a.Ts, a.Tm, a.duration, a.rate, a.res,
+                         None if a.tol is not None else str(method), a.tol, side, a.R_pad)
+    physics = _checked_physics(physics, method, a.tol, tolerance, a.mat)
+    params["force_N"] = a.F
+    if physics:
+        params["physics"] = dict(physics)
+    key = _cache.content_hash({"parameters": params, "version": _package_version(),
+                               "revision": MODEL_REVISION, "kind": _KIND})
+    times = np.arange(a.n + 1) / a.rate
+    times.setflags(write=False)
+    hit = _cached_profile(key, a, times, params, cache_dir) if cache else None
+    if hit is not None:
+        return hit
+    T, used, model_err, planned_dict = _computed(a, times, side, method, physics)
+    # in the form a cache hit gives back (keys sorted, as stored): a profile's parameters, and the
+    # session log that records them, must not depend on whether the cache held the profile
+    params["plan"] = json.loads(json.dumps(planned_dict, sort_keys=True))
+    if not np.all(np.isfinite(T)):
+        raise ModelInputError(f"target_profile: method: {used!r} gave non-finite temperatures")  # pragma: no cover
+    counts = np.round(T / a.res)
+    temp = counts * a.res
+    temp.setflags(write=False)
+    bound = model_err + 0.5 * a.res
+    if cache:
+        _cache.store(_KIND, key, {"content_hash": key, "method": used, "error_bound_K": bound,
+                                  "parameters": params, "plan": params["plan"],
+                                  "counts": [int(c) for c in counts]},
+                     cache_dir)
+    return TargetProfile(times, temp, used, bound, key, params, cached=False)
 
+
+@dataclass(frozen=True)
+class _Asked:
+    """:func:`target_profile`'s physical arguments, checked, in SI units."""
+
+    skin: Skin
+    mat: Material
+    rough: float             # roughness, m
+    Ts: float                # skin temperature, °C
+    Tm: float                # material temperature, °C
+    duration: float          # s
+    rate: float              # Hz
+    res: float               # resolution, K
+    n: int                   # samples after the first
+    tol: float | None        # tolerance, K
+    F: float                 # force, N
+    R: float                 # the sample's contact resistance, m^2 K/W
+    R_pad: float             # the pad's contact resistance, m^2 K/W
+
+
+def _checked(material, roughness, skin, skin_temperature, material_temperature, duration, rate,
+             resolution, sample_thickness, tolerance, resistance, side, pad_resistance,
+             force) -> _Asked:
+    """The arguments checked (ModelInputError names the first bad one) and Eq. 5 applied."""
+    from .roughness import contact_resistance
     skin = Skin(650e-6) if skin is None else skin
     if not isinstance(skin, Skin):
         raise ModelInputError(f"target_profile: skin: expected a stimuli.Skin, got {skin!r}")
@@ -296,7 +350,6 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
     if abs(n - round(n)) > 1e-9 * max(1.0, n):
         raise ModelInputError(f"target_profile: duration: expected a whole number of samples at "
                               f"{rate!r} Hz, got duration {duration!r} s")
-    n = int(round(n))
     tol = None if tolerance is None else _positive("tolerance", tolerance)
     F = 2.0 if force is None else _positive("force", force)
     R = (float(contact_resistance(rough, skin=skin, material=mat, force=F)) if resistance is None
@@ -312,8 +365,12 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
             f"target_profile: pad_resistance: expected <= the sample's contact resistance "
             f"R = {R!r} m^2 K/W for side='compensated' (a pad cannot remove resistance: the "
             f"compensated pad temperature T_M(L+) + (R - R_pad) q needs R_pad <= R), got {pad_resistance!r}")
-    params = _parameters(mat, skin, rough, R, Ts, Tm, duration, rate, res,
-                         None if tol is not None else str(method), tol, side, R_pad)
+    return _Asked(skin=skin, mat=mat, rough=rough, Ts=Ts, Tm=Tm, duration=duration, rate=rate,
+                  res=res, n=int(round(n)), tol=tol, F=F, R=R, R_pad=R_pad)
+
+
+def _checked_physics(physics, method, tol, tolerance, mat) -> dict:
+    """``physics`` checked (:func:`_check_physics`), and against the method and the sample."""
     physics = _check_physics(physics)
     if physics and (method != "exact" or tol is not None):
         raise ModelInputError(f"target_profile: physics: expected method='exact' without a tolerance "
@@ -322,58 +379,48 @@ def target_profile(material="stainless_steel", roughness=1.6e-6, skin=None, skin
     if physics.get("geometry", "slab") != "half-space" and mat.thickness is None and physics.get("geometry"):
         raise ModelInputError(f"target_profile: sample_thickness: expected the slab's thickness for "
                               f"physics geometry {physics['geometry']!r}, got None")
-    params["force_N"] = F
-    if physics:
-        params["physics"] = dict(physics)
-    key = _cache.content_hash({"parameters": params, "version": _package_version(),
-                               "revision": MODEL_REVISION, "kind": _KIND})
-    times = np.arange(n + 1) / rate
-    times.setflags(write=False)
+    return physics
 
-    if cache:
-        hit = _cache.load(_KIND, key, cache_dir)
-        if hit is not None and len(hit.get("counts", ())) == n + 1:
-            temp = np.asarray(hit["counts"], dtype=float) * res
-            temp.setflags(write=False)
-            if "plan" in hit:
-                params["plan"] = hit["plan"]
-            return TargetProfile(times, temp, hit["method"], float(hit["error_bound_K"]), key,
-                                 params, cached=True)
 
-    planned = _plan_profile(mat, skin, R, Ts, Tm, duration, rate, res, tol, side, physics)
+def _cached_profile(key, a: _Asked, times, params, cache_dir):
+    """The profile of ``key`` from the disk cache (its plan into ``params``), or None."""
+    hit = _cache.load(_KIND, key, cache_dir)
+    if hit is None or len(hit.get("counts", ())) != a.n + 1:
+        return None
+    temp = np.asarray(hit["counts"], dtype=float) * a.res
+    temp.setflags(write=False)
+    if "plan" in hit:
+        params["plan"] = hit["plan"]
+    return TargetProfile(times, temp, hit["method"], float(hit["error_bound_K"]), key,
+                         params, cached=True)
+
+
+def _computed(a: _Asked, times, side, method, physics):
+    """The profile's temperatures by the planned model (or the method asked for): (T °C, method
+    used, model error K, the plan's record)."""
+    from .contact import Contact
+    mat = a.mat
+    planned = _plan_profile(mat, a.skin, a.R, a.Ts, a.Tm, a.duration, a.rate, a.res, a.tol, side,
+                            physics)
     planned_dict = planned if isinstance(planned, dict) else planned.to_dict()
-    model = None if isinstance(planned, dict) or method != "exact" or tol is not None else planned.model
+    model = None if isinstance(planned, dict) or method != "exact" or a.tol is not None else planned.model
     if model is not None and _needs_scene(model):
-        T, used, model_err = _scene_side_temperature(planned, times, side, R_pad)
+        T, used, model_err = _scene_side_temperature(planned, times, side, a.R_pad)
     else:
         if model is not None:            # the planned model, through Contact (bit-identical)
             if model.geometry == "half-space":
                 mat = mat.with_thickness(None)
             if model.method == "eq7":
                 method = "paper-as-printed"
-        contact = Contact(skin, mat, resistance=R, skin_temperature=Ts, material_temperature=Tm)
-        T, used, model_err = _side_temperature(contact, times, side, R_pad, method, tol)
+        contact = Contact(a.skin, mat, resistance=a.R, skin_temperature=a.Ts, material_temperature=a.Tm)
+        T, used, model_err = _side_temperature(contact, times, side, a.R_pad, method, a.tol)
         if model is not None and model != planned.full_model:
             model_err += planned.bound_K     # what the neglected effects may cost
     if model is None and not isinstance(planned, dict):
         # the method asked for (or Contact's choice within ``tolerance``) was played, not the
         # planner's model: the record names what was played, the planner's answer beside it
-        planned_dict = _as_asked(used, side, mat, model_err, tol, planned_dict)
-    # in the form a cache hit gives back (keys sorted, as stored): a profile's parameters, and the
-    # session log that records them, must not depend on whether the cache held the profile
-    params["plan"] = json.loads(json.dumps(planned_dict, sort_keys=True))
-    if not np.all(np.isfinite(T)):
-        raise ModelInputError(f"target_profile: method: {used!r} gave non-finite temperatures")  # pragma: no cover
-    counts = np.round(T / res)
-    temp = counts * res
-    temp.setflags(write=False)
-    bound = model_err + 0.5 * res
-    if cache:
-        _cache.store(_KIND, key, {"content_hash": key, "method": used, "error_bound_K": bound,
-                                  "parameters": params, "plan": params["plan"],
-                                  "counts": [int(c) for c in counts]},
-                     cache_dir)
-    return TargetProfile(times, temp, used, bound, key, params, cached=False)
+        planned_dict = _as_asked(used, side, mat, model_err, a.tol, planned_dict)
+    return T, used, model_err, planned_dict
 
 
 def _as_asked(used, side, mat, model_err, tol, planned_dict) -> dict:

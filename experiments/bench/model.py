@@ -32,6 +32,7 @@ import math
 import os
 import platform
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -138,139 +139,148 @@ def _row(problem, method, setting, seconds, err_K, err_theta, n_ref, note=""):
             "note": note}
 
 
-def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
-    """Measure every method, write ``bench.json``, ``bench.csv``, ``bench.png`` and return the dict.
+@dataclass
+class _Problem:
+    """The benchmark's trial: the profile's times, the skin, the steel and their contact."""
 
-    Parameters
-    ----------
-    out_dir : path
-        Created if missing.
-    quick : bool
-        Fewer timing repeats and grids (for tests); the same tables.
-    echo : callable
-        Receives each printed line.
-    """
-    from stimuli import Contact, Skin, contact_resistance, material, skin_response
-    from stimuli.exact import invert_laplace
-    from stimuli.finite_volume import solve_contact, solve_surface
-    from stimuli.laplace import ContactTransform
+    quick: bool
+    repeat: int                  # timing runs per row (best of)
+    n: int                       # points of the 20 s profile
+    t: np.ndarray                # its times, s
+    idx: np.ndarray              # indices of the reference times
+    skin: object
+    steel: object
+    R: float                     # Eq. 5 resistance of the steel, m² K/W
+    dT: float                    # skin minus material temperature, K
+    contact: object              # stimuli.Contact of skin and steel
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    repeat = 3 if quick else 7
+
+def _problem(quick: bool) -> _Problem:
+    from stimuli import Contact, Skin, contact_resistance, material
     n = int(DURATION_S * RATE_HZ) + 1
-    t = np.arange(n) / RATE_HZ
     skin = Skin(SKIN_THICKNESS_M)
     steel = material("stainless_steel")
     R = float(contact_resistance(ROUGHNESS_M, skin=skin, material=steel))
-    dT = T_SKIN_C - T_MATERIAL_C
     contact = Contact(skin, steel, resistance=R, skin_temperature=T_SKIN_C,
                       material_temperature=T_MATERIAL_C)
     idx = reference_times()
     if quick:
         idx = idx[::4]
-    echo(f"thermocue bench model: {machine_info()['cpu_model']}, {n} points ({DURATION_S:g} s at "
-         f"{RATE_HZ:g} Hz); computing mpmath references at {idx.size} times ...")
-    ref_if = T_MATERIAL_C + dT * interface_reference(skin, steel, R, idx)
-    rows = []
+    return _Problem(quick=quick, repeat=3 if quick else 7, n=n, t=np.arange(n) / RATE_HZ, idx=idx,
+                    skin=skin, steel=steel, R=R, dT=T_SKIN_C - T_MATERIAL_C, contact=contact)
 
-    # ---- interface temperature (Eq. 7's quantity)
-    def bench_if(method, setting, fn, note=""):
+
+def _bencher(rows, problem: str, ref, pb: _Problem):
+    """``bench(method, setting, fn, note="")``: time ``fn`` (best of ``pb.repeat``), compare its
+    values at the reference times with ``ref`` and append the row of ``problem``."""
+    def bench(method, setting, fn, note=""):
         vals = fn()
-        secs = _best_seconds(fn, repeat)
-        err = float(np.max(np.abs(np.asarray(vals)[idx] - ref_if)))
-        rows.append(_row("interface", method, setting, secs, err, err / abs(dT), int(idx.size), note))
-        return vals
+        secs = _best_seconds(fn, pb.repeat)
+        err = float(np.max(np.abs(np.asarray(vals)[pb.idx] - ref)))
+        rows.append(_row(problem, method, setting, secs, err, err / abs(pb.dT), int(pb.idx.size), note))
+    return bench
 
-    bench_if("paper-as-printed", "Eq. 7 stable (erfcx)",
-             lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
-             "the yardstick")
-    bench_if("paper", "corrected closed form",
-             lambda: contact.interface_temperature(t, side="material", method="paper"))
-    bench_if("exact", "default",
-             lambda: contact.interface_temperature(t, side="material", method="exact"))
+
+def _interface_rows(rows, pb: _Problem, echo) -> None:
+    """Rows "interface": the target interface temperature (Eq. 7's quantity), every method."""
+    from stimuli.exact import invert_laplace
+    from stimuli.finite_volume import solve_contact
+    from stimuli.laplace import ContactTransform
+    t, skin, steel, R, dT = pb.t, pb.skin, pb.steel, pb.R, pb.dT
+    echo(f"thermocue bench model: {machine_info()['cpu_model']}, {pb.n} points ({DURATION_S:g} s at "
+         f"{RATE_HZ:g} Hz); computing mpmath references at {pb.idx.size} times ...")
+    bench = _bencher(rows, "interface", T_MATERIAL_C + dT * interface_reference(skin, steel, R, pb.idx), pb)
+    contact = pb.contact
+    bench("paper-as-printed", "Eq. 7 stable (erfcx)",
+          lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
+          "the yardstick")
+    bench("paper", "corrected closed form",
+          lambda: contact.interface_temperature(t, side="material", method="paper"))
+    bench("exact", "default",
+          lambda: contact.interface_temperature(t, side="material", method="exact"))
     tr = ContactTransform.from_contact(skin, steel, R)
-    for nodes in ((12, 16) if quick else (8, 12, 16, 20, 24, 32)):
-        bench_if("exact", f"nodes={nodes}",
-                 lambda nodes=nodes: np.concatenate(   # R > 0: theta(L+, 0) = 0
-                     [[T_MATERIAL_C], T_MATERIAL_C + dT * invert_laplace(
-                         lambda s: tr.material_rise(s, tr.L), t[1:], nodes=nodes)]))
-    for cells in ((16, 32) if quick else (16, 32, 64, 128)):
-        bench_if("numerical", f"cells={cells}",
-                 lambda cells=cells: solve_contact(skin, steel, R, T_SKIN_C, T_MATERIAL_C, t,
-                                                   depth=skin.thickness, side="material", cells=cells))
+    for nodes in ((12, 16) if pb.quick else (8, 12, 16, 20, 24, 32)):
+        bench("exact", f"nodes={nodes}",
+              lambda nodes=nodes: np.concatenate(   # R > 0: theta(L+, 0) = 0
+                  [[T_MATERIAL_C], T_MATERIAL_C + dT * invert_laplace(
+                      lambda s: tr.material_rise(s, tr.L), t[1:], nodes=nodes)]))
+    for cells in ((16, 32) if pb.quick else (16, 32, 64, 128)):
+        bench("numerical", f"cells={cells}",
+              lambda cells=cells: solve_contact(skin, steel, R, T_SKIN_C, T_MATERIAL_C, t,
+                                                depth=skin.thickness, side="material", cells=cells))
 
-    # ---- receptor under the display replaying that profile
-    g = contact.interface_temperature(t, side="material", method="exact")
+
+def _receptor_rows(rows, pb: _Problem, g, echo) -> None:
+    """Rows "receptor": the receptors while the display replays the interface profile ``g``."""
+    from stimuli import skin_response
+    from stimuli.finite_volume import solve_surface
+    t, skin, quick = pb.t, pb.skin, pb.quick
     echo("  receptor reference (mpmath Duhamel sum) ...")
-    ref_rc = T_SKIN_C + receptor_reference(skin, g - T_SKIN_C, idx)
-
-    def bench_rc(method, setting, fn, note=""):
-        vals = fn()
-        secs = _best_seconds(fn, repeat)
-        err = float(np.max(np.abs(np.asarray(vals)[idx] - ref_rc)))
-        rows.append(_row("receptor", method, setting, secs, err, err / abs(dT), int(idx.size), note))
-
-    bench_rc("exact", "Duhamel + FFT", lambda: skin_response(skin, t, g, T_SKIN_C))
-    bench_rc("paper", "n = 0 image term", lambda: skin_response(skin, t, g, T_SKIN_C, method="paper"))
-    bench_rc("paper-as-printed", "Eq. 8 prefactor",
-             lambda: skin_response(skin, t, g, T_SKIN_C, method="paper-as-printed"))
+    bench = _bencher(rows, "receptor", T_SKIN_C + receptor_reference(skin, g - T_SKIN_C, pb.idx), pb)
+    bench("exact", "Duhamel + FFT", lambda: skin_response(skin, t, g, T_SKIN_C))
+    bench("paper", "n = 0 image term", lambda: skin_response(skin, t, g, T_SKIN_C, method="paper"))
+    bench("paper-as-printed", "Eq. 8 prefactor",
+          lambda: skin_response(skin, t, g, T_SKIN_C, method="paper-as-printed"))
     for cells in ((16,) if quick else (8, 16, 32, 64)):
-        bench_rc("numerical", f"cells={cells} x1,2,4, Richardson",
-                 lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical", cells=cells))
+        bench("numerical", f"cells={cells} x1,2,4, Richardson",
+              lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical", cells=cells))
     for cells in ((32,) if quick else (32, 64, 128, 256)):
-        bench_rc("numerical", f"cells={cells}, single grid",
-                 lambda cells=cells: solve_surface(skin, t, g, T_SKIN_C, cells=cells))
+        bench("numerical", f"cells={cells}, single grid",
+              lambda cells=cells: solve_surface(skin, t, g, T_SKIN_C, cells=cells))
     for tol in ((1e-7,) if quick else (1e-5, 1e-7, 1e-9)):
         modes = modal_recursion(skin, t, g, T_SKIN_C, skin.dermis, tol_K=tol)[1]
-        bench_rc("modal-recursion", f"{modes} modes (bench only)",
-                 lambda tol=tol: modal_recursion(skin, t, g, T_SKIN_C, skin.dermis, tol_K=tol)[0],
-                 "exact per-mode recursion, one lfilter per mode, static tail correction")
+        bench("modal-recursion", f"{modes} modes (bench only)",
+              lambda tol=tol: modal_recursion(skin, t, g, T_SKIN_C, skin.dermis, tol_K=tol)[0],
+              "exact per-mode recursion, one lfilter per mode, static tail correction")
 
-    # ---- the same display profile felt through the finger-pad resistance (Robin boundary)
+
+def _pad_rows(rows, pb: _Problem, g, echo) -> float:
+    """Rows "pad": the same display profile felt through the finger-pad resistance (Robin
+    boundary); returns that resistance R_pad, m² K/W."""
+    from stimuli import contact_resistance, material, skin_response
+    t, skin = pb.t, pb.skin
     R_pad = float(contact_resistance(PAD_ROUGHNESS_M, skin=skin, material=material(PAD_MATERIAL)))
     echo(f"  finger-pad reference (R_pad = {R_pad:.4g} m² K/W, mpmath Robin eigen series) ...")
-    ref_pad = T_SKIN_C + receptor_robin_reference(skin, R_pad, g - T_SKIN_C, idx)
+    bench = _bencher(rows, "pad", T_SKIN_C + receptor_robin_reference(skin, R_pad, g - T_SKIN_C, pb.idx), pb)
+    bench("exact", "R_pad, Duhamel + Bromwich",
+          lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad))
+    for cells in ((16,) if pb.quick else (16, 32, 64)):
+        bench("numerical", f"R_pad, cells={cells} x1,2,4",
+              lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical",
+                                                cells=cells, resistance=R_pad))
+    return R_pad
 
-    def bench_pad(method, setting, fn, note=""):
-        vals = fn()
-        secs = _best_seconds(fn, repeat)
-        err = float(np.max(np.abs(np.asarray(vals)[idx] - ref_pad)))
-        rows.append(_row("pad", method, setting, secs, err, err / abs(dT), int(idx.size), note))
 
-    bench_pad("exact", "R_pad, Duhamel + Bromwich",
-              lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad))
-    for cells in ((16,) if quick else (16, 32, 64)):
-        bench_pad("numerical", f"R_pad, cells={cells} x1,2,4",
-                  lambda cells=cells: skin_response(skin, t, g, T_SKIN_C, method="numerical",
-                                                    cells=cells, resistance=R_pad))
-
-    layered = _bench_layered(rows, t, idx, R, steel, repeat, quick, echo)
-
-    # the targets' ratios: interleaved runs of the three, best of each (robust to a shared machine)
-    pair = {"eq7": lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
-            "exact": lambda: contact.interface_temperature(t, side="material", method="exact"),
-            "skin_response": lambda: skin_response(skin, t, g, T_SKIN_C),
-            "skin_response_pad": lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad),
-            **layered["timed"]}
-    best = {k: math.inf for k in pair}
-    for _ in range(8 if quick else 40):
-        for k, fn in pair.items():
+def _interleaved_best(timed: dict, rounds: int) -> dict:
+    """Best wall time of each function over ``rounds`` interleaved rounds (robust to a shared
+    machine: a busy moment slows every function of its round, not one)."""
+    best = {k: math.inf for k in timed}
+    for _ in range(rounds):
+        for k, fn in timed.items():
             t0 = time.perf_counter()
             fn()
             best[k] = min(best[k], time.perf_counter() - t0)
+    return best
 
+
+def _pick(rows, problem, method, setting=None):
+    """The rows of ``problem`` and ``method`` (and ``setting`` when given)."""
+    return [r for r in rows if r["problem"] == problem and r["method"] == method
+            and (setting is None or r["setting"] == setting)]
+
+
+def _ratios(rows, best: dict, n: int, R_pad: float, layered: dict) -> dict:
+    """The targets' figures: costs relative to Eq. 7 (or to the exact model a planner replaces)
+    from the interleaved ``best`` times, errors from the rows."""
     eq7 = best["eq7"] / n * 1e6
-    exact_if = [r for r in rows if r["problem"] == "interface" and r["method"] == "exact"
-                and r["setting"] == "default"][0]
-    sr_exact = [r for r in rows if r["problem"] == "receptor" and r["method"] == "exact"][0]
-    sr_num = [r for r in rows if r["problem"] == "receptor" and r["method"] == "numerical"
-              and "Richardson" in r["setting"]]
-    sr_num_best = _cheapest_within(sr_num, 1e-6)
-    pad_exact = [r for r in rows if r["problem"] == "pad" and r["method"] == "exact"][0]
-    pad_num_best = _cheapest_within([r for r in rows if r["problem"] == "pad"
-                                     and r["method"] == "numerical"], 1e-6)
-    ratios = {
+    exact_if = _pick(rows, "interface", "exact", "default")[0]
+    sr_exact = _pick(rows, "receptor", "exact")[0]
+    # the cheapest numerical setting within 1e-6 K (else the most accurate one)
+    sr_num_best = _cheapest_within([r for r in _pick(rows, "receptor", "numerical")
+                                    if "Richardson" in r["setting"]], 1e-6)
+    pad_exact = _pick(rows, "pad", "exact")[0]
+    pad_num_best = _cheapest_within(_pick(rows, "pad", "numerical"), 1e-6)
+    return {
         "eq7_cost_per_point_us": eq7,
         "exact_cost_per_point_us": best["exact"] / n * 1e6,
         "skin_response_exact_cost_per_point_us": best["skin_response"] / n * 1e6,
@@ -278,7 +288,6 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
         "exact_max_error_theta": exact_if["max_error_theta"],
         "skin_response_exact_over_eq7_cost_ratio": best["skin_response"] / best["eq7"],
         "skin_response_exact_max_error_K": sr_exact["max_error_K"],
-        # the cheapest numerical setting within 1e-6 K (else the most accurate one)
         "skin_response_numerical_over_eq7_cost_ratio": sr_num_best["cost_per_point_us"] / eq7,
         "skin_response_numerical_setting": sr_num_best["setting"],
         "skin_response_numerical_max_error_K": sr_num_best["max_error_K"],
@@ -310,118 +319,166 @@ def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
         "planned_max_error_K": layered["errors"]["planned"],
         "planner_tolerance_K": layered["tolerance_K"],
     }
-    targets = {
-        "exact_within_1e-12_theta_at_3x_eq7": bool(exact_if["max_error_theta"] <= 1e-12
-                                                    and ratios["exact_over_eq7_cost_ratio"] <= 3.0),
-        "skin_response_within_1e-6_K_at_3x_eq7": bool(sr_exact["max_error_K"] <= 1e-6
-                                                       and ratios["skin_response_exact_over_eq7_cost_ratio"] <= 3.0),
-        "layered_within_1e-9_K_at_3x_eq7": bool(ratios["layered_exact_max_error_K"] <= 1e-9
-                                                and ratios["layered_exact_over_eq7_cost_ratio"] <= 3.0),
-        "perfusion_within_1e-9_K_at_3x_eq7": bool(ratios["perfusion_exact_max_error_K"] <= 1e-9
-                                                  and ratios["perfusion_exact_over_eq7_cost_ratio"] <= 3.0),
-        "planned_within_tolerance": bool(ratios["planned_max_error_K"] <= ratios["planner_tolerance_K"]),
-        "planner_overhead_within_10pct_cold": bool(ratios["planner_cold_over_exact_cost_ratio"] <= 0.10),
-        "planner_overhead_within_10pct_repeated": bool(ratios["planner_repeated_over_exact_cost_ratio"] <= 0.10),
+
+
+def _targets(ratios: dict) -> dict:
+    """Whether each of the issue's targets is met by the figures ``ratios``."""
+    r = ratios
+    return {
+        "exact_within_1e-12_theta_at_3x_eq7": bool(r["exact_max_error_theta"] <= 1e-12
+                                                    and r["exact_over_eq7_cost_ratio"] <= 3.0),
+        "skin_response_within_1e-6_K_at_3x_eq7": bool(
+            r["skin_response_exact_max_error_K"] <= 1e-6
+            and r["skin_response_exact_over_eq7_cost_ratio"] <= 3.0),
+        "layered_within_1e-9_K_at_3x_eq7": bool(r["layered_exact_max_error_K"] <= 1e-9
+                                                and r["layered_exact_over_eq7_cost_ratio"] <= 3.0),
+        "perfusion_within_1e-9_K_at_3x_eq7": bool(r["perfusion_exact_max_error_K"] <= 1e-9
+                                                  and r["perfusion_exact_over_eq7_cost_ratio"] <= 3.0),
+        "planned_within_tolerance": bool(r["planned_max_error_K"] <= r["planner_tolerance_K"]),
+        "planner_overhead_within_10pct_cold": bool(r["planner_cold_over_exact_cost_ratio"] <= 0.10),
+        "planner_overhead_within_10pct_repeated": bool(
+            r["planner_repeated_over_exact_cost_ratio"] <= 0.10),
         "planner_overhead_within_10pct_profile_scene": bool(
-            ratios["planner_profile_scene_cold_over_exact_cost_ratio"] <= 0.10),
+            r["planner_profile_scene_cold_over_exact_cost_ratio"] <= 0.10),
         "planner_overhead_within_10pct_hypodermis_scene": bool(
-            ratios["planner_evaluated_scene_cold_over_exact_cost_ratio"] <= 0.10),
+            r["planner_evaluated_scene_cold_over_exact_cost_ratio"] <= 0.10),
         "planner_overhead_within_10pct_near_tolerance_scene": bool(
-            ratios["planner_near_tolerance_scene_cold_over_exact_cost_ratio"] <= 0.10),
+            r["planner_near_tolerance_scene_cold_over_exact_cost_ratio"] <= 0.10),
         "display_planner_overhead_within_10pct_decay": bool(
-            ratios["display_planner_decay_over_exact_cost_ratio"] <= 0.10),
+            r["display_planner_decay_over_exact_cost_ratio"] <= 0.10),
         "display_planner_overhead_within_10pct_step": bool(
-            ratios["display_planner_step_over_exact_cost_ratio"] <= 0.10),
+            r["display_planner_step_over_exact_cost_ratio"] <= 0.10),
     }
-    result = {
-        "machine": machine_info(),
-        "profile": {"duration_s": DURATION_S, "rate_Hz": RATE_HZ, "points": n,
-                    "skin_thickness_m": SKIN_THICKNESS_M, "receptor_depth_m": skin.dermis,
-                    "material": "stainless_steel (half-space)", "roughness_m": ROUGHNESS_M,
-                    "resistance_m2K_per_W": R, "pad_resistance_m2K_per_W": R_pad,
-                    "pad": f"{PAD_MATERIAL}, R_a {PAD_ROUGHNESS_M * 1e6:g} µm (Eq. 5)",
-                    "skin_temperature_C": T_SKIN_C,
-                    "material_temperature_C": T_MATERIAL_C,
-                    "reference": "mpmath: Talbot inversion at 40 digits (interface), Duhamel sum of "
-                                 "image/eigen series at 30 digits (receptor), of the Robin "
-                                 "eigen series at 30 digits (pad)",
-                    "reference_times_s": (idx / RATE_HZ).tolist()},
-        "rows": rows, "ratios": ratios, "targets": targets,
-    }
+
+
+def _profile_info(pb: _Problem, R_pad: float) -> dict:
+    """The trial the rows are measured on (the ``profile`` of ``bench.json``)."""
+    return {"duration_s": DURATION_S, "rate_Hz": RATE_HZ, "points": pb.n,
+            "skin_thickness_m": SKIN_THICKNESS_M, "receptor_depth_m": pb.skin.dermis,
+            "material": "stainless_steel (half-space)", "roughness_m": ROUGHNESS_M,
+            "resistance_m2K_per_W": pb.R, "pad_resistance_m2K_per_W": R_pad,
+            "pad": f"{PAD_MATERIAL}, R_a {PAD_ROUGHNESS_M * 1e6:g} µm (Eq. 5)",
+            "skin_temperature_C": T_SKIN_C,
+            "material_temperature_C": T_MATERIAL_C,
+            "reference": "mpmath: Talbot inversion at 40 digits (interface), Duhamel sum of "
+                         "image/eigen series at 30 digits (receptor), of the Robin "
+                         "eigen series at 30 digits (pad)",
+            "reference_times_s": (pb.idx / RATE_HZ).tolist()}
+
+
+def run_model_benchmark(out_dir, *, quick: bool = False, echo=print) -> dict:
+    """Measure every method, write ``bench.json``, ``bench.csv``, ``bench.png`` and return the dict.
+
+    Parameters
+    ----------
+    out_dir : path
+        Created if missing.
+    quick : bool
+        Fewer timing repeats and grids (for tests); the same tables.
+    echo : callable
+        Receives each printed line.
+    """
+    from stimuli import skin_response
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    pb = _problem(quick)
+    t, skin, contact = pb.t, pb.skin, pb.contact
+    rows = []
+    _interface_rows(rows, pb, echo)
+    g = contact.interface_temperature(t, side="material", method="exact")
+    _receptor_rows(rows, pb, g, echo)
+    R_pad = _pad_rows(rows, pb, g, echo)
+    layered = _bench_layered(rows, pb, echo)
+    # the targets' ratios: interleaved runs of the three, best of each (robust to a shared machine)
+    best = _interleaved_best(
+        {"eq7": lambda: contact.interface_temperature(t, side="material", method="paper-as-printed"),
+         "exact": lambda: contact.interface_temperature(t, side="material", method="exact"),
+         "skin_response": lambda: skin_response(skin, t, g, T_SKIN_C),
+         "skin_response_pad": lambda: skin_response(skin, t, g, T_SKIN_C, resistance=R_pad),
+         **layered["timed"]}, 8 if quick else 40)
+    ratios = _ratios(rows, best, pb.n, R_pad, layered)
+    result = {"machine": machine_info(), "profile": _profile_info(pb, R_pad),
+              "rows": rows, "ratios": ratios, "targets": _targets(ratios)}
     _write(out, result, echo)
     return result
 
 
-def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
-    """Rows "layered": the exact layered and perfused contact (receptor) and the scene planner."""
+def _layered_exact_rows(rows, pb: _Problem, ridx, echo):
+    """Rows "layered" of the exact layered and perfused contact (receptor); returns their
+    errors, their timed functions and the perfused model's reference at ``ridx``, °C."""
     from stimuli.layered import LayeredContact, skin_layers
-    from stimuli.planner import PROBE_INVERSION_ERROR, PROBE_NODES, plan_scene, plan
-    from stimuli.properties import Skin
-    from stimuli.scene import Scene
-
-    skin = Skin(SKIN_THICKNESS_M)
-    dT = T_SKIN_C - T_MATERIAL_C
-    ridx = idx[:: (3 if quick else 2)]
-    ridx = ridx[ridx > 0]
+    skin, dT = pb.skin, pb.dT
     errors, timed = {}, {}
     for key, w, setting in (("layered", None, "epidermis + dermis"),
                             ("perfusion", 1.25e-3, "epidermis + dermis, Pennes 1.25e-3 /s")):
         layers = skin_layers(skin, perfusion=w)
-        c = LayeredContact(layers, steel, R, T_SKIN_C, T_MATERIAL_C)
+        c = LayeredContact(layers, pb.steel, pb.R, T_SKIN_C, T_MATERIAL_C)
         echo(f"  layered reference ({setting}, mpmath transfer matrices, {ridx.size} times) ...")
-        ref = T_MATERIAL_C + dT * layered_reference(layers, steel, R, ridx)   # theta -> °C
+        ref = T_MATERIAL_C + dT * layered_reference(layers, pb.steel, pb.R, ridx)   # theta -> °C
 
         def fn(c=c):
-            return c.temperature("receptor", t, skin.dermis)
+            return c.temperature("receptor", pb.t, skin.dermis)
         vals = fn()
         err = float(np.max(np.abs(vals[ridx] - ref)))
-        rows.append(_row("layered", "exact", setting, _best_seconds(fn, repeat), err, err / abs(dT),
+        rows.append(_row("layered", "exact", setting, _best_seconds(fn, pb.repeat), err, err / abs(dT),
                          int(ridx.size), "receptor in contact with a steel half-space"))
         errors[key], timed[key] = err, fn
-    # the planner on the perfused scene: it neglects perfusion, keeps the layers
-    scene = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3,
-                  resistance=R, receptor_depth_m=skin.epidermis, duration_s=DURATION_S,
-                  rate_Hz=RATE_HZ, skin_temperature_C=T_SKIN_C, material_temperature_C=T_MATERIAL_C)
-    p = plan(scene)
-    planned = p.evaluate()
-    errors["planned"] = float(np.max(np.abs(planned[ridx] - ref)))   # ref: the perfused model
+    return errors, timed, ref
+
+
+def _cold(scene):
+    """A function that plans ``scene`` from cold (the planner's cache emptied first)."""
+    from stimuli.planner import plan, plan_scene
 
     def cold():
         plan_scene.cache_clear()
         return plan(scene)
-    # the production scene (a target profile: the material-side interface of the 3 mm slab, to half
-    # the display's 0.01 K resolution), planned from cold; compared with the exact slab interface
-    prod = Scene(quantity="interface_material", geometry="slab", sample_thickness_m=3e-3,
-                 resistance=R, tolerance_K=0.005, duration_s=DURATION_S, rate_Hz=RATE_HZ,
-                 skin_temperature_C=T_SKIN_C, material_temperature_C=T_MATERIAL_C)
-    from stimuli import Contact
-    slab_contact = Contact(skin, steel.with_thickness(3e-3), R, T_SKIN_C, T_MATERIAL_C)
+    return cold
 
-    def prod_cold():
-        plan_scene.cache_clear()
-        return plan(prod)
-    # a scene the closed forms and the quasi-steady screen cannot decide (a 2 mm hypodermis: the
-    # skin is not quasi-steady within 20 s, perfusion's closed form 0.53 K exceeds the 0.3 K): the
-    # Laplace-domain bounds decide it (perfusion <= 0.14 K, the layers >= 0.8 K); and the same at
-    # 0.1 K, where perfusion's Laplace bound does not fit and it is evaluated at the probes
+
+def _harder_scenes_timed(pb: _Problem, scene) -> dict:
+    """The scene planner from cold on the scenes harder to decide, and the exact models it
+    replaces there, to be timed.
+
+    A scene the closed forms and the quasi-steady screen cannot decide (a 2 mm hypodermis: the
+    skin is not quasi-steady within 20 s, perfusion's closed form 0.53 K exceeds the 0.3 K): the
+    Laplace-domain bounds decide it (perfusion <= 0.14 K, the layers >= 0.8 K); and the same at
+    0.1 K, where perfusion's Laplace bound does not fit and it is evaluated at the probes.
+    """
+    from stimuli.layered import LayeredContact, skin_layers
     hard = scene.replace(hypodermis_m=2e-3)
     near = hard.replace(tolerance_K=0.1)
-    hard_contact = LayeredContact(skin_layers(skin, perfusion=1.25e-3, hypodermis=2e-3), steel, R,
-                                  T_SKIN_C, T_MATERIAL_C)
-    hard_x = hard_contact.thickness - skin.epidermis
+    hard_contact = LayeredContact(skin_layers(pb.skin, perfusion=1.25e-3, hypodermis=2e-3), pb.steel,
+                                  pb.R, T_SKIN_C, T_MATERIAL_C)
+    hard_x = hard_contact.thickness - pb.skin.epidermis
+    return {"planner_evaluated_cold": _cold(hard),
+            "planner_near_tolerance_cold": _cold(near),
+            "exact_hypodermis": lambda: hard_contact.temperature("receptor", pb.t, hard_x)}
 
-    def hard_cold():
-        plan_scene.cache_clear()
-        return plan(hard)
 
-    def near_cold():
-        plan_scene.cache_clear()
-        return plan(near)
-    # the display-driven planner (the simulated participant's trials): 20 s at 1 kHz, layers and
-    # perfusion stated, pad 1e-4 m^2 K/W, 0.3 K; a decay drive (the quasi-steady screen cannot
-    # decide the layers) and a step; against the full layered, perfused exact response
+def _production_scene_timed(pb: _Problem) -> dict:
+    """The production scene (a target profile: the material-side interface of the 3 mm slab, to
+    half the display's 0.01 K resolution) planned from cold, and the exact slab interface."""
+    from stimuli import Contact
+    from stimuli.scene import Scene
+    prod = Scene(quantity="interface_material", geometry="slab", sample_thickness_m=3e-3,
+                 resistance=pb.R, tolerance_K=0.005, duration_s=DURATION_S, rate_Hz=RATE_HZ,
+                 skin_temperature_C=T_SKIN_C, material_temperature_C=T_MATERIAL_C)
+    slab_contact = Contact(pb.skin, pb.steel.with_thickness(3e-3), pb.R, T_SKIN_C, T_MATERIAL_C)
+    return {"planner_profile_cold": _cold(prod),
+            "exact_slab_interface": lambda: slab_contact.interface_temperature(pb.t)}
+
+
+def _display_planner_timed(pb: _Problem) -> dict:
+    """The display-driven planner (the simulated participant's trials) and the full model.
+
+    20 s at 1 kHz, layers and perfusion stated, pad 1e-4 m^2 K/W, 0.3 K; a decay drive (the
+    quasi-steady screen cannot decide the layers) and a step; against the full layered,
+    perfused exact response.
+    """
     from stimuli.display_planner import plan_display
-    from stimuli.layered import layered_skin_response
+    from stimuli.layered import layered_skin_response, skin_layers
+    skin, t = pb.skin, pb.t
     R_pad_display = 1e-4
     drives = {"decay": 27.75 + (T_SKIN_C - 27.75) * np.exp(-t / 2.0), "step": np.full(t.size, 25.0)}
     full_layers = skin_layers(skin, perfusion=1.25e-3)
@@ -433,13 +490,30 @@ def _bench_layered(rows, t, idx, R, steel, repeat, quick, echo):
         display[f"display_planner_{name}"] = (
             lambda h=h: plan_display(skin, skin.dermis, R_pad_display, DURATION_S, RATE_HZ, h,
                                      tolerance=0.3, layered=True, perfusion_per_s=1.25e-3))
-    timed.update({"planner_evaluated_cold": hard_cold, "planner_near_tolerance_cold": near_cold,
-                  "exact_hypodermis": lambda: hard_contact.temperature("receptor", t, hard_x)})
-    timed.update({"planner_cold": cold, "planner_repeated": lambda: plan(scene),
-                  "planned": lambda: p.evaluate(), "planner_profile_cold": prod_cold,
-                  "exact_slab_interface": lambda: slab_contact.interface_temperature(t)})
-    timed.update(display)           # last: the scene planner's rows time as before this was added
-    rows.append(_row("layered", "planner", f"plan -> {p.model.describe()}", _best_seconds(cold, repeat),
+    return display
+
+
+def _bench_layered(rows, pb: _Problem, echo):
+    """Rows "layered": the exact layered and perfused contact (receptor) and the scene planner."""
+    from stimuli.planner import PROBE_INVERSION_ERROR, PROBE_NODES, plan
+    from stimuli.scene import Scene
+    skin, dT = pb.skin, pb.dT
+    ridx = pb.idx[:: (3 if pb.quick else 2)]
+    ridx = ridx[ridx > 0]
+    errors, timed, ref = _layered_exact_rows(rows, pb, ridx, echo)
+    # the planner on the perfused scene: it neglects perfusion, keeps the layers
+    scene = Scene(quantity="receptor", geometry="half-space", layered=True, perfusion_per_s=1.25e-3,
+                  resistance=pb.R, receptor_depth_m=skin.epidermis, duration_s=DURATION_S,
+                  rate_Hz=RATE_HZ, skin_temperature_C=T_SKIN_C, material_temperature_C=T_MATERIAL_C)
+    p = plan(scene)
+    planned = p.evaluate()
+    errors["planned"] = float(np.max(np.abs(planned[ridx] - ref)))   # ref: the perfused model
+    timed.update(_harder_scenes_timed(pb, scene))
+    timed.update({"planner_cold": _cold(scene), "planner_repeated": lambda: plan(scene),
+                  "planned": lambda: p.evaluate(), **_production_scene_timed(pb)})
+    timed.update(_display_planner_timed(pb))  # last: the scene planner's rows time as before this was added
+    rows.append(_row("layered", "planner", f"plan -> {p.model.describe()}",
+                     _best_seconds(timed["planner_cold"], pb.repeat),
                      errors["planned"], errors["planned"] / abs(dT), int(ridx.size),
                      f"cost: the planner alone (cold; perfusion bounded in closed form, the layers "
                      f"screened: no probe evaluated here; where probes are, {PROBE_NODES} nodes per "

@@ -274,34 +274,41 @@ def _bootstrap(problem, x, *, sigma, level, samples, seed, **_):
 INTERVALS = {"profile": _profile, "bootstrap": _bootstrap}
 
 
-def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
-                bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None, plan_model=True,
-                _replanned=None):
+def _check_interval(interval, level) -> None:
     if interval not in INTERVALS:
         raise CalibrationError(f"calibration: interval: expected "
                                f"{' or '.join(map(repr, INTERVALS))}, got {interval!r}")
     if not 0.5 <= level < 1.0:
         raise CalibrationError(f"calibration: level: expected a probability in [0.5, 1), got {level!r}")
-    setup = setup or ContactSetup()
-    t_start = time.perf_counter()
+
+
+def _planned_problem(traces, setup, fit_skin_temperature, skin_thickness_guess, plan_model):
+    """``(problem, forward, forward_record)``: the fit's problem, with the planner's forward
+    model when ``plan_model`` (the scene planned once, at the start values' R and L and the
+    traces' own white-noise level as tolerance; checked at the fitted values later)."""
     problem = FitProblem(traces, setup, fit_skin_temperature)
     forward, forward_record = None, None
     if plan_model:
-        # the forward model is the planner's: the scene planned once, at the start values'
-        # R and L and the traces' own white-noise level as tolerance; checked at the fitted values below
         start = problem.to_natural(_start_values(problem, skin_thickness_guess)[0])
         noise = float(np.median([tr.noise_C for tr in problem.traces]))
         forward, forward_record = plan_calibration(problem.traces, setup, start[0], start[problem.k], noise)
         if forward is not None:
             problem = FitProblem(traces, setup, fit_skin_temperature, model=forward.model)
+    return problem, forward, forward_record
+
+
+def _best_solution(problem, skin_thickness_guess, max_nfev):
+    """The least-squares solution of lowest cost over the start values."""
     best = None
     for p0 in _start_values(problem, skin_thickness_guess):
         res = problem.solve(p0, max_nfev=max_nfev)
         if best is None or res.cost < best.cost - 1e-12:
             best = res
-    ssr = 2.0 * best.cost
-    dof = problem.n_obs - problem.n_params
-    sigma = math.sqrt(ssr / max(dof, 1))
+    return best
+
+
+def _residual_diagnostics(problem, best, sigma) -> dict:
+    """The residuals' diagnostics; CalibrationRefused when the parameters are not identifiable."""
     reasons, diag = _identifiability(problem, best, sigma)
     r = problem.residuals(best.x)
     diag["residual_sd_C"] = sigma
@@ -310,16 +317,12 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
     diag["n_traces"] = len(problem.traces)
     if reasons:
         raise CalibrationRefused("calibration refused: " + "; ".join(reasons), reasons, diag)
+    return diag
 
-    J = problem.jacobian(best.x)
-    cov = sigma ** 2 * np.linalg.inv(J.T @ J)
-    se = np.sqrt(np.diag(cov))
-    lows, highs, flat = INTERVALS[interval](problem, best.x, ssr=ssr, sigma=sigma, se=se,
-                                            level=level, samples=bootstrap_samples, seed=seed)
-    if flat:
-        diag["flat"] = flat
-        raise CalibrationRefused("calibration refused: " + "; ".join(flat), flat, diag)
-    nat = problem.to_natural(best.x)
+
+def _fitted_parameters(problem, x, lows, highs, se) -> list:
+    """Each fitted parameter with its interval (and its sample, for a contact resistance)."""
+    nat = problem.to_natural(x)
     params = []
     for i, (name, kind) in enumerate(zip(problem.names, problem.kinds)):
         sample = problem.samples[i] if kind == "resistance" else None
@@ -328,6 +331,47 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
             name=name, kind=kind, value=float(nat[i]), low=float(lows[i]), high=float(highs[i]),
             standard_error_log=float(se[i]), sample=sample,
             roughness_um=tr.roughness_um if tr else None, roughness_id=tr.roughness_id if tr else None))
+    return params
+
+
+def _forward_model(problem, forward, forward_record, replanned) -> dict:
+    """The record of the forward model the fit's readings were computed with."""
+    if forward is not None:
+        return {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
+                "note": "the fit's readings are computed with the planned model" + (
+                    " (Eq. 7 is within the tolerance; its exact half-space transform "
+                    "is evaluated, which gives the fit's derivatives)"
+                    if forward.model.method == "eq7" else "")}
+    if replanned is not None:
+        note, forward_record = replanned
+    else:
+        note = ("not planned: the exact model of the stated setup" if forward_record is None
+                else forward_record.get("note", ""))
+    return {"planned": forward_record, "evaluated": problem.forward_setup.describe(), "note": note}
+
+
+def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, interval, level,
+                bootstrap_samples, seed, max_nfev, skin_temperature_sd_C=None, plan_model=True,
+                _replanned=None):
+    _check_interval(interval, level)
+    setup = setup or ContactSetup()
+    t_start = time.perf_counter()
+    problem, forward, forward_record = _planned_problem(traces, setup, fit_skin_temperature,
+                                                        skin_thickness_guess, plan_model)
+    best = _best_solution(problem, skin_thickness_guess, max_nfev)
+    ssr = 2.0 * best.cost
+    dof = problem.n_obs - problem.n_params
+    sigma = math.sqrt(ssr / max(dof, 1))
+    diag = _residual_diagnostics(problem, best, sigma)
+    J = problem.jacobian(best.x)
+    cov = sigma ** 2 * np.linalg.inv(J.T @ J)
+    se = np.sqrt(np.diag(cov))
+    lows, highs, flat = INTERVALS[interval](problem, best.x, ssr=ssr, sigma=sigma, se=se,
+                                            level=level, samples=bootstrap_samples, seed=seed)
+    if flat:
+        diag["flat"] = flat
+        raise CalibrationRefused("calibration refused: " + "; ".join(flat), flat, diag)
+    params = _fitted_parameters(problem, best.x, lows, highs, se)
     warnings = []
     if abs(diag["residual_lag1_autocorrelation"]) > 0.5:
         warnings.append(
@@ -352,19 +396,7 @@ def _fit_traces(traces, setup, *, fit_skin_temperature, skin_thickness_guess, in
                                            f"values the planner keeps the {check['geometry']}: "
                                            f"refitted with the exact model of the stated setup",
                                            forward_record))
-        diag["forward_model"] = {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
-                                 "note": "the fit's readings are computed with the planned model" + (
-                                     " (Eq. 7 is within the tolerance; its exact half-space transform "
-                                     "is evaluated, which gives the fit's derivatives)"
-                                     if forward.model.method == "eq7" else "")}
-    else:
-        if _replanned is not None:
-            note, forward_record = _replanned
-        else:
-            note = ("not planned: the exact model of the stated setup" if forward_record is None
-                    else forward_record.get("note", ""))
-        diag["forward_model"] = {"planned": forward_record, "evaluated": problem.forward_setup.describe(),
-                                 "note": note}
+    diag["forward_model"] = _forward_model(problem, forward, forward_record, _replanned)
     diag["elapsed_s"] = time.perf_counter() - t_start
     diag["model_evaluations"] = problem.n_evaluations
     return fit

@@ -125,14 +125,9 @@ def _fmt(x, scale=1.0, digits=4):
     return f"{x * scale:.{digits}g}"
 
 
-def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
-    """Write the report files into ``out`` (created); return the summary written to fit.json."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    summary = fit_summary(fit)
-    if extra:
-        summary.update(extra)
-    with output_file(out / "resistances.csv") as fh:
+def _write_resistances(path: Path, summary: dict) -> None:
+    """resistances.csv: each sample's fitted R with its interval, Eq. 5's R and the residual."""
+    with output_file(path) as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(["sample", "roughness_id", "roughness_um", "n_traces", "R_m2K_W", "R_low_m2K_W",
                     "R_high_m2K_W", "R_eq5_m2K_W", "rms_residual_C"])
@@ -141,6 +136,10 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
                         _fmt(s["roughness_um"], digits=6), s["n_traces"], _fmt(s["resistance_m2K_W"], digits=6),
                         _fmt(s["low_m2K_W"], digits=6), _fmt(s["high_m2K_W"], digits=6),
                         _fmt(s["eq5_m2K_W"], digits=6), _fmt(s["rms_residual_C"], digits=4)])
+
+
+def _write_skin(path: Path, summary: dict) -> None:
+    """skin.csv: the skin thickness and the initial skin temperature (fitted or given, mean)."""
     L = summary["skin_thickness_m"]
     T = summary.get("skin_temperature_C")
     mode = summary["setup"]["fit_skin_temperature"]
@@ -148,7 +147,7 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
         ts0_mean = float(np.mean([t["fitted_skin_temperature_C"]["value"] for t in summary["traces"]]))
     else:
         ts0_mean = float(np.mean([t["skin_temperature_C"] for t in summary["traces"]]))
-    with output_file(out / "skin.csv") as fh:
+    with output_file(path) as fh:
         w = csv.writer(fh, lineterminator="\n")
         w.writerow(["skin_thickness_um", "skin_thickness_low_um", "skin_thickness_high_um",
                     "skin_temperature_C", "skin_temperature_low_C", "skin_temperature_high_C",
@@ -157,7 +156,12 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
                     _fmt(T["value"] if T else ts0_mean, digits=6), _fmt(T["low"] if T else None, digits=6),
                     _fmt(T["high"] if T else None, digits=6), mode,
                     _fmt(summary["residual_sd_C"], digits=4), summary["level"], summary["interval_method"]])
-    lvl = f"{summary['level']:.0%}"
+
+
+def _parameter_lines(summary: dict, lvl: str) -> list:
+    """parameters.md's head and its tables: the skin's parameters, then each sample's R."""
+    L = summary["skin_thickness_m"]
+    T = summary.get("skin_temperature_C")
     lines = [
         "# Calibration fit", "",
         f"Set-up: {summary['setup']['description']}.", "",
@@ -184,6 +188,19 @@ def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
         ra = _fmt(s["roughness_um"]) or s["sample"]
         lines.append(f"| {ra} | {s['n_traces']} | {_fmt(s['resistance_m2K_W'])} | {_fmt(s['low_m2K_W'])} – "
                      f"{_fmt(s['high_m2K_W'])} | {_fmt(s['eq5_m2K_W'])} | {s['rms_residual_C'] * 1e3:.2f} |")
+    return lines
+
+
+def write_report(fit: CalibrationFit, out, extra: dict | None = None) -> dict:
+    """Write the report files into ``out`` (created); return the summary written to fit.json."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = fit_summary(fit)
+    if extra:
+        summary.update(extra)
+    _write_resistances(out / "resistances.csv", summary)
+    _write_skin(out / "skin.csv", summary)
+    lines = _parameter_lines(summary, f"{summary['level']:.0%}")
     d = summary["diagnostics"]
     lines += ["", "Checks passed: optimiser converged "
               f"({d['optimizer_message'].strip()}); no parameter at a bound; Jacobian rank "

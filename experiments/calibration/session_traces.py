@@ -174,6 +174,125 @@ def _session_participant(session: dict):
     return None
 
 
+def _session_rows(session_dir: Path):
+    """``(session.json's object, the trial rows)``, read by the one reader of session folders
+    (regular UTF-8 files, session.json against the log, every trial row in the trial table's
+    domain; the log's rows when trials.csv is older); CalibrationError names the file."""
+    if not session_dir.is_dir():
+        raise CalibrationError(f"{session_dir}: expected a session directory, got none")
+    spath = session_dir / "session.json"
+    tpath = session_dir / "trials.csv"
+    from sessionfiles.session_reader import SessionFileError, read_session_folder
+    try:
+        read = read_session_folder(session_dir)
+        if not os.path.lexists(spath):
+            raise CalibrationError(f"{spath}: expected a session.json, got none")
+        if read.meta is None:
+            raise CalibrationError(f"{spath}: expected a JSON object, got "
+                                   + (read.notes[0].split(": ", 1)[-1] if read.notes else "none"))
+        if read.trials_csv is None:
+            raise CalibrationError(f"{tpath}: expected the trials table, got none")
+        rows, source, lines = read.trial_rows()      # the log's when trials.csv is older
+        read.check_rows(rows, source, lines)
+    except SessionFileError as exc:
+        raise CalibrationError(str(exc)) from None
+    return read.meta, rows
+
+
+def _skin_default(participant, protocol) -> float:
+    """The initial skin temperature when a trace has none, °C: the participant record's, else
+    the middle of the protocol's range (NaN: neither)."""
+    if participant and participant.get("initial_skin_temperature_C") is not None:
+        return float(participant["initial_skin_temperature_C"])
+    if protocol:
+        env = protocol.environment
+        return 0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C)
+    return float("nan")
+
+
+def _onset(path, cols, t, contact_threshold_N) -> float:
+    """The first touch, s: the first sample whose summed force reaches the threshold (the
+    trace's start when it has no force columns, or only empty ones)."""
+    forces = [cols[c] for c in FORCE_COLUMNS if c in cols]
+    if forces:
+        total = np.nansum(np.vstack(forces), axis=0)
+        hit = np.flatnonzero(total >= contact_threshold_N)
+        if hit.size:
+            return float(t[hit[0]])
+        if np.any(np.isfinite(np.vstack(forces))):
+            raise CalibrationError(
+                f"{path}: force1_N..force4_N: expected the summed force to reach the contact "
+                f"threshold {contact_threshold_N:g} N, got at most {np.nanmax(total):.3g} N "
+                f"(no contact)")
+    return float(t[0]) if t.size else 0.0
+
+
+def _initial_temperatures(path, cols, t, onset, sensor_side, given, defaults):
+    """``(skin, material)`` initial temperatures of a trace, °C: those ``given`` (not None),
+    else the contact sensor's before the touch on its ``sensor_side``, the ambient or finger
+    sensor, then the ``defaults`` (room, skin); CalibrationError when one is still unknown."""
+    skin_temperature_C, material_temperature_C = given
+    room, skin_default = defaults
+    pre = t < onset
+    early = pre if np.any(pre) else (t <= onset + 1.0)
+    own = _median_finite(cols["contact_C"][pre]) if np.any(pre) else float("nan")
+    tm0 = material_temperature_C
+    if tm0 is None:
+        tm0 = own if sensor_side == "material" else float("nan")
+        if not math.isfinite(tm0) and "ambient_C" in cols:
+            tm0 = _median_finite(cols["ambient_C"][early])
+        if not math.isfinite(tm0):
+            tm0 = room
+    ts0 = skin_temperature_C
+    if ts0 is None:
+        ts0 = own if sensor_side != "material" else float("nan")
+        if not math.isfinite(ts0) and "finger_C" in cols:
+            fpre = cols["finger_C"][pre] if np.any(pre) else cols["finger_C"][:1]
+            ts0 = _median_finite(fpre)
+        if not math.isfinite(ts0):
+            ts0 = skin_default
+    if not math.isfinite(tm0):
+        raise CalibrationError(f"{path}: ambient_C: expected the sample temperature (ambient_C, "
+                               f"the protocol or --material-temperature-C), got none")
+    if not math.isfinite(ts0):
+        raise CalibrationError(f"{path}: finger_C: expected the initial skin temperature (finger_C, "
+                               f"the participant record or --skin-temperature-C), got none")
+    return ts0, tm0
+
+
+def _roughness(row, protocol):
+    """``(roughness µm or NaN, roughness id or None)`` of a trial row (the protocol's sample
+    when the row has no roughness_um)."""
+    rid = row.get("roughness_id")
+    rid = int(float(rid)) if rid not in (None, "") else None
+    ra = _float(row.get("roughness_um"))
+    if not math.isfinite(ra) and protocol and rid is not None:
+        try:
+            ra = protocol.sample(rid).roughness_um
+        except Exception:          # noqa: BLE001 - unknown id: roughness stays unknown
+            ra = float("nan")
+    return ra, rid
+
+
+def _trace(session_dir, row, protocol, contact_threshold_N, sensor_side, given, defaults):
+    """The contact trace of one real, ok trial row, its time from the first touch."""
+    idx = row.get("trial_index")
+    name = row.get("trace_file") or f"traces/trial-{int(idx):03d}.csv"
+    path = session_dir / name
+    if not path.is_file() and (session_dir / "traces" / name).is_file():
+        path = session_dir / "traces" / name
+    cols = read_trace_csv(path)
+    t = cols["time_s"]
+    onset = _onset(path, cols, t, contact_threshold_N)
+    ts0, tm0 = _initial_temperatures(path, cols, t, onset, sensor_side, given, defaults)
+    ra, rid = _roughness(row, protocol)
+    key = f"{ra:g}" if math.isfinite(ra) else f"id{rid}"
+    return ContactTrace(
+        t - onset, cols["contact_C"], ts0, tm0, sample=key,
+        roughness_um=ra if math.isfinite(ra) else None, source=str(path), roughness_id=rid,
+        meta={"trial_index": int(float(idx)), "onset_s": onset})
+
+
 def load_session_traces(session_dir, *, sensor_side: str = "material", skin_temperature_C: float | None = None,
                         material_temperature_C: float | None = None,
                         contact_threshold_N: float | None = None) -> SessionTraces:
@@ -200,106 +319,25 @@ def load_session_traces(session_dir, *, sensor_side: str = "material", skin_temp
         A missing or malformed file, no usable trial, a bad trace (naming file and field).
     """
     session_dir = Path(session_dir)
-    if not session_dir.is_dir():
-        raise CalibrationError(f"{session_dir}: expected a session directory, got none")
-    spath = session_dir / "session.json"
-    tpath = session_dir / "trials.csv"
-    # the one reader of session folders: regular UTF-8 files, session.json against the log,
-    # every trial row in the trial table's domain
-    from sessionfiles.session_reader import SessionFileError, read_session_folder
-    try:
-        read = read_session_folder(session_dir)
-        if not os.path.lexists(spath):
-            raise CalibrationError(f"{spath}: expected a session.json, got none")
-        if read.meta is None:
-            raise CalibrationError(f"{spath}: expected a JSON object, got "
-                                   + (read.notes[0].split(": ", 1)[-1] if read.notes else "none"))
-        if read.trials_csv is None:
-            raise CalibrationError(f"{tpath}: expected the trials table, got none")
-        rows, source, lines = read.trial_rows()      # the log's when trials.csv is older
-        read.check_rows(rows, source, lines)
-    except SessionFileError as exc:
-        raise CalibrationError(str(exc)) from None
-    session = read.meta
+    session, rows = _session_rows(session_dir)
+    spath, tpath = session_dir / "session.json", session_dir / "trials.csv"
     protocol = _session_protocol(session, spath)
     participant = _session_participant(session)
     for col in ("mode", "status", "roughness_id", "trial_index"):
         if rows and col not in rows[0]:
             raise CalibrationError(f"{tpath}: {col}: expected a column {col!r}, got columns {list(rows[0])}")
-
     if contact_threshold_N is None:
         contact_threshold_N = TOUCH_THRESHOLD_N
-    room = protocol.environment.room_temperature_C if protocol else float("nan")
-    skin_default = float("nan")
-    if participant and participant.get("initial_skin_temperature_C") is not None:
-        skin_default = float(participant["initial_skin_temperature_C"])
-    elif protocol:
-        env = protocol.environment
-        skin_default = 0.5 * (env.skin_temperature_min_C + env.skin_temperature_max_C)
-
+    defaults = (protocol.environment.room_temperature_C if protocol else float("nan"),
+                _skin_default(participant, protocol))
     traces, skipped = [], []
     for row in rows:
-        idx = row.get("trial_index")
         if row.get("mode") != "real" or row.get("status") != "ok":
-            skipped.append(f"trial {idx}: mode {row.get('mode')!r}, status {row.get('status')!r}")
+            skipped.append(f"trial {row.get('trial_index')}: mode {row.get('mode')!r}, "
+                           f"status {row.get('status')!r}")
             continue
-        name = row.get("trace_file") or f"traces/trial-{int(idx):03d}.csv"
-        path = session_dir / name
-        if not path.is_file() and (session_dir / "traces" / name).is_file():
-            path = session_dir / "traces" / name
-        cols = read_trace_csv(path)
-        t = cols["time_s"]
-        forces = [cols[c] for c in FORCE_COLUMNS if c in cols]
-        onset = None
-        if forces:
-            total = np.nansum(np.vstack(forces), axis=0)
-            hit = np.flatnonzero(total >= contact_threshold_N)
-            if hit.size:
-                onset = float(t[hit[0]])
-            elif np.any(np.isfinite(np.vstack(forces))):
-                raise CalibrationError(
-                    f"{path}: force1_N..force4_N: expected the summed force to reach the contact "
-                    f"threshold {contact_threshold_N:g} N, got at most {np.nanmax(total):.3g} N "
-                    f"(no contact)")
-        if onset is None:
-            onset = float(t[0]) if t.size else 0.0
-        pre = t < onset
-        early = pre if np.any(pre) else (t <= onset + 1.0)
-        own = _median_finite(cols["contact_C"][pre]) if np.any(pre) else float("nan")
-        tm0 = material_temperature_C
-        if tm0 is None:
-            tm0 = own if sensor_side == "material" else float("nan")
-            if not math.isfinite(tm0) and "ambient_C" in cols:
-                tm0 = _median_finite(cols["ambient_C"][early])
-            if not math.isfinite(tm0):
-                tm0 = room
-        ts0 = skin_temperature_C
-        if ts0 is None:
-            ts0 = own if sensor_side != "material" else float("nan")
-            if not math.isfinite(ts0) and "finger_C" in cols:
-                fpre = cols["finger_C"][pre] if np.any(pre) else cols["finger_C"][:1]
-                ts0 = _median_finite(fpre)
-            if not math.isfinite(ts0):
-                ts0 = skin_default
-        if not math.isfinite(tm0):
-            raise CalibrationError(f"{path}: ambient_C: expected the sample temperature (ambient_C, "
-                                   f"the protocol or --material-temperature-C), got none")
-        if not math.isfinite(ts0):
-            raise CalibrationError(f"{path}: finger_C: expected the initial skin temperature (finger_C, "
-                                   f"the participant record or --skin-temperature-C), got none")
-        rid = row.get("roughness_id")
-        rid = int(float(rid)) if rid not in (None, "") else None
-        ra = _float(row.get("roughness_um"))
-        if not math.isfinite(ra) and protocol and rid is not None:
-            try:
-                ra = protocol.sample(rid).roughness_um
-            except Exception:          # noqa: BLE001 - unknown id: roughness stays unknown
-                ra = float("nan")
-        key = f"{ra:g}" if math.isfinite(ra) else f"id{rid}"
-        traces.append(ContactTrace(
-            t - onset, cols["contact_C"], ts0, tm0, sample=key,
-            roughness_um=ra if math.isfinite(ra) else None, source=str(path), roughness_id=rid,
-            meta={"trial_index": int(float(idx)), "onset_s": onset}))
+        traces.append(_trace(session_dir, row, protocol, contact_threshold_N, sensor_side,
+                             (skin_temperature_C, material_temperature_C), defaults))
     if not traces:
         raise CalibrationError(f"{tpath}: mode: expected at least one real trial with status 'ok' and "
                                f"a trace, got none ({len(rows)} rows)")

@@ -1,8 +1,9 @@
 """The emulated display's firmware: its state machine, run as a 10 ms tick.
 
 One concept, the firmware's tick (watchdog, setpoint and rate limits, physics, safety monitors,
-trial logic, telemetry); its command handling is the mixin :class:`~.device_commands.HostCommands`,
-its fixed numbers are in :mod:`.device_constants`, the physics in :mod:`.pad_physics`.
+trial logic, telemetry); its command handling is the part it holds, ``device.commands``
+(:class:`~.device_commands.HostCommands`), its fixed numbers are in :mod:`.device_constants`, the
+physics in :mod:`.pad_physics`.
 
 A :class:`Device` knows nothing about clocks or ports: a transport feeds it host bytes
 (:meth:`Device.receive`), advances it in fixed ticks (:meth:`Device.step`, 10 ms of device time)
@@ -61,7 +62,7 @@ _tuple_new = tuple.__new__
 _CRC = struct.Struct("<H")
 
 
-class Device(HostCommands):
+class Device:
     """The emulated display (see module docstring).
 
     Parameters
@@ -140,7 +141,9 @@ class Device(HostCommands):
         # a list while a transport takes the tick's output as decoded frames, not bytes (the
         # in-process virtual clock with no fault injected: nothing on the line to damage)
         self.direct: list[Frame] | None = None
-        self._r_fp = finger_pad_resistance()     # imports stimuli now, not mid-trial
+        self.r_finger_pad = finger_pad_resistance()     # imports stimuli now, not mid-trial
+        #: The command handling (HELLO, limits, upload, ARM, ...): the part that answers the host
+        self.commands = HostCommands(self)
 
     # ------------------------------------------------------------------ output helpers
     def heard(self, stamp_us: int) -> None:
@@ -154,18 +157,20 @@ class Device(HostCommands):
             self._log(dict(t_s=round(self.time_us * 1e-6, 6), event=kind, state=self.state.name,
                            setpoint_C=round(self.sp, 3), pad_C=round(self.plant.pad, 3), **fields))
 
-    def _send(self, seq: int, mtype: int, payload: bytes = b"") -> bytes:
+    def send(self, seq: int, mtype: int, payload: bytes = b"") -> bytes:
+        """One frame out to the host (a reply of :attr:`commands`); returns its bytes."""
         frame = encode_frame(seq, mtype, payload)
         self.out += frame
         return frame
 
-    def _event(self, kind: Event, arg: int = 0, text: str = "") -> None:
+    def event(self, kind: Event, arg: int = 0, text: str = "") -> None:
+        """An EVENT frame to the host, on the device's own sequence numbers."""
         self.tx_seq = (self.tx_seq + 1) & 0xFF
         payload = m.EVENT_HEAD.pack(kind, self.time_us - self.boot_us, arg) + text.encode("utf-8")[:200]
         if self.direct is not None:
             self.direct.append(Frame(self.tx_seq, m.Msg.EVENT, payload))
         else:
-            self._send(self.tx_seq, m.Msg.EVENT, payload)
+            self.send(self.tx_seq, m.Msg.EVENT, payload)
 
     def take_output(self) -> bytes:
         """Bytes waiting to go to the host (and forget them)."""
@@ -175,16 +180,21 @@ class Device(HostCommands):
         self.out.clear()
         return data
 
-    def _set_state(self, new: State, why: str) -> None:
+    def set_state(self, new: State, why: str) -> None:
+        """Change state (logged with ``why``); nothing when it is the state already."""
         if new != self.state:
             old = self.state
             self.state = new
             self.log("state", old=old.name, why=why)
 
     # ------------------------------------------------------------------ host input
+    def receive(self, data: bytes, at_us: int | None = None) -> None:
+        """Handle bytes from the host (:meth:`.device_commands.HostCommands.receive`)."""
+        self.commands.receive(data, at_us)
 
     # ------------------------------------------------------------------ faults & safety
-    def _fault_active(self, name: str) -> bool:
+    def fault_active(self, name: str) -> bool:
+        """Whether an injected fault ``name`` is active now."""
         t = self.time_us * 1e-6
         for s in self.faults:
             if s.name == name and s.active(t):
@@ -200,9 +210,9 @@ class Device(HostCommands):
         self.sp = self.neutral              # the relay is open: no heat is pumped towards it
         self._sp_window.clear()
         self._sp_window.append(self.sp)
-        self._set_state(State.FAULT, code.name)
+        self.set_state(State.FAULT, code.name)
         self.log("fault", code=code.name, text=text)
-        self._event(Event.FAULT, int(code), text)
+        self.event(Event.FAULT, int(code), text)
 
     def _fault_value(self, name: str, default: float) -> float:
         """The VALUE of an active fault ``name``, else ``default``."""
@@ -262,7 +272,7 @@ class Device(HostCommands):
         if self.faults and not self.stalled:
             self._maybe_reboot()
         if not self.stalled:
-            self.drop_stale_candidate()
+            self.commands.drop_stale_candidate()
         if self.stalled:
             # firmware hung: the hardware watchdog has opened the relay; only physics goes on
             self.plant.step(self.sp, self.sp, 0.0, False)
@@ -286,15 +296,15 @@ class Device(HostCommands):
 
     def _apply_faults(self) -> None:
         """The injected faults active now, applied to the firmware and the plant."""
-        stalled = self._fault_active("stall")
+        stalled = self.fault_active("stall")
         if stalled != self.stalled:
             self.stalled = stalled
             self.log("stall" if stalled else "unstall")
         pl = self.plant
-        pl.sensor_frozen = self._fault_active("stuck_sensor")
-        pl.sensor_override = 150.0 if self._fault_active("sensor_range") else None
-        pl.stuck_current = pl.p.i_max if self._fault_active("overtemp") else None
-        pl.relay_dead = self._fault_active("dead_relay")
+        pl.sensor_frozen = self.fault_active("stuck_sensor")
+        pl.sensor_override = 150.0 if self.fault_active("sensor_range") else None
+        pl.stuck_current = pl.p.i_max if self.fault_active("overtemp") else None
+        pl.relay_dead = self.fault_active("dead_relay")
         pl.current_scale = self._fault_value("slow_pad", 1.0)
         self.watchdog_us = int(self._fault_value("late_watchdog", WATCHDOG_MS / 1000) * 1e6)
 
@@ -311,8 +321,8 @@ class Device(HostCommands):
             self.last_fault = int(Err.WATCHDOG)
             self.end_reason = END_FAULT
             self.log("watchdog", since_last_rx_ms=ms)
-            self._event(Event.WATCHDOG, ms, "host heartbeat lost")
-            self._set_state(_IDLE, "watchdog")
+            self.event(Event.WATCHDOG, ms, "host heartbeat lost")
+            self.set_state(_IDLE, "watchdog")
             state = self.state
         return state
 
@@ -430,7 +440,7 @@ class Device(HostCommands):
             self.ready_count = self.ready_count + 1 if near else 0
             if self.ready_count >= 10:
                 self.ready = True
-                self._event(Event.READY, 0, "ready for contact")
+                self.event(Event.READY, 0, "ready for contact")
                 self.log("ready")
                 if fin is not None and fin.start_us is None:
                     fin.start_us = t_us
@@ -438,8 +448,8 @@ class Device(HostCommands):
             self.contact_us = t_us
             self.trials += 1
             self.release_count = 0
-            self._event(Event.CONTACT, 0, f"{Fsum:.2f} N")
-            self._set_state(_PLAYING if self.arm_mode == _PLAYBACK else _RECORDING,
+            self.event(Event.CONTACT, 0, f"{Fsum:.2f} N")
+            self.set_state(_PLAYING if self.arm_mode == _PLAYBACK else _RECORDING,
                             "contact")
 
     def _trial_tick(self, t_us: int, state: int, Fsum: float) -> None:
@@ -455,8 +465,8 @@ class Device(HostCommands):
             reason = END_COMPLETE
         if reason is not None:
             self.end_reason = reason
-            self._event(Event.END, reason, ("complete", "released", "max duration")[reason])
-            self._set_state(_IDLE, "end")
+            self.event(Event.END, reason, ("complete", "released", "max duration")[reason])
+            self.set_state(_IDLE, "end")
 
     def _send_telemetry(self, t_us: int, sp: float) -> None:
         """One TELEMETRY frame of this tick."""

@@ -41,6 +41,52 @@ _install_info_dialog()
 _HERE = Path(__file__).parent
 
 
+#: The component's own parameters, in the dialog's order: (name, valType, inputType, category,
+#: label, hint[, allowed values]); "Basic": the profile and when it plays.
+_PARAMS = (
+    ("profileSource", "str", "choice", "Basic", "Profile source",
+     "A sample of the protocol computed for the participant (as `thermocue run` does), or a CSV "
+     "file with time_s and target_C", ["protocol sample", "profile file"]),
+    ("protocol", "str", "single", "Basic", "Protocol",
+     "Packaged protocol name or TOML file: its [display] safety limits and neutral temperature "
+     "always apply; its samples, contact threshold and maximum contact time are the defaults"),
+    ("participantFile", "file", "file", "Basic", "Participant file",
+     "The participant's JSON record (group and skin thickness)"),
+    ("sample", "code", "single", "Basic", "Sample id",
+     "The protocol's sample to simulate, evaluated at each routine start (e.g. $sample from a "
+     "conditions file)"),
+    ("profileFile", "file", "file", "Basic", "Profile file",
+     "CSV with columns time_s (uniform from 0) and target_C, read at each routine start"),
+    ("trigger", "str", "choice", "Basic", "Trigger",
+     "contact force: the profile starts when the finger presses with the threshold force; "
+     "routine start: the finger rests on the display and the profile starts as soon as the pad "
+     "is at its first sample", ["contact force", "routine start"]),
+    ("forceThreshold", "code", "single", "Basic", "Force threshold (N)",
+     "Summed force that starts the profile; blank: the protocol's [contact] force_threshold_N"),
+    ("contactDuration", "code", "single", "Basic", "Max contact duration (s)",
+     "The display ends the profile this long after contact; blank: the protocol's [contact] "
+     "max_contact_s"),
+    ("forceEndRoutine", "bool", "bool", "Basic", "End Routine when the cue ends",
+     "End the routine when the display's trial ends (profile complete, finger released, maximum "
+     "duration or a fault)"),
+    ("url", "str", "single", "Device", "Display URL",
+     "Serial device (/dev/ttyUSB0, COM3), a pty path, or emulator://"),
+    ("deviceName", "str", "single", "Device", "Device name",
+     "Name of the display in PsychoPy's DeviceManager (components with the same name share one "
+     "display)"),
+    ("simulateTouch", "bool", "bool", "Testing", "Emulated finger (dry run)",
+     "emulator:// or `thermocue emulator` only: a scripted finger presses after arming, so the "
+     "experiment runs with no one at the display"),
+    ("touchAfter", "code", "single", "Testing", "Emulated press after (s)",
+     "When the emulated finger presses, from the pad being ready"),
+)
+#: (parameter, the parameter it depends on, the condition that shows it)
+_DEPENDS = (("participantFile", "profileSource", "== 'protocol sample'"),
+            ("sample", "profileSource", "== 'protocol sample'"),
+            ("profileFile", "profileSource", "== 'profile file'"),
+            ("touchAfter", "simulateTouch", "== True"))
+
+
 class ThermalCueComponent(BaseComponent):
     """A thermal cue on the thermocue Peltier display (or its emulator)."""
 
@@ -69,86 +115,20 @@ class ThermalCueComponent(BaseComponent):
         self.url = "https://github.com/thermocue/thermocue/blob/main/docs/psychopy-plugin.md"
         self.exp.requirePsychopyLibs(["hardware"])
         self.exp.requireImport(importName="ThermalCue", importFrom="experiments.psychopy_plugin")
-        self.order += ["profileSource", "protocol", "participantFile", "sample", "profileFile",
-                       "trigger", "forceThreshold", "contactDuration", "forceEndRoutine",
-                       "url", "deviceName", "simulateTouch", "touchAfter"]
-        p = self.params
-        # --- Basic: the profile and when it plays
-        p["profileSource"] = Param(
-            profileSource, valType="str", inputType="choice", categ="Basic",
-            allowedVals=["protocol sample", "profile file"],
-            label=_translate("Profile source"),
-            hint=_translate("A sample of the protocol computed for the participant (as "
-                            "`thermocue run` does), or a CSV file with time_s and target_C"))
-        p["protocol"] = Param(
-            protocol, valType="str", inputType="single", categ="Basic",
-            label=_translate("Protocol"),
-            hint=_translate("Packaged protocol name or TOML file: its [display] safety limits "
-                            "and neutral temperature always apply; its samples, contact "
-                            "threshold and maximum contact time are the defaults"))
-        p["participantFile"] = Param(
-            participantFile, valType="file", inputType="file", categ="Basic",
-            label=_translate("Participant file"),
-            hint=_translate("The participant's JSON record (group and skin thickness)"))
-        p["sample"] = Param(
-            sample, valType="code", inputType="single", categ="Basic",
-            label=_translate("Sample id"),
-            hint=_translate("The protocol's sample to simulate, evaluated at each routine start "
-                            "(e.g. $sample from a conditions file)"))
-        p["profileFile"] = Param(
-            profileFile, valType="file", inputType="file", categ="Basic",
-            label=_translate("Profile file"),
-            hint=_translate("CSV with columns time_s (uniform from 0) and target_C, read at each "
-                            "routine start"))
-        for dep, cond in (("participantFile", "== 'protocol sample'"),
-                          ("sample", "== 'protocol sample'"),
-                          ("profileFile", "== 'profile file'")):
-            self.depends.append({"dependsOn": "profileSource", "condition": cond, "param": dep,
+        self.order += [name for name, *_ in _PARAMS]
+        given = dict(profileSource=profileSource, protocol=protocol, participantFile=participantFile,
+                     sample=sample, profileFile=profileFile, trigger=trigger,
+                     forceThreshold=forceThreshold, contactDuration=contactDuration,
+                     forceEndRoutine=forceEndRoutine, url=url, deviceName=deviceName,
+                     simulateTouch=simulateTouch, touchAfter=touchAfter)
+        for name, val_type, input_type, categ, label, hint, *allowed in _PARAMS:
+            extra = {"allowedVals": list(allowed[0])} if allowed else {}   # a list of its own
+            self.params[name] = Param(given[name], valType=val_type, inputType=input_type,
+                                      categ=categ, **extra, label=_translate(label),
+                                      hint=_translate(hint))
+        for dep, on, cond in _DEPENDS:
+            self.depends.append({"dependsOn": on, "condition": cond, "param": dep,
                                  "true": "show", "false": "hide"})
-        p["trigger"] = Param(
-            trigger, valType="str", inputType="choice", categ="Basic",
-            allowedVals=["contact force", "routine start"],
-            label=_translate("Trigger"),
-            hint=_translate("contact force: the profile starts when the finger presses with the "
-                            "threshold force; routine start: the finger rests on the display "
-                            "and the profile starts as soon as the pad is at its first sample"))
-        p["forceThreshold"] = Param(
-            forceThreshold, valType="code", inputType="single", categ="Basic",
-            label=_translate("Force threshold (N)"),
-            hint=_translate("Summed force that starts the profile; blank: the protocol's "
-                            "[contact] force_threshold_N"))
-        p["contactDuration"] = Param(
-            contactDuration, valType="code", inputType="single", categ="Basic",
-            label=_translate("Max contact duration (s)"),
-            hint=_translate("The display ends the profile this long after contact; blank: the "
-                            "protocol's [contact] max_contact_s"))
-        p["forceEndRoutine"] = Param(
-            forceEndRoutine, valType="bool", inputType="bool", categ="Basic",
-            label=_translate("End Routine when the cue ends"),
-            hint=_translate("End the routine when the display's trial ends (profile complete, "
-                            "finger released, maximum duration or a fault)"))
-        # --- Device
-        p["url"] = Param(
-            url, valType="str", inputType="single", categ="Device",
-            label=_translate("Display URL"),
-            hint=_translate("Serial device (/dev/ttyUSB0, COM3), a pty path, or emulator://"))
-        p["deviceName"] = Param(
-            deviceName, valType="str", inputType="single", categ="Device",
-            label=_translate("Device name"),
-            hint=_translate("Name of the display in PsychoPy's DeviceManager (components with "
-                            "the same name share one display)"))
-        # --- Testing
-        p["simulateTouch"] = Param(
-            simulateTouch, valType="bool", inputType="bool", categ="Testing",
-            label=_translate("Emulated finger (dry run)"),
-            hint=_translate("emulator:// or `thermocue emulator` only: a scripted finger presses "
-                            "after arming, so the experiment runs with no one at the display"))
-        p["touchAfter"] = Param(
-            touchAfter, valType="code", inputType="single", categ="Testing",
-            label=_translate("Emulated press after (s)"),
-            hint=_translate("When the emulated finger presses, from the pad being ready"))
-        self.depends.append({"dependsOn": "simulateTouch", "condition": "== True",
-                             "param": "touchAfter", "true": "show", "false": "hide"})
 
     # ------------------------------------------------------------------ code
     def writeStartCode(self, buff):

@@ -6,6 +6,7 @@ from experiments.errors import DisplayError, DisplayRefused, SafetyLimitError, U
 from experiments.display import SafetyLimits, Telemetry, open_display
 from experiments.display.thermocue import messages as m
 from experiments.emulators.thermocue.device import Device
+from experiments.emulators.thermocue.device_commands import HostCommands
 from experiments.display.thermocue.framing import HEADER_SIZE
 from experiments.display.thermocue.messages import PROTOCOL_VERSION, Cmd
 
@@ -266,13 +267,13 @@ def test_each_connection_starts_at_a_random_sequence_number():
     assert len(set(seen)) > 1                            # all equal: chance 256**-7
 
 
-class StaleFirmware(Device):
+class StaleFirmware(HostCommands):
     """A firmware that answers SET_LIMITS or SET_NEUTRAL with an earlier session's reply."""
 
     stale = {Cmd.SET_LIMITS: m.LIMITS.pack(1500, 4200, 1000), Cmd.SET_NEUTRAL: m.CENTI.pack(3200)}
 
-    def __init__(self, replay, **kw):
-        super().__init__(**kw)
+    def __init__(self, device, replay):
+        super().__init__(device)
         self.replay = replay
 
     def _handle(self, seq, cmd, p):
@@ -288,7 +289,8 @@ def test_limits_and_neutral_not_echoed_are_a_display_error(replay):
 
     from experiments.display.thermocue.driver import ThermalDisplay
     port = serial.serial_for_url("emulator://?clock=virtual", timeout=0.01)
-    port.device = StaleFirmware(replay)
+    port.device = Device()
+    port.device.commands = StaleFirmware(port.device, replay)
     limits = SafetyLimits(min_C=20.0, max_C=38.0, max_rate_C_per_s=10.0, neutral_C=30.0)
     d = ThermalDisplay(port, limits)
     try:

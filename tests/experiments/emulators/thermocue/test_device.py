@@ -351,3 +351,22 @@ def test_a_finger_still_pressing_is_not_a_new_contact(host):
     finger(host, press_after_s=0.1, hold_s=3.0)            # a fresh touch
     tel, ev = host.step(50)
     assert [e.kind for e in ev].count("CONTACT") == 1
+
+
+def test_the_device_answers_through_the_command_part_it_holds_and_a_subclass_overrides_a_handler():
+    # composition: the device's replies come from ``device.commands``; a HostCommands subclass
+    # put in its place (a test's misbehaving firmware) has its own _on_* handler called
+    from experiments.emulators.thermocue.device_commands import HostCommands
+
+    class SilentAbort(HostCommands):
+        def _on_abort(self, seq, cmd, p):
+            return b""                                 # never acknowledges ABORT
+
+    dev = Device(seed=1)
+    assert isinstance(dev.commands, HostCommands) and dev.commands.device is dev
+    h = Host(dev)
+    assert h.send(Cmd.HELLO, m.HELLO_REQ.pack(m.PROTOCOL_VERSION)).type == Cmd.HELLO | 0x80
+    assert h.send(Cmd.ABORT).type == Cmd.ABORT | 0x80
+    dev.commands = SilentAbort(dev)
+    assert h.send(Cmd.ABORT) is None
+    assert h.send(Cmd.STATUS).type == Cmd.STATUS | 0x80    # the other handlers are the base's
