@@ -336,7 +336,9 @@ def _mount(path: Path, size: str) -> bool:
 
 def _disk_case(label, T: Totals, code, err, session: Path, folder: Path, cause: str, resume_argv):
     T.c["disk_cases"] += 1
-    lines = err.strip().splitlines()
+    # the stop is one line; the trials' own warnings before it ("thermocue: warning: ...") are
+    # not part of it
+    lines = [ln for ln in err.strip().splitlines() if not ln.startswith("thermocue: warning:")]
     if not (code == 1 and len(lines) == 1 and cause in lines[0] and "display neutral" in lines[0]):
         T.c["disk_unclean"] += 1
         T.note(f"disk {label}: exit {code}: {err.strip()[:300]}")
@@ -413,11 +415,18 @@ def _disk_readonly(base: Path, T: Totals) -> None:
                                  "--responder", "simulated", "--data", str(mnt / "data"),
                                  "--seed", "1", "--quiet"], cwd=ROOT, env=env, text=True,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-        time.sleep(6.0)
+        # wait for the session to be under way (its event log holds a trial_started), however
+        # loaded the machine is; a fixed sleep found no folder yet at load 7
+        sdir = mnt / "data" / "P01" / "S01"
+        deadline = time.monotonic() + 120.0
+        while time.monotonic() < deadline and proc.poll() is None:
+            log = sdir / "events.jsonl"
+            if log.exists() and b"trial_started" in log.read_bytes():
+                break
+            time.sleep(0.2)
         # the session folder turns read-only under the running process (a bind mount of it
         # onto itself, remounted read-only: new files and renames fail with EROFS; the
         # whole tmpfs cannot be remounted read-only while files are open for writing)
-        sdir = mnt / "data" / "P01" / "S01"
         subprocess.run(["mount", "--bind", str(sdir), str(sdir)], check=True)
         subprocess.run(["mount", "-o", "remount,bind,ro", str(sdir)], check=True)
         try:
