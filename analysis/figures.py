@@ -87,11 +87,19 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
                           f"≤ {people} participants, ≤ {trials} trials per point", fontsize=9)
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, frameon=False)
     fig.tight_layout()
+    _layout_done(fig)
     path = Path(path)
     _save(fig, path)
     _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
     plt.close(fig)
     return path
+
+
+def _layout_done(fig) -> None:
+    """Keep the positions ``tight_layout`` set and drop the placeholder layout engine it leaves:
+    with an engine, every ``savefig`` first draws the whole figure once more to lay it out (two
+    draws per file); the placeholder's layout does nothing, so the files are the same."""
+    fig.set_layout_engine("none")
 
 
 def _save(fig, path: Path, **options) -> None:
@@ -187,6 +195,7 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
                      family="DejaVu Sans Mono")
     else:
         fig.tight_layout(rect=(0, 0.06, 1, 1))
+    _layout_done(fig)
     return fig
 
 
