@@ -348,6 +348,12 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
             done[v] = (best.fun - dev_min - cut, best.x)
         return done[v][0]
 
+    def zeta(v):
+        # the signed root of the deviance's rise, less the cut-off's: the same sign and root as
+        # ``excess`` but nearly linear in ``v`` (lme4's profile zeta), so Brent's method needs
+        # fewer profile points (each an optimisation over every other parameter)
+        return np.sqrt(max(excess(v) + cut, 0.0)) - np.sqrt(cut)
+
     if which == 2:                      # phi: corr = sin(phi) in [-1, 1]
         ends = []
         for edge in (-np.pi / 2, np.pi / 2):
@@ -355,13 +361,13 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
                 ends.append(np.sin(edge))
             else:
                 a, b = sorted((value_hat, edge))
-                ends.append(np.sin(optimize.brentq(excess, a, b, xtol=1e-4)))
+                ends.append(np.sin(optimize.brentq(zeta, a, b, xtol=1e-4)))
         return ends[0], ends[1]
     if value_hat <= 1e-6 or excess(0.0) <= 0:
         low = 0.0
     else:
-        low = optimize.brentq(excess, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
-    high = profile_upper(excess, value_hat, max(2 * value_hat, 0.5), _BOUND)
+        low = optimize.brentq(zeta, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
+    high = profile_upper(zeta, value_hat, max(2 * value_hat, 0.5), _BOUND)
     return low, high
 
 
