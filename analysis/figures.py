@@ -9,8 +9,8 @@ import pandas as pd
 from sessionfiles.atomicfile import output_path
 from stimuli.paper import SAMPLE_NAMES
 
-__all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
-           "Y_LIMITS"]
+__all__ = ["plot_figure9", "plot_confusion", "figure9", "confusion_figure", "figure9_panels",
+           "plot_figure9_panels", "DODGE", "Y_LIMITS"]
 
 #: Series of Figure 9: (group, mode) -> (label, colour, marker, line style).
 SERIES = {
@@ -56,6 +56,16 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     """
     if interval not in ("boot", "wilson"):
         raise ValueError(f"plot_figure9: interval: expected 'boot' or 'wilson', got {interval!r}")
+    fig = figure9(proportions, interval=interval, title=title)
+    path = Path(path)
+    _save(fig, path)
+    _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
+    agg_pyplot().close(fig)
+    return path
+
+
+def figure9(proportions: pd.DataFrame, *, interval: str = "boot", title: str | None = None):
+    """Figure 9 as a matplotlib figure, laid out (:func:`plot_figure9` saves it)."""
     plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=150)
     offsets = DODGE
@@ -88,11 +98,7 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, frameon=False)
     fig.tight_layout()
     _layout_done(fig)
-    path = Path(path)
-    _save(fig, path)
-    _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _layout_done(fig) -> None:
@@ -227,6 +233,15 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
         The file written. Colours are the share of a stimulus's trials given
         each response (rows sum to 1); numbers are trial counts.
     """
+    fig = confusion_figure(confusion)
+    path = Path(path)
+    _save(fig, path)
+    agg_pyplot().close(fig)
+    return path
+
+
+def confusion_figure(confusion: pd.DataFrame):
+    """The confusion heatmaps as a matplotlib figure (:func:`plot_confusion` saves it)."""
     plt = agg_pyplot()
     panels = list(SERIES)
     fig, axes = plt.subplots(2, 2, figsize=(8, 7.2), dpi=120, squeeze=False)
@@ -257,7 +272,4 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
     if image is not None:
         fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
                      label="share of the stimulus's trials")
-    path = Path(path)
-    _save(fig, path)
-    plt.close(fig)
-    return path
+    return fig

@@ -42,3 +42,32 @@ def test_confusion_heatmaps_written(tmp_path, tables):
     # a panel missing (no B simulated trials) is drawn as "no trials", not an error
     partial = conf[~((conf["group"] == "B") & (conf["mode"] == "simulated"))]
     assert plot_confusion(partial, tmp_path / "partial.png").stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("fork", [True, False])
+def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, monkeypatch, fork):
+    """``analyze`` has its figures drawn by a forked worker while the models fit
+    (:class:`analysis.figure_job.FigureJob`) and, without ``fork``, in the process at write
+    time: either way the files are those ``plot_figure9`` / ``plot_confusion`` write (PNG to the
+    byte; the PDF but for its creation date); nothing is written before ``write``."""
+    import multiprocessing
+    import re
+    from analysis import figure_job
+    props, conf = tables
+    if not fork:
+        monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
+    plot_figure9(props, tmp_path / "figure9.png")
+    plot_confusion(conf, tmp_path / "confusion.png")
+    out = tmp_path / "out"
+    out.mkdir()
+    with figure_job.FigureJob(props, conf) as job:
+        assert (job._future is not None) == fork
+        assert list(out.iterdir()) == []
+        files = job.write(out)
+    assert files == {"figure9": out / "figure9.png", "confusion_png": out / "confusion.png"}
+    for name in ("figure9.png", "confusion.png"):
+        assert (out / name).read_bytes() == (tmp_path / name).read_bytes()
+    undated = [re.sub(rb"/CreationDate \(D:\d+Z\)", b"", (folder / "figure9.pdf").read_bytes())
+               for folder in (out, tmp_path)]
+    assert undated[0] == undated[1] and undated[0].startswith(b"%PDF")
+    assert sorted(p.name for p in out.iterdir()) == ["confusion.png", "figure9.pdf", "figure9.png"]

@@ -1,0 +1,80 @@
+"""The analysis's figures drawn in a second process while the models are fitted.
+
+Figure 9 and the confusion heatmaps need only the proportions and the confusion counts, known
+before any model is fitted; drawing them (matplotlib's import included) takes 1-2 s of CPU. A
+forked worker draws them into memory while the parent fits the models, and the parent writes
+the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
+is written before :func:`analysis.analyze`'s ``before_write``). Where ``fork`` is not available,
+or the worker cannot start, the figures are drawn in the parent at write time: the same files.
+"""
+from __future__ import annotations
+
+import io
+import multiprocessing
+from concurrent.futures import Future, ProcessPoolExecutor
+from pathlib import Path
+
+import pandas as pd
+
+from sessionfiles.atomicfile import output_file
+
+__all__ = ["FigureJob", "render_figures"]
+
+
+def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
+    """``figure9.png``, ``figure9.pdf`` and ``confusion.png`` as bytes, by file name (what
+    :func:`analysis.figures.plot_figure9` and :func:`analysis.figures.plot_confusion` write)."""
+    from .figures import agg_pyplot, confusion_figure, figure9
+    plt = agg_pyplot()
+    out = {}
+    for fig, names in ((figure9(proportions), ("figure9.png", "figure9.pdf")),
+                       (confusion_figure(confusion), ("confusion.png",))):
+        for name in names:
+            buf = io.BytesIO()
+            fig.savefig(buf, format=Path(name).suffix[1:])
+            out[name] = buf.getvalue()
+        plt.close(fig)
+    return out
+
+
+class FigureJob:
+    """:func:`render_figures` started now (in a forked worker when possible); a context manager
+    that stops the worker on exit.
+
+    Examples
+    --------
+    ``with FigureJob(proportions, confusion) as job: ...; files = job.write(out)``
+    """
+
+    def __init__(self, proportions: pd.DataFrame, confusion: pd.DataFrame):
+        self._args = (proportions, confusion)
+        self._pool: ProcessPoolExecutor | None = None
+        self._future: Future | None = None
+        if "fork" in multiprocessing.get_all_start_methods():
+            try:
+                self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+                self._future = self._pool.submit(render_figures, *self._args)
+            except OSError:                     # no process to spare: drawn at write time
+                self.close()
+
+    def write(self, out: Path) -> dict[str, Path]:
+        """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
+        beside ``figure9.png``, as :func:`analysis.figures.plot_figure9`)."""
+        files = self._future.result() if self._future is not None else render_figures(*self._args)
+        for name, data in files.items():
+            with output_file(Path(out) / name, "wb") as fh:
+                fh.write(data)
+        return {"figure9": Path(out) / "figure9.png", "confusion_png": Path(out) / "confusion.png"}
+
+    def close(self) -> None:
+        """Stop the worker (waiting for a drawing under way)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+            self._future = None
+
+    def __enter__(self) -> "FigureJob":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
