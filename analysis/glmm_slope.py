@@ -49,7 +49,8 @@ from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, logsumexp_rows
 from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
                      reference_df, reference_quantile)
 
-__all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich"]
+__all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich", "complete_profiles",
+           "profile_intervals"]
 
 _BOUND = 20.0
 
@@ -371,9 +372,35 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
     return low, high
 
 
+_PROFILED = ("sd_intercept", "sd_mode_slope", "corr_intercept_slope")
+
+
+def profile_intervals(data, z, theta, dev_min, n_agq, level, cut_df) -> list:
+    """The three profile intervals (:func:`_profile_sd`), ``[(low, high)] * 3`` in the order of
+    ``sd_intercept``, ``sd_mode_slope``, ``corr_intercept_slope``."""
+    with threadpool_limits(1), np.errstate(all="ignore"):
+        return [_profile_sd(data, z, theta, dev_min, n_agq, level, cut_df, which)
+                for which in range(3)]
+
+
+def _fill_profiles(table: pd.DataFrame, ends: list) -> None:
+    for term, (low, high) in zip(_PROFILED, ends):
+        row = table.index[table["term"] == term][0]
+        table.loc[row, ["ci_low", "ci_high"]] = [low, high]
+
+
+def complete_profiles(fit: ModelFit) -> ModelFit:
+    """Wait for a random-slope fit's profile intervals computed elsewhere (``fit_glmm_slope``'s
+    ``submit``) and write them into its table; a complete fit is returned as it is."""
+    if fit.pending is not None:
+        _fill_profiles(fit.table, fit.pending.result())
+        fit.pending = None
+    return fit
+
+
 def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
                    n_agq: int = 5, intercept_fit: ModelFit | None = None,
-                   profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
+                   profile: bool = True, sd_cutoff: str = "F", submit=None) -> ModelFit:
     """Mixed logit with participant random intercepts and random mode slopes (ML).
 
     Parameters
@@ -396,6 +423,11 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     sd_cutoff : {"F", "chi2"}
         The profile cut-off: F(1, m - 2) (default) or chi2_1 (lme4's
         ``confint(method = "profile")``, used by the cross-check).
+    submit : callable, optional
+        ``submit(function, *args)`` returning a :class:`concurrent.futures.Future` or None
+        (:meth:`analysis.worker.AnalysisWorker.submit`): the profile intervals are then computed
+        there while the caller goes on, the fit's ``pending`` holds the future, and
+        :func:`complete_profiles` fills them in (the same numbers; None: computed here).
 
     Returns
     -------
@@ -411,12 +443,12 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     with threadpool_limits(1):
         return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq,
                                     intercept_fit=intercept_fit, profile=profile,
-                                    sd_cutoff=sd_cutoff)
+                                    sd_cutoff=sd_cutoff, submit=submit)
 
 
 def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
                          n_agq: int = 5, intercept_fit: ModelFit | None = None,
-                         profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
+                         profile: bool = True, sd_cutoff: str = "F", submit=None) -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)
@@ -473,13 +505,15 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         if profile:
             how = (f"profile likelihood, F(1, {cut_df:g}) cut-off" if cut_df
                    else "profile likelihood, chi2(1) cut-off")
-        for which, (term, value) in enumerate((("sd_intercept", sd0), ("sd_mode_slope", sd1),
-                                               ("corr_intercept_slope", corr))):
-            low = high = np.nan
-            if profile:
-                with np.errstate(all="ignore"):
-                    low, high = _profile_sd(data, z, theta, res.fun, n_agq, level, cut_df, which)
-            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how, ""]
+        for term, value in (("sd_intercept", sd0), ("sd_mode_slope", sd1),
+                            ("corr_intercept_slope", corr)):
+            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, np.nan, np.nan, how, ""]
+        pending = None
+        if profile:
+            args = (data, z, theta, res.fun, n_agq, level, cut_df)
+            pending = submit(profile_intervals, *args) if submit is not None else None
+            if pending is None:
+                _fill_profiles(table, profile_intervals(*args))
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
             lrt = max(0.0, 2 * (loglik - intercept_fit.convergence["log_likelihood"]))
@@ -497,7 +531,8 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                         table=table[columns], notes=notes, params=beta, cov=cov,
                         design_info=x.design_info, df=df, convergence=conv, theta=theta,
                         cov_full=cov_full, cov_robust=cov_robust,
-                        cov_by_group=by_group if by_group and len(by_group) == 2 else None)
+                        cov_by_group=by_group if by_group and len(by_group) == 2 else None,
+                        pending=pending)
     notes.append("GLMM slope: no formula could be fitted")
     return ModelFit(kind="glmm-slope", formula=None, requested=formula,
                     table=pd.DataFrame(columns=columns), notes=notes)

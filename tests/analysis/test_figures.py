@@ -47,12 +47,12 @@ def test_confusion_heatmaps_written(tmp_path, tables):
 @pytest.mark.parametrize("fork", [True, False])
 def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, monkeypatch, fork):
     """``analyze`` has its figures drawn by a forked worker while the models fit
-    (:class:`analysis.figure_job.FigureJob`) and, without ``fork``, in the process at write
+    (:class:`analysis.worker.AnalysisWorker`) and, without ``fork``, in the process at write
     time: either way the files are those ``plot_figure9`` / ``plot_confusion`` write (PNG to the
     byte; the PDF but for its creation date); nothing is written before ``write``."""
     import multiprocessing
     import re
-    from analysis import figure_job
+    from analysis import worker
     props, conf = tables
     if not fork:
         monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
@@ -60,7 +60,7 @@ def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, m
     plot_confusion(conf, tmp_path / "confusion.png")
     out = tmp_path / "out"
     out.mkdir()
-    with figure_job.FigureJob(props, conf) as job:
+    with worker.AnalysisWorker(props, conf) as job:
         assert (job._future is not None) == fork
         assert list(out.iterdir()) == []
         files = job.write(out)

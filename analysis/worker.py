@@ -1,11 +1,13 @@
-"""The analysis's figures drawn in a second process while the models are fitted.
+"""A second process for the analysis's independent steps, run while the parent fits the models.
 
 Figure 9 and the confusion heatmaps need only the proportions and the confusion counts, known
 before any model is fitted; drawing them (matplotlib's import included) takes 1-2 s of CPU. A
 forked worker draws them into memory while the parent fits the models, and the parent writes
 the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
-is written before :func:`analysis.analyze`'s ``before_write``). Where ``fork`` is not available,
-or the worker cannot start, the figures are drawn in the parent at write time: the same files.
+is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
+random-slope model's profile intervals (:func:`analysis.glmm_slope.profile_intervals`, ~2 s)
+while the parent goes on with the tests. Where ``fork`` is not available, or the worker cannot
+start, everything is done in the parent: the same files and numbers.
 """
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ import pandas as pd
 
 from sessionfiles.atomicfile import output_file
 
-__all__ = ["FigureJob", "render_figures"]
+__all__ = ["AnalysisWorker", "render_figures"]
 
 
 def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
@@ -37,13 +39,13 @@ def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[s
     return out
 
 
-class FigureJob:
-    """:func:`render_figures` started now (in a forked worker when possible); a context manager
-    that stops the worker on exit.
+class AnalysisWorker:
+    """:func:`render_figures` started now (in a forked worker when possible), and more work
+    through :meth:`submit`; a context manager that stops the worker on exit.
 
     Examples
     --------
-    ``with FigureJob(proportions, confusion) as job: ...; files = job.write(out)``
+    ``with AnalysisWorker(proportions, confusion) as worker: ...; files = worker.write(out)``
     """
 
     def __init__(self, proportions: pd.DataFrame, confusion: pd.DataFrame):
@@ -56,6 +58,13 @@ class FigureJob:
                 self._future = self._pool.submit(render_figures, *self._args)
             except OSError:                     # no process to spare: drawn at write time
                 self.close()
+
+    def submit(self, function, *args) -> Future | None:
+        """``function(*args)`` in the worker, after what it was given before (a future); None
+        without a worker (the caller then calls it itself)."""
+        if self._pool is None:
+            return None
+        return self._pool.submit(function, *args)
 
     def write(self, out: Path) -> dict[str, Path]:
         """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
@@ -73,7 +82,7 @@ class FigureJob:
             self._pool = None
             self._future = None
 
-    def __enter__(self) -> "FigureJob":
+    def __enter__(self) -> "AnalysisWorker":
         return self
 
     def __exit__(self, *exc) -> None:
