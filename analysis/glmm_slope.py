@@ -424,7 +424,7 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
         The profile cut-off: F(1, m - 2) (default) or chi2_1 (lme4's
         ``confint(method = "profile")``, used by the cross-check).
     submit : callable, optional
-        ``submit(function, *args)`` returning a :class:`concurrent.futures.Future` or None
+        ``submit(function, *args)`` returning an object with ``result()`` (a future) or None
         (:meth:`analysis.worker.AnalysisWorker.submit`): the profile intervals are then computed
         there while the caller goes on, the fit's ``pending`` holds the future, and
         :func:`complete_profiles` fills them in (the same numbers; None: computed here).

@@ -14,13 +14,14 @@ from __future__ import annotations
 import io
 import multiprocessing
 from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 import pandas as pd
 
 from sessionfiles.atomicfile import output_file
 
-__all__ = ["AnalysisWorker", "render_figures"]
+__all__ = ["AnalysisWorker", "Job", "render_figures"]
 
 
 def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
@@ -59,17 +60,18 @@ class AnalysisWorker:
             except OSError:                     # no process to spare: drawn at write time
                 self.close()
 
-    def submit(self, function, *args) -> Future | None:
-        """``function(*args)`` in the worker, after what it was given before (a future); None
-        without a worker (the caller then calls it itself)."""
+    def submit(self, function, *args) -> "Job | None":
+        """``function(*args)`` in the worker, after what it was given before; None without a
+        worker (the caller then calls it itself)."""
         if self._pool is None:
             return None
-        return self._pool.submit(function, *args)
+        return Job(self._pool.submit(function, *args), function, args)
 
     def write(self, out: Path) -> dict[str, Path]:
         """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
         beside ``figure9.png``, as :func:`analysis.figures.plot_figure9`)."""
-        files = self._future.result() if self._future is not None else render_figures(*self._args)
+        files = (Job(self._future, render_figures, self._args).result()
+                 if self._future is not None else render_figures(*self._args))
         for name, data in files.items():
             with output_file(Path(out) / name, "wb") as fh:
                 fh.write(data)
@@ -87,3 +89,17 @@ class AnalysisWorker:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class Job:
+    """A function given to the worker: :meth:`result` waits for it; if the worker died (killed,
+    out of memory), the function is run here instead (the same result, later)."""
+
+    def __init__(self, future: Future, function, args: tuple):
+        self._future, self._function, self._args = future, function, args
+
+    def result(self):
+        try:
+            return self._future.result()
+        except BrokenProcessPool:
+            return self._function(*self._args)

@@ -71,3 +71,27 @@ def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, m
                for folder in (out, tmp_path)]
     assert undated[0] == undated[1] and undated[0].startswith(b"%PDF")
     assert sorted(p.name for p in out.iterdir()) == ["confusion.png", "figure9.pdf", "figure9.png"]
+
+
+def _exit_in_child(parent_pid: int) -> int:
+    import os
+    if os.getpid() != parent_pid:
+        os._exit(1)                 # the worker dies (as if killed)
+    return 42
+
+
+def test_a_dead_worker_costs_time_not_results(tmp_path, tables):
+    """If the worker process dies, what it was given is done in the process instead: the
+    figures are still written and a submitted function still returns its value."""
+    import os
+    from analysis.worker import AnalysisWorker
+    props, conf = tables
+    out = tmp_path / "out"
+    out.mkdir()
+    with AnalysisWorker(props, conf) as job:
+        dead = job.submit(_exit_in_child, os.getpid())
+        assert dead is not None and dead.result() == 42
+        files = job.write(out)
+    assert files["figure9"].stat().st_size > 20_000
+    assert (out / "figure9.pdf").read_bytes().startswith(b"%PDF")
+    assert files["confusion_png"].stat().st_size > 20_000
