@@ -461,6 +461,49 @@ def load_trials(data_dir, sessions: str = "first", condition: str | None = None)
         raise LogError(f"{root}: trials.csv: expected session folders holding trials.csv or "
                        f"events.jsonl, got none")
     messages: list = []
+    parts, sessions, skipped, not_read = _read_sessions(found, messages)
+    if not parts:
+        also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
+        raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
+                       f"{len(folders)} session folder(s) without any{also}")
+    for rows, sf in parts:          # after every folder is read: its warnings come first
+        check_session_rows(rows, Path(rows["source"].iloc[0]), sf)
+    raw = pd.concat([rows for rows, _ in parts], ignore_index=True)
+    trials = validate_rows(raw)
+    sessions, chosen = _sessions_table(trials, sessions, skipped, condition, policy)
+    trials = _drop_duplicates(trials, messages)
+    for column in ("participant", "group"):
+        per = trials.groupby("participant")["group"].nunique() if column == "group" else None
+        if per is not None and (per > 1).any():
+            who = per[per > 1].index[0]
+            files = sorted(trials.loc[trials["participant"] == who, "source"].unique())
+            raise LogError(f"{files[0]}: group: expected one group per participant, got "
+                           f"{sorted(trials.loc[trials['participant'] == who, 'group'].unique())!r} "
+                           f"for participant {who!r}")
+    trials = mark_inclusion(trials)
+    left_out = set(sessions.loc[~sessions["analysed"], "path"])
+    out_of_policy = trials["source"].map(lambda f: str(Path(f).parent) in left_out)
+    trials.loc[out_of_policy, "exclusion"] = "session not analysed"
+    trials.loc[out_of_policy, "included"] = False
+    by_folder = sessions.set_index("path")
+    folder_of = trials["source"].map(lambda f: str(Path(f).parent))
+    other = folder_of.map(by_folder["skipped"]).fillna("").str.startswith("condition ")
+    trials.loc[other, "exclusion"] = "another condition (see --condition)"
+    trials.loc[other, "included"] = False
+    for column in CONDITION_COLUMNS:
+        trials[column] = folder_of.map(by_folder[column]).fillna("")
+    order = [*ANALYSIS_ORDER, "familiarisation", *CONDITION_COLUMNS, "included", "exclusion",
+             "source", "line"]
+    trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
+                                       ignore_index=True)
+    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy,
+                    not_read=pd.DataFrame(not_read, columns=["path", "reason"]),
+                    condition=chosen)
+
+
+def _read_sessions(found, messages: list):
+    """Step 1 of :func:`load_trials`: each folder's trial rows (with the folder as read), the
+    sessions' rows, the sessions skipped for their protocol, and the folders not read."""
     parts, sessions, skipped = [], [], []
     not_read = [{"path": str(path), "reason": reason} for path, reason in found.skipped]
     for path, reason in found.skipped:
@@ -495,14 +538,12 @@ def load_trials(data_dir, sessions: str = "first", condition: str | None = None)
         parts.append((rows, sf))
         sessions.append({"path": str(folder), "source": source, "n_rows": len(rows),
                          **session_state(folder, meta, sf), **session_condition(meta)})
-    if not parts:
-        also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
-        raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
-                       f"{len(folders)} session folder(s) without any{also}")
-    for rows, sf in parts:          # after every folder is read: its warnings come first
-        check_session_rows(rows, Path(rows["source"].iloc[0]), sf)
-    raw = pd.concat([rows for rows, _ in parts], ignore_index=True)
-    trials = validate_rows(raw)
+    return parts, sessions, skipped, not_read
+
+
+def _sessions_table(trials: pd.DataFrame, sessions: list, skipped: list, condition, policy):
+    """Step 2 of :func:`load_trials`: ``sessions.csv``'s table (identity from the rows, the
+    skipped sessions, the condition chosen, the inclusion policy applied) and the condition."""
     first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()
     sessions = pd.DataFrame(sessions)
     sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
@@ -516,34 +557,7 @@ def load_trials(data_dir, sessions: str = "first", condition: str | None = None)
         sessions = sessions.sort_values("path", ignore_index=True)
     sessions, chosen = choose_condition(sessions, condition)
     sessions = apply_policy(sessions, policy).drop(columns="created_at")
-    trials = _drop_duplicates(trials, messages)
-    for column in ("participant", "group"):
-        per = trials.groupby("participant")["group"].nunique() if column == "group" else None
-        if per is not None and (per > 1).any():
-            who = per[per > 1].index[0]
-            files = sorted(trials.loc[trials["participant"] == who, "source"].unique())
-            raise LogError(f"{files[0]}: group: expected one group per participant, got "
-                           f"{sorted(trials.loc[trials['participant'] == who, 'group'].unique())!r} "
-                           f"for participant {who!r}")
-    trials = mark_inclusion(trials)
-    left_out = set(sessions.loc[~sessions["analysed"], "path"])
-    out_of_policy = trials["source"].map(lambda f: str(Path(f).parent) in left_out)
-    trials.loc[out_of_policy, "exclusion"] = "session not analysed"
-    trials.loc[out_of_policy, "included"] = False
-    by_folder = sessions.set_index("path")
-    folder_of = trials["source"].map(lambda f: str(Path(f).parent))
-    other = folder_of.map(by_folder["skipped"]).fillna("").str.startswith("condition ")
-    trials.loc[other, "exclusion"] = "another condition (see --condition)"
-    trials.loc[other, "included"] = False
-    for column in CONDITION_COLUMNS:
-        trials[column] = folder_of.map(by_folder[column]).fillna("")
-    order = [*ANALYSIS_ORDER, "familiarisation", *CONDITION_COLUMNS, "included", "exclusion",
-             "source", "line"]
-    trials = trials[order].sort_values(["participant", "session", "trial_index", "attempt"],
-                                       ignore_index=True)
-    return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy,
-                    not_read=pd.DataFrame(not_read, columns=["path", "reason"]),
-                    condition=chosen)
+    return sessions, chosen
 
 
 def _same(a, b) -> bool:
