@@ -6,13 +6,15 @@ forked worker draws them into memory while the parent fits the models, and the p
 the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
 is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
 random-slope model's profile intervals (:func:`analysis.glmm_slope.profile_intervals`, ~2 s)
-while the parent goes on with the tests. Where ``fork`` is not available, or the worker cannot
-start, everything is done in the parent: the same files and numbers.
+while the parent goes on with the tests. Where ``fork`` is not available or not safe
+(:func:`can_fork`), or the worker cannot start, everything is done in the parent: the same
+files and numbers.
 """
 from __future__ import annotations
 
 import io
 import multiprocessing
+import threading
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
@@ -21,7 +23,7 @@ import pandas as pd
 
 from sessionfiles.atomicfile import output_file
 
-__all__ = ["AnalysisWorker", "Job", "render_figures"]
+__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures"]
 
 
 def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
@@ -40,6 +42,16 @@ def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[s
     return out
 
 
+def can_fork() -> bool:
+    """Whether a worker is forked: ``fork`` exists, this process is not a daemonic one (which
+    may have no children), and it runs no other thread (a fork copies a lock another thread
+    holds, locked for ever in the child: with a GUI or a finished dask cluster's threads
+    around, everything is done in this process instead)."""
+    return ("fork" in multiprocessing.get_all_start_methods()
+            and not multiprocessing.current_process().daemon
+            and threading.active_count() == 1)
+
+
 class AnalysisWorker:
     """:func:`render_figures` started now (in a forked worker when possible), and more work
     through :meth:`submit`; a context manager that stops the worker on exit.
@@ -53,11 +65,11 @@ class AnalysisWorker:
         self._args = (proportions, confusion)
         self._pool: ProcessPoolExecutor | None = None
         self._future: Future | None = None
-        if "fork" in multiprocessing.get_all_start_methods():
+        if can_fork():
             try:
                 self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
                 self._future = self._pool.submit(render_figures, *self._args)
-            except OSError:                     # no process to spare: drawn at write time
+            except (OSError, AssertionError):   # no process to spare: drawn at write time
                 self.close()
 
     def submit(self, function, *args) -> "Job | None":

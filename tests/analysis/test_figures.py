@@ -44,18 +44,25 @@ def test_confusion_heatmaps_written(tmp_path, tables):
     assert plot_confusion(partial, tmp_path / "partial.png").stat().st_size > 20_000
 
 
-@pytest.mark.parametrize("fork", [True, False])
-def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, monkeypatch, fork):
+@pytest.mark.parametrize("how", ["fork", "no fork", "threads"])
+def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, monkeypatch, how):
     """``analyze`` has its figures drawn by a forked worker while the models fit
-    (:class:`analysis.worker.AnalysisWorker`) and, without ``fork``, in the process at write
-    time: either way the files are those ``plot_figure9`` / ``plot_confusion`` write (PNG to the
-    byte; the PDF but for its creation date); nothing is written before ``write``."""
+    (:class:`analysis.worker.AnalysisWorker`) and, without ``fork`` or while another thread
+    runs (a fork would copy its locks), in the process at write time: either way the files
+    are those ``plot_figure9`` / ``plot_confusion`` write (PNG to the byte; the PDF but for
+    its creation date); nothing is written before ``write``."""
     import multiprocessing
     import re
+    import threading
     from analysis import worker
     props, conf = tables
-    if not fork:
+    if how == "no fork":
         monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
+    stop = threading.Event()
+    if how == "threads":
+        threading.Thread(target=stop.wait, daemon=True).start()
+    # "fork": a worker unless an earlier test left a thread running
+    fork = how == "fork" and threading.active_count() == 1
     plot_figure9(props, tmp_path / "figure9.png")
     plot_confusion(conf, tmp_path / "confusion.png")
     out = tmp_path / "out"
@@ -71,6 +78,7 @@ def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, m
                for folder in (out, tmp_path)]
     assert undated[0] == undated[1] and undated[0].startswith(b"%PDF")
     assert sorted(p.name for p in out.iterdir()) == ["confusion.png", "figure9.pdf", "figure9.png"]
+    stop.set()
 
 
 def _exit_in_child(parent_pid: int) -> int:
@@ -80,12 +88,14 @@ def _exit_in_child(parent_pid: int) -> int:
     return 42
 
 
-def test_a_dead_worker_costs_time_not_results(tmp_path, tables):
+def test_a_dead_worker_costs_time_not_results(tmp_path, tables, monkeypatch):
     """If the worker process dies, what it was given is done in the process instead: the
     figures are still written and a submitted function still returns its value."""
     import os
+    from analysis import worker
     from analysis.worker import AnalysisWorker
     props, conf = tables
+    monkeypatch.setattr(worker, "can_fork", lambda: True)   # a worker even if a thread runs
     out = tmp_path / "out"
     out.mkdir()
     with AnalysisWorker(props, conf) as job:
