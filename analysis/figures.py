@@ -9,8 +9,8 @@ import pandas as pd
 from sessionfiles.atomicfile import output_path
 from stimuli.paper import SAMPLE_NAMES
 
-__all__ = ["plot_figure9", "plot_confusion", "figure9_panels", "plot_figure9_panels", "DODGE",
-           "Y_LIMITS"]
+__all__ = ["plot_figure9", "plot_confusion", "figure9", "confusion_figure", "figure9_panels",
+           "plot_figure9_panels", "DODGE", "Y_LIMITS"]
 
 #: Series of Figure 9: (group, mode) -> (label, colour, marker, line style).
 SERIES = {
@@ -56,6 +56,16 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
     """
     if interval not in ("boot", "wilson"):
         raise ValueError(f"plot_figure9: interval: expected 'boot' or 'wilson', got {interval!r}")
+    fig = figure9(proportions, interval=interval, title=title)
+    path = Path(path)
+    _save(fig, path)
+    _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
+    agg_pyplot().close(fig)
+    return path
+
+
+def figure9(proportions: pd.DataFrame, *, interval: str = "boot", title: str | None = None):
+    """Figure 9 as a matplotlib figure, laid out (:func:`plot_figure9` saves it)."""
     plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=150)
     offsets = DODGE
@@ -87,11 +97,15 @@ def plot_figure9(proportions: pd.DataFrame, path, *, interval: str = "boot",
                           f"≤ {people} participants, ≤ {trials} trials per point", fontsize=9)
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, frameon=False)
     fig.tight_layout()
-    path = Path(path)
-    _save(fig, path)
-    _save(fig, path.with_suffix(".pdf"))           # vector copy beside the PNG
-    plt.close(fig)
-    return path
+    _layout_done(fig)
+    return fig
+
+
+def _layout_done(fig) -> None:
+    """Keep the positions ``tight_layout`` set and drop the placeholder layout engine it leaves:
+    with an engine, every ``savefig`` first draws the whole figure once more to lay it out (two
+    draws per file); the placeholder's layout does nothing, so the files are the same."""
+    fig.set_layout_engine("none")
 
 
 def _save(fig, path: Path, **options) -> None:
@@ -187,6 +201,7 @@ def figure9_panels(predicted: pd.DataFrame, observed: pd.DataFrame, *, left_titl
                      family="DejaVu Sans Mono")
     else:
         fig.tight_layout(rect=(0, 0.06, 1, 1))
+    _layout_done(fig)
     return fig
 
 
@@ -218,6 +233,15 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
         The file written. Colours are the share of a stimulus's trials given
         each response (rows sum to 1); numbers are trial counts.
     """
+    fig = confusion_figure(confusion)
+    path = Path(path)
+    _save(fig, path)
+    agg_pyplot().close(fig)
+    return path
+
+
+def confusion_figure(confusion: pd.DataFrame):
+    """The confusion heatmaps as a matplotlib figure (:func:`plot_confusion` saves it)."""
     plt = agg_pyplot()
     panels = list(SERIES)
     fig, axes = plt.subplots(2, 2, figsize=(8, 7.2), dpi=120, squeeze=False)
@@ -248,7 +272,4 @@ def plot_confusion(confusion: pd.DataFrame, path) -> Path:
     if image is not None:
         fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.8,
                      label="share of the stimulus's trials")
-    path = Path(path)
-    _save(fig, path)
-    plt.close(fig)
-    return path
+    return fig

@@ -49,7 +49,8 @@ from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, logsumexp_rows
 from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
                      reference_df, reference_quantile)
 
-__all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich"]
+__all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich", "complete_profiles",
+           "profile_intervals"]
 
 _BOUND = 20.0
 
@@ -348,6 +349,12 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
             done[v] = (best.fun - dev_min - cut, best.x)
         return done[v][0]
 
+    def zeta(v):
+        # the signed root of the deviance's rise, less the cut-off's: the same sign and root as
+        # ``excess`` but nearly linear in ``v`` (lme4's profile zeta), so Brent's method needs
+        # fewer profile points (each an optimisation over every other parameter)
+        return np.sqrt(max(excess(v) + cut, 0.0)) - np.sqrt(cut)
+
     if which == 2:                      # phi: corr = sin(phi) in [-1, 1]
         ends = []
         for edge in (-np.pi / 2, np.pi / 2):
@@ -355,19 +362,45 @@ def _profile_sd(data, z, theta, dev_min, n_agq, level, df, which):
                 ends.append(np.sin(edge))
             else:
                 a, b = sorted((value_hat, edge))
-                ends.append(np.sin(optimize.brentq(excess, a, b, xtol=1e-4)))
+                ends.append(np.sin(optimize.brentq(zeta, a, b, xtol=1e-4)))
         return ends[0], ends[1]
     if value_hat <= 1e-6 or excess(0.0) <= 0:
         low = 0.0
     else:
-        low = optimize.brentq(excess, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
-    high = profile_upper(excess, value_hat, max(2 * value_hat, 0.5), _BOUND)
+        low = optimize.brentq(zeta, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
+    high = profile_upper(zeta, value_hat, max(2 * value_hat, 0.5), _BOUND)
     return low, high
+
+
+_PROFILED = ("sd_intercept", "sd_mode_slope", "corr_intercept_slope")
+
+
+def profile_intervals(data, z, theta, dev_min, n_agq, level, cut_df) -> list:
+    """The three profile intervals (:func:`_profile_sd`), ``[(low, high)] * 3`` in the order of
+    ``sd_intercept``, ``sd_mode_slope``, ``corr_intercept_slope``."""
+    with threadpool_limits(1), np.errstate(all="ignore"):
+        return [_profile_sd(data, z, theta, dev_min, n_agq, level, cut_df, which)
+                for which in range(3)]
+
+
+def _fill_profiles(table: pd.DataFrame, ends: list) -> None:
+    for term, (low, high) in zip(_PROFILED, ends):
+        row = table.index[table["term"] == term][0]
+        table.loc[row, ["ci_low", "ci_high"]] = [low, high]
+
+
+def complete_profiles(fit: ModelFit) -> ModelFit:
+    """Wait for a random-slope fit's profile intervals computed elsewhere (``fit_glmm_slope``'s
+    ``submit``) and write them into its table; a complete fit is returned as it is."""
+    if fit.pending is not None:
+        _fill_profiles(fit.table, fit.pending.result())
+        fit.pending = None
+    return fit
 
 
 def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
                    n_agq: int = 5, intercept_fit: ModelFit | None = None,
-                   profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
+                   profile: bool = True, sd_cutoff: str = "F", submit=None) -> ModelFit:
     """Mixed logit with participant random intercepts and random mode slopes (ML).
 
     Parameters
@@ -390,6 +423,11 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     sd_cutoff : {"F", "chi2"}
         The profile cut-off: F(1, m - 2) (default) or chi2_1 (lme4's
         ``confint(method = "profile")``, used by the cross-check).
+    submit : callable, optional
+        ``submit(function, *args)`` returning an object with ``result()`` (a future) or None
+        (:meth:`analysis.worker.AnalysisWorker.submit`): the profile intervals are then computed
+        there while the caller goes on, the fit's ``pending`` holds the future, and
+        :func:`complete_profiles` fills them in (the same numbers; None: computed here).
 
     Returns
     -------
@@ -405,12 +443,12 @@ def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float
     with threadpool_limits(1):
         return _fit_glmm_slope_impl(trials, formula, level=level, n_agq=n_agq,
                                     intercept_fit=intercept_fit, profile=profile,
-                                    sd_cutoff=sd_cutoff)
+                                    sd_cutoff=sd_cutoff, submit=submit)
 
 
 def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
                          n_agq: int = 5, intercept_fit: ModelFit | None = None,
-                         profile: bool = True, sd_cutoff: str = "F") -> ModelFit:
+                         profile: bool = True, sd_cutoff: str = "F", submit=None) -> ModelFit:
     """See the public function."""
 
     data_t = model_data(trials)
@@ -427,71 +465,101 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
             continue
         y, x, data, z = slope_data(candidate, data_t)
         p = x.shape[1]
-        start = np.zeros(p + 3)
-        ybar = np.clip(y.mean(), 0.02, 0.98)
-        start[0] = np.log(ybar / (1 - ybar))
-        start[-3:] = (0.5, 0.0, 0.3)
-        bounds = [(None, None)] * p + [(0.0, _BOUND), (-_BOUND, _BOUND), (0.0, _BOUND)]
-        with np.errstate(all="ignore"):
-            res = optimize.minimize(_objective(data, z, n_agq), start, jac=True,
-                                    method="L-BFGS-B", bounds=bounds,
-                                    options={"maxiter": 1000, "ftol": 1e-13, "gtol": 1e-7})
-            if not res.success:
-                first = res
-                res = optimize.minimize(_objective(data, z, 1 if n_agq < 5 else n_agq), res.x,
-                                        jac=True, method="L-BFGS-B", bounds=bounds,
-                                        options={"maxiter": 1000, "ftol": 1e-13, "gtol": 1e-6})
-                res.nit += first.nit
-            theta = res.x.copy()
-            hess = _hessian(theta, data, z, n_agq)
+        res, theta, hess = _optimise(y, p, data, z, n_agq)
         cov_full, beta, cov, se, why = ml_wald(theta, hess, p, res)
         if not accept_candidate("GLMM slope", candidate, formula, why, notes):
             continue
-        try:
-            with np.errstate(all="ignore"):
-                cov_robust, by_group = participant_sandwich(theta, data, z, n_agq,
-                                                            _person_groups(data_t))
-            if not np.all(np.isfinite(cov_robust)):
-                raise np.linalg.LinAlgError("non-finite")
-        except np.linalg.LinAlgError:
-            cov_robust = by_group = None
-            notes.append("GLMM slope: the participant sandwich could not be computed (singular "
-                         "leverage); mode contrasts use the model-based SE alone")
-        lam = _lambda(theta[-3:])
-        sigma = lam @ lam.T
-        sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])
-        corr = sigma[0, 1] / (sd0 * sd1) if sd0 > 0 and sd1 > 0 else np.nan
+        cov_robust, by_group = _sandwich(theta, data, z, n_agq, data_t, notes)
         table = wald_table(x.columns, beta, se, df, zq)
-        how = "point estimate"
         cut_df = df if sd_cutoff == "F" else None
+        _sd_rows(table, theta, profile, cut_df)
+        pending = None
         if profile:
-            how = (f"profile likelihood, F(1, {cut_df:g}) cut-off" if cut_df
-                   else "profile likelihood, chi2(1) cut-off")
-        for which, (term, value) in enumerate((("sd_intercept", sd0), ("sd_mode_slope", sd1),
-                                               ("corr_intercept_slope", corr))):
-            low = high = np.nan
-            if profile:
-                with np.errstate(all="ignore"):
-                    low, high = _profile_sd(data, z, theta, res.fun, n_agq, level, cut_df, which)
-            table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, low, high, how, ""]
+            args = (data, z, theta, res.fun, n_agq, level, cut_df)
+            pending = submit(profile_intervals, *args) if submit is not None else None
+            if pending is None:
+                _fill_profiles(table, profile_intervals(*args))
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
-            lrt = max(0.0, 2 * (loglik - intercept_fit.convergence["log_likelihood"]))
-            pv = 0.5 * stats.chi2.sf(lrt, 1) + 0.5 * stats.chi2.sf(lrt, 2)
-            table.loc[len(table)] = ["lrt_slope", lrt, np.nan, np.nan, pv, np.nan, np.nan,
-                                     "LR test vs intercept only, 50:50 chi2(1)/chi2(2)",
-                                     "LR, 50:50 chi2(1)/chi2(2) mixture"]
-        conv = {"method": f"ML, adaptive Gauss-Hermite ({n_agq}x{n_agq} nodes), scipy L-BFGS-B",
-                "optimiser_success": bool(res.success), "optimiser_status": int(res.status),
-                "optimiser_message": str(res.message), "iterations": int(res.nit),
-                "function_evaluations": int(res.nfev), "log_likelihood": loglik,
-                "theta": theta[-3:].tolist(),
-                "hessian_positive_definite": bool(np.all(np.linalg.eigvalsh(hess) > 0))}
+            _lrt_row(table, loglik, intercept_fit.convergence["log_likelihood"])
         return ModelFit(kind="glmm-slope", formula=candidate, requested=formula,
                         table=table[columns], notes=notes, params=beta, cov=cov,
-                        design_info=x.design_info, df=df, convergence=conv, theta=theta,
+                        design_info=x.design_info, df=df,
+                        convergence=_convergence(res, theta, hess, n_agq, loglik), theta=theta,
                         cov_full=cov_full, cov_robust=cov_robust,
-                        cov_by_group=by_group if by_group and len(by_group) == 2 else None)
+                        cov_by_group=by_group if by_group and len(by_group) == 2 else None,
+                        pending=pending)
     notes.append("GLMM slope: no formula could be fitted")
     return ModelFit(kind="glmm-slope", formula=None, requested=formula,
                     table=pd.DataFrame(columns=columns), notes=notes)
+
+
+def _optimise(y, p: int, data, z, n_agq: int):
+    """The ML fit by L-BFGS-B (again from its end point if it stopped short): the optimiser's
+    result, the estimate and the Hessian of the deviance there."""
+    start = np.zeros(p + 3)
+    ybar = np.clip(y.mean(), 0.02, 0.98)
+    start[0] = np.log(ybar / (1 - ybar))
+    start[-3:] = (0.5, 0.0, 0.3)
+    bounds = [(None, None)] * p + [(0.0, _BOUND), (-_BOUND, _BOUND), (0.0, _BOUND)]
+    with np.errstate(all="ignore"):
+        res = optimize.minimize(_objective(data, z, n_agq), start, jac=True,
+                                method="L-BFGS-B", bounds=bounds,
+                                options={"maxiter": 1000, "ftol": 1e-13, "gtol": 1e-7})
+        if not res.success:
+            first = res
+            res = optimize.minimize(_objective(data, z, 1 if n_agq < 5 else n_agq), res.x,
+                                    jac=True, method="L-BFGS-B", bounds=bounds,
+                                    options={"maxiter": 1000, "ftol": 1e-13, "gtol": 1e-6})
+            res.nit += first.nit
+        theta = res.x.copy()
+        hess = _hessian(theta, data, z, n_agq)
+    return res, theta, hess
+
+
+def _sandwich(theta, data, z, n_agq: int, data_t: pd.DataFrame, notes: list):
+    """:func:`participant_sandwich` split by group, or ``(None, None)`` with a note."""
+    try:
+        with np.errstate(all="ignore"):
+            cov_robust, by_group = participant_sandwich(theta, data, z, n_agq,
+                                                        _person_groups(data_t))
+        if not np.all(np.isfinite(cov_robust)):
+            raise np.linalg.LinAlgError("non-finite")
+    except np.linalg.LinAlgError:
+        notes.append("GLMM slope: the participant sandwich could not be computed (singular "
+                     "leverage); mode contrasts use the model-based SE alone")
+        return None, None
+    return cov_robust, by_group
+
+
+def _sd_rows(table: pd.DataFrame, theta, profile: bool, cut_df) -> None:
+    """Append the two SDs and their correlation (intervals blank: :func:`_fill_profiles`)."""
+    lam = _lambda(theta[-3:])
+    sigma = lam @ lam.T
+    sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])
+    corr = sigma[0, 1] / (sd0 * sd1) if sd0 > 0 and sd1 > 0 else np.nan
+    how = "point estimate"
+    if profile:
+        how = (f"profile likelihood, F(1, {cut_df:g}) cut-off" if cut_df
+               else "profile likelihood, chi2(1) cut-off")
+    for term, value in zip(_PROFILED, (sd0, sd1, corr)):
+        table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, np.nan, np.nan, how, ""]
+
+
+def _lrt_row(table: pd.DataFrame, loglik: float, intercept_loglik: float) -> None:
+    """Append the likelihood-ratio test of the random slope (50:50 chi2(1)/chi2(2) mixture)."""
+    lrt = max(0.0, 2 * (loglik - intercept_loglik))
+    pv = 0.5 * stats.chi2.sf(lrt, 1) + 0.5 * stats.chi2.sf(lrt, 2)
+    table.loc[len(table)] = ["lrt_slope", lrt, np.nan, np.nan, pv, np.nan, np.nan,
+                             "LR test vs intercept only, 50:50 chi2(1)/chi2(2)",
+                             "LR, 50:50 chi2(1)/chi2(2) mixture"]
+
+
+def _convergence(res, theta, hess, n_agq: int, loglik: float) -> dict:
+    """The optimiser's report (``glmm_convergence.json``'s ``random_slope_model``)."""
+    return {"method": f"ML, adaptive Gauss-Hermite ({n_agq}x{n_agq} nodes), scipy L-BFGS-B",
+            "optimiser_success": bool(res.success), "optimiser_status": int(res.status),
+            "optimiser_message": str(res.message), "iterations": int(res.nit),
+            "function_evaluations": int(res.nfev), "log_likelihood": loglik,
+            "theta": theta[-3:].tolist(),
+            "hessian_positive_definite": bool(np.all(np.linalg.eigvalsh(hess) > 0))}

@@ -55,6 +55,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from sessionfiles.columns import ANALYSIS_ORDER, QUIET_COLUMNS
@@ -376,11 +377,24 @@ def check_session_rows(rows: pd.DataFrame, path: Path, read: SessionFolder) -> N
 def _check_domain(rows: pd.DataFrame, path: Path, samples) -> None:
     """Refuse the first row outside the trial table's domain (one line: file, column, line)."""
     columns = [c for c in rows.columns if c != "line"]
-    for record, line in zip(rows[columns].to_dict("records"), rows["line"]):
+    for record, line in zip(_records(rows, columns), rows["line"]):
         problem = row_problem(record, samples)
         if problem:
             column, expected, value = problem
             raise LogError(f"{path}: {column}: {expected} (line {line}), got {value!r}")
+
+
+def _records(rows: pd.DataFrame, columns: list) -> list[dict]:
+    """``rows[columns].to_dict("records")``, the same Python values (NumPy scalars boxed as
+    Python's), column by column: pandas' row-wise ``to_dict`` over Arrow-backed text columns
+    took most of the loader's time."""
+    def values(series: pd.Series) -> list:
+        out = series.tolist()
+        if series.dtype == object:
+            out = [v.item() if isinstance(v, np.generic) else v for v in out]
+        return out
+    lists = [values(rows[c]) for c in columns]
+    return [dict(zip(columns, row)) for row in zip(*lists)]
 
 
 def _check_identity(rows: pd.DataFrame, path: Path, read: SessionFolder) -> None:
@@ -447,40 +461,7 @@ def load_trials(data_dir, sessions: str = "first", condition: str | None = None)
         raise LogError(f"{root}: trials.csv: expected session folders holding trials.csv or "
                        f"events.jsonl, got none")
     messages: list = []
-    parts, sessions, skipped = [], [], []
-    not_read = [{"path": str(path), "reason": reason} for path, reason in found.skipped]
-    for path, reason in found.skipped:
-        _warn(messages, f"{path}: {reason}")
-    for sf in found.folders:
-        folder = sf.path
-        for text in sf.notes:
-            _warn(messages, text)
-        meta = sf.meta or {}
-        reason = not_recognition_reason(meta)
-        if reason:
-            _warn(messages, f"{folder / 'session.json'}: protocol: {reason}; session {folder} "
-                            f"skipped")
-            context = _session_context(meta)
-            skipped.append({"participant": sf.participant,
-                            "group": str(context.get("group", "")),
-                            "session": sf.session,
-                            "path": str(folder), "source": "session.json", "n_rows": 0,
-                            "skipped": reason, **session_state(folder, meta),
-                            **session_condition(meta)})
-            continue
-        rows, source = load_session(folder, messages, read=sf, check=False)
-        if rows.empty:
-            not_read.append({"path": str(folder), "reason": "no trial rows (no trials.csv, no "
-                                                            "finished trial in events.jsonl)"})
-            continue
-        roles = block_roles(meta)
-        if roles:
-            blocks = rows["block"].astype(str)
-            rows["_scored"] = blocks.map(lambda b: roles[b]["scored"] if b in roles else None)
-            rows["_answered"] = blocks.map(lambda b: roles[b]["response"] if b in roles else None)
-        parts.append((rows, sf))
-        sessions.append({"path": str(folder), "source": source, "n_rows": len(rows),
-                         **session_state(folder, meta), **session_condition(meta)})
+    parts, sessions, skipped, not_read = _read_sessions(found, messages)
     if not parts:
         also = f" ({len(skipped)} skipped for their protocol)" if skipped else ""
         raise LogError(f"{root}: trials.csv: expected at least one session with trial rows, got "
@@ -489,19 +470,7 @@ def load_trials(data_dir, sessions: str = "first", condition: str | None = None)
         check_session_rows(rows, Path(rows["source"].iloc[0]), sf)
     raw = pd.concat([rows for rows, _ in parts], ignore_index=True)
     trials = validate_rows(raw)
-    first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()
-    sessions = pd.DataFrame(sessions)
-    sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
-    sessions = sessions.join(first, on="file").drop(columns="file")
-    state = ["complete", "n_done", "n_planned", "created_at"]
-    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows", *state,
-                         *CONDITION_COLUMNS]].copy()
-    sessions["skipped"] = ""
-    if skipped:
-        sessions = pd.concat([sessions, pd.DataFrame(skipped)], ignore_index=True)
-        sessions = sessions.sort_values("path", ignore_index=True)
-    sessions, chosen = choose_condition(sessions, condition)
-    sessions = apply_policy(sessions, policy).drop(columns="created_at")
+    sessions, chosen = _sessions_table(trials, sessions, skipped, condition, policy)
     trials = _drop_duplicates(trials, messages)
     for column in ("participant", "group"):
         per = trials.groupby("participant")["group"].nunique() if column == "group" else None
@@ -530,6 +499,65 @@ def load_trials(data_dir, sessions: str = "first", condition: str | None = None)
     return TrialLog(trials=trials, sessions=pd.DataFrame(sessions), warnings=messages, policy=policy,
                     not_read=pd.DataFrame(not_read, columns=["path", "reason"]),
                     condition=chosen)
+
+
+def _read_sessions(found, messages: list):
+    """Step 1 of :func:`load_trials`: each folder's trial rows (with the folder as read), the
+    sessions' rows, the sessions skipped for their protocol, and the folders not read."""
+    parts, sessions, skipped = [], [], []
+    not_read = [{"path": str(path), "reason": reason} for path, reason in found.skipped]
+    for path, reason in found.skipped:
+        _warn(messages, f"{path}: {reason}")
+    for sf in found.folders:
+        folder = sf.path
+        for text in sf.notes:
+            _warn(messages, text)
+        meta = sf.meta or {}
+        reason = not_recognition_reason(meta)
+        if reason:
+            _warn(messages, f"{folder / 'session.json'}: protocol: {reason}; session {folder} "
+                            f"skipped")
+            context = _session_context(meta)
+            skipped.append({"participant": sf.participant,
+                            "group": str(context.get("group", "")),
+                            "session": sf.session,
+                            "path": str(folder), "source": "session.json", "n_rows": 0,
+                            "skipped": reason, **session_state(folder, meta, sf),
+                            **session_condition(meta)})
+            continue
+        rows, source = load_session(folder, messages, read=sf, check=False)
+        if rows.empty:
+            not_read.append({"path": str(folder), "reason": "no trial rows (no trials.csv, no "
+                                                            "finished trial in events.jsonl)"})
+            continue
+        roles = block_roles(meta)
+        if roles:
+            blocks = rows["block"].astype(str)
+            rows["_scored"] = blocks.map(lambda b: roles[b]["scored"] if b in roles else None)
+            rows["_answered"] = blocks.map(lambda b: roles[b]["response"] if b in roles else None)
+        parts.append((rows, sf))
+        sessions.append({"path": str(folder), "source": source, "n_rows": len(rows),
+                         **session_state(folder, meta, sf), **session_condition(meta)})
+    return parts, sessions, skipped, not_read
+
+
+def _sessions_table(trials: pd.DataFrame, sessions: list, skipped: list, condition, policy):
+    """Step 2 of :func:`load_trials`: ``sessions.csv``'s table (identity from the rows, the
+    skipped sessions, the condition chosen, the inclusion policy applied) and the condition."""
+    first = trials.groupby("source", sort=False)[["participant", "group", "session"]].first()
+    sessions = pd.DataFrame(sessions)
+    sessions["file"] = [str(Path(p) / s) for p, s in zip(sessions["path"], sessions["source"])]
+    sessions = sessions.join(first, on="file").drop(columns="file")
+    state = ["complete", "n_done", "n_planned", "created_at"]
+    sessions = sessions[["participant", "group", "session", "path", "source", "n_rows", *state,
+                         *CONDITION_COLUMNS]].copy()
+    sessions["skipped"] = ""
+    if skipped:
+        sessions = pd.concat([sessions, pd.DataFrame(skipped)], ignore_index=True)
+        sessions = sessions.sort_values("path", ignore_index=True)
+    sessions, chosen = choose_condition(sessions, condition)
+    sessions = apply_policy(sessions, policy).drop(columns="created_at")
+    return sessions, chosen
 
 
 def _same(a, b) -> bool:

@@ -103,6 +103,9 @@ class ModelFit:
     cov_robust: np.ndarray | None = None
     #: The GEE's sandwich split by group, ``{g: (W_g, m_g)}`` (:mod:`analysis.small_sample`).
     cov_by_group: dict | None = None
+    #: Table rows still being computed elsewhere (a future; the random-slope model's profile
+    #: intervals, :func:`analysis.glmm_slope.complete_profiles` fills them in); None: complete.
+    pending: object = None
 
     def quantile(self, level: float) -> float:
         """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""

@@ -431,32 +431,8 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
         An unknown ``test`` or ``cells_scale``, a size below 2, a rate outside [0, 1).
     """
     table = cells_frame(cells)
-    if test not in TESTS:
-        raise ValueError(f"power_curve: test: expected {' or '.join(map(repr, TESTS))}, "
-                         f"got {test!r}")
-    if cells_scale not in ("conditional", "marginal"):
-        raise ValueError(f"power_curve: cells_scale: expected 'conditional' or 'marginal', "
-                         f"got {cells_scale!r}")
-    if not 0 <= missing_rate < 1:
-        raise ValueError(f"power_curve: missing_rate: expected 0 <= rate < 1, got {missing_rate!r}")
-    sel = table[table["mode"] == mode]
-    pa = sel[sel["group"] == "A"].set_index("roughness_id")["p_correct"]
-    pb = sel[sel["group"] == "B"].set_index("roughness_id")["p_correct"]
-    if pa.empty or pb.empty or set(pa.index) != set(pb.index):
-        raise LogError(f"cells: group: expected probabilities for groups A and B on the same samples "
-                       f"in mode {mode!r}, got A {sorted(pa.index)!r}, B {sorted(pb.index)!r}")
-    ids = sorted(pa.index)
-    if test == "gee":
-        full = table.set_index(["group", "mode", "roughness_id"])["p_correct"]
-        keys = [k for k in full.index if k[2] in ids]
-        missing_cells = [(g, m, r) for g in ("A", "B") for m in sorted(table["mode"].unique())
-                         for r in ids if (g, m, r) not in full.index]
-        if missing_cells:
-            raise LogError(f"cells: group: expected every group x mode x sample, got none for "
-                           f"{missing_cells[0]!r}")
-    else:
-        keys = [(g, mode, r) for g in ("A", "B") for r in ids]
-        full = table.set_index(["group", "mode", "roughness_id"])["p_correct"]
+    _check_arguments(test, cells_scale, missing_rate)
+    ids, keys, full = _cell_keys(table, test, mode)
     p = np.clip(np.array([full[k] for k in keys], float), 1e-6, 1 - 1e-6)
     q = to_conditional(p, participant_sd) if cells_scale == "marginal" else p
     z, w = np.polynomial.hermite_e.hermegauss(60)
@@ -481,6 +457,61 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
             weights.append(count)
     results = (map_tasks or _local_map(progress))(cohort_task, tasks, what="cohorts",
                                                   weights=weights)
+    common = {"expected_difference_A_minus_B": expected, "test": test, "mode": mode,
+              "participant_sd": participant_sd, "alpha": alpha, "missing_rate": missing_rate,
+              "cells_scale": cells_scale}
+    out = pd.DataFrame(_tally(sizes, results, owner, simulations, common))
+    settings = {"mode": mode, "test": test, "alpha": alpha, "participant_sd": participant_sd,
+                "repetitions": repetitions, "seed": seed, "samples": ids,
+                "missing_rate": missing_rate, "cells_scale": cells_scale,
+                "simulations": simulations,
+                "test_description": ("GEE correct ~ group * mode * C(roughness_id) (report's "
+                                     "fallbacks), Wald t(participants - 2) of the A-B log odds ratio averaged over "
+                                     "samples" if test == "gee" else
+                                     "Welch t on per-participant proportions (approximation)"),
+                "n_for_80": n_for_power(out, 0.8), "n_for_90": n_for_power(out, 0.9)}
+    return PowerResult(out, table, settings)
+
+
+def _check_arguments(test: str, cells_scale: str, missing_rate: float) -> None:
+    """:func:`power_curve`'s arguments in their domains (ValueError naming the argument)."""
+    if test not in TESTS:
+        raise ValueError(f"power_curve: test: expected {' or '.join(map(repr, TESTS))}, "
+                         f"got {test!r}")
+    if cells_scale not in ("conditional", "marginal"):
+        raise ValueError(f"power_curve: cells_scale: expected 'conditional' or 'marginal', "
+                         f"got {cells_scale!r}")
+    if not 0 <= missing_rate < 1:
+        raise ValueError(f"power_curve: missing_rate: expected 0 <= rate < 1, got {missing_rate!r}")
+
+
+def _cell_keys(table: pd.DataFrame, test: str, mode: str):
+    """The samples (``ids``), the simulated cells' ``(group, mode, roughness_id)`` keys and the
+    cells' probabilities by key; LogError when a group or cell the test needs is missing."""
+    sel = table[table["mode"] == mode]
+    pa = sel[sel["group"] == "A"].set_index("roughness_id")["p_correct"]
+    pb = sel[sel["group"] == "B"].set_index("roughness_id")["p_correct"]
+    if pa.empty or pb.empty or set(pa.index) != set(pb.index):
+        raise LogError(f"cells: group: expected probabilities for groups A and B on the same samples "
+                       f"in mode {mode!r}, got A {sorted(pa.index)!r}, B {sorted(pb.index)!r}")
+    ids = sorted(pa.index)
+    if test == "gee":
+        full = table.set_index(["group", "mode", "roughness_id"])["p_correct"]
+        keys = [k for k in full.index if k[2] in ids]
+        missing_cells = [(g, m, r) for g in ("A", "B") for m in sorted(table["mode"].unique())
+                         for r in ids if (g, m, r) not in full.index]
+        if missing_cells:
+            raise LogError(f"cells: group: expected every group x mode x sample, got none for "
+                           f"{missing_cells[0]!r}")
+    else:
+        keys = [(g, mode, r) for g in ("A", "B") for r in ids]
+        full = table.set_index(["group", "mode", "roughness_id"])["p_correct"]
+    return ids, keys, full
+
+
+def _tally(sizes: list, results: list, owner: list, simulations: int, common: dict) -> list:
+    """One row per size from its tasks' results (power, Wilson interval, fallbacks, the mean
+    difference), with ``common``'s columns."""
     rows = []
     for si, (n_a, n_b) in enumerate(sizes):
         parts = [r for r, o in zip(results, owner) if o == si]
@@ -495,21 +526,8 @@ def power_curve(cells, n_per_group=(5, 10, 15, 20, 30, 40, 60), *, simulations: 
                      "power_low": float(low), "power_high": float(high),
                      "power_right_sign": float((reject & sign).mean()),
                      "fallbacks": float(np.mean(fallback)),
-                     "mean_difference_A_minus_B": float(np.nanmean(diffs)),
-                     "expected_difference_A_minus_B": expected, "test": test, "mode": mode,
-                     "participant_sd": participant_sd, "alpha": alpha,
-                     "missing_rate": missing_rate, "cells_scale": cells_scale})
-    out = pd.DataFrame(rows)
-    settings = {"mode": mode, "test": test, "alpha": alpha, "participant_sd": participant_sd,
-                "repetitions": repetitions, "seed": seed, "samples": ids,
-                "missing_rate": missing_rate, "cells_scale": cells_scale,
-                "simulations": simulations,
-                "test_description": ("GEE correct ~ group * mode * C(roughness_id) (report's "
-                                     "fallbacks), Wald t(participants - 2) of the A-B log odds ratio averaged over "
-                                     "samples" if test == "gee" else
-                                     "Welch t on per-participant proportions (approximation)"),
-                "n_for_80": n_for_power(out, 0.8), "n_for_90": n_for_power(out, 0.9)}
-    return PowerResult(out, table, settings)
+                     "mean_difference_A_minus_B": float(np.nanmean(diffs)), **common})
+    return rows
 
 
 def n_for_power(table: pd.DataFrame, target: float) -> float | None:

@@ -16,13 +16,13 @@ from sessionfiles.atomicfile import output_file
 from .agreement_participants import agreement_comparison, participant_agreement
 from .confusion import confusion_matrices
 from .errors import LogError
-from .figures import plot_confusion, plot_figure9
+from .worker import AnalysisWorker
 from .load import TrialLog, load_trials
 from .exports import (cell_counts, check_codebook, codebook, run_settings, wide_table,
                       write_csv)
 from .glmm import fit_glmm
 from .fidelity import equivalence_margin, fidelity_paragraph, mode_contrasts
-from .glmm_slope import fit_glmm_slope
+from .glmm_slope import complete_profiles, fit_glmm_slope
 from .mixed_choice import choose_mixed
 from .inference import (averaged_contrast, chance_tests, holm, interaction_test,
                         omnibus_group_test, primary_test)
@@ -319,48 +319,51 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
     participants = participant_summary(trials)
     confusion = confusion_matrices(trials)
-    fits = _fit_models(trials, level=level, seed=seed, mixed=mixed, bayes=bayes, say=say)
-    contrasts = _contrasts(fits, trials, level)
-    say("tests: primary, omnibus, Holm, interaction, real vs simulated, chance; missing data; "
-        "psychophysics")
-    choice = choose_mixed(fits.glmm if mixed else None, fits.slope if mixed else None)
-    tests = tests_table(fits.gee, choice.contrasts, contrasts, trials, level, choice.reason)
-    missing_rows = missing_trials(log.trials, log.sessions)
-    missing = missing_summary(log.trials, log.sessions, missing_rows)
-    sensitivity = complete_cases_row(trials, missing, level)
-    if sensitivity is not None:
-        tests = pd.concat([tests, pd.DataFrame([sensitivity], columns=TESTS_COLUMNS)],
-                          ignore_index=True)
-    fidelity = _fidelity(fits.gee, choice, trials, margin_pp, level)
-    _holm_per_model(contrasts)
-    chance = chance_tests(trials, level=level)
-    extras = _extras(trials, log, level)
-    summary = plain_summary(log, proportions, confusion, fits.gee, fits.bayes, contrasts,
-                            fits.glmm, tests,
-                            fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
-                            choice=choice)
-    say(f"writing figures and tables to {out}")
-    if before_write is not None:
-        before_write()
-    tables = {"proportions": proportions, "participants": participants, "confusion": confusion,
-              "gee": fits.gee.table, "glmm": fits.glmm.table, "glmm_slope": fits.slope.table,
-              "contrasts": contrasts, "tests": tests, "fidelity": fidelity, "chance": chance,
-              "missing": missing, "missing_trials": missing_rows, **extras}
-    files, book = _write_outputs(out, log, trials, proportions, confusion, tables, fits, bayes)
-    files["settings"] = out / "settings.json"
-    _write_text(files["settings"], json.dumps(_settings(
-        data_dir, out, n_boot, level, seed, mixed, bayes, fits, choice, margin_pp,
-        margin_source, book), indent=2))
-    result = AnalysisResult(log=log, proportions=proportions, participants=participants,
-                            confusion=confusion, gee=fits.gee, bayes=fits.bayes,
-                            contrasts=contrasts, summary=summary, files=files, glmm=fits.glmm,
-                            tests=tests, chance=chance, missing=missing, extras=extras,
-                            glmm_slope=fits.slope, fidelity=fidelity,
-                            equivalence_margin_pp=margin_pp,
-                            equivalence_margin_source=margin_source, mixed_choice=choice)
-    files["report"] = out / "report.md"
-    _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
-    return result
+    with AnalysisWorker(proportions, confusion) as worker:   # figures drawn while models fit
+        fits = _fit_models(trials, level=level, seed=seed, mixed=mixed, bayes=bayes, say=say,
+                           submit=worker.submit)
+        contrasts = _contrasts(fits, trials, level)
+        say("tests: primary, omnibus, Holm, interaction, real vs simulated, chance; missing data; "
+            "psychophysics")
+        choice = choose_mixed(fits.glmm if mixed else None, fits.slope if mixed else None)
+        tests = tests_table(fits.gee, choice.contrasts, contrasts, trials, level, choice.reason)
+        missing_rows = missing_trials(log.trials, log.sessions)
+        missing = missing_summary(log.trials, log.sessions, missing_rows)
+        sensitivity = complete_cases_row(trials, missing, level)
+        if sensitivity is not None:
+            tests = pd.concat([tests, pd.DataFrame([sensitivity], columns=TESTS_COLUMNS)],
+                              ignore_index=True)
+        fidelity = _fidelity(fits.gee, choice, trials, margin_pp, level)
+        _holm_per_model(contrasts)
+        chance = chance_tests(trials, level=level)
+        extras = _extras(trials, log, level)
+        complete_profiles(fits.slope)          # the slope's profile intervals, from the worker
+        summary = plain_summary(log, proportions, confusion, fits.gee, fits.bayes, contrasts,
+                                fits.glmm, tests,
+                                fidelity=fidelity_paragraph(fidelity, margin_pp, margin_source),
+                                choice=choice)
+        say(f"writing figures and tables to {out}")
+        if before_write is not None:
+            before_write()
+        tables = {"proportions": proportions, "participants": participants, "confusion": confusion,
+                  "gee": fits.gee.table, "glmm": fits.glmm.table, "glmm_slope": fits.slope.table,
+                  "contrasts": contrasts, "tests": tests, "fidelity": fidelity, "chance": chance,
+                  "missing": missing, "missing_trials": missing_rows, **extras}
+        files, book = _write_outputs(out, log, trials, worker, tables, fits, bayes)
+        files["settings"] = out / "settings.json"
+        _write_text(files["settings"], json.dumps(_settings(
+            data_dir, out, n_boot, level, seed, mixed, bayes, fits, choice, margin_pp,
+            margin_source, book), indent=2))
+        result = AnalysisResult(log=log, proportions=proportions, participants=participants,
+                                confusion=confusion, gee=fits.gee, bayes=fits.bayes,
+                                contrasts=contrasts, summary=summary, files=files, glmm=fits.glmm,
+                                tests=tests, chance=chance, missing=missing, extras=extras,
+                                glmm_slope=fits.slope, fidelity=fidelity,
+                                equivalence_margin_pp=margin_pp,
+                                equivalence_margin_source=margin_source, mixed_choice=choice)
+        files["report"] = out / "report.md"
+        _write_text(files["report"], report_markdown(result, data_dir, n_boot, level, seed))
+        return result
 
 
 @dataclass
@@ -386,7 +389,7 @@ def _load(data_dir, sessions, condition, margin_pp, say):
     return log, trials, margin_pp, margin_source
 
 
-def _fit_models(trials, *, level, seed, mixed, bayes, say) -> _Fits:
+def _fit_models(trials, *, level, seed, mixed, bayes, say, submit=None) -> _Fits:
     """Step 2: each model fitted once (the later steps reuse these fits)."""
     say("fitting the GEE (bias-reduced covariance)")
     with warnings.catch_warnings():
@@ -397,7 +400,7 @@ def _fit_models(trials, *, level, seed, mixed, bayes, say) -> _Fits:
             glmm = fit_glmm(trials, level=level)
             say("fitting the mixed logit with a random slope for mode (5x5 nodes)")
             slope = fit_glmm_slope(trials, glmm.formula or FORMULA, level=level,
-                                   intercept_fit=glmm)
+                                   intercept_fit=glmm, submit=submit)
         else:
             glmm = ModelFit(kind="glmm", formula=None, requested=FORMULA, table=pd.DataFrame(),
                             notes=["GLMM: not requested"])
@@ -467,12 +470,11 @@ def _extras(trials, log: TrialLog, level) -> dict:
                                                                     "path"])}
 
 
-def _write_outputs(out: Path, log: TrialLog, trials, proportions, confusion, tables: dict,
+def _write_outputs(out: Path, log: TrialLog, trials, worker: AnalysisWorker, tables: dict,
                    fits: _Fits, bayes: bool) -> tuple[dict, dict]:
     """Step 7: the figures, every CSV (``tables`` by name, then the exports), the convergence
     details and the codebook; returns the files written, by name, and the codebook."""
-    files = {"figure9": plot_figure9(proportions, out / "figure9.png"),
-             "confusion_png": plot_confusion(confusion, out / "confusion.png")}
+    files = worker.write(out)
     for name, table in tables.items():
         files[name] = _write_csv(table, out / f"{name}.csv")
     files.update({

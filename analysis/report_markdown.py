@@ -265,6 +265,11 @@ def _unmeasured_dropped(table: pd.DataFrame) -> pd.DataFrame:
 
 def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
     """The report's statistics sections (models, named tests, chance, psychophysics)."""
+    return _model_sections(r, pct) + _test_sections(r) + _psychophysics_section(r)
+
+
+def _model_sections(r: AnalysisResult, pct: str) -> list[str]:
+    """The mixed logits (intercepts; random slope) and the variational Bayes comparison."""
     parts = []
     if r.glmm is not None and r.glmm.formula is not None:
         conv = r.glmm.convergence
@@ -313,6 +318,12 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
                   _md_table(r.bayes.table.drop(columns=[c for c in ("cri_low", "cri_high")
                                                         if c in r.bayes.table])),
                   "Its credible intervals are in `bayes.csv` only.", ""]
+    return parts
+
+
+def _test_sections(r: AnalysisResult) -> list[str]:
+    """The named tests, the group contrasts and the tests against chance."""
+    parts = []
     t = r.tests
     if not t.empty:
         show = t.drop(columns=["basis"])
@@ -343,6 +354,12 @@ def _statistics_sections(r: AnalysisResult, pct: str) -> list[str]:
                   "One-sample t-test of the participants' proportions correct against 0.25 "
                   "(participants are the units), per cell and per group x mode; `p_holm` adjusts "
                   "within each family.", "", _md_table(ch), ""]
+    return parts
+
+
+def _psychophysics_section(r: AnalysisResult) -> list[str]:
+    """Information transfer, Hu, kappa, ordinal agreement, covariates, force, response times."""
+    parts = []
     ex = r.extras
     if ex:
         parts += ["## Psychophysics: information transfer, Hu, kappa, ordinal, covariates, "

@@ -26,13 +26,14 @@ __all__ = ["SESSION_POLICIES", "session_state", "apply_policy"]
 SESSION_POLICIES = ("first", "latest", "all")
 
 
-def session_state(folder: Path, meta: dict) -> dict:
-    """``complete``, ``n_done``, ``n_planned`` and ``created_at`` of one session folder."""
+def session_state(folder: Path, meta: dict, read=None) -> dict:
+    """``complete``, ``n_done``, ``n_planned`` and ``created_at`` of one session folder.
+
+    ``read``: the folder as :func:`sessionfiles.session_reader.read_session_folder` read it; its
+    event log is then not read again (the log read past any damaged line, as without it).
+    """
     done, finished = set(), False
-    try:
-        events, report = read_events(folder / "events.jsonl", on_damage="skip", warn=False)
-    except OSError:
-        events, report = [], None
+    events, report = _events(folder, read)
     for ev in events:
         if ev.get("event") == "session_finished":
             finished = True
@@ -53,6 +54,21 @@ def session_state(folder: Path, meta: dict) -> dict:
         finished = bool(table) and (np.isnan(n_planned) or len(done) >= n_planned)
     return {"complete": finished, "n_done": len(done), "n_planned": n_planned,
             "created_at": str(meta.get("created_at", ""))}
+
+
+def _events(folder: Path, read) -> tuple[list, object]:
+    """The folder's events with every undecodable line skipped, and the log's report."""
+    if read is not None:
+        if read.events_report is None:                  # no readable event log
+            return [], None
+        if read.events_report.stopped_at is None:       # no damaged line: nothing to skip
+            return read.events, read.events_report
+        return read_events(folder / "events.jsonl", on_damage="skip", warn=False,
+                           data=read.raw_events)
+    try:
+        return read_events(folder / "events.jsonl", on_damage="skip", warn=False)
+    except OSError:
+        return [], None
 
 
 def apply_policy(sessions: pd.DataFrame, policy: str) -> pd.DataFrame:

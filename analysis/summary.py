@@ -45,6 +45,21 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
            f"logged trials were left out (familiarisation, faults, aborted or superseded attempts)."]
     if fidelity:
         out.append(fidelity)
+    out += _mode_lines(a, contrasts)
+    out += _gap_line(a)
+    out += _pooled_lines(a, proportions)
+    out += _confusion_line(confusion)
+    out += tests_summary(contrasts, tests)
+    out += _spread_lines(glmm, choice)
+    notes = gee.notes + (glmm.notes if glmm is not None else []) + bayes.notes
+    if notes:
+        out.append("Model notes:\n" + "\n".join(f"- {n}" for n in notes))
+    return "\n\n".join(out)
+
+
+def _mode_lines(a: pd.DataFrame, contrasts: pd.DataFrame) -> list[str]:
+    """Per mode: each group's share correct and the GEE's A vs B odds ratio."""
+    out: list[str] = []
     for mode in ("real", "simulated"):
         sel = a[a["mode"] == mode]
         if sel.empty:
@@ -65,6 +80,12 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                      f"{np.exp(r['ci_low']):.2f}-{np.exp(r['ci_high']):.2f}, "
                      f"{p_text(r['p_value'])}): {verdict}.")
         out.append(line)
+    return out
+
+
+def _gap_line(a: pd.DataFrame) -> list[str]:
+    """Group A minus B per mode, against the paper's Figure 9."""
+    out: list[str] = []
     gap = {}
     for mode in ("real", "simulated"):
         rates = a[a["mode"] == mode].groupby("group")["correct"].mean()
@@ -75,9 +96,15 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                    f"and a smaller difference with simulated ones; here group A minus group B is "
                    f"{gap['real']:+.1f} percentage points with real samples and "
                    f"{gap['simulated']:+.1f} with simulated ones.")
+    return out
+
+
+def _pooled_lines(a: pd.DataFrame, proportions: pd.DataFrame) -> list[str]:
+    """Proportion correct per sample, and the cells below chance."""
+    out: list[str] = []
     if not proportions.empty:
         by_r = a.groupby("roughness_id")["correct"].mean()
-        out.append(f"Pooled over groups and modes, the proportion correct was "
+        out.append("Pooled over groups and modes, the proportion correct was "
                    + ", ".join(f"{_pct(v)} for {r}#" for r, v in by_r.items()) + ".")
     below = proportions[proportions["boot_high"] < 0.25]
     if not below.empty:
@@ -85,6 +112,12 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
             f"group {r.group} {r.mode} {r.roughness_id}# ({_pct(r.proportion_correct)})"
             for r in below.itertuples()) + "; these samples are systematically named as another "
             "one (see the confusion matrices).")
+    return out
+
+
+def _confusion_line(confusion: pd.DataFrame) -> list[str]:
+    """The sample most often confused with the others, per mode."""
+    out: list[str] = []
     if not confusion.empty:
         worst_by_mode = []
         for mode in ("real", "simulated"):
@@ -98,7 +131,12 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                                  f"(named correctly in {_pct(worst.min())} of its trials)")
         out.append("The sample most often confused with the others was, "
                    + "; ".join(worst_by_mode) + ".")
-    out += tests_summary(contrasts, tests)
+    return out
+
+
+def _spread_lines(glmm, choice) -> list[str]:
+    """The participants' spread from the mixed model the choice quotes."""
+    out: list[str] = []
     spread = choice.spread if choice is not None else glmm
     if spread is not None and spread.kind == "glmm-slope" and spread.formula is not None:
         t = spread.table.set_index("term")
@@ -117,10 +155,7 @@ def plain_summary(log: TrialLog, proportions: pd.DataFrame, confusion: pd.DataFr
                    f"spread between participants at SD {sd['log_odds']:.2f} on the log-odds scale "
                    f"(95 % profile interval {sd['ci_low']:.2f}-{sd['ci_high']:.2f}; latent-scale "
                    f"ICC {icc['log_odds']:.2f}, {icc['ci_low']:.2f}-{icc['ci_high']:.2f}).")
-    notes = gee.notes + (glmm.notes if glmm is not None else []) + bayes.notes
-    if notes:
-        out.append("Model notes:\n" + "\n".join(f"- {n}" for n in notes))
-    return "\n\n".join(out)
+    return out
 
 
 def odds_verdict(ci_low: float, ci_high: float) -> str:

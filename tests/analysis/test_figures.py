@@ -42,3 +42,66 @@ def test_confusion_heatmaps_written(tmp_path, tables):
     # a panel missing (no B simulated trials) is drawn as "no trials", not an error
     partial = conf[~((conf["group"] == "B") & (conf["mode"] == "simulated"))]
     assert plot_confusion(partial, tmp_path / "partial.png").stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("how", ["fork", "no fork", "threads"])
+def test_figures_drawn_in_a_worker_are_the_files_plot_writes(tmp_path, tables, monkeypatch, how):
+    """``analyze`` has its figures drawn by a forked worker while the models fit
+    (:class:`analysis.worker.AnalysisWorker`) and, without ``fork`` or while another thread
+    runs (a fork would copy its locks), in the process at write time: either way the files
+    are those ``plot_figure9`` / ``plot_confusion`` write (PNG to the byte; the PDF but for
+    its creation date); nothing is written before ``write``."""
+    import multiprocessing
+    import re
+    import threading
+    from analysis import worker
+    props, conf = tables
+    if how == "no fork":
+        monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
+    stop = threading.Event()
+    if how == "threads":
+        threading.Thread(target=stop.wait, daemon=True).start()
+    # "fork": a worker unless an earlier test left a thread running
+    fork = how == "fork" and threading.active_count() == 1
+    plot_figure9(props, tmp_path / "figure9.png")
+    plot_confusion(conf, tmp_path / "confusion.png")
+    out = tmp_path / "out"
+    out.mkdir()
+    with worker.AnalysisWorker(props, conf) as job:
+        assert (job._future is not None) == fork
+        assert list(out.iterdir()) == []
+        files = job.write(out)
+    assert files == {"figure9": out / "figure9.png", "confusion_png": out / "confusion.png"}
+    for name in ("figure9.png", "confusion.png"):
+        assert (out / name).read_bytes() == (tmp_path / name).read_bytes()
+    undated = [re.sub(rb"/CreationDate \(D:\d+Z\)", b"", (folder / "figure9.pdf").read_bytes())
+               for folder in (out, tmp_path)]
+    assert undated[0] == undated[1] and undated[0].startswith(b"%PDF")
+    assert sorted(p.name for p in out.iterdir()) == ["confusion.png", "figure9.pdf", "figure9.png"]
+    stop.set()
+
+
+def _exit_in_child(parent_pid: int) -> int:
+    import os
+    if os.getpid() != parent_pid:
+        os._exit(1)                 # the worker dies (as if killed)
+    return 42
+
+
+def test_a_dead_worker_costs_time_not_results(tmp_path, tables, monkeypatch):
+    """If the worker process dies, what it was given is done in the process instead: the
+    figures are still written and a submitted function still returns its value."""
+    import os
+    from analysis import worker
+    from analysis.worker import AnalysisWorker
+    props, conf = tables
+    monkeypatch.setattr(worker, "can_fork", lambda: True)   # a worker even if a thread runs
+    out = tmp_path / "out"
+    out.mkdir()
+    with AnalysisWorker(props, conf) as job:
+        dead = job.submit(_exit_in_child, os.getpid())
+        assert dead is not None and dead.result() == 42
+        files = job.write(out)
+    assert files["figure9"].stat().st_size > 20_000
+    assert (out / "figure9.pdf").read_bytes().startswith(b"%PDF")
+    assert files["confusion_png"].stat().st_size > 20_000

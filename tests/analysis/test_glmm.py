@@ -179,3 +179,26 @@ def test_row_logsumexp_is_scipys_to_the_bit():
     assert got.shape == (200, 1)
     np.testing.assert_array_equal(got, want)      # bit for bit, NaN and inf included
     assert np.count_nonzero(got[6:] != want[6:]) == 0 and np.all(np.isfinite(got[6:]))
+
+
+@pytest.mark.slow
+def test_slope_profiles_computed_in_a_worker_are_the_same_numbers():
+    """``analyze`` has the random-slope model's profile intervals computed in its forked
+    worker (``fit_glmm_slope(submit=...)``, then ``complete_profiles``): the table must be the
+    one the fit computes in place, to the bit, and nothing is left pending."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from analysis.glmm_slope import complete_profiles, fit_glmm_slope
+    from generator import effect_cells, generate
+    trials = generate(effect_cells(), n_a=8, n_b=8, sigma=0.5, slope_sd=1.0, seed=3)
+    formula = "correct ~ group * mode + C(roughness_id)"
+    here = fit_glmm_slope(trials, formula)
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork")) as pool:
+        there = fit_glmm_slope(trials, formula, submit=pool.submit)
+        assert there.pending is not None
+        assert there.table.set_index("term").loc["sd_mode_slope", ["ci_low", "ci_high"]] \
+            .isna().all()
+        assert complete_profiles(there) is there and there.pending is None
+    assert here.pending is None
+    pd.testing.assert_frame_equal(there.table, here.table, check_exact=True)
+    assert np.isfinite(here.table.set_index("term").loc["sd_mode_slope", "ci_high"])

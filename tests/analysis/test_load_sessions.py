@@ -96,3 +96,29 @@ def test_the_report_lists_every_session_and_the_cold_trials(data):
             "repeated session: P01's first complete session is S01 |") in text
     cold = re.search(r"(\d+) trial\(s\) were run with the fingertip outside", text)
     assert cold and int(cold.group(1)) == 6 + 12      # every P02 trial, both sessions
+
+
+@pytest.mark.parametrize("damage", ["", "{not json\n"])
+def test_session_state_from_the_folder_read_equals_reading_the_log_again(tmp_path, damage):
+    """The loader hands ``session_state`` the folder it has read (its log is not read twice);
+    the state must be what reading the log anew, every damaged line skipped, gives: with a
+    damaged line before ``session_finished`` the folder's own reading stops there, so the
+    state still comes from the whole log."""
+    from analysis.session_policy import session_state
+    from sessionfiles.session_reader import read_session_folder
+    folder = tmp_path / "P01" / "S1"
+    folder.mkdir(parents=True)
+    meta = {"participant": "P01", "session": "S1", "schedule": [{}, {}, {}]}
+    (folder / "session.json").write_text(json.dumps(meta))
+    events = [{"event": "session_started", "participant": "P01", "session": "S1"}]
+    events += [{"event": "trial_completed", "trial_index": i, "row": {"status": "ok"}}
+               for i in range(3)]
+    lines = [json.dumps(e) + "\n" for e in events]
+    lines.insert(2, damage)
+    lines.append(json.dumps({"event": "session_finished"}) + "\n")
+    (folder / "events.jsonl").write_text("".join(lines))
+    read = read_session_folder(folder)
+    assert (read.events_report.stopped_at is None) == (damage == "")
+    again = session_state(folder, meta)
+    assert session_state(folder, meta, read) == again
+    assert again["complete"] is True and again["n_done"] == 3

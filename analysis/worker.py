@@ -1,0 +1,117 @@
+"""A second process for the analysis's independent steps, run while the parent fits the models.
+
+Figure 9 and the confusion heatmaps need only the proportions and the confusion counts, known
+before any model is fitted; drawing them (matplotlib's import included) takes 1-2 s of CPU. A
+forked worker draws them into memory while the parent fits the models, and the parent writes
+the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
+is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
+random-slope model's profile intervals (:func:`analysis.glmm_slope.profile_intervals`, ~2 s)
+while the parent goes on with the tests. Where ``fork`` is not available or not safe
+(:func:`can_fork`), or the worker cannot start, everything is done in the parent: the same
+files and numbers.
+"""
+from __future__ import annotations
+
+import io
+import multiprocessing
+import threading
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+import pandas as pd
+
+from sessionfiles.atomicfile import output_file
+
+__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures"]
+
+
+def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
+    """``figure9.png``, ``figure9.pdf`` and ``confusion.png`` as bytes, by file name (what
+    :func:`analysis.figures.plot_figure9` and :func:`analysis.figures.plot_confusion` write)."""
+    from .figures import agg_pyplot, confusion_figure, figure9
+    plt = agg_pyplot()
+    out = {}
+    for fig, names in ((figure9(proportions), ("figure9.png", "figure9.pdf")),
+                       (confusion_figure(confusion), ("confusion.png",))):
+        for name in names:
+            buf = io.BytesIO()
+            fig.savefig(buf, format=Path(name).suffix[1:])
+            out[name] = buf.getvalue()
+        plt.close(fig)
+    return out
+
+
+def can_fork() -> bool:
+    """Whether a worker is forked: ``fork`` exists, this process is not a daemonic one (which
+    may have no children), and it runs no other thread (a fork copies a lock another thread
+    holds, locked for ever in the child: with a GUI or a finished dask cluster's threads
+    around, everything is done in this process instead)."""
+    return ("fork" in multiprocessing.get_all_start_methods()
+            and not multiprocessing.current_process().daemon
+            and threading.active_count() == 1)
+
+
+class AnalysisWorker:
+    """:func:`render_figures` started now (in a forked worker when possible), and more work
+    through :meth:`submit`; a context manager that stops the worker on exit.
+
+    Examples
+    --------
+    ``with AnalysisWorker(proportions, confusion) as worker: ...; files = worker.write(out)``
+    """
+
+    def __init__(self, proportions: pd.DataFrame, confusion: pd.DataFrame):
+        self._args = (proportions, confusion)
+        self._pool: ProcessPoolExecutor | None = None
+        self._future: Future | None = None
+        if can_fork():
+            try:
+                self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+                self._future = self._pool.submit(render_figures, *self._args)
+            except (OSError, AssertionError):   # no process to spare: drawn at write time
+                self.close()
+
+    def submit(self, function, *args) -> "Job | None":
+        """``function(*args)`` in the worker, after what it was given before; None without a
+        worker (the caller then calls it itself)."""
+        if self._pool is None:
+            return None
+        return Job(self._pool.submit(function, *args), function, args)
+
+    def write(self, out: Path) -> dict[str, Path]:
+        """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
+        beside ``figure9.png``, as :func:`analysis.figures.plot_figure9`)."""
+        files = (Job(self._future, render_figures, self._args).result()
+                 if self._future is not None else render_figures(*self._args))
+        for name, data in files.items():
+            with output_file(Path(out) / name, "wb") as fh:
+                fh.write(data)
+        return {"figure9": Path(out) / "figure9.png", "confusion_png": Path(out) / "confusion.png"}
+
+    def close(self) -> None:
+        """Stop the worker (waiting for a drawing under way)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+            self._future = None
+
+    def __enter__(self) -> "AnalysisWorker":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class Job:
+    """A function given to the worker: :meth:`result` waits for it; if the worker died (killed,
+    out of memory), the function is run here instead (the same result, later)."""
+
+    def __init__(self, future: Future, function, args: tuple):
+        self._future, self._function, self._args = future, function, args
+
+    def result(self):
+        try:
+            return self._future.result()
+        except BrokenProcessPool:
+            return self._function(*self._args)
