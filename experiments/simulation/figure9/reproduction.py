@@ -162,7 +162,7 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     from experiments.simulation.figure9.study import run_figure9_study
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import GROUPS, merge_pools
-    from experiments.simulation.sweep import Sweep
+    from experiments.simulation.sweep import Sweep, release_process_memory
 
     sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
     with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
@@ -178,6 +178,7 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
         default_run = next(res for keys, res in result.runs
                            if (keys["hypothesis"], keys["observer"]) == headline)
         seconds["scenarios_s"] = time.perf_counter() - t0
+        sweep.release_memory()      # the scenarios' studies, before the sessions
         t1 = time.perf_counter()
         (sens, grid_pools), study, seconds["study_s"] = _beside(
             lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run,
@@ -190,6 +191,8 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
                                                             {"force_sd_N": lab.force_sd_N})},
                                       sweep=sweep))
         seconds["sensitivity_and_study_s"] = time.perf_counter() - t1
+        sweep.release_memory()      # the sessions' and rows' leftovers, before the depth fit
+        release_process_memory()    # and this process's, from the analysis
         seconds["studies_simulated"] = int(result.n_studies().sum()) + sum(
             len(res["proportions"]) for _, res in sens.attrs["runs"] if res is not default_run)
         log.info("figure9: %d scenarios (%d-%d simulated studies each) in %.1f s, and %d "
