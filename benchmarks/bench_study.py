@@ -10,13 +10,14 @@ prints the wall time per trial of each (median and best).
 
 Starts ``thermocue reproduce figure9 --out DIR`` as a child process and samples, every 50 ms,
 the resident memory (/proc/PID/smaps_rollup, Linux only) of that process and all its descendants
-(the worker processes).  Reports the machine, the wall time, the study's own split
-(``study.json``: scenarios_s, sessions_s, analysis_s), the CPU time of the whole process tree
+(the worker processes).  Reports the machine, the default number of workers there
+(:func:`experiments.simulation.sweep.default_workers`; ``-- --workers N`` runs another), the
+wall time, the study's own split (``study.json``: scenarios_s, sessions_s, analysis_s), the CPU time of the whole process tree
 (user + system: on a shared machine a fairer figure than the wall time; at most 2 x wall on 2
 cores), the peak of the *summed* RSS of the process tree (an
 upper bound: pages the forked workers share are counted once per process) and the peak of the
 summed PSS (shared pages divided among their users: the memory the study really holds).  The
-target (the developers' brief, under 1 GB) is judged on the RSS bound.
+target (under 1 GB, taken as 1e9 bytes) is judged on both, each said by name.
 """
 from __future__ import annotations
 
@@ -97,6 +98,9 @@ def main(argv=None) -> int:
     exe = Path(sys.executable).with_name("thermocue")
     out = Path(ns.out) if ns.out else Path(tempfile.mkdtemp(prefix="bench-study-")) / "figure9"
     print(f"machine: {machine()}")
+    from experiments.simulation.sweep import default_workers
+    print(f"default workers on this machine: {default_workers()} (the workers line below: the "
+          f"run's own, from study.json)")
     cmd = [str(exe), "reproduce", "figure9", "--out", str(out), *ns.extra]
     print("command:", " ".join(cmd))
     import resource
@@ -128,7 +132,12 @@ def main(argv=None) -> int:
               "peak_tree_pss_MiB": round(peak_pss / 1024, 1)}
     for key, value in result.items():
         print(f"{key}: {value}")
-    print("target: whole study under 1 GB peak:", "met" if peak * 1024 < 1e9 else "NOT met")
+    # the target names no measure: the summed RSS counts every page the processes share once
+    # per process (an upper bound), the summed PSS divides shared pages among their users
+    print("target: whole study under 1 GB (1e9 bytes) peak, summed RSS (upper bound):",
+          "met" if peak * 1024 < 1e9 else "NOT met")
+    print("target: whole study under 1 GB (1e9 bytes) peak, summed PSS:",
+          "met" if peak_pss * 1024 < 1e9 else "NOT met")
     if not ns.out:
         shutil.rmtree(out.parent, ignore_errors=True)
     return 0

@@ -162,93 +162,41 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
     groups : sequence of str
         The groups to build (:func:`merge_pools` joins pools of different groups).
     """
-    from experiments.participant_model.person import PerceptionParameters, SimulatedPerson
+    from experiments.participant_model.person import PerceptionParameters
     from experiments.protocol import load_protocol
-    from experiments.session.setup import simulated_target_profile
     from experiments.simulation.replay import protocol_variant
-    from stimuli import contact_resistance, material
 
     params = params or PerceptionParameters()
     base = protocol if hasattr(protocol, "data") else load_protocol(protocol)
     variants = {h: protocol_variant(base, h) for h in hypotheses}
-    samples = base.samples
     t_ref = float(np.mean(SKIN_TEMPERATURE_RANGE_C))
-    t_mat = base.simulation.material_temperature_C
-    thick_m = base.material.thickness_m
-    sim0 = base.simulation
-    if receptor_depth_um is not None:
-        fractions = np.array([0.0])
-    elif dermis_fraction[0] == dermis_fraction[1]:          # one d / L for everyone
-        fractions = np.array([float(dermis_fraction[0])])
-    else:
-        fractions = np.linspace(*dermis_fraction, GRID_U)
+    fractions = _grid_fractions(receptor_depth_um, dermis_fraction)
     if real_from is not None and (real_from.receptor_depth_um != receptor_depth_um
                                   or tuple(real_from.settings["dermis_fraction"]) != tuple(dermis_fraction)):
         raise ValueError("build_pool: real_from: expected a pool of the same persons (receptor "
                          "depth and d / L range)")
+    max_rate = float(base.display.max_rate_C_per_s)
+    surfaces, peak_rate = _replay_surfaces(variants, base.samples, groups, sensor_tau_s, max_rate)
     grid_L, real, simulated, simulated_dts = {}, {}, {}, {}
     people, display_plans = [], []
-    profiles = {}
-    max_rate = float(base.display.max_rate_C_per_s)
-    peak_rate = 0.0
-    surfaces = {}                 # the pad face of each profile (sensor lead, slewed)
     for group in groups:
-        for h, proto in variants.items():
-            profiles[(h, group)] = [simulated_target_profile(proto, {}, group, None, s.id,
-                                                             s.roughness_um) for s in samples]
-            surfaces[(h, group)] = []
-            for pr in profiles[(h, group)]:
-                face, peak = _lead(pr.times, pr.temperature, sensor_tau_s, max_rate)
-                peak_rate = max(peak_rate, peak)
-                surfaces[(h, group)].append((pr.times, face))
-    for group in groups:
-        Ls = np.linspace(*GROUP_THICKNESS_UM[group], GRID_L)
-        grid_L[group] = Ls
-        r = np.zeros((len(Ls), len(fractions), len(FORCE_GRID_N), len(samples), 4))
-        sims = {h: np.zeros_like(r) for h in variants}
-        dsims = {h: np.zeros_like(r) for h in variants}
-        for i, L_um in enumerate(Ls):
-            for j, frac in enumerate(fractions):
-                if receptor_depth_um is not None:
-                    frac = 1.0 - receptor_depth_um / L_um
-                    if not 0.0 < frac < 1.0:
-                        raise ValueError(f"build_pool: receptor_depth_um: expected a depth inside "
-                                         f"the skin ({L_um:.0f} µm), got {receptor_depth_um!r}")
-                p = SimulatedPerson(L_um * 1e-6, float(frac), t_ref, params)
-                people.append(p)
-                p1 = SimulatedPerson(L_um * 1e-6, float(frac), t_ref + 1.0, params)
-                for k, force in enumerate(FORCE_GRID_N):
-                    if real_from is not None:
-                        r[i, j, k] = real_from.real[group][i, j, k]
-                    else:
-                        r[i, j, k] = [p.features(*p.feel_real(s.roughness_m, material=base.material.name,
-                                                          sample_thickness_m=thick_m,
-                                                          material_temperature_C=t_mat,
-                                                          force_N=force))
-                                      for s in samples]
-                    r_pad = float(contact_resistance(sim0.pad_roughness_m, skin=p.skin,
-                                                     material=material(sim0.pad_material),
-                                                     force=force))
-                    responses = {}     # same skin and resistance: shared by every replay
-                    for h in variants:
-                        surf = surfaces[(h, group)]
-                        f0 = imposed_features(p, surf, r_pad, responses, display_plans)
-                        sims[h][i, j, k] = f0
-                        dsims[h][i, j, k] = imposed_features(p1, surf, r_pad, responses,
-                                                             display_plans) - f0
-        real[group] = r
+        grid_L[group] = np.linspace(*GROUP_THICKNESS_UM[group], GRID_L)
+        real[group], sims, dsims = _group_features(
+            base, variants, group, grid_L[group], fractions, receptor_depth_um, t_ref, params,
+            surfaces, real_from, people, display_plans)
         for h in variants:
             simulated[(h, group)] = sims[h]
             simulated_dts[(h, group)] = dsims[h]
+    t_mat = base.simulation.material_temperature_C
     return PersonPool(grid_L_um=grid_L, grid_fraction=fractions, real=real, simulated=simulated,
                       simulated_dts=simulated_dts, params=params, skin_reference_C=t_ref,
                       material_C=float(t_mat), receptor_depth_um=receptor_depth_um,
-                      roughness_um=tuple(s.roughness_um for s in samples),
+                      roughness_um=tuple(s.roughness_um for s in base.samples),
                       settings={"seed": int(seed), "dermis_fraction": tuple(dermis_fraction),
                                 "sensor_tau_s": float(sensor_tau_s),
                                 "sensor_lag_peak_rate_C_per_s": peak_rate,
                                 "max_rate_C_per_s": max_rate,
-                                "replay_skin_C": float(sim0.skin_temperature_C),
+                                "replay_skin_C": float(base.simulation.skin_temperature_C),
                                 "model_tolerance_C": float(params.model_tolerance_C),
                                 "planner_decisions": {
                                     "real": _planner_decisions(
@@ -256,6 +204,85 @@ def build_pool(protocol="roughness_recognition", hypotheses=REPLAY_NAMES, seed: 
                                     "display": _planner_decisions(display_plans)},
                                 "grid": f"{GRID_L} thicknesses x {len(fractions)} d/L x "
                                         f"{len(FORCE_GRID_N)} forces per group"})
+
+
+def _grid_fractions(receptor_depth_um, dermis_fraction) -> np.ndarray:
+    """The pool grid's d / L values (one, ignored, for an absolute receptor depth)."""
+    if receptor_depth_um is not None:
+        return np.array([0.0])
+    if dermis_fraction[0] == dermis_fraction[1]:          # one d / L for everyone
+        return np.array([float(dermis_fraction[0])])
+    return np.linspace(*dermis_fraction, GRID_U)
+
+
+def _replay_surfaces(variants, samples, groups, sensor_tau_s, max_rate):
+    """The pad face of each replay profile per (hypothesis, group): ``[(t, °C), ...]`` per
+    sample (the sensor's lead, slewed), and the largest unslewed peak rate, K/s."""
+    from experiments.session.setup import simulated_target_profile
+    peak_rate = 0.0
+    surfaces = {}
+    for group in groups:
+        for h, proto in variants.items():
+            surfaces[(h, group)] = []
+            for s in samples:
+                pr = simulated_target_profile(proto, {}, group, None, s.id, s.roughness_um)
+                face, peak = _lead(pr.times, pr.temperature, sensor_tau_s, max_rate)
+                peak_rate = max(peak_rate, peak)
+                surfaces[(h, group)].append((pr.times, face))
+    return surfaces, peak_rate
+
+
+def _group_features(base, variants, group, Ls, fractions, receptor_depth_um, t_ref, params,
+                    surfaces, real_from, people, display_plans):
+    """One group's grid: real features (nL, nU, nForce, C, 4) and, per hypothesis, the replays'
+    features and their change per kelvin of skin.  Appends the grid's persons to ``people``
+    and the display's plans to ``display_plans``."""
+    from experiments.participant_model.person import SimulatedPerson
+    r = np.zeros((len(Ls), len(fractions), len(FORCE_GRID_N), len(base.samples), 4))
+    sims = {h: np.zeros_like(r) for h in variants}
+    dsims = {h: np.zeros_like(r) for h in variants}
+    for i, L_um in enumerate(Ls):
+        for j, frac in enumerate(fractions):
+            if receptor_depth_um is not None:
+                frac = 1.0 - receptor_depth_um / L_um
+                if not 0.0 < frac < 1.0:
+                    raise ValueError(f"build_pool: receptor_depth_um: expected a depth inside "
+                                     f"the skin ({L_um:.0f} µm), got {receptor_depth_um!r}")
+            p = SimulatedPerson(L_um * 1e-6, float(frac), t_ref, params)
+            people.append(p)
+            p1 = SimulatedPerson(L_um * 1e-6, float(frac), t_ref + 1.0, params)
+            for k, force in enumerate(FORCE_GRID_N):
+                if real_from is not None:
+                    r[i, j, k] = real_from.real[group][i, j, k]
+                else:
+                    r[i, j, k] = _real_features(p, base, force)
+                _replay_features(p, p1, base.simulation, force, variants, group, surfaces,
+                                 display_plans, sims, dsims, (i, j, k))
+    return r, sims, dsims
+
+
+def _real_features(person, base, force):
+    """Features of ``person`` touching each real sample of ``base`` at ``force`` N: (C, 4)."""
+    return [person.features(*person.feel_real(s.roughness_m, material=base.material.name,
+                                              sample_thickness_m=base.material.thickness_m,
+                                              material_temperature_C=base.simulation.material_temperature_C,
+                                              force_N=force))
+            for s in base.samples]
+
+
+def _replay_features(p, p1, sim0, force, variants, group, surfaces, display_plans, sims, dsims,
+                     at):
+    """Every replay's features at one grid point (``at``) into ``sims``, and their change per
+    kelvin of skin (``p1``: ``p`` 1 K warmer) into ``dsims``."""
+    from stimuli import contact_resistance, material
+    r_pad = float(contact_resistance(sim0.pad_roughness_m, skin=p.skin,
+                                     material=material(sim0.pad_material), force=force))
+    responses = {}     # same skin and resistance: shared by every replay
+    for h in variants:
+        surf = surfaces[(h, group)]
+        f0 = imposed_features(p, surf, r_pad, responses, display_plans)
+        sims[h][at] = f0
+        dsims[h][at] = imposed_features(p1, surf, r_pad, responses, display_plans) - f0
 
 
 def merge_pools(pools) -> PersonPool:

@@ -84,24 +84,33 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         ``headline``, ``best`` (per reading), ``scenarios`` (ScenarioResult), ``sensitivity``,
         ``study`` (run_figure9_study's summary), ``seconds`` per stage, ``verdict``.
     """
+    out_dir = Path(out_dir)
+    options, max_studies, lab, replay = _checked_options(
+        out_dir, seed, workers, participants, replay, observer, responder_options, n_studies,
+        target_side, force_sd_N, max_studies)
+    seconds = {}
+    t0 = time.perf_counter()
+    run = _simulate(out_dir, seconds, t0, seed=seed, workers=workers, participants=participants,
+                    replay=replay, observer=observer, options=options, n_studies=n_studies,
+                    target_side=target_side, rate_limit=rate_limit, scheduler=scheduler,
+                    force_sd_N=force_sd_N, max_studies=max_studies, lab=lab)
+    return _finish(out_dir, run, seconds, t0, lab)
+
+
+def _checked_options(out_dir, seed, workers, participants, replay, observer, responder_options,
+                     n_studies, target_side, force_sd_N, max_studies):
+    """The options checked before any work (a UserInputError naming the option otherwise):
+    ``(responder options, max_studies, lab, replay)`` with the defaults filled in."""
     import dataclasses as dc
 
     from experiments.errors import UserInputError
-    from sessionfiles.logbook import atomic_write_json
-    from experiments.responders import get_responder
     from experiments.participant_model.cohort import paper_cohort
-    from experiments.simulation.figure9.precision import study_table
-    from experiments.simulation.depth_fit import depth_pool_jobs
-    from experiments.simulation.figure9.scenarios import (SENSITIVITY_CHOICES, mark_differences,
-                                                          best_scenario, build_pool_task,
-                                                          evaluate_scenarios, sensitivity)
-    from experiments.simulation.figure9.study import _positive_int, run_figure9_study
     from experiments.participant_model.observers import OBSERVERS
+    from experiments.responders import get_responder
+    from experiments.simulation.figure9.study import _positive_int
     from experiments.simulation.replay import REPLAY_HYPOTHESES, replay_hypothesis
-    from experiments.simulation.studies import DEFAULT_LAB, GROUPS, merge_pools
-    from experiments.simulation.sweep import Sweep
+    from experiments.simulation.studies import DEFAULT_LAB
 
-    out_dir = Path(out_dir)
     options = dict(responder_options or {})
     if participants is not None:
         _positive_int(participants, "--participants", len(paper_cohort(seed)))
@@ -139,8 +148,23 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     if data_dir.is_dir() and any(data_dir.iterdir()):
         raise UserInputError(f"{data_dir}: --out: expected a folder without earlier study data "
                              f"(the analysis would pool both runs), got a non-empty data/ folder")
-    seconds = {}
-    t0 = time.perf_counter()
+    return options, max_studies, lab, replay
+
+
+def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, observer, options,
+              n_studies, target_side, rate_limit, scheduler, force_sd_N, max_studies, lab) -> dict:
+    """Steps 1 and 2 of the module docstring on one cluster; stage times into ``seconds``.
+
+    Returns ``result``, ``best``, ``headline``, ``sens`` (the sensitivity table, the fitted
+    depth's rows included), ``study`` and ``depth``.
+    """
+    from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
+    from experiments.simulation.figure9.study import run_figure9_study
+    from experiments.simulation.replay import REPLAY_HYPOTHESES
+    from experiments.simulation.studies import GROUPS, merge_pools
+    from experiments.simulation.sweep import Sweep, release_process_memory
+
+    sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
     with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
         # one person pool per group, built on the cluster's workers
         pool = merge_pools(sweep.map(_group_pool, [(g, tuple(REPLAY_HYPOTHESES), seed)
@@ -154,16 +178,11 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
         default_run = next(res for keys, res in result.runs
                            if (keys["hypothesis"], keys["observer"]) == headline)
         seconds["scenarios_s"] = time.perf_counter() - t0
+        sweep.release_memory()      # the scenarios' studies, before the sessions
         t1 = time.perf_counter()
         (sens, grid_pools), study, seconds["study_s"] = _beside(
-            lambda: (sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                                 variability=lab, default_run=default_run,
-                                 max_studies=min(max_studies,
-                                                 max(SENSITIVITY_MAX_STUDIES, n_studies))),
-                     # the depth fit's grid pools need no answers: built once the rows are
-                     # done, while this process analyses the sessions (a fit needs both groups)
-                     sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
-                     if participants is None or participants >= 2 else None),
+            lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run,
+                                      sens_cap, participants),
             lambda: run_figure9_study(out_dir, seed=seed, workers=workers,
                                       participants=participants, replay=headline[0],
                                       target_side=target_side, rate_limit=rate_limit,
@@ -172,6 +191,8 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                                                             {"force_sd_N": lab.force_sd_N})},
                                       sweep=sweep))
         seconds["sensitivity_and_study_s"] = time.perf_counter() - t1
+        sweep.release_memory()      # the sessions' and rows' leftovers, before the depth fit
+        release_process_memory()    # and this process's, from the analysis
         seconds["studies_simulated"] = int(result.n_studies().sum()) + sum(
             len(res["proportions"]) for _, res in sens.attrs["runs"] if res is not default_run)
         log.info("figure9: %d scenarios (%d-%d simulated studies each) in %.1f s, and %d "
@@ -180,16 +201,49 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                  result.n_studies().min(), result.n_studies().max(), seconds["scenarios_s"],
                  len(sens), seconds["sensitivity_and_study_s"], sweep.n_workers, *headline)
         t2 = time.perf_counter()
-        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab,
-                                  min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies)),
+        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, sens_cap,
                                   grid_pools)
-        if depth is not None:
-            runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
-            sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
-                                     SENSITIVITY_CHOICES)
-            sens.attrs["runs"] = runs
+        sens = _with_depth_row(sens, depth)
         seconds["depth_fit_s"] = time.perf_counter() - t2
+    return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
+            "depth": depth}
+
+
+def _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run, max_studies,
+                      participants):
+    """The sensitivity rows, then the depth fit's grid pools (None without both groups): the
+    background of :func:`_beside`."""
+    from experiments.simulation.depth_fit import depth_pool_jobs
+    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
+    sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
+                       variability=lab, default_run=default_run, max_studies=max_studies)
+    # the depth fit's grid pools need no answers: built once the rows are done, while this
+    # process analyses the sessions (a fit needs both groups)
+    grid_pools = (sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
+                  if participants is None or participants >= 2 else None)
+    return sens, grid_pools
+
+
+def _with_depth_row(sens, depth):
+    """The sensitivity table with the fitted depth's rows (``sens`` itself without a fit)."""
+    from experiments.simulation.figure9.scenarios import SENSITIVITY_CHOICES, mark_differences
+    if depth is None:
+        return sens
+    runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
+    sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
+                            SENSITIVITY_CHOICES)
+    sens.attrs["runs"] = runs
+    return sens
+
+
+def _finish(out_dir, run, seconds, t0, lab) -> dict:
+    """Step 3 of the module docstring: the per-study tables, the figure and report, the
+    study record; the verdict and the claims table printed.  ``run_reproduction``'s result."""
     from analysis.exports import write_csv        # whole or not at all
+    from experiments.simulation.figure9.precision import study_table
+    from sessionfiles.logbook import atomic_write_json
+    result, sens, study, headline, best = (run["result"], run["sens"], run["study"],
+                                           run["headline"], run["best"])
     write_csv(study_table(result.runs), out_dir / "studies.csv")
     write_csv(study_table(sens.attrs["runs"]), out_dir / "sensitivity_studies.csv")
     analysis = study.get("analysis")
@@ -197,7 +251,7 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
     sessions_line = ""
     if analysis is not None:
         sessions_line = sessions_claims_line(analysis.log.analysable, headline)
-    depth_record = None if depth is None else depth["record"]
+    depth_record = None if run["depth"] is None else run["depth"]["record"]
     outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
                              len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
                              body=True)

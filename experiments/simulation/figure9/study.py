@@ -84,9 +84,20 @@ def run_participant(participant_path, data_dir, *, seed: int, protocol: str = "r
 
 
 def _run_one(args):
+    """One session (a task of the cluster); then the heap it freed goes back to the OS.
+
+    On a worker, sessions run between batches of simulated studies, whose arrays come from the
+    heap (:data:`..sweep.WORKER_MALLOC`): the session's long-lived objects pin it, and without
+    the trim a worker grew by ~5 MiB a session (~70 MiB over the study).  The trim costs a few
+    ms a session and changes no number.
+    """
+    from experiments.simulation.sweep import trim_heap
     path, data_dir, seed, protocol, options, durable = args
-    return run_participant(path, data_dir, seed=seed, protocol=protocol, responder_options=options,
-                           durable=durable)
+    try:
+        return run_participant(path, data_dir, seed=seed, protocol=protocol,
+                               responder_options=options, durable=durable)
+    finally:
+        trim_heap()
 
 
 def _progress(done: int, total: int, start: float, label: str) -> None:
@@ -167,10 +178,51 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         an integer in range, an unknown or bad responder option, an unknown target side or
         rate limit, or profiles the display would refuse; all before any session runs.
     """
+    out_dir = Path(out_dir)
+    data_dir = out_dir / "data"
+    records, n, workers = _checked_study_options(out_dir, seed, workers, participants,
+                                                 responder_options)
+    out_dir.mkdir(parents=True, exist_ok=True)      # a target-side protocol copy goes here
+    from experiments.participant_model.observers import OBSERVERS
+    observer = (responder_options or {}).get("observer", "absolute")
+    on_display = observer in OBSERVERS and OBSERVERS[observer].familiarise_on_display
+    protocol_name = str(protocol)
+    protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit, replay,
+                                        display_familiarisation=on_display)
+    check_group_profiles(used)
+    data_dir.mkdir(parents=True, exist_ok=True)
+    paths = {p.stem: p for p in write_cohort(out_dir / "participants", seed=seed)}
+    paths = [paths[r["id"]] for r in alternate_groups(records, n)]
+    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {}), bool(durable))
+            for p in paths]
+    start = time.perf_counter()
+    results, workers = _run_sessions(jobs, workers, sweep)
+    seconds = time.perf_counter() - start
+    summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
+               "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
+    if analyze:
+        _analyse(summary, data_dir, out_dir, used)
+    from sessionfiles.logbook import atomic_write_json
+    atomic_write_json(out_dir / "study.json", {
+        "study": "figure9", "seed": int(seed), "workers": workers,
+        "protocol": protocol_name if isinstance(protocol, str) else str(out_dir / "protocol.json"),
+        "replay": replay, "observer": observer, "fsync": bool(durable),
+        "responder_options": dict(responder_options or {}),
+        "protocol_hash": used.hash,
+        "target_side": used.simulation.target_side,
+        "pad_roughness_um": used.simulation.pad_roughness_um,
+        "pad_material": used.simulation.pad_material,
+        "rate_limit": used.simulation.rate_limit,
+        "sessions_s": seconds, "analysis_s": summary["analysis_seconds"],
+        "participants": summary["sessions"]})
+    return summary
+
+
+def _checked_study_options(out_dir, seed, workers, participants, responder_options):
+    """``(cohort records, participants to run, workers)`` after the checks made before any
+    session runs (a UserInputError naming the option otherwise)."""
     from experiments.errors import UserInputError
     from experiments.responders import get_responder
-
-    out_dir = Path(out_dir)
     data_dir = out_dir / "data"
     if out_dir.exists() and not out_dir.is_dir():
         raise UserInputError(f"{out_dir}: --out: expected a folder, got an existing file")
@@ -188,68 +240,53 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         raise UserInputError(f"--responder-option: seed: expected no seed (each participant's "
                              f"comes from the study's --seed), got {responder_options['seed']!r}")
     get_responder("simulated", **dict(responder_options or {}))   # bad options: fail now
-    out_dir.mkdir(parents=True, exist_ok=True)      # a target-side protocol copy goes here
-    from experiments.participant_model.observers import OBSERVERS
-    observer = (responder_options or {}).get("observer", "absolute")
-    on_display = observer in OBSERVERS and OBSERVERS[observer].familiarise_on_display
-    protocol_name = str(protocol)
-    protocol, used = _protocol_for_side(protocol, target_side, out_dir, rate_limit, replay,
-                                        display_familiarisation=on_display)
-    check_group_profiles(used)
-    data_dir.mkdir(parents=True, exist_ok=True)
-    paths = {p.stem: p for p in write_cohort(out_dir / "participants", seed=seed)}
-    paths = [paths[r["id"]] for r in alternate_groups(records, n)]
-    jobs = [(str(p), str(data_dir), int(seed), protocol, dict(responder_options or {}), bool(durable))
-            for p in paths]
-    start = time.perf_counter()
-    results = []
+    return records, n, workers
+
+
+def _run_sessions(jobs, workers, sweep) -> tuple[list, int]:
+    """Every job's session (:func:`_run_one`): here one after the other with one worker and no
+    ``sweep``, else as tasks of a dask.distributed cluster (``sweep``'s, else a LocalCluster).
+
+    Returns the per-participant results and the number of worker processes that ran them
+    (``sweep``'s workers when given, not the ``workers`` asked for).
+    """
     if workers is None:
         workers = min(2 * (os.cpu_count() or 1), MAX_DEFAULT_WORKERS)
     workers = min(workers, len(jobs))
     if workers == 1 and sweep is None:
+        results, start = [], time.perf_counter()
         for job in jobs:
             results.append(_run_one(job))
             _progress(len(results), len(jobs), start, results[-1]["participant"])
-    else:
-        # the sessions are tasks of a dask.distributed cluster (the sweep's, else a LocalCluster)
-        from contextlib import nullcontext
+        return results, workers
+    from contextlib import nullcontext
 
-        from experiments.simulation.sweep import Sweep
-        with (nullcontext(sweep) if sweep is not None
-              else Sweep(workers=workers, label="figure9 sessions")) as runner:
-            results = runner.map(_run_one, [(job,) for job in jobs], what="participants")
-    seconds = time.perf_counter() - start
-    summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
-               "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
-    if analyze:
-        from analysis import analyze as run_analysis
-        t0 = time.perf_counter()
-        summary["analysis"] = run_analysis(data_dir, out_dir)
-        summary["analysis_seconds"] = time.perf_counter() - t0
-        _note_simulation(out_dir / "report.md", used)
-        if log.isEnabledFor(logging.INFO):
-            table = _figure9_text(getattr(summary["analysis"], "proportions", None))
-            log.info("figure9: target side %r, finger-pad %g µm %s, rate limit %r",
-                     used.simulation.target_side, used.simulation.pad_roughness_um,
-                     used.simulation.pad_material, used.simulation.rate_limit)
-            for line in table.splitlines():
-                log.info("%s", line)
-            log.info("figure9: sessions %.1f s, analysis %.1f s; results in %s", seconds,
-                     summary["analysis_seconds"], out_dir)
-    from sessionfiles.logbook import atomic_write_json
-    atomic_write_json(out_dir / "study.json", {
-        "study": "figure9", "seed": int(seed), "workers": workers,
-        "protocol": protocol_name if isinstance(protocol, str) else str(out_dir / "protocol.json"),
-        "replay": replay, "observer": observer, "fsync": bool(durable),
-        "responder_options": dict(responder_options or {}),
-        "protocol_hash": used.hash,
-        "target_side": used.simulation.target_side,
-        "pad_roughness_um": used.simulation.pad_roughness_um,
-        "pad_material": used.simulation.pad_material,
-        "rate_limit": used.simulation.rate_limit,
-        "sessions_s": seconds, "analysis_s": summary["analysis_seconds"],
-        "participants": summary["sessions"]})
-    return summary
+    from experiments.simulation.sweep import Sweep
+    with (nullcontext(sweep) if sweep is not None
+          else Sweep(workers=workers, label="figure9 sessions")) as runner:
+        results = runner.map(_run_one, [(job,) for job in jobs], what="participants")
+        if sweep is not None:
+            workers = runner.n_workers or workers
+    return results, workers
+
+
+def _analyse(summary, data_dir, out_dir, used) -> None:
+    """:func:`analysis.analyze` of the sessions into ``summary`` (``analysis``,
+    ``analysis_seconds``); the Figure 9 table logged."""
+    from analysis import analyze as run_analysis
+    t0 = time.perf_counter()
+    summary["analysis"] = run_analysis(data_dir, out_dir)
+    summary["analysis_seconds"] = time.perf_counter() - t0
+    _note_simulation(out_dir / "report.md", used)
+    if log.isEnabledFor(logging.INFO):
+        table = _figure9_text(getattr(summary["analysis"], "proportions", None))
+        log.info("figure9: target side %r, finger-pad %g µm %s, rate limit %r",
+                 used.simulation.target_side, used.simulation.pad_roughness_um,
+                 used.simulation.pad_material, used.simulation.rate_limit)
+        for line in table.splitlines():
+            log.info("%s", line)
+        log.info("figure9: sessions %.1f s, analysis %.1f s; results in %s", summary["seconds"],
+                 summary["analysis_seconds"], out_dir)
 
 
 def _note_simulation(report, protocol) -> None:
