@@ -236,7 +236,7 @@ def _write(ns, results, source, sizes, progress) -> int:
     table and the n for 80 % and 90 % power, each "conditional on SD = x"."""
     import pandas as pd
 
-    from analysis.power import plot_power
+    from analysis.power_plot import plot_power
     from analysis.exports import codebook, write_csv
     from sessionfiles.atomicfile import OutputFolder, output_file
 
