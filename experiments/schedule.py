@@ -106,10 +106,15 @@ class TrialSpec:
         """
         if not isinstance(d, Mapping):
             raise ValueError(f"{source}: expected an object, got {d!r}")
-        names = [f.name for f in fields(cls)]
-        check_against_schema({k: _from_text(k, d[k]) for k in names if k in d}, TRIAL_SCHEMA, source)
-        return cls(**{k: float(v) if k == "roughness_um" else v
-                      for k, v in ((k, _from_text(k, d[k])) for k in names)})
+        values = {f.name: _from_text(f.name, d[f.name]) for f in fields(cls) if f.name in d}
+        check_against_schema(values, TRIAL_SCHEMA, source)
+        return cls.from_checked(values)
+
+    @classmethod
+    def from_checked(cls, values: Mapping[str, Any]) -> "TrialSpec":
+        """From values ``trial.schema.json`` accepted (exactly its six keys; an integral
+        roughness is stored as a float)."""
+        return cls(**dict(values, roughness_um=float(values["roughness_um"])))
 
 
 def _from_text(key: str, value: Any) -> Any:

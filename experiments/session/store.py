@@ -167,7 +167,7 @@ def read_session_json(directory, *, out=None) -> StoredSession:
     participant = Participant.from_record(meta["participant"], source=f"{path}: participant")
     for i, d in enumerate(meta["schedule"]):     # strictly: no key but the trial's six
         check_against_schema(d, TRIAL_SCHEMA, str(path), SessionError, at=f"schedule[{i}]")
-    schedule = [TrialSpec(**dict(d, roughness_um=float(d["roughness_um"]))) for d in meta["schedule"]]
+    schedule = [TrialSpec.from_checked(d) for d in meta["schedule"]]
     # Sessions written before the field existed used the first algorithm.
     made_by = meta.get("schedule_algorithm", "thermocue-schedule-v1")
     expected = build_schedule(protocol, participant.id, seed)
