@@ -13,13 +13,12 @@ from __future__ import annotations
 
 import json
 import math
-from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
 
 from participants_schema.errors import ParticipantError
 from participants_schema.schema_check import field_path as _field
-from participants_schema.schema_check import schema_problems
+from participants_schema.schema_check import load_schema_file, schema_problems
 
 __all__ = [
     "SCHEMA_PATH",
@@ -51,11 +50,9 @@ LAYER_TOLERANCE_REL = 0.02
 LAYER_ERROR_REL = 0.25
 
 
-@lru_cache(maxsize=1)
 def load_schema() -> dict:
-    """Return the participant JSON Schema (a dict, parsed once)."""
-    with open(SCHEMA_PATH, encoding="utf-8") as fh:
-        return json.load(fh)
+    """Return the participant JSON Schema (a dict, parsed once, by the stack that checks it)."""
+    return load_schema_file(str(SCHEMA_PATH))
 
 
 def _semantic_errors(record: Mapping[str, Any]) -> list[tuple[str, str]]:
