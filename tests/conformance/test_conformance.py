@@ -303,7 +303,12 @@ def test_device_clamps_limits_neutral_and_samples(raw):
 
 def test_device_holds_the_rate_limit_over_every_window(raw):
     """A profile that jumps 32 -> 40 °C (past a careless host) is slowed, never played faster:
-    the setpoints of any 10 ticks span ≤ 10 °C/s × 0.1 s + 0.01 °C (§6)."""
+    the setpoints of any 10 ticks span ≤ 10 °C/s × 0.1 s + 0.01 °C (§6).
+
+    The windows are taken on the device's own clock (each frame's ``device_time_s``: frames
+    less than 0.1 s apart are within 10 ticks), not as 10 frames in a row: on a loaded machine
+    the host may miss frames (under QEMU 68 of about 150 arrived), and 10 frames in a row then
+    span more than 10 ticks."""
     _hello(raw, 1)
     raw.command(2, m.Cmd.SET_LIMITS, m.LIMITS.pack(1500, 4200, 1000))
     raw.command(3, m.Cmd.SET_NEUTRAL, m.CENTI.pack(3200))
@@ -319,8 +324,10 @@ def test_device_holds_the_rate_limit_over_every_window(raw):
     tel = [m.Telemetry.decode(f.payload) for f in raw.others
            if f.type == 0xA0 and len(f.payload) == m.TELEMETRY.size]
     playing = [f for f in tel if f.state == "PLAYING"]
-    assert len(playing) > 100
     sp = np.array([f.setpoint_C for f in playing])
-    spans = [np.ptp(sp[i:i + 10]) for i in range(len(sp) - 9)]
-    assert max(spans) <= 1.01 + 0.01                 # + the 0.01 °C of telemetry's rounding
+    t = np.array([f.device_time_s for f in playing])
+    assert len(playing) >= 20 and t[-1] - t[0] >= 1.0      # the whole 0.8 s ramp watched
+    moved = np.abs(sp[:, None] - sp[None, :])
+    within_10_ticks = np.abs(t[:, None] - t[None, :]) < 0.1 - 0.005
+    assert moved[within_10_ticks].max() <= 1.01 + 0.01   # + the 0.01 °C of telemetry's rounding
     assert sp.max() == pytest.approx(40.0, abs=0.005)  # slowed, then reached
