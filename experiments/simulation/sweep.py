@@ -130,7 +130,7 @@ class Sweep:
         """``value`` sent once to every worker (a future to pass to tasks)."""
         return self._connect().scatter(value, broadcast=True)
 
-    def map(self, fn, tasks, what: str = "tasks", weights=None) -> list:
+    def map(self, fn, tasks, what: str = "tasks", weights=None, then=None) -> list:
         """``[fn(*task) for task in tasks]`` on the cluster, in the order of ``tasks``.
 
         Parameters
@@ -143,6 +143,10 @@ class Sweep:
             Names the unit in progress lines.
         weights : sequence of int, optional
             Units per task (e.g. studies) for the progress lines; default one per task.
+        then : callable, optional
+            Applied in this process to each result as it arrives (``then(fn(*task))`` is
+            returned), while the workers compute the others: work that needs modules the
+            workers should not import.
         """
         tasks = list(tasks)
         weights = list(weights) if weights is not None else [1] * len(tasks)
@@ -152,6 +156,8 @@ class Sweep:
             # result is the one a worker would return), and start no cluster for it
             start = time.perf_counter()
             out = [fn(*task) for task in tasks]
+            if then is not None:
+                out = [then(r) for r in out]
             log.info("%s: %d of %d %s; elapsed %5.1f s, remaining %5.1f s (in this process)",
                      self.label, total, total, what, time.perf_counter() - start, 0.0)
             return out
@@ -163,7 +169,7 @@ class Sweep:
         done, last = 0, start
         for future in as_completed(futures):
             i = index[future.key]
-            out[i] = future.result()
+            out[i] = future.result() if then is None else then(future.result())
             done += weights[i]
             now = time.perf_counter()
             if now - last >= 2.0 or done == total:

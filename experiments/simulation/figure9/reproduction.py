@@ -160,6 +160,7 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     """
     from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
     from experiments.simulation.figure9.study import run_figure9_study
+    from experiments.simulation.figure9.tasks import group_pool_task
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import GROUPS, merge_pools
     from experiments.simulation.sweep import Sweep, release_process_memory
@@ -167,8 +168,8 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
     with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
         # one person pool per group, built on the cluster's workers
-        pool = merge_pools(sweep.map(_group_pool, [(g, tuple(REPLAY_HYPOTHESES), seed)
-                                                   for g in GROUPS], what="person pools"))
+        pool = merge_pools(sweep.map(group_pool_task, [(g, tuple(REPLAY_HYPOTHESES), seed)
+                                                        for g in GROUPS], what="person pools"))
         seconds["pool_s"] = time.perf_counter() - t0
         result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
                                     variability=lab, max_studies=max_studies)
@@ -297,12 +298,6 @@ def _beside(background, foreground):
         return pending.result(), front, seconds
     finally:
         bg.shutdown()
-
-
-def _group_pool(group, hypotheses, seed):
-    """The person pool of one group (a sweep task)."""
-    from experiments.simulation.studies import build_pool
-    return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
 
 
 def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None,

@@ -19,10 +19,13 @@ import pandas as pd
 from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_MATERIAL,
                           TABLE2_ROUGHNESS_UM)
 
+# the workers' tasks live in a module without pandas or analysis (see .tasks)
+from .tasks import build_pool_task, claims_of_studies, study_task
+
 __all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
            "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
            "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios",
-           "build_pool_task"]
+           "build_pool_task", "study_task"]
 
 #: One receptor depth below the surface for everyone, µm: 0.4 x 860 µm, the middle of the
 #: model's 0.35-0.45 L at the mean thickness of the two groups' ranges (675 and 1050 µm).
@@ -146,33 +149,6 @@ def _proportion_rows(per_study, roughness_um, keys: dict) -> list:
     return rows
 
 
-def study_task(pool, hypothesis: str, observer: str, n_studies: int, n_per_group: int,
-               familiarise_reps: int, params, seed, temps, variability=None) -> dict:
-    """One task of a sweep: ``n_studies`` studies of one scenario, reduced to what tables need.
-
-    Returns
-    -------
-    dict
-        ``readings``: :func:`analysis.claims.evaluate_readings` of the studies;
-        ``proportions``: per-study proportion correct, shape (S, groups, 2 modes, C).
-    """
-    from analysis.claims import evaluate_readings
-    from experiments.participant_model.observers import get_observer
-    from experiments.simulation.studies import GROUPS, simulate_studies
-    out = simulate_studies(pool, hypothesis, get_observer(observer), n_studies=n_studies,
-                           n_per_group=n_per_group, familiarise_reps=familiarise_reps,
-                           params=params, seed=seed, variability=variability)
-    answered = out.answers.sum(axis=-2)                            # (S, P, 2, C)
-    readings = evaluate_readings(out.correct, out.groups, out.repetitions, temps,
-                                 answered=answered)
-    props = np.stack([out.correct[:, out.groups == g].mean(axis=1) / out.repetitions
-                      for g in GROUPS], axis=1)
-    pooled = answered[:, :, 1].sum(axis=1).astype(float)           # (S, C) simulated block
-    with np.errstate(divide="ignore", invalid="ignore"):
-        share = pooled / pooled.sum(axis=1, keepdims=True)
-    return {"readings": readings, "proportions": props, "answer_share": share}
-
-
 def _merge(parts: list) -> dict:
     """The tasks of one scenario joined along the study axis."""
     readings = {r: {cid: tuple(np.concatenate([p["readings"][r][cid][k] for p in parts])
@@ -229,7 +205,8 @@ def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
     Returns
     -------
     list of dict
-        Per scenario: ``readings`` and ``proportions`` (see :func:`study_task`).
+        Per scenario: ``readings``, ``proportions`` and ``answer_share`` (see
+        :func:`.tasks.study_task` and :func:`.tasks.claims_of_studies`).
     """
     from experiments.simulation.figure9.precision import needs_more, round_sizes
     from experiments.simulation.sweep import chunks
@@ -261,9 +238,10 @@ def run_scenarios(pool, scenarios, n_studies: int, *, n_per_group: int = 15,
                 owner.append(si)
                 weights.append(chunk)
         if sweep is not None:
-            done = sweep.map(study_task, tasks, what="simulated studies", weights=weights)
+            done = sweep.map(study_task, tasks, what="simulated studies", weights=weights,
+                             then=claims_of_studies)
         else:
-            done = [study_task(*t) for t in tasks]
+            done = [claims_of_studies(study_task(*t)) for t in tasks]
         for si, part in zip(owner, done):
             parts[si].append(part)
         active = [si for si in active if needs_more(_merge(parts[si])["readings"])]
@@ -411,21 +389,6 @@ SENSITIVITY_CHOICES = {
         "one cohort of 100 per group, reused": {"lab": {"cohort_size": 100}},
     },
 }
-
-
-def build_pool_task(protocol, kwargs):
-    """:func:`..studies.build_pool` as a sweep task (``replay_skin_C``: the protocol's
-    ``[simulation] skin_temperature_C`` changed to it, i.e. the replays computed for that skin)."""
-    from experiments.simulation.studies import build_pool
-    kwargs = dict(kwargs)
-    skin_C = kwargs.pop("replay_skin_C", None)
-    if skin_C is not None:
-        from experiments.protocol import load_protocol, parse_protocol
-        from experiments.simulation.replay import _with_simulation
-        base = protocol if hasattr(protocol, "data") else load_protocol(protocol)
-        protocol = parse_protocol(_with_simulation(base.data, skin_temperature_C=float(skin_C)),
-                                  source=f"{base.name} (replays for {skin_C:g} °C skin)", path=None)
-    return build_pool(protocol, **kwargs)
 
 
 #: The keys of a sensitivity change that need a person pool of their own.

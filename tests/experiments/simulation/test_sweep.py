@@ -1,4 +1,4 @@
-"""Sweep.release_memory: the workers give their freed heap back between stages."""
+"""Sweep: the workers give their freed heap back between stages, and import no pandas or analysis."""
 import sys
 
 import pytest
@@ -36,3 +36,54 @@ def test_release_memory_gives_a_workers_freed_heap_back():
     assert set(after) == set(before)
     for worker, rss in after.items():
         assert rss < before[worker] - 32 * MiB, (before[worker] / MiB, rss / MiB)
+
+
+def _heavy_modules() -> list:
+    """Of the modules a figure9 worker should not need, those this process has imported."""
+    return sorted(m for m in ("pandas", "pyarrow", "analysis", "matplotlib", "statsmodels")
+                  if m in sys.modules)
+
+
+def test_the_workers_task_module_imports_no_pandas_or_analysis():
+    # a worker imports the module of each task it runs: reproduce figure9's tasks (and the
+    # sessions' runner) must not pull in pandas, pyarrow or the analysis package
+    import subprocess
+    code = ("import sys; import experiments.simulation.figure9.tasks, "
+            "experiments.simulation.figure9.study, experiments.simulation.sweep; "
+            "print(sorted(m for m in ('pandas', 'pyarrow', 'analysis', 'matplotlib', "
+            "'statsmodels') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+@pytest.mark.slow   # starts a one-worker LocalCluster (~5 s)
+def test_studies_on_a_worker_give_the_claims_of_studies_here_without_analysis_there():
+    # study_task runs on the worker (no analysis there); its claims are evaluated here as each
+    # result arrives (Sweep.map's ``then``): the same readings, bit for bit, as evaluating the
+    # same studies' counts in one process
+    import numpy as np
+
+    from analysis.claims import evaluate_readings
+    from experiments.participant_model.observers import get_observer
+    from experiments.simulation.figure9.scenarios import table2_replay_temperatures
+    from experiments.simulation.figure9.tasks import claims_of_studies, study_task
+    from experiments.simulation.studies import build_pool, simulate_studies
+    from experiments.simulation.sweep import Sweep
+    pool = build_pool(hypotheses=("slab",), dermis_fraction=(0.6, 0.6), seed=1)
+    temps = table2_replay_temperatures("slab")
+    tasks = [(pool, "slab", "absolute", 30, 15, 1, None, (1, 2, ci), temps, None)
+             for ci in range(2)]
+    with Sweep(workers=1) as sweep:
+        done = sweep.map(study_task, tasks, what="simulated studies", then=claims_of_studies)
+        there = sweep.client.run(_heavy_modules)
+    assert list(there.values()) == [[]]
+    for task, res in zip(tasks, done):
+        out = simulate_studies(pool, "slab", get_observer("absolute"), n_studies=30, seed=task[7])
+        here = evaluate_readings(out.correct, out.groups, out.repetitions, temps,
+                                 answered=out.answers.sum(axis=-2))
+        assert here.keys() == res["readings"].keys()
+        for reading, verdicts in here.items():
+            for cid, (stat, holds) in verdicts.items():
+                np.testing.assert_array_equal(res["readings"][reading][cid][0], stat)
+                np.testing.assert_array_equal(res["readings"][reading][cid][1], holds)
+        assert res["proportions"].shape == (30, 2, 2, 4)
