@@ -14,13 +14,15 @@ from .precision import MARK, MC_LEVEL, THRESHOLD
 from .verdict import (PRINTED, READING_TEXT, bias_text, claim_statuses, claims_held,
                       claims_screen, reproducing_scenarios, scenario_statuses, verdict_line)
 
-__all__ = ["write_outputs", "planner_note", "depth_paragraph", "depth_text"]
+__all__ = ["write_outputs", "write_figure", "planner_note", "depth_paragraph", "depth_text"]
 
 _LEVEL = f"{MC_LEVEL * 100:g} %"
 
 
-def _figure(out_dir, result, observed, headline, best, n_sessions) -> list:
-    """``figure9.png`` / ``.pdf``: the printed Eq. 7 and the headline, as distributions."""
+def write_figure(out_dir, result, observed, headline, best, n_sessions) -> list:
+    """``figure9.png`` / ``.pdf``: the printed Eq. 7 and the headline, as distributions (it
+    needs neither the sensitivity table nor the depth fit: ``reproduce figure9`` draws it while
+    the fit's studies run)."""
     from experiments.simulation.figure9.plot import claims_note, plot_figure9_distribution
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     props = result.proportions
@@ -288,11 +290,12 @@ def _report_opening(verdict, result, sens, headline, best, sessions_line="", lab
 
 def write_outputs(out_dir, result, sens, headline, best, observed, n_sessions: int,
                   sessions_line: str = "", lab: dict | None = None, depth_record=None,
-                  body: bool = True) -> dict:
+                  body: bool = True, figure: list | None = None) -> dict:
     """claims.csv, scenario_proportions.csv, sensitivity.csv, figure9.png/.pdf and report.md.
 
     ``body``: keep what ``report.md`` already holds (the analysis of the sessions) after the
-    new opening.  Returns ``files``, ``verdict``, ``screen``.
+    new opening.  ``figure``: the figure's files, already written by :func:`write_figure` with
+    the same arguments (default: drawn here).  Returns ``files``, ``verdict``, ``screen``.
     """
     from analysis.exports import write_csv        # whole or not at all
     from sessionfiles.logbook import atomic_write_text
@@ -300,7 +303,8 @@ def write_outputs(out_dir, result, sens, headline, best, observed, n_sessions: i
     write_csv(result.claims, out_dir / "claims.csv")
     write_csv(result.proportions, out_dir / "scenario_proportions.csv")
     write_csv(sens, out_dir / "sensitivity.csv")
-    files = _figure(out_dir, result, observed, headline, best, n_sessions)
+    files = (figure if figure is not None
+             else write_figure(out_dir, result, observed, headline, best, n_sessions))
     verdict = verdict_line(result)
     screen = claims_screen(result, headline)
     report = out_dir / "report.md"

@@ -156,8 +156,31 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     """Steps 1 and 2 of the module docstring on one cluster; stage times into ``seconds``.
 
     Returns ``result``, ``best``, ``headline``, ``sens`` (the sensitivity table, the fitted
-    depth's rows included), ``study`` and ``depth``.
+    depth's rows included), ``study``, ``depth`` and ``written`` (``studies.csv`` written, and
+    ``figure``: the figure's files, drawn while the depth fit ran).
     """
+    sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
+    # outputs final before the end are written by this thread while this process would wait
+    writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-writer")
+    try:
+        return _simulate_on(writer, out_dir, seconds, t0, seed=seed, workers=workers,
+                            participants=participants, replay=replay, observer=observer,
+                            options=options, n_studies=n_studies, target_side=target_side,
+                            rate_limit=rate_limit, scheduler=scheduler, force_sd_N=force_sd_N,
+                            max_studies=max_studies, lab=lab, sens_cap=sens_cap)
+    finally:
+        writer.shutdown(cancel_futures=True)    # what it wrote was waited for (or failed)
+
+
+def _simulate_on(writer, out_dir, seconds, t0, *, seed, workers, participants, replay, observer,
+                 options, n_studies, target_side, rate_limit, scheduler, force_sd_N, max_studies,
+                 lab, sens_cap) -> dict:
+    """:func:`_simulate` with ``writer`` (a one-thread executor) writing ``studies.csv`` while
+    the sessions run (this process only waits for them) and drawing the figure while the depth
+    fit runs; both waited for before returning (a failure of either is raised here).  The same
+    files as writing them at the end: ``studies.csv`` needs only the scenarios, the figure
+    neither the sensitivity rows nor the depth fit."""
+    from experiments.simulation.figure9.report import write_figure
     from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
     from experiments.simulation.figure9.study import run_figure9_study
     from experiments.simulation.figure9.tasks import group_pool_task
@@ -165,7 +188,6 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     from experiments.simulation.studies import GROUPS, merge_pools
     from experiments.simulation.sweep import Sweep, release_process_memory
 
-    sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
     with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
         # one person pool per group, built on the cluster's workers
         pool = merge_pools(sweep.map(group_pool_task, [(g, tuple(REPLAY_HYPOTHESES), seed)
@@ -180,6 +202,7 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
                            if (keys["hypothesis"], keys["observer"]) == headline)
         seconds["scenarios_s"] = time.perf_counter() - t0
         sweep.release_memory()      # the scenarios' studies, before the sessions
+        written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
         t1 = time.perf_counter()
         (sens, grid_pools), study, seconds["study_s"] = _beside(
             lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run,
@@ -202,12 +225,24 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
                  result.n_studies().min(), result.n_studies().max(), seconds["scenarios_s"],
                  len(sens), seconds["sensitivity_and_study_s"], sweep.n_workers, *headline)
         t2 = time.perf_counter()
+        analysis = study.get("analysis")
+        written["figure"] = writer.submit(
+            write_figure, out_dir, result, analysis.proportions if analysis is not None else None,
+            headline, best, len(study["sessions"]))
         depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, sens_cap,
                                   grid_pools)
         sens = _with_depth_row(sens, depth)
         seconds["depth_fit_s"] = time.perf_counter() - t2
     return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
-            "depth": depth}
+            "depth": depth, "written": {k: f.result() for k, f in written.items()}}
+
+
+def _write_studies(out_dir, runs) -> None:
+    """``studies.csv``: the scenarios' per-study table (:func:`.precision.study_table`)."""
+    from analysis.exports import write_csv        # whole or not at all
+    from experiments.simulation.figure9.precision import study_table
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    write_csv(study_table(runs), Path(out_dir) / "studies.csv")
 
 
 def _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run, max_studies,
@@ -245,7 +280,6 @@ def _finish(out_dir, run, seconds, t0, lab) -> dict:
     from sessionfiles.logbook import atomic_write_json
     result, sens, study, headline, best = (run["result"], run["sens"], run["study"],
                                            run["headline"], run["best"])
-    write_csv(study_table(result.runs), out_dir / "studies.csv")
     write_csv(study_table(sens.attrs["runs"]), out_dir / "sensitivity_studies.csv")
     analysis = study.get("analysis")
     observed = analysis.proportions if analysis is not None else None
@@ -255,7 +289,7 @@ def _finish(out_dir, run, seconds, t0, lab) -> dict:
     depth_record = None if run["depth"] is None else run["depth"]["record"]
     outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
                              len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
-                             body=True)
+                             body=True, figure=run["written"]["figure"])
     files, verdict, screen = outputs["files"], outputs["verdict"], outputs["screen"]
     seconds["total_s"] = time.perf_counter() - t0
     study_json = out_dir / "study.json"
