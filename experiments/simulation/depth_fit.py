@@ -90,11 +90,16 @@ class DepthFit:
                     and self.interval[1] == self.profile.index.max())
 
 
-def depth_pool_jobs(depth_shares=DEPTH_SHARES, seed: int = 0) -> list:
+def depth_pool_jobs(depth_shares=DEPTH_SHARES, seed: int = 0, also=()) -> list:
     """``(protocol, build_pool keyword arguments)`` of the pool of each depth share
-    (:func:`experiments.simulation.figure9.scenarios.build_pool_task`'s arguments: a sweep
-    builds them side by side)."""
-    return [("roughness_recognition", {"hypotheses": ("slab",), "seed": seed,
+    (:func:`experiments.simulation.figure9.tasks.build_pool_task`'s arguments: a sweep
+    builds them side by side).
+
+    ``also``: replay hypotheses the pools hold besides the fit's ``slab`` (the fit reads only
+    ``slab``'s; ``reproduce figure9`` reuses a pool for its headline at the fitted depth).
+    """
+    hypotheses = ("slab",) + tuple(h for h in also if h != "slab")
+    return [("roughness_recognition", {"hypotheses": hypotheses, "seed": seed,
                                        "dermis_fraction": (1.0 - float(d), 1.0 - float(d))})
             for d in depth_shares]
 

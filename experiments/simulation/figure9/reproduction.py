@@ -255,7 +255,8 @@ def _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run, 
                        variability=lab, default_run=default_run, max_studies=max_studies)
     # the depth fit's grid pools need no answers: built once the rows are done, while this
     # process analyses the sessions (a fit needs both groups)
-    grid_pools = (sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
+    grid_pools = (sweep.map(build_pool_task, depth_pool_jobs(seed=seed, also=headline[:1]),
+                            what="person pools")
                   if participants is None or participants >= 2 else None)
     return sens, grid_pools
 
@@ -353,7 +354,8 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
     # the grid's seven person pools on the cluster's workers (built here, one after the other,
     # they were about a third of this step, with the workers idle)
     if grid_pools is None and sweep is not None:
-        grid_pools = sweep.map(build_pool_task, depth_pool_jobs(seed=seed), what="person pools")
+        grid_pools = sweep.map(build_pool_task, depth_pool_jobs(seed=seed, also=headline[:1]),
+                               what="person pools")
     fit = fit_depth(counts, n_studies=20, seed=seed, pools=grid_pools)
     # the estimate and the ends of its interval: the claims' probabilities across the depths
     # the study's answers allow (their best noise each)
@@ -372,11 +374,7 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
         label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
                  f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
         settings[label] = ({"noise": noise}, what, share)
-    # the depths' person pools side by side on the cluster's workers (one after the other here
-    # they were a third of this step)
-    built = (sweep.map(build_pool_task, jobs, what="person pools") if sweep is not None
-             else [build_pool_task(*job) for job in jobs])
-    for (change, *_), depth_pool in zip(settings.values(), built):
+    for (change, *_), depth_pool in zip(settings.values(), _depth_pools(jobs, grid_pools, sweep)):
         change["pool"] = depth_pool
     row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                       variability=lab, max_studies=max_studies,
@@ -385,6 +383,29 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
               "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
               "profile": {f"{d:.2f}": float(v) for d, v in fit.profile.items()}}
     return {"row": row, "record": record, "text": depth_text(record)}
+
+
+def _depth_pools(jobs, grid_pools, sweep) -> list:
+    """The person pools of ``jobs`` (:func:`.tasks.build_pool_task`'s arguments): a grid pool
+    of the depth fit where one is the same pool (the same persons, d / L, perception
+    parameters and protocol, the job's hypotheses among its own: their features do not depend
+    on the others), else built side by side on ``sweep``'s workers."""
+    from experiments.simulation.figure9.tasks import build_pool_task
+    out, missing = [], []
+    for protocol, kw in jobs:
+        same = [g for g in grid_pools or ()
+                if protocol == "roughness_recognition" and set(kw) == {
+                    "hypotheses", "dermis_fraction", "seed", "params"}
+                and set(kw["hypotheses"]) <= set(g.hypotheses)
+                and tuple(g.settings["dermis_fraction"]) == tuple(kw["dermis_fraction"])
+                and g.params == kw["params"] and g.receptor_depth_um is None
+                and not g.settings["sensor_tau_s"]]
+        out.append(same[0] if same else None)
+        if not same:
+            missing.append((protocol, kw))
+    built = iter(sweep.map(build_pool_task, missing, what="person pools") if sweep is not None
+                 else [build_pool_task(*job) for job in missing])
+    return [p if p is not None else next(built) for p in out]
 
 
 def _sessions_verdicts(trials: pd.DataFrame, headline):

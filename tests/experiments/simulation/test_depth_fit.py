@@ -30,3 +30,32 @@ def test_grid_pools_built_as_sweep_tasks_give_the_same_fit():
     assert [p.grid_fraction.tolist() for p in pools] == [[0.70], [0.50]]
     assert here.grid["loglik"].tolist() == given.grid["loglik"].tolist()
     assert (here.estimate, here.interval) == (given.estimate, given.interval)
+
+
+def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool():
+    # reproduce figure9 builds the grid's pools with the headline's replay too (depth_pool_jobs'
+    # ``also``) and uses the one at the fitted depth for the headline's row instead of building
+    # it again: its real and replayed features are those of a pool built for the headline alone,
+    # bit for bit; a depth or parameters of no grid pool is built
+    import dataclasses
+
+    from experiments.simulation.depth_fit import depth_pool_jobs
+    from experiments.simulation.figure9.reproduction import _depth_pools
+    from experiments.simulation.figure9.tasks import build_pool_task
+    (job,) = depth_pool_jobs((0.40,), seed=2, also=("skin", "slab"))
+    assert job[1]["hypotheses"] == ("slab", "skin")
+    (grid,) = [build_pool_task(*job)]
+    own = {"hypotheses": ("skin",), "dermis_fraction": (0.60, 0.60), "seed": 2,
+           "params": grid.params}
+    other = dict(own, params=dataclasses.replace(grid.params, drop_noise_C=0.6))
+    reused, built = _depth_pools([("roughness_recognition", own),
+                                  ("roughness_recognition", other)], [grid], sweep=None)
+    alone = build_pool_task("roughness_recognition", own)
+    assert reused is grid and built is not grid and built.params == other["params"]
+    for g in ("A", "B"):
+        assert np.array_equal(reused.real[g], alone.real[g])
+        for table in ("simulated", "simulated_dts"):
+            assert np.array_equal(getattr(reused, table)[("skin", g)],
+                                  getattr(alone, table)[("skin", g)])
+        assert np.array_equal(reused.grid_L_um[g], alone.grid_L_um[g])
+    assert np.array_equal(reused.grid_fraction, alone.grid_fraction)
