@@ -463,17 +463,29 @@ def _force_weights(force):
     return out
 
 
+def _by_class(table):
+    """A (B, nForce, C, F) table as (B, C, nForce, F), C-contiguous: one touch's rows (every
+    force of one person's one class) are one block, which :func:`_touch_features` gathers."""
+    return np.ascontiguousarray(np.swapaxes(table, 1, 2))
+
+
 def _touch_features(base, dts, classes, force_w, skin_delta, real_scale):
-    """Features of touches: base/dts (B, nForce, C, F), classes (B, T), force_w (B, T, nForce).
+    """Features of touches: base/dts (B, C, nForce, F) (:func:`_by_class`), classes (B, T),
+    force_w (B, T, nForce).
 
     Real touches scale exactly with the skin–sample difference (``real_scale`` (B, T)); replayed
-    ones add ``skin_delta`` (B, T) K times their change per kelvin.
+    ones add ``skin_delta`` (B, T) K times their change per kelvin.  A touch's rows are taken as
+    whole blocks (``np.take``): the same (B, T, nForce, F) array as indexing ``[b, :, classes]``
+    in the force-first layout, several times faster.
     """
-    b = np.arange(base.shape[0])[:, None]
-    per = base[b, :, classes]                          # (B, T, nForce, F)
-    f = np.einsum("btk,btkf->btf", force_w, per)
+    B, C = base.shape[:2]
+    rows = np.arange(B)[:, None] * C + classes                          # (B, T)
+
+    def gather(table):                                                  # (B, T, nForce, F)
+        return np.take(table.reshape(B * C, *table.shape[2:]), rows, axis=0)
+    f = np.einsum("btk,btkf->btf", force_w, gather(base))
     if dts is not None:
-        f = f + skin_delta[..., None] * np.einsum("btk,btkf->btf", force_w, dts[b, :, classes])
+        f = f + skin_delta[..., None] * np.einsum("btk,btkf->btf", force_w, gather(dts))
     if real_scale is not None:
         f = f * real_scale[..., None]
     return f
@@ -517,7 +529,7 @@ def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int
     skin = np.concatenate(T_s, axis=1)                                        # (S, P)
     S, P, NF, C, F = real.shape
     B = S * P
-    real, simf, dsim = (x.reshape(B, NF, C, F) for x in (real, simf, dsim))
+    real, simf, dsim = (_by_class(x.reshape(B, NF, C, F)) for x in (real, simf, dsim))
     skin = skin.reshape(B)
     T = C * repetitions
 

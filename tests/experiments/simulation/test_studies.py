@@ -289,3 +289,26 @@ def test_the_replays_skin_temperature_leaves_the_real_features_unchanged(slab_po
     np.testing.assert_array_equal(warm.real["A"], slab_pool.real["A"])
     assert warm.settings["replay_skin_C"] == 36.0 != slab_pool.settings["replay_skin_C"]
     assert np.max(np.abs(warm.simulated[("slab", "A")] - slab_pool.simulated[("slab", "A")])) > 1e-3
+
+
+def test_touch_features_gather_each_touchs_class_and_weigh_its_forces():
+    # _touch_features takes the by-class layout (_by_class) and gathers whole blocks: the same
+    # features, bit for bit, as indexing the force-first table per touch and summing the forces
+    from experiments.simulation.studies import _by_class, _touch_features
+    rng = np.random.default_rng(7)
+    B, T, NF, C, F = 6, 5, 4, 4, 3
+    base, dts = rng.random((B, NF, C, F)), rng.random((B, NF, C, F))
+    classes = rng.integers(0, C, (B, T))
+    fw = rng.dirichlet(np.ones(NF), (B, T))
+    delta, scale = rng.normal(size=(B, T)), rng.random((B, T))
+    b = np.arange(B)[:, None]
+    want = np.einsum("btk,btkf->btf", fw, base[b, :, classes])
+    want_dts = want + delta[..., None] * np.einsum("btk,btkf->btf", fw, dts[b, :, classes])
+    got = _touch_features(_by_class(base), None, classes, fw, delta, scale)
+    np.testing.assert_array_equal(got, want * scale[..., None])
+    got = _touch_features(_by_class(base), _by_class(dts), classes, fw, delta, None)
+    np.testing.assert_array_equal(got, want_dts)
+    # one touch by hand: its class's row at every force, weighed by that touch's force weights
+    i, t = 2, 3
+    assert np.allclose(got[i, t], fw[i, t] @ base[i, :, classes[i, t]]
+                       + delta[i, t] * (fw[i, t] @ dts[i, :, classes[i, t]]))
