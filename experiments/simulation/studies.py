@@ -464,9 +464,10 @@ def _force_weights(force):
 
 
 def _by_class(table):
-    """A (B, nForce, C, F) table as (B, C, nForce, F), C-contiguous: one touch's rows (every
-    force of one person's one class) are one block, which :func:`_touch_features` gathers."""
-    return np.ascontiguousarray(np.swapaxes(table, 1, 2))
+    """A (..., nForce, C, F) table as (..., C, nForce, F), C-contiguous: one touch's rows
+    (every force of one person's one class) are one block, which :func:`_touch_features`
+    gathers.  Applied to a pool's grid tables (small) before the persons are interpolated."""
+    return np.ascontiguousarray(np.swapaxes(table, -3, -2))
 
 
 def _touch_features(base, dts, classes, force_w, skin_delta, real_scale):
@@ -520,16 +521,20 @@ def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int
     for g in GROUPS:
         L, frac, ts = _draw_cohorts(pool, g, n_studies, n_per_group, lab, rng)
         args = (pool.grid_L_um[g], pool.grid_fraction, L.ravel(), frac.ravel())
-        R0.append(person_features(pool.real[g], *args).reshape(n_studies, n_per_group, *pool.real[g].shape[2:]))
-        S0.append(person_features(pool.simulated[(hypothesis, g)], *args).reshape(R0[-1].shape))
-        dS.append(person_features(pool.simulated_dts[(hypothesis, g)], *args).reshape(R0[-1].shape))
+        # interpolated per element: the by-class grid gives the by-class persons directly
+        real_g = _by_class(pool.real[g])                                    # (nL, nU, C, nF, F)
+        R0.append(person_features(real_g, *args).reshape(n_studies, n_per_group, *real_g.shape[2:]))
+        S0.append(person_features(_by_class(pool.simulated[(hypothesis, g)]), *args)
+                  .reshape(R0[-1].shape))
+        dS.append(person_features(_by_class(pool.simulated_dts[(hypothesis, g)]), *args)
+                  .reshape(R0[-1].shape))
         T_s.append(ts)
         groups += [g] * n_per_group
-    real, simf, dsim = (np.concatenate(x, axis=1) for x in (R0, S0, dS))   # (S, P, nF, C, F)
+    real, simf, dsim = (np.concatenate(x, axis=1) for x in (R0, S0, dS))   # (S, P, C, nF, F)
     skin = np.concatenate(T_s, axis=1)                                        # (S, P)
-    S, P, NF, C, F = real.shape
+    S, P, C, NF, F = real.shape
     B = S * P
-    real, simf, dsim = (_by_class(x.reshape(B, NF, C, F)) for x in (real, simf, dsim))
+    real, simf, dsim = (x.reshape(B, C, NF, F) for x in (real, simf, dsim))
     skin = skin.reshape(B)
     T = C * repetitions
 
