@@ -521,13 +521,11 @@ def simulate_studies(pool: PersonPool, hypothesis: str, observer, n_studies: int
     for g in GROUPS:
         L, frac, ts = _draw_cohorts(pool, g, n_studies, n_per_group, lab, rng)
         args = (pool.grid_L_um[g], pool.grid_fraction, L.ravel(), frac.ravel())
-        # interpolated per element: the by-class grid gives the by-class persons directly
-        real_g = _by_class(pool.real[g])                                    # (nL, nU, C, nF, F)
-        R0.append(person_features(real_g, *args).reshape(n_studies, n_per_group, *real_g.shape[2:]))
-        S0.append(person_features(_by_class(pool.simulated[(hypothesis, g)]), *args)
-                  .reshape(R0[-1].shape))
-        dS.append(person_features(_by_class(pool.simulated_dts[(hypothesis, g)]), *args)
-                  .reshape(R0[-1].shape))
+        for out, table in ((R0, pool.real[g]), (S0, pool.simulated[(hypothesis, g)]),
+                           (dS, pool.simulated_dts[(hypothesis, g)])):
+            # interpolated per element: the by-class grid gives the by-class persons directly
+            by_class = _by_class(table)                                 # (nL, nU, C, nF, F)
+            out.append(person_features(by_class, *args).reshape(L.shape + by_class.shape[2:]))
         T_s.append(ts)
         groups += [g] * n_per_group
     real, simf, dsim = (np.concatenate(x, axis=1) for x in (R0, S0, dS))   # (S, P, C, nF, F)
