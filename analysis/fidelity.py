@@ -241,7 +241,7 @@ def _interval_name(fit: ModelFit, df: float | None) -> str:
         return "none (see test)"
     ref = f"t({df_text(df)})" if df else "normal"
     if fit.cov_robust is not None:
-        return f"Wald, {ref}; SE the larger of model-based and bias-reduced participant sandwich"
+        return f"Wald, {ref}; SE the CR2 participant sandwich, Bell-McCaffrey df"
     return f"Wald, {ref}"
 
 
