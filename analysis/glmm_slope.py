@@ -22,8 +22,8 @@ parametrisation :math:`\\Lambda = [[s_0, 0], [s_1 \\sin\\varphi, s_1 \\cos\\varp
 correlation :math:`\\sin\\varphi`, rises by the F(1, m - 2) cut-off as for
 :mod:`analysis.glmm`'s SD), and a likelihood-ratio test of the random slope against the
 intercept-only model (its null distribution on the boundary is the 50:50 mixture of
-:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Mode contrasts (real - simulated, the interaction) take
-their SE from the CR2 (Bell-McCaffrey [2]_) participant-cluster sandwich covariance of the
+:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Mode contrasts (real - simulated, the
+interaction) take their SE from the CR2 (Bell-McCaffrey [2]_) participant-cluster sandwich of the
 fixed effects (:func:`participant_sandwich`, :attr:`analysis.models.ModelFit.cov_robust`) and
 their df from :func:`analysis.small_sample.bell_mccaffrey_df` (each participant's
 information, :attr:`analysis.models.ModelFit.cluster_info`): the mode-slope SD's ML estimate
