@@ -21,8 +21,8 @@ bias-reduced linearisation of Bell and McCaffrey [3]_ (:func:`leverage_adjustmen
 to t with its Bell-McCaffrey (Satterthwaite) df (:func:`bell_mccaffrey_df`), as R clubSandwich
 computes them [4]_. The Mancl-DeRouen correction over-corrects (by about ``1 / (1 - 1/m_g)``
 in variance, 8/7 in a group of 8), and taking the larger of it and the model-based SE made the
-per-group rows cover 0.96-0.99 at 20 + 8 and 24 + 6, where CR2 with its df covers 0.94-0.96
-(``benchmarks/mixed_se_rules.py``).
+per-group rows cover 0.963-0.990 at 20 + 8 and 24 + 6, where CR2 with its df covers
+0.939-0.963 (300 datasets each, ``benchmarks/mixed_se_rules.py``; docs/analysis.md).
 
 References
 ----------
