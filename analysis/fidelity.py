@@ -18,14 +18,13 @@ model of ``correct ~ group * mode * C(roughness_id)``:
 
 Reference distributions (:func:`contrast_df`): a GEE row of one group is a within-participant
 contrast resting on that group's ``m_g`` participants, so t(m_g - 1) (as a paired t-test); a
-row of both groups the Welch-Satterthwaite df of its two groups' parts. A mixed-model row takes
-the df of the variance its SE uses (:func:`analysis.small_sample.row_df`): the participant
-sandwich's (split by group, as the GEE's) where that is the larger SE, t(m - 2) where the
-model-based SE is (it rests on every participant's likelihood). A group of one participant
-has no reference: its rows and the both-groups row get no p-value, interval or equivalence test
-(``test`` says why). From the random-slope mixed model the SE of each contrast is the larger of
-the model-based one and the bias-reduced participant sandwich
-(:func:`analysis.models.contrast_se`).
+row of both groups the Welch-Satterthwaite df of its two groups' parts. From the random-slope
+mixed model the SE of each contrast is the CR2 participant sandwich
+(:func:`analysis.models.contrast_se`) and its df the Bell-McCaffrey df
+(:func:`analysis.small_sample.row_df`); the intercept-only model's rows use t(m - 2) (their
+model-based SE rests on every participant's likelihood). A group of one participant has no
+reference: its rows and the both-groups row get no p-value, interval or equivalence test
+(``test`` says why).
 
 References
 ----------
@@ -177,8 +176,8 @@ def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str,
 
     With ``lvec`` (the row's contrast) and a fit whose variance splits by group (the GEE's
     sandwich, the random-slope model's participant sandwich), the row's df is
-    :func:`analysis.small_sample.row_df`'s Welch-Satterthwaite df: ``m_g - 1`` for a GEE
-    group row, Welch for both groups, ``m - 2`` where a mixed row reports its model-based SE.
+    :func:`analysis.small_sample.row_df`'s: Welch-Satterthwaite for the GEE (``m_g - 1`` on a
+    group row), Bell-McCaffrey for the random-slope model's CR2 sandwich.
     A mixed model without a sandwich (intercept only) refers every row to ``m - 2``: its SE
     rests on the likelihood of all participants, and t(m_g - 1) made its group rows wider
     than their coverage needs.
@@ -241,7 +240,7 @@ def _interval_name(fit: ModelFit, df: float | None) -> str:
         return "none (see test)"
     ref = f"t({df_text(df)})" if df else "normal"
     if fit.cov_robust is not None:
-        return f"Wald, {ref}; SE the larger of model-based and bias-reduced participant sandwich"
+        return f"Wald, {ref}; SE the CR2 participant sandwich, Bell-McCaffrey df"
     return f"Wald, {ref}"
 
 

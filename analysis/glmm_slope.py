@@ -22,11 +22,13 @@ parametrisation :math:`\\Lambda = [[s_0, 0], [s_1 \\sin\\varphi, s_1 \\cos\\varp
 correlation :math:`\\sin\\varphi`, rises by the F(1, m - 2) cut-off as for
 :mod:`analysis.glmm`'s SD), and a likelihood-ratio test of the random slope against the
 intercept-only model (its null distribution on the boundary is the 50:50 mixture of
-:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Mode contrasts (real - simulated, the interaction) also get
-a bias-reduced participant-cluster sandwich covariance of the fixed effects
-(:func:`participant_sandwich`, :attr:`analysis.models.ModelFit.cov_robust`): the mode-slope
-SD's ML estimate is biased low at 30 participants, and the model-based SEs of those contrasts
-inherit that. Coverage of all these intervals is measured by
+:math:`\\chi^2_1` and :math:`\\chi^2_2` [1]_). Mode contrasts (real - simulated, the
+interaction) take their SE from the CR2 (Bell-McCaffrey [2]_) participant-cluster sandwich of the
+fixed effects (:func:`participant_sandwich`, :attr:`analysis.models.ModelFit.cov_robust`) and
+their df from :func:`analysis.small_sample.bell_mccaffrey_df` (each participant's
+information, :attr:`analysis.models.ModelFit.cluster_info`): the mode-slope SD's ML estimate
+is biased low at 30 participants, and the model-based SEs of those contrasts inherit that.
+Coverage of all these intervals is measured by
 ``benchmarks/bench_recovery.py`` (``--scenario slope``, ``--slope-model``; docs/analysis.md).
 
 References
@@ -34,6 +36,8 @@ References
 .. [1] S. G. Self, K.-Y. Liang, "Asymptotic properties of maximum likelihood estimators
    and likelihood ratio tests under nonstandard conditions", J. Am. Stat. Assoc. 82
    (1987) 605-610.
+.. [2] R. M. Bell, D. F. McCaffrey, "Bias reduction in standard errors for linear regression
+   with multi-stage samples", Survey Methodology 28 (2002) 169-181.
 """
 from __future__ import annotations
 
@@ -46,6 +50,7 @@ from threadpoolctl import threadpool_limits
 
 from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, logsumexp_rows, ml_wald,
                    profile_cut, profile_upper, wald_table)
+from .small_sample import leverage_adjustments
 from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
                      reference_df, reference_quantile)
 
@@ -193,7 +198,8 @@ def participant_scores(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray:
     return data.onehot @ (data.x * per_row[:, None])
 
 
-def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5, groups=None):
+def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5, groups=None,
+                         adjustment: str = "CR2"):
     """Bias-reduced participant-cluster sandwich covariance of the fixed effects.
 
     With :math:`s_i` participant *i*'s score for :math:`\\beta` at the estimate and
@@ -202,25 +208,27 @@ def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5, groups=None):
 
     .. math::
 
-        V = A^{-1} \\Big[\\sum_i (I - A_i A^{-1})^{-1} s_i s_i^T (I - A^{-1} A_i)^{-1}\\Big] A^{-1}.
+        V = A^{-1} \\Big[\\sum_i \\tilde s_i \\tilde s_i^T\\Big] A^{-1}, \\qquad
+        \\tilde s_i = (I - A_i A^{-1})^{-a} s_i,
 
-    The factor :math:`(I - A_i A^{-1})^{-1}` undoes the shrinkage of a cluster's score by its
-    own pull on the estimate (its leverage); for a GEE it is algebraically the Mancl-DeRouen
-    correction :math:`(I - H_{ii})^{-1}` applied to the residuals (push-through identity), i.e.
-    the same bias-reduced sandwich as :func:`analysis.fit_gee`'s, here for the mixed model's
-    estimating equations. Linearised, :math:`A^{-1}(I - A_i A^{-1})^{-1} s_i` is the change of
-    the estimate when participant *i* is left out, so :math:`V` is the one-step
-    delete-one-participant jackknife (``tests/analysis/test_fidelity.py`` compares it with 30
-    real refits). It does not rely on the fitted random-effect SDs, which with 30
-    participants are often far from the truth (the mode-slope SD's ML estimate is biased low
-    and 0 in some datasets).
+    :math:`a = 1` (``adjustment="MD"``) or :math:`a = 1/2` (``"CR2"``); see
+    :func:`adjusted_scores`. With :math:`a = 1` it is the Mancl-DeRouen correction
+    :math:`(I - H_{ii})^{-1}` of :func:`analysis.fit_gee`'s sandwich (push-through identity),
+    here for the mixed model's estimating equations; linearised,
+    :math:`A^{-1}(I - A_i A^{-1})^{-1} s_i` is the change of the estimate when participant *i*
+    is left out: the one-step delete-one-participant jackknife
+    (``tests/analysis/test_fidelity.py`` compares it with 30 real refits). With
+    :math:`a = 1/2` it is Bell and McCaffrey's CR2, unbiased when the working model is right.
+    Neither relies on the fitted random-effect SDs (the slope SD's ML estimate is biased low).
 
     Parameters
     ----------
     groups : array_like, optional
         Each participant's group (participant index order of ``data``). Given, the sum over
         participants is also split by group (as :func:`analysis.small_sample.group_covariances`
-        splits the GEE's), for the Welch-Satterthwaite df of :func:`analysis.small_sample.row_df`.
+        splits the GEE's), for the df of :func:`analysis.small_sample.row_df`.
+    adjustment : {"MD", "CR2"}
+        The leverage adjustment of each participant's score.
 
     Returns
     -------
@@ -228,6 +236,27 @@ def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5, groups=None):
         On the same scale as the model's Wald covariance (log odds). With ``groups``:
         ``(V, {g: (V_g, m_g)})``, ``V`` the sum of the ``V_g``.
     """
+    s, a_i = score_parts(theta, data, z, n_agq)
+    if groups is None:
+        return _sandwich_sum(s, a_i, np.zeros(len(s)), adjustment)[0]
+    return _sandwich_sum(s, a_i, groups, adjustment)
+
+
+def _sandwich_sum(s, a_i, groups, adjustment: str):
+    """``(V, {g: (V_g, m_g)})`` from the scores and their derivatives."""
+    a_inv = np.linalg.inv(a_i.sum(axis=0))
+    s_tilde = adjusted_scores(s, a_i, adjustment)
+    groups = np.asarray(groups)
+    parts = {}
+    for g in np.unique(groups):
+        sg = s_tilde[groups == g]
+        parts[str(g)] = (a_inv @ (sg.T @ sg) @ a_inv, int(len(sg)))
+    return sum(w for w, _ in parts.values()), parts
+
+
+def score_parts(theta, data: GLMMData, z, n_agq: int = 5):
+    """Each participant's score ``s`` (m, p) and its derivative for the fixed effects ``A_i``
+    (m, p, p; central differences, symmetrised), the random-effect parameters held fixed."""
     theta = np.asarray(theta, float)
     p = len(theta) - 3
     s = participant_scores(theta, data, z, n_agq)
@@ -239,18 +268,20 @@ def participant_sandwich(theta, data: GLMMData, z, n_agq: int = 5, groups=None):
         down[j] -= h
         a_i[:, :, j] = (participant_scores(up, data, z, n_agq)
                         - participant_scores(down, data, z, n_agq)) / (2 * h)
-    a_i = (a_i + np.transpose(a_i, (0, 2, 1))) / 2
-    a_inv = np.linalg.inv(a_i.sum(axis=0))
-    lev = np.eye(p)[None] - a_i @ a_inv                      # I - A_i A^-1, (m, p, p)
-    s_tilde = np.linalg.solve(lev, s[..., None])[..., 0]
-    if groups is None:
-        return a_inv @ (s_tilde.T @ s_tilde) @ a_inv
-    groups = np.asarray(groups)
-    parts = {}
-    for g in np.unique(groups):
-        sg = s_tilde[groups == g]
-        parts[str(g)] = (a_inv @ (sg.T @ sg) @ a_inv, int(len(sg)))
-    return sum(w for w, _ in parts.values()), parts
+    return s, (a_i + np.transpose(a_i, (0, 2, 1))) / 2
+
+
+def adjusted_scores(s, a_i, adjustment: str = "CR2") -> np.ndarray:
+    """Leverage-adjusted participant scores ``(I - A_i A^-1)^-a s_i``, (m, p).
+
+    ``"CR2"`` (a = 1/2): Bell and McCaffrey's bias-reduced linearisation
+    (:func:`analysis.small_sample.leverage_adjustments`), unbiased under the working model.
+    ``"MD"`` (a = 1): Mancl and DeRouen's correction, which over-corrects: its variance is
+    about ``1 / (1 - h)`` too large for a participant of leverage ``h`` (8/7 in a group of 8).
+    """
+    power = {"MD": 1.0, "CR2": 0.5}[adjustment]
+    adjust = leverage_adjustments(-np.asarray(a_i, float), power)
+    return np.einsum("iab,ib->ia", adjust, np.asarray(s, float))
 
 
 def _person_groups(data_t: pd.DataFrame) -> np.ndarray:
@@ -469,7 +500,7 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         cov_full, beta, cov, se, why = ml_wald(theta, hess, p, res)
         if not accept_candidate("GLMM slope", candidate, formula, why, notes):
             continue
-        cov_robust, by_group = _sandwich(theta, data, z, n_agq, data_t, notes)
+        cov_robust, by_group, info = _sandwich(theta, data, z, n_agq, data_t, notes)
         table = wald_table(x.columns, beta, se, df, zq)
         cut_df = df if sd_cutoff == "F" else None
         _sd_rows(table, theta, profile, cut_df)
@@ -488,7 +519,7 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
                         convergence=_convergence(res, theta, hess, n_agq, loglik), theta=theta,
                         cov_full=cov_full, cov_robust=cov_robust,
                         cov_by_group=by_group if by_group and len(by_group) == 2 else None,
-                        pending=pending)
+                        cluster_info=info, pending=pending)
     notes.append("GLMM slope: no formula could be fitted")
     return ModelFit(kind="glmm-slope", formula=None, requested=formula,
                     table=pd.DataFrame(columns=columns), notes=notes)
@@ -518,18 +549,20 @@ def _optimise(y, p: int, data, z, n_agq: int):
 
 
 def _sandwich(theta, data, z, n_agq: int, data_t: pd.DataFrame, notes: list):
-    """:func:`participant_sandwich` split by group, or ``(None, None)`` with a note."""
+    """The CR2 participant sandwich (:func:`participant_sandwich`), split by group, and each
+    participant's information for the fixed effects (for the Bell-McCaffrey df of
+    :func:`analysis.small_sample.row_df`); ``(None, None, None)`` with a note."""
     try:
         with np.errstate(all="ignore"):
-            cov_robust, by_group = participant_sandwich(theta, data, z, n_agq,
-                                                        _person_groups(data_t))
+            s, a_i = score_parts(theta, data, z, n_agq)
+            cov_robust, by_group = _sandwich_sum(s, a_i, _person_groups(data_t), "CR2")
         if not np.all(np.isfinite(cov_robust)):
             raise np.linalg.LinAlgError("non-finite")
     except np.linalg.LinAlgError:
         notes.append("GLMM slope: the participant sandwich could not be computed (singular "
                      "leverage); mode contrasts use the model-based SE alone")
-        return None, None
-    return cov_robust, by_group
+        return None, None, None
+    return cov_robust, by_group, -a_i
 
 
 def _sd_rows(table: pd.DataFrame, theta, profile: bool, cut_df) -> None:

@@ -10,9 +10,9 @@ test misses the slope (about half at 30 participants), so the rule is:
 - mode contrasts and the interaction come from the random-slope model
   ``(1 + mode | participant)`` whenever it was fitted with the same fixed effects as the
   intercept-only model (its fixed-effect intervals covered 0.957 without a slope and 0.963
-  with one), each contrast's SE the larger of the model-based one and the bias-reduced
-  participant sandwich (:func:`analysis.models.contrast_se`: the slope SD's ML estimate is
-  biased low, and the model-based intervals of real - simulated covered 0.92);
+  with one), each contrast's SE the CR2 participant sandwich with its Bell-McCaffrey df
+  (:func:`analysis.models.contrast_se`: the slope SD's ML estimate is biased low, and the
+  model-based intervals of real - simulated covered 0.92);
 - otherwise (the slope model failed or fell back to a simpler formula) from the intercept-only
   model, with the reason beside the row;
 - the participant SDs the summary quotes come from the slope model when its LR test rejects

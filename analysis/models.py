@@ -82,9 +82,13 @@ class ModelFit:
         The mixed models' full parameter vector (fixed effects, then the random-effect
         parameters) and its covariance; None for the others.
     cov_robust : ndarray or None
-        The random-slope model's bias-reduced participant-cluster sandwich covariance of the
-        fixed effects (:func:`analysis.glmm_slope.participant_sandwich`), used for its mode
-        contrasts (:func:`contrast_se`); None for the others.
+        The random-slope model's CR2 (Bell-McCaffrey bias-reduced) participant-cluster
+        sandwich covariance of the fixed effects (:func:`analysis.glmm_slope.participant_sandwich`),
+        the SE of its mode contrasts (:func:`contrast_se`); None for the others.
+    cluster_info : ndarray or None
+        With ``cov_robust``: each participant's information for the fixed effects, (m, p, p),
+        the working covariance of the participant scores behind the Bell-McCaffrey df of those
+        contrasts (:func:`analysis.small_sample.row_df`).
     """
 
     kind: str
@@ -103,6 +107,7 @@ class ModelFit:
     cov_robust: np.ndarray | None = None
     #: The GEE's sandwich split by group, ``{g: (W_g, m_g)}`` (:mod:`analysis.small_sample`).
     cov_by_group: dict | None = None
+    cluster_info: np.ndarray | None = None
     #: Table rows still being computed elsewhere (a future; the random-slope model's profile
     #: intervals, :func:`analysis.glmm_slope.complete_profiles` fills them in); None: complete.
     pending: object = None
@@ -124,19 +129,17 @@ class ModelFit:
 def contrast_se(fit: ModelFit, lvec) -> float:
     """Standard error of the linear combination ``lvec @ fit.params`` used by mode contrasts.
 
-    ``sqrt(l' V l)`` with the model's covariance; for a fit that also carries the bias-reduced
-    participant sandwich (:attr:`ModelFit.cov_robust`, the random-slope model) the larger of
-    the two. The sandwich does not rely on the fitted random-effect SDs (the mode-slope SD is
-    biased low with 30 participants, which made the model-based intervals of the mode contrasts
-    cover 0.92); the model-based SE guards against the sandwich's own noise with few clusters
-    (alone it covered 0.92-0.93 without a slope). The larger of the two covered 0.94-0.98
-    in both cases (``benchmarks/bench_recovery.py``; docs/analysis.md).
+    ``sqrt(l' V l)`` with the model's covariance; for a fit that carries a participant
+    sandwich (:attr:`ModelFit.cov_robust`, the random-slope model) that sandwich's: CR2
+    (Bell-McCaffrey bias-reduced linearisation), referred to t with the Bell-McCaffrey df
+    (:func:`analysis.small_sample.row_df`). It does not rest on the fitted random-effect SDs
+    (the slope SD's ML estimate is biased low at 30 participants: the model-based intervals
+    covered 0.92 under a random slope). The rule before, the larger of the model-based SE and
+    the Mancl-DeRouen sandwich, made the per-group rows cover 0.96-0.99 (docs/analysis.md).
     """
     lvec = np.asarray(lvec, float)
-    var = float(lvec @ fit.cov @ lvec)
-    if fit.cov_robust is not None:
-        var = max(var, float(lvec @ fit.cov_robust @ lvec))
-    return float(np.sqrt(max(var, 0.0)))
+    cov = fit.cov_robust if fit.cov_robust is not None else fit.cov
+    return float(np.sqrt(max(float(lvec @ cov @ lvec), 0.0)))
 
 
 def reference_df(data: pd.DataFrame) -> float | None:

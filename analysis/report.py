@@ -154,8 +154,8 @@ def _interaction_rows(fit: ModelFit, trials, level, mixed_note: str) -> list[dic
              "estimate": it["log_odds"], "se": it["se"], "ci_low": it["ci_low"],
              "ci_high": it["ci_high"],
              "interval": _interval_label(it["df"]) + (
-                 "; SE the larger of model-based and bias-reduced participant "
-                 "sandwich" if fit.cov_robust is not None else ""),
+                 "; SE the CR2 participant sandwich, Bell-McCaffrey df"
+                 if fit.cov_robust is not None else ""),
              "statistic": it["log_odds"] / it["se"],
              "df": it["df"] if it["df"] else np.nan, "p_value": it["p_value"],
              "difference": it["difference_of_differences"],

@@ -15,6 +15,9 @@ effects. Scenarios:
     halfmiss   15 + 15, half the participants lose a random half of their trials
 
     nice -n 10 .venv/bin/python benchmarks/bench_unequal_groups.py --scenario 20+8 --datasets 300
+
+``--mixed`` adds the random-slope mixed model's rows (:func:`mixed_rows`), ``--mixed-only`` fits
+that model alone, ``--rows`` keeps every dataset's rows for ``benchmarks/mixed_se_rules.py``.
 """
 from __future__ import annotations
 
@@ -34,7 +37,9 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests" / "analysis"))
 
 from analysis import fit_gee  # noqa: E402
-from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
+from analysis.glmm_slope import (_person_groups, _sandwich_sum, fit_glmm_slope,  # noqa: E402
+                                 score_parts, slope_data)
+from analysis.models import FORMULA, model_data  # noqa: E402
 from analysis.fidelity import _rows, mode_contrasts  # noqa: E402
 from analysis.small_sample import welch_df  # noqa: E402
 from analysis.inference import averaged_contrast, interaction_test, omnibus_group_test  # noqa: E402
@@ -63,41 +68,64 @@ def truth(cells: dict, slope_sd: float) -> dict:
 def mixed_rows(trials, target_conditional: float) -> dict:
     """The random-slope mixed model's real - simulated rows (group A, B, both; log odds for a
     typical participant, whose truth is the generator's conditional cells) and its interaction
-    (true value 0), as reported (SE the larger of model-based and sandwich, df of
-    ``analysis.small_sample.row_df``); "old" the same intervals with the references before:
-    t(m_g - 1) per group, t(m - 2) both."""
+    (true value 0), as reported (SE the CR2 participant sandwich, Bell-McCaffrey df of
+    ``analysis.small_sample.row_df``); "old" the same rows under the rule before: SE the larger
+    of the model-based SE and the Mancl-DeRouen (MD) sandwich, df Welch-Satterthwaite of the MD
+    sandwich's group parts where it was the larger, else t(m - 2). Each row also keeps its
+    error and every candidate variance (model-based, CR0 = no leverage adjustment, MD, CR2),
+    for ``benchmarks/mixed_se_rules.py``."""
     fit = fit_glmm_slope(trials, profile=False)
     if fit.formula is None:
         return {}
     fid = mode_contrasts(fit, trials, margin_pp=10)
     inter = interaction_test(fit, trials)
-    m = {g: trials.loc[trials["group"] == g, "participant"].nunique() for g in ("A", "B")}
-    out = {"mixed_interaction_reject": bool(inter["p_value"] < 0.05)}
-    for g in ("A", "B", "both"):
-        r = fid[(fid["role"] == "averaged") & (fid["group"] == g)].iloc[0]
-        old_df = sum(m.values()) - 2 if g == "both" else m[g] - 1
-        err = abs(r["estimate"] - target_conditional)
-        out[f"mixed_{g}_cover"] = bool(r["ci_low"] <= target_conditional <= r["ci_high"])
-        out[f"mixed_{g}_old_cover"] = bool(err <= stats.t.ppf(0.975, old_df) * r["se"])
-        out[f"mixed_{g}_width_ratio_new_to_old"] = float(
-            (r["ci_high"] - r["ci_low"]) / (2 * stats.t.ppf(0.975, old_df) * r["se"]))
+    m_all = trials["participant"].nunique()
+    out = {"mixed_full_formula": fit.formula == FORMULA and fit.cov_robust is not None}
+    if not out["mixed_full_formula"]:
+        return out
+    data_t = model_data(trials)
+    _, _, data, z = slope_data(fit.formula, data_t)
+    s, a_i = score_parts(fit.theta, data, z)
+    people = _person_groups(data_t)
+    parts = {name: _sandwich_sum(s, a_i, people, name)[1] for name in ("MD", "CR2")}
+    parts["CR0"] = {g: (np.linalg.inv(a_i.sum(0)) @ s[people == g].T @ s[people == g]
+                        @ np.linalg.inv(a_i.sum(0)), int((people == g).sum())) for g in ("A", "B")}
+    samples = sorted(trials["roughness_id"].unique())
+    rows = {g: (fid[(fid["role"] == "averaged") & (fid["group"] == g)].iloc[0],
+                (_rows(fit, ["A", "B"] if g == "both" else [g], "real", samples).mean(axis=0)
+                 - _rows(fit, ["A", "B"] if g == "both" else [g], "simulated", samples)
+                 .mean(axis=0)), target_conditional) for g in ("A", "B", "both")}
+    x = {(g, mo): _rows(fit, [g], mo, samples) for g in ("A", "B") for mo in ("real", "simulated")}
+    sign = {("A", "real"): 1, ("B", "real"): -1, ("A", "simulated"): -1, ("B", "simulated"): 1}
+    inter_row = {"estimate": inter["log_odds"], "ci_low": inter["ci_low"],
+                 "ci_high": inter["ci_high"], "df": inter["df"], "se": inter["se"]}
+    rows["interaction"] = (inter_row, sum(sg * x[k].mean(axis=0) for k, sg in sign.items()), 0.0)
+    for g, (r, lvec, truth_g) in rows.items():
+        err = float(r["estimate"] - truth_g)
+        var = {"model": float(lvec @ fit.cov @ lvec)}
+        var.update({k: float(sum(lvec @ w @ lvec for w, _ in p.values()))
+                    for k, p in parts.items()})
+        old_var = max(var["model"], var["MD"])
+        old_df = welch_df(parts["MD"], lvec) if var["MD"] > var["model"] else m_all - 2
+        old_half = stats.t.ppf(0.975, old_df) * np.sqrt(old_var)
+        out[f"mixed_{g}_cover"] = bool(r["ci_low"] <= truth_g <= r["ci_high"])
+        out[f"mixed_{g}_old_cover"] = bool(abs(err) <= old_half)
+        out[f"mixed_{g}_width_ratio_new_to_old"] = float((r["ci_high"] - r["ci_low"])
+                                                         / (2 * old_half))
         out[f"mixed_{g}_df"] = float(r["df"])
-        # the parts of the SE, for trying other SE/df rules offline (benchmarks/README.md)
-        which = ["A", "B"] if g == "both" else [g]
-        samples = sorted(trials["roughness_id"].unique())
-        lvec = (_rows(fit, which, "real", samples).mean(axis=0)
-                - _rows(fit, which, "simulated", samples).mean(axis=0))
-        out[f"mixed_{g}_error"] = float(r["estimate"] - target_conditional)
-        out[f"mixed_{g}_var_model"] = float(lvec @ fit.cov @ lvec)
-        robust = fit.cov_robust if fit.cov_robust is not None else fit.cov
-        out[f"mixed_{g}_var_sandwich"] = float(lvec @ robust @ lvec)
-        out[f"mixed_{g}_welch_df"] = (float(welch_df(fit.cov_by_group, lvec))
-                                      if fit.cov_by_group else float("nan"))
+        out[f"mixed_{g}_old_df"] = float(old_df)
+        out[f"mixed_{g}_error"] = err
+        for k, v in var.items():
+            out[f"mixed_{g}_var_{k}"] = v
+        for k in ("MD", "CR2", "CR0"):
+            out[f"mixed_{g}_welch_df_{k}"] = float(welch_df(parts[k], lvec))
+    out["mixed_interaction_reject"] = not out.pop("mixed_interaction_cover")
+    out["mixed_interaction_old_reject"] = not out.pop("mixed_interaction_old_cover")
     return out
 
 
 def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: dict,
-        mixed: bool = False) -> dict:
+        mixed: bool = False, gee: bool = True) -> dict:
     trials = generate(null_cells(), n_a=n_a, n_b=n_b, sigma=SIGMA, seed=seed, slope_sd=slope_sd)
     if halfmiss:
         rng = np.random.default_rng(seed + 10**6)
@@ -107,6 +135,8 @@ def one(seed: int, n_a: int, n_b: int, slope_sd: float, halfmiss: bool, target: 
         trials = trials[~drop].reset_index(drop=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
+        if not gee:
+            return mixed_rows(trials, target["conditional"])
         fit = fit_gee(trials)
         m = trials["participant"].nunique()
         omni = omnibus_group_test(fit, trials)
@@ -143,6 +173,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=None, help="JSON file for the tallies")
     ap.add_argument("--mixed", action="store_true",
                     help="also the random-slope mixed model's rows (about 1.5 s more a dataset)")
+    ap.add_argument("--mixed-only", action="store_true",
+                    help="the mixed model's rows alone (no GEE: about 0.5 s CPU a dataset)")
     ap.add_argument("--rows", type=Path, default=None,
                     help="JSON file for every dataset's row (with --mixed: each mixed row's "
                          "error, model-based and sandwich variances, Welch df)")
@@ -152,7 +184,8 @@ def main() -> None:
     start, cpu = time.time(), time.process_time()
     rows = []
     for i in range(ns.datasets):
-        rows.append(one(ns.seed + i, n_a, n_b, slope_sd, halfmiss, target, ns.mixed))
+        rows.append(one(ns.seed + i, n_a, n_b, slope_sd, halfmiss, target,
+                        ns.mixed or ns.mixed_only, not ns.mixed_only))
         if ns.out and (i + 1) % 25 == 0:        # a partial tally survives a stopped run
             ns.out.write_text(json.dumps(tally(rows, ns, start, cpu), indent=1))
         if ns.rows and (i + 1) % 25 == 0:
@@ -176,14 +209,14 @@ def tally(rows: list, ns, start: float, cpu: float) -> dict:
         if key.endswith("_error") or "_var_" in key:
             continue                            # raw parts: in --rows only
         values = np.array([r[key] for r in rows if key in r], float)
-        if key.endswith("_df") or key.endswith("_ratio_new_to_old"):
+        if "_df" in key or key.endswith("_ratio_new_to_old"):
             out[key + "_median"] = float(np.median(values))
             continue
         p = float(values.mean())
         out[key] = [round(p, 4), round(float(np.sqrt(p * (1 - p) / len(values))), 4)]
         if len(values) < n:
             out[key].append(len(values))
-    tested = [r for r in rows if r["omnibus_tested"]]
+    tested = [r for r in rows if r.get("omnibus_tested")]
     if tested:
         out["omnibus_reject_when_tested"] = round(
             float(np.mean([r["omnibus_reject"] for r in tested])), 4)

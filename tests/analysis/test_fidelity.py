@@ -22,6 +22,7 @@ from analysis import LogError, analyze, fit_gee
 from analysis.fidelity import (DEFAULT_EQUIVALENCE_MARGIN_PP, equivalence_margin,
                                mode_contrasts, tost)
 from analysis.glmm import fit_glmm
+from analysis.wording import df_text
 
 from generator import generate, null_cells
 
@@ -290,10 +291,11 @@ def test_mixed_choice_prefers_the_slope_model_and_says_why():
 
 
 def test_participant_sandwich_equals_leave_one_participant_out_refits():
-    """The bias-reduced sandwich of the slope model is the one-step delete-one-participant
+    """The Mancl-DeRouen sandwich of the slope model is the one-step delete-one-participant
     jackknife: sum_i (beta_(-i) - beta)(beta_(-i) - beta)'. Reference: each participant left
     out in turn and the fixed effects refitted by scipy (random-effect parameters held at the
-    estimate), 30 real refits."""
+    estimate), 30 real refits. The rows report the CR2 sandwich, which halves the power of the
+    same leverage factor: between the unadjusted and the MD sandwich."""
     from scipy import optimize
 
     from analysis.glmm import GLMMData
@@ -307,8 +309,9 @@ def test_participant_sandwich_equals_leave_one_participant_out_refits():
         fit = fit_glmm_slope(trials, profile=False)
     assert fit.formula == FORMULA and fit.cov_robust is not None
     _, _, data, z = slope_data(FORMULA, model_data(trials))
-    sandwich = participant_sandwich(fit.theta, data, z)
-    np.testing.assert_allclose(sandwich, fit.cov_robust, rtol=1e-6, atol=1e-12)
+    sandwich = participant_sandwich(fit.theta, data, z, adjustment="MD")
+    np.testing.assert_allclose(participant_sandwich(fit.theta, data, z), fit.cov_robust,
+                               rtol=1e-6, atol=1e-12)
     beta, lam = fit.theta[:-3], fit.theta[-3:]
     shifts = []
     for i in range(data.m):
@@ -344,23 +347,26 @@ def test_participant_sandwich_equals_leave_one_participant_out_refits():
         jk = np.sqrt(lvec @ jackknife @ lvec)
         sw = np.sqrt(lvec @ sandwich @ lvec)
         assert sw == pytest.approx(jk, rel=0.05)          # one-step vs full refits
-        model = np.sqrt(lvec @ fit.cov @ lvec)
-        assert row.se == pytest.approx(max(sw, model), rel=1e-9)
-        assert "bias-reduced participant sandwich" in row.interval
-        # the df: where the sandwich is the SE, Welch-Satterthwaite of its parts by group
-        # (reference: the refits' shifts summed within each group); where the model-based SE
-        # is the larger, t(m - 2) (it rests on all participants' likelihood)
+        assert row.se == pytest.approx(np.sqrt(lvec @ fit.cov_robust @ lvec), rel=1e-9)
+        # CR2's (1 - h)^(-1/2) lies between no adjustment and MD's (1 - h)^(-1): the reported
+        # SE is below MD's, by about (1 - 1/m_g)^(1/2) on a group's row
+        m_g = sizes[row.group] if row.group != "both" else min(sizes)
+        assert sw * (1 - 1 / m_g) ** 0.5 * 0.97 < row.se < sw
+        assert "CR2 participant sandwich, Bell-McCaffrey df" in row.interval
+        # the df (Bell-McCaffrey, checked against R clubSandwich in test_small_sample.py): a
+        # group's row rests on that group's participants alone, about m_g - 1 (a little less
+        # with unequal information); both groups' row near the Welch-Satterthwaite df of the
+        # refits' shifts summed within each group
         people = np.array(sorted(trials["participant"].unique()))
         parts = {g: float(np.sum((shifts[np.char.startswith(people, g)] @ lvec) ** 2))
                  for g in ("A", "B")}
-        if model >= sw:
-            assert row.df == data.m - 2
-        elif row.group != "both":
-            assert row.df == sizes[row.group] - 1 and row.test == f"Wald t({sizes[row.group] - 1})"
+        if row.group != "both":
+            assert sizes[row.group] - 2 < row.df <= sizes[row.group] - 1 + 1e-9
+            assert row.test == f"Wald t({df_text(row.df)})"
         else:
             welch = sum(parts.values()) ** 2 / sum(v ** 2 / (sizes[g] - 1)
                                                    for g, v in parts.items())
-            assert row.df == pytest.approx(welch, rel=0.1)
+            assert row.df == pytest.approx(welch, rel=0.15)
     # the A - B group comparisons use the model-based covariance alone: t(m - 2), never the
     # sandwich's df
     from analysis.models import group_contrasts
