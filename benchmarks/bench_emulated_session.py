@@ -34,8 +34,8 @@ sys.meta_path[:] = [f for f in sys.meta_path if "Editable" not in getattr(f, "__
 sys.path_hooks[:] = [h for h in sys.path_hooks if "Editable" not in getattr(h, "__qualname__", "")]
 sys.path_importer_cache.clear()
 PARTICIPANTS = ("P01", "P16")
-_VOLATILE = re.compile(rb'[0-9]{4}-[0-9]{2}-[0-9]{2}[T_][0-9:.h]+Z?|"(seconds|wall_s|elapsed_s|'
-                       rb't_wall|duration_s_wall)": [0-9.e+-]+')
+_VOLATILE = re.compile(rb'[0-9]{4}-[0-9]{2}-[0-9]{2}[T_ ][0-9:.h]+( \+0000)?Z?|"(seconds|wall_s|'
+                       rb'elapsed_s|t_wall|duration_s_wall)": [0-9.e+-]+')
 
 
 def _cohort():
@@ -58,11 +58,14 @@ def _runner(run_participant):
 
 def fingerprint(folder: Path, tmp: Path) -> str:
     """SHA-256 over the sessions' files (relative names and contents; the temporary folder's
-    name, the code's folder, timestamps and durations stripped)."""
+    name, the code's folder, timestamps, durations and the BIDS events' wall-clock onset and
+    duration columns stripped)."""
     h = hashlib.sha256()
     for path in sorted(p for p in folder.rglob("*") if p.is_file()):
         h.update(path.relative_to(folder).as_posix().encode())
         data = path.read_bytes().replace(str(tmp).encode(), b"TMP").replace(str(ROOT).encode(), b"ROOT")
+        if path.name.endswith("_events.tsv"):   # BIDS events: onset and duration are wall time
+            data = b"\n".join(b"\t".join(row.split(b"\t")[2:]) for row in data.split(b"\n"))
         h.update(_VOLATILE.sub(b"X", data))
     return h.hexdigest()
 

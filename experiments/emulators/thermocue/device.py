@@ -271,14 +271,18 @@ class Device:
             self._apply_faults()
         if self.faults and not self.stalled:
             self._maybe_reboot()
-        if not self.stalled:
+        if self.parser.buffered and not self.stalled:   # (the commonest tick: nothing held)
             self.commands.drop_stale_candidate()
         if self.stalled:
             # firmware hung: the hardware watchdog has opened the relay; only physics goes on
             self.plant.step(self.sp, self.sp, 0.0, False)
             return
-        prev_state = self.state
-        state = self._watch_host(t_us, prev_state)
+        prev_state = state = self.state
+        # the host watch acts only after a silence longer than one of its limits (each tick
+        # with a fresher host frame it would only compare and return)
+        quiet_us = t_us - self.last_rx_us
+        if quiet_us > self.watchdog_us or quiet_us > WATCHDOG_MS * 1000:
+            state = self._watch_host(t_us, prev_state)
         fin = self.finger
         Fsum, touching = self._read_forces(t_us, fin, state)
         sp_prev = self.sp
