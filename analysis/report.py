@@ -312,7 +312,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     say = progress or (lambda message: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with AnalysisWorker() as worker:   # figures drawn (and the ordinal table) while models fit
+    with AnalysisWorker() as worker:   # figures drawn while the models fit
         worker.warm_up()               # matplotlib imported there while the logs are read here
         log, trials, margin_pp, margin_source = _load(data_dir, sessions, condition,
                                                       equivalence_margin_pp, say)
@@ -322,7 +322,6 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         participants = participant_summary(trials)
         confusion = confusion_matrices(trials)
         worker.draw(proportions, confusion)
-        ordinal = worker.run(_ordinal, trials, level)
         fits = _fit_models(trials, level=level, seed=seed, mixed=mixed, bayes=bayes, say=say,
                            submit=worker.submit)
         contrasts = _contrasts(fits, trials, level)
@@ -339,7 +338,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         fidelity = _fidelity(fits.gee, choice, trials, margin_pp, level)
         _holm_per_model(contrasts)
         chance = chance_tests(trials, level=level)
-        extras = _extras(trials, log, level, ordinal)
+        extras = _extras(trials, log, level)
         complete_profiles(fits.slope)          # the slope's profile intervals, from the worker
         summary = plain_summary(log, proportions, confusion, fits.gee, fits.bayes, contrasts,
                                 fits.glmm, tests,
@@ -457,24 +456,16 @@ def _holm_per_model(contrasts: pd.DataFrame) -> None:
         contrasts.loc[sel, "p_holm"] = holm(contrasts.loc[sel, "p_value"].to_numpy(float))
 
 
-def _ordinal(trials, level) -> pd.DataFrame:
-    """The ordinal table (:func:`analysis.psychophysics.ordinal_table`; given to the worker)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return ordinal_table(trials, level=level)
-
-
-def _extras(trials, log: TrialLog, level, ordinal) -> dict:
+def _extras(trials, log: TrialLog, level) -> dict:
     """Step 6: the psychophysical tables (agreement, Hu, ordinal, covariates, RT, force) and the
-    sessions' model decisions (``ordinal``: :func:`_ordinal`'s job, or anything with
-    ``result()`` giving that table)."""
+    sessions' model decisions."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         per_person = participant_agreement(trials)
         return {"agreement": agreement_table(trials), "hu": hu_table(trials),
                 "agreement_participants": per_person,
                 "agreement_comparison": agreement_comparison(per_person, level=level),
-                "ordinal": ordinal.result(),
+                "ordinal": ordinal_table(trials, level=level),
                 "covariates": covariate_table(trials, level=level), "rt": rt_table(trials),
                 "force": force_table(trials),
                 "model_decisions": model_decisions(log.sessions.loc[log.sessions["analysed"],

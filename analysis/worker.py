@@ -12,8 +12,9 @@ files and numbers.
 
 The worker is started before the sessions are loaded (:meth:`AnalysisWorker.warm_up`): it imports
 matplotlib and pyplot (~0.5 s of CPU) while the parent reads the logs, so the drawing itself is
-all that is left when the proportions are known. :meth:`AnalysisWorker.run` gives it other
-independent steps (the ordinal table) and returns something with ``result()`` either way.
+all that is left when the proportions are known. (The worker's share, drawing plus profile
+intervals, is already the longer of the two after the load: other independent steps, such as
+the ordinal table, stay in the parent.)
 """
 from __future__ import annotations
 
@@ -65,7 +66,7 @@ def can_fork() -> bool:
 
 class AnalysisWorker:
     """A forked worker (when possible) for the analysis's independent steps: the figures
-    (:meth:`draw`, or given to the constructor) and more through :meth:`submit` / :meth:`run`; a
+    (:meth:`draw`, or given to the constructor) and more through :meth:`submit`; a
     context manager that stops the worker on exit.
 
     Examples
@@ -114,11 +115,6 @@ class AnalysisWorker:
         future = self._start(function, *args)
         return None if future is None else Job(future, function, args)
 
-    def run(self, function, *args) -> "Job | Later":
-        """:meth:`submit`, or without a worker a :class:`Later` that calls ``function(*args)``
-        here when its result is asked for: ``run(...).result()`` is the value either way."""
-        return self.submit(function, *args) or Later(function, args)
-
     def write(self, out: Path) -> dict[str, Path]:
         """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
         beside ``figure9.png``, as :func:`analysis.figures.plot_figure9`)."""
@@ -141,16 +137,6 @@ class AnalysisWorker:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-class Later:
-    """``function(*args)`` called when :meth:`result` is first asked for (no worker)."""
-
-    def __init__(self, function, args: tuple):
-        self._function, self._args = function, args
-
-    def result(self):
-        return self._function(*self._args)
 
 
 class Job:
