@@ -2,8 +2,9 @@
 
 statsmodels (0.15) imports ``statsmodels.formula._manager`` with every model class, and that
 module imports both formula engines it knows, patsy and formulaic, though it uses patsy whenever
-patsy is installed (``SM_FORMULA_ENGINE`` unset). formulaic pulls in narwhals: ~0.5-1 s of
-CPU on every ``thermocue analyze``, for an engine the analysis never uses (its design matrices
+patsy is installed (``SM_FORMULA_ENGINE`` unset). formulaic pulls in narwhals: ~0.1-0.2 s of
+CPU (more on a busy machine) on every ``thermocue analyze``, before anything else can run, for
+an engine the analysis never uses (its design matrices
 are patsy's, :func:`analysis.models.design_matrices`). :func:`load` imports that module once
 with ``formulaic`` hidden, so statsmodels records it as absent and takes patsy, as it would
 anyway; afterwards ``import formulaic`` works again for anyone who wants it. Nothing is hidden
