@@ -8,7 +8,10 @@
 session folders (``trials.csv``, ``events.jsonl``, ``session.json``) with
 :mod:`sessionfiles.logformat`, the log format shared with the writer (standard library only).
 """
-from .errors import LogError, LogWarning, ModelWarning
+from . import statsmodels_engine
+statsmodels_engine.load()     # before any statsmodels model: skips formulaic
+
+from .errors import LogError, LogWarning, ModelWarning  # noqa: E402
 from .load import TrialLog, load_trials
 from .proportions import cell_proportions, cluster_bootstrap, participant_summary, wilson_interval
 from .confusion import confusion_matrices, confusion_matrix

@@ -312,14 +312,16 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     say = progress or (lambda message: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    log, trials, margin_pp, margin_source = _load(data_dir, sessions, condition,
-                                                  equivalence_margin_pp, say)
-    say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable trials; "
-        f"proportions with {n_boot} bootstrap resamples")
-    proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
-    participants = participant_summary(trials)
-    confusion = confusion_matrices(trials)
-    with AnalysisWorker(proportions, confusion) as worker:   # figures drawn while models fit
+    with AnalysisWorker() as worker:   # figures drawn while the models fit
+        worker.warm_up()               # matplotlib imported there while the logs are read here
+        log, trials, margin_pp, margin_source = _load(data_dir, sessions, condition,
+                                                      equivalence_margin_pp, say)
+        say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable "
+            f"trials; proportions with {n_boot} bootstrap resamples")
+        proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
+        participants = participant_summary(trials)
+        confusion = confusion_matrices(trials)
+        worker.draw(proportions, confusion)
         fits = _fit_models(trials, level=level, seed=seed, mixed=mixed, bayes=bayes, say=say,
                            submit=worker.submit)
         contrasts = _contrasts(fits, trials, level)

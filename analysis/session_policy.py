@@ -71,9 +71,33 @@ def _events(folder: Path, read) -> tuple[list, object]:
         return [], None
 
 
+def _chosen(sessions: pd.DataFrame, policy: str) -> dict:
+    """participant -> (the session ``policy`` analyses, a row or None; whether it is a partial
+    one: the participant has no complete session), for every participant with a session not
+    skipped. One sort of the usable sessions, split by participant: the same rows in the same
+    order as sorting each participant's own (a participant's sessions have distinct names,
+    so the sort key has no ties; with a repeated name each participant is sorted alone)."""
+    usable = sessions[sessions["skipped"] == ""]
+    if usable.duplicated(["participant", "session"]).any():
+        parts = ((p, usable[usable["participant"] == p].sort_values(["created_at", "session"]))
+                 for p in usable["participant"].unique())
+    else:
+        parts = usable.sort_values(["created_at", "session"]).groupby("participant", sort=False)
+    out = {}
+    for participant, theirs in parts:
+        mine = theirs[theirs["complete"]]
+        partial = mine.empty
+        if partial:                 # no complete session: the participant's partial one
+            mine = theirs[theirs["n_done"] > 0]
+        out[participant] = (None if mine.empty else
+                            (mine.iloc[0] if policy == "first" else mine.iloc[-1]), partial)
+    return out
+
+
 def apply_policy(sessions: pd.DataFrame, policy: str) -> pd.DataFrame:
     """Mark each session ``analysed`` (bool) with its ``reason`` under ``policy``."""
     analysed, reasons = [], []
+    choices = _chosen(sessions, policy) if policy != "all" else {}
     for _, row in sessions.iterrows():
         if row["skipped"]:
             analysed.append(False)
@@ -84,13 +108,7 @@ def apply_policy(sessions: pd.DataFrame, policy: str) -> pd.DataFrame:
             reasons.append("analysed (--sessions all)" + ("" if row["complete"] else
                            f"; incomplete: {row['n_done']} of {int_text(row['n_planned'])} trials"))
             continue
-        usable = sessions[(sessions["participant"] == row["participant"])
-                          & (sessions["skipped"] == "")].sort_values(["created_at", "session"])
-        mine = usable[usable["complete"]]
-        partial = mine.empty
-        if partial:                 # no complete session: the participant's partial one
-            mine = usable[usable["n_done"] > 0]
-        chosen = None if mine.empty else (mine.iloc[0] if policy == "first" else mine.iloc[-1])
+        chosen, partial = choices.get(row["participant"], (None, True))
         if chosen is not None and chosen["path"] == row["path"]:
             analysed.append(True)
             reasons.append(f"analysed: the {policy} complete session of {row['participant']}"

@@ -9,6 +9,12 @@ random-slope model's profile intervals (:func:`analysis.glmm_slope.profile_inter
 while the parent goes on with the tests. Where ``fork`` is not available or not safe
 (:func:`can_fork`), or the worker cannot start, everything is done in the parent: the same
 files and numbers.
+
+The worker is started before the sessions are loaded (:meth:`AnalysisWorker.warm_up`): it imports
+matplotlib and pyplot (~0.5 s of CPU) while the parent reads the logs, so the drawing itself is
+all that is left when the proportions are known. (The worker's share, drawing plus profile
+intervals, is already the longer of the two after the load: other independent steps, such as
+the ordinal table, stay in the parent.)
 """
 from __future__ import annotations
 
@@ -23,7 +29,7 @@ import pandas as pd
 
 from sessionfiles.atomicfile import output_file
 
-__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures"]
+__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures", "warm_up"]
 
 
 def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
@@ -42,6 +48,12 @@ def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[s
     return out
 
 
+def warm_up() -> None:
+    """Import what :func:`render_figures` needs (matplotlib, pyplot with the Agg backend)."""
+    from .figures import agg_pyplot
+    agg_pyplot()
+
+
 def can_fork() -> bool:
     """Whether a worker is forked: ``fork`` exists, this process is not a daemonic one (which
     may have no children), and it runs no other thread (a fork copies a lock another thread
@@ -53,31 +65,55 @@ def can_fork() -> bool:
 
 
 class AnalysisWorker:
-    """:func:`render_figures` started now (in a forked worker when possible), and more work
-    through :meth:`submit`; a context manager that stops the worker on exit.
+    """A forked worker (when possible) for the analysis's independent steps: the figures
+    (:meth:`draw`, or given to the constructor) and more through :meth:`submit`; a
+    context manager that stops the worker on exit.
 
     Examples
     --------
     ``with AnalysisWorker(proportions, confusion) as worker: ...; files = worker.write(out)``
+
+    ``with AnalysisWorker() as worker: worker.warm_up(); ...; worker.draw(p, c); ...``
     """
 
-    def __init__(self, proportions: pd.DataFrame, confusion: pd.DataFrame):
-        self._args = (proportions, confusion)
+    def __init__(self, proportions: pd.DataFrame | None = None,
+                 confusion: pd.DataFrame | None = None):
+        self._args: tuple | None = None
         self._pool: ProcessPoolExecutor | None = None
         self._future: Future | None = None
         if can_fork():
             try:
                 self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
-                self._future = self._pool.submit(render_figures, *self._args)
             except (OSError, AssertionError):   # no process to spare: drawn at write time
                 self.close()
+        if proportions is not None:
+            self.draw(proportions, confusion)
+
+    def warm_up(self) -> None:
+        """Start the worker now, importing matplotlib (:func:`warm_up`) while this process
+        goes on (a fork of this process as it is now: call it before anything large is
+        loaded)."""
+        self._start(warm_up)
+
+    def draw(self, proportions: pd.DataFrame, confusion: pd.DataFrame) -> None:
+        """Have :func:`render_figures` drawn now (in the worker) for :meth:`write`."""
+        self._args = (proportions, confusion)
+        self._future = self._start(render_figures, *self._args)
+
+    def _start(self, function, *args) -> Future | None:
+        if self._pool is None:
+            return None
+        try:
+            return self._pool.submit(function, *args)
+        except (OSError, AssertionError, BrokenProcessPool):  # no worker: done in this process
+            self.close()
+            return None
 
     def submit(self, function, *args) -> "Job | None":
         """``function(*args)`` in the worker, after what it was given before; None without a
         worker (the caller then calls it itself)."""
-        if self._pool is None:
-            return None
-        return Job(self._pool.submit(function, *args), function, args)
+        future = self._start(function, *args)
+        return None if future is None else Job(future, function, args)
 
     def write(self, out: Path) -> dict[str, Path]:
         """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF

@@ -105,3 +105,24 @@ def test_a_dead_worker_costs_time_not_results(tmp_path, tables, monkeypatch):
     assert files["figure9"].stat().st_size > 20_000
     assert (out / "figure9.pdf").read_bytes().startswith(b"%PDF")
     assert files["confusion_png"].stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("fork", [True, False])
+def test_a_worker_started_early_draws_what_it_is_given(tables, tmp_path, monkeypatch, fork):
+    """``analyze`` starts the worker before loading (``warm_up``: a fork importing matplotlib),
+    then gives it the figures (``draw``) and the profile intervals (``submit``): the files
+    are those ``plot_figure9`` writes, with a worker and without one (drawn at write time);
+    nothing is written before ``write``."""
+    from analysis import worker
+    monkeypatch.setattr(worker, "can_fork", lambda: fork)
+    props, conf = tables
+    out = tmp_path / "out"
+    out.mkdir()
+    with worker.AnalysisWorker() as job:
+        job.warm_up()
+        job.draw(props, conf)
+        value = job.submit(divmod, 17, 5)
+        assert (value.result() == (3, 2)) if fork else value is None
+        assert list(out.iterdir()) == []
+        files = job.write(out)
+    assert files["figure9"].read_bytes() == plot_figure9(props, tmp_path / "f.png").read_bytes()
