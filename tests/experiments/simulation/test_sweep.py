@@ -38,10 +38,13 @@ def test_release_memory_gives_a_workers_freed_heap_back():
         assert rss < before[worker] - 32 * MiB, (before[worker] / MiB, rss / MiB)
 
 
+#: Modules a figure9 worker should not need.
+HEAVY = ("pandas", "pyarrow", "analysis", "matplotlib", "statsmodels")
+
+
 def _heavy_modules() -> list:
-    """Of the modules a figure9 worker should not need, those this process has imported."""
-    return sorted(m for m in ("pandas", "pyarrow", "analysis", "matplotlib", "statsmodels")
-                  if m in sys.modules)
+    """Of :data:`HEAVY`, those this process has imported."""
+    return sorted(m for m in HEAVY if m in sys.modules)
 
 
 def test_the_workers_task_module_imports_no_pandas_or_analysis():
@@ -50,8 +53,7 @@ def test_the_workers_task_module_imports_no_pandas_or_analysis():
     import subprocess
     code = ("import sys; import experiments.simulation.figure9.tasks, "
             "experiments.simulation.figure9.study, experiments.simulation.sweep; "
-            "print(sorted(m for m in ('pandas', 'pyarrow', 'analysis', 'matplotlib', "
-            "'statsmodels') if m in sys.modules))")
+            f"print(sorted(m for m in {HEAVY!r} if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout + out.stderr
 
