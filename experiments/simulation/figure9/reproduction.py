@@ -387,9 +387,9 @@ def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_st
 
 def _depth_pools(jobs, grid_pools, sweep) -> list:
     """The person pools of ``jobs`` (:func:`.tasks.build_pool_task`'s arguments): a grid pool
-    of the depth fit where one is the same pool (the same persons, d / L, perception
-    parameters and protocol, the job's hypotheses among its own: their features do not depend
-    on the others), else built side by side on ``sweep``'s workers."""
+    of the depth fit where one is the same pool (the same seed, so the same persons; d / L,
+    perception parameters and protocol, the job's hypotheses among its own: their features do
+    not depend on the others), else built side by side on ``sweep``'s workers."""
     from experiments.simulation.figure9.tasks import build_pool_task
     out, missing = [], []
     for protocol, kw in jobs:
@@ -397,6 +397,7 @@ def _depth_pools(jobs, grid_pools, sweep) -> list:
                 if protocol == "roughness_recognition" and set(kw) == {
                     "hypotheses", "dermis_fraction", "seed", "params"}
                 and set(kw["hypotheses"]) <= set(g.hypotheses)
+                and g.settings["seed"] == kw["seed"]
                 and tuple(g.settings["dermis_fraction"]) == tuple(kw["dermis_fraction"])
                 and g.params == kw["params"] and g.receptor_depth_um is None
                 and not g.settings["sensor_tau_s"]]

@@ -36,7 +36,7 @@ def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool(
     # reproduce figure9 builds the grid's pools with the headline's replay too (depth_pool_jobs'
     # ``also``) and uses the one at the fitted depth for the headline's row instead of building
     # it again: its real and replayed features are those of a pool built for the headline alone,
-    # bit for bit; a depth or parameters of no grid pool is built
+    # bit for bit; a depth, parameters or seed of no grid pool is built
     import dataclasses
 
     from experiments.simulation.depth_fit import depth_pool_jobs
@@ -48,10 +48,14 @@ def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool(
     own = {"hypotheses": ("skin",), "dermis_fraction": (0.60, 0.60), "seed": 2,
            "params": grid.params}
     other = dict(own, params=dataclasses.replace(grid.params, drop_noise_C=0.6))
-    reused, built = _depth_pools([("roughness_recognition", own),
-                                  ("roughness_recognition", other)], [grid], sweep=None)
+    reseeded = dict(own, seed=3)
+    reused, built, built_seed = _depth_pools([("roughness_recognition", own),
+                                              ("roughness_recognition", other),
+                                              ("roughness_recognition", reseeded)],
+                                             [grid], sweep=None)
     alone = build_pool_task("roughness_recognition", own)
     assert reused is grid and built is not grid and built.params == other["params"]
+    assert built_seed is not grid and built_seed.settings["seed"] == 3
     for g in ("A", "B"):
         assert np.array_equal(reused.real[g], alone.real[g])
         for table in ("simulated", "simulated_dts"):
