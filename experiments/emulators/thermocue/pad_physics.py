@@ -328,6 +328,10 @@ class PadPlant:
         imax *= self.current_scale
         held = self.current if self.relay_dead else 0.0   # a relay that never opens
         dsp = (sp1 - sp0) / n
+        # the same doubles as the formulas in the comments below, each product or quotient
+        # that does not change within the tick taken once (IEEE: (-a) i = -(a i), x - y = x + -y)
+        ff = ch * dsp / dtc                   # feed-forward of the setpoint's slope
+        half_rh, two_rh, half_Re = 0.5 * rh, 2.0 * rh, 0.5 * Re
         y = self.sensor
         same = self.same_count
         i = 0.0
@@ -357,13 +361,13 @@ class PadPlant:
                 # disturbance observer: measured minus modelled heat flow
                 d_meas = ch * (y - y_prev) / dtc - q_prev - kh * (hs - y_prev)
                 d_hat += g_obs * (d_meas - d_hat)
-                q_des = ch * dsp / dtc + kh * (r - hs) + kp * (r - y) - d_hat
+                q_des = ff + kh * (r - hs) + kp * (r - y) - d_hat   # ff: ch dsp / dtc
                 # invert the Peltier term  rh/2 i^2 + ah T i = q_des  for the root nearest 0
                 aT = ah * (y + KELVIN)
-                disc = aT * aT + 2.0 * rh * q_des
+                disc = aT * aT + two_rh * q_des
                 i = (-aT + math.sqrt(disc)) / rh if disc > 0 else -aT / rh
                 i = imax if i > imax else -imax if i < -imax else i
-                q_prev = ah * (y + KELVIN) * i + 0.5 * rh * i * i
+                q_prev = aT * i + half_rh * i * i    # ah (y + KELVIN) i + rh/2 i^2
             else:
                 i = held
                 q_prev = 0.0
@@ -371,9 +375,12 @@ class PadPlant:
             y_prev = y
             if stuck is not None and enabled:      # the relay cuts a stuck driver too
                 i = stuck
-            joule = 0.5 * Re * i * i
-            q_pad = a * i * (pad + KELVIN) + joule + K * (hs - pad) + load_W
-            q_hs = -a * i * (hs + KELVIN) + joule + K * (pad - hs) + g_hs * (room - hs)
+            joule = half_Re * i * i
+            ai = a * i
+            kd = K * (hs - pad)
+            # q_hs: -a i (hs + KELVIN) + joule + K (pad - hs) + g_hs (room - hs)
+            q_pad = ai * (pad + KELVIN) + joule + kd + load_W
+            q_hs = -ai * (hs + KELVIN) + joule - kd + g_hs * (room - hs)
             pad += dtc * q_pad / C
             hs += dtc * q_hs / C_hs
         self.pad, self.hs, self.sensor_state, self._y_prev, self._q_prev, self.d_hat = (
