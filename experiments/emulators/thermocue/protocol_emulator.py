@@ -314,7 +314,8 @@ class Serial(EmulatedPort):
             None when the fast path does not apply (real clock, a fault spec, bytes or a partial
             frame waiting, a zero timeout): call :meth:`read`.
         """
-        self._check_open()
+        if not self.is_open:
+            self._check_open()                 # (raises; the check inline: 100 reads a second)
         core = self.core
         dev = core.device
         timeout = self._timeout
@@ -322,7 +323,7 @@ class Serial(EmulatedPort):
                 or dev.stalled or timeout == 0 or size <= 0):
             return None
         budget = 10**9 if timeout is None else max(1, int(timeout * 1e6 / TICK_US + 0.5))
-        with self._cond:
+        with self._lock:                      # (the condition's lock; nobody to notify here)
             frames = dev.direct = []
             try:
                 step = dev.step
@@ -347,7 +348,8 @@ class Serial(EmulatedPort):
         return frames
 
     def write(self, data):
-        self._check_open()
+        if not self.is_open:
+            self._check_open()                 # (raises)
         core = self.core
         if self.virtual and not core.link.specs:
             return self._write_direct(data if data.__class__ is bytes else to_bytes(data))
