@@ -111,6 +111,9 @@ class TraceWriter:
         # "x": a trace is never overwritten (the session moves an old one aside first)
         self._fh = open(self.path, "x", encoding="utf-8", newline="")
         self._fh.write(",".join(TRACE_COLUMNS) + "\n")
+        # the lines since the last flush, handed to the file at the flush in one write (a
+        # text file's write per line costs more than the line's formatting)
+        self._lines = []
         self._n = 0
         self._flushed_at = time.monotonic()
         # per frame: time, target, contact, the four forces (doubles, not objects: a trace's
@@ -145,13 +148,21 @@ class TraceWriter:
                 line = ",".join(format_cell(v, c, TRACE_DECIMALS)
                                 for v, c in zip(fields, TRACE_COLUMNS))
             line = f"{line},{state}\n"
-        self._fh.write(line)
+        self._lines.append(line)
         self._values.frombytes(_PACK_READINGS(t, target, contact, f0, f1, f2, f3))
         self._n += 1
         now = time.monotonic()
         if self._n % self.flush_every == 0 or now - self._flushed_at >= self.flush_interval_s:
-            self._fh.flush()
+            self._flush()
             self._flushed_at = now
+
+    def _flush(self) -> None:
+        """The lines written since the last flush to the file, and the file to the OS."""
+        lines = self._lines
+        if lines:
+            self._fh.write("".join(lines))
+            lines.clear()
+        self._fh.flush()
 
     @property
     def frames(self) -> int:
@@ -190,7 +201,7 @@ class TraceWriter:
         """Flush, fsync, close, fsync the folder."""
         if self._fh.closed:
             return
-        self._fh.flush()
+        self._flush()
         fsync(self._fh.fileno(), self.durable)
         self._fh.close()
         fsync_dir(self.path.parent, self.durable)
