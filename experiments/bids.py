@@ -116,7 +116,8 @@ def protocol_authors(meta: dict) -> list[str]:
     return [a.strip() for a in listed if isinstance(a, str) and a.strip()]
 
 
-def _describe_dataset(root: Path, authors: list[str], override: bool = False) -> None:
+def _describe_dataset(root: Path, authors: list[str], override: bool = False, *,
+                      durable: bool = True) -> None:
     """Write ``dataset_description.json`` (and ``README``) unless there; ``authors`` are added
     to one without ``Authors``, or replace them (``override``: given on the command line)."""
     path = root / "dataset_description.json"
@@ -133,10 +134,12 @@ def _describe_dataset(root: Path, authors: list[str], override: bool = False) ->
             "GeneratedBy": [{"Name": "thermocue", "Description": "experiments.bids"}]}
         if authors:
             description["Authors"] = list(dict.fromkeys(authors))
-        atomic_write_text(path, json.dumps(description, indent=2, ensure_ascii=False) + "\n")
+        atomic_write_text(path, json.dumps(description, indent=2, ensure_ascii=False) + "\n",
+                          durable=durable)
     elif authors and (not old.get("Authors") or (override and old["Authors"] != authors)):
         old["Authors"] = list(dict.fromkeys(authors))
-        atomic_write_text(path, json.dumps(old, indent=2, ensure_ascii=False) + "\n")
+        atomic_write_text(path, json.dumps(old, indent=2, ensure_ascii=False) + "\n",
+                          durable=durable)
     readme = root / "README"
     if not readme.exists():
         atomic_write_text(readme, (
@@ -148,7 +151,8 @@ def _describe_dataset(root: Path, authors: list[str], override: bool = False) ->
             "*_events.tsv says when each trial, cue, contact or playback, question and answer\n"
             "happened (onset and duration in seconds from the session's start, on the session\n"
             "log's clock). The session folders (DATA/<participant>/<session>/) hold the event\n"
-            "logs and the contact traces. Written by thermocue (experiments/bids.py).\n"))
+            "logs and the contact traces. Written by thermocue (experiments/bids.py).\n"),
+            durable=durable)
 
 
 @contextmanager
@@ -171,14 +175,14 @@ def _dataset_lock(root: Path):
         os.close(fd)
 
 
-def _participants(root: Path, records: dict) -> None:
+def _participants(root: Path, records: dict, *, durable: bool = True) -> None:
     """Write participants.tsv/json from ``records`` (label -> row), merged with the old file,
     under :func:`_dataset_lock`."""
     with _dataset_lock(root):
-        _merge_participants(root, records)
+        _merge_participants(root, records, durable=durable)
 
 
-def _merge_participants(root: Path, records: dict) -> None:
+def _merge_participants(root: Path, records: dict, *, durable: bool = True) -> None:
     path = root / "participants.tsv"
     rows = {}
     if path.exists():
@@ -187,13 +191,15 @@ def _merge_participants(root: Path, records: dict) -> None:
                 rows[r["participant_id"]] = r
     rows.update(records)
     header = list(_PARTICIPANT_COLUMNS)
-    atomic_write_text(path, _tsv(header, [[rows[k].get(c) for c in header] for k in sorted(rows)]))
+    atomic_write_text(path, _tsv(header, [[rows[k].get(c) for c in header] for k in sorted(rows)]),
+                      durable=durable)
     sidecar = _sidecar(header[1:], _PARTICIPANT_COLUMNS)
     for column in ("sex", "handedness", "group"):
         levels = sorted({str(r.get(column)) for r in rows.values()} - {"None", "", "n/a"})
         if levels:
             sidecar[column]["Levels"] = {v: _LEVELS.get((column, v), v) for v in levels}
-    atomic_write_text(root / "participants.json", json.dumps(sidecar, indent=2) + "\n")
+    atomic_write_text(root / "participants.json", json.dumps(sidecar, indent=2) + "\n",
+                      durable=durable)
 
 
 _LEVELS = {("group", "A"): "skin thinner than the protocol's threshold",
@@ -235,7 +241,8 @@ def _session_meta(read: SessionFolder) -> dict:
 
 
 def export_session(session_dir, root=None, read: SessionFolder | None = None,
-                   authors: list[str] | None = None, override_authors: bool = False) -> Path:
+                   authors: list[str] | None = None, override_authors: bool = False, *,
+                   durable: bool = True) -> Path:
     """Write one session's behavioural TSV and sidecar into the BIDS dataset ``root``.
 
     Parameters
@@ -251,6 +258,9 @@ def export_session(session_dir, root=None, read: SessionFolder | None = None,
     authors : list of str, optional
         ``dataset_description.json``'s ``Authors`` (default: the protocol's ``authors``),
         written when the file is new or has none (``override_authors``: also replacing others).
+    durable : bool
+        False: the same files without their fsyncs (the session's own setting: a simulated
+        study's session, recomputed from its seed).
 
     Returns
     -------
@@ -283,27 +293,30 @@ def export_session(session_dir, root=None, read: SessionFolder | None = None,
     task = bids_label(name)
     keep = [i for i, c in enumerate(header) if c not in PARTICIPANT_LEVEL_COLUMNS]
     header, rows = [header[i] for i in keep], [[r[i] for i in keep] for r in rows]
-    folder = ensure_dir(root / f"sub-{sub}" / f"ses-{ses}" / "beh")
+    folder = ensure_dir(root / f"sub-{sub}" / f"ses-{ses}" / "beh", durable=durable)
     with _dataset_lock(root):
         _describe_dataset(root, list(dict.fromkeys(authors)) if authors else protocol_authors(meta),
-                          override=bool(authors) and override_authors)
+                          override=bool(authors) and override_authors, durable=durable)
     stem = f"sub-{sub}_ses-{ses}_task-{task}"
-    atomic_write_text(folder / f"{stem}_beh.tsv", _tsv(header, rows))
+    atomic_write_text(folder / f"{stem}_beh.tsv", _tsv(header, rows), durable=durable)
     described = {"TaskName": task,
                  "TaskDescription": head.get("title", "") if isinstance(head.get("title"), str) else ""}
     sidecar = {**described, **_sidecar(header, COLUMN_DESCRIPTIONS)}
-    atomic_write_text(folder / f"{stem}_beh.json", json.dumps(sidecar, indent=2, ensure_ascii=False) + "\n")
+    atomic_write_text(folder / f"{stem}_beh.json",
+                      json.dumps(sidecar, indent=2, ensure_ascii=False) + "\n", durable=durable)
     events = event_rows(read.events)
     if events is not None:
-        atomic_write_text(folder / f"{stem}_events.tsv", _tsv(list(EVENT_COLUMNS), events))
+        atomic_write_text(folder / f"{stem}_events.tsv", _tsv(list(EVENT_COLUMNS), events),
+                          durable=durable)
         atomic_write_text(folder / f"{stem}_events.json",
-                          json.dumps(EVENT_SIDECAR, indent=2, ensure_ascii=False) + "\n")
+                          json.dumps(EVENT_SIDECAR, indent=2, ensure_ascii=False) + "\n",
+                          durable=durable)
     thickness = participant.get("skin_thickness")
     thickness = thickness.get("total_um") if isinstance(thickness, dict) else None
     _participants(root, {f"sub-{sub}": {
         "participant_id": f"sub-{sub}", "age": participant.get("age"), "sex": participant.get("sex"),
         "handedness": participant.get("handedness"), "group": meta.get("group"),
-        "skin_thickness_um": thickness}})
+        "skin_thickness_um": thickness}}, durable=durable)
     return folder / f"{stem}_beh.tsv"
 
 

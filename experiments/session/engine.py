@@ -483,7 +483,7 @@ class Session:
         A failure is reported and logged, never fatal: ``trials.csv`` is the session's record."""
         from experiments.bids import export_session
         try:
-            path = export_session(self.directory)
+            path = export_session(self.directory, durable=self.durable)
         except (OSError, ValueError, KeyError) as exc:
             self.log_event("bids_export_failed", message=f"{type(exc).__name__}: {exc}")
             self._report(f"warning: BIDS export failed ({exc}); run `thermocue export-bids` later")

@@ -133,6 +133,28 @@ def test_export_bids_command(study, tmp_path, capsys):
     assert main(["export-bids", str(tmp_path / "nothing")]) == 2
 
 
+def test_a_non_durable_export_writes_the_same_files_without_one_fsync(study, tmp_path,
+                                                                     monkeypatch):
+    """A session with durability off (a simulated study's) exports without fsyncs; the files
+    are those of a durable export, byte for byte."""
+    import os
+    from experiments.bids import export_session
+    calls = []
+    real = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: (calls.append(fd), real(fd))[1])
+    session = sorted(p.parent for p in study.glob("*/*/session.json"))[0]
+    export_session(session, tmp_path / "off", durable=False)
+    assert calls == []
+    export_session(session, tmp_path / "on")                  # the default: durable
+    files = sorted(p.relative_to(tmp_path / "on") for p in (tmp_path / "on").rglob("*")
+                   if p.is_file())
+    assert len(calls) >= 2 * len(files)                       # each file and its folder
+    assert files == sorted(p.relative_to(tmp_path / "off") for p in (tmp_path / "off").rglob("*")
+                           if p.is_file())
+    for rel in files:
+        assert (tmp_path / "off" / rel).read_bytes() == (tmp_path / "on" / rel).read_bytes()
+
+
 @pytest.mark.slow
 def test_a_rebuilt_dataset_with_its_complete_marker_is_valid_bids(study, tmp_path):
     """`export-bids` writes COMPLETE last and lists it in .bidsignore: still valid BIDS."""

@@ -79,7 +79,8 @@ def test_a_non_durable_session_leaves_a_durable_one_durable(tmp_path, fsyncs):
 
     fast = run("P01", False)
     slow = run("P16", True)
-    # the non-durable session's run fsyncs only outside the session folder's writers (the BIDS
-    # export and the profile cache, which are not sessions' files); the durable one each event
+    # the non-durable session's run fsyncs only outside the session's own writers (the profile
+    # cache, not a session's file; its BIDS export follows the session's setting); the durable
+    # one each event
     events = sum(1 for _ in open(tmp_path / "data" / "P16" / "S01" / "events.jsonl"))
     assert len(slow) >= events > len(fast)
