@@ -184,7 +184,16 @@ def to_jsonable(obj: Any) -> Any:
     TypeError
         For an object with no JSON form.
     """
-    if obj is None or isinstance(obj, (bool, str, int)):
+    t = type(obj)          # the exact types of nearly every value first (no ABC check)
+    if t is str or t is int or t is bool or obj is None:
+        return obj
+    if t is float:
+        return obj if math.isfinite(obj) else None
+    if t is dict:
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if t is list or t is tuple:
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, (bool, str, int)):
         return obj
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None

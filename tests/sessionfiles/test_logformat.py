@@ -201,3 +201,27 @@ def test_trials_csv_written_and_read_back_by_analysis(tmp_path):
     assert list(table["correct"]) == ["1", ""] and list(table["status"]) == ["ok", "aborted"]
     with open(tmp_path / "trials.csv", newline="") as fh:
         assert next(csv.reader(fh))[:3] == ["participant", "session", "group"]
+
+
+def test_to_jsonable_gives_every_kind_of_value_its_json_form():
+    # the exact built-in types take a shortcut; their subclasses, other mappings and sequences,
+    # numpy, paths and dates the general rules: each checked against its JSON form by hand
+    import collections
+    import datetime as dt
+    import enum
+
+    import numpy as np
+
+    class Level(enum.IntEnum):
+        HIGH = 3
+
+    value = {1: (1.5, math.inf, -math.nan, None, True, "a"), "n": [np.float64("nan"), np.int64(7)],
+             "m": collections.OrderedDict(k=np.array([0.25, 2.0])), "e": Level.HIGH,
+             "p": Path("a") / "b.csv", "d": dt.date(2024, 5, 6), "f": np.float64(0.5)}
+    got = logformat.to_jsonable(value)
+    assert got == {"1": [1.5, None, None, None, True, "a"], "n": [None, 7], "m": {"k": [0.25, 2.0]},
+                   "e": 3, "p": "a/b.csv", "d": "2024-05-06", "f": 0.5}
+    assert type(got["m"]) is dict and type(got["n"][1]) is int
+    assert json.loads(logformat.dumps(value)) == got
+    with pytest.raises(TypeError):
+        logformat.to_jsonable({"x": object()})
