@@ -7,7 +7,8 @@
    ``--observer`` say otherwise) run as the 30-participant study on the emulated display
    (:func:`experiments.simulation.figure9.study.run_figure9_study`), with its analysis; the
    sensitivity rows' studies (:func:`.scenarios.sensitivity`) run on the same cluster at the
-   same time (then the fitted-depth rows, which need the study's answers).
+   same time, then the receptor-depth fit's grid; the fitted-depth rows, which need the
+   study's answers, start as soon as its sessions end, while this process analyses them.
 3. ``figure9.png`` / ``.pdf``: the paper's method as printed (material-side replay, absolute
    observer; expected proportions) beside the headline's 30 emulated sessions; ``report.md``
    opening with the verdict, the claims table and the sensitivity table; the claims table last
@@ -176,13 +177,13 @@ def _simulate_on(writer, out_dir, seconds, t0, *, seed, workers, participants, r
                  options, n_studies, target_side, rate_limit, scheduler, force_sd_N, max_studies,
                  lab, sens_cap) -> dict:
     """:func:`_simulate` with ``writer`` (a one-thread executor) writing ``studies.csv`` while
-    the sessions run (this process only waits for them) and drawing the figure while the depth
-    fit runs; both waited for before returning (a failure of either is raised here).  The same
-    files as writing them at the end: ``studies.csv`` needs only the scenarios, the figure
-    neither the sensitivity rows nor the depth fit."""
-    from experiments.simulation.figure9.report import write_figure
+    the sessions run (this process only waits for them) and drawing the figure once the
+    analysis is done; both waited for before returning (a failure of either is raised here).
+    The same files as writing them at the end: ``studies.csv`` needs only the scenarios, the
+    figure neither the sensitivity rows nor the depth fit.  The depth fit starts as soon as
+    the sessions end (:func:`_depth_after_sessions`, on another thread, its studies on the
+    workers) while this process analyses them."""
     from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
-    from experiments.simulation.figure9.study import run_figure9_study
     from experiments.simulation.figure9.tasks import group_pool_task
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import GROUPS, merge_pools
@@ -204,37 +205,94 @@ def _simulate_on(writer, out_dir, seconds, t0, *, seed, workers, participants, r
         sweep.release_memory()      # the scenarios' studies, before the sessions
         written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
         t1 = time.perf_counter()
-        (sens, grid_pools), study, seconds["study_s"] = _beside(
-            lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run,
-                                      sens_cap, participants),
-            lambda: run_figure9_study(out_dir, seed=seed, workers=workers,
-                                      participants=participants, replay=headline[0],
-                                      target_side=target_side, rate_limit=rate_limit,
-                                      responder_options={**options, "observer": headline[1],
-                                                         **({} if force_sd_N is None else
-                                                            {"force_sd_N": lab.force_sd_N})},
-                                      sweep=sweep))
-        seconds["sensitivity_and_study_s"] = time.perf_counter() - t1
-        sweep.release_memory()      # the sessions' and rows' leftovers, before the depth fit
+        sens, study, depth = _beside_the_study(
+            writer, out_dir, seconds, t1, result, best, headline, default_run, pool, sweep,
+            seed=seed, workers=workers, participants=participants, options=options,
+            n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
+            force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap, written=written)
+        sweep.release_memory()      # the sessions', rows' and fit's leftovers
         release_process_memory()    # and this process's, from the analysis
+    return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
+            "depth": depth["fit"], "trials": depth["trials"],
+            "written": {k: f.result() for k, f in written.items()}}
+
+
+def _beside_the_study(writer, out_dir, seconds, t1, result, best, headline, default_run, pool,
+                      sweep, *, seed, workers, participants, options, n_studies, target_side,
+                      rate_limit, force_sd_N, lab, sens_cap, written) -> tuple:
+    """The sensitivity rows beside the emulated study (:func:`_beside`), the depth fit started
+    once its sessions end (:func:`_depth_after_sessions`, on another thread) while this process
+    analyses them, the figure drawn by ``writer`` once the analysis is done (into
+    ``written["figure"]``).  ``(sensitivity rows, study summary, depth fit's result)``; stage
+    times into ``seconds``."""
+    from experiments.simulation.figure9.report import write_figure
+    from experiments.simulation.figure9.study import run_figure9_study
+    depth_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-depth")
+    fitted = []                 # the depth fit's future, once the sessions have ended
+
+    def sessions_then_analysis(rows):
+        def start_depth_fit(data_dir):
+            fitted.append(depth_thread.submit(
+                _depth_after_sessions, data_dir, rows, out_dir, pool, headline, n_studies,
+                seed, sweep, lab, sens_cap))
+        return run_figure9_study(out_dir, seed=seed, workers=workers,
+                                 participants=participants, replay=headline[0],
+                                 target_side=target_side, rate_limit=rate_limit,
+                                 responder_options={**options, "observer": headline[1],
+                                                    **({} if force_sd_N is None else
+                                                       {"force_sd_N": lab.force_sd_N})},
+                                 sweep=sweep, after_sessions=start_depth_fit)
+    try:
+        (sens, _), study, seconds["study_s"] = _beside(
+            lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab,
+                                      default_run, sens_cap, participants),
+            sessions_then_analysis)
+        seconds["sensitivity_and_study_s"] = time.perf_counter() - t1
         seconds["studies_simulated"] = int(result.n_studies().sum()) + sum(
             len(res["proportions"]) for _, res in sens.attrs["runs"] if res is not default_run)
         log.info("figure9: %d scenarios (%d-%d simulated studies each) in %.1f s, and %d "
-                 "sensitivity rows beside the emulated study (%.1f s together) on %d workers; "
-                 "headline: %s replay, %s observer", len(result.wide()),
-                 result.n_studies().min(), result.n_studies().max(), seconds["scenarios_s"],
-                 len(sens), seconds["sensitivity_and_study_s"], sweep.n_workers, *headline)
+                 "sensitivity rows beside the emulated study (%.1f s together) on %d "
+                 "workers; headline: %s replay, %s observer", len(result.wide()),
+                 result.n_studies().min(), result.n_studies().max(),
+                 seconds["scenarios_s"], len(sens), seconds["sensitivity_and_study_s"],
+                 sweep.n_workers, *headline)
         t2 = time.perf_counter()
         analysis = study.get("analysis")
         written["figure"] = writer.submit(
-            write_figure, out_dir, result, analysis.proportions if analysis is not None else None,
-            headline, best, len(study["sessions"]))
-        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, sens_cap,
-                                  grid_pools)
-        sens = _with_depth_row(sens, depth)
-        seconds["depth_fit_s"] = time.perf_counter() - t2
-    return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
-            "depth": depth, "written": {k: f.result() for k, f in written.items()}}
+            write_figure, out_dir, result,
+            analysis.proportions if analysis is not None else None, headline, best,
+            len(study["sessions"]))
+        depth = fitted[0].result()
+    except BaseException:
+        depth_thread.shutdown(wait=False, cancel_futures=True)   # the closing cluster ends it
+        raise
+    depth_thread.shutdown()
+    seconds["depth_fit_s"] = time.perf_counter() - t2    # waited for after the analysis
+    return depth["sens"], study, depth
+
+
+def _depth_after_sessions(data_dir, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
+                          max_studies) -> dict:
+    """Once the sessions have ended (while this process analyses them): their analysable
+    trials (:func:`analysis.load.load_trials`, as the analysis reads them), the receptor depth
+    fitted to them (:func:`_fitted_depth_row`, its studies on ``sweep``'s workers) once the
+    sensitivity rows and the fit's grid (``rows``, a future of :func:`_sensitivity_rows`) are
+    done, and ``sensitivity_studies.csv`` written.
+
+    Returns ``trials``, ``fit`` (:func:`_fitted_depth_row`'s) and ``sens`` (the sensitivity
+    table with the fitted depth's rows).  The same tasks and seeds as fitting after the
+    analysis, so the same numbers.
+    """
+    from analysis.exports import write_csv        # whole or not at all
+    from analysis.load import load_trials
+    from experiments.simulation.figure9.precision import study_table
+    trials = load_trials(data_dir).analysable
+    sens, grid = rows.result()
+    fit = _fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies,
+                            grid)
+    sens = _with_depth_row(sens, fit)
+    write_csv(study_table(sens.attrs["runs"]), Path(out_dir) / "sensitivity_studies.csv")
+    return {"trials": trials, "fit": fit, "sens": sens}
 
 
 def _write_studies(out_dir, runs) -> None:
@@ -247,18 +305,33 @@ def _write_studies(out_dir, runs) -> None:
 
 def _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run, max_studies,
                       participants):
-    """The sensitivity rows, then the depth fit's grid pools (None without both groups): the
-    background of :func:`_beside`."""
-    from experiments.simulation.depth_fit import depth_pool_jobs
-    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
+    """The sensitivity rows, then the depth fit's grid (None without both groups): the
+    background of :func:`_beside`; ``(rows, grid)``."""
+    from experiments.simulation.figure9.scenarios import sensitivity
     sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                        variability=lab, default_run=default_run, max_studies=max_studies)
-    # the depth fit's grid pools need no answers: built once the rows are done, while this
-    # process analyses the sessions (a fit needs both groups)
-    grid_pools = (sweep.map(build_pool_task, depth_pool_jobs(seed=seed, also=headline[:1]),
-                            what="person pools")
-                  if participants is None or participants >= 2 else None)
-    return sens, grid_pools
+    # the depth fit's grid needs no answers: built once the rows are done, beside the sessions
+    # and while this process analyses them (a fit needs both groups)
+    grid = (_depth_grid(seed, headline, sweep)
+            if participants is None or participants >= 2 else None)
+    return sens, grid
+
+
+#: Simulated studies per (depth share, noise) of the depth fit's grid.
+DEPTH_GRID_STUDIES = 20
+
+
+def _depth_grid(seed, headline, sweep) -> tuple:
+    """The depth fit's grid (:func:`..depth_fit.depth_pool_jobs`, the headline's replay too):
+    ``(pools, answer probabilities)`` per depth share, as tasks of ``sweep``'s workers
+    (:func:`.tasks.depth_grid_task`; in this process without ``sweep``)."""
+    from experiments.simulation.depth_fit import DEPTH_SHARES, NOISES_C, depth_pool_jobs
+    from experiments.simulation.figure9.tasks import depth_grid_task
+    jobs = [(protocol, kw, share, NOISES_C, DEPTH_GRID_STUDIES, seed) for share, (protocol, kw)
+            in zip(DEPTH_SHARES, depth_pool_jobs(DEPTH_SHARES, seed=seed, also=headline[:1]))]
+    done = (sweep.map(depth_grid_task, jobs, what="depth grid pools") if sweep is not None
+            else [depth_grid_task(*job) for job in jobs])
+    return [pool for pool, _ in done], [probs for _, probs in done]
 
 
 def _with_depth_row(sens, depth):
@@ -276,17 +349,14 @@ def _with_depth_row(sens, depth):
 def _finish(out_dir, run, seconds, t0, lab) -> dict:
     """Step 3 of the module docstring: the per-study tables, the figure and report, the
     study record; the verdict and the claims table printed.  ``run_reproduction``'s result."""
-    from analysis.exports import write_csv        # whole or not at all
-    from experiments.simulation.figure9.precision import study_table
     from sessionfiles.logbook import atomic_write_json
     result, sens, study, headline, best = (run["result"], run["sens"], run["study"],
                                            run["headline"], run["best"])
-    write_csv(study_table(sens.attrs["runs"]), out_dir / "sensitivity_studies.csv")
     analysis = study.get("analysis")
     observed = analysis.proportions if analysis is not None else None
     sessions_line = ""
     if analysis is not None:
-        sessions_line = sessions_claims_line(analysis.log.analysable, headline)
+        sessions_line = sessions_claims_line(run["trials"], headline)
     depth_record = None if run["depth"] is None else run["depth"]["record"]
     outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
                              len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
@@ -313,18 +383,20 @@ def _finish(out_dir, run, seconds, t0, lab) -> dict:
 
 
 def _beside(background, foreground):
-    """``(background(), foreground(), seconds of foreground)``, the two run at the same time.
+    """``(background(), foreground(future of background()), seconds of foreground)``, the
+    two run at the same time.
 
     The sensitivity rows and the emulated study need only the headline: the rows' studies run
     on the cluster's workers beside the sessions, and while this process analyses the sessions
-    (when the workers would otherwise wait).  Their tasks and seeds are the same either way, so
-    are the results.  A failure of the foreground does not wait for the background.
+    (when the workers would otherwise wait); the foreground gets the rows' future (the depth
+    fit, started once the sessions end, waits for it).  Their tasks and seeds are the same
+    either way, so are the results.  A failure of the foreground does not wait for the background.
     """
     start = time.perf_counter()
     bg = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-sensitivity")
     try:
         pending = bg.submit(background)
-        front = foreground()
+        front = foreground(pending)
     except BaseException:
         bg.shutdown(wait=False, cancel_futures=True)    # the closing cluster ends the rows
         raise
@@ -335,28 +407,24 @@ def _beside(background, foreground):
         bg.shutdown()
 
 
-def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None,
-                      grid_pools=None):
-    """Fit the receptor depth to the emulated study's real block; the headline at that depth.
+def _fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies=None,
+                      grid=None):
+    """Fit the receptor depth to the emulated study's real block (``trials``: its analysable
+    trials); the headline at that depth.
 
-    ``grid_pools``: the fit's grid pools (:func:`..depth_fit.depth_pool_jobs`), already built;
-    default: built now (on ``sweep``'s workers when given).
+    ``grid``: the fit's grid (:func:`_depth_grid`), already computed; default: computed now
+    (on ``sweep``'s workers when given).
     Returns None without a study with both groups; else ``row`` (a sensitivity row),
     ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
     """
-    from experiments.simulation.depth_fit import confusion_from_trials, depth_pool_jobs, fit_depth
-    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
-    analysis = study.get("analysis")
-    trials = None if analysis is None else analysis.log.analysable
+    from experiments.simulation.depth_fit import confusion_from_trials, fit_depth
+    from experiments.simulation.figure9.scenarios import sensitivity
     if trials is None or trials.empty or trials["group"].nunique() < 2:
         return None
     counts = confusion_from_trials(trials, "real")
-    # the grid's seven person pools on the cluster's workers (built here, one after the other,
-    # they were about a third of this step, with the workers idle)
-    if grid_pools is None and sweep is not None:
-        grid_pools = sweep.map(build_pool_task, depth_pool_jobs(seed=seed, also=headline[:1]),
-                               what="person pools")
-    fit = fit_depth(counts, n_studies=20, seed=seed, pools=grid_pools)
+    grid_pools, probabilities = grid if grid is not None else _depth_grid(seed, headline, sweep)
+    fit = fit_depth(counts, n_studies=DEPTH_GRID_STUDIES, seed=seed, pools=grid_pools,
+                    probabilities=probabilities)
     # the estimate and the ends of its interval: the claims' probabilities across the depths
     # the study's answers allow (their best noise each)
     settings, jobs = {}, []

@@ -303,8 +303,16 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
 
     from experiments.simulation.figure9.study import _note_simulation
     from experiments.protocol import load_protocol
+    ended = []         # reproduce figure9 starts its depth fit here: the sessions' logs are whole
+
+    def after_sessions(data_dir):
+        ended.append((data_dir, sorted(p.name for p in data_dir.glob("P*/S*/*")),
+                      (tmp_path / "study.json").exists()))
     run_figure9_study(tmp_path, participants=1, workers=1, analyze=False,
-                      target_side="compensated", rate_limit="slew")
+                      target_side="compensated", rate_limit="slew", after_sessions=after_sessions)
+    ((data_dir, files, study_written),) = ended
+    assert data_dir == tmp_path / "data" and not study_written
+    assert {"events.jsonl", "session.json", "trials.csv"} <= set(files)
     study = json.loads((tmp_path / "study.json").read_text())
     assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
         ("compensated", "slew", 0.4, "copper")
