@@ -29,7 +29,7 @@ __all__ = ["run_reproduction", "recompute_from", "claims_screen", "verdict_line"
            "reproducing_scenarios", "DEFAULT_STUDIES"]
 
 from .precision import FIRST_STUDIES, MAX_STUDIES, SENSITIVITY_MAX_STUDIES
-from .report import depth_text, planner_note, write_outputs as _write_outputs
+from .report import planner_note, write_outputs as _write_outputs
 from .verdict import PRINTED, claims_held, claims_screen, reproducing_scenarios, verdict_line
 
 #: Simulated studies per scenario and per sensitivity row in the first round (``--studies``);
@@ -95,7 +95,10 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                     replay=replay, observer=observer, options=options, n_studies=n_studies,
                     target_side=target_side, rate_limit=rate_limit, scheduler=scheduler,
                     force_sd_N=force_sd_N, max_studies=max_studies, lab=lab)
-    return _finish(out_dir, run, seconds, t0, lab)
+    try:
+        return _finish(out_dir, run, seconds, t0, lab)
+    finally:
+        run["closed"].result()      # the cluster, closing while the report was written
 
 
 def _checked_options(out_dir, seed, workers, participants, replay, observer, responder_options,
@@ -157,84 +160,89 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     """Steps 1 and 2 of the module docstring on one cluster; stage times into ``seconds``.
 
     Returns ``result``, ``best``, ``headline``, ``sens`` (the sensitivity table, the fitted
-    depth's rows included), ``study``, ``depth`` and ``written`` (``studies.csv`` written, and
-    ``figure``: the figure's files, drawn while the depth fit ran).
+    depth's rows included), ``study``, ``depth``, ``trials`` (the study's analysable trials),
+    ``figure`` (the figure's files, drawn on a worker while this process analysed the
+    sessions) and ``written`` (``studies.csv`` written).
     """
+    from experiments.simulation.sweep import Sweep
     sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
     # outputs final before the end are written by this thread while this process would wait
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-writer")
+    sweep = Sweep(workers=workers, scheduler=scheduler, label="figure9").__enter__()
     try:
-        return _simulate_on(writer, out_dir, seconds, t0, seed=seed, workers=workers,
-                            participants=participants, replay=replay, observer=observer,
-                            options=options, n_studies=n_studies, target_side=target_side,
-                            rate_limit=rate_limit, scheduler=scheduler, force_sd_N=force_sd_N,
-                            max_studies=max_studies, lab=lab, sens_cap=sens_cap)
+        run = _simulate_on(writer, sweep, out_dir, seconds, t0, seed=seed, workers=workers,
+                           participants=participants, replay=replay, observer=observer,
+                           options=options, n_studies=n_studies, target_side=target_side,
+                           rate_limit=rate_limit, force_sd_N=force_sd_N,
+                           max_studies=max_studies, lab=lab, sens_cap=sens_cap)
+    except BaseException:
+        sweep.__exit__(None, None, None)
+        raise
     finally:
         writer.shutdown(cancel_futures=True)    # what it wrote was waited for (or failed)
+    # nothing runs on the cluster any more: it closes (~1 s, waiting for its processes to
+    # end) while this process writes the report
+    closer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-close")
+    run["closed"] = closer.submit(sweep.__exit__, None, None, None)
+    closer.shutdown(wait=False)
+    return run
 
 
-def _simulate_on(writer, out_dir, seconds, t0, *, seed, workers, participants, replay, observer,
-                 options, n_studies, target_side, rate_limit, scheduler, force_sd_N, max_studies,
+def _simulate_on(writer, sweep, out_dir, seconds, t0, *, seed, workers, participants, replay,
+                 observer, options, n_studies, target_side, rate_limit, force_sd_N, max_studies,
                  lab, sens_cap) -> dict:
     """:func:`_simulate` with ``writer`` (a one-thread executor) writing ``studies.csv`` while
-    the sessions run (this process only waits for them) and drawing the figure once the
-    analysis is done; both waited for before returning (a failure of either is raised here).
-    The same files as writing them at the end: ``studies.csv`` needs only the scenarios, the
-    figure neither the sensitivity rows nor the depth fit.  The depth fit starts as soon as
-    the sessions end (:func:`_depth_after_sessions`, on another thread, its studies on the
-    workers) while this process analyses them."""
+    the sessions run (this process only waits for them), waited for before returning (its
+    failure is raised here); the same file as writing it at the end (it needs only the
+    scenarios).  The depth fit and the figure start as soon as the sessions end
+    (:func:`_beside_the_study`), while this process analyses them."""
     from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
     from experiments.simulation.figure9.tasks import group_pool_task
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import GROUPS, merge_pools
-    from experiments.simulation.sweep import Sweep, release_process_memory
 
-    with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
-        # one person pool per group, built on the cluster's workers
-        pool = merge_pools(sweep.map(group_pool_task, [(g, tuple(REPLAY_HYPOTHESES), seed)
-                                                        for g in GROUPS], what="person pools"))
-        seconds["pool_s"] = time.perf_counter() - t0
-        result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
-                                    variability=lab, max_studies=max_studies)
-        seconds["claims_s"] = time.perf_counter() - t0 - seconds["pool_s"]
-        best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
-        headline = (replay or best["descriptive"][0], observer or best["descriptive"][1])
-        default_run = next(res for keys, res in result.runs
-                           if (keys["hypothesis"], keys["observer"]) == headline)
-        seconds["scenarios_s"] = time.perf_counter() - t0
-        sweep.release_memory()      # the scenarios' studies, before the sessions
-        written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
-        t1 = time.perf_counter()
-        sens, study, depth = _beside_the_study(
-            writer, out_dir, seconds, t1, result, best, headline, default_run, pool, sweep,
-            seed=seed, workers=workers, participants=participants, options=options,
-            n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
-            force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap, written=written)
-        sweep.release_memory()      # the sessions', rows' and fit's leftovers
-        release_process_memory()    # and this process's, from the analysis
+    # one person pool per group, built on the cluster's workers
+    pool = merge_pools(sweep.map(group_pool_task, [(g, tuple(REPLAY_HYPOTHESES), seed)
+                                                    for g in GROUPS], what="person pools"))
+    seconds["pool_s"] = time.perf_counter() - t0
+    result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
+                                variability=lab, max_studies=max_studies)
+    seconds["claims_s"] = time.perf_counter() - t0 - seconds["pool_s"]
+    best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
+    headline = (replay or best["descriptive"][0], observer or best["descriptive"][1])
+    default_run = next(res for keys, res in result.runs
+                       if (keys["hypothesis"], keys["observer"]) == headline)
+    seconds["scenarios_s"] = time.perf_counter() - t0
+    sweep.release_memory()      # the scenarios' studies, before the sessions
+    written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
+    t1 = time.perf_counter()
+    sens, study, depth = _beside_the_study(
+        out_dir, seconds, t1, result, best, headline, default_run, pool, sweep,
+        seed=seed, workers=workers, participants=participants, options=options,
+        n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
+        force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap)
     return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
-            "depth": depth["fit"], "trials": depth["trials"],
+            "depth": depth["fit"], "trials": depth["trials"], "figure": depth["figure"],
             "written": {k: f.result() for k, f in written.items()}}
 
 
-def _beside_the_study(writer, out_dir, seconds, t1, result, best, headline, default_run, pool,
-                      sweep, *, seed, workers, participants, options, n_studies, target_side,
-                      rate_limit, force_sd_N, lab, sens_cap, written) -> tuple:
-    """The sensitivity rows beside the emulated study (:func:`_beside`), the depth fit started
-    once its sessions end (:func:`_depth_after_sessions`, on another thread) while this process
-    analyses them, the figure drawn by ``writer`` once the analysis is done (into
-    ``written["figure"]``).  ``(sensitivity rows, study summary, depth fit's result)``; stage
-    times into ``seconds``."""
-    from experiments.simulation.figure9.report import write_figure
+def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run, pool, sweep, *,
+                      seed, workers, participants, options, n_studies, target_side, rate_limit,
+                      force_sd_N, lab, sens_cap) -> tuple:
+    """The sensitivity rows beside the emulated study (:func:`_beside`); the depth fit and the
+    figure started once its sessions end (:func:`_depth_after_sessions`, on another thread and
+    the workers) while this process analyses them; the figure's files written once the
+    analysis is done.  ``(sensitivity rows, study summary, the depth fit's result with
+    ``figure``: the figure's files)``; stage times into ``seconds``."""
     from experiments.simulation.figure9.study import run_figure9_study
     depth_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-depth")
     fitted = []                 # the depth fit's future, once the sessions have ended
 
     def sessions_then_analysis(rows):
-        def start_depth_fit(data_dir):
+        def start_depth_fit(data_dir, sessions):
             fitted.append(depth_thread.submit(
                 _depth_after_sessions, data_dir, rows, out_dir, pool, headline, n_studies,
-                seed, sweep, lab, sens_cap))
+                seed, sweep, lab, sens_cap, figure=(result, best, len(sessions))))
         return run_figure9_study(out_dir, seed=seed, workers=workers,
                                  participants=participants, replay=headline[0],
                                  target_side=target_side, rate_limit=rate_limit,
@@ -257,42 +265,64 @@ def _beside_the_study(writer, out_dir, seconds, t1, result, best, headline, defa
                  seconds["scenarios_s"], len(sens), seconds["sensitivity_and_study_s"],
                  sweep.n_workers, *headline)
         t2 = time.perf_counter()
-        analysis = study.get("analysis")
-        written["figure"] = writer.submit(
-            write_figure, out_dir, result,
-            analysis.proportions if analysis is not None else None, headline, best,
-            len(study["sessions"]))
         depth = fitted[0].result()
+        # the analysis wrote its own figure9.png: this one, drawn meanwhile, replaces it
+        figure = _write_figure_files(out_dir, depth["figure"])
     except BaseException:
         depth_thread.shutdown(wait=False, cancel_futures=True)   # the closing cluster ends it
         raise
     depth_thread.shutdown()
     seconds["depth_fit_s"] = time.perf_counter() - t2    # waited for after the analysis
-    return depth["sens"], study, depth
+    return depth["sens"], study, dict(depth, figure=figure)
 
 
 def _depth_after_sessions(data_dir, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
-                          max_studies) -> dict:
+                          max_studies, figure) -> dict:
     """Once the sessions have ended (while this process analyses them): their analysable
-    trials (:func:`analysis.load.load_trials`, as the analysis reads them), the receptor depth
-    fitted to them (:func:`_fitted_depth_row`, its studies on ``sweep``'s workers) once the
-    sensitivity rows and the fit's grid (``rows``, a future of :func:`_sensitivity_rows`) are
-    done, and ``sensitivity_studies.csv`` written.
+    trials (:func:`analysis.load.load_trials`, as the analysis reads them); the figure drawn
+    on one of ``sweep``'s workers (``figure``: the scenarios' result, the best matches and the
+    number of sessions; the emulated study's proportions correct are
+    :func:`analysis.cell_proportions`' without the bootstrap, which the figure does not
+    draw); the receptor depth fitted to them (:func:`.fitted_depth.fitted_depth_row`, its
+    studies on the workers) once the sensitivity rows and the fit's grid (``rows``, a future of
+    :func:`_sensitivity_rows`) are done, and ``sensitivity_studies.csv`` written.
 
-    Returns ``trials``, ``fit`` (:func:`_fitted_depth_row`'s) and ``sens`` (the sensitivity
-    table with the fitted depth's rows).  The same tasks and seeds as fitting after the
-    analysis, so the same numbers.
+    Returns ``trials``, ``figure`` (a future of the figure's bytes,
+    :func:`.plot.figure9_files`), ``fit`` (:func:`.fitted_depth.fitted_depth_row`'s) and
+    ``sens`` (the sensitivity table with the fitted depth's rows).  The same tasks and seeds as after the
+    analysis, so the same numbers and files.
     """
     from analysis.exports import write_csv        # whole or not at all
     from analysis.load import load_trials
+    from analysis.proportions import cell_proportions
+    from experiments.simulation.figure9.plot import figure9_files
     from experiments.simulation.figure9.precision import study_table
+    from experiments.simulation.figure9.fitted_depth import fitted_depth_row, with_depth_row
+    from experiments.simulation.figure9.report import figure_arguments
     trials = load_trials(data_dir).analysable
+    result, best, n_sessions = figure
+    observed = cell_proportions(trials, n_boot=0) if not trials.empty else None
+    drawn = sweep.submit(figure9_files, *figure_arguments(result, observed, headline, best,
+                                                          n_sessions))
     sens, grid = rows.result()
-    fit = _fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies,
+    fit = fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies,
                             grid)
-    sens = _with_depth_row(sens, fit)
+    sens = with_depth_row(sens, fit)
     write_csv(study_table(sens.attrs["runs"]), Path(out_dir) / "sensitivity_studies.csv")
-    return {"trials": trials, "fit": fit, "sens": sens}
+    return {"trials": trials, "fit": fit, "sens": sens, "figure": drawn}
+
+
+def _write_figure_files(out_dir, drawn) -> list:
+    """``figure9.png`` / ``.pdf`` from ``drawn`` (a future of :func:`.plot.figure9_files`),
+    each whole or not at all; the paths."""
+    from sessionfiles.atomicfile import output_path
+    files = []
+    for suffix, data in drawn.result().items():
+        path = Path(out_dir) / f"figure9{suffix}"
+        with output_path(path) as tmp:
+            Path(tmp).write_bytes(data)
+        files.append(path)
+    return files
 
 
 def _write_studies(out_dir, runs) -> None:
@@ -307,43 +337,15 @@ def _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run, 
                       participants):
     """The sensitivity rows, then the depth fit's grid (None without both groups): the
     background of :func:`_beside`; ``(rows, grid)``."""
+    from experiments.simulation.figure9.fitted_depth import depth_grid
     from experiments.simulation.figure9.scenarios import sensitivity
     sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                        variability=lab, default_run=default_run, max_studies=max_studies)
     # the depth fit's grid needs no answers: built once the rows are done, beside the sessions
     # and while this process analyses them (a fit needs both groups)
-    grid = (_depth_grid(seed, headline, sweep)
+    grid = (depth_grid(seed, headline, sweep)
             if participants is None or participants >= 2 else None)
     return sens, grid
-
-
-#: Simulated studies per (depth share, noise) of the depth fit's grid.
-DEPTH_GRID_STUDIES = 20
-
-
-def _depth_grid(seed, headline, sweep) -> tuple:
-    """The depth fit's grid (:func:`..depth_fit.depth_pool_jobs`, the headline's replay too):
-    ``(pools, answer probabilities)`` per depth share, as tasks of ``sweep``'s workers
-    (:func:`.tasks.depth_grid_task`; in this process without ``sweep``)."""
-    from experiments.simulation.depth_fit import DEPTH_SHARES, NOISES_C, depth_pool_jobs
-    from experiments.simulation.figure9.tasks import depth_grid_task
-    jobs = [(protocol, kw, share, NOISES_C, DEPTH_GRID_STUDIES, seed) for share, (protocol, kw)
-            in zip(DEPTH_SHARES, depth_pool_jobs(DEPTH_SHARES, seed=seed, also=headline[:1]))]
-    done = (sweep.map(depth_grid_task, jobs, what="depth grid pools") if sweep is not None
-            else [depth_grid_task(*job) for job in jobs])
-    return [pool for pool, _ in done], [probs for _, probs in done]
-
-
-def _with_depth_row(sens, depth):
-    """The sensitivity table with the fitted depth's rows (``sens`` itself without a fit)."""
-    from experiments.simulation.figure9.scenarios import SENSITIVITY_CHOICES, mark_differences
-    if depth is None:
-        return sens
-    runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
-    sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
-                            SENSITIVITY_CHOICES)
-    sens.attrs["runs"] = runs
-    return sens
 
 
 def _finish(out_dir, run, seconds, t0, lab) -> dict:
@@ -360,7 +362,7 @@ def _finish(out_dir, run, seconds, t0, lab) -> dict:
     depth_record = None if run["depth"] is None else run["depth"]["record"]
     outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
                              len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
-                             body=True, figure=run["written"]["figure"])
+                             body=True, figure=run["figure"])
     files, verdict, screen = outputs["files"], outputs["verdict"], outputs["screen"]
     seconds["total_s"] = time.perf_counter() - t0
     study_json = out_dir / "study.json"
@@ -405,76 +407,6 @@ def _beside(background, foreground):
         return pending.result(), front, seconds
     finally:
         bg.shutdown()
-
-
-def _fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies=None,
-                      grid=None):
-    """Fit the receptor depth to the emulated study's real block (``trials``: its analysable
-    trials); the headline at that depth.
-
-    ``grid``: the fit's grid (:func:`_depth_grid`), already computed; default: computed now
-    (on ``sweep``'s workers when given).
-    Returns None without a study with both groups; else ``row`` (a sensitivity row),
-    ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
-    """
-    from experiments.simulation.depth_fit import confusion_from_trials, fit_depth
-    from experiments.simulation.figure9.scenarios import sensitivity
-    if trials is None or trials.empty or trials["group"].nunique() < 2:
-        return None
-    counts = confusion_from_trials(trials, "real")
-    grid_pools, probabilities = grid if grid is not None else _depth_grid(seed, headline, sweep)
-    fit = fit_depth(counts, n_studies=DEPTH_GRID_STUDIES, seed=seed, pools=grid_pools,
-                    probabilities=probabilities)
-    # the estimate and the ends of its interval: the claims' probabilities across the depths
-    # the study's answers allow (their best noise each)
-    settings, jobs = {}, []
-    for what, share in (("fitted", fit.estimate), ("interval low end", fit.interval[0]),
-                        ("interval high end", fit.interval[1])):
-        if any(abs(share - v[2]) < 1e-9 for v in settings.values()):
-            continue
-        frac = 1.0 - share
-        noise = float(fit.grid.loc[fit.grid.depth_share == share].sort_values("loglik")
-                      ["noise_C"].iloc[-1])
-        jobs.append(("roughness_recognition", {"hypotheses": (headline[0],),
-                                               "dermis_fraction": (frac, frac),
-                                               "seed": pool.settings["seed"],
-                                               "params": pool.params}))
-        label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
-                 f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
-        settings[label] = ({"noise": noise}, what, share)
-    for (change, *_), depth_pool in zip(settings.values(), _depth_pools(jobs, grid_pools, sweep)):
-        change["pool"] = depth_pool
-    row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                      variability=lab, max_studies=max_studies,
-                      choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})
-    record = {"estimate_share_of_L": fit.estimate, "interval_share_of_L": list(fit.interval),
-              "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
-              "profile": {f"{d:.2f}": float(v) for d, v in fit.profile.items()}}
-    return {"row": row, "record": record, "text": depth_text(record)}
-
-
-def _depth_pools(jobs, grid_pools, sweep) -> list:
-    """The person pools of ``jobs`` (:func:`.tasks.build_pool_task`'s arguments): a grid pool
-    of the depth fit where one is the same pool (the same seed, so the same persons; d / L,
-    perception parameters and protocol, the job's hypotheses among its own: their features do
-    not depend on the others), else built side by side on ``sweep``'s workers."""
-    from experiments.simulation.figure9.tasks import build_pool_task
-    out, missing = [], []
-    for protocol, kw in jobs:
-        same = [g for g in grid_pools or ()
-                if protocol == "roughness_recognition" and set(kw) == {
-                    "hypotheses", "dermis_fraction", "seed", "params"}
-                and set(kw["hypotheses"]) <= set(g.hypotheses)
-                and g.settings["seed"] == kw["seed"]
-                and tuple(g.settings["dermis_fraction"]) == tuple(kw["dermis_fraction"])
-                and g.params == kw["params"] and g.receptor_depth_um is None
-                and not g.settings["sensor_tau_s"]]
-        out.append(same[0] if same else None)
-        if not same:
-            missing.append((protocol, kw))
-    built = iter(sweep.map(build_pool_task, missing, what="person pools") if sweep is not None
-                 else [build_pool_task(*job) for job in missing])
-    return [p if p is not None else next(built) for p in out]
 
 
 def _sessions_verdicts(trials: pd.DataFrame, headline):

@@ -160,9 +160,9 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     sweep : :class:`experiments.simulation.sweep.Sweep`, optional
         A running cluster to run the sessions on (``reproduce figure9`` passes its own).
     after_sessions : callable, optional
-        Called with ``out_dir/data`` once every session has ended, before the analysis
-        (``reproduce figure9`` starts the receptor-depth fit there, which needs only the
-        sessions' answers).
+        Called with ``out_dir/data`` and the per-participant results once every session has
+        ended, before the analysis (``reproduce figure9`` starts the receptor-depth fit and
+        its figure there, which need only the sessions' answers).
     replay : str, optional
         A replay hypothesis (:data:`stimuli.paper.REPLAY_NAMES`, :mod:`experiments.simulation.
         replay`): sets the side, the rate limit, the method and the replayed material.
@@ -206,7 +206,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
                "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
     if after_sessions is not None:
-        after_sessions(data_dir)
+        after_sessions(data_dir, summary["sessions"])
     if analyze:
         _analyse(summary, data_dir, out_dir, used)
     from sessionfiles.logbook import atomic_write_json

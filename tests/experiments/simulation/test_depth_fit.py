@@ -55,7 +55,7 @@ def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool(
     import dataclasses
 
     from experiments.simulation.depth_fit import depth_pool_jobs
-    from experiments.simulation.figure9.reproduction import _depth_pools
+    from experiments.simulation.figure9.fitted_depth import depth_pools
     from experiments.simulation.figure9.tasks import build_pool_task
     (job,) = depth_pool_jobs((0.40,), seed=2, also=("skin", "slab"))
     assert job[1]["hypotheses"] == ("slab", "skin")
@@ -64,7 +64,7 @@ def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool(
            "params": grid.params}
     other = dict(own, params=dataclasses.replace(grid.params, drop_noise_C=0.6))
     reseeded = dict(own, seed=3)
-    reused, built, built_seed = _depth_pools([("roughness_recognition", own),
+    reused, built, built_seed = depth_pools([("roughness_recognition", own),
                                               ("roughness_recognition", other),
                                               ("roughness_recognition", reseeded)],
                                              [grid], sweep=None)
