@@ -289,8 +289,8 @@ def _depth_after_sessions(data_dir, rows, out_dir, pool, headline, n_studies, se
 
     Returns ``trials``, ``figure`` (a future of the figure's bytes,
     :func:`.plot.figure9_files`), ``fit`` (:func:`.fitted_depth.fitted_depth_row`'s) and
-    ``sens`` (the sensitivity table with the fitted depth's rows).  The same tasks and seeds as after the
-    analysis, so the same numbers and files.
+    ``sens`` (the sensitivity table with the fitted depth's rows).  The same tasks and seeds as
+    after the analysis, so the same numbers and files.
     """
     from analysis.exports import write_csv        # whole or not at all
     from analysis.load import load_trials
@@ -392,7 +392,8 @@ def _beside(background, foreground):
     on the cluster's workers beside the sessions, and while this process analyses the sessions
     (when the workers would otherwise wait); the foreground gets the rows' future (the depth
     fit, started once the sessions end, waits for it).  Their tasks and seeds are the same
-    either way, so are the results.  A failure of the foreground does not wait for the background.
+    either way, so are the results.  A failure of the foreground does not wait for the
+    background.
     """
     start = time.perf_counter()
     bg = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-sensitivity")
