@@ -130,19 +130,6 @@ class Sweep:
         """``value`` sent once to every worker (a future to pass to tasks)."""
         return self._connect().scatter(value, broadcast=True)
 
-    def submit(self, fn, *args):
-        """``fn(*args)`` started on the cluster now; its future (``.result()`` waits for it).
-        Before the cluster has started: run here, a future already done."""
-        if self.client is None:
-            from concurrent.futures import Future
-            done = Future()
-            try:
-                done.set_result(fn(*args))
-            except Exception as exc:      # raised by .result(), as a worker's failure would be
-                done.set_exception(exc)
-            return done
-        return self.client.submit(fn, *args, pure=False)
-
     def map(self, fn, tasks, what: str = "tasks", weights=None, then=None) -> list:
         """``[fn(*task) for task in tasks]`` on the cluster, in the order of ``tasks``.
 

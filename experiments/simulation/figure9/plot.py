@@ -98,25 +98,6 @@ def plot_figure9_distribution(left: pd.DataFrame, right: pd.DataFrame, observed,
     return out
 
 
-def figure9_files(left: pd.DataFrame, right: pd.DataFrame, observed, titles: dict) -> dict:
-    """:func:`plot_figure9_distribution`'s files as bytes, ``{".png": ..., ".pdf": ...}`` (the
-    same bytes: ``reproduce figure9`` draws them on a worker of its cluster while it analyses
-    the sessions, and writes them once the analysis, which writes its own ``figure9.png``, is
-    done)."""
-    import io
-
-    from analysis.figures import agg_pyplot
-    plt = agg_pyplot()
-    fig = figure9_distribution(left, right, observed, **titles)
-    out = {}
-    for suffix in (".png", ".pdf"):
-        buf = io.BytesIO()
-        fig.savefig(buf, format=suffix[1:])
-        out[suffix] = buf.getvalue()
-    plt.close(fig)
-    return out
-
-
 def figure9_distribution(left: pd.DataFrame, right: pd.DataFrame, observed, *, left_title: str,
                          right_title: str, left_note: str = "", right_note: str = ""):
     """The three-panel figure (a matplotlib Figure): the printed Eq. 7, the headline with its

@@ -14,27 +14,16 @@ from .precision import MARK, MC_LEVEL, THRESHOLD
 from .verdict import (PRINTED, READING_TEXT, bias_text, claim_statuses, claims_held,
                       claims_screen, reproducing_scenarios, scenario_statuses, verdict_line)
 
-__all__ = ["write_outputs", "write_figure", "figure_arguments", "planner_note", "depth_paragraph",
-           "depth_text"]
+__all__ = ["write_outputs", "write_figure", "planner_note", "depth_paragraph", "depth_text"]
 
 _LEVEL = f"{MC_LEVEL * 100:g} %"
 
 
 def write_figure(out_dir, result, observed, headline, best, n_sessions) -> list:
     """``figure9.png`` / ``.pdf``: the printed Eq. 7 and the headline, as distributions (it
-    needs neither the sensitivity table nor the depth fit)."""
-    from experiments.simulation.figure9.plot import plot_figure9_distribution
-    left, right, observed, titles = figure_arguments(result, observed, headline, best,
-                                                     n_sessions)
-    return plot_figure9_distribution(left, right, observed, Path(out_dir) / "figure9.png",
-                                     **titles)
-
-
-def figure_arguments(result, observed, headline, best, n_sessions) -> tuple:
-    """``(left rows, right rows, observed, titles)``: :func:`.plot.figure9_distribution`'s
-    arguments for :func:`write_figure` (``observed``: only its ``group``, ``mode``,
-    ``roughness_id`` and ``proportion_correct`` are drawn)."""
-    from experiments.simulation.figure9.plot import claims_note
+    needs neither the sensitivity table nor the depth fit: ``reproduce figure9`` draws it while
+    the fit's studies run)."""
+    from experiments.simulation.figure9.plot import claims_note, plot_figure9_distribution
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     props = result.proportions
     n = result.n_studies()
@@ -48,7 +37,8 @@ def figure_arguments(result, observed, headline, best, n_sessions) -> tuple:
         named = "Scenario chosen by --replay/--observer"
     else:
         named = f"Best match (descriptive reading): {status}"
-    titles = dict(
+    return plot_figure9_distribution(
+        rows(PRINTED), rows(headline), observed, Path(out_dir) / "figure9.png",
         left_title=(f"Figure 9 as the paper's method predicts it\n"
                     f"{REPLAY_HYPOTHESES[PRINTED[0]].label} replay\n{PRINTED[1]} observer\n"
                     f"{int(n.loc[PRINTED])} simulated 15+15 studies"),
@@ -59,7 +49,6 @@ def figure_arguments(result, observed, headline, best, n_sessions) -> tuple:
                      + (f"; large black outlines: the one emulated study ({n_sessions} sessions)" if n_sessions else "")),
         left_note=claims_note(result.claims, PRINTED),
         right_note=claims_note(result.claims, headline))
-    return rows(PRINTED), rows(headline), observed, titles
 
 
 def _md(df: pd.DataFrame, digits: int = 2) -> str:

@@ -161,8 +161,8 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
 
     Returns ``result``, ``best``, ``headline``, ``sens`` (the sensitivity table, the fitted
     depth's rows included), ``study``, ``depth``, ``trials`` (the study's analysable trials),
-    ``figure`` (the figure's files, drawn on a worker while this process analysed the
-    sessions) and ``written`` (``studies.csv`` written).
+    ``figure`` (a future of the figure's files, drawn by another thread after the analysis)
+    and ``written`` (``studies.csv`` written).
     """
     from experiments.simulation.sweep import Sweep
     sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
@@ -194,8 +194,9 @@ def _simulate_on(writer, sweep, out_dir, seconds, t0, *, seed, workers, particip
     """:func:`_simulate` with ``writer`` (a one-thread executor) writing ``studies.csv`` while
     the sessions run (this process only waits for them), waited for before returning (its
     failure is raised here); the same file as writing it at the end (it needs only the
-    scenarios).  The depth fit and the figure start as soon as the sessions end
-    (:func:`_beside_the_study`), while this process analyses them."""
+    scenarios).  The depth fit starts as soon as the sessions end (:func:`_beside_the_study`),
+    while this process analyses them."""
+    from experiments.simulation.figure9.report import write_figure
     from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
     from experiments.simulation.figure9.tasks import group_pool_task
     from experiments.simulation.replay import REPLAY_HYPOTHESES
@@ -221,19 +222,26 @@ def _simulate_on(writer, sweep, out_dir, seconds, t0, *, seed, workers, particip
         seed=seed, workers=workers, participants=participants, options=options,
         n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
         force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap)
+    # the figure (after the analysis, which writes its own figure9.png) is drawn by another
+    # thread while this one writes the report; waited for at the end
+    drawer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-figure")
+    analysis = study.get("analysis")
+    figure = drawer.submit(write_figure, out_dir, result,
+                           analysis.proportions if analysis is not None else None, headline,
+                           best, len(study["sessions"]))
+    drawer.shutdown(wait=False)
     return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
-            "depth": depth["fit"], "trials": depth["trials"], "figure": depth["figure"],
+            "depth": depth["fit"], "trials": depth["trials"], "figure": figure,
             "written": {k: f.result() for k, f in written.items()}}
 
 
 def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run, pool, sweep, *,
                       seed, workers, participants, options, n_studies, target_side, rate_limit,
                       force_sd_N, lab, sens_cap) -> tuple:
-    """The sensitivity rows beside the emulated study (:func:`_beside`); the depth fit and the
-    figure started once its sessions end (:func:`_depth_after_sessions`, on another thread and
-    the workers) while this process analyses them; the figure's files written once the
-    analysis is done.  ``(sensitivity rows, study summary, the depth fit's result with
-    ``figure``: the figure's files)``; stage times into ``seconds``."""
+    """The sensitivity rows beside the emulated study (:func:`_beside`); the depth fit started
+    once its sessions end (:func:`_depth_after_sessions`, on another thread, its studies on the
+    workers) while this process analyses them.  ``(sensitivity rows, study summary, the depth
+    fit's result)``; stage times into ``seconds``."""
     from experiments.simulation.figure9.study import run_figure9_study
     depth_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-depth")
     fitted = []                 # the depth fit's future, once the sessions have ended
@@ -242,7 +250,7 @@ def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run,
         def start_depth_fit(data_dir, sessions):
             fitted.append(depth_thread.submit(
                 _depth_after_sessions, data_dir, rows, out_dir, pool, headline, n_studies,
-                seed, sweep, lab, sens_cap, figure=(result, best, len(sessions))))
+                seed, sweep, lab, sens_cap))
         return run_figure9_study(out_dir, seed=seed, workers=workers,
                                  participants=participants, replay=headline[0],
                                  target_side=target_side, rate_limit=rate_limit,
@@ -266,63 +274,37 @@ def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run,
                  sweep.n_workers, *headline)
         t2 = time.perf_counter()
         depth = fitted[0].result()
-        # the analysis wrote its own figure9.png: this one, drawn meanwhile, replaces it
-        figure = _write_figure_files(out_dir, depth["figure"])
     except BaseException:
         depth_thread.shutdown(wait=False, cancel_futures=True)   # the closing cluster ends it
         raise
     depth_thread.shutdown()
     seconds["depth_fit_s"] = time.perf_counter() - t2    # waited for after the analysis
-    return depth["sens"], study, dict(depth, figure=figure)
+    return depth["sens"], study, depth
 
 
 def _depth_after_sessions(data_dir, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
-                          max_studies, figure) -> dict:
+                          max_studies) -> dict:
     """Once the sessions have ended (while this process analyses them): their analysable
-    trials (:func:`analysis.load.load_trials`, as the analysis reads them); the figure drawn
-    on one of ``sweep``'s workers (``figure``: the scenarios' result, the best matches and the
-    number of sessions; the emulated study's proportions correct are
-    :func:`analysis.cell_proportions`' without the bootstrap, which the figure does not
-    draw); the receptor depth fitted to them (:func:`.fitted_depth.fitted_depth_row`, its
-    studies on the workers) once the sensitivity rows and the fit's grid (``rows``, a future of
+    trials (:func:`analysis.load.load_trials`, as the analysis reads them), the receptor depth
+    fitted to them (:func:`.fitted_depth.fitted_depth_row`, its studies on ``sweep``'s
+    workers) once the sensitivity rows and the fit's grid (``rows``, a future of
     :func:`_sensitivity_rows`) are done, and ``sensitivity_studies.csv`` written.
 
-    Returns ``trials``, ``figure`` (a future of the figure's bytes,
-    :func:`.plot.figure9_files`), ``fit`` (:func:`.fitted_depth.fitted_depth_row`'s) and
-    ``sens`` (the sensitivity table with the fitted depth's rows).  The same tasks and seeds as
-    after the analysis, so the same numbers and files.
+    Returns ``trials``, ``fit`` (:func:`.fitted_depth.fitted_depth_row`'s) and ``sens`` (the
+    sensitivity table with the fitted depth's rows).  The same tasks and seeds as after the
+    analysis, so the same numbers and files.
     """
     from analysis.exports import write_csv        # whole or not at all
     from analysis.load import load_trials
-    from analysis.proportions import cell_proportions
-    from experiments.simulation.figure9.plot import figure9_files
-    from experiments.simulation.figure9.precision import study_table
     from experiments.simulation.figure9.fitted_depth import fitted_depth_row, with_depth_row
-    from experiments.simulation.figure9.report import figure_arguments
+    from experiments.simulation.figure9.precision import study_table
     trials = load_trials(data_dir).analysable
-    result, best, n_sessions = figure
-    observed = cell_proportions(trials, n_boot=0) if not trials.empty else None
-    drawn = sweep.submit(figure9_files, *figure_arguments(result, observed, headline, best,
-                                                          n_sessions))
     sens, grid = rows.result()
     fit = fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies,
-                            grid)
+                           grid)
     sens = with_depth_row(sens, fit)
     write_csv(study_table(sens.attrs["runs"]), Path(out_dir) / "sensitivity_studies.csv")
-    return {"trials": trials, "fit": fit, "sens": sens, "figure": drawn}
-
-
-def _write_figure_files(out_dir, drawn) -> list:
-    """``figure9.png`` / ``.pdf`` from ``drawn`` (a future of :func:`.plot.figure9_files`),
-    each whole or not at all; the paths."""
-    from sessionfiles.atomicfile import output_path
-    files = []
-    for suffix, data in drawn.result().items():
-        path = Path(out_dir) / f"figure9{suffix}"
-        with output_path(path) as tmp:
-            Path(tmp).write_bytes(data)
-        files.append(path)
-    return files
+    return {"trials": trials, "fit": fit, "sens": sens}
 
 
 def _write_studies(out_dir, runs) -> None:
@@ -362,8 +344,9 @@ def _finish(out_dir, run, seconds, t0, lab) -> dict:
     depth_record = None if run["depth"] is None else run["depth"]["record"]
     outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
                              len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
-                             body=True, figure=run["figure"])
-    files, verdict, screen = outputs["files"], outputs["verdict"], outputs["screen"]
+                             body=True, figure=())      # () : drawn by run["figure"]'s thread
+    verdict, screen = outputs["verdict"], outputs["screen"]
+    files = run["figure"].result()
     seconds["total_s"] = time.perf_counter() - t0
     study_json = out_dir / "study.json"
     if study_json.is_file():

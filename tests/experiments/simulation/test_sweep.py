@@ -89,16 +89,3 @@ def test_studies_on_a_worker_give_the_claims_of_studies_here_without_analysis_th
                 np.testing.assert_array_equal(res["readings"][reading][cid][0], stat)
                 np.testing.assert_array_equal(res["readings"][reading][cid][1], holds)
         assert res["proportions"].shape == (30, 2, 2, 4)
-
-
-def test_submit_before_the_cluster_runs_here_and_keeps_a_failure_for_result():
-    # reproduce figure9 submits its figure with Sweep.submit; before any map has started the
-    # cluster there is none to start for one task: it runs here, its future already done
-    from experiments.simulation.sweep import Sweep
-    with Sweep(workers=1) as sweep:
-        done = sweep.submit(divmod, 17, 5)
-        failed = sweep.submit(divmod, 1, 0)
-        assert sweep.client is None
-    assert done.result() == (3, 2)
-    with pytest.raises(ZeroDivisionError):
-        failed.result()
