@@ -12,17 +12,24 @@ interval is narrower than a model with participant effects would give.
 
 Depth share: the receptors' depth below the surface as a share of the skin thickness L
 (1 - d / L); the participant model's default is 0.35-0.45.
+
+The grid's answer probabilities need no study (:func:`answer_grid`, one depth share's row of the
+grid): ``reproduce figure9`` computes them on its cluster's workers beside the sessions, and the
+fit to a study's counts is then only the likelihoods.  pandas is imported only where a table is
+made, so that a worker running :func:`answer_grid` does not import it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
-__all__ = ["DEPTH_SHARES", "NOISES_C", "answer_probabilities", "confusion_from_trials",
-           "depth_pool_jobs",
-           "fit_depth", "DepthFit"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["DEPTH_SHARES", "NOISES_C", "answer_probabilities", "answer_grid",
+           "confusion_from_trials", "depth_pool_jobs", "fit_depth", "DepthFit"]
 
 #: Depth shares of the grid (receptor depth / L).
 DEPTH_SHARES = (0.25, 0.30, 0.35, 0.40, 0.45, 0.50, 0.55)
@@ -47,6 +54,15 @@ def answer_probabilities(depth_share: float, noise_C: float, *, n_studies: int =
     counts = np.stack([out.answers[:, out.groups == g, 0].sum(axis=(0, 1)) for g in ("A", "B")])
     counts = counts + 0.5                                   # no impossible answer
     return counts / counts.sum(axis=-1, keepdims=True)
+
+
+def answer_grid(depth_share: float, noises=NOISES_C, *, n_studies: int = 40, seed: int = 0,
+                pool=None) -> np.ndarray:
+    """:func:`answer_probabilities` of one depth share at each noise of ``noises``, shape
+    (noises, 2 groups, C, C): one depth's part of :func:`fit_depth`'s grid, with the same
+    arguments (so the same numbers wherever it runs)."""
+    return np.stack([answer_probabilities(depth_share, n, n_studies=n_studies, seed=seed,
+                                          pool=pool) for n in noises])
 
 
 def confusion_from_trials(trials: pd.DataFrame, mode: str = "real", roughness_ids=(1, 2, 3, 4)):
@@ -105,21 +121,31 @@ def depth_pool_jobs(depth_shares=DEPTH_SHARES, seed: int = 0, also=()) -> list:
 
 
 def fit_depth(counts, depth_shares=DEPTH_SHARES, noises=NOISES_C, *, n_studies: int = 40,
-              seed: int = 0, pools: list | None = None) -> DepthFit:
+              seed: int = 0, pools: list | None = None,
+              probabilities: list | None = None) -> DepthFit:
     """Profile likelihood of the receptor depth from real-block answer counts (2, C, C).
 
     ``pools``: the person pools of :func:`depth_pool_jobs` (same order), already built;
-    default: built here, one after the other.
+    default: built here, one after the other.  ``probabilities``: the grid's answer
+    probabilities already computed, :func:`answer_grid` of each depth share (same order, with
+    these ``noises``, ``n_studies`` and ``seed``); then no pool is needed.
     """
+    import pandas as pd
     counts = np.asarray(counts, dtype=float)
     tasks = [(d, n) for d in depth_shares for n in noises]
-    if pools is None:
-        from experiments.simulation.studies import build_pool
-        pools = [build_pool(protocol, **kw)
-                 for protocol, kw in depth_pool_jobs(depth_shares, seed)]
-    pools = dict(zip(depth_shares, pools))
-    probs = [answer_probabilities(d, n, n_studies=n_studies, seed=seed, pool=pools[d])
-             for d, n in tasks]
+    if probabilities is not None:
+        probs = [p for grid in probabilities for p in grid]
+        if len(probs) != len(tasks):
+            raise ValueError(f"probabilities: expected {len(depth_shares)} depth shares x "
+                             f"{len(noises)} noises, got {len(probs)} grids")
+    else:
+        if pools is None:
+            from experiments.simulation.studies import build_pool
+            pools = [build_pool(protocol, **kw)
+                     for protocol, kw in depth_pool_jobs(depth_shares, seed)]
+        pools = dict(zip(depth_shares, pools))
+        probs = [answer_probabilities(d, n, n_studies=n_studies, seed=seed, pool=pools[d])
+                 for d, n in tasks]
     rows = [{"depth_share": d, "noise_C": n, "loglik": float(np.sum(counts * np.log(p)))}
             for (d, n), p in zip(tasks, probs)]
     grid = pd.DataFrame(rows)

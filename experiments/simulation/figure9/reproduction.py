@@ -7,7 +7,8 @@
    ``--observer`` say otherwise) run as the 30-participant study on the emulated display
    (:func:`experiments.simulation.figure9.study.run_figure9_study`), with its analysis; the
    sensitivity rows' studies (:func:`.scenarios.sensitivity`) run on the same cluster at the
-   same time (then the fitted-depth rows, which need the study's answers).
+   same time, then the receptor-depth fit's grid; the fitted-depth rows, which need the
+   study's answers, start as soon as its sessions end, while this process analyses them.
 3. ``figure9.png`` / ``.pdf``: the paper's method as printed (material-side replay, absolute
    observer; expected proportions) beside the headline's 30 emulated sessions; ``report.md``
    opening with the verdict, the claims table and the sensitivity table; the claims table last
@@ -28,7 +29,7 @@ __all__ = ["run_reproduction", "recompute_from", "claims_screen", "verdict_line"
            "reproducing_scenarios", "DEFAULT_STUDIES"]
 
 from .precision import FIRST_STUDIES, MAX_STUDIES, SENSITIVITY_MAX_STUDIES
-from .report import depth_text, planner_note, write_outputs as _write_outputs
+from .report import planner_note, write_outputs as _write_outputs
 from .verdict import PRINTED, claims_held, claims_screen, reproducing_scenarios, verdict_line
 
 #: Simulated studies per scenario and per sensitivity row in the first round (``--studies``);
@@ -94,7 +95,10 @@ def run_reproduction(out_dir, *, seed: int = 0, workers=None, participants=None,
                     replay=replay, observer=observer, options=options, n_studies=n_studies,
                     target_side=target_side, rate_limit=rate_limit, scheduler=scheduler,
                     force_sd_N=force_sd_N, max_studies=max_studies, lab=lab)
-    return _finish(out_dir, run, seconds, t0, lab)
+    try:
+        return _finish(out_dir, run, seconds, t0, lab)
+    finally:
+        run["closed"].result()      # the cluster, closing while the report was written
 
 
 def _checked_options(out_dir, seed, workers, participants, replay, observer, responder_options,
@@ -156,85 +160,151 @@ def _simulate(out_dir, seconds, t0, *, seed, workers, participants, replay, obse
     """Steps 1 and 2 of the module docstring on one cluster; stage times into ``seconds``.
 
     Returns ``result``, ``best``, ``headline``, ``sens`` (the sensitivity table, the fitted
-    depth's rows included), ``study``, ``depth`` and ``written`` (``studies.csv`` written, and
-    ``figure``: the figure's files, drawn while the depth fit ran).
+    depth's rows included), ``study``, ``depth``, ``trials`` (the study's analysable trials),
+    ``figure`` (a future of the figure's files, drawn by another thread after the analysis)
+    and ``written`` (``studies.csv`` written).
     """
+    from experiments.simulation.sweep import Sweep
     sens_cap = min(max_studies, max(SENSITIVITY_MAX_STUDIES, n_studies))
     # outputs final before the end are written by this thread while this process would wait
     writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-writer")
+    sweep = Sweep(workers=workers, scheduler=scheduler, label="figure9").__enter__()
     try:
-        return _simulate_on(writer, out_dir, seconds, t0, seed=seed, workers=workers,
-                            participants=participants, replay=replay, observer=observer,
-                            options=options, n_studies=n_studies, target_side=target_side,
-                            rate_limit=rate_limit, scheduler=scheduler, force_sd_N=force_sd_N,
-                            max_studies=max_studies, lab=lab, sens_cap=sens_cap)
+        run = _simulate_on(writer, sweep, out_dir, seconds, t0, seed=seed, workers=workers,
+                           participants=participants, replay=replay, observer=observer,
+                           options=options, n_studies=n_studies, target_side=target_side,
+                           rate_limit=rate_limit, force_sd_N=force_sd_N,
+                           max_studies=max_studies, lab=lab, sens_cap=sens_cap)
+    except BaseException:
+        sweep.__exit__(None, None, None)
+        raise
     finally:
         writer.shutdown(cancel_futures=True)    # what it wrote was waited for (or failed)
+    # nothing runs on the cluster any more: it closes (~1 s, waiting for its processes to
+    # end) while this process writes the report
+    closer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-close")
+    run["closed"] = closer.submit(sweep.__exit__, None, None, None)
+    closer.shutdown(wait=False)
+    return run
 
 
-def _simulate_on(writer, out_dir, seconds, t0, *, seed, workers, participants, replay, observer,
-                 options, n_studies, target_side, rate_limit, scheduler, force_sd_N, max_studies,
+def _simulate_on(writer, sweep, out_dir, seconds, t0, *, seed, workers, participants, replay,
+                 observer, options, n_studies, target_side, rate_limit, force_sd_N, max_studies,
                  lab, sens_cap) -> dict:
     """:func:`_simulate` with ``writer`` (a one-thread executor) writing ``studies.csv`` while
-    the sessions run (this process only waits for them) and drawing the figure while the depth
-    fit runs; both waited for before returning (a failure of either is raised here).  The same
-    files as writing them at the end: ``studies.csv`` needs only the scenarios, the figure
-    neither the sensitivity rows nor the depth fit."""
+    the sessions run (this process only waits for them), waited for before returning (its
+    failure is raised here); the same file as writing it at the end (it needs only the
+    scenarios).  The depth fit starts as soon as the sessions end (:func:`_beside_the_study`),
+    while this process analyses them."""
     from experiments.simulation.figure9.report import write_figure
     from experiments.simulation.figure9.scenarios import best_scenario, evaluate_scenarios
-    from experiments.simulation.figure9.study import run_figure9_study
     from experiments.simulation.figure9.tasks import group_pool_task
     from experiments.simulation.replay import REPLAY_HYPOTHESES
     from experiments.simulation.studies import GROUPS, merge_pools
-    from experiments.simulation.sweep import Sweep, release_process_memory
 
-    with Sweep(workers=workers, scheduler=scheduler, label="figure9") as sweep:
-        # one person pool per group, built on the cluster's workers
-        pool = merge_pools(sweep.map(group_pool_task, [(g, tuple(REPLAY_HYPOTHESES), seed)
-                                                        for g in GROUPS], what="person pools"))
-        seconds["pool_s"] = time.perf_counter() - t0
-        result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
-                                    variability=lab, max_studies=max_studies)
-        seconds["claims_s"] = time.perf_counter() - t0 - seconds["pool_s"]
-        best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
-        headline = (replay or best["descriptive"][0], observer or best["descriptive"][1])
-        default_run = next(res for keys, res in result.runs
-                           if (keys["hypothesis"], keys["observer"]) == headline)
-        seconds["scenarios_s"] = time.perf_counter() - t0
-        sweep.release_memory()      # the scenarios' studies, before the sessions
-        written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
-        t1 = time.perf_counter()
-        (sens, grid_pools), study, seconds["study_s"] = _beside(
-            lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run,
-                                      sens_cap, participants),
-            lambda: run_figure9_study(out_dir, seed=seed, workers=workers,
-                                      participants=participants, replay=headline[0],
-                                      target_side=target_side, rate_limit=rate_limit,
-                                      responder_options={**options, "observer": headline[1],
-                                                         **({} if force_sd_N is None else
-                                                            {"force_sd_N": lab.force_sd_N})},
-                                      sweep=sweep))
+    # one person pool per group, built on the cluster's workers
+    pool = merge_pools(sweep.map(group_pool_task, [(g, tuple(REPLAY_HYPOTHESES), seed)
+                                                    for g in GROUPS], what="person pools"))
+    seconds["pool_s"] = time.perf_counter() - t0
+    result = evaluate_scenarios(pool, n_studies=n_studies, seed=seed, sweep=sweep,
+                                variability=lab, max_studies=max_studies)
+    seconds["claims_s"] = time.perf_counter() - t0 - seconds["pool_s"]
+    best = {r: best_scenario(result, r) for r in ("descriptive", "inferential")}
+    headline = (replay or best["descriptive"][0], observer or best["descriptive"][1])
+    default_run = next(res for keys, res in result.runs
+                       if (keys["hypothesis"], keys["observer"]) == headline)
+    seconds["scenarios_s"] = time.perf_counter() - t0
+    sweep.release_memory()      # the scenarios' studies, before the sessions
+    written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
+    t1 = time.perf_counter()
+    sens, study, depth = _beside_the_study(
+        out_dir, seconds, t1, result, best, headline, default_run, pool, sweep,
+        seed=seed, workers=workers, participants=participants, options=options,
+        n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
+        force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap)
+    # the figure (after the analysis, which writes its own figure9.png) is drawn by another
+    # thread while this one writes the report; waited for at the end
+    drawer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-figure")
+    analysis = study.get("analysis")
+    figure = drawer.submit(write_figure, out_dir, result,
+                           analysis.proportions if analysis is not None else None, headline,
+                           best, len(study["sessions"]))
+    drawer.shutdown(wait=False)
+    return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
+            "depth": depth["fit"], "trials": depth["trials"], "figure": figure,
+            "written": {k: f.result() for k, f in written.items()}}
+
+
+def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run, pool, sweep, *,
+                      seed, workers, participants, options, n_studies, target_side, rate_limit,
+                      force_sd_N, lab, sens_cap) -> tuple:
+    """The sensitivity rows beside the emulated study (:func:`_beside`); the depth fit started
+    once its sessions end (:func:`_depth_after_sessions`, on another thread, its studies on the
+    workers) while this process analyses them.  ``(sensitivity rows, study summary, the depth
+    fit's result)``; stage times into ``seconds``."""
+    from experiments.simulation.figure9.study import run_figure9_study
+    depth_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-depth")
+    fitted = []                 # the depth fit's future, once the sessions have ended
+
+    def sessions_then_analysis(rows):
+        def start_depth_fit(data_dir, sessions):
+            fitted.append(depth_thread.submit(
+                _depth_after_sessions, data_dir, rows, out_dir, pool, headline, n_studies,
+                seed, sweep, lab, sens_cap))
+        return run_figure9_study(out_dir, seed=seed, workers=workers,
+                                 participants=participants, replay=headline[0],
+                                 target_side=target_side, rate_limit=rate_limit,
+                                 responder_options={**options, "observer": headline[1],
+                                                    **({} if force_sd_N is None else
+                                                       {"force_sd_N": lab.force_sd_N})},
+                                 sweep=sweep, after_sessions=start_depth_fit)
+    try:
+        (sens, _), study, seconds["study_s"] = _beside(
+            lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab,
+                                      default_run, sens_cap, participants),
+            sessions_then_analysis)
         seconds["sensitivity_and_study_s"] = time.perf_counter() - t1
-        sweep.release_memory()      # the sessions' and rows' leftovers, before the depth fit
-        release_process_memory()    # and this process's, from the analysis
         seconds["studies_simulated"] = int(result.n_studies().sum()) + sum(
             len(res["proportions"]) for _, res in sens.attrs["runs"] if res is not default_run)
         log.info("figure9: %d scenarios (%d-%d simulated studies each) in %.1f s, and %d "
-                 "sensitivity rows beside the emulated study (%.1f s together) on %d workers; "
-                 "headline: %s replay, %s observer", len(result.wide()),
-                 result.n_studies().min(), result.n_studies().max(), seconds["scenarios_s"],
-                 len(sens), seconds["sensitivity_and_study_s"], sweep.n_workers, *headline)
+                 "sensitivity rows beside the emulated study (%.1f s together) on %d "
+                 "workers; headline: %s replay, %s observer", len(result.wide()),
+                 result.n_studies().min(), result.n_studies().max(),
+                 seconds["scenarios_s"], len(sens), seconds["sensitivity_and_study_s"],
+                 sweep.n_workers, *headline)
         t2 = time.perf_counter()
-        analysis = study.get("analysis")
-        written["figure"] = writer.submit(
-            write_figure, out_dir, result, analysis.proportions if analysis is not None else None,
-            headline, best, len(study["sessions"]))
-        depth = _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, sens_cap,
-                                  grid_pools)
-        sens = _with_depth_row(sens, depth)
-        seconds["depth_fit_s"] = time.perf_counter() - t2
-    return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
-            "depth": depth, "written": {k: f.result() for k, f in written.items()}}
+        depth = fitted[0].result()
+    except BaseException:
+        depth_thread.shutdown(wait=False, cancel_futures=True)   # the closing cluster ends it
+        raise
+    depth_thread.shutdown()
+    seconds["depth_fit_s"] = time.perf_counter() - t2    # waited for after the analysis
+    return depth["sens"], study, depth
+
+
+def _depth_after_sessions(data_dir, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
+                          max_studies) -> dict:
+    """Once the sessions have ended (while this process analyses them): their analysable
+    trials (:func:`analysis.load.load_trials`, as the analysis reads them), the receptor depth
+    fitted to them (:func:`.fitted_depth.fitted_depth_row`, its studies on ``sweep``'s
+    workers) once the sensitivity rows and the fit's grid (``rows``, a future of
+    :func:`_sensitivity_rows`) are done, and ``sensitivity_studies.csv`` written.
+
+    Returns ``trials``, ``fit`` (:func:`.fitted_depth.fitted_depth_row`'s) and ``sens`` (the
+    sensitivity table with the fitted depth's rows).  The same tasks and seeds as after the
+    analysis, so the same numbers and files.
+    """
+    from analysis.exports import write_csv        # whole or not at all
+    from analysis.load import load_trials
+    from experiments.simulation.figure9.fitted_depth import fitted_depth_row, with_depth_row
+    from experiments.simulation.figure9.precision import study_table
+    trials = load_trials(data_dir).analysable
+    sens, grid = rows.result()
+    fit = fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies,
+                           grid)
+    sens = with_depth_row(sens, fit)
+    write_csv(study_table(sens.attrs["runs"]), Path(out_dir) / "sensitivity_studies.csv")
+    return {"trials": trials, "fit": fit, "sens": sens}
 
 
 def _write_studies(out_dir, runs) -> None:
@@ -247,51 +317,36 @@ def _write_studies(out_dir, runs) -> None:
 
 def _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab, default_run, max_studies,
                       participants):
-    """The sensitivity rows, then the depth fit's grid pools (None without both groups): the
-    background of :func:`_beside`."""
-    from experiments.simulation.depth_fit import depth_pool_jobs
-    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
+    """The sensitivity rows, then the depth fit's grid (None without both groups): the
+    background of :func:`_beside`; ``(rows, grid)``."""
+    from experiments.simulation.figure9.fitted_depth import depth_grid
+    from experiments.simulation.figure9.scenarios import sensitivity
     sens = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
                        variability=lab, default_run=default_run, max_studies=max_studies)
-    # the depth fit's grid pools need no answers: built once the rows are done, while this
-    # process analyses the sessions (a fit needs both groups)
-    grid_pools = (sweep.map(build_pool_task, depth_pool_jobs(seed=seed, also=headline[:1]),
-                            what="person pools")
-                  if participants is None or participants >= 2 else None)
-    return sens, grid_pools
-
-
-def _with_depth_row(sens, depth):
-    """The sensitivity table with the fitted depth's rows (``sens`` itself without a fit)."""
-    from experiments.simulation.figure9.scenarios import SENSITIVITY_CHOICES, mark_differences
-    if depth is None:
-        return sens
-    runs = sens.attrs["runs"] + depth["row"].attrs["runs"]
-    sens = mark_differences(pd.concat([sens, depth["row"]], ignore_index=True),
-                            SENSITIVITY_CHOICES)
-    sens.attrs["runs"] = runs
-    return sens
+    # the depth fit's grid needs no answers: built once the rows are done, beside the sessions
+    # and while this process analyses them (a fit needs both groups)
+    grid = (depth_grid(seed, headline, sweep)
+            if participants is None or participants >= 2 else None)
+    return sens, grid
 
 
 def _finish(out_dir, run, seconds, t0, lab) -> dict:
     """Step 3 of the module docstring: the per-study tables, the figure and report, the
     study record; the verdict and the claims table printed.  ``run_reproduction``'s result."""
-    from analysis.exports import write_csv        # whole or not at all
-    from experiments.simulation.figure9.precision import study_table
     from sessionfiles.logbook import atomic_write_json
     result, sens, study, headline, best = (run["result"], run["sens"], run["study"],
                                            run["headline"], run["best"])
-    write_csv(study_table(sens.attrs["runs"]), out_dir / "sensitivity_studies.csv")
     analysis = study.get("analysis")
     observed = analysis.proportions if analysis is not None else None
     sessions_line = ""
     if analysis is not None:
-        sessions_line = sessions_claims_line(analysis.log.analysable, headline)
+        sessions_line = sessions_claims_line(run["trials"], headline)
     depth_record = None if run["depth"] is None else run["depth"]["record"]
     outputs = _write_outputs(out_dir, result, sens, headline, best, observed,
                              len(study["sessions"]), sessions_line, lab.to_dict(), depth_record,
-                             body=True, figure=run["written"]["figure"])
-    files, verdict, screen = outputs["files"], outputs["verdict"], outputs["screen"]
+                             body=True, figure=())      # () : drawn by run["figure"]'s thread
+    verdict, screen = outputs["verdict"], outputs["screen"]
+    files = run["figure"].result()
     seconds["total_s"] = time.perf_counter() - t0
     study_json = out_dir / "study.json"
     if study_json.is_file():
@@ -313,18 +368,21 @@ def _finish(out_dir, run, seconds, t0, lab) -> dict:
 
 
 def _beside(background, foreground):
-    """``(background(), foreground(), seconds of foreground)``, the two run at the same time.
+    """``(background(), foreground(future of background()), seconds of foreground)``, the
+    two run at the same time.
 
     The sensitivity rows and the emulated study need only the headline: the rows' studies run
     on the cluster's workers beside the sessions, and while this process analyses the sessions
-    (when the workers would otherwise wait).  Their tasks and seeds are the same either way, so
-    are the results.  A failure of the foreground does not wait for the background.
+    (when the workers would otherwise wait); the foreground gets the rows' future (the depth
+    fit, started once the sessions end, waits for it).  Their tasks and seeds are the same
+    either way, so are the results.  A failure of the foreground does not wait for the
+    background.
     """
     start = time.perf_counter()
     bg = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-sensitivity")
     try:
         pending = bg.submit(background)
-        front = foreground()
+        front = foreground(pending)
     except BaseException:
         bg.shutdown(wait=False, cancel_futures=True)    # the closing cluster ends the rows
         raise
@@ -333,80 +391,6 @@ def _beside(background, foreground):
         return pending.result(), front, seconds
     finally:
         bg.shutdown()
-
-
-def _fitted_depth_row(study, pool, headline, n_studies, seed, sweep, lab, max_studies=None,
-                      grid_pools=None):
-    """Fit the receptor depth to the emulated study's real block; the headline at that depth.
-
-    ``grid_pools``: the fit's grid pools (:func:`..depth_fit.depth_pool_jobs`), already built;
-    default: built now (on ``sweep``'s workers when given).
-    Returns None without a study with both groups; else ``row`` (a sensitivity row),
-    ``record`` (estimate, interval, noise, the profile) and ``text`` (a report paragraph).
-    """
-    from experiments.simulation.depth_fit import confusion_from_trials, depth_pool_jobs, fit_depth
-    from experiments.simulation.figure9.scenarios import build_pool_task, sensitivity
-    analysis = study.get("analysis")
-    trials = None if analysis is None else analysis.log.analysable
-    if trials is None or trials.empty or trials["group"].nunique() < 2:
-        return None
-    counts = confusion_from_trials(trials, "real")
-    # the grid's seven person pools on the cluster's workers (built here, one after the other,
-    # they were about a third of this step, with the workers idle)
-    if grid_pools is None and sweep is not None:
-        grid_pools = sweep.map(build_pool_task, depth_pool_jobs(seed=seed, also=headline[:1]),
-                               what="person pools")
-    fit = fit_depth(counts, n_studies=20, seed=seed, pools=grid_pools)
-    # the estimate and the ends of its interval: the claims' probabilities across the depths
-    # the study's answers allow (their best noise each)
-    settings, jobs = {}, []
-    for what, share in (("fitted", fit.estimate), ("interval low end", fit.interval[0]),
-                        ("interval high end", fit.interval[1])):
-        if any(abs(share - v[2]) < 1e-9 for v in settings.values()):
-            continue
-        frac = 1.0 - share
-        noise = float(fit.grid.loc[fit.grid.depth_share == share].sort_values("loglik")
-                      ["noise_C"].iloc[-1])
-        jobs.append(("roughness_recognition", {"hypotheses": (headline[0],),
-                                               "dermis_fraction": (frac, frac),
-                                               "seed": pool.settings["seed"],
-                                               "params": pool.params}))
-        label = (f"depth share {share:.2f} of L, noise {noise:g} ({what}; 95 % LR "
-                 f"{fit.interval[0]:.2f}-{fit.interval[1]:.2f})")
-        settings[label] = ({"noise": noise}, what, share)
-    for (change, *_), depth_pool in zip(settings.values(), _depth_pools(jobs, grid_pools, sweep)):
-        change["pool"] = depth_pool
-    row = sensitivity(pool, *headline, n_studies=n_studies, seed=seed, sweep=sweep,
-                      variability=lab, max_studies=max_studies,
-                      choices={"receptor depth (fitted)": {k: v[0] for k, v in settings.items()}})
-    record = {"estimate_share_of_L": fit.estimate, "interval_share_of_L": list(fit.interval),
-              "noise_C": fit.noise_C, "identifiable": fit.identifiable(),
-              "profile": {f"{d:.2f}": float(v) for d, v in fit.profile.items()}}
-    return {"row": row, "record": record, "text": depth_text(record)}
-
-
-def _depth_pools(jobs, grid_pools, sweep) -> list:
-    """The person pools of ``jobs`` (:func:`.tasks.build_pool_task`'s arguments): a grid pool
-    of the depth fit where one is the same pool (the same seed, so the same persons; d / L,
-    perception parameters and protocol, the job's hypotheses among its own: their features do
-    not depend on the others), else built side by side on ``sweep``'s workers."""
-    from experiments.simulation.figure9.tasks import build_pool_task
-    out, missing = [], []
-    for protocol, kw in jobs:
-        same = [g for g in grid_pools or ()
-                if protocol == "roughness_recognition" and set(kw) == {
-                    "hypotheses", "dermis_fraction", "seed", "params"}
-                and set(kw["hypotheses"]) <= set(g.hypotheses)
-                and g.settings["seed"] == kw["seed"]
-                and tuple(g.settings["dermis_fraction"]) == tuple(kw["dermis_fraction"])
-                and g.params == kw["params"] and g.receptor_depth_um is None
-                and not g.settings["sensor_tau_s"]]
-        out.append(same[0] if same else None)
-        if not same:
-            missing.append((protocol, kw))
-    built = iter(sweep.map(build_pool_task, missing, what="person pools") if sweep is not None
-                 else [build_pool_task(*job) for job in missing])
-    return [p if p is not None else next(built) for p in out]
 
 
 def _sessions_verdicts(trials: pd.DataFrame, headline):

@@ -116,7 +116,8 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
                       protocol: str = "roughness_recognition", responder_options: dict | None = None,
                       analyze: bool = True, participants: int | None = None,
                       target_side: str | None = None, rate_limit: str | None = None,
-                      replay: str | None = None, durable: bool = False, sweep=None) -> dict:
+                      replay: str | None = None, durable: bool = False, sweep=None,
+                      after_sessions=None) -> dict:
     """Run the paper's Figure 9 study end to end with simulated participants.
 
     Parameters
@@ -158,6 +159,10 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         content are the same either way; ``study.json`` records the setting.
     sweep : :class:`experiments.simulation.sweep.Sweep`, optional
         A running cluster to run the sessions on (``reproduce figure9`` passes its own).
+    after_sessions : callable, optional
+        Called with ``out_dir/data`` and the per-participant results once every session has
+        ended, before the analysis (``reproduce figure9`` starts the receptor-depth fit and
+        its figure there, which need only the sessions' answers).
     replay : str, optional
         A replay hypothesis (:data:`stimuli.paper.REPLAY_NAMES`, :mod:`experiments.simulation.
         replay`): sets the side, the rate limit, the method and the replayed material.
@@ -200,6 +205,8 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     seconds = time.perf_counter() - start
     summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
                "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
+    if after_sessions is not None:
+        after_sessions(data_dir, summary["sessions"])
     if analyze:
         _analyse(summary, data_dir, out_dir, used)
     from sessionfiles.logbook import atomic_write_json

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["study_task", "claims_of_studies", "build_pool_task", "group_pool_task"]
+__all__ = ["study_task", "claims_of_studies", "build_pool_task", "group_pool_task",
+           "depth_grid_task"]
 
 
 def _compact(counts: np.ndarray) -> np.ndarray:
@@ -82,3 +83,13 @@ def group_pool_task(group, hypotheses, seed):
     """The person pool of one group (a sweep task)."""
     from experiments.simulation.studies import build_pool
     return build_pool(hypotheses=hypotheses, seed=seed, groups=(group,))
+
+
+def depth_grid_task(protocol, kwargs, depth_share, noises, n_studies, seed):
+    """One depth share of the receptor-depth fit's grid (a sweep task): its person pool
+    (:func:`build_pool_task`) and the answer probabilities at each noise
+    (:func:`..depth_fit.answer_grid`, which need no study: computed here beside the sessions,
+    the fit to the study's counts is then only likelihoods).  ``(pool, probabilities)``."""
+    from experiments.simulation.depth_fit import answer_grid
+    pool = build_pool_task(protocol, kwargs)
+    return pool, answer_grid(depth_share, noises, n_studies=n_studies, seed=seed, pool=pool)

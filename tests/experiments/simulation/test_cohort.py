@@ -142,6 +142,11 @@ def test_reproduce_figure9_cli_options(tmp_path, capsys):
     assert "## Sensitivity of the headline scenario" in report
     for name in ("claims.csv", "scenario_proportions.csv", "sensitivity.csv", "figure9.pdf"):
         assert (out / name).is_file()
+    # figure9.png is the reproduction's three panels (17 x 7.6 in at 150 dpi, drawn on a worker
+    # while the sessions were analysed), written after the analysis's own figure9.png
+    import struct
+    png = (out / "figure9.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", png[16:24]) == (2550, 1140)
     assert study["responder_options"] == {"lapse_rate": 0.25, "log_percepts": False,
                                           "observer": "relative", "force_sd_N": 0.3}
     assert [s["participant"] for s in study["participants"]] == ["P01", "P16"]
@@ -303,8 +308,16 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
 
     from experiments.simulation.figure9.study import _note_simulation
     from experiments.protocol import load_protocol
+    ended = []         # reproduce figure9 starts its depth fit here: the sessions' logs are whole
+
+    def after_sessions(data_dir, sessions):
+        ended.append((data_dir, sorted(p.name for p in data_dir.glob("P*/S*/*")),
+                      (tmp_path / "study.json").exists(), [s["participant"] for s in sessions]))
     run_figure9_study(tmp_path, participants=1, workers=1, analyze=False,
-                      target_side="compensated", rate_limit="slew")
+                      target_side="compensated", rate_limit="slew", after_sessions=after_sessions)
+    ((data_dir, files, study_written, who),) = ended
+    assert data_dir == tmp_path / "data" and not study_written and who == ["P01"]
+    assert {"events.jsonl", "session.json", "trials.csv"} <= set(files)
     study = json.loads((tmp_path / "study.json").read_text())
     assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
         ("compensated", "slew", 0.4, "copper")

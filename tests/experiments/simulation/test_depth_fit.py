@@ -17,19 +17,34 @@ def test_depth_is_recovered_from_a_large_studys_real_block():
     assert fit.profile.idxmax() == 0.40 and len(fit.grid) == 6
 
 
-def test_grid_pools_built_as_sweep_tasks_give_the_same_fit():
-    # reproduce figure9 builds the grid's pools on the cluster's workers (build_pool_task of
-    # depth_pool_jobs) and passes them in: the same likelihoods, bit for bit, as building them here
+def test_grid_built_as_sweep_tasks_gives_the_same_fit():
+    # reproduce figure9 builds the grid's pools and their answer probabilities on the cluster's
+    # workers before the study's answers exist (depth_grid_task of depth_pool_jobs) and passes
+    # them in: the same likelihoods, bit for bit, as building and simulating everything here
+    # after the study; pools alone given (the probabilities simulated here) too
+    import pytest
+
     from experiments.simulation.depth_fit import depth_pool_jobs
-    from experiments.simulation.figure9.scenarios import build_pool_task
+    from experiments.simulation.figure9.tasks import depth_grid_task
     counts = np.arange(32, dtype=float).reshape(2, 4, 4) % 7
-    shares = (0.30, 0.50)
-    here = fit_depth(counts, depth_shares=shares, noises=(0.3,), n_studies=5, seed=2)
-    pools = [build_pool_task(*job) for job in depth_pool_jobs(shares, seed=2)]
-    given = fit_depth(counts, depth_shares=shares, noises=(0.3,), n_studies=5, seed=2, pools=pools)
+    shares, noises = (0.30, 0.50), (0.3, 0.6)
+    here = fit_depth(counts, depth_shares=shares, noises=noises, n_studies=5, seed=2)
+    done = [depth_grid_task(*job, share, noises, 5, 2)
+            for share, job in zip(shares, depth_pool_jobs(shares, seed=2))]
+    pools, probs = [p for p, _ in done], [g for _, g in done]
     assert [p.grid_fraction.tolist() for p in pools] == [[0.70], [0.50]]
-    assert here.grid["loglik"].tolist() == given.grid["loglik"].tolist()
-    assert (here.estimate, here.interval) == (given.estimate, given.interval)
+    assert [g.shape for g in probs] == [(2, 2, 4, 4)] * 2
+    with_pools = fit_depth(counts, depth_shares=shares, noises=noises, n_studies=5, seed=2,
+                           pools=pools)
+    with_probs = fit_depth(counts, depth_shares=shares, noises=noises, n_studies=5, seed=2,
+                           probabilities=probs)
+    for given in (with_pools, with_probs):
+        assert here.grid["loglik"].tolist() == given.grid["loglik"].tolist()
+        assert (here.estimate, here.interval, here.noise_C) == (given.estimate, given.interval,
+                                                                given.noise_C)
+    assert len(set(here.grid["loglik"])) == 4           # the grid's cells differ: a real check
+    with pytest.raises(ValueError, match="probabilities: expected 2 depth shares x 2 noises"):
+        fit_depth(counts, depth_shares=shares, noises=noises, probabilities=probs[:1])
 
 
 def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool():
@@ -40,7 +55,7 @@ def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool(
     import dataclasses
 
     from experiments.simulation.depth_fit import depth_pool_jobs
-    from experiments.simulation.figure9.reproduction import _depth_pools
+    from experiments.simulation.figure9.fitted_depth import depth_pools
     from experiments.simulation.figure9.tasks import build_pool_task
     (job,) = depth_pool_jobs((0.40,), seed=2, also=("skin", "slab"))
     assert job[1]["hypotheses"] == ("slab", "skin")
@@ -49,7 +64,7 @@ def test_the_headlines_fitted_depth_reuses_the_grid_pool_which_is_the_same_pool(
            "params": grid.params}
     other = dict(own, params=dataclasses.replace(grid.params, drop_noise_C=0.6))
     reseeded = dict(own, seed=3)
-    reused, built, built_seed = _depth_pools([("roughness_recognition", own),
+    reused, built, built_seed = depth_pools([("roughness_recognition", own),
                                               ("roughness_recognition", other),
                                               ("roughness_recognition", reseeded)],
                                              [grid], sweep=None)

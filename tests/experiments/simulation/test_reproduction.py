@@ -172,3 +172,32 @@ def test_reproduce_from_a_folder_without_the_tables_is_one_line(tmp_path, capsys
     assert main(["reproduce", "figure9", "--from", str(src), "--out", str(tmp_path / "o"),
                  "--studies", "10"]) == 2
     assert "--studies: expected nothing with --from" in capsys.readouterr().err
+
+
+def test_beside_hands_the_foreground_the_backgrounds_future_and_does_not_wait_on_failure():
+    # reproduce figure9: the sensitivity rows (background) beside the emulated study
+    # (foreground); the depth fit, started inside the foreground once the sessions end, waits
+    # for the rows through this future; a failing foreground is raised without waiting for them
+    import threading
+    import time
+
+    import pytest
+
+    from experiments.simulation.figure9.reproduction import _beside
+    seen = []
+
+    def foreground(rows):
+        seen.append(rows.result())
+        return "study"
+    rows, study, _ = _beside(lambda: ("rows", threading.current_thread().name), foreground)
+    assert study == "study" and seen == [rows] and rows[0] == "rows"
+    assert rows[1].startswith("figure9-sensitivity")       # on its own thread
+    release = threading.Event()
+
+    def failing(rows):
+        raise RuntimeError("a session failed")
+    start = time.perf_counter()
+    with pytest.raises(RuntimeError, match="a session failed"):
+        _beside(lambda: release.wait(30), failing)
+    assert time.perf_counter() - start < 20
+    release.set()
