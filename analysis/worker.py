@@ -36,7 +36,8 @@ import pandas as pd
 
 from sessionfiles.atomicfile import output_file
 
-__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures", "run_pickled", "warm_up"]
+__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures", "run_pickled", "warm_up",
+           "warm_up_workers"]
 
 
 def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
@@ -70,6 +71,15 @@ def run_pickled(blob: bytes):
     return function(*args)
 
 
+def warm_up_workers(task: int) -> int:
+    """On a caller's worker: import what :func:`render_figures` and the profile intervals
+    need (the analysis package, matplotlib with pyplot); ``task`` only tells the two calls
+    apart (a dask client would merge two identical tasks into one)."""
+    from .glmm_slope import profile_intervals  # noqa: F401
+    warm_up()
+    return task
+
+
 def can_fork() -> bool:
     """Whether a worker is forked: ``fork`` exists, this process is not a daemonic one (which
     may have no children), and it runs no other thread (a fork copies a lock another thread
@@ -100,6 +110,7 @@ class AnalysisWorker:
         self._args: tuple | None = None
         self._pool = executor      # a ProcessPoolExecutor of one forked worker, or the caller's
         self._own = executor is None
+        self._warming: list = []   # the executor's warm-up tasks (kept until close)
         self._future: Future | None = None
         if self._own and can_fork():
             try:
@@ -112,10 +123,13 @@ class AnalysisWorker:
     def warm_up(self) -> None:
         """Start the worker now, importing matplotlib (:func:`warm_up`) while this process
         goes on (a fork of this process as it is now: call it before anything large is
-        loaded). Nothing with the caller's ``executor``: which of its workers will draw is not
-        known."""
+        loaded). With the caller's ``executor``, two tasks that import what the steps need
+        (:func:`warm_up_workers`), one for each of the two workers the steps will likely run on
+        (which ones is the executor's choice)."""
         if self._own:
             self._start(warm_up)
+        else:
+            self._warming = [self._start(warm_up_workers, task) for task in range(2)]
 
     def draw(self, proportions: pd.DataFrame, confusion: pd.DataFrame) -> None:
         """Have :func:`render_figures` drawn now (in the worker) for :meth:`write`."""
@@ -162,6 +176,7 @@ class AnalysisWorker:
                 self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
             self._future = None
+            self._warming = []
 
     def __enter__(self) -> "AnalysisWorker":
         return self
