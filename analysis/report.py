@@ -252,7 +252,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             sessions: str = "first",
             equivalence_margin_pp: float | None = None,
             condition: str | None = None,
-            before_write: Callable | None = None) -> AnalysisResult:
+            before_write: Callable | None = None, executor=None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -299,6 +299,12 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         line's :meth:`sessionfiles.atomicfile.OutputFolder.begin`: a refused or failed analysis
         leaves an earlier run's outputs as they were). Every output is written whole
         (temporary file, then renamed over the old one).
+    executor : optional
+        Workers for the independent steps (the figures, the random-slope model's profile
+        intervals): anything with ``submit(function, *args)`` returning a future with
+        ``result()``, such as a running ``dask.distributed.Client`` (``reproduce figure9``
+        passes its cluster's). Default: a forked worker where that is safe, else this process
+        (:class:`analysis.worker.AnalysisWorker`). The same files and numbers either way.
 
     Returns
     -------
@@ -312,7 +318,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     say = progress or (lambda message: None)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    with AnalysisWorker() as worker:   # figures drawn while the models fit
+    with AnalysisWorker(executor=executor) as worker:   # figures drawn while the models fit
         worker.warm_up()               # matplotlib imported there while the logs are read here
         log, trials, margin_pp, margin_source = _load(data_dir, sessions, condition,
                                                       equivalence_margin_pp, say)

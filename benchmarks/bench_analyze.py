@@ -9,6 +9,12 @@ functions with the largest cumulative time to FILE.
 
     .venv/bin/python benchmarks/bench_analyze.py DATA_DIR [--runs 3] [--profile prof.txt]
 
+``--cluster``: instead, ``analysis.analyze`` in this process beside a running 2-worker dask
+LocalCluster, as inside ``reproduce figure9`` (whose threads rule out the fork): per run the
+wall and this process's CPU time, given the cluster's client as ``executor`` (and without it,
+``--no-executor``: the figures and profile intervals then run here), with the workers' summed
+RSS before and after.
+
 A 30-participant study folder: ``thermocue reproduce figure9 --out DIR`` (or
 ``./scripts/reproduce``) writes one to ``DIR/data``.
 """
@@ -49,11 +55,46 @@ def run_once(data: Path, out: Path, extra=()) -> tuple[float, float]:
     return wall, cpu
 
 
+def _worker_rss() -> float:
+    import psutil                          # a dependency of dask.distributed
+    return psutil.Process().memory_info().rss / 2**20        # now, MiB
+
+
+def on_cluster(data: Path, out: Path, runs: int, executor: bool) -> list[dict]:
+    """``analyze`` beside a running 2-worker LocalCluster (see the module's docstring)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    from analysis import analyze
+    rows = []
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        before = sum(client.run(_worker_rss).values())
+        for i in range(runs):
+            shutil.rmtree(out, ignore_errors=True)
+            load = os.getloadavg()[0]
+            t0, c0 = time.perf_counter(), time.process_time()
+            analyze(data, out, **({"executor": client} if executor else {}))
+            rows.append({"run": i + 1, "wall_s": round(time.perf_counter() - t0, 2),
+                         "cpu_s": round(time.process_time() - c0, 2), "executor": executor,
+                         "workers_rss_MiB": [round(before), round(sum(
+                             client.run(_worker_rss).values()))],
+                         "load_average_1min_before": round(load, 2),
+                         "load_average_1min_after": round(os.getloadavg()[0], 2)})
+            print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("data", type=Path, help="study folder (DATA/<participant>/<session>/)")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--profile", type=Path, help="also profile one run; top 25 to this file")
+    ap.add_argument("--cluster", action="store_true",
+                    help="analyze here beside a 2-worker LocalCluster (reproduce's setting)")
+    ap.add_argument("--no-executor", action="store_true",
+                    help="with --cluster: do not give analyze the cluster's client")
     ns = ap.parse_args(argv)
     ns.data = ns.data.resolve()          # analyze runs with the repository as its folder
     if not ns.data.is_dir():
@@ -63,7 +104,9 @@ def main(argv=None) -> int:
     participants = len({p.parent.parent for p in ns.data.glob("*/*/session.json")})
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for i in range(ns.runs):
+        if ns.cluster:
+            rows = on_cluster(ns.data, Path(tmp) / "out", ns.runs, not ns.no_executor)
+        for i in range(0 if ns.cluster else ns.runs):
             before = os.getloadavg()
             wall, cpu = run_once(ns.data, Path(tmp) / "out")
             rows.append({"run": i + 1, "wall_s": round(wall, 2), "cpu_s": round(cpu, 2),
