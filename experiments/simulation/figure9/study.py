@@ -208,7 +208,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     if after_sessions is not None:
         after_sessions(data_dir, summary["sessions"])
     if analyze:
-        _analyse(summary, data_dir, out_dir, used, sweep)
+        _analyse(summary, data_dir, out_dir, used)
     from sessionfiles.logbook import atomic_write_json
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers,
@@ -277,15 +277,15 @@ def _run_sessions(jobs, workers, sweep) -> tuple[list, int]:
     return results, workers
 
 
-def _analyse(summary, data_dir, out_dir, used, sweep=None) -> None:
+def _analyse(summary, data_dir, out_dir, used) -> None:
     """:func:`analysis.analyze` of the sessions into ``summary`` (``analysis``,
-    ``analysis_seconds``); the Figure 9 table logged.  With ``sweep``'s cluster running, its
-    workers draw the figures and compute the profile intervals while this process fits the
-    models (its threads rule out the analysis's forked worker; the same files either way)."""
+    ``analysis_seconds``); the Figure 9 table logged.  In this process, figures and profile
+    intervals included: given the cluster's workers (``analyze(..., executor=client)``) the
+    analysis took ~4 s less of this process but the workers' imports for it (~190 MiB each)
+    took the whole study over 1 GB (summed RSS 963-996 MiB, ``benchmarks/bench_study.py``)."""
     from analysis import analyze as run_analysis
     t0 = time.perf_counter()
-    executor = sweep.client if sweep is not None else None
-    summary["analysis"] = run_analysis(data_dir, out_dir, executor=executor)
+    summary["analysis"] = run_analysis(data_dir, out_dir)
     summary["analysis_seconds"] = time.perf_counter() - t0
     _note_simulation(out_dir / "report.md", used)
     if log.isEnabledFor(logging.INFO):
