@@ -302,8 +302,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     executor : optional
         Workers for the independent steps (the figures, the random-slope model's profile
         intervals): anything with ``submit(function, *args)`` returning a future with
-        ``result()``, such as a running ``dask.distributed.Client`` (``reproduce figure9``
-        passes its cluster's). Default: a forked worker where that is safe, else this process
+        ``result()``, such as a running ``dask.distributed.Client`` (each of its workers
+        that runs a step then holds ~190 MiB more). Default: a forked worker where that is safe, else this process
         (:class:`analysis.worker.AnalysisWorker`). The same files and numbers either way.
 
     Returns

@@ -10,11 +10,13 @@ while the parent goes on with the tests. Where ``fork`` is not available or not 
 (:func:`can_fork`), or the worker cannot start, everything is done in the parent: the same
 files and numbers.
 
-A caller that already runs workers (``reproduce figure9``'s dask cluster, whose threads rule out
-a fork) gives them instead (``executor``: anything with ``submit(function, *args)`` returning
+A caller that already runs workers (a dask cluster, whose threads rule out a fork) can give
+them instead (``executor``: anything with ``submit(function, *args)`` returning
 a future with ``result()``, such as a ``dask.distributed.Client``); the steps then run there,
 the figures and the profile intervals side by side on two of its workers (the same bytes and
-numbers). A step whose worker fails (killed, lost) is done in the parent.
+numbers). A step whose worker fails (killed, lost) is done in the parent. Each worker that
+runs a step keeps the analysis's libraries (~190 MiB) until its cluster closes, which is why
+``reproduce figure9`` does not give its own (its study's 1 GB budget).
 
 The worker is started before the sessions are loaded (:meth:`AnalysisWorker.warm_up`): it imports
 matplotlib and pyplot (~0.5 s of CPU) while the parent reads the logs, so the drawing itself is
