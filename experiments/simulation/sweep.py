@@ -92,6 +92,10 @@ class Sweep:
                                      f"{self.scheduler!r} ({exc})") from None
         else:
             import dask
+            # a nanny takes a variable from this process's environment over the config, and
+            # writes its own values there before it spawns: after a cluster started here with
+            # dask's defaults (MALLOC_TRIM_THRESHOLD_=65536), the config alone was ignored
+            os.environ.update({k: str(v) for k, v in WORKER_MALLOC.items()})
             with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v
                                   for k, v in WORKER_MALLOC.items()}):
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,

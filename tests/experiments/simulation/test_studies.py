@@ -219,9 +219,13 @@ def _malloc_environ():
 
 
 @pytest.mark.slow
-def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool):
+def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool, monkeypatch):
     from experiments.simulation.figure9.scenarios import evaluate_scenarios
     from experiments.simulation.sweep import WORKER_MALLOC, Sweep
+    # what a LocalCluster started earlier in this process with dask's defaults leaves in its
+    # environment (a nanny writes its pre-spawn variables there), which the next nanny prefers
+    # over the config
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")
     # sequential: scenarios still undecided after 250 studies get 250 more, up to 1000
     kw = dict(observers=["absolute", "relative"], n_studies=250, seed=5, max_studies=1000)
     here = evaluate_scenarios(slab_pool, **kw)
