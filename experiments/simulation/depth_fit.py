@@ -143,9 +143,8 @@ def fit_depth(counts, depth_shares=DEPTH_SHARES, noises=NOISES_C, *, n_studies: 
             from experiments.simulation.studies import build_pool
             pools = [build_pool(protocol, **kw)
                      for protocol, kw in depth_pool_jobs(depth_shares, seed)]
-        pools = dict(zip(depth_shares, pools))
-        probs = [answer_probabilities(d, n, n_studies=n_studies, seed=seed, pool=pools[d])
-                 for d, n in tasks]
+        probs = [p for d, pool in zip(depth_shares, pools)
+                 for p in answer_grid(d, noises, n_studies=n_studies, seed=seed, pool=pool)]
     rows = [{"depth_share": d, "noise_C": n, "loglik": float(np.sum(counts * np.log(p)))}
             for (d, n), p in zip(tasks, probs)]
     grid = pd.DataFrame(rows)
