@@ -98,6 +98,36 @@ def test_an_interrupted_build_leaves_the_old_set_or_the_new_set_whole(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("sig", ["INT", "TERM"])
+def test_an_interruption_just_after_the_switch_keeps_the_new_set(tmp_path, sig):
+    """The random interruptions above once landed between the rename of out/current and the
+    clearing of the trap; the trap then deleted the set that had just become current. Here a
+    ``mv`` earlier on PATH does the switch's rename with the real mv and then signals the
+    build's process group, so the interruption lands at exactly that point every time."""
+    fw = copy_firmware(tmp_path)
+    assert build(fw).returncode == 0
+    out = fw / "out"
+    config = fw / "src" / "core" / "config.h"
+    config.write_text(config.read_text().replace('"thermocue-fw 1.0.0"', '"thermocue-fw 9.9.9"'))
+    shim = tmp_path / "shim"
+    shim.mkdir()
+    real_mv = shutil.which("mv")
+    (shim / "mv").write_text(
+        "#!/bin/sh\n"
+        f'"{real_mv}" "$@" || exit $?\n'
+        'case "$*" in *.current.tmp*) kill -' + sig + ' 0; sleep 5;; esac\n')
+    (shim / "mv").chmod(0o755)
+    res = subprocess.run([str(fw / "build")], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "THERMOCUE_FW_OUT": "out",
+                              "PATH": f"{shim}:{os.environ['PATH']}"},
+                         start_new_session=True)
+    assert res.returncode != 0                      # it was interrupted
+    assert (out / "current").resolve().is_dir(), "the set out/current names was deleted"
+    assert assert_whole_set(out) == "new"
+    assert build(fw, "--verify").returncode == 0
+
+
+@pytest.mark.slow
 def test_verify_catches_a_mixed_set(tmp_path):
     fw = copy_firmware(tmp_path)
     assert build(fw).returncode == 0
