@@ -25,6 +25,7 @@ def _cells(delta):
     return out
 
 
+@pytest.mark.slow     # 8000 cohorts, ~12 s: the default suite keeps its margin to 10 min
 def test_no_group_difference_rejects_at_about_alpha():
     res = power_curve(_cells(0.0), (10, 30), simulations=4000, participant_sd=0.6, seed=3,
                       test="cluster-t")
