@@ -5,8 +5,9 @@ before any model is fitted; drawing them (matplotlib's import included) takes 1-
 forked worker draws them into memory while the parent fits the models, and the parent writes
 the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
 is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
-random-slope model's profile intervals (:func:`analysis.glmm_slope.profile_intervals`, ~2 s)
-while the parent goes on with the tests. Where ``fork`` is not available or not safe
+random-slope model's profile intervals (six ends, :func:`analysis.glmm_slope.profile_end`,
+~2 s in all) while the parent goes on with the tests; the parent, once done, takes back the ends
+the worker has not started (:meth:`Job.steal`) and computes them itself. Where ``fork`` is not available or not safe
 (:func:`can_fork`), or the worker cannot start, everything is done in the parent: the same
 files and numbers.
 
@@ -77,7 +78,7 @@ def warm_up_workers(task: int) -> int:
     """On a caller's worker: import what :func:`render_figures` and the profile intervals
     need (the analysis package, matplotlib with pyplot); ``task`` only tells the two calls
     apart (a dask client would merge two identical tasks into one)."""
-    from .glmm_slope import profile_intervals  # noqa: F401
+    from .glmm_slope import profile_end  # noqa: F401
     warm_up()
     return task
 
@@ -197,6 +198,14 @@ class Job:
     def __init__(self, future: Future, function, args: tuple, anything: bool = False):
         self._future, self._function, self._args = future, function, args
         self._anything = anything
+
+    def steal(self):
+        """The function run here, now, if the worker has not started it (its future cancelled
+        while still queued); None when it is under way or done there (then :meth:`result`), and
+        always None on a caller's executor (whose cancel does not say whether a task ran)."""
+        if self._anything or not self._future.cancel():
+            return None
+        return self._function(*self._args)
 
     def result(self):
         try:

@@ -52,9 +52,9 @@ def test_analysis_on_dask_workers_writes_the_files_of_the_analysis_in_one_proces
         analyze(data, tmp_path / "there", n_boot=200, executor=client)
         done = client.run_on_scheduler(lambda dask_scheduler: {
             name: dict(p.state_counts) for name, p in dask_scheduler.task_prefixes.items()})
-    # the figures and the profile intervals were computed there (with the two warm-up tasks:
-    # four, each run at most once; the warm-ups may be dropped unfinished)
-    assert 2 <= done["run_pickled"]["memory"] <= 4, done    # (counts of the tasks' transitions)
+    # the figures and the six ends of the profile intervals were computed there (with the two
+    # warm-up tasks: nine, each run at most once; the warm-ups may be dropped unfinished)
+    assert 7 <= done["run_pickled"]["memory"] <= 9, done    # (counts of the tasks' transitions)
     assert done["run_pickled"].get("erred", 0) == 0, done
     _same_outputs(here[1], tmp_path / "there")
 
@@ -82,6 +82,6 @@ def test_steps_lost_on_the_callers_workers_are_done_here(here, tmp_path, monkeyp
     lost = _LostWorkers()
     monkeypatch.setattr(worker, "can_fork", lambda: pytest.fail("a fork beside the executor"))
     analyze(data, tmp_path / "there", n_boot=200, executor=lost)
-    assert sorted(lost.submitted) == ["profile_intervals", "render_figures", "warm_up_workers",
+    assert sorted(lost.submitted) == ["profile_end"] * 6 + ["render_figures", "warm_up_workers",
                                       "warm_up_workers"]
     _same_outputs(here[1], tmp_path / "there")

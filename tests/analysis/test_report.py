@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import pandas as pd
+import pytest
 
 from analysis import analyze
 from experiments.cli import main
@@ -76,3 +77,36 @@ def test_cli_analyze_bad_log_exits_2_naming_file_and_column(study, tmp_path, cap
     assert err[0].startswith("[") and "loading sessions" in err[0]        # progress, then one line
     assert len(err) == 2
     assert err[1].startswith(f"thermocue analyze: {path}: group: expected a column named 'group'")
+
+
+@pytest.mark.slow   # two interpreters with the analysis's imports (~7 s)
+def test_run_as_a_program_analyze_ends_without_teardown_and_loses_nothing(study, tmp_path):
+    # `thermocue analyze` (main() with no arguments) ends the process itself once it succeeded:
+    # the atexit functions still run, stdout and stderr arrive whole through pipes, every
+    # output is complete; bad input still takes the ordinary path (exit 2, one line)
+    import subprocess
+    import sys
+    import textwrap
+    data, _ = study(n_per_group=4, seed=52)
+    out, mark = tmp_path / "out", tmp_path / "atexit-ran"
+    program = textwrap.dedent(f"""
+        import atexit, sys
+        atexit.register(lambda: open({str(mark)!r}, "w").write("ran"))
+        sys.argv = ["thermocue"] + sys.argv[1:]
+        from experiments.cli import main
+        status = main()
+        open({str(mark)!r} + ".returned", "w").write(str(status))   # not reached on success
+        sys.exit(status)
+        """)
+    run = subprocess.run([sys.executable, "-c", program, "analyze", str(data), "--out", str(out),
+                          "--bootstrap", "200", "--no-bayes"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == f"{out / 'report.md'}\n"
+    assert run.stderr.rstrip().splitlines()[-1].endswith(f"done: {out / 'report.md'}")
+    assert mark.read_text() == "ran" and not (tmp_path / "atexit-ran.returned").exists()
+    assert (out / "COMPLETE").is_file() and "## " in (out / "report.md").read_text()
+    bad = subprocess.run([sys.executable, "-c", program, "analyze", str(tmp_path / "nowhere"),
+                          "--out", str(tmp_path / "o2")], capture_output=True, text=True,
+                         timeout=300)
+    assert bad.returncode == 2 and (tmp_path / "atexit-ran.returned").read_text() == "2"
