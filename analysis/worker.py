@@ -6,10 +6,10 @@ forked worker draws them into memory while the parent fits the models, and the p
 the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
 is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
 random-slope model's profile intervals (six ends, :func:`analysis.glmm_slope.profile_end`,
-~2 s in all) while the parent goes on with the tests; the parent, once done, takes back the ends
-the worker has not started (:meth:`Job.steal`) and computes them itself. Where ``fork`` is not available or not safe
-(:func:`can_fork`), or the worker cannot start, everything is done in the parent: the same
-files and numbers.
+~2 s in all) while the parent goes on with the tests; the parent, once done, takes back the
+ends the worker has not started (:meth:`Job.steal`) and computes them itself. Where ``fork``
+is not available or not safe (:func:`can_fork`), or the worker cannot start, everything is
+done in the parent: the same files and numbers.
 
 A caller that already runs workers (a dask cluster, whose threads rule out a fork) can give
 them instead (``executor``: anything with ``submit(function, *args)`` returning

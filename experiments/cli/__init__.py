@@ -89,11 +89,11 @@ def build_parser() -> argparse.ArgumentParser:
 #: Commands that, run as a program, skip the interpreter's teardown once they succeed: they
 #: hold files and numbers only (every output closed and renamed before they return, their
 #: workers and clusters stopped), and tearing down pandas, SciPy, statsmodels and matplotlib
-#: module by module took 0.3-0.5 s of the ~6 s ``thermocue analyze`` (measured: the last
-#: ``atexit`` function to process exit). ``atexit`` functions still run (logging's flush,
-#: temporary folders), then stdout and stderr are flushed. Not for ``run``/``resume`` and the
-#: other device commands, whose libraries (PsychoPy, pyglet, serial ports) may do work in
-#: finalizers. Taken only when no other non-daemon thread is alive (:func:`_only_thread`).
+#: module by module took 0.57 s of a ~6 s ``thermocue analyze`` (measured from the last
+#: ``atexit`` function to process exit; benchmarks/README.md). ``atexit`` functions still run
+#: (logging's flush, temporary folders), then stdout and stderr are flushed. Not for
+#: ``run``/``resume`` and the other device commands, whose libraries (PsychoPy, pyglet, serial
+#: ports) may do work in finalizers. Taken only when no other non-daemon thread is alive (:func:`_only_thread`).
 SKIP_TEARDOWN = frozenset({"analyze", "reproduce", "power"})
 
 
@@ -108,7 +108,7 @@ def _only_thread() -> bool:
 
 def exit_without_teardown(status: int):
     """Run the ``atexit`` functions, flush stdout and stderr, and end the process with
-    ``status`` without the interpreter's module-by-module teardown (mypy does the same)."""
+    ``status`` without the interpreter's module-by-module teardown."""
     import atexit
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
