@@ -41,135 +41,20 @@ References
 """
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
-from .glmm import (ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, logsumexp_rows, ml_wald,
-                   profile_cut, profile_upper, wald_table)
+from .glmm import ML_COLUMNS, GLMMData, fd_gradient, fd_hessian, ml_wald, wald_table
+from .glmm_slope_deviance import SD_BOUND, inner_on, lambda_matrix, slope_deviance
+from .glmm_slope_profile import (PROFILE_ENDS, SHARE_ORDER, PROFILED_TERMS, fill_profiles,
+                                 profile_modes, profile_end, profile_intervals)
 from .small_sample import leverage_adjustments
 from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
                      reference_df, reference_quantile)
 
-__all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich", "complete_profiles",
-           "profile_end", "profile_intervals", "PROFILE_ENDS", "SHARE_ORDER"]
-
-_BOUND = 20.0
-
-
-def _lambda(t):
-    return np.array([[t[0], 0.0], [t[1], t[2]]])
-
-
-def _curvature(person, w, zt, m):
-    """Per participant the 2 x 2 curvature I + sum_rows w z' z of the log integrand (m x 2 x 2)."""
-    h = np.empty((m, 2, 2))
-    for a in range(2):
-        for c in range(a, 2):
-            h[:, a, c] = h[:, c, a] = np.bincount(person, w * zt[:, a] * zt[:, c], m)
-    h[:, 0, 0] += 1
-    h[:, 1, 1] += 1
-    return h
-
-
-@functools.lru_cache(maxsize=8)
-def _tensor_grid(n_agq: int):
-    """Gauss-Hermite tensor grid: nodes (Q, 2), log weights + |t|^2 (Q,) (read-only)."""
-    t1, w1 = np.polynomial.hermite.hermgauss(n_agq)
-    tt = np.array([(a, c) for a in t1 for c in t1])       # Q x 2
-    ww = np.array([a * c for a in w1 for c in w1])
-    extra = np.sum(tt ** 2, axis=1) + np.log(ww)
-    tt.flags.writeable = extra.flags.writeable = False
-    return tt, extra
-
-
-def _inner(x_eta, z, person, m, k, n, lam, n_agq, b0=None, onehot=None):
-    """Per participant: log integral, nodes (m, Q, 2), eta at the nodes (rows, Q), posterior,
-    and the conditional modes (m, 2).
-
-    ``b0``: starting values of the modes (Newton's method converges to the same unique mode
-    of the log-concave integrand from anywhere; a warm start from the previous evaluation
-    saves iterations). ``onehot``: the (m, rows) participant indicator, if already built.
-    """
-    zt = z @ lam                                          # rows x 2: z' Lambda
-    b = np.zeros((m, 2)) if b0 is None else np.array(b0, float)
-    for _ in range(50):
-        eta = x_eta + np.einsum("rk,rk->r", zt, b[person])
-        p = special.expit(eta)
-        r = k - n * p
-        w = n * p * (1 - p)
-        g = np.stack([np.bincount(person, zt[:, a] * r, m) for a in range(2)], axis=1) - b
-        h = _curvature(person, w, zt, m)
-        step = np.linalg.solve(h, g[..., None])[..., 0]
-        b += step
-        if np.max(np.abs(step)) < 1e-10:
-            break
-    else:
-        if b0 is not None:            # a warm start that did not settle: from 0, as cold
-            return _inner(x_eta, z, person, m, k, n, lam, n_agq, None, onehot)
-    eta = x_eta + np.einsum("rk,rk->r", zt, b[person])
-    p = special.expit(eta)
-    w = n * p * (1 - p)
-    h = _curvature(person, w, zt, m)
-    chol = np.linalg.cholesky(h)                          # h = L L^T
-    tt, extra = _tensor_grid(n_agq)
-    # nodes: b = b_hat + sqrt(2) L^{-T} t
-    linv_t = np.linalg.inv(np.transpose(chol, (0, 2, 1)))  # m x 2 x 2
-    nodes = b[:, None, :] + np.sqrt(2.0) * np.einsum("mab,qb->mqa", linv_t, tt)
-    eta_q = x_eta[:, None] + np.einsum("rk,rqk->rq", zt, nodes[person])
-    ll_rows = k[:, None] * eta_q - n[:, None] * np.logaddexp(0.0, eta_q)
-    if onehot is None:
-        onehot = np.zeros((m, len(person)))
-        onehot[person, np.arange(len(person))] = 1.0
-    ll = onehot @ ll_rows
-    log_terms = ll - 0.5 * np.sum(nodes ** 2, axis=2) + extra[None, :]
-    log_det_l = np.log(chol[:, 0, 0]) + np.log(chol[:, 1, 1])
-    norm = logsumexp_rows(log_terms)
-    log_int = norm[:, 0] + np.log(2.0) - log_det_l - np.log(2 * np.pi)
-    post = np.exp(log_terms - norm)
-    return log_int, nodes, eta_q, post, b
-
-
-def _modes(data: GLMMData):
-    """The last evaluation's conditional modes on ``data`` (a warm start), or None."""
-    return data.__dict__.get("_slope_modes")
-
-
-def _inner_on(data: GLMMData, x_eta, z, lam, n_agq):
-    """:func:`_inner` on ``data``, warm-started from (and remembering) its last modes."""
-    b0 = _modes(data)
-    if b0 is not None and (b0.shape != (data.m, 2) or not np.all(np.isfinite(b0))):
-        b0 = None
-    out = _inner(x_eta, z, data.person, data.m, data.k, data.n, lam, n_agq, b0, data.onehot)
-    data.__dict__["_slope_modes"] = out[4]
-    return out[:4]
-
-
-def slope_deviance(theta, data: GLMMData, z, n_agq: int = 5, grad: bool = False):
-    """-2 log-likelihood at ``theta = (beta..., l11, l21, l22)`` (and its gradient).
-
-    The gradient is the quadrature's posterior expectation of the complete-data score
-    (accurate for ``n_agq >= 5``; :func:`fit_glmm_slope` uses central differences below).
-    """
-    theta = np.asarray(theta, float)
-    beta, t = theta[:-3], theta[-3:]
-    lam = _lambda(t)
-    x_eta = data.x @ beta
-    log_int, nodes, eta_q, post = _inner_on(data, x_eta, z, lam, n_agq)
-    dev = -2.0 * float(log_int.sum())
-    if not grad:
-        return dev
-    resid = data.k[:, None] - data.n[:, None] * special.expit(eta_q)
-    wr = post[data.person] * resid                       # rows x Q
-    g_beta = data.x.T @ wr.sum(axis=1)
-    bn = nodes[data.person]                              # rows x Q x 2
-    # d eta / d l11 = z0 b0, d l21 = z1 b0, d l22 = z1 b1
-    g_t = np.array([np.sum(wr * z[:, 0:1] * bn[..., 0]), np.sum(wr * z[:, 1:2] * bn[..., 0]),
-                    np.sum(wr * z[:, 1:2] * bn[..., 1])])
-    return dev, -2.0 * np.append(g_beta, g_t)
+__all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich"]
 
 
 def slope_data(formula: str, data_t: pd.DataFrame):
@@ -192,7 +77,7 @@ def participant_scores(theta, data: GLMMData, z, n_agq: int = 5) -> np.ndarray:
     """
     theta = np.asarray(theta, float)
     beta = theta[:-3]
-    _, _, eta_q, post = _inner_on(data, data.x @ beta, z, _lambda(theta[-3:]), n_agq)
+    _, _, eta_q, post = inner_on(data, data.x @ beta, z, lambda_matrix(theta[-3:]), n_agq)
     resid = data.k[:, None] - data.n[:, None] * special.expit(eta_q)
     per_row = np.einsum("rq,rq->r", post[data.person], resid)
     return data.onehot @ (data.x * per_row[:, None])
@@ -308,156 +193,6 @@ def _hessian(theta, data, z, n_agq):
     return fd_hessian(g, theta)
 
 
-def _sd_params(t):
-    """lme4's theta ``(l11, l21, l22)`` -> ``(sd_intercept, sd_slope, phi)``, corr = sin(phi)."""
-    return np.array([abs(t[0]), np.hypot(t[1], t[2]), np.arctan2(t[1], max(t[2], 0.0))])
-
-
-def _sd_objective(data, z, n_agq, p, fixed_index, fixed_value):
-    """Deviance and gradient over ``(beta, sd0, sd1, phi)`` with one of the last three fixed.
-
-    ``Lambda = [[sd0, 0], [sd1 sin phi, sd1 cos phi]]``: the correlation is ``sin phi``, smooth
-    up to +-1 (a profile over the correlation needs no Fisher transform that blows up there).
-    """
-    def full(u):
-        return np.insert(np.asarray(u, float), p + fixed_index, fixed_value)
-
-    def theta_of(u):
-        v = full(u)
-        s0, s1, phi = v[p:]
-        return np.append(v[:p], [s0, s1 * np.sin(phi), s1 * np.cos(phi)])
-
-    if n_agq < 5:           # the posterior-expectation gradient is not accurate: differences
-        def fun_fd(u):
-            dev = lambda w: slope_deviance(theta_of(w), data, z, n_agq)
-            return dev(u), fd_gradient(dev, np.asarray(u, float))
-        return fun_fd
-
-    def fun(u):
-        v = full(u)
-        s0, s1, phi = v[p:]
-        dev, g = slope_deviance(theta_of(u), data, z, n_agq, grad=True)
-        gt = g[p:]
-        jac = np.array([[1.0, 0.0, 0.0],
-                        [0.0, np.sin(phi), np.cos(phi)],
-                        [0.0, s1 * np.cos(phi), -s1 * np.sin(phi)]])
-        gv = np.append(g[:p], jac @ gt)
-        return dev, np.delete(gv, p + fixed_index)
-    return fun
-
-
-def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=None) -> float:
-    """One end of the profile-likelihood interval of ``sd_intercept`` (``which`` 0),
-    ``sd_mode_slope`` (1) or the correlation (2), as :func:`analysis.glmm._profile_sigma`: the
-    lower (``side`` 0) or upper (1) value where the deviance, re-minimised over every other
-    parameter, has risen by F(1, df)(level) (chi2_1 without ``df``). An SD's lower end is 0,
-    and a correlation's end is -1 or 1, when the profile never rises that far.
-
-    Each end is computed on its own: the conditional modes start from ``modes`` (the fit's,
-    :func:`profile_intervals`) and the optimisations from the estimate or from this end's own
-    earlier profile points, so the six ends are the same numbers in any order, in any process
-    (:func:`complete_profiles` shares them between the analysis's worker and its caller).
-    """
-    data.__dict__["_slope_modes"] = None if modes is None else np.array(modes, float)
-    cut = profile_cut(level, df)
-    p = len(theta) - 3
-    hat = np.append(theta[:p], _sd_params(theta[-3:]))
-    value_hat = hat[p + which]
-    bounds = [(None, None)] * p + [(0.0, _BOUND), (0.0, _BOUND), (-np.pi / 2, np.pi / 2)]
-    del bounds[p + which]
-    start_hat = np.delete(hat, p + which)
-    done: dict = {float(value_hat): (-cut, start_hat)}
-
-    def excess(v):
-        v = float(v)
-        if v not in done:
-            near = min(done, key=lambda w: abs(w - v))
-            # warm start from the nearest point; if that lands above the cut-off, also from the
-            # estimate (a warm start from the far side can stop in a worse local minimum)
-            best = None
-            for start in (done[near][1], start_hat):
-                res = optimize.minimize(_sd_objective(data, z, n_agq, p, which, v), start,
-                                        jac=True, method="L-BFGS-B", bounds=bounds,
-                                        options={"maxiter": 500, "ftol": 1e-11, "gtol": 1e-5})
-                if best is None or res.fun < best.fun:
-                    best = res
-                if best.fun - dev_min < cut or near == value_hat:
-                    break
-            done[v] = (best.fun - dev_min - cut, best.x)
-        return done[v][0]
-
-    def zeta(v):
-        # the signed root of the deviance's rise, less the cut-off's: the same sign and root as
-        # ``excess`` but nearly linear in ``v`` (lme4's profile zeta), so Brent's method needs
-        # fewer profile points (each an optimisation over every other parameter)
-        return np.sqrt(max(excess(v) + cut, 0.0)) - np.sqrt(cut)
-
-    with threadpool_limits(1), np.errstate(all="ignore"):
-        if which == 2:                      # phi: corr = sin(phi) in [-1, 1]
-            edge = (-np.pi / 2, np.pi / 2)[side]
-            if excess(edge) <= 0:
-                return float(np.sin(edge))
-            a, b = sorted((value_hat, edge))
-            return float(np.sin(optimize.brentq(zeta, a, b, xtol=1e-4)))
-        if side == 0:
-            if value_hat <= 1e-6 or excess(0.0) <= 0:
-                return 0.0
-            return optimize.brentq(zeta, 0.0, value_hat, xtol=2e-5, rtol=1e-6)
-        return profile_upper(zeta, value_hat, max(2 * value_hat, 0.5), _BOUND)
-
-
-_PROFILED = ("sd_intercept", "sd_mode_slope", "corr_intercept_slope")
-#: The six ends :func:`profile_end` computes, ``(which, side)``, in the order of the table.
-PROFILE_ENDS = tuple((which, side) for which in range(3) for side in (0, 1))
-#: The order the ends are given to a worker (indices into :data:`PROFILE_ENDS`). An SD's upper
-#: end (doubling, then Brent's method, far from the estimate) takes most of the time: 0.93 and
-#: 0.77 s of the six ends' 2.05 s CPU on a 30-participant study, the lower ends 0.16 and 0.11 s,
-#: the correlation's 0.08 s. The worker takes them from the front; :func:`complete_profiles`
-#: takes back from the end those not yet handed to the worker's process (a process pool holds
-#: up to two more than it runs), so one long end goes first and the other last.
-SHARE_ORDER = (1, 0, 2, 4, 5, 3)
-
-
-def profile_intervals(data, z, theta, dev_min, n_agq, level, cut_df, modes=None) -> list:
-    """The three profile intervals, ``[(low, high)] * 3`` in the order of ``sd_intercept``,
-    ``sd_mode_slope``, ``corr_intercept_slope``: the six :func:`profile_end` calls in turn,
-    each from ``modes`` (default: the last modes on ``data``, the fit's)."""
-    modes = _profile_modes(data) if modes is None else modes
-    ends = [profile_end(data, z, theta, dev_min, n_agq, level, cut_df, which, side, modes)
-            for which, side in PROFILE_ENDS]
-    return [(ends[i], ends[i + 1]) for i in range(0, len(ends), 2)]
-
-
-def _profile_modes(data):
-    modes = _modes(data)
-    return None if modes is None else np.array(modes, float)
-
-
-def _fill_profiles(table: pd.DataFrame, ends: list) -> None:
-    for term, (low, high) in zip(_PROFILED, ends):
-        row = table.index[table["term"] == term][0]
-        table.loc[row, ["ci_low", "ci_high"]] = [low, high]
-
-
-def complete_profiles(fit: ModelFit) -> ModelFit:
-    """Collect a random-slope fit's profile intervals computed elsewhere (``fit_glmm_slope``'s
-    ``submit``: one job per end) and write them into its table; a complete fit is returned as
-    it is. Ends the worker has not started yet are taken back and computed here, the last
-    first (a job's ``steal()``), while the worker goes on with the first: the caller, done with
-    its own work, shares the rest instead of waiting for all of it (the same numbers:
-    :func:`profile_end`)."""
-    if fit.pending is not None:
-        ends = [None] * len(PROFILE_ENDS)
-        for i, job in reversed(fit.pending):       # (index into PROFILE_ENDS, job)
-            steal = getattr(job, "steal", None)
-            if steal is not None:
-                ends[i] = steal()
-        for i, job in fit.pending:
-            if ends[i] is None:
-                ends[i] = job.result()
-        _fill_profiles(fit.table, [(ends[i], ends[i + 1]) for i in range(0, len(ends), 2)])
-        fit.pending = None
-    return fit
 
 
 def fit_glmm_slope(trials: pd.DataFrame, formula: str = FORMULA, *, level: float = 0.95,
@@ -538,14 +273,14 @@ def _fit_glmm_slope_impl(trials: pd.DataFrame, formula: str = FORMULA, *, level:
         pending = None
         if profile:
             args = (data, z, theta, res.fun, n_agq, level, cut_df)
-            modes = _profile_modes(data)
+            modes = profile_modes(data)
             if submit is not None:
                 pending = [(i, submit(profile_end, *args, *PROFILE_ENDS[i], modes))
                            for i in SHARE_ORDER]
                 if any(job is None for _, job in pending):  # no worker: all of them here
                     pending = None
             if pending is None:
-                _fill_profiles(table, profile_intervals(*args, modes))
+                fill_profiles(table, profile_intervals(*args, modes))
         loglik = float(-res.fun / 2)
         if intercept_fit is not None and intercept_fit.formula == candidate:
             _lrt_row(table, loglik, intercept_fit.convergence["log_likelihood"])
@@ -568,7 +303,7 @@ def _optimise(y, p: int, data, z, n_agq: int):
     ybar = np.clip(y.mean(), 0.02, 0.98)
     start[0] = np.log(ybar / (1 - ybar))
     start[-3:] = (0.5, 0.0, 0.3)
-    bounds = [(None, None)] * p + [(0.0, _BOUND), (-_BOUND, _BOUND), (0.0, _BOUND)]
+    bounds = [(None, None)] * p + [(0.0, SD_BOUND), (-SD_BOUND, SD_BOUND), (0.0, SD_BOUND)]
     with np.errstate(all="ignore"):
         res = optimize.minimize(_objective(data, z, n_agq), start, jac=True,
                                 method="L-BFGS-B", bounds=bounds,
@@ -602,8 +337,8 @@ def _sandwich(theta, data, z, n_agq: int, data_t: pd.DataFrame, notes: list):
 
 
 def _sd_rows(table: pd.DataFrame, theta, profile: bool, cut_df) -> None:
-    """Append the two SDs and their correlation (intervals blank: :func:`_fill_profiles`)."""
-    lam = _lambda(theta[-3:])
+    """Append the two SDs and their correlation (intervals blank: :func:`fill_profiles`)."""
+    lam = lambda_matrix(theta[-3:])
     sigma = lam @ lam.T
     sd0, sd1 = np.sqrt(sigma[0, 0]), np.sqrt(sigma[1, 1])
     corr = sigma[0, 1] / (sd0 * sd1) if sd0 > 0 and sd1 > 0 else np.nan
@@ -611,7 +346,7 @@ def _sd_rows(table: pd.DataFrame, theta, profile: bool, cut_df) -> None:
     if profile:
         how = (f"profile likelihood, F(1, {cut_df:g}) cut-off" if cut_df
                else "profile likelihood, chi2(1) cut-off")
-    for term, value in zip(_PROFILED, (sd0, sd1, corr)):
+    for term, value in zip(PROFILED_TERMS, (sd0, sd1, corr)):
         table.loc[len(table)] = [term, value, np.nan, np.nan, np.nan, np.nan, np.nan, how, ""]
 
 

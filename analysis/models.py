@@ -109,7 +109,7 @@ class ModelFit:
     cov_by_group: dict | None = None
     cluster_info: np.ndarray | None = None
     #: Table rows still being computed elsewhere (a future; the random-slope model's profile
-    #: intervals, :func:`analysis.glmm_slope.complete_profiles` fills them in); None: complete.
+    #: intervals, :func:`analysis.glmm_slope_profile.complete_profiles` fills them in); None: complete.
     pending: object = None
 
     def quantile(self, level: float) -> float:

@@ -22,7 +22,8 @@ from .exports import (cell_counts, check_codebook, codebook, run_settings, wide_
                       write_csv)
 from .glmm import fit_glmm
 from .fidelity import equivalence_margin, fidelity_paragraph, mode_contrasts
-from .glmm_slope import complete_profiles, fit_glmm_slope
+from .glmm_slope import fit_glmm_slope
+from .glmm_slope_profile import complete_profiles
 from .mixed_choice import choose_mixed
 from .inference import (averaged_contrast, chance_tests, holm, interaction_test,
                         omnibus_group_test, primary_test)

@@ -5,7 +5,7 @@ before any model is fitted; drawing them (matplotlib's import included) takes 1-
 forked worker draws them into memory while the parent fits the models, and the parent writes
 the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
 is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
-random-slope model's profile intervals (six ends, :func:`analysis.glmm_slope.profile_end`,
+random-slope model's profile intervals (six ends, :func:`analysis.glmm_slope_profile.profile_end`,
 ~2 s in all) while the parent goes on with the tests; the parent, once done, takes back the
 ends the worker has not started (:meth:`Job.steal`) and computes them itself. Where ``fork``
 is not available or not safe (:func:`can_fork`), or the worker cannot start, everything is
@@ -78,7 +78,7 @@ def warm_up_workers(task: int) -> int:
     """On a caller's worker: import what :func:`render_figures` and the profile intervals
     need (the analysis package, matplotlib with pyplot); ``task`` only tells the two calls
     apart (a dask client would merge two identical tasks into one)."""
-    from .glmm_slope import profile_end  # noqa: F401
+    from .glmm_slope_profile import profile_end  # noqa: F401
     warm_up()
     return task
 

@@ -188,7 +188,8 @@ def test_slope_profiles_computed_in_a_worker_are_the_same_numbers():
     one the fit computes in place, to the bit, and nothing is left pending."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
-    from analysis.glmm_slope import complete_profiles, fit_glmm_slope
+    from analysis.glmm_slope import fit_glmm_slope
+    from analysis.glmm_slope_profile import complete_profiles
     from generator import effect_cells, generate
     trials = generate(effect_cells(), n_a=8, n_b=8, sigma=0.5, slope_sd=1.0, seed=3)
     formula = "correct ~ group * mode + C(roughness_id)"

@@ -1,5 +1,5 @@
 """The random-slope model's six profile-interval ends, shared between ``analyze``'s forked worker
-and the analysis itself (``analysis.glmm_slope.complete_profiles`` takes back the ends the
+and the analysis itself (``analysis.glmm_slope_profile.complete_profiles`` takes back the ends the
 worker has not started): each end is the same number whoever computes it, in whatever order."""
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.glmm_slope import (PROFILE_ENDS, SHARE_ORDER, complete_profiles, fit_glmm_slope,
-                                 profile_end)
+from analysis.glmm_slope import fit_glmm_slope
+from analysis.glmm_slope_profile import PROFILE_ENDS, SHARE_ORDER, complete_profiles, profile_end
 from analysis.worker import Job
 from generator import effect_cells, generate
 
