@@ -140,6 +140,11 @@ def profile_intervals(data, z, theta, dev_min, n_agq, level, cut_df, modes=None)
     modes = profile_modes(data) if modes is None else modes
     ends = [profile_end(data, z, theta, dev_min, n_agq, level, cut_df, which, side, modes)
             for which, side in PROFILE_ENDS]
+    return _as_intervals(ends)
+
+
+def _as_intervals(ends: list) -> list:
+    """The six ends in the order of :data:`PROFILE_ENDS` as ``[(low, high)] * 3``."""
     return [(ends[i], ends[i + 1]) for i in range(0, len(ends), 2)]
 
 
@@ -172,6 +177,6 @@ def complete_profiles(fit: ModelFit) -> ModelFit:
         for i, job in fit.pending:
             if ends[i] is None:
                 ends[i] = job.result()
-        fill_profiles(fit.table, [(ends[i], ends[i + 1]) for i in range(0, len(ends), 2)])
+        fill_profiles(fit.table, _as_intervals(ends))
         fit.pending = None
     return fit
