@@ -22,7 +22,7 @@ from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_M
 # the workers' tasks live in a module without pandas or analysis (see .tasks)
 from .tasks import build_pool_task, claims_of_studies, study_task
 
-__all__ = ["ScenarioResult", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
+__all__ = ["ScenarioResult", "StudyRuns", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
            "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
            "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios",
            "build_pool_task", "study_task"]
@@ -426,7 +426,8 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
         (``status`` / ``status_inf``, on every claim; ``paper_status`` / ``paper_status_inf`` on
         the paper's own claims), ``differs`` (claims whose interval does not overlap the
         default's) and the expected proportion correct, real and simulated, per group (mean
-        over samples).  The attribute ``runs`` holds ``[(keys, merged result)]`` per row.
+        over samples).  The attribute ``runs`` holds ``(keys, merged result)`` per row
+        (:class:`StudyRuns`: shared, not copied, by the frames made from the table).
     """
     import dataclasses as dc
     from experiments.simulation.studies import DEFAULT_LAB, GROUPS
@@ -464,9 +465,27 @@ def sensitivity(pool, hypothesis: str, observer: str, n_studies: int = 400, seed
     rows = [dict(sensitivity_row(choice, label, res), note=note)
             for (choice, label), res, note in zip(labels, merged, notes)]
     table = mark_differences(pd.DataFrame(rows), choices)
-    table.attrs["runs"] = [({"choice": c, "setting": s}, res)
-                           for (c, s), res in zip(labels, merged)]
+    table.attrs["runs"] = StudyRuns(({"choice": c, "setting": s}, res)
+                                    for (c, s), res in zip(labels, merged))
     return table
+
+
+class StudyRuns(tuple):
+    """A sensitivity table's runs, ``((keys, merged result), ...)`` per row, in its ``attrs``.
+
+    pandas deep-copies ``attrs`` into every frame made from a table (a filter, a column, a
+    concatenation: ``NDFrame.__finalize__``); with the rows' per-study arrays in a list that was
+    ~0.1 s each, 1.8 s of ``reproduce figure9``'s report written after everything else (measured,
+    ``depth_paragraph`` alone 1.6 s).  Nothing changes the runs once the table is made, so a
+    copy of the table shares them, as a copy of any immutable value does.
+    """
+    __slots__ = ()
+
+    def __deepcopy__(self, memo):
+        return self
+
+    def __add__(self, other):
+        return StudyRuns(tuple(self) + tuple(other))
 
 
 def _sensitivity_pools(pool, hypothesis, choices, have: dict, protocol, sweep) -> dict:

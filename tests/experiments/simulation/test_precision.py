@@ -96,3 +96,39 @@ def test_claim_probabilities_carry_a_wilson_interval_at_the_stated_level():
     # wider than Clopper-Pearson's would be at 95 %, narrower than nothing
     cp = beta.ppf(0.025, 190, 211), beta.ppf(0.975, 191, 210)
     assert row["mc_low"] < cp[0] and row["mc_high"] > cp[1]
+
+
+def test_frames_made_from_a_sensitivity_table_share_its_runs_not_copies():
+    # pandas deep-copies a frame's attrs into every frame made from it; the per-study runs
+    # (here 3,000 studies) are shared instead: the report filters the table many times
+    import copy
+
+    from analysis.claims import CLAIMS
+    from experiments.simulation.figure9.fitted_depth import with_depth_row
+    from experiments.simulation.figure9.scenarios import (SENSITIVITY_CHOICES, result_from_runs,
+                                                          sensitivity)
+    choice, default = next((c, s) for c, settings in SENSITIVITY_CHOICES.items()
+                           for s, change in settings.items() if not change)
+    n = 3000
+    readings = {r: {c.id: (np.zeros(n), np.arange(n) < n // 2) for c in CLAIMS}
+                for r in ("descriptive", "inferential")}
+    res = {"readings": readings, "proportions": np.full((n, 2, 2, 4), 0.5),
+           "answer_share": np.tile((0.25,) * 4, (n, 1))}
+    run = result_from_runs([({"hypothesis": "skin", "observer": "absolute"}, res)],
+                           (1.6, 12.5, 50.0, 100.0)).runs[0][1]
+    # settings that change nothing are the default run itself: nothing is simulated
+    table = sensitivity(None, "skin", "absolute", default_run=run,
+                        choices={choice: {default: {}, "again": {}}})
+    runs = table.attrs["runs"]
+    assert [keys for keys, _ in runs] == [{"choice": choice, "setting": default},
+                                          {"choice": choice, "setting": "again"}]
+    assert all(r is run for _, r in runs)
+    assert table[table["choice"] == choice].attrs["runs"] is runs
+    assert table["setting"].to_frame().attrs["runs"] is runs
+    assert copy.deepcopy(table).attrs["runs"] is runs
+    row = sensitivity(None, "skin", "absolute", default_run=run,
+                      choices={"receptor depth (fitted)": {"fitted": {}}})
+    both = with_depth_row(table, {"row": row})
+    assert len(both) == 3 and [k["setting"] for k, _ in both.attrs["runs"]] == \
+        [default, "again", "fitted"]
+    assert both[both["setting"] == "again"].attrs["runs"] is both.attrs["runs"]
