@@ -61,17 +61,22 @@ def _md(df: pd.DataFrame, digits: int = 2) -> str:
 
 
 def _expected_table(result) -> pd.DataFrame:
-    """Scenario rows; real and simulated 1#-4# (groups pooled) and A - B, real and simulated."""
+    """Scenario rows; real and simulated 1#-4# (groups pooled) and A - B, real and simulated.
+
+    Two group-bys over every study's rows (~365,000), not two per scenario and mode (0.76 s
+    of the report written at the end): each mean adds the same rows in the same order."""
     p = result.proportions
+    keys = ["hypothesis", "observer", "mode"]
+    by_sample = p.groupby(keys + ["roughness_id"], sort=False)["expected"].mean().to_dict()
+    by_group = p.groupby(keys + ["group"], sort=False)["expected"].mean().to_dict()
     rows = []
-    for (h, o), sel in p.groupby(["hypothesis", "observer"], sort=False):
+    for h, o in dict.fromkeys((h, o) for h, o, *_ in by_sample):
         row = {"replay": h, "observer": o}
         for mode, tag in (("real", "R"), ("simulated", "S")):
-            m = sel[sel["mode"] == mode]
-            for rid, v in m.groupby("roughness_id")["expected"].mean().items():
-                row[f"{tag} {rid}#"] = float(v)
-            by_group = m.groupby("group")["expected"].mean()
-            row[f"A-B {tag}"] = float(by_group.get("A", float("nan")) - by_group.get("B", float("nan")))
+            for rid in sorted(r for hh, oo, mm, r in by_sample if (hh, oo, mm) == (h, o, mode)):
+                row[f"{tag} {rid}#"] = float(by_sample[h, o, mode, rid])
+            row[f"A-B {tag}"] = float(by_group.get((h, o, mode, "A"), float("nan"))
+                                      - by_group.get((h, o, mode, "B"), float("nan")))
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -67,8 +67,11 @@ class ScenarioResult:
 
     def n_studies(self) -> pd.Series:
         """Studies simulated per scenario (sequential: they differ)."""
-        sel = self.claims[self.claims["claim"] == "all"]
-        return sel.groupby(["hypothesis", "observer"], sort=False)["n_studies"].max()
+        if "n_studies" not in self.cache:
+            sel = self.claims[self.claims["claim"] == "all"]
+            self.cache["n_studies"] = sel.groupby(["hypothesis", "observer"],
+                                                  sort=False)["n_studies"].max()
+        return self.cache["n_studies"]
 
     def answer_shares(self, scenario) -> np.ndarray | None:
         """Mean share of the simulated block's answers per class (1# first), or None."""
