@@ -253,7 +253,8 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             sessions: str = "first",
             equivalence_margin_pp: float | None = None,
             condition: str | None = None,
-            before_write: Callable | None = None, executor=None) -> AnalysisResult:
+            before_write: Callable | None = None, executor=None,
+            loaded: TrialLog | None = None) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -306,6 +307,10 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         ``result()``, such as a running ``dask.distributed.Client`` (each of its workers
         that runs a step then holds ~190 MiB more). Default: a forked worker where that is safe, else this process
         (:class:`analysis.worker.AnalysisWorker`). The same files and numbers either way.
+    loaded : TrialLog, optional
+        ``data_dir``'s sessions already read by :func:`analysis.load.load_trials` with the same
+        ``sessions`` and ``condition`` (``reproduce figure9`` reads its study once for this
+        analysis and its receptor-depth fit); default: read here. Not changed here.
 
     Returns
     -------
@@ -322,7 +327,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
     with AnalysisWorker(executor=executor) as worker:   # figures drawn while the models fit
         worker.warm_up()               # matplotlib imported there while the logs are read here
         log, trials, margin_pp, margin_source = _load(data_dir, sessions, condition,
-                                                      equivalence_margin_pp, say)
+                                                      equivalence_margin_pp, say, loaded)
         say(f"{log.trials['participant'].nunique()} participants, {len(trials)} analysable "
             f"trials; proportions with {n_boot} bootstrap resamples")
         proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
@@ -385,10 +390,16 @@ class _Fits:
     bayes: ModelFit
 
 
-def _load(data_dir, sessions, condition, margin_pp, say):
+def _load(data_dir, sessions, condition, margin_pp, say, loaded=None):
     """Step 1: the trials (refusing an empty analysis) and the equivalence margin."""
-    say(f"loading sessions under {data_dir}")
-    log = load_trials(data_dir, sessions=sessions, condition=condition)
+    if loaded is None:
+        say(f"loading sessions under {data_dir}")
+        log = load_trials(data_dir, sessions=sessions, condition=condition)
+    elif loaded.policy != sessions:
+        raise ValueError(f"loaded: expected sessions chosen by the {sessions!r} policy, got "
+                         f"{loaded.policy!r}")
+    else:
+        log = loaded
     trials = log.analysable
     if trials.empty:
         raise LogError(f"{data_dir}: status: expected at least one ok, non-familiarisation trial, "

@@ -57,6 +57,23 @@ def test_analyze_writes_every_table_figure_and_report(study, tmp_path):
     assert {"po_ci_low"} <= set(pd.read_csv(out / "ordinal.csv").columns)
 
 
+def test_analyze_of_sessions_already_read_writes_the_same_files(study, tmp_path):
+    # reproduce figure9 reads its study once for the analysis and the depth fit
+    from analysis.load import load_trials
+    data, _ = study(n_per_group=6, sigma=0.4, fault_rate=0.05, seed=52)
+    analyze(data, tmp_path / "read", n_boot=200, mixed=False)
+    log = load_trials(data)
+    before = log.trials.copy()
+    analyze(data, tmp_path / "given", n_boot=200, mixed=False, loaded=log)
+    pd.testing.assert_frame_equal(log.trials, before)          # not changed
+    tables = sorted(p.name for p in (tmp_path / "read").glob("*.csv"))
+    assert len(tables) > 15 and tables == sorted(p.name for p in (tmp_path / "given").glob("*.csv"))
+    for name in tables:
+        assert (tmp_path / "read" / name).read_bytes() == (tmp_path / "given" / name).read_bytes(), name
+    with pytest.raises(ValueError, match="expected sessions chosen by the 'latest' policy, got 'first'"):
+        analyze(data, tmp_path / "other", n_boot=200, mixed=False, sessions="latest", loaded=log)
+
+
 def test_cli_analyze(study, tmp_path, capsys):
     data, _ = study(n_per_group=4, seed=52)
     out = tmp_path / "out"

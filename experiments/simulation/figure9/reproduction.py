@@ -247,9 +247,9 @@ def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run,
     fitted = []                 # the depth fit's future, once the sessions have ended
 
     def sessions_then_analysis(rows):
-        def start_depth_fit(data_dir, sessions):
+        def start_depth_fit(data_dir, sessions, trials):
             fitted.append(depth_thread.submit(
-                _depth_after_sessions, data_dir, rows, out_dir, pool, headline, n_studies,
+                _depth_after_sessions, trials, rows, out_dir, pool, headline, n_studies,
                 seed, sweep, lab, sens_cap))
         return run_figure9_study(out_dir, seed=seed, workers=workers,
                                  participants=participants, replay=headline[0],
@@ -282,23 +282,21 @@ def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run,
     return depth["sens"], study, depth
 
 
-def _depth_after_sessions(data_dir, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
+def _depth_after_sessions(trials, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
                           max_studies) -> dict:
-    """Once the sessions have ended (while this process analyses them): their analysable
-    trials (:func:`analysis.load.load_trials`, as the analysis reads them), the receptor depth
-    fitted to them (:func:`.fitted_depth.fitted_depth_row`, its studies on ``sweep``'s
-    workers) once the sensitivity rows and the fit's grid (``rows``, a future of
-    :func:`_sensitivity_rows`) are done, and ``sensitivity_studies.csv`` written.
+    """Once the sessions have ended (while this process analyses them): the receptor depth
+    fitted to their analysable ``trials`` (read once for this and the analysis,
+    :func:`analysis.load.load_trials`) by :func:`.fitted_depth.fitted_depth_row`, its studies on
+    ``sweep``'s workers, once the sensitivity rows and the fit's grid (``rows``, a future of
+    :func:`_sensitivity_rows`) are done; ``sensitivity_studies.csv`` written.
 
     Returns ``trials``, ``fit`` (:func:`.fitted_depth.fitted_depth_row`'s) and ``sens`` (the
     sensitivity table with the fitted depth's rows).  The same tasks and seeds as after the
     analysis, so the same numbers and files.
     """
     from analysis.exports import write_csv        # whole or not at all
-    from analysis.load import load_trials
     from experiments.simulation.figure9.fitted_depth import fitted_depth_row, with_depth_row
     from experiments.simulation.figure9.precision import study_table
-    trials = load_trials(data_dir).analysable
     sens, grid = rows.result()
     fit = fitted_depth_row(trials, pool, headline, n_studies, seed, sweep, lab, max_studies,
                            grid)

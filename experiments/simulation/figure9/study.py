@@ -160,9 +160,10 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     sweep : :class:`experiments.simulation.sweep.Sweep`, optional
         A running cluster to run the sessions on (``reproduce figure9`` passes its own).
     after_sessions : callable, optional
-        Called with ``out_dir/data`` and the per-participant results once every session has
-        ended, before the analysis (``reproduce figure9`` starts the receptor-depth fit and
-        its figure there, which need only the sessions' answers).
+        Called with ``out_dir/data``, the per-participant results and the analysable trials
+        (:func:`analysis.load.load_trials`'s, read once for it and the analysis; a copy of
+        its own) once every session has ended, before the analysis (``reproduce figure9``
+        starts the receptor-depth fit there, which needs only the sessions' answers).
     replay : str, optional
         A replay hypothesis (:data:`stimuli.paper.REPLAY_NAMES`, :mod:`experiments.simulation.
         replay`): sets the side, the rate limit, the method and the replayed material.
@@ -205,10 +206,16 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     seconds = time.perf_counter() - start
     summary = {"out_dir": str(out_dir), "sessions": sorted(results, key=lambda r: r["participant"]),
                "seconds": seconds, "analysis": None, "analysis_seconds": 0.0}
+    loaded, load_s = None, 0.0
+    if after_sessions is not None or analyze:
+        from analysis.load import load_trials
+        t0 = time.perf_counter()
+        loaded = load_trials(data_dir)      # read once, for both (~1 s of this process each)
+        load_s = time.perf_counter() - t0
     if after_sessions is not None:
-        after_sessions(data_dir, summary["sessions"])
+        after_sessions(data_dir, summary["sessions"], loaded.analysable)
     if analyze:
-        _analyse(summary, data_dir, out_dir, used)
+        _analyse(summary, data_dir, out_dir, used, loaded, load_s)
     from sessionfiles.logbook import atomic_write_json
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers,
@@ -277,16 +284,17 @@ def _run_sessions(jobs, workers, sweep) -> tuple[list, int]:
     return results, workers
 
 
-def _analyse(summary, data_dir, out_dir, used) -> None:
-    """:func:`analysis.analyze` of the sessions into ``summary`` (``analysis``,
-    ``analysis_seconds``); the Figure 9 table logged.  In this process, figures and profile
+def _analyse(summary, data_dir, out_dir, used, loaded=None, load_s=0.0) -> None:
+    """:func:`analysis.analyze` of the sessions (``loaded``: already read, in ``load_s``) into
+    ``summary`` (``analysis``, ``analysis_seconds``, the reading included); the Figure 9 table
+    logged.  In this process, figures and profile
     intervals included: given the cluster's workers (``analyze(..., executor=client)``) the
     analysis took ~4 s less of this process but the workers' imports for it (~190 MiB each)
     took the whole study over 1 GB (summed RSS 963-996 MiB, ``benchmarks/bench_study.py``)."""
     from analysis import analyze as run_analysis
     t0 = time.perf_counter()
-    summary["analysis"] = run_analysis(data_dir, out_dir)
-    summary["analysis_seconds"] = time.perf_counter() - t0
+    summary["analysis"] = run_analysis(data_dir, out_dir, loaded=loaded)
+    summary["analysis_seconds"] = load_s + time.perf_counter() - t0
     _note_simulation(out_dir / "report.md", used)
     if log.isEnabledFor(logging.INFO):
         table = _figure9_text(getattr(summary["analysis"], "proportions", None))

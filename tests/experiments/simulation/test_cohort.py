@@ -310,13 +310,17 @@ def test_target_side_override_runs_a_copy_of_the_protocol_and_is_recorded(tmp_pa
     from experiments.protocol import load_protocol
     ended = []         # reproduce figure9 starts its depth fit here: the sessions' logs are whole
 
-    def after_sessions(data_dir, sessions):
+    def after_sessions(data_dir, sessions, trials):
         ended.append((data_dir, sorted(p.name for p in data_dir.glob("P*/S*/*")),
-                      (tmp_path / "study.json").exists(), [s["participant"] for s in sessions]))
+                      (tmp_path / "study.json").exists(), [s["participant"] for s in sessions],
+                      trials))
     run_figure9_study(tmp_path, participants=1, workers=1, analyze=False,
                       target_side="compensated", rate_limit="slew", after_sessions=after_sessions)
-    ((data_dir, files, study_written, who),) = ended
+    ((data_dir, files, study_written, who, trials),) = ended
     assert data_dir == tmp_path / "data" and not study_written and who == ["P01"]
+    # the analysable trials, as the analysis reads them
+    from analysis.load import load_trials
+    pd.testing.assert_frame_equal(trials, load_trials(data_dir).analysable)
     assert {"events.jsonl", "session.json", "trials.csv"} <= set(files)
     study = json.loads((tmp_path / "study.json").read_text())
     assert (study["target_side"], study["rate_limit"], study["pad_roughness_um"], study["pad_material"]) == \
