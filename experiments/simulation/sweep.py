@@ -18,6 +18,7 @@ worker.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 
@@ -96,8 +97,13 @@ class Sweep:
             # writes its own values there before it spawns: after a cluster started here with
             # dask's defaults (MALLOC_TRIM_THRESHOLD_=65536), the config alone was ignored
             os.environ.update({k: str(v) for k, v in WORKER_MALLOC.items()})
-            with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v
-                                  for k, v in WORKER_MALLOC.items()}):
+            # worker-saturation inf: every task goes to a worker when submitted, where the
+            # highest priority runs first (:meth:`map`'s ``priority``); with dask's default
+            # (1.1) a large group waits in the scheduler's queue and a later, smaller group
+            # goes straight to a worker ahead of it, whatever the priorities
+            with dask.config.set({**{f"distributed.nanny.pre-spawn-environ.{k}": v
+                                     for k, v in WORKER_MALLOC.items()},
+                                  "distributed.scheduler.worker-saturation": math.inf}):
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                             processes=True, dashboard_address=":0",
                                             silence_logs=logging.ERROR)
@@ -134,7 +140,8 @@ class Sweep:
         """``value`` sent once to every worker (a future to pass to tasks)."""
         return self._connect().scatter(value, broadcast=True)
 
-    def map(self, fn, tasks, what: str = "tasks", weights=None, then=None) -> list:
+    def map(self, fn, tasks, what: str = "tasks", weights=None, then=None,
+            priority: int = 0) -> list:
         """``[fn(*task) for task in tasks]`` on the cluster, in the order of ``tasks``.
 
         Parameters
@@ -151,6 +158,10 @@ class Sweep:
             Applied in this process to each result as it arrives (``then(fn(*task))`` is
             returned), while the workers compute the others: work that needs modules the
             workers should not import.
+        priority : int
+            dask's task priority: a free worker takes the queued task of the highest first
+            (default 0; among equals, the earliest submitted). Only the order of the work on
+            the cluster changes, never a result.
         """
         tasks = list(tasks)
         weights = list(weights) if weights is not None else [1] * len(tasks)
@@ -166,7 +177,8 @@ class Sweep:
                      self.label, total, total, what, time.perf_counter() - start, 0.0)
             return out
         from distributed import as_completed
-        futures = [self._connect().submit(fn, *task, pure=False) for task in tasks]
+        futures = [self._connect().submit(fn, *task, pure=False, priority=priority)
+                   for task in tasks]
         index = {f.key: i for i, f in enumerate(futures)}
         out = [None] * len(tasks)
         start = time.perf_counter()

@@ -107,6 +107,11 @@ def _progress(done: int, total: int, start: float, label: str) -> None:
              done, total, label, elapsed, eta)
 
 
+#: The sessions' dask priority, above the default 0 of the studies simulated beside them on a
+#: shared cluster (``reproduce figure9``'s sensitivity rows and receptor-depth grid): the
+#: analysis waits for the last session, the rows for nothing but the report.
+SESSION_PRIORITY = 10
+
 #: Largest default number of worker processes: each holds ~125 MiB (RSS) besides the main
 #: process's ~390 MiB, so 4 keep the study under 1 GB however many cores the machine has.
 MAX_DEFAULT_WORKERS = 4
@@ -278,7 +283,8 @@ def _run_sessions(jobs, workers, sweep) -> tuple[list, int]:
     from experiments.simulation.sweep import Sweep
     with (nullcontext(sweep) if sweep is not None
           else Sweep(workers=workers, label="figure9 sessions")) as runner:
-        results = runner.map(_run_one, [(job,) for job in jobs], what="participants")
+        results = runner.map(_run_one, [(job,) for job in jobs], what="participants",
+                             priority=SESSION_PRIORITY)
         if sweep is not None:
             workers = runner.n_workers or workers
     return results, workers

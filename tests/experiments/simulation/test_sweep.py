@@ -89,3 +89,47 @@ def test_studies_on_a_worker_give_the_claims_of_studies_here_without_analysis_th
                 np.testing.assert_array_equal(res["readings"][reading][cid][0], stat)
                 np.testing.assert_array_equal(res["readings"][reading][cid][1], holds)
         assert res["proportions"].shape == (30, 2, 2, 4)
+
+
+def _stamp(name: str, seconds: float) -> tuple:
+    """Busy for ``seconds`` of wall time; ``(name, start)``."""
+    import time
+    start = time.monotonic()
+    while time.monotonic() - start < seconds:
+        pass
+    return name, start
+
+
+def _stamp_study(name: str, seconds: float) -> tuple:
+    """:func:`_stamp` as another function (dask groups the tasks of one function)."""
+    return _stamp(name, seconds)
+
+
+@pytest.mark.slow   # starts a one-worker LocalCluster (~5 s)
+def test_a_later_smaller_map_waits_for_the_queued_tasks_of_a_higher_priority():
+    # reproduce figure9's sessions (priority SESSION_PRIORITY) against the studies and the
+    # depth grid submitted beside them: with dask's default worker-saturation, a later group
+    # of two tasks went straight to the worker and ran before the queued sessions
+    import threading
+    import time
+
+    from experiments.simulation.figure9.study import SESSION_PRIORITY
+    from experiments.simulation.sweep import Sweep
+    with Sweep(workers=1) as sweep:
+        sweep.map(_stamp, [("warm", 0.0), ("warm", 0.0)])        # the cluster started
+        first = []
+        t = threading.Thread(target=lambda: first.extend(sweep.map(
+            _stamp, [(f"session {i}", 0.2) for i in range(6)], priority=SESSION_PRIORITY)))
+        t.start()
+        # the later map only once the scheduler holds all six (their order does not depend on
+        # how fast this machine is)
+        deadline = time.monotonic() + 60
+        while sweep.client.run_on_scheduler(
+                lambda dask_scheduler: sum(k.startswith("_stamp") and ts.priority[0] < 0
+                                           for k, ts in dask_scheduler.tasks.items())) < 6:
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        later = sweep.map(_stamp_study, [("study 0", 0.0), ("study 1", 0.0)])
+        t.join()
+    order = [name for name, _ in sorted(first + later, key=lambda r: r[1])]
+    assert order[-2:] == ["study 0", "study 1"] or order[-2:] == ["study 1", "study 0"], order
