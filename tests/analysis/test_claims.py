@@ -236,3 +236,12 @@ def test_inferential_readings_match_scipys_tests():
 def test_unknown_reading_is_refused():
     with pytest.raises(ValueError, match="reading"):
         evaluate_claims(np.zeros((2, 2, 4)), np.array(["A", "B"]), 3, reading="loose")
+
+
+def test_the_critical_t_is_scipy_stats_t_ppf_including_invalid_df():
+    from scipy.stats import t
+
+    from analysis.claims import ALPHA, _t_crit
+    df = np.array([-1.0, 0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 14.0, 28.7, 1e3, 1e9, np.inf, np.nan])
+    np.testing.assert_array_equal(_t_crit(df), t.ppf(1 - ALPHA, df))
+    assert _t_crit(14) == t.ppf(1 - ALPHA, 14)
