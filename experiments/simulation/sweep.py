@@ -159,9 +159,9 @@ class Sweep:
             returned), while the workers compute the others: work that needs modules the
             workers should not import.
         priority : int
-            dask's task priority: a free worker takes the queued task of the highest first
-            (default 0; among equals, the earliest submitted). Only the order of the work on
-            the cluster changes, never a result.
+            dask's task priority: a worker runs its waiting task of the highest first (default
+            0; among equals, dask's order). Only the order of the work on the cluster changes,
+            never a result.
         """
         tasks = list(tasks)
         weights = list(weights) if weights is not None else [1] * len(tasks)

@@ -69,8 +69,10 @@ def test_analyze_of_sessions_already_read_writes_the_same_files(study, tmp_path)
     tables = sorted(p.name for p in (tmp_path / "read").glob("*.csv"))
     assert len(tables) > 15 and tables == sorted(p.name for p in (tmp_path / "given").glob("*.csv"))
     for name in tables:
-        assert (tmp_path / "read" / name).read_bytes() == (tmp_path / "given" / name).read_bytes(), name
-    with pytest.raises(ValueError, match="expected sessions chosen by the 'latest' policy, got 'first'"):
+        assert (tmp_path / "read" / name).read_bytes() == \
+            (tmp_path / "given" / name).read_bytes(), name
+    with pytest.raises(ValueError,
+                       match="expected sessions chosen by the 'latest' policy, got 'first'"):
         analyze(data, tmp_path / "other", n_boot=200, mixed=False, sessions="latest", loaded=log)
 
 

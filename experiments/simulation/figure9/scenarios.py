@@ -22,8 +22,8 @@ from stimuli.paper import (PAD_MATERIAL, PAD_ROUGHNESS_M, REPLAY_NAMES, SAMPLE_M
 # the workers' tasks live in a module without pandas or analysis (see .tasks)
 from .tasks import build_pool_task, claims_of_studies, study_task
 
-__all__ = ["ScenarioResult", "StudyRuns", "evaluate_scenarios", "best_scenario", "table2_replay_temperatures",
-           "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
+__all__ = ["ScenarioResult", "StudyRuns", "evaluate_scenarios", "best_scenario",
+           "table2_replay_temperatures", "sensitivity", "SENSITIVITY_CHOICES", "tied_scenarios", "ABSOLUTE_RECEPTOR_DEPTH_UM",
            "result_from_runs", "sensitivity_row", "mark_differences", "run_scenarios",
            "build_pool_task", "study_task"]
 

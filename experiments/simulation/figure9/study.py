@@ -293,10 +293,10 @@ def _run_sessions(jobs, workers, sweep) -> tuple[list, int]:
 def _analyse(summary, data_dir, out_dir, used, loaded=None, load_s=0.0) -> None:
     """:func:`analysis.analyze` of the sessions (``loaded``: already read, in ``load_s``) into
     ``summary`` (``analysis``, ``analysis_seconds``, the reading included); the Figure 9 table
-    logged.  In this process, figures and profile
-    intervals included: given the cluster's workers (``analyze(..., executor=client)``) the
-    analysis took ~4 s less of this process but the workers' imports for it (~190 MiB each)
-    took the whole study over 1 GB (summed RSS 963-996 MiB, ``benchmarks/bench_study.py``)."""
+    logged.  In this process, figures and profile intervals included: given the cluster's
+    workers (``analyze(..., executor=client)``) the analysis took ~4 s less of this process but
+    the workers' imports for it (~190 MiB each) took the whole study over 1 GB (summed RSS
+    963-996 MiB, ``benchmarks/bench_study.py``)."""
     from analysis import analyze as run_analysis
     t0 = time.perf_counter()
     summary["analysis"] = run_analysis(data_dir, out_dir, loaded=loaded)
