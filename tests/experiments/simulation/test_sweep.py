@@ -91,45 +91,56 @@ def test_studies_on_a_worker_give_the_claims_of_studies_here_without_analysis_th
         assert res["proportions"].shape == (30, 2, 2, 4)
 
 
-def _stamp(name: str, seconds: float) -> tuple:
-    """Busy for ``seconds`` of wall time; ``(name, start)``."""
+def _stamp(name: str, gate: str | None = None) -> tuple:
+    """``(name, start)``, started once the file ``gate`` exists."""
+    import os
     import time
-    start = time.monotonic()
-    while time.monotonic() - start < seconds:
-        pass
-    return name, start
+    while gate is not None and not os.path.exists(gate):
+        time.sleep(0.01)
+    return name, time.monotonic()
 
 
-def _stamp_study(name: str, seconds: float) -> tuple:
+def _stamp_study(name: str) -> tuple:
     """:func:`_stamp` as another function (dask groups the tasks of one function)."""
-    return _stamp(name, seconds)
+    return _stamp(name)
+
+
+def _held(sweep, prefix: str, n: int) -> None:
+    """Wait until the scheduler holds ``n`` tasks whose key starts with ``prefix``."""
+    import time
+    deadline = time.monotonic() + 60
+    while sweep.client.run_on_scheduler(
+            lambda dask_scheduler: sum(str(k).startswith(prefix + "-")
+                                       for k in dask_scheduler.tasks)) < n:
+        assert time.monotonic() < deadline, f"{n} {prefix} tasks not on the scheduler in 60 s"
+        time.sleep(0.01)
 
 
 @pytest.mark.slow   # starts a one-worker LocalCluster (~5 s)
-def test_a_later_smaller_map_waits_for_the_queued_tasks_of_a_higher_priority():
+def test_a_later_smaller_map_waits_for_the_queued_tasks_of_a_higher_priority(tmp_path):
     # reproduce figure9's sessions (priority SESSION_PRIORITY) against the studies and the
     # depth grid submitted beside them: with dask's default worker-saturation, a later group
-    # of two tasks went straight to the worker and ran before the queued sessions
+    # of two tasks went straight to the worker and ran before the queued sessions. Every task
+    # waits for a gate opened once both maps are on the scheduler: the order does not depend
+    # on this machine's speed.
     import threading
-    import time
 
     from experiments.simulation.figure9.study import SESSION_PRIORITY
     from experiments.simulation.sweep import Sweep
+    gate = tmp_path / "gate"
     with Sweep(workers=1) as sweep:
-        sweep.map(_stamp, [("warm", 0.0), ("warm", 0.0)])        # the cluster started
-        first = []
-        t = threading.Thread(target=lambda: first.extend(sweep.map(
-            _stamp, [(f"session {i}", 0.2) for i in range(6)], priority=SESSION_PRIORITY)))
-        t.start()
-        # the later map only once the scheduler holds all six (their order does not depend on
-        # how fast this machine is)
-        deadline = time.monotonic() + 60
-        while sweep.client.run_on_scheduler(
-                lambda dask_scheduler: sum(k.startswith("_stamp") and ts.priority[0] < 0
-                                           for k, ts in dask_scheduler.tasks.items())) < 6:
-            assert time.monotonic() < deadline
-            time.sleep(0.01)
-        later = sweep.map(_stamp_study, [("study 0", 0.0), ("study 1", 0.0)])
-        t.join()
+        sweep.scatter(0)                                          # the cluster started
+        first, later = [], []
+        sessions = threading.Thread(target=lambda: first.extend(sweep.map(
+            _stamp, [(f"session {i}", str(gate)) for i in range(6)], priority=SESSION_PRIORITY)))
+        sessions.start()
+        _held(sweep, "_stamp", 6)
+        studies = threading.Thread(target=lambda: later.extend(sweep.map(
+            _stamp_study, [("study 0",), ("study 1",)])))
+        studies.start()
+        _held(sweep, "_stamp_study", 2)
+        gate.touch()
+        sessions.join()
+        studies.join()
     order = [name for name, _ in sorted(first + later, key=lambda r: r[1])]
-    assert order[-2:] == ["study 0", "study 1"] or order[-2:] == ["study 1", "study 0"], order
+    assert sorted(order[-2:]) == ["study 0", "study 1"], order
