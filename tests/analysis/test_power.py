@@ -263,6 +263,7 @@ def test_power_from_analysis_takes_the_design_and_curves_over_effects(study, tmp
     assert len(summary["by_participant_sd"]) == 3
 
 
+@pytest.mark.slow   # starts two LocalClusters (8.9 s of the default suite, 555 s of 600 in CI here)
 def test_power_is_the_same_here_and_on_one_or_two_dask_workers(caplog):
     # the cohorts are fixed, self-seeded tasks: who runs them, and how many workers, cannot
     # change the table (60 cohorts per size: tasks of 25, 25 and 10)
