@@ -120,9 +120,10 @@ def _held(sweep, prefix: str, n: int) -> None:
 def test_a_later_smaller_map_waits_for_the_queued_tasks_of_a_higher_priority(tmp_path):
     # reproduce figure9's sessions (priority SESSION_PRIORITY) against the studies and the
     # depth grid submitted beside them: with dask's default worker-saturation, a later group
-    # of two tasks went straight to the worker and ran before the queued sessions. Every task
-    # waits for a gate opened once both maps are on the scheduler: the order does not depend
-    # on this machine's speed.
+    # of two tasks went straight to the worker and ran before the queued sessions. The
+    # sessions wait for a gate opened once both maps are on the scheduler, so the one worker is
+    # held by the first session until every task is there: the order does not depend on this
+    # machine's speed.
     import threading
 
     from experiments.simulation.figure9.study import SESSION_PRIORITY
