@@ -37,6 +37,9 @@ from scipy import sparse, special, stats
 
 from .errors import ModelWarning
 from .small_sample import group_covariances, row_df
+from . import statsmodels_engine
+
+statsmodels_engine.load()   # before this module's statsmodels models: patsy, no formulaic
 
 __all__ = ["FORMULA", "ModelFit", "fit_gee", "fit_bayes", "group_contrasts", "model_data",
            "lone_group", "lone_group_reason"]

@@ -29,6 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from . import statsmodels_engine
+
+statsmodels_engine.load()   # before this module's statsmodels models: patsy, no formulaic
+
 __all__ = ["wilson_interval", "cluster_bootstrap", "cell_proportions", "participant_summary",
            "CELL"]
 

@@ -43,6 +43,10 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from . import statsmodels_engine
+
+statsmodels_engine.load()   # before this module's statsmodels models: patsy, no formulaic
+
 __all__ = ["information_transfer", "confusion_counts", "agreement_table", "hu_table", "ordinal_table",
            "covariate_table", "force_table", "rt_table"]
 

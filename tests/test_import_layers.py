@@ -83,6 +83,7 @@ LAZY_TABLES = {
     "experiments.cli": ("SUBCOMMANDS", "experiments.cli"),
     "experiments.responders.base": ("_KNOWN_MODULES", "experiments.responders"),
     "stimuli": ("_EXPORTS", "stimuli"),
+    "analysis": ("_EXPORTS", "analysis"),
 }
 #: Modules that call ``import_module`` on something outside the tree only (a Qt binding).
 EXTERNAL_LOADERS = ("experiments.psychopy_plugin.component.info_dialog",)

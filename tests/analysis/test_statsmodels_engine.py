@@ -1,4 +1,5 @@
-"""analysis.statsmodels_engine: statsmodels loads with its patsy engine, formulaic not imported."""
+"""analysis.statsmodels_engine: statsmodels loads with its patsy engine, formulaic not imported
+(the analysis modules that fit statsmodels models load it on import)."""
 import os
 import subprocess
 import sys
@@ -7,7 +8,7 @@ import pytest
 
 SCRIPT = """
 import sys
-import analysis
+import analysis.models          # the module that fits statsmodels models
 from statsmodels.genmod.generalized_estimating_equations import GEE
 import statsmodels.formula._manager as manager
 print(manager.DEFAULT_FORMULA_ENGINE, 'formulaic' in sys.modules)
