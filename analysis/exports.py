@@ -8,6 +8,7 @@ round-trip ``repr``), never rounded; ``report.md`` rounds for reading.
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 from importlib import metadata
@@ -19,7 +20,7 @@ import pandas as pd
 from sessionfiles.atomicfile import output_path
 from sessionfiles.columns import CATEGORY, CODEBOOK
 
-__all__ = ["write_csv", "wide_table", "cell_counts", "codebook", "check_codebook",
+__all__ = ["write_csv", "csv_text", "wide_table", "cell_counts", "codebook", "check_codebook",
            "run_settings", "COLUMNS"]
 
 _C = CATEGORY
@@ -211,10 +212,78 @@ COLUMNS = {
 
 
 def write_csv(df: pd.DataFrame, path: Path) -> Path:
-    """Write a machine table at full precision (no rounding), whole or not at all."""
+    """Write a machine table at full precision (no rounding), whole or not at all.
+
+    The bytes of ``df.to_csv(path, index=False)``; a table of plain numbers and strings that
+    need no quotes is formatted column by column (:func:`csv_text`, ~10x faster on the
+    reproduction's 17,600-row per-study table), anything else by pandas itself.
+    """
+    text = csv_text(df)
     with output_path(path) as tmp:
-        df.to_csv(tmp, index=False)
+        if text is None:
+            df.to_csv(tmp, index=False)
+        else:
+            Path(tmp).write_bytes(text.encode("utf-8"))
     return path
+
+
+#: A character that makes the csv module quote a field (pandas' QUOTE_MINIMAL): such tables are
+#: left to pandas.
+_NEEDS_QUOTES = frozenset(',"\r\n')
+
+
+def csv_text(df: pd.DataFrame) -> str | None:
+    """``df.to_csv(index=False)``'s text, built one column at a time; None where that is not
+    certain (then call pandas).
+
+    Handled: at least two columns named by strings, each column float64 (numpy's shortest
+    round-trip text, what pandas writes; NaN blank), a numpy integer or bool dtype, or strings
+    (object or pandas' string dtype; missing ones blank) with none of ``,"\\r\\n`` in any
+    field or name (no quoting to decide). Lines end with ``\\n``, as pandas' default on POSIX.
+    """
+    if os.linesep != "\n" or df.shape[1] < 2:
+        return None
+    names = list(df.columns)
+    if not all(isinstance(n, str) and _NEEDS_QUOTES.isdisjoint(n) for n in names):
+        return None
+    columns = []
+    for i in range(df.shape[1]):
+        col = df.iloc[:, i]
+        dtype = col.dtype
+        if dtype == np.float64:
+            values = col.to_numpy()
+            zero = values == 0
+            if zero.any() and np.signbit(values[zero]).any():     # -0.0 and 0.0 unique as one
+                text = np.array([repr(v) for v in values.tolist()], dtype=object)
+            else:
+                text = _each_distinct(values, repr)
+            missing = np.isnan(values)
+            if missing.any():
+                text[missing] = ""
+        elif isinstance(dtype, np.dtype) and dtype.kind in "iu":
+            text = _each_distinct(col.to_numpy(), str)
+        elif dtype == bool:
+            text = np.where(col.to_numpy(), "True", "False")
+        elif dtype == object or isinstance(dtype, pd.StringDtype):
+            values = col.to_numpy(dtype=object)
+            missing = col.isna().to_numpy()
+            text = np.where(missing, "", values)
+            if not all(type(v) is str and _NEEDS_QUOTES.isdisjoint(v) for v in text):
+                return None
+        else:
+            return None
+        columns.append(text.tolist())
+    lines = [",".join(names)]
+    lines.extend(",".join(row) for row in zip(*columns))
+    return "\n".join(lines) + "\n"
+
+
+def _each_distinct(values: np.ndarray, text) -> np.ndarray:
+    """``text`` of each value (Python's ``repr`` of a float is pandas' CSV text, numpy's
+    shortest round trip), computed once per distinct value: a per-study table repeats a few
+    hundred proportions over thousands of rows."""
+    distinct, where = np.unique(values, return_inverse=True)
+    return np.array([text(v) for v in distinct.tolist()], dtype=object)[where.reshape(-1)]
 
 
 def wide_table(trials: pd.DataFrame) -> pd.DataFrame:

@@ -217,47 +217,56 @@ def _simulate_on(writer, sweep, out_dir, seconds, t0, *, seed, workers, particip
     sweep.release_memory()      # the scenarios' studies, before the sessions
     written = {"studies": writer.submit(_write_studies, out_dir, result.runs)}
     t1 = time.perf_counter()
-    sens, study, depth = _beside_the_study(
-        out_dir, seconds, t1, result, best, headline, default_run, pool, sweep,
-        seed=seed, workers=workers, participants=participants, options=options,
-        n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
-        force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap)
-    # the figure (after the analysis, which writes its own figure9.png) is drawn by another
-    # thread while this one writes the report; waited for at the end
+    # the figure is drawn by another thread once the analysis has written its own figure9.png,
+    # while the depth fit's last studies run and this thread writes the report; waited for
+    # at the end
     drawer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-figure")
-    analysis = study.get("analysis")
-    figure = drawer.submit(write_figure, out_dir, result,
-                           analysis.proportions if analysis is not None else None, headline,
-                           best, len(study["sessions"]))
-    drawer.shutdown(wait=False)
+
+    def draw(study):
+        analysis = study.get("analysis")
+        return drawer.submit(write_figure, out_dir, result,
+                             analysis.proportions if analysis is not None else None, headline,
+                             best, len(study["sessions"]))
+    try:
+        sens, study, depth, figure = _beside_the_study(
+            out_dir, seconds, t1, result, best, headline, default_run, pool, sweep, draw,
+            seed=seed, workers=workers, participants=participants, options=options,
+            n_studies=n_studies, target_side=target_side, rate_limit=rate_limit,
+            force_sd_N=force_sd_N, lab=lab, sens_cap=sens_cap)
+    finally:
+        drawer.shutdown(wait=False)
     return {"result": result, "best": best, "headline": headline, "sens": sens, "study": study,
             "depth": depth["fit"], "trials": depth["trials"], "figure": figure,
             "written": {k: f.result() for k, f in written.items()}}
 
 
-def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run, pool, sweep, *,
-                      seed, workers, participants, options, n_studies, target_side, rate_limit,
-                      force_sd_N, lab, sens_cap) -> tuple:
+def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run, pool, sweep,
+                      draw, *, seed, workers, participants, options, n_studies, target_side,
+                      rate_limit, force_sd_N, lab, sens_cap) -> tuple:
     """The sensitivity rows beside the emulated study (:func:`_beside`); the depth fit started
     once its sessions end (:func:`_depth_after_sessions`, on another thread, its studies on the
-    workers) while this process analyses them.  ``(sensitivity rows, study summary, the depth
-    fit's result)``; stage times into ``seconds``."""
+    workers) while this process analyses them; ``draw(study summary)`` (a future of the
+    figure's files) called once the analysis has ended.  ``(sensitivity rows, study summary,
+    the depth fit's result, the figure's future)``; stage times into ``seconds``."""
     from experiments.simulation.figure9.study import run_figure9_study
     depth_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="figure9-depth")
     fitted = []                 # the depth fit's future, once the sessions have ended
+    figure = []                 # the figure's future, once the analysis has ended
 
     def sessions_then_analysis(rows):
         def start_depth_fit(data_dir, sessions, trials):
             fitted.append(depth_thread.submit(
                 _depth_after_sessions, trials, rows, out_dir, pool, headline, n_studies,
                 seed, sweep, lab, sens_cap))
-        return run_figure9_study(out_dir, seed=seed, workers=workers,
-                                 participants=participants, replay=headline[0],
-                                 target_side=target_side, rate_limit=rate_limit,
-                                 responder_options={**options, "observer": headline[1],
-                                                    **({} if force_sd_N is None else
-                                                       {"force_sd_N": lab.force_sd_N})},
-                                 sweep=sweep, after_sessions=start_depth_fit)
+        study = run_figure9_study(out_dir, seed=seed, workers=workers,
+                                  participants=participants, replay=headline[0],
+                                  target_side=target_side, rate_limit=rate_limit,
+                                  responder_options={**options, "observer": headline[1],
+                                                     **({} if force_sd_N is None else
+                                                        {"force_sd_N": lab.force_sd_N})},
+                                  sweep=sweep, after_sessions=start_depth_fit)
+        figure.append(draw(study))
+        return study
     try:
         (sens, _), study, seconds["study_s"] = _beside(
             lambda: _sensitivity_rows(pool, headline, n_studies, seed, sweep, lab,
@@ -279,7 +288,7 @@ def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run,
         raise
     depth_thread.shutdown()
     seconds["depth_fit_s"] = time.perf_counter() - t2    # waited for after the analysis
-    return depth["sens"], study, depth
+    return depth["sens"], study, depth, figure[0]
 
 
 def _depth_after_sessions(trials, rows, out_dir, pool, headline, n_studies, seed, sweep, lab,
