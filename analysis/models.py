@@ -2,16 +2,14 @@
 
 Both models explain ``correct`` (0/1) by ``group * mode * C(roughness_id)``:
 
-- :func:`fit_gee`: a marginal (population-averaged) logit fitted by
-  generalised estimating equations [1]_ with participants as clusters, an
-  exchangeable working correlation and the bias-reduced (Mancl-DeRouen [2]_)
-  sandwich covariance, which corrects the robust covariance's downward bias
-  with few (here 30) clusters.
-- :func:`fit_bayes`: a conditional logit with a random intercept per
-  participant, ``statsmodels``' ``BinomialBayesMixedGLM`` fitted by mean-field
-  variational Bayes (``fit_vb``). Its posterior SDs ignore the correlation
-  between terms and are too small for correlated (interaction) terms; the
-  report's inference (contrasts, p-values) therefore comes from the GEE.
+- :func:`fit_gee`: a marginal (population-averaged) logit fitted by generalised estimating
+  equations [1]_ with participants as clusters, an exchangeable working correlation and the
+  bias-reduced (Mancl-DeRouen [2]_) sandwich covariance, which corrects the robust covariance's
+  downward bias with few (here 30) clusters.
+- :func:`fit_bayes`: a conditional logit with a random intercept per participant, ``statsmodels``'
+  ``BinomialBayesMixedGLM`` fitted by mean-field variational Bayes (``fit_vb``). Its posterior
+  SDs ignore the correlation between terms and are too small for correlated (interaction)
+  terms; the report's inference (contrasts, p-values) therefore comes from the GEE.
 
 With 3 repetitions per cell a cell may have every answer right or wrong; the
 saturated model then has no finite estimate (separation) or does not converge.
@@ -35,9 +33,9 @@ import pandas as pd
 import patsy
 from scipy import sparse, special, stats
 
+from . import statsmodels_engine
 from .errors import ModelWarning
 from .small_sample import group_covariances, row_df
-from . import statsmodels_engine
 
 statsmodels_engine.load()   # before this module's statsmodels models: patsy, no formulaic
 
