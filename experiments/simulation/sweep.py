@@ -101,9 +101,14 @@ class Sweep:
             # highest priority runs first (:meth:`map`'s ``priority``); with dask's default
             # (1.1) a large group waits in the scheduler's queue and a later, smaller group
             # goes straight to a worker ahead of it, whatever the priorities
+            # worker profile off: dask's statistical profiler (every 10 ms, on each worker's
+            # event loop, the running task's stack taken and tallied, for a dashboard this
+            # cluster does not serve) cost 12 % of an emulated session's CPU (median 1.33
+            # against 1.17 s, benchmarks/bench_dask_profiler.py); the same tasks and results
             with dask.config.set({**{f"distributed.nanny.pre-spawn-environ.{k}": v
                                      for k, v in WORKER_MALLOC.items()},
-                                  "distributed.scheduler.worker-saturation": math.inf}):
+                                  "distributed.scheduler.worker-saturation": math.inf,
+                                  "distributed.worker.profile.enabled": False}):
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                             processes=True, dashboard_address=":0",
                                             silence_logs=logging.ERROR)

@@ -218,6 +218,10 @@ def _malloc_environ():
     return {k: os.environ.get(k) for k in ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")}
 
 
+def _profiling(dask_worker):
+    return "profile" in dask_worker.periodic_callbacks
+
+
 @pytest.mark.slow
 def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool, monkeypatch):
     from experiments.simulation.figure9.scenarios import evaluate_scenarios
@@ -238,6 +242,8 @@ def test_results_are_the_same_on_one_and_two_dask_workers(slab_pool, monkeypatch
         seen = two.client.run(_malloc_environ)
         assert len(seen) == 2
         assert all(env == {k: str(v) for k, v in WORKER_MALLOC.items()} for env in seen.values())
+        # and without dask's statistical profiler (12 % of a session's CPU)
+        assert two.client.run(_profiling) == {w: False for w in seen}
     import pandas as pd
     pd.testing.assert_frame_equal(on_one.claims, on_two.claims)
     pd.testing.assert_frame_equal(here.claims, on_two.claims)
