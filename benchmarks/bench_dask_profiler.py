@@ -9,8 +9,8 @@ LocalCluster of one worker process, profiler on, then off, ``--rounds`` times al
 one warm-up session (imports, caches) and ``--sessions`` emulated sessions of P01 of the seed-0
 cohort (virtual clock, fsync off), each timed inside the task by ``time.process_time`` (the
 worker process's CPU, its event loop included: where the profiler runs). It prints each session's
-CPU and the medians; the session's logs are the same either way (their fingerprint, as
-``bench_emulated_session.py``, printed for each setting).
+CPU, the medians, and whether the sessions' logs are the same either way (their fingerprint, as
+``bench_emulated_session.py`` computes it, of one session per setting).
 """
 from __future__ import annotations
 
