@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -96,6 +97,43 @@ def on_time_host_s(ticks, device_s: float, window_s: float = 1.0) -> float:
     """
     near = [(d * 1e-6, h) for d, h in ticks if abs(d * 1e-6 - device_s) <= window_s]
     return min(h - d for d, h in near) + device_s
+
+
+def unexplained_refusal(reason: str, max_late_ms: float) -> str | None:
+    """What in a clock map's refusal the emulator's own lateness does not explain (None: all).
+
+    The emulator counts time with ticks its loop runs; a reply read while a tick is overdue
+    carries the tick before it, up to the loop's lateness stale (``max_late_ms``, the worst
+    tick of the run). A map refuses only what such stale stamps (or a clock that gave up time
+    it was starved of beyond ``MAX_CATCH_UP_TICKS`` ticks) can cause:
+
+    - bounds that cross by X ms need a reply at least X ms stale;
+    - round trips R ms outside a map whose uncertainty is U ms need stamps (R - U) / 2 stale
+      (a stale burst moves the map as well as the round trip);
+    - an implausible drift needs stale stamps at all, beyond the loop's wake-up delay (0.5 ms).
+
+    The same 0.5 ms allows for the emulator's and the host's readings of one clock.
+    """
+    from experiments.emulators.thermocue.device import TICK_US
+    from experiments.emulators.thermocue.emulator_core import MAX_CATCH_UP_TICKS
+    if max_late_ms >= MAX_CATCH_UP_TICKS * TICK_US * 1e-3:
+        return None                                   # the clock lost time: anything goes
+    slack = 0.5
+    missing = []
+    for part in reason.split("; "):
+        if m := re.match(r"a burst's round trips disagree by ([0-9.]+) ms", part):
+            need = float(m[1])
+        elif m := re.match(r"round trips up to ([0-9.]+) ms outside .*stated uncertainty "
+                           r"([0-9.]+) ms", part):
+            need = (float(m[1]) - float(m[2])) / 2
+        elif part.startswith("drift "):
+            need = slack
+        else:
+            missing.append(f"an unknown reason: {part!r}")
+            continue
+        if max_late_ms < need - slack or max_late_ms < slack:
+            missing.append(f"{part!r} while the emulator's worst tick was {max_late_ms} ms late")
+    return "; ".join(missing) or None
 
 
 def stop_emulator(proc) -> None:

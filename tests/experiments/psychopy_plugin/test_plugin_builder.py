@@ -20,7 +20,7 @@ import time
 import numpy as np
 import pytest
 
-from _plugin_helpers import P01, REPO, gui_env, read_log, serve_stamped, xdotool_key
+from _plugin_helpers import P01, REPO, gui_env, read_log, serve_stamped, unexplained_refusal, xdotool_key
 from _xkeys import send_key, type_text, wait_for_window, window_open
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow]
@@ -168,15 +168,14 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
         rows = list(csv.DictReader(fh))
     assert [(r["sample"], r["answer.keys"]) for r in rows] == [("1", "1"), ("3", "3")]
     assert {(r["participant"], r["session"]) for r in rows} == {("P07", "001")}
-    # The emulator gives up time it was starved of beyond MAX_CATCH_UP_TICKS ticks (a host so
-    # loaded that its loop slept that long): its clock then no longer keeps real time, and the
-    # map must say so rather than give a number.
-    from experiments.emulators.thermocue.device import TICK_US
-    from experiments.emulators.thermocue.emulator_core import MAX_CATCH_UP_TICKS
-    lost_time = read_log(log)[-1]["max_late_ms"] >= MAX_CATCH_UP_TICKS * TICK_US * 1e-3
+    # On a host loaded enough to starve the emulator's loop, its replies carry stale ticks (or
+    # its clock gives up time beyond MAX_CATCH_UP_TICKS ticks): the map must say so rather than
+    # give a number, and may refuse nothing else
+    max_late_ms = read_log(log)[-1]["max_late_ms"]
     for r in rows:
-        assert r["thermal.clock_status"] == "mapped" or (
-            lost_time and r["thermal.clock_status"].startswith("unmapped: ")), r["thermal.clock_status"]
+        status = r["thermal.clock_status"]
+        assert status == "mapped" or (status.startswith("unmapped: ") and unexplained_refusal(
+            status.removeprefix("unmapped: "), max_late_ms) is None), (status, max_late_ms)
         # answered while the profile played: the routine's end put the display to neutral
         assert (r["thermal.status"], r["thermal.end_reason"]) == ("aborted", "aborted")
         assert r["thermal.fault_code"] == "" and r["thermal.fault_message"] == ""   # never "None"
@@ -190,14 +189,19 @@ def test_builder_experiment_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
             assert r["thermal.contact_routine_s"] == r["thermal.contact_duration_s"] == ""
             continue
         armed, contact = float(r["thermal.armed_routine_s"]), float(r["thermal.contact_routine_s"])
-        assert 0 <= armed < contact < float(r["trial.stopped"]) - float(r["trial.started"])
+        # PsychoPy's routine clock (``t``) starts when the previous routine ended, before this
+        # one's preparation (the profile's upload) and before ``trial.started``: the routine's
+        # own time at its stop is its global span plus that lead, which is at most the time of
+        # its first frame, ``thermal.started``
+        started = float(r["thermal.started"])
+        routine_at_stop = float(r["trial.stopped"]) - float(r["trial.started"]) + started
+        assert 0 <= started <= armed < contact < routine_at_stop
         assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert float(r["thermal.contact_duration_s"]) > 0.2
         # durations from one clock: the contact lasted no longer than the routine after it plus
         # the stop's ABORT round trip, which begins when the routine has ended (one reply wait,
         # 0.25 s, and a loaded machine's scheduling: 0.12 s measured at load 2 here)
-        assert float(r["thermal.contact_duration_s"]) <= \
-            float(r["trial.stopped"]) - float(r["trial.started"]) - contact + 0.5
+        assert float(r["thermal.contact_duration_s"]) <= routine_at_stop - contact + 0.5
 
     # --- the emulator's own record
     records = read_log(log)

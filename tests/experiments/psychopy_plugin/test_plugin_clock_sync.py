@@ -135,3 +135,32 @@ def test_residuals_off_the_map_make_it_unmapped():
     first, last = estimate_burst(samples(0.0)), estimate_burst(samples(10.0))
     cmap = ClockMap.from_bursts(first, last)
     assert cmap.unmapped is not None
+
+
+def test_the_pty_tests_explain_each_refusal_by_the_emulators_lateness_and_nothing_else():
+    """The plugin's pty tests accept a refusal only when the emulator's worst tick was late
+    enough to cause it (``_plugin_helpers.unexplained_refusal``): each reason the map gives
+    must be one that helper reads, with the lateness it needs."""
+    from _plugin_helpers import unexplained_refusal
+    jumped = ClockMap.from_bursts(estimate_burst([(0.0, 100.0, 0.001), (0.002, 100.02, 0.003)]))
+    crossed_ms = float(jumped.unmapped.split("disagree by ")[1].split(" ms")[0])
+    assert crossed_ms > 5
+    assert unexplained_refusal(jumped.unmapped, crossed_ms) is None
+    assert unexplained_refusal(jumped.unmapped, 200.0) is None               # time was lost
+    assert "worst tick was 2.0 ms late" in unexplained_refusal(jumped.unmapped, 2.0)
+    samples = lambda h: [(h + i * 1e-3, 50.0 + 2 * i * 1e-3, h + i * 1e-3 + 1e-4) for i in range(30)]  # noqa: E731
+    off = ClockMap.from_bursts(estimate_burst(samples(0.0)), estimate_burst(samples(10.0)))
+    (residual,) = [p for p in off.unmapped.split("; ") if "outside the map's bounds" in p]
+    excess_ms = (off.max_residual_s - off.uncertainty_s) * 1e3
+    assert unexplained_refusal(residual, excess_ms / 2) is None
+    assert unexplained_refusal(residual, 0.4) is not None
+    assert unexplained_refusal(off.unmapped, excess_ms / 2) is not None    # it crossed, too
+    link = FakeLink(offset=3.0, step=0.01)
+    first = sync_burst(link.heartbeat, link.clock, spacing_s=0)
+    link.now += 7.0
+    link.offset += 0.01 * (link.now - first.host_s)
+    drifting = ClockMap.from_bursts(first, sync_burst(link.heartbeat, link.clock, spacing_s=0))
+    assert drifting.unmapped.startswith("drift ")
+    assert unexplained_refusal(drifting.unmapped, 0.6) is None
+    assert unexplained_refusal(drifting.unmapped, 0.3) is not None            # an on-time clock
+    assert "unknown reason" in unexplained_refusal("no clock burst", 50.0)

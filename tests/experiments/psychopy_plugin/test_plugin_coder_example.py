@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from _plugin_helpers import REPO, gui_env, read_log, serve_stamped, xdotool_key
+from _plugin_helpers import REPO, gui_env, read_log, serve_stamped, unexplained_refusal, xdotool_key
 
 pytestmark = [pytest.mark.gui, pytest.mark.slow]
 
@@ -54,13 +54,20 @@ def test_coder_example_runs_against_the_emulator_on_a_pty(tmp_path, xvfb):
     with open(str(out) + ".csv", newline="", encoding="utf-8-sig") as fh:
         rows = list(csv.DictReader(fh))
     assert [(r["sample"], r["answer.keys"]) for r in rows] == [("2", "2"), ("4", "4")]
+    max_late_ms = read_log(log)[-1]["max_late_ms"]
     for r in rows:
         assert r["thermal.status"] == "aborted"          # answered while the profile played
         assert float(r["thermal.tracking_rms_C"]) < 0.1
-        assert 0 < float(r["thermal.contact_trial_s"]) < 10
-        assert r["thermal.clock_status"] == "mapped"
-        assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
         assert float(r["thermal.contact_force_N"]) >= 2.0
+        # a map refuses only what a starved emulator's stale replies explain (test_plugin_builder)
+        status = r["thermal.clock_status"]
+        if status != "mapped":
+            assert status.startswith("unmapped: ") and unexplained_refusal(
+                status.removeprefix("unmapped: "), max_late_ms) is None, (status, max_late_ms)
+            assert r["thermal.contact_trial_s"] == ""
+            continue
+        assert 0 < float(r["thermal.contact_trial_s"]) < 10
+        assert 0 <= float(r["thermal.clock_uncertainty_s"]) < 0.01   # 1 ms: test_plugin_timing
     states = [r["why"] for r in read_log(log) if r.get("event") == "state"]
     assert states == ["arm playback", "contact", "abort"] * 2
     stop = read_log(log)[-1]
