@@ -16,6 +16,10 @@ blocks in ``select`` between writes, so it never takes a core from anyone for lo
 machine loaded with CPU-bound processes delays its heartbeat by the kernel's wake-up latency,
 not by a share of the CPU.
 
+Start: the helper writes one byte to its stdout once it runs; :meth:`HeartbeatProcess.wait_ready`
+waits for it (a Python started on a loaded machine may take longer than the watchdog's 90 ms to
+write its first frame), and until then the driver's own thread heartbeats.
+
 Liveness: the host process pings the helper (a byte on its stdin pipe) while its I/O thread makes
 progress; the helper sends nothing while the last ping is older than ``stall_s`` (a hung host
 program lets the device's watchdog act), and exits when the pipe closes (the host closed the
@@ -24,6 +28,7 @@ display, or died).
 from __future__ import annotations
 
 import os
+import select
 import subprocess
 import sys
 import time
@@ -42,6 +47,7 @@ except (AttributeError, OSError):                   # (it sleeps between 10-byte
         os.setpriority(os.PRIO_PROCESS, 0, -10)
     except (AttributeError, OSError):
         pass                                        # an ordinary process, as before
+os.write(1, b"r")                                   # ready: the host's thread may stand down
 last_ping = nxt = time.monotonic()
 while True:
     r, _, _ = select.select([0], [], [], max(0.0, nxt - time.monotonic()))
@@ -82,9 +88,20 @@ class HeartbeatProcess:
         self.proc = popen_tied(                     # dies with the host, however it dies
             [sys.executable, "-I", "-S", "-c", _HELPER, str(fd), repr(float(period_s)),
              repr(self.stall_s), frame.hex()],
-            pass_fds=(fd,), stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+            pass_fds=(fd,), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
             stderr=subprocess.DEVNULL, close_fds=True)
         os.set_blocking(self.proc.stdin.fileno(), False)
+        self.ready = False
+
+    def wait_ready(self, timeout_s: float) -> bool:
+        """Wait up to ``timeout_s`` for the helper to run (its first byte); whether it does.
+
+        Sets :attr:`ready`, which the driver's thread reads to stand down.
+        """
+        if not self.ready and self.running:
+            r, _, _ = select.select([self.proc.stdout], [], [], max(0.0, timeout_s))
+            self.ready = bool(r) and os.read(self.proc.stdout.fileno(), 1) == b"r"
+        return self.ready
 
     def ping(self) -> None:
         """Tell the helper the host is alive (cheap: at most one byte every ``stall_s / 8``)."""
@@ -100,14 +117,15 @@ class HeartbeatProcess:
     def running(self) -> bool:
         return self.proc.poll() is None
 
-    def stop(self) -> None:
-        """Close the pipe (the helper exits) and reap it."""
+    def stop(self, wait_s: float = 2.0) -> None:
+        """Close the pipe (the helper exits) and reap it (killed after ``wait_s``)."""
+        for pipe in (self.proc.stdin, self.proc.stdout):
+            try:
+                pipe.close()
+            except OSError:
+                pass
         try:
-            self.proc.stdin.close()
-        except OSError:
-            pass
-        try:
-            self.proc.wait(timeout=2.0)
+            self.proc.wait(timeout=wait_s)
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait()

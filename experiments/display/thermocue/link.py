@@ -46,6 +46,9 @@ __all__ = ["ProtocolLink", "decode_reply"]
 # the device's own numbers: a reply of these types is one only with the reply's size (4 and 0
 # bytes; telemetry has 30, an event at least 11)
 _REPLY_SIZE = {Cmd.ARM | m.REPLY_BIT: m.COUNTER.size, Cmd.ABORT | m.REPLY_BIT: 0}
+#: Longest wait for the heartbeat helper to start (a second Python: ~30 ms on a quiet machine),
+#: s; a helper not up by then is stopped and the driver's thread heartbeats instead.
+HELPER_START_S = 5.0
 #: The silent heartbeat (payload 0: no reply wanted) of every sequence number, encoded once.
 _SILENT_HEARTBEAT = tuple(encode_frame(s, Cmd.HEARTBEAT, b"\x00") for s in range(256))
 # the frame types the I/O loop routes, as plain ints (an enum member's look-up, 100 times a
@@ -372,6 +375,11 @@ class ProtocolLink:
                     self.host_stall_s)
             except OSError:
                 self._hb_proc = None          # no helper: the thread heartbeats
+            else:                             # up before the display is handed over (a
+                if not self._hb_proc.wait_ready(HELPER_START_S):    # loaded machine: ~0.1 s)
+                    self._hb_proc.stop(wait_s=0.0)
+                    self._hb_proc = None      # it did not start: the thread heartbeats
+            self._alive = time.monotonic()    # (this is the I/O thread)
         self._hb_stop.clear()
         self._hb_thread = threading.Thread(target=self._heartbeat_loop, name="display-heartbeat",
                                            daemon=True)
@@ -391,7 +399,7 @@ class ProtocolLink:
         period = self.heartbeat_s
         while not self._hb_stop.wait(period):
             now = time.monotonic()
-            helper = self._hb_proc is not None and self._hb_proc.running
+            helper = self._hb_proc is not None and self._hb_proc.ready and self._hb_proc.running
             try:
                 # the I/O thread alive (or merely busy: a GIL-holding main thread still counts)
                 # and nothing written for half a period: heartbeat, whoever holds the I/O lock

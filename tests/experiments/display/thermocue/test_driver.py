@@ -204,6 +204,66 @@ def test_the_heartbeat_helper_feeds_the_watchdog_while_the_host_holds_the_gil(tm
     assert len(hb) >= 0.5 * held / d.link.heartbeat_s         # ≥ half the 10 ms ticks got through
 
 
+def _pty_display():
+    import os
+    import pty
+
+    import serial
+
+    from experiments.display.thermocue.driver import ThermalDisplay
+    master, slave = pty.openpty()
+    return master, slave, ThermalDisplay(serial.serial_for_url(os.ttyname(slave), timeout=0.01))
+
+
+def test_the_display_is_handed_over_only_once_the_heartbeat_helper_runs(monkeypatch):
+    # a second Python on a loaded machine can take more than the watchdog's 90 ms to write its
+    # first heartbeat; the driver's thread used to stand down as soon as the process existed
+    import os
+    import time
+
+    from experiments.display.thermocue import heartbeat
+    from experiments.display.thermocue.framing import FrameParser
+    monkeypatch.setattr(heartbeat, "_HELPER", "import time; time.sleep(0.4)\n" + heartbeat._HELPER)
+    master, slave, d = _pty_display()
+    try:
+        t0 = time.monotonic()
+        d.start_heartbeat()
+        waited = time.monotonic() - t0
+        assert d.link._hb_proc is not None and d.link._hb_proc.ready and waited >= 0.4
+        time.sleep(0.1)
+        os.set_blocking(master, False)
+        hb = [f for f in FrameParser().feed(os.read(master, 65536))
+              if f.type == Cmd.HEARTBEAT and f.payload == b"\x00"]
+        assert len(hb) >= 3                      # the helper writes from the moment it is handed over
+        d.stop_heartbeat()
+        d.port.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_a_heartbeat_helper_that_does_not_start_leaves_the_heartbeat_to_the_thread(monkeypatch):
+    import os
+    import time
+
+    from experiments.display.thermocue import heartbeat, link
+    monkeypatch.setattr(heartbeat, "_HELPER", "import time; time.sleep(60)\n")
+    monkeypatch.setattr(link, "HELPER_START_S", 0.3)
+    master, slave, d = _pty_display()
+    try:
+        d.start_heartbeat()
+        assert d.link._hb_proc is None           # stopped, not left half started
+        deadline = time.monotonic() + 5
+        while d.link.heartbeats_sent < 5 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert d.link.heartbeats_sent >= 5       # the thread's, every 10 ms
+        d.stop_heartbeat()
+        d.port.close()
+    finally:
+        os.close(master)
+        os.close(slave)
+
+
 @pytest.mark.parametrize("hold_s", [0.3])
 def test_the_in_process_emulator_is_heartbeated_by_the_helper_while_the_host_holds_the_gil(hold_s):
     # emulator:// on a real clock runs the device in this process: a thread heartbeat and the
