@@ -211,8 +211,8 @@ def test_restart_is_detected_and_a_new_boot_id_drawn(fresh_display):
     boot = d.hello.boot_id
     wait_device_time(d, 1.0)
     before_s = d.status().device_time_s
-    d.sim_fault("reboot@0.1")
-    injected = time.monotonic()
+    injected = time.monotonic()                  # before the command: the device's 0.1 s starts
+    d.sim_fault("reboot@0.1")                     # when it handles it, after this
     with pytest.raises(DisplayRestarted):
         deadline = time.monotonic() + 10.0           # the device's 0.1 s, however slow it runs
         while time.monotonic() < deadline:

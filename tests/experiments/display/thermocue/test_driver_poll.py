@@ -47,7 +47,7 @@ def test_poll_runs_a_trial_without_blocking(real_clock_display):
     # polling never waits for bytes: a waiting read would take its 10 ms timeout on every call;
     # the median call takes far less (the median, so that a call pre-empted by another process
     # on a loaded machine does not decide)
-    assert polls > 60 and float(np.median(took)) < 0.005
+    assert polls > 10 and float(np.median(took)) < 0.005     # (about 95 calls on a quiet machine)
     assert d.status().state == "IDLE"
 
 

@@ -37,11 +37,17 @@ def test_bad_urls_quote_the_grammar(url, words):
 
 def test_real_clock_ticks_in_wall_time():
     import time
+    # never ahead of the wall clock, and it keeps up with it (its clock thread, starved on a
+    # loaded machine, catches up on the ticks it owes once it runs)
     port = serial.serial_for_url("emulator://", timeout=0.05)
     try:
-        t0 = port.device.time_us
+        t0, w0 = port.device.time_us, time.monotonic()
         time.sleep(0.2)
-        assert 0.1e6 < port.device.time_us - t0 < 0.4e6
+        deadline = time.monotonic() + 5.0
+        while port.device.time_us - t0 < 0.19e6 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        ran_us, wall_us = port.device.time_us - t0, (time.monotonic() - w0) * 1e6
+        assert 0.19e6 <= ran_us <= wall_us + 10_000, (ran_us, wall_us)
     finally:
         port.close()
 
