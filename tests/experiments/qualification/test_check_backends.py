@@ -105,21 +105,28 @@ def test_the_sim_images_clock_check_holds_its_promise_while_qemu_is_held_off(tmp
     from experiments.qualification.bench import Bench
     from experiments.qualification.clock import check_clock
     d = open_display("qemu-firmware://")
+    held = []
     try:
         def hold_off():
             time.sleep(0.05)
             d.qemu.send_signal(signal.SIGSTOP)
+            t0 = time.monotonic()
             time.sleep(1.85)     # of the check's ≥ 2 s: well under a fifth left to run
+            held.append(time.monotonic() - t0)
             d.qemu.send_signal(signal.SIGCONT)
         t = threading.Thread(target=hold_off)
         t.start()
+        w0 = time.monotonic()
         r = check_clock(Bench(d, "qemu-firmware://", tmp_path))
+        wall = time.monotonic() - w0
         t.join()
     finally:
         d.qemu.send_signal(signal.SIGCONT)
         d.close()
     share = float(r.measured.split("advanced ")[1].split("%")[0]) / 100
-    assert 0.0 < share < 0.2, r.measured        # QEMU was held off: the clock paused
+    # QEMU was held off: the clock paused, advancing at most in the check's time not held
+    # (a loaded host stretches the check past the hold; 2 % for the stamps' own round trips)
+    assert 0.0 < share <= (wall - held[0]) / wall + 0.02, (r.measured, wall, held)
     assert r.passed, (r.measured, r.reason)
 
 
