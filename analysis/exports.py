@@ -240,8 +240,10 @@ def csv_text(df: pd.DataFrame) -> str | None:
 
     Handled: at least two columns named by strings, each column float64 (numpy's shortest
     round-trip text, what pandas writes; NaN blank), a numpy integer or bool dtype, or strings
-    (object or pandas' string dtype; missing ones blank) with none of ``,"\\r\\n`` in any
-    field or name (no quoting to decide). Lines end with ``\\n``, as pandas' default on POSIX.
+    (object or pandas' string dtype; missing ones blank; a field with ``,`` or ``"`` quoted as
+    the csv module's QUOTE_MINIMAL quotes it, ``"`` doubled) with neither ``\\r`` nor ``\\n``
+    in any field, and none of ``,"\\r\\n`` in a name. Lines end with ``\\n``, as pandas'
+    default on POSIX.
     """
     columns = _csv_columns(df)
     return None if columns is None else "".join(_csv_chunks(list(df.columns), columns))
@@ -276,8 +278,16 @@ def _csv_columns(df: pd.DataFrame) -> list[list[str]] | None:
             values = col.to_numpy(dtype=object)
             missing = col.isna().to_numpy()
             text = np.where(missing, "", values)
-            if not all(type(v) is str and _NEEDS_QUOTES.isdisjoint(v) for v in text):
-                return None
+            quoted = {}                    # the csv module's QUOTE_MINIMAL, per distinct field
+            for v in text:
+                if type(v) is not str:
+                    return None
+                if not _NEEDS_QUOTES.isdisjoint(v) and v not in quoted:
+                    if "\r" in v or "\n" in v:      # quoted or not by the line ending: pandas
+                        return None
+                    quoted[v] = '"' + v.replace('"', '""') + '"'
+            if quoted:
+                text = np.array([quoted.get(v, v) for v in text.tolist()], dtype=object)
         else:
             return None
         columns.append(text.tolist())

@@ -179,9 +179,38 @@ def ordinal_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _standard_logistic():
+    """scipy's standard logistic distribution whose ``cdf`` and ``pdf`` of one array, with no
+    location or scale, skip ``rv_continuous``'s argument handling: the same ``_cdf``
+    (``expit``) and ``_pdf`` formulas, hence the same doubles (infinite and NaN arguments
+    included).  statsmodels' ``OrderedModel`` takes any ``rv_continuous`` as ``distr`` (its
+    ``"logit"`` is ``stats.logistic``) and calls ``cdf`` twice per likelihood evaluation of its
+    numerical derivatives: the generic handling was half of the ordinal table's time."""
+    global _LOGISTIC
+    if _LOGISTIC is None:
+        from scipy import special
+
+        class StandardLogistic(type(stats.logistic)):
+            def cdf(self, x, *args, **kwds):
+                if args or kwds:
+                    return super().cdf(x, *args, **kwds)
+                return special.expit(np.asarray(x, dtype=float))
+
+            def pdf(self, x, *args, **kwds):
+                if args or kwds:
+                    return super().pdf(x, *args, **kwds)
+                y = -np.abs(np.asarray(x, dtype=float))
+                return np.exp(y - 2. * special.log1p(np.exp(y)))
+        _LOGISTIC = StandardLogistic(name="logistic")
+    return _LOGISTIC
+
+
+_LOGISTIC = None
+
+
 def _po_slope(sel: pd.DataFrame, level: float = 0.95) -> tuple[float, float, float, float]:
     """Proportional-odds slope per sample step: estimate, cluster-robust SE and Wald interval
-    (statsmodels' ``res.conf_int``)."""
+    (statsmodels' ``res.conf_int``; the logit link as :func:`_standard_logistic`)."""
     from statsmodels.miscmodels.ordinal_model import OrderedModel
     nan = (np.nan,) * 4
     y = pd.Series(pd.Categorical(sel["response_id"].astype(int), categories=[1, 2, 3, 4],
@@ -192,7 +221,8 @@ def _po_slope(sel: pd.DataFrame, level: float = 0.95) -> tuple[float, float, flo
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = OrderedModel(y.cat.remove_unused_categories(), x, distr="logit").fit(
+            res = OrderedModel(y.cat.remove_unused_categories(), x,
+                               distr=_standard_logistic()).fit(
                 method="bfgs", disp=False, cov_type="cluster",
                 cov_kwds={"groups": pd.factorize(sel["participant"])[0]})
         except (ValueError, np.linalg.LinAlgError, ZeroDivisionError):

@@ -254,7 +254,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
             equivalence_margin_pp: float | None = None,
             condition: str | None = None,
             before_write: Callable | None = None, executor=None,
-            loaded: TrialLog | None = None) -> AnalysisResult:
+            loaded: TrialLog | None = None, figure9: bool = True) -> AnalysisResult:
     """Load every session under ``data_dir``, analyse, and write the results to ``out_dir``.
 
     Parameters
@@ -311,6 +311,9 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         ``data_dir``'s sessions already read by :func:`analysis.load.load_trials` with the same
         ``sessions`` and ``condition`` (``reproduce figure9`` reads its study once for this
         analysis and its receptor-depth fit); default: read here. Not changed here.
+    figure9 : bool
+        Draw ``figure9.png`` / ``.pdf`` (default); False leaves them to the caller
+        (``reproduce figure9`` draws its own in their place, the claims beside the sessions).
 
     Returns
     -------
@@ -333,7 +336,7 @@ def analyze(data_dir, out_dir, *, n_boot: int = 2000, level: float = 0.95, seed:
         proportions = cell_proportions(trials, level=level, n_boot=n_boot, seed=seed)
         participants = participant_summary(trials)
         confusion = confusion_matrices(trials)
-        worker.draw(proportions, confusion)
+        worker.draw(proportions, confusion, figure9=figure9)
         fits = _fit_models(trials, level=level, seed=seed, mixed=mixed, bayes=bayes, say=say,
                            submit=worker.submit)
         contrasts = _contrasts(fits, trials, level)

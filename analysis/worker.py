@@ -43,14 +43,19 @@ __all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures", "run_pickled",
            "warm_up_workers"]
 
 
-def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame) -> dict[str, bytes]:
-    """``figure9.png``, ``figure9.pdf`` and ``confusion.png`` as bytes, by file name (what
-    :func:`analysis.figures.plot_figure9` and :func:`analysis.figures.plot_confusion` write)."""
-    from .figures import agg_pyplot, confusion_figure, figure9
+def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame,
+                   figure9: bool = True) -> dict[str, bytes]:
+    """``figure9.png``, ``figure9.pdf`` (unless not ``figure9``) and ``confusion.png`` as bytes,
+    by file name (what :func:`analysis.figures.plot_figure9` and
+    :func:`analysis.figures.plot_confusion` write)."""
+    from .figures import agg_pyplot, confusion_figure
+    from .figures import figure9 as figure9_of
     plt = agg_pyplot()
     out = {}
-    for fig, names in ((figure9(proportions), ("figure9.png", "figure9.pdf")),
-                       (confusion_figure(confusion), ("confusion.png",))):
+    drawn = [(lambda: figure9_of(proportions), ("figure9.png", "figure9.pdf"))] if figure9 else []
+    drawn.append((lambda: confusion_figure(confusion), ("confusion.png",)))
+    for make, names in drawn:
+        fig = make()
         for name in names:
             buf = io.BytesIO()
             fig.savefig(buf, format=Path(name).suffix[1:])
@@ -134,9 +139,10 @@ class AnalysisWorker:
         else:
             self._warming = [self._start(warm_up_workers, task) for task in range(2)]
 
-    def draw(self, proportions: pd.DataFrame, confusion: pd.DataFrame) -> None:
+    def draw(self, proportions: pd.DataFrame, confusion: pd.DataFrame,
+             figure9: bool = True) -> None:
         """Have :func:`render_figures` drawn now (in the worker) for :meth:`write`."""
-        self._args = (proportions, confusion)
+        self._args = (proportions, confusion, bool(figure9))
         self._future = self._start(render_figures, *self._args)
 
     def _start(self, function, *args) -> Future | None:
@@ -163,13 +169,15 @@ class AnalysisWorker:
 
     def write(self, out: Path) -> dict[str, Path]:
         """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
-        beside ``figure9.png``, as :func:`analysis.figures.plot_figure9`)."""
+        beside ``figure9.png``, as :func:`analysis.figures.plot_figure9`; no ``figure9`` when
+        :meth:`draw` was told not to draw it)."""
         files = (Job(self._future, render_figures, self._args, anything=not self._own).result()
                  if self._future is not None else render_figures(*self._args))
         for name, data in files.items():
             with output_file(Path(out) / name, "wb") as fh:
                 fh.write(data)
-        return {"figure9": Path(out) / "figure9.png", "confusion_png": Path(out) / "confusion.png"}
+        written = {"figure9": Path(out) / "figure9.png", "confusion_png": Path(out) / "confusion.png"}
+        return {k: v for k, v in written.items() if v.name in files}
 
     def close(self) -> None:
         """Stop the worker (waiting for a drawing under way); the caller's ``executor`` is

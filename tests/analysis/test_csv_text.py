@@ -37,8 +37,12 @@ def _frames():
         "p": rng.integers(0, 181, 5000) / 180, "k": rng.integers(0, 3, 5000),
         "q": np.where(rng.random(5000) < 0.1, np.nan, rng.random(5000))})
     yield "no rows", pd.DataFrame({"a": pd.Series([], dtype=float), "b": pd.Series([], dtype=str)})
-    # left to pandas: quoting to decide, one column, other dtypes
     yield "comma in a field", pd.DataFrame({"a": ["x,y", "z"], "b": [1, 2]})
+    yield "quotes and commas in fields", pd.DataFrame({
+        "setting": ['0.15 K, 0.15 K/s', 'say "hi"', '"', ',', '""', 'a,"b",c', None, "plain"] * 3,
+        "v": np.arange(24, dtype=float) / 7})
+    # left to pandas: a line break in a field or quoting in a name, one column, other dtypes
+    yield "carriage return in a field", pd.DataFrame({"a": ["x\ry", "z,"], "b": [1.0, 2.0]})
     yield "quote in a name", pd.DataFrame({'say "hi"': [1, 2], "b": [1, 2]})
     yield "newline in a field", pd.DataFrame({"a": ["x\ny", "z"], "b": [1.0, 2.0]})
     yield "one column", pd.DataFrame({"a": [1.0, np.nan]})
@@ -58,4 +62,4 @@ def test_the_column_wise_path_takes_plain_tables_and_leaves_the_rest_to_pandas()
     taken = {label for label, df in _frames() if csv_text(df) is not None}
     assert taken == {"hard floats", "negative zero only among zeros", "ints and bools",
                      "strings with gaps", "pandas string dtype", "many repeated proportions",
-                     "no rows"}
+                     "no rows", "comma in a field", "quotes and commas in fields"}

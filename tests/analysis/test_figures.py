@@ -126,3 +126,23 @@ def test_a_worker_started_early_draws_what_it_is_given(tables, tmp_path, monkeyp
         assert list(out.iterdir()) == []
         files = job.write(out)
     assert files["figure9"].read_bytes() == plot_figure9(props, tmp_path / "f.png").read_bytes()
+
+
+@pytest.mark.parametrize("fork", [True, False])
+def test_a_worker_told_not_to_draw_figure9_writes_the_confusion_heatmap_only(tables, tmp_path,
+                                                                               monkeypatch, fork):
+    """``analyze(..., figure9=False)`` (``reproduce figure9``, which draws its own Figure 9 in
+    its place): no figure9.png or .pdf, the same confusion.png."""
+    from analysis import worker
+    monkeypatch.setattr(worker, "can_fork", lambda: fork)
+    props, conf = tables
+    both, one = tmp_path / "both", tmp_path / "one"
+    for out, figure9 in ((both, True), (one, False)):
+        out.mkdir()
+        with worker.AnalysisWorker() as job:
+            job.draw(props, conf, figure9=figure9)
+            files = job.write(out)
+    assert sorted(p.name for p in one.iterdir()) == ["confusion.png"]
+    assert set(files) == {"confusion_png"}
+    assert (one / "confusion.png").read_bytes() == (both / "confusion.png").read_bytes()
+    assert sorted(p.name for p in both.iterdir()) == ["confusion.png", "figure9.pdf", "figure9.png"]

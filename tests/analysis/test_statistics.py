@@ -141,6 +141,37 @@ def test_ordinal_slope_is_positive_when_answers_follow_the_order():
     assert (ordinal_table(shuffled)["spearman_pooled"].abs() < 0.2).all()
 
 
+def test_the_ordinal_slope_is_statsmodels_own_logit_fit_to_the_last_bit():
+    # the ordinal table's logit link skips scipy's generic argument handling: statsmodels'
+    # OrderedModel with its own distr="logit" (scipy's stats.logistic) is the reference
+    import warnings
+
+    from statsmodels.miscmodels.ordinal_model import OrderedModel
+
+    from analysis.psychophysics import _po_slope, _standard_logistic
+    x = np.array([-np.inf, -800.0, -40.0, -1e-3, -0.0, 0.0, 5e-324, 2.5, 40.0, 800.0, np.inf, np.nan])
+    fast = _standard_logistic()
+    for name in ("cdf", "pdf"):
+        want = getattr(stats.logistic, name)(x)
+        assert np.array_equal(getattr(fast, name)(x), want, equal_nan=True), name
+        assert getattr(fast, name)(2.5) == getattr(stats.logistic, name)(2.5)
+        assert getattr(fast, name)(x, loc=1.0) == pytest.approx(getattr(stats.logistic, name)(x, loc=1.0),
+                                                                nan_ok=True)
+    trials = generate(effect_cells(), seed=15)
+    for _, sel in trials.groupby(["group", "mode"]):
+        y = pd.Series(pd.Categorical(sel["response_id"].astype(int), categories=[1, 2, 3, 4],
+                                     ordered=True))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = OrderedModel(y.cat.remove_unused_categories(),
+                               sel[["roughness_id"]].astype(float).reset_index(drop=True),
+                               distr="logit").fit(
+                method="bfgs", disp=False, cov_type="cluster",
+                cov_kwds={"groups": pd.factorize(sel["participant"])[0]})
+        low, high = res.conf_int(alpha=0.05).loc["roughness_id"]
+        assert _po_slope(sel) == (res.params["roughness_id"], res.bse["roughness_id"], low, high)
+
+
 def test_summary_names_only_holm_adjusted_results():
     from analysis.summary import tests_summary
     def table(p_holm):

@@ -264,7 +264,8 @@ def _beside_the_study(out_dir, seconds, t1, result, best, headline, default_run,
                                   responder_options={**options, "observer": headline[1],
                                                      **({} if force_sd_N is None else
                                                         {"force_sd_N": lab.force_sd_N})},
-                                  sweep=sweep, after_sessions=start_depth_fit)
+                                  sweep=sweep, after_sessions=start_depth_fit,
+                                  analysis_figure9=False)    # drawn by draw(study) instead
         figure.append(draw(study))
         return study
     try:

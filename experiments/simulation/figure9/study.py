@@ -122,7 +122,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
                       analyze: bool = True, participants: int | None = None,
                       target_side: str | None = None, rate_limit: str | None = None,
                       replay: str | None = None, durable: bool = False, sweep=None,
-                      after_sessions=None) -> dict:
+                      after_sessions=None, analysis_figure9: bool = True) -> dict:
     """Run the paper's Figure 9 study end to end with simulated participants.
 
     Parameters
@@ -169,6 +169,9 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
         (:func:`analysis.load.load_trials`'s, read once for it and the analysis; a copy of
         its own) once every session has ended, before the analysis (``reproduce figure9``
         starts the receptor-depth fit there, which needs only the sessions' answers).
+    analysis_figure9 : bool
+        Have the analysis draw ``figure9.png`` / ``.pdf`` (default); ``reproduce figure9``
+        draws its own in their place (``analysis.analyze(..., figure9=False)``).
     replay : str, optional
         A replay hypothesis (:data:`stimuli.paper.REPLAY_NAMES`, :mod:`experiments.simulation.
         replay`): sets the side, the rate limit, the method and the replayed material.
@@ -220,7 +223,7 @@ def run_figure9_study(out_dir, seed: int = 0, workers: int | None = None, *,
     if after_sessions is not None:
         after_sessions(data_dir, summary["sessions"], loaded.analysable)
     if analyze:
-        _analyse(summary, data_dir, out_dir, used, loaded, load_s)
+        _analyse(summary, data_dir, out_dir, used, loaded, load_s, analysis_figure9)
     from sessionfiles.logbook import atomic_write_json
     atomic_write_json(out_dir / "study.json", {
         "study": "figure9", "seed": int(seed), "workers": workers,
@@ -290,7 +293,7 @@ def _run_sessions(jobs, workers, sweep) -> tuple[list, int]:
     return results, workers
 
 
-def _analyse(summary, data_dir, out_dir, used, loaded=None, load_s=0.0) -> None:
+def _analyse(summary, data_dir, out_dir, used, loaded=None, load_s=0.0, figure9=True) -> None:
     """:func:`analysis.analyze` of the sessions (``loaded``: already read, in ``load_s``) into
     ``summary`` (``analysis``, ``analysis_seconds``, the reading included); the Figure 9 table
     logged.  In this process, figures and profile intervals included: given the cluster's
@@ -299,7 +302,7 @@ def _analyse(summary, data_dir, out_dir, used, loaded=None, load_s=0.0) -> None:
     963-996 MiB, ``benchmarks/bench_study.py``)."""
     from analysis import analyze as run_analysis
     t0 = time.perf_counter()
-    summary["analysis"] = run_analysis(data_dir, out_dir, loaded=loaded)
+    summary["analysis"] = run_analysis(data_dir, out_dir, loaded=loaded, figure9=figure9)
     summary["analysis_seconds"] = load_s + time.perf_counter() - t0
     _note_simulation(out_dir / "report.md", used)
     if log.isEnabledFor(logging.INFO):

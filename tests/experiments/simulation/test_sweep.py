@@ -145,3 +145,51 @@ def test_a_later_smaller_map_waits_for_the_queued_tasks_of_a_higher_priority(tmp
         studies.join()
     order = [name for name, _ in sorted(first + later, key=lambda r: r[1])]
     assert sorted(order[-2:]) == ["study 0", "study 1"], order
+
+
+def _thread_nices() -> list:
+    """The nice value of every thread of this process (Linux: nice is per thread)."""
+    import os
+    return sorted(os.getpriority(os.PRIO_PROCESS, int(t))
+                  for t in os.listdir(f"/proc/{os.getpid()}/task"))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_lower_priority_lowers_every_thread_and_threads_started_later_inherit_it():
+    import subprocess
+    code = ("import os, threading, time\n"
+            "from experiments.simulation.sweep import lower_priority\n"
+            "stop = threading.Event()\n"
+            "t = threading.Thread(target=stop.wait); t.start()\n"
+            "base = os.getpriority(os.PRIO_PROCESS, 0)\n"
+            "n = lower_priority(3)\n"
+            "later = []\n"
+            "u = threading.Thread(target=lambda: later.append(os.getpriority(os.PRIO_PROCESS, 0)))\n"
+            "u.start(); u.join()\n"
+            "tids = os.listdir(f'/proc/{os.getpid()}/task')\n"
+            "print(base, n, sorted({os.getpriority(os.PRIO_PROCESS, int(i)) for i in tids}), later)\n"
+            "stop.set(); t.join()\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    base, n, nices, later = out.stdout.split(" ", 3)
+    want = min(19, int(base) + 3)
+    assert int(n) == 2                                    # the main thread and the other one
+    assert nices == f"[{want}]" and later.strip() == f"[{want}]", out.stdout
+
+
+@pytest.mark.slow   # starts a one-worker LocalCluster (~5 s)
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_the_local_workers_run_below_this_process_and_a_tasks_thread_too():
+    # this process's work on the results (claims, the emulated study's analysis) is what the
+    # rest waits for: the workers yield the CPU to it (WORKER_NICE)
+    import os
+
+    from experiments.simulation.sweep import WORKER_NICE, Sweep
+    here = os.getpriority(os.PRIO_PROCESS, 0)
+    with Sweep(workers=1) as sweep:
+        in_tasks = sweep.map(_thread_nices, [(), ()])      # two tasks: on the worker
+        on_worker = sweep.client.run(_thread_nices)
+    want = min(19, here + WORKER_NICE)
+    assert WORKER_NICE >= 1
+    for nices in [*in_tasks, *on_worker.values()]:
+        assert set(nices) == {want}, (here, nices)
+    assert os.getpriority(os.PRIO_PROCESS, 0) == here    # this process is left as it was
