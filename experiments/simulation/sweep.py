@@ -23,7 +23,7 @@ import os
 import time
 
 __all__ = ["Sweep", "STUDIES_PER_TASK", "chunks", "default_workers", "WORKER_MALLOC", "trim_heap",
-           "release_process_memory", "WORKER_NICE", "lower_priority"]
+           "release_process_memory", "WORKER_NICE", "lower_priority", "QUIET_CLUSTER"]
 
 log = logging.getLogger("thermocue.study")
 
@@ -39,6 +39,19 @@ STUDIES_PER_TASK = 100
 #: Arrays up to 16 MiB now come from the heap, which keeps up to 64 MiB free per worker.
 #: Only where memory comes from changes, never a number.
 WORKER_MALLOC = {"MALLOC_MMAP_THRESHOLD_": 16 * 2**20, "MALLOC_TRIM_THRESHOLD_": 64 * 2**20}
+
+
+#: dask settings of the LocalCluster whose defaults serve a dashboard or a long-lived cluster, not
+#: a sweep of a minute: each server (the scheduler and the two nannies in this process, each
+#: worker) measured its event loop's lag every 20 ms (``admin.tick``: it only logs a loop
+#: blocked for over 3 s), each nanny read its worker's memory from /proc every 100 ms (the
+#: limit it enforces, now checked every second) and each server sampled the machine's CPU,
+#: memory and disks every 0.5 s for the dashboard's plots.  An idle 2-worker cluster took 6 %
+#: of a core in this process and 2 % in each worker (1.2 + 0.46 + 0.42 s of CPU in 20 s), 0.37 s
+#: in all with these.  Only when the chores run changes, never a task or a result.
+QUIET_CLUSTER = {"distributed.admin.tick.interval": "1s",
+                 "distributed.worker.memory.monitor-interval": "1s",
+                 "distributed.admin.system-monitor.interval": "2s"}
 
 
 #: How far below this process the LocalCluster's workers run (a nice increment; Linux's CFS
@@ -134,10 +147,12 @@ class Sweep:
             # event loop, the running task's stack taken and tallied, for a dashboard this
             # cluster does not serve) cost 12 % of an emulated session's CPU (median 1.33
             # against 1.17 s, benchmarks/bench_dask_profiler.py); the same tasks and results
+            # the servers' periodic chores at a pace this cluster needs (QUIET_CLUSTER)
             with dask.config.set({**{f"distributed.nanny.pre-spawn-environ.{k}": v
                                      for k, v in WORKER_MALLOC.items()},
                                   "distributed.scheduler.worker-saturation": math.inf,
-                                  "distributed.worker.profile.enabled": False}):
+                                  "distributed.worker.profile.enabled": False,
+                                  **QUIET_CLUSTER}):
                 self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1,
                                             processes=True, dashboard_address=":0",
                                             silence_logs=logging.ERROR)

@@ -176,9 +176,15 @@ def test_lower_priority_lowers_every_thread_and_threads_started_later_inherit_it
     assert nices == f"[{want}]" and later.strip() == f"[{want}]", out.stdout
 
 
+def _chores_ms(dask_worker=None, dask_scheduler=None) -> dict:
+    """Period of each periodic callback of a dask server (a worker, the scheduler, a nanny), ms."""
+    server = dask_worker if dask_worker is not None else dask_scheduler
+    return {name: pc.callback_time for name, pc in server.periodic_callbacks.items()}
+
+
 @pytest.mark.slow   # starts a one-worker LocalCluster (~5 s)
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
-def test_the_local_workers_run_below_this_process_and_a_tasks_thread_too():
+def test_the_local_workers_run_below_this_process_and_at_a_quiet_pace():
     # this process's work on the results (claims, the emulated study's analysis) is what the
     # rest waits for: the workers yield the CPU to it (WORKER_NICE)
     import os
@@ -188,6 +194,16 @@ def test_the_local_workers_run_below_this_process_and_a_tasks_thread_too():
     with Sweep(workers=1) as sweep:
         in_tasks = sweep.map(_thread_nices, [(), ()])      # two tasks: on the worker
         on_worker = sweep.client.run(_thread_nices)
+        paces = [*sweep.client.run(_chores_ms).values(),
+                 sweep.client.run_on_scheduler(_chores_ms),
+                 *(_chores_ms(nanny) for nanny in sweep.cluster.workers.values())]
+    # the servers' periodic chores at QUIET_CLUSTER's pace, on the worker, the scheduler and
+    # the nanny (dask's defaults: a tick every 20 ms, the memory every 100 ms, the machine's
+    # CPU and disks every 500 ms)
+    for pace in paces:
+        assert pace["tick"] == 1000 and pace["monitor"] == 2000, pace
+        assert pace.get("memory_monitor", 1000) == 1000, pace
+    assert "memory_monitor" in paces[0] and "memory_monitor" in paces[-1]
     want = min(19, here + WORKER_NICE)
     assert WORKER_NICE >= 1
     for nices in [*in_tasks, *on_worker.values()]:
