@@ -135,7 +135,7 @@ def bias_text(result, scenario) -> str:
     top = int(np.argmax(share))
     if share[top] < 0.5:
         return ""
-    return (f"{_name(scenario)} names most simulated samples {top + 1}# ({share[top]:.0%} of its "
+    return (f"{_name(scenario)} names most simulated samples {top + 1}# ({100 * share[top]:.0f} % of its "
             f"simulated answers on average, against 25 % without a bias): a response bias, not "
             f"recognition")
 

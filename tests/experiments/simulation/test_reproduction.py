@@ -61,7 +61,7 @@ def test_verdict_gives_the_paper_claims_alone_and_names_what_decides_the_differe
            "reproduced, decided by no bias S* 0.01 [0.00, 0.02] (the paper states no such " \
            "claim: a response bias is not recognition)" in paper
     # the bias in words, not only as a failed criterion
-    assert "skin/absolute names most simulated samples 4# (73% of its simulated answers" in paper
+    assert "skin/absolute names most simulated samples 4# (73 % of its simulated answers" in paper
 
 
 def test_the_paper_claims_alone_say_when_the_star_criteria_change_nothing():
