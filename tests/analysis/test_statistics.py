@@ -149,14 +149,14 @@ def test_the_ordinal_slope_is_statsmodels_own_logit_fit_to_the_last_bit():
     from statsmodels.miscmodels.ordinal_model import OrderedModel
 
     from analysis.psychophysics import _po_slope, _standard_logistic
-    x = np.array([-np.inf, -800.0, -40.0, -1e-3, -0.0, 0.0, 5e-324, 2.5, 40.0, 800.0, np.inf, np.nan])
+    x = np.array([-np.inf, -800.0, -40.0, -1e-3, -0.0, 0.0, 5e-324, 2.5, 40.0, 800.0, np.inf,
+                  np.nan])
     fast = _standard_logistic()
     for name in ("cdf", "pdf"):
-        want = getattr(stats.logistic, name)(x)
-        assert np.array_equal(getattr(fast, name)(x), want, equal_nan=True), name
-        assert getattr(fast, name)(2.5) == getattr(stats.logistic, name)(2.5)
-        assert getattr(fast, name)(x, loc=1.0) == pytest.approx(getattr(stats.logistic, name)(x, loc=1.0),
-                                                                nan_ok=True)
+        mine, scipys = getattr(fast, name), getattr(stats.logistic, name)
+        assert np.array_equal(mine(x), scipys(x), equal_nan=True), name
+        assert mine(2.5) == scipys(2.5)
+        assert mine(x, loc=1.0) == pytest.approx(scipys(x, loc=1.0), nan_ok=True)   # scipy's own
     trials = generate(effect_cells(), seed=15)
     for _, sel in trials.groupby(["group", "mode"]):
         y = pd.Series(pd.Categorical(sel["response_id"].astype(int), categories=[1, 2, 3, 4],
