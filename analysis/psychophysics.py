@@ -37,11 +37,12 @@ References
 """
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy import special, stats
 
 from . import statsmodels_engine
 
@@ -179,33 +180,31 @@ def ordinal_table(trials: pd.DataFrame, *, level: float = 0.95) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _standard_logistic():
+class _StandardLogistic(type(stats.logistic)):
     """scipy's standard logistic distribution whose ``cdf`` and ``pdf`` of one array, with no
     location or scale, skip ``rv_continuous``'s argument handling: the same ``_cdf``
     (``expit``) and ``_pdf`` formulas, hence the same doubles (infinite and NaN arguments
     included).  statsmodels' ``OrderedModel`` takes any ``rv_continuous`` as ``distr`` (its
     ``"logit"`` is ``stats.logistic``) and calls ``cdf`` twice per likelihood evaluation of its
     numerical derivatives: the generic handling was half of the ordinal table's time."""
-    global _LOGISTIC
-    if _LOGISTIC is None:
-        from scipy import special
 
-        class StandardLogistic(type(stats.logistic)):
-            def cdf(self, x, *args, **kwds):
-                if args or kwds:
-                    return super().cdf(x, *args, **kwds)
-                return special.expit(np.asarray(x, dtype=float))
+    def cdf(self, x, *args, **kwds):
+        if args or kwds:
+            return super().cdf(x, *args, **kwds)
+        return special.expit(np.asarray(x, dtype=float))
 
-            def pdf(self, x, *args, **kwds):
-                if args or kwds:
-                    return super().pdf(x, *args, **kwds)
-                y = -np.abs(np.asarray(x, dtype=float))
-                return np.exp(y - 2. * special.log1p(np.exp(y)))
-        _LOGISTIC = StandardLogistic(name="logistic")
-    return _LOGISTIC
+    def pdf(self, x, *args, **kwds):
+        if args or kwds:
+            return super().pdf(x, *args, **kwds)
+        y = -np.abs(np.asarray(x, dtype=float))
+        return np.exp(y - 2. * special.log1p(np.exp(y)))
 
 
-_LOGISTIC = None
+@functools.cache
+def _standard_logistic() -> _StandardLogistic:
+    """The one :class:`_StandardLogistic` (made on first use: scipy formats a distribution's
+    docstring when it is made)."""
+    return _StandardLogistic(name="logistic")
 
 
 def _po_slope(sel: pd.DataFrame, level: float = 0.95) -> tuple[float, float, float, float]:
