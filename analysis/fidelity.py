@@ -39,7 +39,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import patsy
 from scipy import special, stats
 
 from sessionfiles.session_reader import read_text_file
@@ -48,8 +47,8 @@ from .errors import LogError
 from .inference import holm
 from .small_sample import row_df
 from .wording import df_text, p_text, signed
-from .models import (ModelFit, contrast_se, design_gap, model_data, reference_p,
-                     reference_quantile)
+from .models import (ModelFit, contrast_se, design_gap, design_rows, model_data,
+                     reference_p, reference_quantile)
 
 __all__ = ["DEFAULT_EQUIVALENCE_MARGIN_PP", "mode_contrasts", "tost", "equivalence_margin",
            "FIDELITY_COLUMNS"]
@@ -152,12 +151,6 @@ def equivalence_margin(session_folders, override_pp: float | None = None) -> tup
         (value, path), = found.items()
         return value, "the protocol ([analysis] equivalence_margin_pp)"
     return DEFAULT_EQUIVALENCE_MARGIN_PP, "default (the protocol sets none)"
-
-
-def _rows(fit: ModelFit, group, mode, samples) -> np.ndarray:
-    grid = pd.DataFrame([(g, mode, r, 0, "x") for g in group for r in samples],
-                        columns=["group", "mode", "roughness_id", "correct", "participant"])
-    return np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
 
 
 def contrast_df(fit: ModelFit, data: pd.DataFrame, group: str,
@@ -276,6 +269,7 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
         return pd.DataFrame(columns=FIDELITY_COLUMNS)
     samples = sorted(data["roughness_id"].unique())
     groups = sorted(data["group"].unique())
+    design_rows(fit, groups, ["real", "simulated"], samples)    # every row below, at once
     scale = ("population-averaged" if fit.kind == "gee" else "typical participant (u = 0)")
     margin = margin_pp / 100.0
     basis = f"model: {fit.formula}" + {"glmm": " + (1 | participant)",
@@ -284,7 +278,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     rows = []
     for group in groups + (["both"] if len(groups) > 1 else []):
         which = groups if group == "both" else [group]
-        xr, xs = _rows(fit, which, "real", samples), _rows(fit, which, "simulated", samples)
+        xr = design_rows(fit, which, ["real"], samples)
+        xs = design_rows(fit, which, ["simulated"], samples)
         df = contrast_df(fit, data, group, xr.mean(axis=0) - xs.mean(axis=0))
         c = _contrast(xr, xs, fit, reference_quantile(level, df), df)
         gap = design_gap(data, groups=which, modes=("real", "simulated"))
@@ -307,7 +302,8 @@ def mode_contrasts(fit: ModelFit, trials: pd.DataFrame, *, margin_pp: float,
     for group in groups:
         gap = design_gap(data, groups=[group], modes=("real", "simulated"))
         for r in samples:
-            xr, xs = _rows(fit, [group], "real", [r]), _rows(fit, [group], "simulated", [r])
+            xr = design_rows(fit, [group], ["real"], [r])
+            xs = design_rows(fit, [group], ["simulated"], [r])
             df = contrast_df(fit, data, group, xr.mean(axis=0) - xs.mean(axis=0))
             c = _contrast(xr, xs, fit, reference_quantile(level, df), df)
             if gap:

@@ -128,8 +128,8 @@ PROFILE_ENDS = tuple((which, side) for which in range(3) for side in (0, 1))
 #: end (doubling, then Brent's method, far from the estimate) takes most of the time: 0.93 and
 #: 0.77 s of the six ends' 2.05 s CPU on a 30-participant study, the lower ends 0.16 and 0.11 s,
 #: the correlation's 0.08 s. The worker takes them from the front; :func:`complete_profiles`
-#: takes back from the end those not yet handed to the worker's process (a process pool holds
-#: up to two more than it runs), so one long end goes first and the other last.
+#: takes back from the end those the worker has not begun (:class:`analysis.worker.Claims`),
+#: so one long end goes first and the other last.
 SHARE_ORDER = (1, 0, 2, 4, 5, 3)
 
 
@@ -164,8 +164,8 @@ def fill_profiles(table: pd.DataFrame, ends: list) -> None:
 def complete_profiles(fit: ModelFit) -> ModelFit:
     """Collect a random-slope fit's profile intervals computed elsewhere (``fit_glmm_slope``'s
     ``submit``: one job per end) and write them into its table; a complete fit is returned as
-    it is. Ends the worker has not started yet are taken back and computed here, the last
-    first (a job's ``steal()``), while the worker goes on with the first: the caller, done with
+    it is. Ends the worker has not begun are taken back and computed here, the last first
+    (a job's ``steal()``), while the worker goes on with the first: the caller, done with
     its own work, shares the rest instead of waiting for all of it (the same numbers:
     :func:`profile_end`)."""
     if fit.pending is not None:

@@ -35,11 +35,10 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-import patsy
 from scipy import special, stats
 
-from .models import (ModelFit, contrast_se, design_gap, has_group_by_roughness, model_data,
-                     reference_p, reference_quantile)
+from .models import (ModelFit, contrast_se, design_gap, design_rows, has_group_by_roughness,
+                     model_data, reference_p, reference_quantile)
 from .small_sample import omnibus_f, row_df
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",
@@ -84,12 +83,6 @@ def holm(p) -> np.ndarray:
     return out
 
 
-def _rows(fit: ModelFit, groups, modes, samples) -> np.ndarray:
-    grid = pd.DataFrame([(g, m, r, 0, "x") for g in groups for m in modes for r in samples],
-                        columns=["group", "mode", "roughness_id", "correct", "participant"])
-    return np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
-
-
 def primary_test(contrasts: pd.DataFrame) -> pd.Series | None:
     """The primary test's row: GEE, real samples, averaged over the four samples."""
     if contrasts.empty:
@@ -115,7 +108,7 @@ def averaged_contrast(fit: ModelFit, mode: str = "real", samples=(1, 2, 3, 4),
     from .models import log_odds_contrast
     if fit.formula is None or "group" not in fit.formula:
         return None
-    xa, xb = _rows(fit, ["A"], [mode], samples), _rows(fit, ["B"], [mode], samples)
+    xa, xb = design_rows(fit, ["A"], [mode], samples), design_rows(fit, ["B"], [mode], samples)
     df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0), se_from_cov=True)
     v = log_odds_contrast(xa, xb, fit.params, fit.cov, reference_quantile(level, df), df)
     return {"log_odds_ratio": v[0], "se": v[1], "p_value": v[5], "difference": v[8],
@@ -155,8 +148,8 @@ def omnibus_group_test(fit: ModelFit, trials: pd.DataFrame) -> dict:
     if not has_group_by_roughness(fit):
         samples = samples[:1]      # the model has one A - B log odds ratio per mode
         out["hypothesis"] += " (the fitted model has no group x sample term: one A - B per mode)"
-    xa = _rows(fit, ["A"], modes, samples)
-    xb = _rows(fit, ["B"], modes, samples)
+    xa = design_rows(fit, ["A"], modes, samples)
+    xb = design_rows(fit, ["B"], modes, samples)
     lmat = xa - xb
     est = lmat @ fit.params
     v = lmat @ fit.cov @ lmat.T
@@ -206,7 +199,7 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
         out["reason"] = "not tested: " + (gap or "the model has no group and mode terms")
         return out
     samples = sorted(data["roughness_id"].unique())
-    x = {(g, m): _rows(fit, [g], [m], samples) for g in ("A", "B") for m in ("real", "simulated")}
+    x = {(g, m): design_rows(fit, [g], [m], samples) for g in ("A", "B") for m in ("real", "simulated")}
     sign = {("A", "real"): 1, ("B", "real"): -1, ("A", "simulated"): -1, ("B", "simulated"): 1}
     lvec = sum(s * x[k].mean(axis=0) for k, s in sign.items())
     est, se = float(lvec @ fit.params), contrast_se(fit, lvec)

@@ -112,6 +112,8 @@ class ModelFit:
     #: Table rows still being computed elsewhere (a future; the random-slope model's profile
     #: intervals, :func:`analysis.glmm_slope_profile.complete_profiles` fills them in); None: complete.
     pending: object = None
+    #: Design rows already built by :func:`design_rows`, by (group, mode, sample).
+    _rows: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def quantile(self, level: float) -> float:
         """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""
@@ -125,6 +127,25 @@ class ModelFit:
     def simplified(self) -> bool:
         """True if a simpler formula than the requested one was fitted."""
         return self.formula != self.requested
+
+
+def design_rows(fit: ModelFit, groups, modes, samples) -> np.ndarray:
+    """The fitted model's design rows (``fit.design_info``) of every (group, mode, sample) of
+    ``groups x modes x samples``, in that order (group slowest): the rows of the contrasts.
+
+    A row depends only on its own levels, so each is built once per fit (patsy's
+    ``build_design_matrices`` costs ~4 ms a call however few rows; the fidelity table alone
+    asks for 76 sets of rows) and the rows asked for later are taken from that store: the
+    same doubles.
+    """
+    keys = [(g, m, r) for g in groups for m in modes for r in samples]
+    new = list(dict.fromkeys(k for k in keys if k not in fit._rows))
+    if new:
+        grid = pd.DataFrame([(g, m, r, 0, "x") for g, m, r in new],
+                            columns=["group", "mode", "roughness_id", "correct", "participant"])
+        built = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
+        fit._rows.update(zip(new, built))
+    return np.array([fit._rows[k] for k in keys])
 
 
 def contrast_se(fit: ModelFit, lvec) -> float:
@@ -217,8 +238,21 @@ def _separated_cells(data: pd.DataFrame) -> list[str]:
 
 
 def design_matrices(formula: str, data: pd.DataFrame):
-    y, x = patsy.dmatrices(formula, data, return_type="dataframe")
+    y, x = patsy.dmatrices(formula, patsy_frame(data), return_type="dataframe")
     return y.iloc[:, 0].to_numpy(), x
+
+
+def patsy_frame(data: pd.DataFrame) -> pd.DataFrame:
+    """``data`` with its text columns as pandas Categoricals (their sorted values the
+    categories), for patsy: the same levels, in the same order, as patsy finds in the text
+    itself, hence the same design matrices; but patsy reads a Categorical's codes at once,
+    and walks a column of text value by value (to find its levels, then to code it: ~15 ms a
+    model on 720 trials). Numbers are left as they are (a formula may use them as numbers)."""
+    text = [c for c in data.columns if pd.api.types.is_string_dtype(data[c])
+            and not isinstance(data[c].dtype, pd.CategoricalDtype)]
+    if not text:
+        return data
+    return data.assign(**{c: pd.Categorical(data[c]) for c in text})
 
 
 def fit_trouble(params, se) -> str | None:
@@ -452,6 +486,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
     beta, cov = fit.params, fit.cov
     rows = []
     roughness = sorted(data["roughness_id"].unique())
+    design_rows(fit, ["A", "B"], sorted(data["mode"].unique()), roughness)  # all at once
     # A fitted formula without the group x roughness interaction gives every sample the same
     # log odds ratio; per-sample rows then come from a GEE of that sample's trials alone.
     per_sample = has_group_by_roughness(fit)
@@ -464,11 +499,7 @@ def group_contrasts(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95)
                     rows.append([fit.kind, mode, label, *_sample_gee_contrast(cell, z, fit.df),
                                  fit.df])
                 continue
-            grid = pd.DataFrame({"group": ["A"] * len(levels) + ["B"] * len(levels),
-                                 "mode": mode, "roughness_id": list(levels) * 2,
-                                 "correct": 0, "participant": "x"})
-            x = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
-            xa, xb = x[: len(levels)], x[len(levels):]
+            xa, xb = (design_rows(fit, [g], [mode], levels) for g in ("A", "B"))
             df = row_df(fit, xa.mean(axis=0) - xb.mean(axis=0), se_from_cov=True)
             rows.append([fit.kind, mode, label,
                          *log_odds_contrast(xa, xb, beta, cov, reference_quantile(level, df), df),
@@ -531,9 +562,11 @@ def design_gap(data: pd.DataFrame, groups=("A", "B"), modes=None) -> str:
     saying so beats a number the data do not hold. ``modes`` defaults to the modes present.
     """
     modes = sorted(data["mode"].unique()) if modes is None else list(modes)
-    have = set(zip(data["group"].astype(str), data["mode"].astype(str)))
+    cells = data[["group", "mode"]].drop_duplicates().astype(str)
+    have = set(zip(cells["group"], cells["mode"]))
+    present = set(cells["group"])
     for g in groups:
-        if g not in set(data["group"].astype(str)):
+        if g not in present:
             return f"no trials of group {g}"
         for m in modes:
             if (g, m) not in have:

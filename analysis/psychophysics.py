@@ -45,6 +45,7 @@ import pandas as pd
 from scipy import special, stats
 
 from . import statsmodels_engine
+from .models import patsy_frame
 
 statsmodels_engine.load()   # before this module's statsmodels models: patsy, no formulaic
 
@@ -237,7 +238,8 @@ def _gee_terms(data: pd.DataFrame, formula: str, terms, level: float) -> list[di
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            res = GEE.from_formula(formula, "participant", data, family=families.Binomial(),
+            res = GEE.from_formula(formula, "participant", patsy_frame(data),
+                                   family=families.Binomial(),
                                    cov_struct=cov_struct.Exchangeable()).fit(cov_type="bias_reduced")
         except (ValueError, np.linalg.LinAlgError, ZeroDivisionError):
             return []

@@ -7,7 +7,9 @@ the bytes when it writes its other outputs (each file whole: temporary file, the
 is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
 random-slope model's profile intervals (six ends, :func:`analysis.glmm_slope_profile.profile_end`,
 ~2 s in all) while the parent goes on with the tests; the parent, once done, takes back the
-ends the worker has not started (:meth:`Job.steal`) and computes them itself. Where ``fork``
+ends the worker has not begun (:meth:`Job.steal`; each job has a slot in a small table shared
+with the worker, :class:`Claims`, so that even the jobs already handed to its process can be
+taken back) and computes them itself. Where ``fork``
 is not available or not safe (:func:`can_fork`), or the worker cannot start, everything is
 done in the parent: the same files and numbers.
 
@@ -28,6 +30,7 @@ the ordinal table, stay in the parent.)
 from __future__ import annotations
 
 import io
+import itertools
 import multiprocessing
 import pickle
 import threading
@@ -39,8 +42,8 @@ import pandas as pd
 
 from sessionfiles.atomicfile import output_file
 
-__all__ = ["AnalysisWorker", "Job", "can_fork", "render_figures", "run_pickled", "warm_up",
-           "warm_up_workers"]
+__all__ = ["AnalysisWorker", "Claims", "Job", "can_fork", "render_figures", "run_claimed",
+           "run_pickled", "warm_up", "warm_up_workers"]
 
 
 def render_figures(proportions: pd.DataFrame, confusion: pd.DataFrame,
@@ -88,6 +91,61 @@ def warm_up_workers(task: int) -> int:
     return task
 
 
+#: Whose each job given to a forked worker is, by slot: nobody's yet, the worker's, the caller's.
+FREE, WORKER, CALLER = 0, 1, 2
+_BOARDS: dict = {}          # a worker's :class:`Claims` by token, inherited by its forked process
+_TOKENS = itertools.count()
+
+
+class Claims:
+    """Who runs each job given to a forked worker: a small table of slots shared with it (made
+    before the fork, the worker's process inherits it).
+
+    A process pool hands its process up to two jobs ahead of the one it runs, and a job handed
+    over can no longer be cancelled, so the caller could not take back the last jobs even when
+    the worker had not begun them. With a slot per job, whoever begins it first marks it theirs
+    (:meth:`take`, under a lock); the other then leaves it: the worker returns at once, the
+    caller waits for the worker's result.
+    """
+
+    def __init__(self, size: int = 64):
+        ctx = multiprocessing.get_context("fork")
+        self._lock = ctx.Lock()
+        self._slots = ctx.RawArray("b", size)
+        self._next = 0
+
+    def new(self) -> int | None:
+        """A fresh slot (None once all are used: that job is then not shared)."""
+        if self._next >= len(self._slots):
+            return None
+        self._next += 1
+        return self._next - 1
+
+    def take(self, slot: int, who: int) -> bool:
+        """Mark ``slot`` as ``who``'s (WORKER or CALLER) if nobody has it; whether it now is.
+        A lock held for more than 10 s (its holder killed inside those few instructions)
+        counts as taken: the caller then waits for the job, or runs it once the worker is
+        found dead (:meth:`Job.result`)."""
+        if not self._lock.acquire(timeout=10):
+            return False
+        try:
+            if self._slots[slot] != FREE:
+                return False
+            self._slots[slot] = who
+            return True
+        finally:
+            self._lock.release()
+
+
+def run_claimed(token: int, slot: int, function, args: tuple):
+    """In the forked worker: ``(True, function(*args))`` if the slot was still free, else
+    ``(False, None)`` (the caller took the job)."""
+    board = _BOARDS.get(token)
+    if board is not None and not board.take(slot, WORKER):
+        return False, None
+    return True, function(*args)
+
+
 def can_fork() -> bool:
     """Whether a worker is forked: ``fork`` exists, this process is not a daemonic one (which
     may have no children), and it runs no other thread (a fork copies a lock another thread
@@ -120,8 +178,11 @@ class AnalysisWorker:
         self._own = executor is None
         self._warming: list = []   # the executor's warm-up tasks (kept until close)
         self._future: Future | None = None
+        self._token: int | None = None      # this worker's Claims in _BOARDS (a forked worker)
         if self._own and can_fork():
             try:
+                self._token = next(_TOKENS)
+                _BOARDS[self._token] = Claims()   # before the pool forks its process
                 self._pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
             except (OSError, AssertionError):   # no process to spare: drawn at write time
                 self.close()
@@ -164,8 +225,14 @@ class AnalysisWorker:
     def submit(self, function, *args) -> "Job | None":
         """``function(*args)`` in the worker, after what it was given before; None without a
         worker (the caller then calls it itself)."""
-        future = self._start(function, *args)
-        return None if future is None else Job(future, function, args, anything=not self._own)
+        board = _BOARDS.get(self._token) if self._pool is not None else None
+        slot = board.new() if board is not None else None
+        if slot is None:
+            future = self._start(function, *args)
+            return None if future is None else Job(future, function, args, anything=not self._own)
+        future = self._start(run_claimed, self._token, slot, function, args)
+        return None if future is None else Job(future, function, args,
+                                               claim=lambda: board.take(slot, CALLER))
 
     def write(self, out: Path) -> dict[str, Path]:
         """Write the figures into ``out``: ``{"figure9": png, "confusion_png": png}`` (the PDF
@@ -188,6 +255,7 @@ class AnalysisWorker:
             self._pool = None
             self._future = None
             self._warming = []
+        _BOARDS.pop(self._token, None)
 
     def __enter__(self) -> "AnalysisWorker":
         return self
@@ -201,26 +269,40 @@ class Job:
     out of memory), the function is run here instead (the same result, later).  With
     ``anything`` (a caller's executor, whose failures have many names: a killed worker, a lost
     connection), any exception the future raises has the function run here (an error of the
-    function itself is then raised again here)."""
+    function itself is then raised again here). With ``claim`` (a job given as
+    :func:`run_claimed` under a :class:`Claims` slot: ``claim()`` marks the slot the caller's and
+    says whether it could), :meth:`steal` takes the job back until the worker begins it, even
+    once handed to its process."""
 
-    def __init__(self, future: Future, function, args: tuple, anything: bool = False):
+    def __init__(self, future: Future, function, args: tuple, anything: bool = False,
+                 claim=None):
         self._future, self._function, self._args = future, function, args
-        self._anything = anything
+        self._anything, self._claim = anything, claim
 
     def steal(self):
-        """The function run here, now, if the worker has not started it (its future cancelled
-        while still queued); None when it is under way or done there (then :meth:`result`), and
-        always None on a caller's executor (whose cancel does not say whether a task ran)."""
+        """The function run here, now, if the worker has not begun it (its slot taken, or else
+        its future cancelled while still queued); None when it is under way or done there (then
+        :meth:`result`), and always None on a caller's executor (whose cancel does not say
+        whether a task ran)."""
+        if self._claim is not None:
+            if not self._claim():
+                return None
+            self._future.cancel()          # if still queued; else the worker returns at once
+            return self._function(*self._args)
         if self._anything or not self._future.cancel():
             return None
         return self._function(*self._args)
 
     def result(self):
         try:
-            return self._future.result()
+            value = self._future.result()
         except BrokenProcessPool:
             return self._function(*self._args)
         except Exception:       # noqa: BLE001  see the class's docstring
             if not self._anything:
                 raise
             return self._function(*self._args)
+        if self._claim is None:
+            return value
+        ran, value = value
+        return value if ran else self._function(*self._args)   # taken here: run here

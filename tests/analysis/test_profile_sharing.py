@@ -97,3 +97,59 @@ def test_ends_the_worker_has_not_started_are_taken_back(trials, here, tmp_path):
     # the last ends of SHARE_ORDER are the ones taken back
     assert [tuple(s) for s in stolen[:2]] == [PROFILE_ENDS[i] for i in SHARE_ORDER[::-1][:2]]
     np.testing.assert_array_equal(_intervals(fit.table), _intervals(here.table))
+
+
+def test_ends_already_handed_to_the_worker_are_taken_back_until_it_begins_them(trials, here,
+                                                                             tmp_path,
+                                                                             monkeypatch):
+    # through AnalysisWorker.submit each job has a claim slot: with the worker held, the caller
+    # takes back all six ends, the two its process was handed ahead of time included (a plain
+    # process pool's cancel cannot), and the worker, once released, skips them
+    from analysis import worker as worker_module
+    monkeypatch.setattr(worker_module, "can_fork", lambda: True)  # even if a thread runs
+    release = tmp_path / "release"
+    stolen = []
+
+    with worker_module.AnalysisWorker() as worker:
+        assert worker.submit(_hold, str(release)) is not None
+        try:
+            def submit(function, *args):
+                job = worker.submit(function, *args)
+                real_steal = job.steal
+
+                def steal():
+                    value = real_steal()
+                    if value is not None:
+                        stolen.append(args[7:9])
+                    return value
+                job.steal = steal
+                return job
+            fit = fit_glmm_slope(trials, FORMULA, submit=submit)
+            done_here = threading.Thread(target=complete_profiles, args=(fit,))
+            done_here.start()
+            # all six taken back while the worker is still held
+            deadline = time.monotonic() + 120
+            while len(stolen) < len(PROFILE_ENDS) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            taken_while_held = list(stolen)
+        finally:
+            release.touch()                 # never leave the worker held
+        done_here.join(timeout=300)
+    assert [tuple(s) for s in taken_while_held] == [PROFILE_ENDS[i] for i in SHARE_ORDER[::-1]]
+    assert fit.pending is None
+    np.testing.assert_array_equal(_intervals(fit.table), _intervals(here.table))
+
+
+def test_an_end_the_worker_has_begun_is_its_own(trials, here, monkeypatch):
+    # the worker free: it takes each end as it comes; whatever the caller could not claim it
+    # waits for, and the table is the one computed in place
+    from analysis import worker as worker_module
+    monkeypatch.setattr(worker_module, "can_fork", lambda: True)
+    with worker_module.AnalysisWorker() as worker:
+        fit = fit_glmm_slope(trials, FORMULA, submit=worker.submit)
+        assert fit.pending is not None
+        first = fit.pending[0][1]
+        first.result()                     # begun, and done, by the worker
+        assert first.steal() is None
+        complete_profiles(fit)
+    np.testing.assert_array_equal(_intervals(fit.table), _intervals(here.table))
