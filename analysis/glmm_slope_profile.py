@@ -19,7 +19,7 @@ from .glmm import fd_gradient, profile_cut, profile_upper
 from .glmm_slope_deviance import SD_BOUND, last_modes, slope_deviance
 from .models import ModelFit
 
-__all__ = ["complete_profiles", "profile_end", "profile_intervals", "PROFILE_ENDS",
+__all__ = ["complete_profiles", "profile_end", "profile_intervals", "PROFILE_ENDS", "RESTARTS",
            "SHARE_ORDER"]
 
 
@@ -61,7 +61,18 @@ def _sd_objective(data, z, n_agq, p, fixed_index, fixed_value):
     return fun
 
 
-def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=None) -> float:
+#: When a profile point is optimised a second time, from the estimate, after its warm start
+#: (from the nearest point already computed) lands above the cut-off: ``"far-side"`` only when
+#: that nearest point was itself above the cut-off, outside the interval (a warm start from
+#: there can stop in a worse local minimum, which would make the interval too narrow; from a
+#: point inside it the warm start is lme4's own walk outward from the estimate); ``"always"``
+#: every time (the rule before 2026-11-29: twice the optimisations of an SD's upper end).
+#: ``benchmarks/bench_profile_restart.py`` compares the two on generated studies.
+RESTARTS = ("far-side", "always")
+
+
+def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=None,
+                restart: str = "far-side") -> float:
     """One end of the profile-likelihood interval of ``sd_intercept`` (``which`` 0),
     ``sd_mode_slope`` (1) or the correlation (2), as :func:`analysis.glmm._profile_sigma`: the
     lower (``side`` 0) or upper (1) value where the deviance, re-minimised over every other
@@ -72,7 +83,10 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
     :func:`profile_intervals`) and the optimisations from the estimate or from this end's own
     earlier profile points, so the six ends are the same numbers in any order, in any process
     (:func:`complete_profiles` shares them between the analysis's worker and its caller).
+    ``restart``: when a point is optimised again from the estimate (:data:`RESTARTS`).
     """
+    if restart not in RESTARTS:
+        raise ValueError(f"restart: expected one of {RESTARTS}, got {restart!r}")
     data.__dict__["_slope_modes"] = None if modes is None else np.array(modes, float)
     cut = profile_cut(level, df)
     p = len(theta) - 3
@@ -88,7 +102,9 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
         if v not in done:
             near = min(done, key=lambda w: abs(w - v))
             # warm start from the nearest point; if that lands above the cut-off, also from the
-            # estimate (a warm start from the far side can stop in a worse local minimum)
+            # estimate (:data:`RESTARTS`: a warm start from the far side can stop in a worse
+            # local minimum)
+            inside = done[near][0] < 0 if restart == "far-side" else near == value_hat
             best = None
             for start in (done[near][1], start_hat):
                 res = optimize.minimize(_sd_objective(data, z, n_agq, p, which, v), start,
@@ -96,7 +112,7 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
                                         options={"maxiter": 500, "ftol": 1e-11, "gtol": 1e-5})
                 if best is None or res.fun < best.fun:
                     best = res
-                if best.fun - dev_min < cut or near == value_hat:
+                if best.fun - dev_min < cut or inside:
                     break
             done[v] = (best.fun - dev_min - cut, best.x)
         return done[v][0]
