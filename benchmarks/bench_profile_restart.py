@@ -9,7 +9,8 @@ is optimised again from the estimate only when its warm start came from outside 
 and landed above the cut-off) and under ``"always"`` (again whenever it landed above the
 cut-off). Prints one JSON line per scenario: the largest difference between the two rules' ends,
 how many ends differ by more than Brent's tolerance (2e-5 on the SD scale; 1e-4 on the
-correlation's angle), and the CPU time (``time.process_time``) of each rule's ends.
+correlation's angle) and which (``beyond``: the study's seed, the end as ``(which, side)``, each
+rule's value), and the CPU time (``time.process_time``) of each rule's ends.
 
     .venv/bin/python benchmarks/bench_profile_restart.py [--studies 40] [--seed 1]
 """
@@ -70,11 +71,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     tolerance = np.array([2e-5, 2e-5, 2e-5, 2e-5, 1e-4, 1e-4])     # Brent's xtol per end
     for s, (name, kw) in enumerate(SCENARIOS.items()):
-        worst, beyond, fitted = 0.0, 0, 0
+        worst, beyond, fitted, cases = 0.0, 0, 0, []
         cpu = {rule: 0.0 for rule in RESTARTS}
         start = time.monotonic()
         for i in range(args.studies):
-            got = ends_of(generate(seed=args.seed * 100_000 + s * 1000 + i, **kw))
+            seed = args.seed * 100_000 + s * 1000 + i
+            got = ends_of(generate(seed=seed, **kw))
             if got is None:
                 continue
             fitted += 1
@@ -84,12 +86,15 @@ def main(argv=None) -> int:
             diff = np.where(both_inf, 0.0, np.abs(a - b))
             worst = max(worst, float(np.nanmax(diff)))
             beyond += int(np.sum(diff > tolerance))
+            cases += [{"seed": seed, "end": list(PROFILE_ENDS[j]), "far_side": float(a[j]),
+                       "always": float(b[j])} for j in np.flatnonzero(diff > tolerance)]
             for rule in RESTARTS:
                 cpu[rule] += spent[rule]
             print(f"  {name}: {i + 1}/{args.studies}, {time.monotonic() - start:.0f} s",
                   file=sys.stderr, end="\r")
         print(json.dumps({"scenario": name, "studies": args.studies, "fitted": fitted,
                           "largest_difference": worst, "ends_beyond_tolerance": beyond,
+                          "beyond": cases,
                           "cpu_s_far_side": round(cpu["far-side"], 2),
                           "cpu_s_always": round(cpu["always"], 2),
                           "machine": f"{platform.machine()}, Python {platform.python_version()}"}),
