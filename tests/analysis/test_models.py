@@ -126,3 +126,34 @@ def test_fit_trouble_is_classified_by_statsmodels_warning_class_not_by_message()
         warnings.warn("overflow encountered in exp", RuntimeWarning)
     assert [_fit_trouble(w.category) for w in caught] == [False, True, True, True, True, True,
                                                           False, False]
+
+
+def test_design_rows_are_patsys_own_rows_of_each_level_in_any_order_and_batch(study):
+    # models.design_rows builds each (group, mode, sample) row once per fit and serves later
+    # requests from that store; each row must be what patsy builds for that level alone, and
+    # patsy_frame's categoricals must give the text columns' own design matrix
+    import pandas as pd
+    import patsy
+
+    from analysis.models import design_matrices, design_rows, model_data, patsy_frame
+    data, _ = study(_strong_cells(), sigma=0.3, seed=31)
+    trials = load_trials(data).analysable
+    gee = fit_gee(trials)
+    keys = [("B", "simulated", 3), ("A", "real", 1), ("A", "simulated", 4), ("B", "real", 2)]
+    for g, m, r in keys + keys[::-1]:            # a miss, then hits, in either order
+        one = pd.DataFrame([(g, m, r, 0, "x")],
+                           columns=["group", "mode", "roughness_id", "correct", "participant"])
+        expected = np.asarray(patsy.build_design_matrices([gee.design_info], one)[0])[0]
+        np.testing.assert_array_equal(design_rows(gee, [g], [m], [r])[0], expected)
+    block = design_rows(gee, ["A", "B"], ["real", "simulated"], [1, 2, 3, 4])
+    assert block.shape == (16, len(gee.params))
+    np.testing.assert_array_equal(block[13], design_rows(gee, ["B"], ["simulated"], [2])[0])
+    # text columns as categoricals: the same columns and numbers as from the text itself
+    frame = model_data(trials)
+    y, x = patsy.dmatrices(FORMULA, frame, return_type="dataframe")
+    y2, x2 = design_matrices(FORMULA, frame)
+    assert list(x2.columns) == list(x.columns)
+    np.testing.assert_array_equal(x2.to_numpy(), x.to_numpy())
+    np.testing.assert_array_equal(y2, y.iloc[:, 0].to_numpy())
+    assert isinstance(patsy_frame(frame)["group"].dtype, pd.CategoricalDtype)
+    assert patsy_frame(frame)["roughness_id"].dtype == frame["roughness_id"].dtype
