@@ -141,11 +141,11 @@ PROFILED_TERMS = ("sd_intercept", "sd_mode_slope", "corr_intercept_slope")
 #: The six ends :func:`profile_end` computes, ``(which, side)``, in the order of the table.
 PROFILE_ENDS = tuple((which, side) for which in range(3) for side in (0, 1))
 #: The order the ends are given to a worker (indices into :data:`PROFILE_ENDS`). An SD's upper
-#: end (doubling, then Brent's method, far from the estimate) takes most of the time: 0.93 and
-#: 0.77 s of the six ends' 2.05 s CPU on a 30-participant study, the lower ends 0.16 and 0.11 s,
-#: the correlation's 0.08 s. The worker takes them from the front; :func:`complete_profiles`
-#: takes back from the end those the worker has not begun (:class:`analysis.worker.Claims`),
-#: so one long end goes first and the other last.
+#: end (doubling, then Brent's method, far from the estimate) takes most of the time: 258 and
+#: 233 of the six ends' 650 deviance evaluations on a 30-participant study (0.3-0.5 s of CPU
+#: each), the lower ends 44 and 53, the correlation's 62. The worker takes them from the front;
+#: :func:`complete_profiles` takes back from the end those the worker has not begun
+#: (:class:`analysis.worker.Claims`), so one long end goes first and the other last.
 SHARE_ORDER = (1, 0, 2, 4, 5, 3)
 
 

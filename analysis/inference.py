@@ -199,7 +199,8 @@ def interaction_test(fit: ModelFit, trials: pd.DataFrame, *, level: float = 0.95
         out["reason"] = "not tested: " + (gap or "the model has no group and mode terms")
         return out
     samples = sorted(data["roughness_id"].unique())
-    x = {(g, m): design_rows(fit, [g], [m], samples) for g in ("A", "B") for m in ("real", "simulated")}
+    x = {(g, m): design_rows(fit, [g], [m], samples)
+         for g in ("A", "B") for m in ("real", "simulated")}
     sign = {("A", "real"): 1, ("B", "real"): -1, ("A", "simulated"): -1, ("B", "simulated"): 1}
     lvec = sum(s * x[k].mean(axis=0) for k, s in sign.items())
     est, se = float(lvec @ fit.params), contrast_se(fit, lvec)
