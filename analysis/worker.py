@@ -6,7 +6,7 @@ forked worker draws them into memory while the parent fits the models, and the p
 the bytes when it writes its other outputs (each file whole: temporary file, then renamed; nothing
 is written before :func:`analysis.analyze`'s ``before_write``). The same worker then computes the
 random-slope model's profile intervals (six ends, :func:`analysis.glmm_slope_profile.profile_end`,
-~2 s in all) while the parent goes on with the tests; the parent, once done, takes back the
+~1 s in all) while the parent goes on with the tests; the parent, once done, takes back the
 ends the worker has not begun (:meth:`Job.steal`; each job has a slot in a small table shared
 with the worker, :class:`Claims`, so that even the jobs already handed to its process can be
 taken back) and computes them itself. Where ``fork``
