@@ -47,8 +47,9 @@ from .errors import LogError
 from .inference import holm
 from .small_sample import row_df
 from .wording import df_text, p_text, signed
-from .models import (ModelFit, contrast_se, design_gap, design_rows, model_data,
-                     reference_p, reference_quantile)
+from .design import design_rows
+from .models import (ModelFit, contrast_se, design_gap, model_data, reference_p,
+                     reference_quantile)
 
 __all__ = ["DEFAULT_EQUIVALENCE_MARGIN_PP", "mode_contrasts", "tost", "equivalence_margin",
            "FIDELITY_COLUMNS"]

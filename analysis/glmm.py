@@ -46,9 +46,10 @@ import pandas as pd
 from scipy import optimize, special, stats
 from threadpoolctl import threadpool_limits
 
+from .design import design_matrices
 from .errors import ModelWarning
-from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, fit_trouble, refuse_separated,
-                     model_data, reference_df, reference_p, reference_quantile)
+from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, fit_trouble,
+                     refuse_separated, model_data, reference_df, reference_p, reference_quantile)
 
 __all__ = ["fit_glmm", "GLMMData", "glmm_deviance", "ICC_LATENT_VARIANCE"]
 

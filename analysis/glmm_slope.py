@@ -51,8 +51,9 @@ from .glmm_slope_deviance import SD_BOUND, inner_on, lambda_matrix, slope_devian
 from .glmm_slope_profile import (PROFILE_ENDS, SHARE_ORDER, PROFILED_TERMS, fill_profiles,
                                  profile_modes, profile_end, profile_intervals)
 from .small_sample import leverage_adjustments
-from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, design_matrices, refuse_separated, model_data,
-                     reference_df, reference_quantile)
+from .design import design_matrices
+from .models import (FORMULA, ModelFit, accept_candidate, candidate_formulas, refuse_separated,
+                     model_data, reference_df, reference_quantile)
 
 __all__ = ["fit_glmm_slope", "slope_deviance", "participant_sandwich"]
 

@@ -37,8 +37,9 @@ import numpy as np
 import pandas as pd
 from scipy import special, stats
 
-from .models import (ModelFit, contrast_se, design_gap, design_rows, has_group_by_roughness,
-                     model_data, reference_p, reference_quantile)
+from .design import design_rows
+from .models import (ModelFit, contrast_se, design_gap, has_group_by_roughness, model_data,
+                     reference_p, reference_quantile)
 from .small_sample import omnibus_f, row_df
 
 __all__ = ["holm", "omnibus_group_test", "interaction_test", "chance_tests", "primary_test",

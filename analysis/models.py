@@ -30,10 +30,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-import patsy
 from scipy import sparse, special, stats
 
 from . import statsmodels_engine
+from .design import design_matrices, design_rows
 from .errors import ModelWarning
 from .small_sample import group_covariances, row_df
 
@@ -112,8 +112,8 @@ class ModelFit:
     #: Table rows still being computed elsewhere (a future; the random-slope model's profile
     #: intervals, :func:`analysis.glmm_slope_profile.complete_profiles` fills them in); None: complete.
     pending: object = None
-    #: Design rows already built by :func:`design_rows`, by (group, mode, sample).
-    _rows: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    #: Design rows built by :func:`analysis.design.design_rows`, by (group, mode, sample).
+    built_rows: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def quantile(self, level: float) -> float:
         """Two-sided critical value: t with :attr:`df` degrees of freedom (normal if None)."""
@@ -127,25 +127,6 @@ class ModelFit:
     def simplified(self) -> bool:
         """True if a simpler formula than the requested one was fitted."""
         return self.formula != self.requested
-
-
-def design_rows(fit: ModelFit, groups, modes, samples) -> np.ndarray:
-    """The fitted model's design rows (``fit.design_info``) of every (group, mode, sample) of
-    ``groups x modes x samples``, in that order (group slowest): the rows of the contrasts.
-
-    A row depends only on its own levels, so each is built once per fit (patsy's
-    ``build_design_matrices`` costs ~4 ms a call however few rows; the fidelity table alone
-    asks for 76 sets of rows) and the rows asked for later are taken from that store: the
-    same doubles.
-    """
-    keys = [(g, m, r) for g in groups for m in modes for r in samples]
-    new = list(dict.fromkeys(k for k in keys if k not in fit._rows))
-    if new:
-        grid = pd.DataFrame([(g, m, r, 0, "x") for g, m, r in new],
-                            columns=["group", "mode", "roughness_id", "correct", "participant"])
-        built = np.asarray(patsy.build_design_matrices([fit.design_info], grid)[0])
-        fit._rows.update(zip(new, built))
-    return np.array([fit._rows[k] for k in keys])
 
 
 def contrast_se(fit: ModelFit, lvec) -> float:
@@ -235,24 +216,6 @@ def _separated_cells(data: pd.DataFrame) -> list[str]:
     bad = rate[(rate == 0) | (rate == 1)]
     return [f"{g}/{m}/{r}# ({'all correct' if v == 1 else 'none correct'})"
             for (g, m, r), v in bad.items()]
-
-
-def design_matrices(formula: str, data: pd.DataFrame):
-    y, x = patsy.dmatrices(formula, patsy_frame(data), return_type="dataframe")
-    return y.iloc[:, 0].to_numpy(), x
-
-
-def patsy_frame(data: pd.DataFrame) -> pd.DataFrame:
-    """``data`` with its text columns as pandas Categoricals (their sorted values the
-    categories), for patsy: the same levels, in the same order, as patsy finds in the text
-    itself, hence the same design matrices; but patsy reads a Categorical's codes at once,
-    and walks a column of text value by value (to find its levels, then to code it: ~15 ms a
-    model on 720 trials). Numbers are left as they are (a formula may use them as numbers)."""
-    text = [c for c in data.columns if pd.api.types.is_string_dtype(data[c])
-            and not isinstance(data[c].dtype, pd.CategoricalDtype)]
-    if not text:
-        return data
-    return data.assign(**{c: pd.Categorical(data[c]) for c in text})
 
 
 def fit_trouble(params, se) -> str | None:

@@ -45,7 +45,7 @@ import pandas as pd
 from scipy import special, stats
 
 from . import statsmodels_engine
-from .models import patsy_frame
+from .design import patsy_frame
 
 statsmodels_engine.load()   # before this module's statsmodels models: patsy, no formulaic
 

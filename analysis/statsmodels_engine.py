@@ -5,7 +5,7 @@ module imports both formula engines it knows, patsy and formulaic, though it use
 patsy is installed (``SM_FORMULA_ENGINE`` unset). formulaic pulls in narwhals: ~0.1-0.2 s of
 CPU (more on a busy machine) on every ``thermocue analyze``, before anything else can run, for
 an engine the analysis never uses (its design matrices
-are patsy's, :func:`analysis.models.design_matrices`). :func:`load` imports that module once
+are patsy's, :func:`analysis.design.design_matrices`). :func:`load` imports that module once
 with ``formulaic`` hidden, so statsmodels records it as absent and takes patsy, as it would
 anyway; afterwards ``import formulaic`` works again for anyone who wants it. Nothing is hidden
 when ``SM_FORMULA_ENGINE=formulaic`` asks for it, when patsy is missing, or when formulaic or

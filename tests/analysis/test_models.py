@@ -135,7 +135,8 @@ def test_design_rows_are_patsys_own_rows_of_each_level_in_any_order_and_batch(st
     import pandas as pd
     import patsy
 
-    from analysis.models import design_matrices, design_rows, model_data, patsy_frame
+    from analysis.design import design_matrices, design_rows, patsy_frame
+    from analysis.models import model_data
     data, _ = study(_strong_cells(), sigma=0.3, seed=31)
     trials = load_trials(data).analysable
     gee = fit_gee(trials)
