@@ -14,6 +14,7 @@ driver).
 """
 from __future__ import annotations
 
+import contextlib
 import shutil
 import time
 
@@ -82,6 +83,7 @@ class RawLink:
         self._close = close
         self.parser = FrameParser()
         self.others: list = []
+        self._helper = None          # the heartbeat helper of a :meth:`heartbeating` block
 
     def send(self, seq: int, mtype: int, payload: bytes = b"") -> None:
         from experiments.display.thermocue.framing import encode_frame
@@ -98,18 +100,51 @@ class RawLink:
                 self.others.append(fr)
         return None
 
+    def _start_helper(self):
+        from experiments.display.thermocue.framing import encode_frame
+        from experiments.display.thermocue.heartbeat import HeartbeatProcess
+        fd = getattr(self.port, "fd", None)
+        if isinstance(fd, int) and fd >= 0:
+            return HeartbeatProcess(fd, encode_frame(0, 0x02, b"\x00"), 0.01, 3600.0)
+        return None
+
+    @contextlib.contextmanager
+    def heartbeating(self, ready_s: float = 10.0):
+        """A silent heartbeat every 10 ms from the driver's helper process for the whole block,
+        commands included, as the host's driver keeps one for the whole session.
+
+        Enter it before a command that makes the device active (ARM): the helper is started and
+        running (its ready byte read, up to ``ready_s``; this loop heartbeats meanwhile) before
+        the block begins, so the start of a process on a loaded machine -- a fork of the suite's
+        heap, tens to hundreds of ms -- never falls in the device's 90 ms watchdog. A port with
+        no descriptor (the in-process emulator) gets its heartbeat from :meth:`pump`.
+        """
+        helper = self._start_helper()
+        try:
+            if helper is not None:
+                end = time.monotonic() + ready_s
+                while not helper.wait_ready(0.01):
+                    if time.monotonic() > end or not helper.running:
+                        raise RuntimeError("the heartbeat helper did not start")
+                    self.send(0, 0x02, b"\x00")
+            self._helper = helper
+            yield self
+        finally:
+            self._helper = None
+            if helper is not None:
+                helper.stop()
+
     def pump(self, seconds: float, heartbeat: bool = True, until=None) -> None:
         """Read for ``seconds`` (or until a frame satisfies ``until``), a silent heartbeat
         going out every 10 ms if ``heartbeat``: from the driver's helper process on a port with
         a descriptor, as the host's driver does (a pause of this process -- a garbage
         collection of the suite's heap, another thread -- must not look like a lost host),
-        else from this loop."""
-        from experiments.display.thermocue.framing import encode_frame
-        from experiments.display.thermocue.heartbeat import HeartbeatProcess
-        helper = None
-        fd = getattr(self.port, "fd", None)
-        if heartbeat and isinstance(fd, int) and fd >= 0:
-            helper = HeartbeatProcess(fd, encode_frame(0, 0x02, b"\x00"), 0.01, 3600.0)
+        else from this loop. Inside :meth:`heartbeating` its helper already heartbeats."""
+        own = None
+        if heartbeat and self._helper is None:
+            self.send(0, 0x02, b"\x00")      # before the helper's start, which takes a while
+            own = self._start_helper()
+        helper = own or self._helper
         try:
             end = time.monotonic() + seconds
             nxt = 0.0
@@ -124,8 +159,8 @@ class RawLink:
                 if until is not None and any(until(f) for f in new):
                     return
         finally:
-            if helper is not None:
-                helper.stop()
+            if own is not None:
+                own.stop()
 
     def close(self) -> None:
         self._close()

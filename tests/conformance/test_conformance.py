@@ -318,9 +318,10 @@ def test_device_holds_the_rate_limit_over_every_window(raw):
     assert raw.command(6, m.Cmd.UPLOAD_COMMIT, m.COMMIT.pack(zlib.crc32(values.tobytes()))).type == 0x92
     finger = m.encode_json(dict(press_after_s=0.1, force_N=2.0, hold_s=3.0,
                                 skin_thickness_m=650e-6, skin_temperature_C=35.5))
-    assert raw.command(7, m.Cmd.ARM, m.ARM.pack(0, 200, 5000)).type == 0xA0
-    assert raw.command(8, m.Cmd.SIM_FINGER, finger).type == 0xB1
-    raw.pump(10.0, until=lambda f: f.type == 0xA1 and f.payload[0] == m.Event.END)
+    with raw.heartbeating():          # from ARM on the device is active: the watchdog runs
+        assert raw.command(7, m.Cmd.ARM, m.ARM.pack(0, 200, 5000)).type == 0xA0
+        assert raw.command(8, m.Cmd.SIM_FINGER, finger).type == 0xB1
+        raw.pump(10.0, until=lambda f: f.type == 0xA1 and f.payload[0] == m.Event.END)
     tel = [m.Telemetry.decode(f.payload) for f in raw.others
            if f.type == 0xA0 and len(f.payload) == m.TELEMETRY.size]
     playing = [f for f in tel if f.state == "PLAYING"]
