@@ -27,8 +27,8 @@ from .glmm import fd_gradient, profile_cut, profile_upper
 from .glmm_slope_deviance import SD_BOUND, last_modes, slope_deviance
 from .models import ModelFit
 
-__all__ = ["complete_profiles", "profile_end", "profile_intervals", "PROFILE_ENDS", "RESTARTS",
-           "SHARE_ORDER"]
+__all__ = ["complete_profiles", "is_singular", "profile_end", "profile_intervals", "PROFILE_ENDS",
+           "RESTARTS", "SHARE_ORDER"]
 
 
 def _sd_params(t):
@@ -81,6 +81,13 @@ RESTARTS = ("far-side", "always")
 
 class _BackOnTheBound(Exception):
     """A start off a degenerate covariance went back onto one (:func:`_leave_degenerate`)."""
+
+
+def is_singular(theta, tol: float = 1e-4) -> bool:
+    """Whether a random-slope fit is singular, as lme4's ``isSingular``: a diagonal element of
+    the covariance's Cholesky factor (``theta = (beta..., l11, l21, l22)``) below ``tol`` (an
+    SD at 0, or the correlation at +-1)."""
+    return bool(min(abs(theta[-3]), abs(theta[-1])) < tol)
 
 
 def _minimise(objective, start, bounds):
@@ -146,8 +153,7 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
     del bounds[p + which]
     start_hat = np.delete(hat, p + which)
     done: dict = {float(value_hat): (-cut, start_hat)}
-    # a singular fit (lme4's isSingular: a diagonal element of lme4's theta below 1e-4)
-    singular = min(abs(theta[-3]), abs(theta[-1])) < 1e-4
+    singular = is_singular(theta)
 
     def objective(v):
         return _sd_objective(data, z, n_agq, p, which, v)

@@ -1,5 +1,5 @@
 """The random-slope model's profile ends at singular fits: with and without the extra start off
-a correlation of +-1 (``profile_end(..., off_boundary=...)`` of
+a degenerate covariance (``profile_end(..., off_boundary=...)`` of
 ``analysis.glmm_slope_profile``), against a many-start reference.
 
 Not a test. Datasets from ``tests/analysis/generator.py`` (independent of the code under test),
@@ -7,10 +7,11 @@ the scenarios of ``bench_profile_restart.py``: ``--studies`` studies per scenari
 once (``fit_glmm_slope``), then the four SD ends computed from the fit's conditional modes with
 ``off_boundary=True`` (the default) and ``False`` (the rule before 2026-11-29). Where the two
 differ by more than Brent's tolerance (2e-5), and at every SD upper end of a singular fit
-(correlation estimated at +-1), the end is computed a third time by this script's reference:
+(``is_singular``: lme4's rule, the correlation at +-1 or an SD at 0), the end is computed a
+third time by this script's reference:
 Brent's method on a profile whose every point is minimised from the estimate with the
-correlation started at -0.997, -0.68, 0, 0.68 and 0.997 (five starts; the lowest deviance
-kept). Prints one JSON line per scenario: how many fits were singular, how many ends the rule
+correlation started at -0.997, -0.68, 0, 0.68 and 0.997 (five starts from the fit's
+conditional modes; the lowest deviance kept). Prints one JSON line per scenario: how many fits were singular, how many ends the rule
 changed, the largest distance of each rule's ends from the reference, and the CPU time
 (``time.process_time``) of each rule's ends.
 
@@ -36,7 +37,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from analysis.glmm import profile_cut, profile_upper  # noqa: E402
 from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
 from analysis.glmm_slope_deviance import SD_BOUND  # noqa: E402
-from analysis.glmm_slope_profile import _sd_objective, _sd_params, profile_end  # noqa: E402
+from analysis.glmm_slope_profile import (_sd_objective, _sd_params, is_singular,  # noqa: E402
+                                         profile_end)
 from analysis.models import FORMULA  # noqa: E402
 from bench_profile_restart import SCENARIOS, generate  # noqa: E402
 
@@ -96,8 +98,8 @@ def main(argv=None) -> int:
                 continue
             fitted += 1
             data, z, theta, dev_min, n_agq, level, df, *_, modes = pieces[0]
-            is_singular = abs(np.sin(_sd_params(theta[-3:])[2])) > 1 - 1e-9
-            singular += int(is_singular)
+            singular_fit = is_singular(theta)
+            singular += int(singular_fit)
             ends = {}
             for rule, flag in (("new", True), ("old", False)):
                 t = time.process_time()
@@ -107,9 +109,9 @@ def main(argv=None) -> int:
             for j, (w, sd) in enumerate(SD_ENDS):
                 differs = abs(ends["new"][j] - ends["old"][j]) > 2e-5
                 changed += int(differs)
-                if differs or (is_singular and sd == 1):
+                if differs or (singular_fit and sd == 1):
                     ref = reference_end(data, z, theta, dev_min, n_agq, level, df, w, sd, modes)
-                    case = {"seed": seed, "singular": bool(is_singular), "end": [w, sd],
+                    case = {"seed": seed, "singular": singular_fit, "end": [w, sd],
                             "new": float(ends["new"][j]),
                             "old": float(ends["old"][j]), "reference": float(ref)}
                     for rule in far:

@@ -16,7 +16,7 @@ from scipy import optimize
 from analysis.glmm import profile_cut
 from analysis.glmm_slope import fit_glmm_slope
 from analysis.glmm_slope_deviance import SD_BOUND
-from analysis.glmm_slope_profile import _sd_objective, _sd_params, profile_end
+from analysis.glmm_slope_profile import _sd_objective, _sd_params, is_singular, profile_end
 from analysis.models import FORMULA
 from generator import generate, null_cells
 
@@ -57,6 +57,7 @@ def _rise_above_cut(args, which: int, value: float) -> float:
 def test_sd_upper_ends_at_a_singular_fit_are_where_the_lowest_profile_crosses(singular):
     data, z, theta, dev_min, n_agq, level, df, *_, modes = singular
     assert abs(np.sin(_sd_params(theta[-3:])[2])) == pytest.approx(1.0)    # the premise
+    assert is_singular(theta) and not is_singular(np.r_[theta[:-3], 0.5, 0.1, 0.3])
     for which in (0, 1):                                   # the intercept's SD, the slope's
         end = profile_end(data, z, theta, dev_min, n_agq, level, df, which, 1, modes)
         assert abs(_rise_above_cut(singular, which, end)) < 0.01, which
