@@ -12,9 +12,9 @@ At a singular fit (correlation estimated at +-1, or an SD at 0) the profile over
 more than one minimum. A warm start from a degenerate point stays there (the correlation's
 bound, or an SD of 0 where the correlation has no effect, is a local minimum), while a minimum
 with the correlation inside (-1, 1) can be lower. Missing it makes the deviance look higher than
-it is and the interval too narrow: on 40 generated 15 + 15 studies without a slope (24 singular
-fits) 32 SD ends were off, upper ends up to 37 % too low, lower ends up to 18 % too high
-(``benchmarks/bench_profile_boundary.py``). :func:`profile_end`'s ``off_boundary`` looks there too.
+it is and the interval too narrow: on 40 generated 15 + 15 studies without a slope (24 with the
+correlation at +-1) 37 SD ends were off, upper ends up to 37 % too low, lower ends up to 18 %
+too high (``benchmarks/bench_profile_boundary.py``). :func:`profile_end`'s ``off_boundary`` looks there too.
 """
 from __future__ import annotations
 
