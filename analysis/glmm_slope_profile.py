@@ -27,8 +27,8 @@ from .glmm import fd_gradient, profile_cut, profile_upper
 from .glmm_slope_deviance import SD_BOUND, last_modes, slope_deviance
 from .models import ModelFit
 
-__all__ = ["complete_profiles", "is_singular", "profile_end", "profile_intervals", "PROFILE_ENDS",
-           "RESTARTS", "SHARE_ORDER"]
+__all__ = ["complete_profiles", "is_singular", "lowest_deviance", "point_bounds", "profile_end",
+           "profile_intervals", "PROFILE_ENDS", "RESTARTS", "SHARE_ORDER"]
 
 
 def _sd_params(t):
@@ -90,6 +90,35 @@ def is_singular(theta, tol: float = 1e-4) -> bool:
     return bool(min(abs(theta[-3]), abs(theta[-1])) < tol)
 
 
+def point_bounds(p: int, which: int) -> list:
+    """L-BFGS-B's bounds of a profile point ``(beta..., the other SD, phi)``: ``p`` fixed effects
+    free, the SDs in [0, SD_BOUND], phi in [-pi/2, pi/2], the profiled parameter ``which``
+    (0, 1, 2: ``sd_intercept``, ``sd_mode_slope``, phi) left out."""
+    bounds = [(None, None)] * p + [(0.0, SD_BOUND), (0.0, SD_BOUND), (-np.pi / 2, np.pi / 2)]
+    del bounds[p + which]
+    return bounds
+
+
+def lowest_deviance(data, z, theta, n_agq, modes, which: int, value: float,
+                    correlations=(-0.997, -0.68, 0.0, 0.68, 0.997)) -> float:
+    """The deviance at ``value`` of parameter ``which``, minimised from the estimate with the
+    correlation started at each of ``correlations`` (the conditional modes from ``modes`` each
+    time), the lowest kept: a many-start reference for :func:`profile_end`'s search (its tests
+    and ``benchmarks/bench_profile_boundary.py``), several times its cost."""
+    p = len(theta) - 3
+    hat = np.append(theta[:p], _sd_params(theta[-3:]))
+    bounds = point_bounds(p, which)
+    best = np.inf
+    for corr in correlations:
+        start = hat.copy()
+        start[-1] = np.arcsin(corr)
+        data.__dict__["_slope_modes"] = np.array(modes, float)
+        res = _minimise(_sd_objective(data, z, n_agq, p, which, float(value)),
+                        np.delete(start, p + which), bounds)
+        best = min(best, res.fun)
+    return best
+
+
 def _minimise(objective, start, bounds):
     return optimize.minimize(objective, start, jac=True, method="L-BFGS-B", bounds=bounds,
                              options={"maxiter": 500, "ftol": 1e-11, "gtol": 1e-5})
@@ -149,14 +178,10 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
     p = len(theta) - 3
     hat = np.append(theta[:p], _sd_params(theta[-3:]))
     value_hat = hat[p + which]
-    bounds = [(None, None)] * p + [(0.0, SD_BOUND), (0.0, SD_BOUND), (-np.pi / 2, np.pi / 2)]
-    del bounds[p + which]
+    bounds = point_bounds(p, which)
     start_hat = np.delete(hat, p + which)
     done: dict = {float(value_hat): (-cut, start_hat)}
     singular = is_singular(theta)
-
-    def objective(v):
-        return _sd_objective(data, z, n_agq, p, which, v)
 
     def excess(v):
         v = float(v)
@@ -166,9 +191,10 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
             # estimate (:data:`RESTARTS`: a warm start from the far side can stop in a worse
             # local minimum)
             inside = done[near][0] < 0 if restart == "far-side" else near == value_hat
+            objective = _sd_objective(data, z, n_agq, p, which, v)
             best = None
             for start in (done[near][1], start_hat):
-                res = _minimise(objective(v), start, bounds)
+                res = _minimise(objective, start, bounds)
                 if best is None or res.fun < best.fun:
                     best = res
                 if best.fun - dev_min < cut or inside:
@@ -176,7 +202,7 @@ def profile_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes=No
             if (off_boundary and singular and which != 2 and best.fun - dev_min >= cut
                     and _degenerate(best.x)):
                 # a local minimum that a warm start from it never leaves (``off_boundary``)
-                res = _leave_degenerate(objective(v), best, start_hat[-2], bounds)
+                res = _leave_degenerate(objective, best, start_hat[-2], bounds)
                 if res is not None and res.fun < best.fun:
                     best = res
             done[v] = (best.fun - dev_min - cut, best.x)

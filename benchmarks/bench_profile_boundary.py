@@ -37,37 +37,24 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from analysis.glmm import profile_cut, profile_upper  # noqa: E402
 from analysis.glmm_slope import fit_glmm_slope  # noqa: E402
 from analysis.glmm_slope_deviance import SD_BOUND  # noqa: E402
-from analysis.glmm_slope_profile import (_sd_objective, _sd_params, is_singular,  # noqa: E402
-                                         profile_end)
+from analysis.glmm_slope_profile import (_sd_params, is_singular,  # noqa: E402
+                                         lowest_deviance, profile_end)
 from analysis.models import FORMULA  # noqa: E402
 from bench_profile_restart import SCENARIOS, generate  # noqa: E402
 
 SD_ENDS = ((0, 0), (0, 1), (1, 0), (1, 1))
-PHI_STARTS = np.arcsin([-0.997, -0.68, 0.0, 0.68, 0.997])
 
 
 def reference_end(data, z, theta, dev_min, n_agq, level, df, which, side, modes) -> float:
-    """An SD's end on a profile minimised from five correlations at every point."""
+    """An SD's end on a profile minimised from five correlations at every point
+    (``lowest_deviance``)."""
     cut = profile_cut(level, df)
-    p = len(theta) - 3
-    hat = np.append(theta[:p], _sd_params(theta[-3:]))
-    bounds = [(None, None)] * p + [(0.0, SD_BOUND), (0.0, SD_BOUND), (-np.pi / 2, np.pi / 2)]
-    del bounds[p + which]
+    value_hat = _sd_params(theta[-3:])[which]
 
     def zeta(v):
-        best = np.inf
-        for phi in PHI_STARTS:
-            start = hat.copy()
-            start[-1] = phi
-            data.__dict__["_slope_modes"] = np.array(modes, float)
-            res = optimize.minimize(_sd_objective(data, z, n_agq, p, which, float(v)),
-                                    np.delete(start, p + which), jac=True, method="L-BFGS-B",
-                                    bounds=bounds,
-                                    options={"maxiter": 500, "ftol": 1e-11, "gtol": 1e-5})
-            best = min(best, res.fun)
+        best = lowest_deviance(data, z, theta, n_agq, modes, which, v)
         return np.sqrt(max(best - dev_min, 0.0)) - np.sqrt(cut)
 
-    value_hat = hat[p + which]
     with np.errstate(all="ignore"):
         if side == 0:
             if value_hat <= 1e-6 or zeta(0.0) <= 0:

@@ -11,12 +11,10 @@ import warnings
 
 import numpy as np
 import pytest
-from scipy import optimize
 
 from analysis.glmm import profile_cut
 from analysis.glmm_slope import fit_glmm_slope
-from analysis.glmm_slope_deviance import SD_BOUND
-from analysis.glmm_slope_profile import _sd_objective, _sd_params, is_singular, profile_end
+from analysis.glmm_slope_profile import _sd_params, is_singular, lowest_deviance, profile_end
 from analysis.models import FORMULA
 from generator import generate, null_cells
 
@@ -36,21 +34,8 @@ def _rise_above_cut(args, which: int, value: float) -> float:
     """The deviance's rise at ``value`` of SD ``which``, the lowest of five starts, less the
     cut-off (0 at an end of the interval)."""
     data, z, theta, dev_min, n_agq, level, df, *_, modes = args
-    p = len(theta) - 3
-    hat = np.append(theta[:p], _sd_params(theta[-3:]))
-    bounds = [(None, None)] * p + [(0.0, SD_BOUND), (0.0, SD_BOUND), (-np.pi / 2, np.pi / 2)]
-    del bounds[p + which]
-    best = np.inf
-    for corr in (-0.997, -0.68, 0.0, 0.68, 0.997):
-        start = hat.copy()
-        start[-1] = np.arcsin(corr)
-        data.__dict__["_slope_modes"] = np.array(modes, float)
-        res = optimize.minimize(_sd_objective(data, z, n_agq, p, which, value),
-                                np.delete(start, p + which), jac=True, method="L-BFGS-B",
-                                bounds=bounds,
-                                options={"maxiter": 500, "ftol": 1e-11, "gtol": 1e-5})
-        best = min(best, res.fun)
-    return best - dev_min - profile_cut(level, df)
+    return (lowest_deviance(data, z, theta, n_agq, modes, which, value) - dev_min
+            - profile_cut(level, df))
 
 
 @pytest.mark.slow
